@@ -1,0 +1,104 @@
+"""Complex numbers as (real, imag) pairs that work on NumPy and CasADi alike.
+
+CasADi has no complex type, so the shared physics carries complex quantities as
+:class:`Cx` pairs. Arithmetic is written with real operations only, so the same
+expression builds a CasADi graph or evaluates on NumPy arrays. The NumPy face
+of the package converts to ordinary complex arrays with :meth:`Cx.to_complex`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from . import backend as bk
+
+__all__ = ["Cx", "as_cx"]
+
+
+@dataclass(frozen=True, slots=True)
+class Cx:
+    """A complex value ``re + j im`` with real parts from either backend."""
+
+    re: Any
+    im: Any
+
+    # -- construction ----------------------------------------------------
+    @staticmethod
+    def from_complex(z) -> Cx:
+        """Split a NumPy complex array (or Python complex) into a pair."""
+        z = np.asarray(z)
+        return Cx(np.real(z).astype(float), np.imag(z).astype(float))
+
+    def to_complex(self) -> np.ndarray:
+        """Return a NumPy complex array (NumPy backend only)."""
+        return bk.as_numpy(self.re) + 1j * bk.as_numpy(self.im)
+
+    # -- arithmetic ------------------------------------------------------
+    def __add__(self, other) -> Cx:
+        o = as_cx(other)
+        return Cx(self.re + o.re, self.im + o.im)
+
+    __radd__ = __add__
+
+    def __sub__(self, other) -> Cx:
+        o = as_cx(other)
+        return Cx(self.re - o.re, self.im - o.im)
+
+    def __rsub__(self, other) -> Cx:
+        return as_cx(other) - self
+
+    def __neg__(self) -> Cx:
+        return Cx(-self.re, -self.im)
+
+    def __mul__(self, other) -> Cx:
+        if isinstance(other, Cx) or isinstance(other, complex):
+            o = as_cx(other)
+            return Cx(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
+        return Cx(self.re * other, self.im * other)
+
+    __rmul__ = __mul__
+
+    def __truediv__(self, other) -> Cx:
+        if isinstance(other, Cx) or isinstance(other, complex):
+            o = as_cx(other)
+            d = o.re * o.re + o.im * o.im
+            return Cx((self.re * o.re + self.im * o.im) / d, (self.im * o.re - self.re * o.im) / d)
+        return Cx(self.re / other, self.im / other)
+
+    def __rtruediv__(self, other) -> Cx:
+        return as_cx(other) / self
+
+    # -- functions ---------------------------------------------------------
+    def conj(self) -> Cx:
+        """Complex conjugate."""
+        return Cx(self.re, -self.im)
+
+    def abs2(self):
+        """Squared modulus ``re^2 + im^2`` (smooth everywhere)."""
+        return self.re * self.re + self.im * self.im
+
+    def abs(self):
+        """Modulus (not differentiable at 0: keep it away from zero on symbols)."""
+        return bk.sqrt(self.abs2())
+
+    def arg(self):
+        """Argument (phase angle) in radians."""
+        return bk.arctan2(self.im, self.re)
+
+    def loss_factor(self):
+        """Loss factor ``im / re`` of a complex stiffness."""
+        return self.im / self.re
+
+
+def as_cx(x) -> Cx:
+    """Promote a real value, Python complex or :class:`Cx` to a :class:`Cx`."""
+    if isinstance(x, Cx):
+        return x
+    if isinstance(x, complex):
+        return Cx(x.real, x.imag)
+    if isinstance(x, np.ndarray) and np.iscomplexobj(x):
+        return Cx.from_complex(x)
+    return Cx(x, 0.0 * x if bk.is_casadi(x) else np.zeros_like(x, dtype=float) if np.ndim(x) else 0.0)

@@ -1,0 +1,115 @@
+"""Errors and input validation shared by the whole package.
+
+Every bad input raises :class:`InputError` (a ``ValueError``) whose message names
+the parameter and its valid range, so that the CLI can print it as one line.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+__all__ = [
+    "InputError",
+    "ModelValidityWarning",
+    "SolverError",
+    "check_choice",
+    "check_finite_array",
+    "check_positive",
+    "check_range",
+]
+
+
+class InputError(ValueError):
+    """Bad user input: the message names the parameter and its valid range."""
+
+
+class SolverError(RuntimeError):
+    """A numerical solver failed; the message carries its status."""
+
+
+class ModelValidityWarning(UserWarning):
+    """Some evaluated points lie outside the validity range of a model."""
+
+
+def _is_symbolic(x: Any) -> bool:
+    return type(x).__module__.startswith("casadi")
+
+
+def check_positive(name: str, value: Any, *, unit: str = "", allow_array: bool = False):
+    """Require a finite value > 0 (every entry for arrays); symbols pass through."""
+    if _is_symbolic(value):
+        return value
+    u = f" {unit}" if unit else ""
+    if allow_array:
+        arr = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+        if arr is None or arr.size == 0:
+            raise InputError(f"{name}: expected at least one finite value > 0{u}, got {value!r}")
+        if not np.all(np.isfinite(arr)):
+            raise InputError(f"{name}: every value must be finite and > 0{u} (got NaN or inf)")
+        if np.any(arr <= 0):
+            raise InputError(
+                f"{name}: every value must be > 0{u}; got minimum {float(np.min(arr)):g}"
+            )
+        return arr
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected a number > 0{u}, got {value!r}") from None
+    if not math.isfinite(v) or v <= 0:
+        raise InputError(f"{name}: must be finite and > 0{u}, got {value!r}")
+    return v
+
+
+def check_range(
+    name: str,
+    value: Any,
+    lo: float | None = None,
+    hi: float | None = None,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+    unit: str = "",
+):
+    """Require a finite scalar within [lo, hi] (open ends where asked)."""
+    if _is_symbolic(value):
+        return value
+    lb = "(" if lo_open else "["
+    rb = ")" if hi_open else "]"
+    rng = f"{lb}{'-inf' if lo is None else f'{lo:g}'}, {'inf' if hi is None else f'{hi:g}'}{rb}"
+    u = f" {unit}" if unit else ""
+    try:
+        v = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected a number in {rng}{u}, got {value!r}") from None
+    bad = not math.isfinite(v)
+    if lo is not None:
+        bad |= v <= lo if lo_open else v < lo
+    if hi is not None:
+        bad |= v >= hi if hi_open else v > hi
+    if bad:
+        raise InputError(f"{name}: must be in {rng}{u}, got {value!r}")
+    return v
+
+
+def check_finite_array(name: str, value: Any, *, positive: bool = True, unit: str = ""):
+    """Convert to a float array; require finite (and > 0) entries."""
+    if positive:
+        return check_positive(name, value, unit=unit, allow_array=True)
+    try:
+        arr = np.asarray(value, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected numbers, got {value!r}") from None
+    if arr.size == 0 or not np.all(np.isfinite(arr)):
+        raise InputError(f"{name}: every value must be finite (got NaN, inf or nothing)")
+    return arr
+
+
+def check_choice(name: str, value: Any, choices) -> str:
+    """Require one of the named choices (case-sensitive strings)."""
+    choices = tuple(choices)
+    if value not in choices:
+        raise InputError(f"{name}: unknown value {value!r}; valid: {', '.join(map(str, choices))}")
+    return value
