@@ -57,7 +57,7 @@ def is_casadi(*xs: Any) -> bool:
 
 
 def _cs():
-    import casadi  # noqa: PLC0415 - lazy on purpose
+    import casadi
 
     return casadi
 
@@ -142,11 +142,13 @@ def where(cond, a, b):
     return np.where(cond, a, b)
 
 
-def sum(x, axis=None):  # noqa: A001 - mirrors numpy's name on purpose
+def sum(x, axis=None):
     """Sum of the entries (all of them for CasADi)."""
     if is_casadi(x):
-        return _cs().sum1(_cs().sum2(x)) if axis is None else (
-            _cs().sum1(x) if axis == 0 else _cs().sum2(x)
+        return (
+            _cs().sum1(_cs().sum2(x))
+            if axis is None
+            else (_cs().sum1(x) if axis == 0 else _cs().sum2(x))
         )
     return np.sum(x, axis=axis)
 

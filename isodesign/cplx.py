@@ -101,4 +101,6 @@ def as_cx(x) -> Cx:
         return Cx(x.real, x.imag)
     if isinstance(x, np.ndarray) and np.iscomplexobj(x):
         return Cx.from_complex(x)
-    return Cx(x, 0.0 * x if bk.is_casadi(x) else np.zeros_like(x, dtype=float) if np.ndim(x) else 0.0)
+    return Cx(
+        x, 0.0 * x if bk.is_casadi(x) else np.zeros_like(x, dtype=float) if np.ndim(x) else 0.0
+    )

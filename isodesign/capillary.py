@@ -1,0 +1,407 @@
+"""Capillary flow resistance C(X_p, w) between the two chambers.
+
+``C`` is the ratio of the first-harmonic pressure difference across the tube to
+the mass flow through it, ``C = (P_t - P_b) / m_dot_tb`` in Pa s/kg (paper
+Eq. 35). It may be complex: an imaginary part is the inertance of the air slug.
+Every model is a function of the tube's velocity amplitude ``U`` (m/s) and the
+angular frequency ``w``; where ``U`` comes from (Eq. 37 or a self-consistent
+solve) is decided in :mod:`isodesign.spring`.
+
+Models, by name (:data:`FLOW_MODELS`):
+
+``poiseuille``
+    Unidirectional laminar flow, Eq. 41: ``C_u = 128 mu L_c / (pi rho D_c^4)``;
+    the linear model of earlier work (Harris, DeBra, Erin & Wilson). No minor loss,
+    no inertia.
+``zhao``
+    The paper's oscillating-flow friction, Eq. 24 (laminar correlation) in Eq. 36
+    with the minor loss K, literally as printed. Singular at Re_w = 3.673 and
+    non-passive near it (physics notes, section 2). NumPy only: it never enters
+    an optimizer. ``zhao_turbulent`` uses Eq. 25 instead.
+``quasi_steady``
+    All-regime steady friction (Churchill 1977, laminar to turbulent joined
+    smoothly) plus the minor loss K, linearized by the describing function of
+    Eq. 22, plus the inertance of the air in the tube (Eq. 17's ``rho du/dt``,
+    kept, with the developed-laminar coefficient 4/3). Passive for every input.
+    The default.
+``womersley``
+    Exact laminar oscillating flow in a rigid tube (Womersley; physics notes,
+    section 4) plus the minor loss K. Passive. Frequency-dependent resistance and
+    inertance (4/3 of the plug value at low frequency).
+
+The describing function used by ``quasi_steady``
+------------------------------------------------
+Eq. 22 replaces ``|u| u`` by ``(8 U / 3 pi) u`` for ``u = U sin wt``. For a
+general friction law ``dp = (L/D f(Re) + K) rho/2 |u| u`` the quasi-steady model
+evaluates the steady friction factor at the describing-function velocity
+``U_eq = 8 U / (3 pi)``::
+
+    C = [ (L/D) f(Re_eq) + K ] U_eq / (2 A_c),   Re_eq = rho U_eq D / mu
+
+This is exact for laminar friction (``f = 64/Re`` makes the law linear, and
+``C`` becomes Eq. 41's ``C_u``) and for the quadratic minor loss (Eq. 22
+itself), and within 0.2 % of the exact first harmonic for Blasius friction
+(``U^1.75``: 0.8844 against 0.8861).
+"""
+
+from __future__ import annotations
+
+import math
+from functools import lru_cache
+
+import numpy as np
+
+from . import backend as bk
+from .cplx import Cx
+from .errors import InputError
+
+__all__ = [
+    "FLOW_MODELS",
+    "LAMINAR_REYNOLDS_LIMIT",
+    "QUASI_STEADY_WOMERSLEY_LIMIT",
+    "churchill_friction_factor",
+    "churchill_friction_re_product",
+    "describing_velocity",
+    "flow_regime",
+    "kinetic_reynolds",
+    "poiseuille_resistance",
+    "resistance",
+    "resistance_function",
+    "womersley_number",
+    "womersley_zeta",
+    "zhao_friction",
+]
+
+#: Names of the capillary flow models.
+FLOW_MODELS = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
+#: Models written for both backends (and therefore allowed in the optimizer).
+SMOOTH_FLOW_MODELS = ("quasi_steady", "womersley", "poiseuille")
+#: Upper Reynolds number of laminar pipe flow (Eq. 26).
+LAMINAR_REYNOLDS_LIMIT = 2300.0
+#: Start of fully turbulent pipe flow used for the regime label.
+TURBULENT_REYNOLDS_LIMIT = 4000.0
+#: Womersley number above which the quasi-steady model is flagged: there the exact
+#: laminar oscillating-flow impedance differs from the quasi-steady one
+#: (Poiseuille resistance plus 4/3 of the plug inertance) by more than 5 % in
+#: modulus (3.7 % at alpha = 3, 6.8 % at 4, 19 % at 10).
+QUASI_STEADY_WOMERSLEY_LIMIT = 3.4
+#: Inertance coefficient of the quasi-steady model: 4/3 of the plug-flow value
+#: ``L/A_c``, the exact low-frequency limit of developed laminar flow. Turbulent
+#: profiles are flatter (coefficient near 1), but at turbulent speeds the
+#: resistance dominates the impedance, so the difference is small there.
+QUASI_STEADY_INERTANCE_COEFFICIENT = 4.0 / 3.0
+#: Stated ranges of the Zhao correlations, Eqs. 24 and 25: (Re_w lo, hi, A0 lo, hi).
+ZHAO_RANGES = {
+    "laminar": (23.0, 395.0, 0.0, 26.4),
+    "turbulent": (81.0, 540.0, 53.4, 113.5),
+}
+
+
+# ---------------------------------------------------------------------------
+# dimensionless groups
+# ---------------------------------------------------------------------------
+def describing_velocity(velocity_amplitude):
+    """``U_eq = 8 U / (3 pi)``, the describing-function velocity of Eq. 22."""
+    return 8.0 * velocity_amplitude / (3.0 * math.pi)
+
+
+def kinetic_reynolds(design, omega):
+    """Kinetic Reynolds number ``Re_w = rho w D_c^2 / mu`` (paper, after Eq. 23)."""
+    return design.density_kg_m3 * omega * design.capillary_diameter_m**2 / design.viscosity_pa_s
+
+
+def womersley_number(design, omega):
+    """Womersley number ``alpha = (D_c/2) sqrt(w rho / mu) = sqrt(Re_w)/2``."""
+    return 0.5 * bk.sqrt(kinetic_reynolds(design, omega))
+
+
+def flow_regime(reynolds) -> np.ndarray:
+    """Label each Reynolds number 'laminar', 'transitional' or 'turbulent'."""
+    re = np.asarray(reynolds, dtype=float)
+    out = np.full(re.shape, "transitional", dtype=object)
+    out[re <= LAMINAR_REYNOLDS_LIMIT] = "laminar"
+    out[re >= TURBULENT_REYNOLDS_LIMIT] = "turbulent"
+    return out
+
+
+# ---------------------------------------------------------------------------
+# friction laws
+# ---------------------------------------------------------------------------
+def poiseuille_resistance(design):
+    """Unidirectional laminar flow constant, Eq. 41: ``128 mu L_c / (pi rho D_c^4)``."""
+    d = design.capillary_diameter_m
+    return (
+        128.0
+        * design.viscosity_pa_s
+        * design.capillary_length_m
+        / (math.pi * design.density_kg_m3 * bk.ipow(d, 4))
+    )
+
+
+def churchill_friction_re_product(reynolds, relative_roughness=0.0, *, with_slope=False):
+    """``Phi = f Re`` for the Churchill (1977) all-regime Darcy friction factor.
+
+    Churchill, S. W. (1977), "Friction-factor equation spans all fluid-flow
+    regimes", Chem. Eng. 84(24), 91-92::
+
+        f = 8 [ (8/Re)^12 + (A + B)^(-3/2) ]^(1/12)
+        A = [ -2.457 ln( (7/Re)^0.9 + 0.27 eps/D ) ]^16,  B = (37530/Re)^16
+
+    Written as ``f Re = 8 [ 8^12 + Re^12 (A+B)^(-3/2) ]^(1/12)``, which is finite
+    at Re -> 0 (``64``, Poiseuille) and smooth everywhere. Valid for all Re.
+
+    With ``with_slope=True`` also returns ``dPhi/dRe`` (NumPy only; used by the
+    self-consistent solver). On NumPy the points with ``Re <= 1000`` skip the
+    turbulent terms: there ``Phi = 64`` to better than 1e-13 relative.
+    """
+    if bk.is_casadi(reynolds, relative_roughness):
+        return _churchill(reynolds, relative_roughness, False)[0]
+    re = np.asarray(reynolds, dtype=float)
+    phi = np.full(re.shape, 64.0)
+    slope = np.zeros(re.shape)
+    m = re > _CHURCHILL_LAMINAR_RE
+    if np.any(m):
+        r = relative_roughness if np.ndim(relative_roughness) == 0 else relative_roughness[m]
+        phi_m, slope_m = _churchill(re[m], r, with_slope)
+        phi[m] = phi_m
+        if with_slope:
+            slope[m] = slope_m
+    if with_slope:
+        return phi, slope
+    return phi
+
+
+#: Below this Reynolds number Churchill's Phi equals 64 to better than 1e-13.
+_CHURCHILL_LAMINAR_RE = 1000.0
+
+
+def _churchill(re, rel_rough, with_slope):
+    """Churchill's Phi (and dPhi/dRe) on any backend.
+
+    For a smooth tube (``rel_rough == 0``, a plain number, never a decision
+    variable) ``ln((7/Re)^0.9) = 0.9 (ln 7 - ln Re)`` saves two transcendental
+    functions per point; the value is the same formula.
+    """
+    lr = bk.log(re)
+    if isinstance(rel_rough, int | float) and rel_rough == 0.0:
+        a = 2.457 * 0.9 * (lr - math.log(7.0))
+        vfrac = 1.0  # v / (v + 0.27 eps/D)
+    else:
+        v = bk.exp(0.9 * (math.log(7.0) - lr))
+        vr = v + 0.27 * rel_rough
+        a = -2.457 * bk.log(vr)
+        vfrac = v / vr
+    big_a = bk.ipow(a * a, 8)
+    big_b = bk.ipow(37530.0 / re, 16)
+    s = big_a + big_b
+    term = bk.ipow(re, 12) / (s * bk.sqrt(s))
+    inner = 8.0**12 + term
+    phi = 8.0 * bk.power(inner, 1.0 / 12.0)
+    if not with_slope:
+        return phi, None
+    # d/dRe: a' = 2.2113 (v/(v + r)) / Re; A' = 16 A a'/a; B' = -16 B / Re
+    da = 2.457 * 0.9 * vfrac / re
+    ds = 16.0 * big_a * da / a - 16.0 * big_b / re
+    dterm = term * (12.0 / re - 1.5 * ds / s)
+    return phi, phi * dterm / (12.0 * inner)
+
+
+def churchill_friction_factor(reynolds, relative_roughness=0.0):
+    """Churchill (1977) Darcy friction factor ``f(Re)``; see
+    :func:`churchill_friction_re_product`."""
+    return churchill_friction_re_product(reynolds, relative_roughness) / reynolds
+
+
+def zhao_friction(kinetic_re, dimensionless_amplitude, correlation: str = "laminar"):
+    """Zhao's oscillating-flow friction coefficient, Eqs. 24-25 as printed.
+
+    ``fr_o = 4/A0 * 3.27 / (Re_w^0.548 - 2.04)`` (Eq. 24, laminar, stated for
+    23 <= Re_w <= 395, A0 <= 26.4) or ``fr_o = 4/A0 * (76.6/Re_w^1.2 + 0.41)``
+    (Eq. 25, turbulent, 81 <= Re_w <= 540, 53.4 <= A0 <= 113.5).
+
+    Eq. 24 has a pole at ``Re_w = 2.04^(1/0.548) = 3.673`` and is negative
+    below it: the model is not passive there (physics notes, section 2).
+    """
+    if correlation == "laminar":
+        return 4.0 / dimensionless_amplitude * (3.27 / (np.power(kinetic_re, 0.548) - 2.04))
+    if correlation == "turbulent":
+        return 4.0 / dimensionless_amplitude * (76.6 / np.power(kinetic_re, 1.2) + 0.41)
+    raise InputError(f"correlation: unknown value {correlation!r}; valid: laminar, turbulent")
+
+
+# ---------------------------------------------------------------------------
+# Womersley impedance
+# ---------------------------------------------------------------------------
+def _womersley_zeta_exact(alpha):
+    """Exact normalized impedance on NumPy, via scipy's Bessel functions."""
+    from scipy import special
+
+    alpha = np.asarray(alpha, dtype=float)
+    tiny = alpha < 1e-6
+    a = np.where(tiny, 1.0, alpha)
+    z = np.exp(0.75j * np.pi) * a  # i^(3/2) alpha
+    # F = 1 - 2 J1/(z J0) = -J2/J0 (from J0 + J2 = 2 J1/z): no cancellation at
+    # small alpha. Exponentially scaled Bessel functions: the scaling cancels.
+    f = -special.jve(2, z) / special.jve(0, z)
+    zeta = 1j * a * a / (8.0 * f)
+    # alpha -> 0: zeta = 1 + j alpha^2/6 + O(alpha^4)
+    zeta_small = 1.0 + 1j * alpha**2 / 6.0
+    return np.where(tiny, zeta_small, zeta)
+
+
+_ZETA_T_MIN = math.log(1e-3)
+_ZETA_T_MAX = math.log(1e3)
+
+
+@lru_cache(maxsize=1)
+def _womersley_splines():
+    """CasADi B-spline interpolants of the exact impedance, built once.
+
+    Fitted on ``t = ln(alpha)`` in [ln 1e-3, ln 1e3] to ``ln(zeta_r)`` and
+    ``zeta_i / alpha^2``, both smooth and O(1), so that a cubic spline on a
+    uniform grid of step 0.004 matches scipy's Bessel evaluation to better than
+    1e-8 relative (checked in the tests).
+    """
+    import casadi as ca
+
+    t = np.linspace(_ZETA_T_MIN, _ZETA_T_MAX, 3455)
+    alpha = np.exp(t)
+    zeta = _womersley_zeta_exact(alpha)
+    g_r = np.log(zeta.real)
+    g_i = zeta.imag / alpha**2
+    opts = {}
+    s_r = ca.interpolant("womersley_ln_zr", "bspline", [t.tolist()], g_r.tolist(), opts)
+    s_i = ca.interpolant("womersley_zi_a2", "bspline", [t.tolist()], g_i.tolist(), opts)
+    return s_r, s_i
+
+
+def womersley_zeta(alpha) -> Cx:
+    """Impedance of laminar oscillating tube flow, normalized by Poiseuille.
+
+    ``zeta(alpha) = Z'(w) / (128 mu / (pi D^4))`` with the exact solution
+    ``Z' = i w rho / (A F)``, ``F = 1 - 2 J1(z)/(z J0(z))``, ``z = i^(3/2) alpha``
+    (physics notes, section 4). Limits: ``zeta -> 1 + j alpha^2/6`` (Poiseuille
+    plus 4/3 of the plug inertance) as alpha -> 0, ``zeta -> j alpha^2/8 +
+    alpha/(4 sqrt 2) (1 + j)`` as alpha -> inf.
+
+    NumPy: scipy's Bessel functions (exact). CasADi: a cubic B-spline of the
+    exact function in ln(alpha), valid for 1e-3 <= alpha <= 1e3.
+    """
+    if bk.is_casadi(alpha):
+        s_r, s_i = _womersley_splines()
+        t = bk.log(alpha)
+        return Cx(bk.exp(s_r(t)), s_i(t) * alpha * alpha)
+    return Cx.from_complex(_womersley_zeta_exact(alpha))
+
+
+# ---------------------------------------------------------------------------
+# the resistance C(U, w)
+# ---------------------------------------------------------------------------
+def resistance(flow: str, design, omega, velocity_amplitude) -> Cx:
+    """Complex flow resistance ``C = (P_t - P_b) / m_dot`` in Pa s/kg.
+
+    Parameters
+    ----------
+    flow : str
+        One of :data:`FLOW_MODELS`.
+    design : SpringDesign
+        The spring (fields may be CasADi symbols for the smooth models).
+    omega : array or symbol
+        Angular frequency, rad/s.
+    velocity_amplitude : array or symbol
+        Amplitude U of the cross-sectional mean velocity in the tube, m/s.
+
+    Returns
+    -------
+    Cx
+        Real part: resistance; imaginary part: ``w`` times the inertance.
+    """
+    return resistance_function(flow, design, omega)(velocity_amplitude)
+
+
+def resistance_function(flow: str, design, omega, *, with_slope: bool = False):
+    """Return ``U -> C(U, w)`` for one model, design and set of frequencies.
+
+    The parts that do not depend on the velocity amplitude (the Womersley
+    impedance, the inertance) are computed once, so a solver iterating on ``U``
+    pays only for the amplitude-dependent part. :func:`resistance` is this
+    function applied once.
+
+    With ``with_slope=True`` (NumPy, smooth models) the returned function gives
+    ``(C, dRe(C)/dU)``: every model's inertance is independent of ``U``.
+    """
+    d = design
+    area = d.capillary_area_m2
+    if flow == "poiseuille":  # Eq. 41
+
+        def c_poiseuille(U):
+            c_u = poiseuille_resistance(d)
+            z = 0.0 * U * omega
+            return (Cx(c_u + z, z), z) if with_slope else Cx(c_u + z, z)
+
+        return c_poiseuille
+    if flow == "quasi_steady":
+        rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
+        # Eq. 17's rho du/dt, kept: inertance (4/3) L / A_c of developed laminar flow
+        c_i = QUASI_STEADY_INERTANCE_COEFFICIENT * omega * d.capillary_length_m / area
+        friction_scale = d.capillary_length_m * mu / (rho * dc * dc)
+        rel_rough = d.roughness_m / dc
+
+        def c_quasi_steady(U):
+            u_eq = describing_velocity(U)
+            re_eq = rho * u_eq * dc / mu
+            if with_slope:
+                phi, dphi = churchill_friction_re_product(re_eq, rel_rough, with_slope=True)
+            else:
+                phi = churchill_friction_re_product(re_eq, rel_rough)
+            # (L/D) f U_eq = L mu Phi / (rho D^2): finite as U -> 0
+            c_r = (friction_scale * phi + d.minor_loss * u_eq) / (2.0 * area)
+            c = Cx(c_r, c_i + 0.0 * c_r)
+            if not with_slope:
+                return c
+            k = 8.0 / (3.0 * math.pi)
+            return c, (friction_scale * dphi * rho * k * dc / mu + d.minor_loss * k) / (2.0 * area)
+
+        return c_quasi_steady
+    if flow == "womersley":
+        alpha = womersley_number(d, omega)
+        if bk.is_casadi(alpha) or np.size(alpha) <= 64:
+            zeta = womersley_zeta(alpha)
+        else:  # many points share few frequencies: evaluate the Bessel functions once each
+            uniq, inv = np.unique(np.asarray(alpha), return_inverse=True)
+            zu = womersley_zeta(uniq)
+            zeta = Cx(zu.re[inv].reshape(np.shape(alpha)), zu.im[inv].reshape(np.shape(alpha)))
+        c_u = poiseuille_resistance(d)
+        c_r0, c_i = c_u * zeta.re, c_u * zeta.im
+
+        def c_womersley(U):
+            minor = d.minor_loss * describing_velocity(U) / (2.0 * area)  # Eq. 22 applied to K
+            c = Cx(c_r0 + minor, c_i + 0.0 * minor)
+            if not with_slope:
+                return c
+            return c, d.minor_loss * 8.0 / (3.0 * math.pi) / (2.0 * area) + 0.0 * minor
+
+        return c_womersley
+    if flow in ("zhao", "zhao_turbulent"):
+        if bk.is_casadi(
+            omega, d.capillary_diameter_m, d.capillary_length_m, d.volume_ratio, d.top_volume_m3
+        ):
+            raise InputError(
+                f"flow: {flow!r} is the paper's literal model, singular at Re_w = 3.673 and "
+                "non-passive near it; it is not available on CasADi symbols (not in any NLP). "
+                f"Valid for optimization: {', '.join(SMOOTH_FLOW_MODELS)}"
+            )
+        re_w = kinetic_reynolds(d, omega)
+        corr = "laminar" if flow == "zhao" else "turbulent"
+
+        def c_zhao(U):
+            a0 = U / (omega * d.capillary_diameter_m)  # x_max / D_c, x_max = u_max / w
+            fr = zhao_friction(re_w, a0, corr)
+            # Eq. 36: C = (L/D fr + K) 4 u_max / (3 pi A_c)
+            c = (d.capillary_length_m / d.capillary_diameter_m * fr + d.minor_loss) * (
+                4.0 * U / (3.0 * math.pi * area)
+            )
+            return Cx(c, np.zeros_like(c))
+
+        return c_zhao
+    raise InputError(f"flow: unknown model {flow!r}; valid: {', '.join(FLOW_MODELS)}")

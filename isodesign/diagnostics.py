@@ -1,0 +1,222 @@
+"""Per-point diagnostics of the spring model and its validity checks.
+
+Every evaluated point carries the quantities that decide whether the models
+apply there (velocity amplitude, Reynolds numbers, Womersley number, Mach
+number, regime, pressure ripple) and a set of named boolean checks (True =
+inside the model's validity). A result outside validity is flagged, never
+silently returned: :meth:`Diagnostics.summary` lists every failed check with
+its count, and :attr:`Diagnostics.valid` is the per-point conjunction.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .capillary import (
+    LAMINAR_REYNOLDS_LIMIT,
+    QUASI_STEADY_WOMERSLEY_LIMIT,
+    ZHAO_RANGES,
+    flow_regime,
+    kinetic_reynolds,
+)
+from .cplx import Cx
+
+__all__ = ["CHECK_DESCRIPTIONS", "Diagnostics", "evaluate_diagnostics"]
+
+#: Mach number above which the incompressible tube flow of Eq. 17 is flagged.
+MACH_LIMIT = 0.3
+#: Pressure ripple |P_t|/p0 and stroke A_p X/V_t0 above which the linearized
+#: chamber thermodynamics (Eqs. 12-15) are flagged.
+SMALL_SIGNAL_LIMIT = 0.1
+#: Relative mismatch between the assumed (Eq. 37) and the driven tube velocity
+#: above which the kinematic amplitude mode is flagged.
+KINEMATIC_MISMATCH_LIMIT = 0.1
+
+CHECK_DESCRIPTIONS = {
+    "mach": f"tube Mach number <= {MACH_LIMIT} (incompressible flow, Eq. 17)",
+    "small_signal": (
+        f"pressure ripple |P_t|/p0 and stroke A_p X/V_t0 <= {SMALL_SIGNAL_LIMIT} "
+        "(linearized chambers, Eqs. 12-15)"
+    ),
+    "passive": "Im k >= 0 (the spring dissipates energy)",
+    "laminar": f"peak Reynolds number <= {LAMINAR_REYNOLDS_LIMIT:g} (laminar model, Eq. 26)",
+    "quasi_steady_alpha": (
+        f"Womersley number <= {QUASI_STEADY_WOMERSLEY_LIMIT} (quasi-steady friction within 5 % "
+        "of the exact laminar oscillating impedance)"
+    ),
+    "zhao_re_w": "kinetic Reynolds number inside the stated range of the Zhao correlation",
+    "zhao_a0": "dimensionless amplitude A0 inside the stated range of the Zhao correlation",
+    "kinematic_consistency": (
+        f"Eq. 37's tube velocity within {KINEMATIC_MISMATCH_LIMIT:.0%} of the velocity the "
+        "pressures drive (otherwise use amplitude_mode='self_consistent')"
+    ),
+    "converged": "self-consistent flow amplitude converged",
+    "diaphragm_table_range": "inside the diaphragm table's frequency and amplitude range",
+}
+
+
+@dataclass(frozen=True, eq=False)
+class Diagnostics:
+    """Flow quantities and validity checks at every evaluated point.
+
+    Attributes
+    ----------
+    velocity_amplitude_m_s : ndarray
+        Tube velocity amplitude U used in the resistance.
+    driven_velocity_m_s : ndarray
+        Velocity the resulting chamber pressures drive through the tube (equal to
+        ``velocity_amplitude_m_s`` in self-consistent mode).
+    kinematic_velocity_m_s : ndarray
+        Eq. 37's ``(A_p/A_c) X w``.
+    reynolds : ndarray
+        Steady Reynolds number at the peak velocity, ``rho U D_c / mu``.
+    reynolds_mean : ndarray
+        The paper's Eq. 27 with the cycle-averaged velocity ``2U/pi`` (Eq. 28).
+    kinetic_reynolds : ndarray
+        ``Re_w = rho w D_c^2 / mu``.
+    womersley_number : ndarray
+        ``alpha = sqrt(Re_w)/2``.
+    dimensionless_amplitude : ndarray
+        ``A0 = x_max / D_c`` with ``x_max = U/w``.
+    mach : ndarray
+        ``U / c``.
+    regime : ndarray of str
+        'laminar', 'transitional' or 'turbulent' (by ``reynolds``).
+    pressure_amplitude_pa : ndarray
+        Top-chamber pressure amplitude ``|k_d*| X / A_p``.
+    checks : dict of str to bool ndarray
+        Named checks (True = inside validity); see :data:`CHECK_DESCRIPTIONS`.
+    """
+
+    velocity_amplitude_m_s: np.ndarray
+    driven_velocity_m_s: np.ndarray
+    kinematic_velocity_m_s: np.ndarray
+    reynolds: np.ndarray
+    reynolds_mean: np.ndarray
+    kinetic_reynolds: np.ndarray
+    womersley_number: np.ndarray
+    dimensionless_amplitude: np.ndarray
+    mach: np.ndarray
+    pressure_amplitude_pa: np.ndarray
+    iterations: np.ndarray | None = None
+    checks: dict = field(default_factory=dict)
+
+    @property
+    def regime(self) -> np.ndarray:
+        """'laminar', 'transitional' or 'turbulent' at every point (by ``reynolds``)."""
+        return flow_regime(self.reynolds)
+
+    @property
+    def valid(self) -> np.ndarray:
+        """True where every check passes."""
+        ok = np.ones(self.velocity_amplitude_m_s.shape, dtype=bool)
+        for v in self.checks.values():
+            ok &= v
+        return ok
+
+    def summary(self) -> tuple[str, ...]:
+        """One line per failed check: name, count of points, meaning."""
+        n = self.velocity_amplitude_m_s.size
+        out = []
+        for name, ok in self.checks.items():
+            bad = int(np.size(ok) - np.count_nonzero(ok))
+            if bad:
+                out.append(
+                    f"{name}: {bad} of {n} points outside ({CHECK_DESCRIPTIONS.get(name, name)})"
+                )
+        return tuple(out)
+
+    def columns(self) -> dict[str, np.ndarray]:
+        """Flat columns for a table (diagnostics, then ``ok_<check>``, ``valid``)."""
+        cols = {
+            "velocity_amplitude_m_s": self.velocity_amplitude_m_s.ravel(),
+            "driven_velocity_m_s": self.driven_velocity_m_s.ravel(),
+            "kinematic_velocity_m_s": self.kinematic_velocity_m_s.ravel(),
+            "reynolds": self.reynolds.ravel(),
+            "reynolds_mean": self.reynolds_mean.ravel(),
+            "kinetic_reynolds": self.kinetic_reynolds.ravel(),
+            "womersley_number": self.womersley_number.ravel(),
+            "dimensionless_amplitude": self.dimensionless_amplitude.ravel(),
+            "mach": self.mach.ravel(),
+            "regime": self.regime.ravel(),
+            "pressure_amplitude_pa": self.pressure_amplitude_pa.ravel(),
+        }
+        for name, ok in self.checks.items():
+            cols[f"ok_{name}"] = np.broadcast_to(ok, self.mach.shape).ravel()
+        cols["valid"] = self.valid.ravel()
+        return cols
+
+
+def evaluate_diagnostics(
+    flow: str,
+    design,
+    omega: np.ndarray,
+    amplitude_m: np.ndarray,
+    velocity: np.ndarray,
+    c: Cx,
+    k_air: np.ndarray,
+    k_total: np.ndarray,
+    diaphragm,
+    amplitude_mode: str,
+    *,
+    converged: np.ndarray | None = None,
+    iterations: np.ndarray | None = None,
+) -> Diagnostics:
+    """Compute :class:`Diagnostics` for evaluated points (NumPy only)."""
+    from .spring import driven_velocity, kinematic_velocity
+
+    d = design
+    shape = np.broadcast_shapes(np.shape(omega), np.shape(amplitude_m), np.shape(velocity))
+    u = np.broadcast_to(velocity, shape)
+    rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
+    re = rho * u * dc / mu
+    re_w = np.broadcast_to(kinetic_reynolds(d, omega), shape)
+    alpha = 0.5 * np.sqrt(re_w)
+    a0 = u / (omega * dc)
+    omega = np.broadcast_to(omega, shape)
+    mach = u / d.speed_of_sound_m_s
+    p_amp = np.abs(k_air) * amplitude_m / d.piston_area_m2
+    u_driven = np.broadcast_to(driven_velocity(d, omega, amplitude_m, c), shape)
+    u_kin = np.broadcast_to(kinematic_velocity(d, omega, amplitude_m), shape)
+
+    checks: dict[str, np.ndarray] = {}
+    checks["mach"] = mach <= MACH_LIMIT
+    checks["small_signal"] = (p_amp / d.pressure_pa <= SMALL_SIGNAL_LIMIT) & np.broadcast_to(
+        d.piston_area_m2 * amplitude_m / d.top_volume_m3 <= SMALL_SIGNAL_LIMIT, shape
+    )
+    checks["passive"] = k_total.imag >= -1e-9 * np.abs(k_total)
+    if flow in ("poiseuille", "womersley"):
+        checks["laminar"] = re <= LAMINAR_REYNOLDS_LIMIT
+    if flow == "quasi_steady":
+        checks["quasi_steady_alpha"] = alpha <= QUASI_STEADY_WOMERSLEY_LIMIT
+    if flow in ("zhao", "zhao_turbulent"):
+        lo_w, hi_w, lo_a, hi_a = ZHAO_RANGES["laminar" if flow == "zhao" else "turbulent"]
+        checks["zhao_re_w"] = (re_w >= lo_w) & (re_w <= hi_w)
+        checks["zhao_a0"] = (a0 >= lo_a) & (a0 <= hi_a)
+    if amplitude_mode == "kinematic" and flow != "poiseuille":
+        with np.errstate(invalid="ignore", divide="ignore"):
+            checks["kinematic_consistency"] = np.abs(u_driven / u - 1.0) <= KINEMATIC_MISMATCH_LIMIT
+    if converged is not None:
+        checks["converged"] = np.broadcast_to(converged, shape)
+    for name, ok in diaphragm.in_range(omega, amplitude_m).items():
+        checks[name] = ok
+    for name in list(checks):
+        checks[name] = np.broadcast_to(np.asarray(checks[name], dtype=bool), shape)
+
+    return Diagnostics(
+        velocity_amplitude_m_s=u,
+        driven_velocity_m_s=u_driven,
+        kinematic_velocity_m_s=u_kin,
+        reynolds=re,
+        reynolds_mean=re * 2.0 / math.pi,
+        kinetic_reynolds=re_w,
+        womersley_number=alpha,
+        dimensionless_amplitude=a0,
+        mach=mach,
+        pressure_amplitude_pa=p_amp,
+        iterations=iterations,
+        checks=checks,
+    )

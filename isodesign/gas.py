@@ -1,0 +1,119 @@
+"""Gas state of the chambers: density, viscosity, thermal process, pressure.
+
+Paper references (Sections 3.1.1-3.1.2):
+
+* Eq. 1 ``f_p = A_p (p0 - p_atm)``: static equilibrium, used by
+  :func:`pressure_from_load` to derive the chamber pressure from the payload.
+* Eq. 4 ideal gas ``p0 V = m R T0``: :meth:`Gas.density`.
+* Eqs. 12-15: adiabatic chambers; a polytropic process replaces ``kappa`` by
+  an index ``n`` in [1, kappa] (isothermal 1, adiabatic kappa).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from . import backend as bk
+from .errors import InputError, check_positive, check_range
+
+__all__ = ["AIR", "G_STANDARD", "P_ATM", "Gas", "pressure_from_load"]
+
+#: Standard atmospheric pressure, Pa (paper: p_atm = 101.325 kPa).
+P_ATM = 101_325.0
+#: Standard gravity, m/s^2.
+G_STANDARD = 9.80665
+
+
+@dataclass(frozen=True)
+class Gas:
+    """An ideal gas with Sutherland viscosity.
+
+    Parameters
+    ----------
+    name : str
+        Label.
+    gas_constant_j_per_kg_k : float
+        Specific gas constant R (paper Table 1: 286.9 J/(kg K) for air).
+    heat_capacity_ratio : float
+        kappa = c_p / c_v (1.4 for air).
+    viscosity_pa_s : float or None
+        Fixed dynamic viscosity. ``None`` (default) uses Sutherland's law.
+        Table 1 passes 1.79e-5 Pa s, which Sutherland gives at 288.1 K.
+    sutherland_mu_ref_pa_s, sutherland_t_ref_k, sutherland_s_k : float
+        Sutherland constants (air: 1.716e-5 Pa s at 273.15 K, S = 110.4 K).
+    """
+
+    name: str = "air"
+    gas_constant_j_per_kg_k: float = 286.9
+    heat_capacity_ratio: float = 1.4
+    viscosity_pa_s: float | None = None
+    sutherland_mu_ref_pa_s: float = 1.716e-5
+    sutherland_t_ref_k: float = 273.15
+    sutherland_s_k: float = 110.4
+
+    def __post_init__(self):
+        check_positive("gas.gas_constant_j_per_kg_k", self.gas_constant_j_per_kg_k)
+        check_range("gas.heat_capacity_ratio", self.heat_capacity_ratio, 1.0, 1.7, lo_open=True)
+        if self.viscosity_pa_s is not None:
+            check_positive("gas.viscosity_pa_s", self.viscosity_pa_s, unit="Pa s")
+        check_positive("gas.sutherland_mu_ref_pa_s", self.sutherland_mu_ref_pa_s)
+        check_positive("gas.sutherland_t_ref_k", self.sutherland_t_ref_k)
+        check_positive("gas.sutherland_s_k", self.sutherland_s_k)
+
+    def viscosity(self, temperature_k):
+        """Dynamic viscosity mu(T) in Pa s (Sutherland, or the fixed value)."""
+        if self.viscosity_pa_s is not None:
+            return self.viscosity_pa_s
+        t_ref, s = self.sutherland_t_ref_k, self.sutherland_s_k
+        return (
+            self.sutherland_mu_ref_pa_s
+            * bk.power(temperature_k / t_ref, 1.5)
+            * (t_ref + s)
+            / (temperature_k + s)
+        )
+
+    def density(self, pressure_pa, temperature_k):
+        """Density rho = p / (R T) in kg/m^3 (paper Eq. 4)."""
+        return pressure_pa / (self.gas_constant_j_per_kg_k * temperature_k)
+
+    def speed_of_sound(self, temperature_k):
+        """Adiabatic speed of sound sqrt(kappa R T) in m/s."""
+        return bk.sqrt(self.heat_capacity_ratio * self.gas_constant_j_per_kg_k * temperature_k)
+
+
+#: Air as in the paper's Table 1 (R = 286.9, kappa = 1.4, Sutherland viscosity).
+AIR = Gas()
+
+
+def pressure_from_load(
+    mass_kg: float,
+    n_isolators: int,
+    piston_area_m2: float,
+    *,
+    p_atm_pa: float = P_ATM,
+    g_m_s2: float = G_STANDARD,
+) -> float:
+    """Absolute chamber pressure that carries a payload, from Eq. 1.
+
+    ``p0 = p_atm + m g / (n A_p)``: each of ``n_isolators`` identical springs
+    carries an equal share of the weight.
+
+    Parameters
+    ----------
+    mass_kg : float
+        Supported mass (> 0).
+    n_isolators : int
+        Number of identical isolators sharing the load (>= 1).
+    piston_area_m2 : float
+        Effective piston area A_p of one isolator.
+
+    Returns
+    -------
+    float
+        p0 in Pa (absolute).
+    """
+    m = check_positive("mass_kg", mass_kg, unit="kg")
+    a = check_positive("piston_area_m2", piston_area_m2, unit="m^2")
+    if isinstance(n_isolators, bool) or int(n_isolators) != n_isolators or n_isolators < 1:
+        raise InputError(f"n_isolators: must be an integer >= 1, got {n_isolators!r}")
+    return p_atm_pa + m * g_m_s2 / (int(n_isolators) * a)
