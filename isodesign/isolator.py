@@ -1,0 +1,187 @@
+"""A payload on identical dual-chamber springs: transmissibility and stability.
+
+Vertical motion of a rigid payload of mass ``m`` on ``n`` identical springs,
+excited by the floor (base excitation). Each spring carries ``m/n``; with the
+spring's complex stiffness ``k*`` the absolute transmissibility is::
+
+    T = x / x_f = k* / (k* - (m/n) w^2)
+
+and the relative motion (the spring's stroke) is ``x - x_f = (T - 1) x_f`` with
+``T - 1 = (m/n) w^2 / (k* - (m/n) w^2)``.
+
+Every formula here is written once for NumPy and CasADi (complex values as
+:class:`~isodesign.cplx.Cx` pairs); solvers that close the amplitude
+dependence live in :mod:`isodesign.response`.
+
+Physics notes used: section 5 (Zener form, classical optimum), section 8
+(rocking stability).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+from . import backend as bk
+from .capillary import poiseuille_resistance
+from .cplx import Cx, as_cx
+from .errors import InputError, check_positive, check_range
+from .gas import G_STANDARD
+
+__all__ = [
+    "Payload",
+    "natural_frequency_hz",
+    "relative_transmissibility",
+    "tilt_margin",
+    "transmissibility",
+    "zener_damping_ratio",
+    "zener_optimum",
+    "zener_transmissibility",
+]
+
+
+@dataclass(frozen=True)
+class Payload:
+    """A rigid payload on identical isolators.
+
+    Parameters
+    ----------
+    mass_kg : float
+        Total supported mass (table plus instrument), kg.
+    isolators : int
+        Number of identical isolators sharing the load equally (>= 1).
+    spacing_m : float or None
+        Narrowest centre-to-centre spacing of the isolators, m, for the tilt
+        (rocking) margin. ``None``: not checked.
+    cg_height_m : float or None
+        Height of the centre of gravity above the diaphragm plane, m.
+    g_m_s2 : float
+        Gravity.
+    """
+
+    mass_kg: float
+    isolators: int = 4
+    spacing_m: float | None = None
+    cg_height_m: float | None = None
+    g_m_s2: float = G_STANDARD
+
+    def __post_init__(self):
+        object.__setattr__(self, "mass_kg", check_positive("mass_kg", self.mass_kg, unit="kg"))
+        n = self.isolators
+        if isinstance(n, bool) or not isinstance(n, int | float) or int(n) != n or n < 1:
+            raise InputError(f"isolators: must be an integer >= 1, got {n!r}")
+        object.__setattr__(self, "isolators", int(n))
+        if self.spacing_m is not None:
+            object.__setattr__(
+                self, "spacing_m", check_positive("spacing_m", self.spacing_m, unit="m")
+            )
+        if self.cg_height_m is not None:
+            object.__setattr__(
+                self,
+                "cg_height_m",
+                check_range("cg_height_m", self.cg_height_m, 0.0, None, lo_open=True, unit="m"),
+            )
+        check_range("g_m_s2", self.g_m_s2, 0.0, 100.0, lo_open=True, unit="m/s^2")
+
+    @property
+    def mass_per_isolator_kg(self) -> float:
+        """m / n."""
+        return self.mass_kg / self.isolators
+
+    @property
+    def load_per_isolator_n(self) -> float:
+        """Weight carried by one isolator, m g / n."""
+        return self.mass_kg * self.g_m_s2 / self.isolators
+
+
+def transmissibility(k: Cx, mass_per_isolator_kg, omega) -> Cx:
+    """Absolute transmissibility ``T = k* / (k* - (m/n) w^2)`` (floor to payload)."""
+    k = as_cx(k)
+    return k / (k - mass_per_isolator_kg * omega * omega)
+
+
+def relative_transmissibility(k: Cx, mass_per_isolator_kg, omega) -> Cx:
+    """Stroke per floor motion, ``T - 1 = (m/n) w^2 / (k* - (m/n) w^2)``."""
+    k = as_cx(k)
+    mw2 = mass_per_isolator_kg * omega * omega
+    return mw2 / (k - mw2)
+
+
+def natural_frequency_hz(stiffness_n_per_m, mass_per_isolator_kg):
+    """Undamped natural frequency ``sqrt(k/m) / (2 pi)`` in Hz."""
+    return bk.sqrt(stiffness_n_per_m / mass_per_isolator_kg) / (2.0 * math.pi)
+
+
+def tilt_margin(stiffness_n_per_m, payload: Payload):
+    """Static rocking (tilt) margin ``n k (s/2)^2 / (m g h)`` (physics notes, section 8).
+
+    Rocking about the diaphragm plane is statically stable when the isolators'
+    total vertical stiffness ``n k`` times ``(s/2)^2`` exceeds ``m g h`` (``s`` the
+    narrowest isolator spacing, ``h`` the centre-of-gravity height above the
+    diaphragms): margin > 1. Isolator makers' rule of thumb: spacing at least
+    twice the CG height.
+    """
+    if payload.spacing_m is None or payload.cg_height_m is None:
+        raise InputError("payload: spacing_m and cg_height_m are needed for the tilt margin")
+    s = payload.spacing_m
+    return (
+        payload.isolators
+        * stiffness_n_per_m
+        * (s / 2.0) ** 2
+        / (payload.mass_kg * payload.g_m_s2 * payload.cg_height_m)
+    )
+
+
+def zener_damping_ratio(design, mass_per_isolator_kg, resistance=None):
+    """Damping ratio of the linearized spring's Zener form (physics notes, section 5).
+
+    With Poiseuille flow (or any flow model's small-amplitude, low-frequency
+    resistance ``C``) and no diaphragm, Eq. 38 is a spring ``k = k_s/(N+1)`` in
+    parallel with ``k1 = N k`` in series with a damper ``c = k_s N tau/(N+1)^2``,
+    ``tau = V_b0 C/(n R T0)``. The damping ratio is ``zeta = c / (2 sqrt(k m))``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+    mass_per_isolator_kg : float
+    resistance : float or None
+        The resistance C; default Eq. 41's ``C_u``, the small-amplitude limit of
+        every passive flow model.
+    """
+    c_flow = poiseuille_resistance(design) if resistance is None else resistance
+    n = design.volume_ratio
+    ks = design.single_chamber_stiffness_n_per_m
+    tau = design.compliance_factor_s2_per_m2 * c_flow
+    c = ks * n * tau / ((n + 1.0) ** 2)
+    k = ks / (n + 1.0)
+    return c / (2.0 * bk.sqrt(k * mass_per_isolator_kg))
+
+
+def zener_transmissibility(volume_ratio, damping_ratio, frequency_ratio):
+    """Closed-form |T| of the Zener isolator (physics notes, section 5).
+
+    ``T^2 = [1 + 4 z^2 r^2 (N+1)^2/N^2] / [(1-r^2)^2 + (4 z^2 r^2/N^2)(N+1-r^2)^2]``
+    with ``r = w/w_n``, ``w_n = sqrt(k/m)``, ``k = k_s/(N+1)``.
+    """
+    n, z, r = volume_ratio, damping_ratio, frequency_ratio
+    num = 1.0 + 4.0 * z * z * r * r * (n + 1.0) ** 2 / (n * n)
+    den = (1.0 - r * r) ** 2 + (4.0 * z * z * r * r / (n * n)) * (n + 1.0 - r * r) ** 2
+    return bk.sqrt(num / den)
+
+
+def zener_optimum(volume_ratio):
+    """Optimal damping of the Zener isolator at fixed N (Ruzicka and Derby, 1971).
+
+    Returns
+    -------
+    tuple of float
+        ``(T_max, r_peak, zeta)``: the minimum peak transmissibility ``1 + 2/N``,
+        the frequency ratio of the peak ``sqrt(2(N+1)/(N+2))`` and the damping
+        ratio ``N sqrt(2(N+2)) / (4(N+1))`` that achieves it.
+    """
+    n = check_positive("volume_ratio", volume_ratio)
+    return (
+        1.0 + 2.0 / n,
+        math.sqrt(2.0 * (n + 1.0) / (n + 2.0)),
+        n * math.sqrt(2.0 * (n + 2.0)) / (4.0 * (n + 1.0)),
+    )
