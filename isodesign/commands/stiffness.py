@@ -1,0 +1,264 @@
+"""Complex stiffness k*(X_p, f) of a dual-chamber spring over frequency x amplitude.
+
+Evaluates the spring of DESIGN.toml (default: the paper's Table 1 reference
+spring) at every frequency with every amplitude, prints a summary, and writes
+one CSV row per point (stiffness, loss factor, flow diagnostics and validity
+checks) with -o, a plot with --plot. Points outside a model's validity are
+flagged in the CSV (ok_* and valid columns) and reported as warnings.
+
+Value lists: comma list (0.2,1,5) or log-spaced range start:stop:count
+(0.2:24:50). Frequencies in Hz; amplitudes in metres, or with a unit suffix
+mm or um that applies to the whole list (0.05,0.15,0.5mm; 0.05:0.5:3mm).
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from isodesign.commands import (
+    FREQUENCY_UNITS,
+    LENGTH_UNITS,
+    check_output_path,
+    input_error,
+    parse_values,
+)
+
+#: Frequencies of the paper's Table 2 (Hz), the default.
+TABLE2_FREQUENCIES_HZ = (
+    0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.8, 2.0, 2.2,
+    2.4, 2.7, 3.0, 3.3, 3.7, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 12.0, 14.0, 16.0, 20.0, 24.0,
+)  # fmt: skip
+#: Default amplitudes (m): 0.05, 0.15 and 0.5 mm, low, middle and top of Table 2.
+DEFAULT_AMPLITUDES_M = (0.05e-3, 0.15e-3, 0.5e-3)
+
+#: Model options (must match isodesign.capillary.FLOW_MODELS and
+#: isodesign.spring.AMPLITUDE_MODES; tests check it). Kept here, not imported,
+#: so that ``isodesign stiffness --help`` does not load NumPy.
+FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
+AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
+#: File types of --plot.
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``isodesign stiffness``."""
+    parser.add_argument(
+        "design",
+        nargs="?",
+        metavar="DESIGN.toml",
+        help="design file (docs/design-file.md); default: the paper's reference spring",
+    )
+    add_model_arguments(parser)
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT.csv",
+        help="write the table (one row per point) to this CSV file; '-' = standard output "
+        "(then no summary is printed)",
+    )
+    parser.add_argument(
+        "--plot", metavar="OUT.png", help="plot Re k and the loss factor vs frequency (PNG)"
+    )
+
+
+def add_model_arguments(parser: argparse.ArgumentParser) -> None:
+    """The grid and model options (shared with other commands)."""
+    parser.add_argument(
+        "--freq",
+        metavar="LIST",
+        help="frequencies, Hz: 0.2,1,5 or start:stop:count (log-spaced); "
+        "default: the paper's Table 2, 35 values 0.2..24",
+    )
+    parser.add_argument(
+        "--amplitude",
+        metavar="LIST",
+        help="piston displacement amplitudes, m (suffix mm or um allowed: 0.05,0.5mm, "
+        "0.05:0.5:4mm); default 0.05,0.15,0.5mm",
+    )
+    parser.add_argument(
+        "--flow",
+        default="quasi_steady",
+        choices=FLOW_CHOICES,
+        help="capillary flow model (default %(default)s; 'zhao' is the paper's Eq. 24)",
+    )
+    parser.add_argument(
+        "--amplitude-mode",
+        default="self_consistent",
+        choices=AMPLITUDE_MODE_CHOICES,
+        help="tube velocity amplitude: self_consistent (harmonic balance, default) or "
+        "kinematic (the paper's Eq. 37; required by the zhao models)",
+    )
+    parser.add_argument(
+        "--diaphragm",
+        default="viscoelastic",
+        metavar="MODEL",
+        help="viscoelastic (default, illustrative parameters), none, or table:PATH.csv "
+        "(measured k_D* on a frequency x amplitude grid)",
+    )
+
+
+def grid_from_args(args) -> tuple[list[float], list[float]]:
+    """Frequencies (Hz) and amplitudes (m) from ``--freq`` and ``--amplitude``."""
+    freq = (
+        list(TABLE2_FREQUENCIES_HZ)
+        if args.freq is None
+        else parse_values(args.freq, "--freq", units=FREQUENCY_UNITS, unit_name="Hz")
+    )
+    amp = (
+        list(DEFAULT_AMPLITUDES_M)
+        if args.amplitude is None
+        else parse_values(args.amplitude, "--amplitude", units=LENGTH_UNITS, unit_name="m")
+    )
+    return freq, amp
+
+
+def load(path):
+    """The design of ``path``, or the reference spring for ``None``; and its label."""
+    from isodesign.design import SpringDesign
+
+    if path is None:
+        return SpringDesign.reference(), "reference spring (paper Table 1)"
+    from isodesign.designfile import load_design
+
+    return load_design(path), str(path)
+
+
+def model_label(flow: str, amplitude_mode: str, diaphragm: str) -> str:
+    """Short label of a model combination."""
+    return f"flow={flow}, amplitude_mode={amplitude_mode}, diaphragm={diaphragm}"
+
+
+def compute(design, freq, amp, *, flow, amplitude_mode, diaphragm, label=None):
+    """Run :func:`~isodesign.spring.complex_stiffness`; one warning per failed validity check.
+
+    Returns
+    -------
+    StiffnessResult
+    """
+    import warnings
+
+    from isodesign.errors import ModelValidityWarning
+    from isodesign.spring import complex_stiffness
+
+    res = complex_stiffness(
+        design, freq, amp, flow=flow, amplitude_mode=amplitude_mode, diaphragm=diaphragm, warn=False
+    )
+    prefix = f"{label}: " if label else f"{flow}/{amplitude_mode}: "
+    for line in res.warnings:
+        warnings.warn(prefix + line, ModelValidityWarning, stacklevel=2)
+    return res
+
+
+def _fmt_amp(x_m: float) -> str:
+    return f"{x_m * 1e3:.4g} mm"
+
+
+def summary(res, *, title: str | None = None) -> str:
+    """Compact text summary of a stiffness result (grid, range of k, peak loss factor).
+
+    Assumes the grid layout of :func:`compute` (frequency x amplitude).
+    """
+    import numpy as np
+
+    f = np.asarray(res.frequency_hz)
+    x = np.asarray(res.amplitude_m)
+    k = np.asarray(res.k)
+    eta = np.asarray(res.loss_factor)
+    valid = np.asarray(res.valid)
+    if k.ndim != 2:  # pragma: no cover - compute() always builds a 2-D grid
+        f, x, k, eta, valid = (a.reshape(-1, 1) for a in (f, x, k, eta, valid))
+    d = res.design
+    lines = []
+    if title:
+        lines.append(title)
+    lines.append(f"  model: {model_label(res.flow, res.amplitude_mode, res.diaphragm)}")
+    fs = f[:, 0]
+    lines.append(
+        f"  grid: {fs.size} frequencies {fs.min():.4g}..{fs.max():.4g} Hz x "
+        f"{x.shape[1]} amplitudes = {k.size} points"
+    )
+    if d is not None:
+        load = float(d.load_n)
+        lines.append(
+            f"  static: p0 = {d.pressure_pa / 1e3:.5g} kPa (abs.) carries {load:.5g} N "
+            f"({load / 9.80665:.4g} kg) per spring"
+        )
+        lines.append(
+            f"  air spring limits: k_s/(N+1) = {d.static_stiffness_n_per_m:.5g} N/m (static), "
+            f"k_s = {d.single_chamber_stiffness_n_per_m:.5g} N/m (tube blocked)"
+        )
+    header = (
+        f"  {'amplitude':>10}  {'Re k min':>10}  {'Re k max':>10}  {'peak eta':>8}  "
+        f"{'at (Hz)':>7}  {'flagged':>7}"
+    )
+    lines.append(header)
+    for j in range(k.shape[1]):
+        col = eta[:, j]
+        if np.all(np.isnan(col)):  # pragma: no cover - defensive
+            i_pk, pk = 0, float("nan")
+        else:
+            i_pk = int(np.nanargmax(col))
+            pk = float(col[i_pk])
+        lines.append(
+            f"  {_fmt_amp(float(x[0, j])):>10}  {k[:, j].real.min():>10.5g}  "
+            f"{k[:, j].real.max():>10.5g}  {pk:>8.3f}  {float(f[i_pk, j]):>7.3g}  "
+            f"{int(np.sum(~valid[:, j])):>7d}"
+        )
+    lines.append("  (Re k in N/m; eta = Im k / Re k)")
+    nbad = int(np.sum(~valid))
+    if nbad:
+        lines.append(
+            f"  flagged: {nbad} of {valid.size} points outside a model's validity "
+            "(see the warnings; CSV columns ok_*, valid)"
+        )
+    else:
+        lines.append(f"  flagged: none of {valid.size} points")
+    return "\n".join(lines)
+
+
+def write_csv(res, path) -> int:
+    """Write ``res.to_frame()`` as CSV (full precision) to ``path`` ('-' = stdout)."""
+    import sys
+
+    df = res.to_frame()
+    if str(path) == "-":
+        df.to_csv(sys.stdout, index=False)
+    else:
+        df.to_csv(path, index=False)
+    return len(df)
+
+
+def run(args) -> int:
+    """Run ``isodesign stiffness``."""
+    freq, amp = grid_from_args(args)
+    check_output_path(args.output, "--output")
+    check_output_path(args.plot, "--plot")
+    if args.plot and Path(args.plot).suffix.lower() not in PLOT_SUFFIXES:
+        raise input_error(
+            f"--plot: unsupported file type {Path(args.plot).suffix or '(none)'!r}; "
+            f"valid: {', '.join(PLOT_SUFFIXES)}"
+        )
+    design, label = load(args.design)
+    res = compute(
+        design,
+        freq,
+        amp,
+        flow=args.flow,
+        amplitude_mode=args.amplitude_mode,
+        diaphragm=args.diaphragm,
+    )
+    to_stdout = args.output == "-"
+    if not to_stdout:
+        print(summary(res, title=f"complex stiffness: {label}"))
+    if args.output:
+        n = write_csv(res, args.output)
+        if not to_stdout:
+            print(f"wrote {args.output} ({n} rows)")
+    if args.plot:
+        from isodesign.plotting import plot_stiffness
+
+        plot_stiffness(args.plot, [res], title=label)
+        if not to_stdout:
+            print(f"wrote {args.plot}")
+    return 0

@@ -1,0 +1,370 @@
+"""Design files: a :class:`~isodesign.design.SpringDesign` as a TOML document.
+
+Schema (SI values; see ``docs/design-file.md``)::
+
+    volume_ratio = 1.8518518518518519     # N = V_b0 / V_t0            required
+    top_volume_m3 = 0.00081               # V_t0                       required
+    capillary_length_m = 0.012            # L_c                        required
+    capillary_diameter_m = 0.0009         # D_c                        required
+    piston_area_m2 = 0.0053               # A_p, or diaphragm_r1_m + diaphragm_r2_m (Eq. 43)
+    pressure_pa = 493000.0                # p0 absolute, or a [load] table (Eq. 1)
+    temperature_k = 288.1                 # optional (288.15)
+    minor_loss = 1.5                      # optional (1.5)
+    polytropic_index = 1.2                # optional (omitted: adiabatic, n = kappa)
+    roughness_m = 0.0                     # optional (0)
+
+    [load]                                # instead of pressure_pa
+    mass_kg = 100.0
+    isolators = 4
+
+    [gas]                                 # optional (air, Sutherland viscosity)
+    name = "air"
+    gas_constant_j_per_kg_k = 286.9
+    heat_capacity_ratio = 1.4
+    viscosity_pa_s = 1.79e-5              # omitted: Sutherland's law
+
+Every problem raises :class:`~isodesign.errors.InputError` whose message names
+the file (``source``) and the key.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from pathlib import Path
+from typing import Any
+
+from .errors import InputError
+
+__all__ = [
+    "DESIGN_KEYS",
+    "GAS_KEYS",
+    "LOAD_KEYS",
+    "design_from_dict",
+    "design_to_toml",
+    "load_design",
+    "reference_design_path",
+    "save_design",
+]
+
+#: Top-level keys and their meaning (the first four are required).
+DESIGN_KEYS: dict[str, str] = {
+    "volume_ratio": "N = V_b0/V_t0 (> 0)",
+    "top_volume_m3": "top-chamber volume V_t0, m^3 (> 0)",
+    "capillary_length_m": "capillary length L_c, m (> 0)",
+    "capillary_diameter_m": "capillary diameter D_c, m (> 0, < L_c)",
+    "piston_area_m2": "equivalent piston area A_p, m^2 (> 0)",
+    "diaphragm_r1_m": "free width r1 of the rolling diaphragm, m (> 0; with diaphragm_r2_m)",
+    "diaphragm_r2_m": "piston radius r2 of the rolling diaphragm, m (> 0; with diaphragm_r1_m)",
+    "pressure_pa": "absolute static pressure p0, Pa (> 101325)",
+    "temperature_k": "static gas temperature T0, K (> 0; default 288.15)",
+    "minor_loss": "minor-loss coefficient K of the capillary, [0, 100] (default 1.5)",
+    "polytropic_index": "polytropic index n in [1, kappa] (default: adiabatic, n = kappa)",
+    "roughness_m": "capillary wall roughness, m (>= 0; default 0)",
+    "load": "table [load]: mass_kg, isolators (instead of pressure_pa)",
+    "gas": "table [gas]: name, gas_constant_j_per_kg_k, heat_capacity_ratio, viscosity_pa_s",
+}
+REQUIRED_KEYS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
+#: Keys of the ``[load]`` table.
+LOAD_KEYS: dict[str, str] = {
+    "mass_kg": "supported payload mass, kg (> 0)",
+    "isolators": "number of identical isolators sharing the payload (integer >= 1)",
+}
+#: Keys of the ``[gas]`` table.
+GAS_KEYS: dict[str, str] = {
+    "name": "label (string)",
+    "gas_constant_j_per_kg_k": "specific gas constant R, J/(kg K) (> 0)",
+    "heat_capacity_ratio": "kappa = c_p/c_v, (1, 1.7]",
+    "viscosity_pa_s": "fixed dynamic viscosity, Pa s (> 0; omitted: Sutherland's law)",
+    "sutherland_mu_ref_pa_s": "Sutherland reference viscosity, Pa s (> 0)",
+    "sutherland_t_ref_k": "Sutherland reference temperature, K (> 0)",
+    "sutherland_s_k": "Sutherland constant S, K (> 0)",
+}
+
+_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas"))
+
+
+def reference_design_path() -> Path:
+    """Path of the shipped design file of the paper's Table 1 spring."""
+    return Path(__file__).with_name("data") / "reference.toml"
+
+
+def _check_keys(d: dict, valid: dict[str, str], where: str, source: str) -> None:
+    for key in d:
+        if key not in valid:
+            raise InputError(
+                f"{source}: unknown key {key!r}{where}; valid keys: {', '.join(valid)}"
+            )
+
+
+def _number(d: dict, key: str, source: str, label: str | None = None) -> float:
+    """A finite real number (TOML integer or float, not a bool) from ``d[key]``."""
+    v = d[key]
+    name = label or key
+    if isinstance(v, bool) or not isinstance(v, int | float):
+        raise InputError(
+            f"{source}: {name}: expected a number ({_meaning(name)}), got {_toml_type(v)} {v!r}"
+        )
+    v = float(v)
+    if not math.isfinite(v):
+        raise InputError(f"{source}: {name}: must be finite ({_meaning(name)}), got {v!r}")
+    return v
+
+
+def _meaning(name: str) -> str:
+    if name.startswith("load."):
+        return LOAD_KEYS.get(name[5:], "")
+    if name.startswith("gas."):
+        return GAS_KEYS.get(name[4:], "")
+    return DESIGN_KEYS.get(name, "")
+
+
+def _toml_type(v: Any) -> str:
+    if isinstance(v, bool):
+        return "a boolean"
+    if isinstance(v, str):
+        return "a string"
+    if isinstance(v, dict):
+        return "a table"
+    if isinstance(v, list):
+        return "an array"
+    return f"a {type(v).__name__}"
+
+
+def _with_source(exc: InputError, source: str) -> InputError:
+    msg = str(exc)
+    return InputError(msg if msg.startswith(f"{source}:") else f"{source}: {msg}")
+
+
+def _gas(d: Any, source: str):
+    from .gas import Gas
+
+    if not isinstance(d, dict):
+        raise InputError(f"{source}: gas: expected a table [gas], got {_toml_type(d)}")
+    _check_keys(d, GAS_KEYS, " in [gas]", source)
+    kw: dict[str, Any] = {}
+    for key in d:
+        if key == "name":
+            if not isinstance(d[key], str):
+                raise InputError(f"{source}: gas.name: expected a string, got {_toml_type(d[key])}")
+            kw[key] = d[key]
+        else:
+            kw[key] = _number(d, key, source, f"gas.{key}")
+    try:
+        return Gas(**kw)
+    except InputError as exc:
+        raise _with_source(exc, source) from None
+
+
+def _pressure_from_load(d: Any, piston_area_m2: float, source: str) -> float:
+    from .gas import pressure_from_load
+
+    if not isinstance(d, dict):
+        raise InputError(f"{source}: load: expected a table [load], got {_toml_type(d)}")
+    _check_keys(d, LOAD_KEYS, " in [load]", source)
+    missing = [k for k in LOAD_KEYS if k not in d]
+    if missing:
+        raise InputError(
+            f"{source}: [load] needs {' and '.join(LOAD_KEYS)}; missing {', '.join(missing)}"
+        )
+    mass = _number(d, "mass_kg", source, "load.mass_kg")
+    if mass <= 0:
+        raise InputError(f"{source}: load.mass_kg: must be > 0 kg, got {d['mass_kg']!r}")
+    n = d["isolators"]
+    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
+        raise InputError(f"{source}: load.isolators: must be an integer >= 1, got {n!r}")
+    return pressure_from_load(mass, n, piston_area_m2)
+
+
+def design_from_dict(d: dict, source: str = "design"):
+    """Build a :class:`~isodesign.design.SpringDesign` from a design-file dictionary.
+
+    Parameters
+    ----------
+    d : dict
+        The parsed TOML document (schema in the module docstring).
+    source : str
+        Where ``d`` came from (a file name); every error message starts with it.
+
+    Returns
+    -------
+    SpringDesign
+
+    Raises
+    ------
+    InputError
+        Unknown or missing keys, wrong types, values out of range, or
+        conflicting alternatives (``piston_area_m2`` with diaphragm radii,
+        ``pressure_pa`` with ``[load]``).
+    """
+    from .design import SpringDesign, piston_area_from_diaphragm
+
+    if not isinstance(d, dict):
+        raise InputError(f"{source}: expected a TOML table of design keys, got {_toml_type(d)}")
+    _check_keys(d, DESIGN_KEYS, "", source)
+    missing = [k for k in REQUIRED_KEYS if k not in d]
+    if missing:
+        raise InputError(
+            f"{source}: missing key(s) {', '.join(missing)}; required: {', '.join(REQUIRED_KEYS)}"
+        )
+    for key in _SCALAR_KEYS:
+        if key in d:
+            _number(d, key, source)
+    kw: dict[str, Any] = {k: float(d[k]) for k in REQUIRED_KEYS}
+    for key in ("temperature_k", "minor_loss", "polytropic_index", "roughness_m"):
+        if key in d:
+            kw[key] = float(d[key])
+
+    # piston area: A_p directly, or from the diaphragm radii (Eq. 43)
+    radii = [k for k in ("diaphragm_r1_m", "diaphragm_r2_m") if k in d]
+    if "piston_area_m2" in d and radii:
+        raise InputError(
+            f"{source}: piston_area_m2 and {', '.join(radii)} both given; give either "
+            "piston_area_m2 or diaphragm_r1_m and diaphragm_r2_m (Eq. 43)"
+        )
+    try:
+        if "piston_area_m2" in d:
+            kw["piston_area_m2"] = float(d["piston_area_m2"])
+        elif len(radii) == 2:
+            kw["piston_area_m2"] = piston_area_from_diaphragm(
+                float(d["diaphragm_r1_m"]), float(d["diaphragm_r2_m"])
+            )
+        elif radii:
+            other = "diaphragm_r2_m" if radii[0] == "diaphragm_r1_m" else "diaphragm_r1_m"
+            raise InputError(f"{source}: {radii[0]} given without {other}; give both (Eq. 43)")
+        else:
+            raise InputError(
+                f"{source}: missing key piston_area_m2 (or diaphragm_r1_m and diaphragm_r2_m)"
+            )
+        if "piston_area_m2" in d and kw["piston_area_m2"] <= 0:
+            raise InputError(
+                f"{source}: piston_area_m2: must be finite and > 0 m^2, got {d['piston_area_m2']!r}"
+            )
+
+        # gas first: the polytropic-index range depends on kappa
+        if "gas" in d:
+            kw["gas"] = _gas(d["gas"], source)
+
+        # pressure: p0 directly, or from the payload (Eq. 1)
+        if "pressure_pa" in d and "load" in d:
+            raise InputError(
+                f"{source}: pressure_pa and [load] both given; give one (p0 is derived from "
+                "the load by p0 = p_atm + m g / (n A_p))"
+            )
+        if "pressure_pa" in d:
+            kw["pressure_pa"] = float(d["pressure_pa"])
+        elif "load" in d:
+            kw["pressure_pa"] = _pressure_from_load(d["load"], kw["piston_area_m2"], source)
+        else:
+            raise InputError(f"{source}: missing key pressure_pa (or a [load] table)")
+        return SpringDesign(**kw)
+    except InputError as exc:
+        raise _with_source(exc, source) from None
+
+
+def load_design(path):
+    """Read a design file.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML design file.
+
+    Returns
+    -------
+    SpringDesign
+
+    Raises
+    ------
+    InputError
+        Unreadable or malformed file, or any schema error (the message names
+        the file and the key).
+    """
+    from .io import read_toml
+
+    d = read_toml(path, what="design")
+    return design_from_dict(d, source=f"design file {path}")
+
+
+# ---------------------------------------------------------------------------
+# writing
+# ---------------------------------------------------------------------------
+def _toml_float(v: float) -> str:
+    """Shortest round-trip repr; always a TOML float."""
+    v = float(v)
+    if math.isnan(v):
+        return "nan"
+    if math.isinf(v):
+        return "inf" if v > 0 else "-inf"
+    return repr(v)
+
+
+def _toml_string(s: str) -> str:
+    out = ['"']
+    for ch in s:
+        o = ord(ch)
+        if ch == '"':
+            out.append('\\"')
+        elif ch == "\\":
+            out.append("\\\\")
+        elif ch == "\n":
+            out.append("\\n")
+        elif ch == "\t":
+            out.append("\\t")
+        elif o < 0x20 or o == 0x7F:
+            out.append(f"\\u{o:04x}")
+        else:
+            out.append(ch)
+    out.append('"')
+    return "".join(out)
+
+
+def design_to_toml(design, *, header: str | None = None) -> str:
+    """A design file (TOML text) for ``design``; :func:`load_design` reads it back exactly.
+
+    Floats are written with their shortest round-trip representation; the
+    pressure is written as ``pressure_pa`` (with the load it carries as a
+    comment); gas fields equal to the defaults of :class:`~isodesign.gas.Gas`
+    are written only for name, R, kappa and a fixed viscosity.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        A numeric design (not CasADi symbols).
+    header : str, optional
+        Comment lines placed at the top (without the ``#``).
+    """
+    from .gas import G_STANDARD, Gas
+
+    lines: list[str] = []
+    if header:
+        lines += [f"# {h}".rstrip() for h in header.splitlines()]
+    d = design.to_dict()
+    gas = d.pop("gas")
+    for key in _SCALAR_KEYS:
+        if key in d:
+            lines.append(f"{key} = {_toml_float(d[key])}")
+            if key == "pressure_pa":
+                load = float(design.load_n)
+                lines[-1] += (
+                    f"  # carries A_p (p0 - p_atm) = {load:.5g} N ({load / G_STANDARD:.4g} kg) "
+                    "per spring"
+                )
+    lines += ["", "[gas]", f"name = {_toml_string(gas['name'])}"]
+    for key in ("gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"):
+        if key in gas:
+            lines.append(f"{key} = {_toml_float(gas[key])}")
+    default = Gas()
+    for f in dataclasses.fields(Gas):
+        if f.name.startswith("sutherland_"):
+            v = getattr(design.gas, f.name)
+            if v != getattr(default, f.name):
+                lines.append(f"{f.name} = {_toml_float(v)}")
+    return "\n".join(lines) + "\n"
+
+
+def save_design(design, path, *, header: str | None = None) -> Path:
+    """Write :func:`design_to_toml` to ``path``; return the path."""
+    p = Path(path)
+    p.write_text(design_to_toml(design, header=header), encoding="utf-8")
+    return p
