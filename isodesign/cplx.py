@@ -28,13 +28,19 @@ class Cx:
     # -- construction ----------------------------------------------------
     @staticmethod
     def from_complex(z) -> Cx:
-        """Split a NumPy complex array (or Python complex) into a pair."""
+        """Split a NumPy complex array (or Python complex) into a pair (views, no copy)."""
         z = np.asarray(z)
-        return Cx(np.real(z).astype(float), np.imag(z).astype(float))
+        if np.iscomplexobj(z):
+            return Cx(z.real, z.imag)
+        return Cx(z.astype(float), np.zeros_like(z, dtype=float))
 
     def to_complex(self) -> np.ndarray:
         """Return a NumPy complex array (NumPy backend only)."""
-        return bk.as_numpy(self.re) + 1j * bk.as_numpy(self.im)
+        re, im = bk.as_numpy(self.re), bk.as_numpy(self.im)
+        out = np.empty(np.broadcast_shapes(re.shape, im.shape), dtype=complex)
+        out.real = re
+        out.imag = im
+        return out
 
     # -- arithmetic ------------------------------------------------------
     def __add__(self, other) -> Cx:
@@ -56,6 +62,8 @@ class Cx:
     def __mul__(self, other) -> Cx:
         if isinstance(other, Cx) or isinstance(other, complex):
             o = as_cx(other)
+            if _large_numpy(self, o):
+                return Cx.from_complex(self.to_complex() * o.to_complex())
             return Cx(self.re * o.re - self.im * o.im, self.re * o.im + self.im * o.re)
         return Cx(self.re * other, self.im * other)
 
@@ -64,6 +72,8 @@ class Cx:
     def __truediv__(self, other) -> Cx:
         if isinstance(other, Cx) or isinstance(other, complex):
             o = as_cx(other)
+            if _large_numpy(self, o):
+                return Cx.from_complex(self.to_complex() / o.to_complex())
             d = o.re * o.re + o.im * o.im
             return Cx((self.re * o.re + self.im * o.im) / d, (self.im * o.re - self.re * o.im) / d)
         return Cx(self.re / other, self.im / other)
@@ -91,6 +101,19 @@ class Cx:
     def loss_factor(self):
         """Loss factor ``im / re`` of a complex stiffness."""
         return self.im / self.re
+
+
+#: Above this many elements, NumPy pairs are multiplied and divided with NumPy's
+#: complex ufuncs (one pass, fewer temporaries); the result is the same.
+_NATIVE_MIN_SIZE = 4096
+
+
+def _large_numpy(a: Cx, b: Cx) -> bool:
+    """True when both pairs hold NumPy data and one of them is large."""
+    parts = (a.re, a.im, b.re, b.im)
+    if any(bk.is_casadi(p) for p in parts):
+        return False
+    return max(np.size(p) for p in parts) >= _NATIVE_MIN_SIZE
 
 
 def as_cx(x) -> Cx:

@@ -34,6 +34,10 @@ SMALL_SIGNAL_LIMIT = 0.1
 #: Relative mismatch between the assumed (Eq. 37) and the driven tube velocity
 #: above which the kinematic amplitude mode is flagged.
 KINEMATIC_MISMATCH_LIMIT = 0.1
+#: Acoustic compactness w l / c (l the largest of the tube length and the chamber
+#: sizes V^(1/3)) above which the lumped model (uniform chamber pressures, an
+#: incompressible slug in the tube) is flagged.
+LUMPED_LIMIT = 0.3
 
 CHECK_DESCRIPTIONS = {
     "mach": f"tube Mach number <= {MACH_LIMIT} (incompressible flow, Eq. 17)",
@@ -42,6 +46,10 @@ CHECK_DESCRIPTIONS = {
         "(linearized chambers, Eqs. 12-15)"
     ),
     "passive": "Im k >= 0 (the spring dissipates energy)",
+    "lumped": (
+        f"acoustically compact: w l / c <= {LUMPED_LIMIT} for the tube length and chamber sizes "
+        "(lumped model)"
+    ),
     "laminar": f"peak Reynolds number <= {LAMINAR_REYNOLDS_LIMIT:g} (laminar model, Eq. 26)",
     "quasi_steady_alpha": (
         f"Womersley number <= {QUASI_STEADY_WOMERSLEY_LIMIT} (quasi-steady friction within 5 % "
@@ -166,21 +174,28 @@ def evaluate_diagnostics(
     iterations: np.ndarray | None = None,
 ) -> Diagnostics:
     """Compute :class:`Diagnostics` for evaluated points (NumPy only)."""
-    from .spring import driven_velocity, kinematic_velocity
+    from .spring import kinematic_velocity
 
     d = design
     shape = np.broadcast_shapes(np.shape(omega), np.shape(amplitude_m), np.shape(velocity))
     u = np.broadcast_to(velocity, shape)
     rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
     re = rho * u * dc / mu
-    re_w = np.broadcast_to(kinetic_reynolds(d, omega), shape)
-    alpha = 0.5 * np.sqrt(re_w)
+    # frequency-only quantities on the frequency axis, then broadcast
+    re_w0 = kinetic_reynolds(d, omega)
+    alpha0 = 0.5 * np.sqrt(re_w0)
+    size0 = max(d.capillary_length_m, d.top_volume_m3 ** (1 / 3), d.bottom_volume_m3 ** (1 / 3))
+    lumped0 = omega * size0 / d.speed_of_sound_m_s <= LUMPED_LIMIT
+    re_w = np.broadcast_to(re_w0, shape)
+    alpha = np.broadcast_to(alpha0, shape)
     a0 = u / (omega * dc)
-    omega = np.broadcast_to(omega, shape)
     mach = u / d.speed_of_sound_m_s
     p_amp = np.abs(k_air) * amplitude_m / d.piston_area_m2
-    u_driven = np.broadcast_to(driven_velocity(d, omega, amplitude_m, c), shape)
     u_kin = np.broadcast_to(kinematic_velocity(d, omega, amplitude_m), shape)
+    # driven velocity N Q/|D| from Eq. 38 itself: k_air = k_s (1 - N/D), so
+    # N/|D| = |1 - k_air/k_s| (exact, and cheaper than recomputing D)
+    ratio = np.abs(1.0 - k_air / d.single_chamber_stiffness_n_per_m)
+    u_driven = u_kin * ratio
 
     checks: dict[str, np.ndarray] = {}
     checks["mach"] = mach <= MACH_LIMIT
@@ -188,17 +203,18 @@ def evaluate_diagnostics(
         d.piston_area_m2 * amplitude_m / d.top_volume_m3 <= SMALL_SIGNAL_LIMIT, shape
     )
     checks["passive"] = k_total.imag >= -1e-9 * np.abs(k_total)
+    checks["lumped"] = lumped0
     if flow in ("poiseuille", "womersley"):
         checks["laminar"] = re <= LAMINAR_REYNOLDS_LIMIT
     if flow == "quasi_steady":
-        checks["quasi_steady_alpha"] = alpha <= QUASI_STEADY_WOMERSLEY_LIMIT
+        checks["quasi_steady_alpha"] = alpha0 <= QUASI_STEADY_WOMERSLEY_LIMIT
     if flow in ("zhao", "zhao_turbulent"):
         lo_w, hi_w, lo_a, hi_a = ZHAO_RANGES["laminar" if flow == "zhao" else "turbulent"]
-        checks["zhao_re_w"] = (re_w >= lo_w) & (re_w <= hi_w)
+        checks["zhao_re_w"] = (re_w0 >= lo_w) & (re_w0 <= hi_w)
         checks["zhao_a0"] = (a0 >= lo_a) & (a0 <= hi_a)
     if amplitude_mode == "kinematic" and flow != "poiseuille":
-        with np.errstate(invalid="ignore", divide="ignore"):
-            checks["kinematic_consistency"] = np.abs(u_driven / u - 1.0) <= KINEMATIC_MISMATCH_LIMIT
+        # u is the kinematic velocity here, so u_driven / u is the ratio itself
+        checks["kinematic_consistency"] = np.abs(ratio - 1.0) <= KINEMATIC_MISMATCH_LIMIT
     if converged is not None:
         checks["converged"] = np.broadcast_to(converged, shape)
     for name, ok in diaphragm.in_range(omega, amplitude_m).items():
