@@ -40,6 +40,14 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.criteria",
         "floor vibration criteria (VC, ISO, NIST) per one-third octave",
     ),
+    "response": (
+        "isodesign.commands.response",
+        "payload band response on a floor vs a criterion: margins per band, verdict",
+    ),
+    "transmissibility": (
+        "isodesign.commands.transmissibility",
+        "transmissibility for harmonic floor amplitudes (self-consistent stroke)",
+    ),
     "demo": (
         "isodesign.commands.demo",
         "the paper's spring: default model vs the paper's (make demo)",

@@ -30,8 +30,10 @@ from .gas import G_STANDARD
 
 __all__ = [
     "Payload",
+    "loaded_design",
     "natural_frequency_hz",
     "relative_transmissibility",
+    "static_stiffness",
     "tilt_margin",
     "transmissibility",
     "zener_damping_ratio",
@@ -94,6 +96,27 @@ class Payload:
         return self.mass_kg * self.g_m_s2 / self.isolators
 
 
+def loaded_design(design, payload: Payload):
+    """Copy of ``design`` with p0 derived from the payload's weight (Eq. 1).
+
+    ``p0 = p_atm + m g / (n A_p)``: each of the payload's ``isolators`` identical springs
+    carries an equal share of ``mass_kg`` under the payload's gravity ``g_m_s2``
+    (:meth:`isodesign.design.SpringDesign.with_load`).
+
+    Parameters
+    ----------
+    design : SpringDesign
+    payload : Payload
+
+    Returns
+    -------
+    SpringDesign
+    """
+    if not isinstance(payload, Payload):
+        raise InputError(f"payload: expected an isodesign Payload, got {type(payload).__name__}")
+    return design.with_load(payload.mass_kg, payload.isolators, g_m_s2=payload.g_m_s2)
+
+
 def transmissibility(k: Cx, mass_per_isolator_kg, omega) -> Cx:
     """Absolute transmissibility ``T = k* / (k* - (m/n) w^2)`` (floor to payload)."""
     k = as_cx(k)
@@ -104,12 +127,33 @@ def relative_transmissibility(k: Cx, mass_per_isolator_kg, omega) -> Cx:
     """Stroke per floor motion, ``T - 1 = (m/n) w^2 / (k* - (m/n) w^2)``."""
     k = as_cx(k)
     mw2 = mass_per_isolator_kg * omega * omega
-    return mw2 / (k - mw2)
+    # as_cx: a NumPy array on the left of "/" would make an object array of Cx
+    return as_cx(mw2) / (k - mw2)
 
 
 def natural_frequency_hz(stiffness_n_per_m, mass_per_isolator_kg):
     """Undamped natural frequency ``sqrt(k/m) / (2 pi)`` in Hz."""
     return bk.sqrt(stiffness_n_per_m / mass_per_isolator_kg) / (2.0 * math.pi)
+
+
+#: Reference amplitude of the static (linear-regime) stiffness: 1 um.
+STATIC_REFERENCE_AMPLITUDE_M = 1e-6
+
+
+def static_stiffness(design, diaphragm, mass_per_isolator_kg,
+                     amplitude_m=STATIC_REFERENCE_AMPLITUDE_M):
+    """Low-frequency (static) stiffness K0 of one spring, any backend.
+
+    ``K0 = k_s/(N+1) + Re k_D(X_ref, f_air)``: the air spring's low-frequency
+    limit plus the diaphragm's storage stiffness at the reference amplitude
+    (1 um) and at the air spring's own natural frequency
+    ``f_air = sqrt((k_s/(N+1)) / (m/n)) / (2 pi)``. Explicit and smooth, so the
+    optimizer's constraints and the analysis's stability figures use the same
+    number. Used for the natural frequency and the tilt margin.
+    """
+    k_air = design.static_stiffness_n_per_m
+    w_air = bk.sqrt(k_air / mass_per_isolator_kg)
+    return k_air + diaphragm.stiffness(w_air, amplitude_m).re
 
 
 def tilt_margin(stiffness_n_per_m, payload: Payload):

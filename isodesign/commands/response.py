@@ -1,0 +1,253 @@
+"""Payload band response on a vibrating floor, and compliance with a vibration criterion.
+
+A payload of --payload-kg (default 100 kg per isolator) on --isolators identical springs
+(DESIGN.toml, default: the paper's reference spring) stands on a floor given as a
+criterion name (VC-A: the floor exactly on the curve) or a CSV spectrum. The spring's
+amplitude dependence is closed self-consistently on the RMS stroke (equivalent
+linearization). Prints one row per one-third-octave band (floor, payload, target, margin
+in dB) and a PASS/FAIL verdict with the worst band; -o writes the table as CSV, --plot a
+figure. The chamber pressure is derived from the payload weight unless --design-pressure.
+See docs/response.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+#: Model options (must match isodesign.capillary.FLOW_MODELS, isodesign.spring.AMPLITUDE_MODES
+#: and isodesign.response.RANDOM_METHODS; tests check it). Kept here so that --help does
+#: not load NumPy.
+FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
+AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
+RANDOM_METHOD_CHOICES = ("equivalent_amplitude", "rayleigh")
+#: Default load per isolator (kg) when --payload-kg is not given.
+DEFAULT_KG_PER_ISOLATOR = 100.0
+
+
+def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
+    """Design file, payload and spring-model options (shared with ``transmissibility``)."""
+    parser.add_argument(
+        "design",
+        nargs="?",
+        metavar="DESIGN.toml",
+        help="design file (docs/design-file.md); default: the paper's reference spring",
+    )
+    parser.add_argument(
+        "--payload-kg",
+        type=float,
+        metavar="KG",
+        help="total payload mass carried by all isolators, kg "
+        f"(default {DEFAULT_KG_PER_ISOLATOR:g} kg per isolator)",
+    )
+    parser.add_argument(
+        "--isolators", type=int, default=4, metavar="N", help="number of isolators (default 4)"
+    )
+    parser.add_argument(
+        "--design-pressure",
+        action="store_true",
+        help="use the design's own p0 instead of deriving it from the payload weight",
+    )
+    parser.add_argument(
+        "--flow",
+        default="quasi_steady",
+        choices=FLOW_CHOICES,
+        help="capillary flow model (default %(default)s)",
+    )
+    parser.add_argument(
+        "--amplitude-mode",
+        default="self_consistent",
+        choices=AMPLITUDE_MODE_CHOICES,
+        help="tube velocity amplitude of the spring model (default %(default)s)",
+    )
+    parser.add_argument(
+        "--diaphragm",
+        default="viscoelastic",
+        metavar="MODEL",
+        help="viscoelastic (default, illustrative parameters), none, or table:PATH.csv",
+    )
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``isodesign response``."""
+    add_payload_arguments(parser)
+    parser.add_argument(
+        "--floor",
+        default="VC-A",
+        metavar="NAME|FILE.csv",
+        help="floor: criterion name (the floor exactly on the curve) or a CSV spectrum "
+        "(docs/criteria.md, section 4); default %(default)s",
+    )
+    parser.add_argument(
+        "--target",
+        default="VC-E",
+        metavar="NAME|FILE.csv",
+        help="the instrument's criterion: name or CSV curve; default %(default)s",
+    )
+    parser.add_argument(
+        "--bands",
+        metavar="FMIN:FMAX",
+        help="band range, nominal centres in Hz (default: the target's bands within the floor)",
+    )
+    parser.add_argument(
+        "--points-per-band",
+        type=int,
+        default=50,
+        metavar="N",
+        help="integration points per band (default %(default)s)",
+    )
+    parser.add_argument(
+        "--random-method",
+        default="equivalent_amplitude",
+        choices=RANDOM_METHOD_CHOICES,
+        help="spring amplitude of the random closure: A* = 1.88 sigma (default) or the "
+        "Rayleigh average",
+    )
+    parser.add_argument(
+        "--spacing-m", type=float, metavar="M", help="narrowest isolator spacing (tilt margin)"
+    )
+    parser.add_argument(
+        "--cg-height-m",
+        type=float,
+        metavar="M",
+        help="centre-of-gravity height above the diaphragms (tilt margin)",
+    )
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT.csv",
+        help="write the band table to this CSV file ('-' = standard output, no summary)",
+    )
+    parser.add_argument(
+        "--plot", metavar="OUT.png", help="plot floor, payload and target, and |T| (PNG)"
+    )
+
+
+def load_design(path):
+    """The design of ``path`` (or the reference spring) and its label."""
+    from isodesign.design import SpringDesign
+
+    if path is None:
+        return SpringDesign.reference(), "reference spring (paper Table 1)"
+    from isodesign.designfile import load_design as _load
+
+    return _load(path), str(path)
+
+
+def make_payload(args, **extra):
+    """The Payload of ``--payload-kg`` and ``--isolators`` (InputError naming the option)."""
+    from isodesign.errors import InputError
+    from isodesign.isolator import Payload
+
+    n = args.isolators
+    if n is None or n < 1:
+        raise InputError(f"--isolators: must be an integer >= 1, got {n}")
+    mass = DEFAULT_KG_PER_ISOLATOR * n if args.payload_kg is None else args.payload_kg
+    if not mass > 0 or mass == float("inf"):
+        raise InputError(f"--payload-kg: must be finite and > 0 kg, got {args.payload_kg}")
+    for opt, v in extra.items():
+        if v is not None and not v > 0:
+            raise InputError(f"--{opt.replace('_', '-')}: must be > 0 m, got {v}")
+    return Payload(mass, n, **extra)
+
+
+def _bands(spec):
+    from isodesign.errors import InputError
+
+    if spec is None:
+        return None
+    parts = spec.split(":")
+    try:
+        lo, hi = (float(p) for p in parts)
+    except ValueError:
+        raise InputError(f"--bands: expected FMIN:FMAX in Hz, got {spec!r}") from None
+    return (lo, hi)
+
+
+def format_table(res) -> str:
+    """The band table and the verdict as text (um/s, dB)."""
+    lines = [
+        f"  {'band':>6}  {'floor':>9}  {'payload':>9}  {'target':>9}  {'margin':>7}  pass",
+        f"  {'(Hz)':>6}  {'(um/s)':>9}  {'(um/s)':>9}  {'(um/s)':>9}  {'(dB)':>7}",
+    ]
+    for i, lab in enumerate(res.bands.labels):
+        lines.append(
+            f"  {lab:>6}  {res.floor_velocity_rms_m_s[i] * 1e6:>9.4g}  "
+            f"{res.payload_velocity_rms_m_s[i] * 1e6:>9.4g}  "
+            f"{res.limit_velocity_rms_m_s[i] * 1e6:>9.4g}  {res.margin_db[i]:>+7.2f}  "
+            f"{'yes' if res.band_passes[i] else 'NO'}"
+        )
+    return "\n".join(lines)
+
+
+def summary(res, design_label: str, derived: bool) -> str:
+    """Header lines, the table and the verdict."""
+    s = res.stability
+    p = res.payload
+    lines = [
+        f"band response: {design_label}; payload {p.mass_kg:g} kg on {p.isolators} isolators "
+        f"({p.mass_per_isolator_kg:g} kg each), p0 = {s.pressure_pa / 1e5:.4g} bar "
+        + ("(from the payload)" if derived else "(design's own)"),
+        f"  floor {res.floor_name}; target {res.target_name}; "
+        f"model flow={res.flow}, amplitude_mode={res.amplitude_mode}, "
+        f"diaphragm={res.diaphragm}; random closure {res.random_method}",
+        f"  natural frequency {s.natural_frequency_hz:.4g} Hz; peak |T| "
+        f"{s.peak_transmissibility:.4g} at {s.peak_frequency_hz:.4g} Hz (linear), "
+        f"{s.excited_peak_transmissibility:.4g} at {s.excited_peak_frequency_hz:.4g} Hz "
+        "(at A*)",
+        f"  stroke RMS {res.stroke_rms_m * 1e6:.4g} um, A* = {res.equivalent_amplitude_m * 1e6:.4g}"
+        f" um ({res.iterations} closure iterations); Zener damping ratio "
+        f"{s.zener_damping_ratio:.3g} (optimum {s.zener_optimal_damping_ratio:.3g})",
+    ]
+    if s.tilt_margin is not None:
+        lines.append(
+            f"  tilt margin {s.tilt_margin:.3g} "
+            + ("(stable)" if s.tilt_stable else "(UNSTABLE in rocking: < 1)")
+        )
+    lines.append(format_table(res))
+    lines.append(res.verdict())
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    """Run ``isodesign response``."""
+    import warnings
+
+    from isodesign.commands import check_output_path
+    from isodesign.errors import ModelValidityWarning
+    from isodesign.response import band_response
+
+    check_output_path(args.output, "--output")
+    check_output_path(args.plot, "--plot")
+    payload = make_payload(args, spacing_m=args.spacing_m, cg_height_m=args.cg_height_m)
+    design, label = load_design(args.design)
+    res = band_response(
+        design,
+        payload,
+        args.floor,
+        args.target,
+        bands=_bands(args.bands),
+        points_per_band=args.points_per_band,
+        flow=args.flow,
+        amplitude_mode=args.amplitude_mode,
+        diaphragm=args.diaphragm,
+        random_method=args.random_method,
+        derive_pressure=not args.design_pressure,
+        warn=False,
+    )
+    for line in res.warnings:
+        warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
+    to_stdout = args.output == "-"
+    if not to_stdout:
+        print(summary(res, label, not args.design_pressure))
+    if args.output:
+        import sys
+
+        df = res.to_frame()
+        df.to_csv(sys.stdout if to_stdout else args.output, index=False)
+        if not to_stdout:
+            print(f"wrote {args.output} ({len(df)} rows)")
+    if args.plot:
+        res.plot(args.plot)
+        if not to_stdout:
+            print(f"wrote {args.plot}")
+    return 0

@@ -1,0 +1,127 @@
+"""Transmissibility of a payload on its isolators for harmonic floor motion.
+
+For every frequency (--freq) and floor displacement amplitude (--floor-amplitude) the
+spring's stroke X_s = |T(X_s) - 1| X_f is solved self-consistently; where several strokes
+exist (jump phenomenon near resonance) the --branch one is returned and the point is
+counted. Prints the peak |T| per floor amplitude; -o writes one CSV row per point, --plot
+a figure. The payload, design and model options are those of ``isodesign response``.
+
+Value lists: comma list (1e-6,1e-5) or log-spaced range start:stop:count (0.5:50:200);
+amplitudes in metres, or with a unit suffix mm or um for the whole list (1,10um).
+"""
+
+from __future__ import annotations
+
+import argparse
+
+from isodesign.commands.response import add_payload_arguments
+
+#: Default floor amplitudes (m) and frequency range.
+DEFAULT_FLOOR_AMPLITUDES = "1e-6,1e-5"
+DEFAULT_FREQ = "0.5:50:200"
+BRANCH_CHOICES = ("upper", "lower")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``isodesign transmissibility``."""
+    add_payload_arguments(parser)
+    parser.add_argument(
+        "--floor-amplitude",
+        default=DEFAULT_FLOOR_AMPLITUDES,
+        metavar="LIST",
+        help="floor displacement amplitudes, m (suffix mm or um allowed); default %(default)s",
+    )
+    parser.add_argument(
+        "--freq",
+        default=DEFAULT_FREQ,
+        metavar="LIST",
+        help="frequencies, Hz: list or start:stop:count (log-spaced); default %(default)s",
+    )
+    parser.add_argument(
+        "--branch",
+        default="upper",
+        choices=BRANCH_CHOICES,
+        help="stroke returned where several exist: upper (largest, default) or lower",
+    )
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="OUT.csv",
+        help="write one row per (frequency, amplitude) to this CSV ('-' = standard output)",
+    )
+    parser.add_argument(
+        "--plot", metavar="OUT.png", help="plot |T| and the stroke ratio vs frequency (PNG)"
+    )
+
+
+def summary(res, design_label: str, derived: bool) -> str:
+    """Header, linear figures and the peak per floor amplitude."""
+    import numpy as np
+
+    s = res.stability
+    p = res.payload
+    f = res.frequency_hz
+    lines = [
+        f"transmissibility: {design_label}; payload {p.mass_kg:g} kg on {p.isolators} "
+        f"isolators, p0 = {s.pressure_pa / 1e5:.4g} bar "
+        + ("(from the payload)" if derived else "(design's own)"),
+        f"  model flow={s.flow}, amplitude_mode={s.amplitude_mode}, diaphragm={s.diaphragm};"
+        f" {f.size} frequencies {f.min():.4g}..{f.max():.4g} Hz; {res.branch} branch",
+        f"  natural frequency {s.natural_frequency_hz:.4g} Hz; linear peak |T| "
+        f"{s.peak_transmissibility:.4g} at {s.peak_frequency_hz:.4g} Hz",
+        f"  {'floor ampl.':>11}  {'peak |T|':>8}  {'at (Hz)':>8}  {'max stroke':>10}  "
+        f"{'multi-root':>10}",
+    ]
+    for j, xf in enumerate(res.floor_amplitude_m):
+        lines.append(
+            f"  {xf * 1e6:>8.4g} um  {res.peak_transmissibility[j]:>8.4g}  "
+            f"{res.peak_frequency_hz[j]:>8.4g}  {np.max(res.stroke_m[:, j]) * 1e6:>7.4g} um  "
+            f"{int(np.sum(res.multiple_roots[:, j])):>10d}"
+        )
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    """Run ``isodesign transmissibility``."""
+    import warnings
+
+    from isodesign.commands import FREQUENCY_UNITS, LENGTH_UNITS, check_output_path, parse_values
+    from isodesign.commands.response import load_design, make_payload
+    from isodesign.errors import ModelValidityWarning
+    from isodesign.response import harmonic_response
+
+    freq = parse_values(args.freq, "--freq", units=FREQUENCY_UNITS, unit_name="Hz")
+    amp = parse_values(args.floor_amplitude, "--floor-amplitude", units=LENGTH_UNITS, unit_name="m")
+    check_output_path(args.output, "--output")
+    check_output_path(args.plot, "--plot")
+    payload = make_payload(args)
+    design, label = load_design(args.design)
+    res = harmonic_response(
+        design,
+        payload,
+        freq,
+        amp,
+        flow=args.flow,
+        amplitude_mode=args.amplitude_mode,
+        diaphragm=args.diaphragm,
+        derive_pressure=not args.design_pressure,
+        branch=args.branch,
+        warn=False,
+    )
+    for line in res.warnings:
+        warnings.warn(line, ModelValidityWarning, stacklevel=2)
+    to_stdout = args.output == "-"
+    if not to_stdout:
+        print(summary(res, label, not args.design_pressure))
+    if args.output:
+        import sys
+
+        df = res.to_frame()
+        df.to_csv(sys.stdout if to_stdout else args.output, index=False)
+        if not to_stdout:
+            print(f"wrote {args.output} ({len(df)} rows)")
+    if args.plot:
+        res.plot(args.plot)
+        if not to_stdout:
+            print(f"wrote {args.plot}")
+    return 0
