@@ -1,0 +1,239 @@
+"""Pareto studies: epsilon-constraint sweeps with warm starts.
+
+:func:`pareto_front` minimizes objective A subject to ``objective B <= eps``
+for a sweep of ``eps`` between B's two anchors (B at A's optimum, and B's own
+optimum), each NLP warm-started from the previous solution with one
+parametric IPOPT solver built once (:class:`isodesign.optimize.Problem` with
+both objectives, parametric weights and bounds). The points are filtered for
+non-dominance; the front's
+hypervolume is computed in the normalized space of the two (minimized)
+objectives against a reference point (see :func:`hypervolume_2d`).
+
+Default front: worst-band margin (maximized) against total chamber volume
+(minimized). That is the designer's first question once a study works: how
+much compliance margin does each litre of isolator buy, within the envelope?
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .errors import InputError, SolverError
+from .optimize import (
+    OBJECTIVE_UNITS,
+    Problem,
+    natural_to_objective_value,
+    objective_value_to_natural,
+    run_starts,
+    start_points,
+)
+from .study import MAXIMIZED, OBJECTIVES, Study
+
+__all__ = ["DEFAULT_OBJECTIVES", "ParetoResult", "hypervolume_2d", "nondominated", "pareto_front"]
+
+DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
+
+
+def _minimized(kind: str, v: np.ndarray) -> np.ndarray:
+    """Natural values -> values to minimize (margins negated)."""
+    return -np.asarray(v, float) if kind in MAXIMIZED else np.asarray(v, float)
+
+
+def nondominated(points: np.ndarray) -> np.ndarray:
+    """Boolean mask of the non-dominated rows of an (n, 2) array (both minimized)."""
+    p = np.asarray(points, float)
+    keep = np.ones(len(p), dtype=bool)
+    for i in range(len(p)):
+        if not np.all(np.isfinite(p[i])):
+            keep[i] = False
+            continue
+        dom = np.all(p <= p[i], axis=1) & np.any(p < p[i], axis=1)
+        keep[i] = not np.any(dom & np.all(np.isfinite(p), axis=1))
+    return keep
+
+
+def hypervolume_2d(points: np.ndarray, reference: np.ndarray) -> float:
+    """Area dominated by a set of 2-D points (both minimized) up to a reference point.
+
+    Exact sweep: sort the non-dominated points by the first objective and add
+    the rectangles they dominate. Points not better than the reference in both
+    objectives contribute nothing.
+    """
+    p = np.asarray(points, float)
+    r = np.asarray(reference, float)
+    p = p[np.all(p < r, axis=1)]
+    if p.size == 0:
+        return 0.0
+    p = p[nondominated(p)]
+    p = p[np.argsort(p[:, 0])]
+    hv = 0.0
+    prev_y = r[1]
+    for x, y in p:
+        if y < prev_y:
+            hv += (r[0] - x) * (prev_y - y)
+            prev_y = y
+    return float(hv)
+
+
+@dataclass(frozen=True, eq=False)
+class ParetoResult:
+    """A Pareto front.
+
+    ``values`` has one row per point (natural units: dB, m^3, ...), ``designs``
+    the design variables of each point; ``front`` marks the non-dominated ones.
+    """
+
+    objectives: tuple[str, str]
+    values: np.ndarray
+    designs: tuple[dict, ...]
+    statuses: tuple[str, ...]
+    front: np.ndarray
+    reference_point: np.ndarray
+    ideal_point: np.ndarray
+    hypervolume: float
+    wall_s: float
+    settings: dict = field(default_factory=dict)
+
+    def normalized(self, values: np.ndarray | None = None) -> np.ndarray:
+        """Minimized objectives scaled so that ideal -> 0 and reference -> 1."""
+        v = self.values if values is None else np.asarray(values, float)
+        m = np.column_stack([_minimized(k, v[:, i]) for i, k in enumerate(self.objectives)])
+        return (m - self.ideal_point) / (self.reference_point - self.ideal_point)
+
+    def hypervolume_of(self, values: np.ndarray) -> float:
+        """Hypervolume of another set of points (natural units) with this reference."""
+        return hypervolume_2d(self.normalized(values), np.ones(2))
+
+    def to_frame(self):
+        """One row per point: objectives, design variables, status, on-front flag."""
+        import pandas as pd
+
+        rows = []
+        for i, dvals in enumerate(self.designs):
+            r = {self.objectives[0]: self.values[i, 0], self.objectives[1]: self.values[i, 1]}
+            r.update(dvals)
+            r["status"] = self.statuses[i]
+            r["nondominated"] = bool(self.front[i])
+            rows.append(r)
+        df = pd.DataFrame(rows)
+        df.attrs["hypervolume"] = self.hypervolume
+        return df
+
+    def plot(self, path) -> None:
+        """PNG of the front with the designs annotated."""
+        from .plotting import pareto_plot
+
+        pareto_plot(self, path)
+
+
+def _check_objectives(objectives) -> tuple[str, str]:
+    objs = tuple(objectives)
+    if len(objs) != 2 or objs[0] == objs[1]:
+        raise InputError(f"objectives: need two different objectives, got {','.join(objs)}")
+    for o in objs:
+        if o not in OBJECTIVES:
+            raise InputError(f"objectives: unknown {o!r}; valid: {', '.join(OBJECTIVES)}")
+    return objs  # type: ignore[return-value]
+
+
+def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, *,
+                 progress=None) -> ParetoResult:
+    """Epsilon-constraint Pareto front of two objectives with warm starts.
+
+    One parametric NLP (:class:`isodesign.optimize.Problem` with both objectives)
+    is built once. Anchors: A minimized from every start of the study
+    (multi-start), then B minimized from the best A. The sweep minimizes A
+    subject to ``B <= eps`` for ``points`` values of eps from B at A's optimum
+    to B's optimum, each warm-started from the previous solution.
+
+    Parameters
+    ----------
+    study : Study
+        Constraints, models and variables of the study apply to every point.
+    objectives : (str, str)
+        Objective A (optimized) and B (swept as a constraint).
+    points : int
+        Number of epsilon values (>= 2), anchors included.
+    progress : callable or None
+        ``progress(done, total)``.
+    """
+    a, b = _check_objectives(objectives)
+    if isinstance(points, bool) or not isinstance(points, int) or points < 2:
+        raise InputError(f"points: must be an integer >= 2, got {points!r}")
+    t0 = time.perf_counter()
+    st = study.with_changes(objective=_objective_table(study, a))
+    prob = Problem(st, objectives=(a, b))
+    starts = start_points(st, prob.scaling)
+    results = run_starts(prob, starts, workers=st.solver.get("workers"))
+    good = [r for r in results if isinstance(r, dict) and r["max_violation"] <= 1e-6]
+    if not good:
+        raise SolverError(f"pareto: no feasible design when minimizing {a} alone")
+    anchor_a = min(good, key=lambda r: r["J"])
+    anchor_b = prob.solve(anchor_a["x"], prob.params(weights=[0.0, 1.0]))
+    if anchor_b["max_violation"] > 1e-6:
+        raise SolverError(f"pareto: minimizing {b} failed ({anchor_b['status']})")
+    jb_at_a = float(anchor_a["J_all"][1])
+    jb_min = float(anchor_b["J_all"][1])
+    eps = np.linspace(jb_at_a, jb_min, points)
+    values, designs, statuses = [], [], []
+    x = anchor_a["x"]
+    for k, e in enumerate(eps):
+        e_k = e + 1e-9 * max(1.0, abs(e))
+        sol = prob.solve(x, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
+        if sol["max_violation"] > 1e-6 and k > 0:
+            # warm start failed: retry from the anchor of B (always feasible for e >= jb_min)
+            sol = prob.solve(anchor_b["x"], prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
+        if sol["max_violation"] <= 1e-6:
+            x = sol["x"]
+            values.append((objective_value_to_natural(a, sol["J_all"][0]),
+                           objective_value_to_natural(b, sol["J_all"][1])))
+        else:
+            values.append((math.nan, math.nan))
+        designs.append(prob.values(sol["x"]))
+        statuses.append(sol["status"])
+        if progress:
+            progress(k + 1, points)
+    v = np.array(values, float)
+    mins = np.column_stack([_minimized(a, v[:, 0]), _minimized(b, v[:, 1])])
+    front = nondominated(mins)
+    if not np.any(front):
+        raise SolverError("pareto: no feasible point on the sweep")
+    ideal = np.nanmin(mins[front], axis=0)
+    nadir = np.nanmax(mins[front], axis=0)
+    span = np.where(nadir > ideal, nadir - ideal, 1.0)
+    ref = nadir + REFERENCE_MARGIN * span
+    hv = hypervolume_2d((mins[front] - ideal) / (ref - ideal), np.ones(2))
+    return ParetoResult(
+        objectives=(a, b), values=v, designs=tuple(designs), statuses=tuple(statuses),
+        front=front, reference_point=ref, ideal_point=ideal, hypervolume=hv,
+        wall_s=time.perf_counter() - t0,
+        settings={"method": "epsilon-constraint, one parametric IPOPT NLP, warm starts",
+                  "points": points, "reference_margin": REFERENCE_MARGIN,
+                  "units": (OBJECTIVE_UNITS[a], OBJECTIVE_UNITS[b]),
+                  "starts": len(starts)},
+    )
+
+
+#: The hypervolume reference point is the front's nadir pushed out by this
+#: fraction of the front's range in each (minimized) objective; the space is
+#: normalized so that the ideal point is 0 and the reference point 1.
+REFERENCE_MARGIN = 0.1
+
+
+def _objective_table(study: Study, kind: str) -> dict:
+    t = {"kind": kind}
+    o = study.raw.get("objective", {})
+    for k in ("frequency_hz", "band_min_hz", "band_max_hz"):
+        if k in o:
+            t[k] = o[k]
+    if kind == "transmissibility_at" and "frequency_hz" not in t:
+        t["frequency_hz"] = 10.0
+    return t
+
+
+
+__all__ += ["natural_to_objective_value"]

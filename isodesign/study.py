@@ -1,0 +1,464 @@
+"""Design studies: what to optimize, under which constraints, on which floor.
+
+A study is a TOML file with SI values (see ``docs/optimization.md`` for the
+schema and :func:`default_study` for the built-in one). :func:`load_study`
+validates every key and names the key and its valid range in every error.
+
+Tables and keys
+---------------
+``name``, ``description``
+``[payload]``      mass_kg, isolators, spacing_m, cg_height_m
+``[hardware]``     piston_area_m2 (or diaphragm_r1_m + diaphragm_r2_m), temperature_k,
+                   minor_loss, polytropic_index, roughness_m, ``[hardware.gas]``
+``[floor]``        criterion = "VC-A" | csv = "path" (+ quantity, kind, unit)
+``[target]``       criterion, band_min_hz, band_max_hz
+``[models]``       flow, amplitude_mode, diaphragm, random_method, points_per_band,
+                   peak_points
+``[variables.<name>]`` for volume_ratio, top_volume_m3, capillary_length_m,
+                   capillary_diameter_m: start, lower, upper, fixed
+``[constraints]``  max_total_volume_m3, min_capillary_diameter_m, min_tilt_margin,
+                   min_natural_frequency_hz, max_natural_frequency_hz,
+                   max_peak_transmissibility_db, min_damping_ratio, max_mach,
+                   model_validity (each numeric one may be ``false`` to switch it off)
+``[objective]``    kind, frequency_hz (for ``transmissibility_at``), band_min_hz,
+                   band_max_hz (for ``rms_velocity``)
+``[solver]``       starts, seed, max_iter, tol, tie_break
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from .errors import InputError, check_choice, check_positive, check_range
+
+__all__ = [
+    "DESIGN_VARIABLES",
+    "OBJECTIVES",
+    "Study",
+    "VariableSpec",
+    "default_study",
+    "load_study",
+    "study_from_dict",
+]
+
+#: Design variables of the optimizer, in order.
+DESIGN_VARIABLES = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
+#: Objectives (all minimized internally; margins are maximized).
+OBJECTIVES = {
+    "worst_band_margin": "worst-band margin of payload velocity against the target, dB (max)",
+    "rms_velocity": "payload RMS velocity over a band range, m/s (min)",
+    "peak_transmissibility": "resonance peak of |T| at the operating amplitude, dB (min)",
+    "transmissibility_at": "|T| at a chosen frequency, dB (min)",
+    "total_volume": "total chamber volume V_t0 (1 + N), m^3 (min)",
+}
+#: Objectives that are maximized (reported with their natural sign).
+MAXIMIZED = ("worst_band_margin",)
+
+_DEFAULT = {
+    "name": "default",
+    "description": (
+        "Reference spring hardware (paper Table 1: A_p = 5.3e-3 m^2, K = 1.5) under a 600 kg "
+        "optical table on 4 isolators, on a VC-A floor, for an instrument that needs VC-C in "
+        "the 4-80 Hz bands."
+    ),
+    "payload": {"mass_kg": 600.0, "isolators": 4, "spacing_m": 1.2, "cg_height_m": 0.35},
+    "hardware": {
+        "piston_area_m2": 5.3e-3,
+        "temperature_k": 293.15,
+        "minor_loss": 1.5,
+        "roughness_m": 0.0,
+    },
+    "floor": {"criterion": "VC-A"},
+    "target": {"criterion": "VC-C", "band_min_hz": 4.0, "band_max_hz": 80.0},
+    "models": {
+        "flow": "womersley",
+        "amplitude_mode": "self_consistent",
+        "diaphragm": "viscoelastic",
+        "random_method": "equivalent_amplitude",
+        "points_per_band": 6,
+        "peak_points": 80,
+    },
+    "variables": {
+        "volume_ratio": {"start": 1.5e-3 / 8.1e-4, "lower": 0.5, "upper": 8.0},
+        "top_volume_m3": {"start": 8.1e-4, "lower": 2e-4, "upper": 4e-3},
+        "capillary_length_m": {"start": 1.2e-2, "lower": 2e-3, "upper": 0.5},
+        "capillary_diameter_m": {"start": 0.9e-3, "lower": 0.3e-3, "upper": 3e-3},
+    },
+    "constraints": {
+        "max_total_volume_m3": 6e-3,
+        "min_capillary_diameter_m": 0.3e-3,
+        "min_tilt_margin": 1.5,
+        "min_natural_frequency_hz": 0.8,
+        "max_natural_frequency_hz": 3.0,
+        "max_peak_transmissibility_db": 15.0,
+        "min_damping_ratio": 0.05,
+        "max_mach": 0.3,
+        "model_validity": True,
+    },
+    "objective": {"kind": "worst_band_margin"},
+    "solver": {"starts": 8, "seed": 0, "max_iter": 300, "tol": 1e-9, "tie_break": True,
+               "workers": 2},
+}
+
+_KEYS = {
+    "": {"name", "description", "payload", "hardware", "floor", "target", "models",
+         "variables", "constraints", "objective", "solver"},
+    "payload": {"mass_kg", "isolators", "spacing_m", "cg_height_m"},
+    "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
+                 "minor_loss", "polytropic_index", "roughness_m", "gas"},
+    "hardware.gas": {"name", "gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"},
+    "floor": {"criterion", "csv", "quantity", "kind", "unit"},
+    "target": {"criterion", "band_min_hz", "band_max_hz"},
+    "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
+               "peak_points"},
+    "variables": set(DESIGN_VARIABLES),
+    "variable": {"start", "lower", "upper", "fixed"},
+    "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
+                    "min_natural_frequency_hz", "max_natural_frequency_hz",
+                    "max_peak_transmissibility_db", "min_damping_ratio", "max_mach",
+                    "model_validity"},
+    "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
+    "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
+}
+
+
+@dataclass(frozen=True)
+class VariableSpec:
+    """Bounds and start of one design variable (SI units)."""
+
+    name: str
+    start: float
+    lower: float
+    upper: float
+    fixed: bool = False
+
+    @property
+    def free(self) -> bool:
+        """True when the optimizer may change it."""
+        return not self.fixed
+
+
+@dataclass(frozen=True, eq=False)
+class Study:
+    """A validated design study. Build with :func:`load_study` or :func:`default_study`.
+
+    ``raw`` holds the resolved dictionary (defaults filled in), which is what a
+    run records so that the study can be replayed.
+    """
+
+    name: str
+    raw: dict
+    payload: Any
+    hardware: dict
+    floor: Any
+    target: Any
+    bands: Any
+    models: dict
+    variables: tuple[VariableSpec, ...]
+    constraints: dict
+    objective: dict
+    solver: dict
+    source: str = ""
+    notes: tuple[str, ...] = field(default_factory=tuple)
+
+    def variable(self, name: str) -> VariableSpec:
+        """The spec of one design variable."""
+        for v in self.variables:
+            if v.name == name:
+                return v
+        raise KeyError(name)
+
+    def start_design(self):
+        """The spring at the variables' start values, p0 from the payload."""
+        return self.design_at({v.name: v.start for v in self.variables})
+
+    def design_at(self, values: dict):
+        """The spring at given design-variable values (fixed ones from the study)."""
+        from .design import SpringDesign
+
+        vals = {v.name: (v.start if v.fixed else values.get(v.name, v.start))
+                for v in self.variables}
+        d = SpringDesign(pressure_pa=2e5, **vals, **self.hardware)
+        return d.with_load(self.payload.mass_kg, self.payload.isolators,
+                           g_m_s2=self.payload.g_m_s2)
+
+    def with_changes(self, **tables) -> Study:
+        """A copy with some tables replaced or updated (validated again).
+
+        ``study.with_changes(objective={"kind": "total_volume"})``.
+        """
+        raw = copy.deepcopy(self.raw)
+        for k, v in tables.items():
+            if isinstance(v, dict) and isinstance(raw.get(k), dict):
+                raw[k].update(v)
+            else:
+                raw[k] = v
+        return study_from_dict(raw, source=self.source, fill_defaults=False)
+
+
+def _check_keys(d: dict, table: str, where: str):
+    if not isinstance(d, dict):
+        raise InputError(f"{where}: [{table}] must be a table")
+    allowed = _KEYS[table]
+    for k in d:
+        if k not in allowed:
+            tname = f"[{table}]" if table else "top level"
+            raise InputError(
+                f"{where}: unknown key {k!r} in {tname}; valid: {', '.join(sorted(allowed))}"
+            )
+
+
+def _merge(base: dict, over: dict) -> dict:
+    out = copy.deepcopy(base)
+    for k, v in over.items():
+        if isinstance(v, dict) and isinstance(out.get(k), dict):
+            out[k] = _merge(out[k], v)
+        else:
+            out[k] = copy.deepcopy(v)
+    return out
+
+
+def _num(where, key, value, lo=None, hi=None, lo_open=False, unit=""):
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        raise InputError(f"{where}: {key} must be a number, got {value!r}")
+    return check_range(f"{where}: {key}", value, lo, hi, lo_open=lo_open, unit=unit)
+
+
+def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = True) -> Study:
+    """Validate a study dictionary (the TOML schema), filling in defaults.
+
+    Missing tables and keys take the built-in default study's values, so a
+    study file need only state what differs. Every error names the file, the
+    table and the key.
+    """
+    from .criteria import FloorSpectrum, criterion, third_octave_bands
+    from .isolator import Payload
+
+    where = source
+    _check_keys(d, "", where)
+    for t in ("payload", "hardware", "floor", "target", "models", "variables", "constraints",
+              "objective", "solver"):
+        if t in d:
+            _check_keys(d[t], t, where)
+    if "gas" in d.get("hardware", {}):
+        _check_keys(d["hardware"]["gas"], "hardware.gas", where)
+    for name, spec in d.get("variables", {}).items():
+        _check_keys(spec, "variable", f"{where} [variables.{name}]")
+    raw = _merge(_DEFAULT, d) if fill_defaults else copy.deepcopy(d)
+    # a user's floor or hardware table replaces the default's alternatives
+    if fill_defaults and "floor" in d:
+        raw["floor"] = copy.deepcopy(d["floor"])
+    if fill_defaults and "hardware" in d and (
+        "diaphragm_r1_m" in d["hardware"] or "diaphragm_r2_m" in d["hardware"]
+    ):
+        raw["hardware"].pop("piston_area_m2", None)
+
+    p = raw["payload"]
+    payload = Payload(
+        mass_kg=_num(where, "payload.mass_kg", p.get("mass_kg"), 0, None, True, "kg"),
+        isolators=p.get("isolators", 4),
+        spacing_m=p.get("spacing_m"),
+        cg_height_m=p.get("cg_height_m"),
+    )
+
+    # hardware: fixed spring parameters
+    h = dict(raw["hardware"])
+    hw: dict[str, Any] = {}
+    if "diaphragm_r1_m" in h or "diaphragm_r2_m" in h:
+        if "piston_area_m2" in h:
+            raise InputError(f"{where}: [hardware] give piston_area_m2 or diaphragm_r1_m + "
+                             "diaphragm_r2_m, not both")
+        from .design import piston_area_from_diaphragm
+
+        hw["piston_area_m2"] = piston_area_from_diaphragm(h.get("diaphragm_r1_m"),
+                                                          h.get("diaphragm_r2_m"))
+    else:
+        hw["piston_area_m2"] = _num(where, "hardware.piston_area_m2", h.get("piston_area_m2"),
+                                    0, None, True, "m^2")
+    for k, lo, hi in (("temperature_k", 0, 1000), ("minor_loss", 0, 100),
+                      ("roughness_m", 0, 1e-2)):
+        if k in h:
+            hw[k] = _num(where, f"hardware.{k}", h[k], lo, hi, k == "temperature_k")
+    if h.get("polytropic_index") is not None:
+        hw["polytropic_index"] = _num(where, "hardware.polytropic_index", h["polytropic_index"],
+                                      1.0, 1.67)
+    if "gas" in h:
+        from .gas import Gas
+
+        try:
+            hw["gas"] = Gas(**h["gas"])
+        except InputError as exc:
+            raise InputError(f"{where}: [hardware.gas] {exc}") from None
+
+    # floor and target
+    fl = raw["floor"]
+    if ("criterion" in fl) == ("csv" in fl):
+        raise InputError(f"{where}: [floor] needs exactly one of criterion = \"VC-A\" or "
+                         "csv = \"file.csv\"")
+    if "criterion" in fl:
+        extra = set(fl) - {"criterion"}
+        if extra:
+            raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} only apply to csv")
+        floor = FloorSpectrum.from_criterion(fl["criterion"])
+    else:
+        path = Path(fl["csv"])
+        if not path.is_absolute() and source not in ("<dict>", "<default>"):
+            path = Path(source).parent / path
+        floor = FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
+                                       unit=fl.get("unit"))
+    tg = raw["target"]
+    if "criterion" not in tg:
+        raise InputError(f"{where}: [target] criterion is required (e.g. \"VC-E\")")
+    target = criterion(tg["criterion"])
+    bmin = _num(where, "target.band_min_hz", tg.get("band_min_hz", 1.0), 0, None, True, "Hz")
+    bmax = _num(where, "target.band_max_hz", tg.get("band_max_hz", 80.0), 0, None, True, "Hz")
+    if bmin > bmax:
+        raise InputError(f"{where}: target.band_min_hz ({bmin:g}) must not exceed "
+                         f"band_max_hz ({bmax:g})")
+    bands = third_octave_bands(bmin, bmax)
+    if len(bands) == 0:
+        raise InputError(f"{where}: [target] no one-third octave band between {bmin:g} and "
+                         f"{bmax:g} Hz")
+
+    # models
+    from .capillary import SMOOTH_FLOW_MODELS
+    from .spring import AMPLITUDE_MODES
+
+    m = raw["models"]
+    flow = m.get("flow", "womersley")
+    if isinstance(flow, str) and flow.startswith("zhao"):
+        raise InputError(
+            f"{where}: models.flow = {flow!r} is the paper's literal model: singular at "
+            "Re_w = 3.673 and non-passive near it, so it cannot be optimized. Valid: "
+            f"{', '.join(SMOOTH_FLOW_MODELS)}"
+        )
+    check_choice(f"{where}: models.flow", flow, SMOOTH_FLOW_MODELS)
+    check_choice(f"{where}: models.amplitude_mode", m.get("amplitude_mode", "self_consistent"),
+                 AMPLITUDE_MODES)
+    check_choice(f"{where}: models.random_method",
+                 m.get("random_method", "equivalent_amplitude"), ("equivalent_amplitude",))
+    dia = m.get("diaphragm", "viscoelastic")
+    if not isinstance(dia, str):
+        raise InputError(f"{where}: models.diaphragm must be a string")
+    ppb = m.get("points_per_band", 6)
+    if isinstance(ppb, bool) or not isinstance(ppb, int) or not 3 <= ppb <= 200:
+        raise InputError(f"{where}: models.points_per_band must be an integer in [3, 200]")
+    npk = m.get("peak_points", 80)
+    if isinstance(npk, bool) or not isinstance(npk, int) or not 10 <= npk <= 2000:
+        raise InputError(f"{where}: models.peak_points must be an integer in [10, 2000]")
+    models = {"flow": flow, "amplitude_mode": m.get("amplitude_mode", "self_consistent"),
+              "diaphragm": dia, "random_method": m.get("random_method", "equivalent_amplitude"),
+              "points_per_band": ppb, "peak_points": npk}
+
+    # variables
+    variables = []
+    for name in DESIGN_VARIABLES:
+        spec = raw["variables"].get(name)
+        if spec is None:
+            raise InputError(f"{where}: [variables.{name}] is missing")
+        w = f"{where}: variables.{name}"
+        fixed = spec.get("fixed", False)
+        if not isinstance(fixed, bool):
+            raise InputError(f"{w}.fixed must be true or false")
+        start = check_positive(f"{w}.start", spec.get("start"))
+        if fixed:
+            lo = hi = start
+        else:
+            lo = check_positive(f"{w}.lower", spec.get("lower"))
+            hi = check_positive(f"{w}.upper", spec.get("upper"))
+            if not lo < hi:
+                raise InputError(f"{w}: lower ({lo:g}) must be below upper ({hi:g})")
+            if not lo <= start <= hi:
+                raise InputError(f"{w}.start ({start:g}) must lie in [lower, upper] = "
+                                 f"[{lo:g}, {hi:g}]")
+        variables.append(VariableSpec(name, start, lo, hi, fixed))
+
+    # constraints
+    c = raw["constraints"]
+    cons: dict[str, Any] = {}
+    for k in _KEYS["constraints"] - {"model_validity"}:
+        v = c.get(k, False)
+        if v is False or v is None:
+            cons[k] = None
+            continue
+        lo, lo_open = (0.0, True)
+        if k == "max_peak_transmissibility_db":
+            lo, lo_open = 0.0, False
+        cons[k] = _num(where, f"constraints.{k}", v, lo, None, lo_open)
+    if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
+        if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
+            raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "
+                             "max_natural_frequency_hz")
+    mv = c.get("model_validity", True)
+    if not isinstance(mv, bool):
+        raise InputError(f"{where}: constraints.model_validity must be true or false")
+    cons["model_validity"] = mv
+    if cons["min_tilt_margin"] and (payload.spacing_m is None or payload.cg_height_m is None):
+        raise InputError(f"{where}: constraints.min_tilt_margin needs payload.spacing_m and "
+                         "payload.cg_height_m (or set min_tilt_margin = false)")
+
+    # objective
+    o = raw["objective"]
+    kind = check_choice(f"{where}: objective.kind", o.get("kind", "worst_band_margin"),
+                        tuple(OBJECTIVES))
+    obj = {"kind": kind}
+    if kind == "transmissibility_at":
+        obj["frequency_hz"] = _num(where, "objective.frequency_hz", o.get("frequency_hz"), 0,
+                                   None, True, "Hz")
+    if kind == "rms_velocity":
+        obj["band_min_hz"] = _num(where, "objective.band_min_hz", o.get("band_min_hz", bmin),
+                                  0, None, True)
+        obj["band_max_hz"] = _num(where, "objective.band_max_hz", o.get("band_max_hz", bmax),
+                                  0, None, True)
+
+    # solver
+    s = raw["solver"]
+    starts = s.get("starts", 8)
+    if isinstance(starts, bool) or not isinstance(starts, int) or not 1 <= starts <= 256:
+        raise InputError(f"{where}: solver.starts must be an integer in [1, 256]")
+    seed = s.get("seed", 0)
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f"{where}: solver.seed must be an integer >= 0")
+    max_iter = s.get("max_iter", 300)
+    if isinstance(max_iter, bool) or not isinstance(max_iter, int) or not 1 <= max_iter <= 10000:
+        raise InputError(f"{where}: solver.max_iter must be an integer in [1, 10000]")
+    tol = _num(where, "solver.tol", s.get("tol", 1e-9), 1e-14, 1e-2)
+    tie = s.get("tie_break", True)
+    if not isinstance(tie, bool):
+        raise InputError(f"{where}: solver.tie_break must be true or false")
+    workers = s.get("workers", 2)
+    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= 64:
+        raise InputError(f"{where}: solver.workers must be an integer in [1, 64]")
+    solver = {"starts": starts, "seed": seed, "max_iter": max_iter, "tol": tol,
+              "tie_break": tie, "workers": workers}
+
+    name = raw.get("name", "study")
+    if not isinstance(name, str):
+        raise InputError(f"{where}: name must be a string")
+    st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
+               bands=bands, models=models, variables=tuple(variables), constraints=cons,
+               objective=obj, solver=solver, source=source)
+    # the start design must be a valid spring (names the field otherwise)
+    try:
+        st.start_design()
+    except InputError as exc:
+        raise InputError(f"{where}: start design: {exc}") from None
+    if not math.isfinite(st.start_design().pressure_pa):
+        raise InputError(f"{where}: payload gives a non-finite pressure")
+    return st
+
+
+def load_study(path) -> Study:
+    """Read and validate a study TOML file (missing keys take the default study's values)."""
+    from .io import read_toml
+
+    return study_from_dict(read_toml(path, what="study"), source=str(path))
+
+
+def default_study() -> Study:
+    """The built-in default study (see ``docs/optimization.md``)."""
+    return study_from_dict({}, source="<default>")
