@@ -61,7 +61,7 @@ def dumps_toml(d: dict, _prefix: str = "") -> str:
 
 def environment() -> dict:
     """Versions of Python, the platform and the numerical packages."""
-    from importlib import metadata  # noqa: PLC0415
+    from importlib import metadata
 
     pkgs = {}
     for name in ("isodesign", "numpy", "scipy", "casadi", "pandas", "control", "cvxpy",
@@ -80,7 +80,7 @@ def environment() -> dict:
 
 
 def _jsonable(v):
-    import numpy as np  # noqa: PLC0415
+    import numpy as np
 
     if isinstance(v, dict):
         return {str(k): _jsonable(x) for k, x in v.items()}
