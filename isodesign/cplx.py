@@ -25,6 +25,10 @@ class Cx:
     re: Any
     im: Any
 
+    #: NumPy defers to Cx's reflected operators (``ndarray / Cx`` is ``Cx.__rtruediv__``)
+    #: instead of building an object array element by element.
+    __array_ufunc__ = None
+
     # -- construction ----------------------------------------------------
     @staticmethod
     def from_complex(z) -> Cx:
