@@ -48,9 +48,17 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.transmissibility",
         "transmissibility for harmonic floor amplitudes (self-consistent stroke)",
     ),
+    "optimize": (
+        "isodesign.commands.optimize",
+        "optimize a study: N, V_t0, L_c, D_c for a payload, floor and target (IPOPT)",
+    ),
+    "pareto": (
+        "isodesign.commands.pareto",
+        "Pareto front of two objectives (default: worst-band margin vs total volume)",
+    ),
     "demo": (
         "isodesign.commands.demo",
-        "the paper's spring: default model vs the paper's (make demo)",
+        "the product's main job on the default study, and the reference spring's stiffness",
     ),
 }
 
@@ -118,12 +126,13 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         description=(
             "Design vibration-isolation tables on dual-chamber pneumatic springs:\n"
             "frequency- and amplitude-dependent complex stiffness of the spring,\n"
-            "floor vibration criteria."
+            "floor vibration criteria, payload band response, and the optimal spring\n"
+            "(volume ratio, chamber volume, capillary) for a payload, floor and target."
         ),
         epilog=(
             f"Run '{PROG} COMMAND --help' for the options of a command.\n"
             "Exit status: 0 ok, 1 solver failure, 2 bad input, 3 internal error.\n"
-            "Docs: docs/cli.md, docs/design-file.md."
+            "Docs: docs/cli.md, docs/optimization.md, docs/design-file.md."
         ),
     )
     parser.add_argument("--version", action="version", version=f"{PROG} {__version__}")

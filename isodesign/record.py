@@ -17,7 +17,19 @@ import sys
 from pathlib import Path
 from typing import Any
 
-__all__ = ["dumps_toml", "environment", "write_json"]
+__all__ = [
+    "command_line",
+    "constraint_rows",
+    "design_figures",
+    "dumps_toml",
+    "environment",
+    "optimization_design",
+    "optimization_record",
+    "pareto_record",
+    "resolved_study_dict",
+    "study_toml",
+    "write_json",
+]
 
 
 def _toml_value(v: Any) -> str:
@@ -52,7 +64,7 @@ def dumps_toml(d: dict, _prefix: str = "") -> str:
     out = "\n".join(lines)
     for k, v in tables:
         name = f"{_prefix}{k}"
-        body = dumps_toml(v, f"{name}.")
+        body = dumps_toml(v, f"{name}.").rstrip("\n")
         has_scalars = any(not isinstance(x, dict) and x is not None for x in v.values())
         block = (f"[{name}]\n" if has_scalars else "") + body
         out = f"{out}\n\n{block}" if out else block
@@ -101,3 +113,269 @@ def write_json(path, data: dict) -> Path:
     p.parent.mkdir(parents=True, exist_ok=True)
     p.write_text(json.dumps(_jsonable(data), indent=2) + "\n", encoding="utf-8")
     return p
+
+
+# ---------------------------------------------------------------------------
+# run records of the optimizer and of Pareto sweeps
+# ---------------------------------------------------------------------------
+def command_line(argv=None, prog: str = "isodesign") -> list[str]:
+    """The command line of a run as a list of words (``argv`` without the program name).
+
+    Parameters
+    ----------
+    argv : sequence of str, optional
+        Arguments after the program name; default ``sys.argv[1:]``.
+    prog : str
+        The program name put first.
+    """
+    return [prog, *(sys.argv[1:] if argv is None else [str(a) for a in argv])]
+
+
+def resolved_study_dict(study) -> dict:
+    """The study's resolved dictionary (``study.raw``) ready to be written elsewhere.
+
+    A floor CSV named by a relative path is resolved against the study file's
+    directory (as :func:`isodesign.study.load_study` does), so that the written
+    study loads from any directory.
+    """
+    import copy
+
+    raw = copy.deepcopy(study.raw)
+    fl = raw.get("floor", {})
+    if isinstance(fl, dict) and "csv" in fl:
+        p = Path(fl["csv"])
+        if not p.is_absolute() and study.source not in ("<dict>", "<default>", ""):
+            p = Path(study.source).parent / p
+        fl["csv"] = str(p.resolve())
+    return raw
+
+
+def study_toml(study, *, header: str | None = None) -> str:
+    """The resolved study as TOML (:func:`dumps_toml` of :func:`resolved_study_dict`).
+
+    Loading the text with :func:`isodesign.study.load_study` gives a study with
+    the same ``raw`` dictionary: the run can be replayed from it.
+
+    Parameters
+    ----------
+    study : Study
+    header : str, optional
+        Comment lines put first (``#`` is added to each line).
+    """
+    body = dumps_toml(resolved_study_dict(study))
+    if not header:
+        return body
+    lines = [f"# {ln}".rstrip() for ln in header.strip().splitlines()]
+    return "\n".join(lines) + "\n\n" + body
+
+
+def _f(x):
+    return None if x is None else float(x)
+
+
+def _db(x):
+    return None if x is None or not x > 0 else 20.0 * math.log10(float(x))
+
+
+def _analysis_figures(res) -> dict:
+    """Figures of a :class:`~isodesign.response.BandResponse` (None-safe)."""
+    if res is None:
+        return {}
+    s = res.stability
+    return {
+        "natural_frequency_hz": _f(s.natural_frequency_hz),
+        "static_stiffness_n_per_m": _f(s.static_stiffness_n_per_m),
+        "air_static_stiffness_n_per_m": _f(s.air_static_stiffness_n_per_m),
+        "zener_damping_ratio": _f(s.zener_damping_ratio),
+        "zener_optimal_damping_ratio": _f(s.zener_optimal_damping_ratio),
+        "tilt_margin": _f(s.tilt_margin),
+        "pressure_pa": _f(s.pressure_pa),
+        "peak_transmissibility_db": _db(s.excited_peak_transmissibility),
+        "peak_frequency_hz": _f(s.excited_peak_frequency_hz),
+        "linear_peak_transmissibility_db": _db(s.peak_transmissibility),
+        "linear_peak_frequency_hz": _f(s.peak_frequency_hz),
+        "worst_band_margin_db": _f(res.worst_margin_db),
+        "worst_band_hz": _f(res.worst_band_hz),
+        "stroke_rms_m": _f(res.stroke_rms_m),
+        "equivalent_amplitude_m": _f(res.equivalent_amplitude_m),
+        "passes": bool(res.passes),
+        "verdict": res.verdict(),
+    }
+
+
+def design_figures(design, analysis=None) -> dict:
+    """Derived figures of a loaded design: stiffnesses, f_n, damping, volumes, p0.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        With the pressure derived from the payload (``study.design_at``).
+    analysis : BandResponse, optional
+        The design's band response; adds the natural frequency, damping ratio,
+        tilt margin, peak ``|T|``, worst-band margin and verdict.
+
+    Returns
+    -------
+    dict
+        SI values (keys end with their unit).
+    """
+    out = {
+        "single_chamber_stiffness_k_s_n_per_m": _f(design.single_chamber_stiffness_n_per_m),
+        "air_static_stiffness_n_per_m": _f(design.static_stiffness_n_per_m),
+        "total_volume_m3": _f(design.total_volume_m3),
+        "bottom_volume_m3": _f(design.bottom_volume_m3),
+        "pressure_pa": _f(design.pressure_pa),
+    }
+    out.update(_analysis_figures(analysis))
+    return out
+
+
+def _constraint_dict(c) -> dict:
+    """A :class:`~isodesign.optimize.ConstraintReport` with its margin in natural units."""
+    lo, hi, v = c.lower, c.upper, c.value
+    margins = []
+    if lo is not None:
+        margins.append(v - lo)
+    if hi is not None:
+        margins.append(hi - v)
+    return {
+        "name": c.name,
+        "value": v,
+        "lower": lo,
+        "upper": hi,
+        "unit": c.unit,
+        "margin": min(margins) if margins else None,
+        "margin_nlp": c.margin,
+        "binding": bool(c.active),
+        "description": c.description,
+    }
+
+
+def constraint_rows(result) -> list[dict]:
+    """The constraints of an :class:`~isodesign.optimize.OptimizationResult` as dicts.
+
+    ``margin`` is the distance to the nearest bound in the constraint's own unit
+    (positive: satisfied); ``margin_nlp`` is the optimizer's margin in its
+    internal (log or dB) units; ``binding`` marks the active constraints.
+    """
+    return [_constraint_dict(c) for c in result.constraints]
+
+
+def optimization_design(result) -> dict:
+    """The content of ``design.json``: variables, derived figures, objective, verdict."""
+    from .optimize import OBJECTIVE_UNITS
+    from .study import MAXIMIZED
+
+    st = result.study
+    variables = {}
+    for v in st.variables:
+        variables[v.name] = {
+            "value": float(result.values[v.name]),
+            "start": float(result.start_values[v.name]),
+            "lower": float(v.lower),
+            "upper": float(v.upper),
+            "fixed": bool(v.fixed),
+        }
+    figures = design_figures(result.design, result.analysis)
+    start_figures = design_figures(st.design_at(result.start_values), result.start_analysis)
+    return {
+        "study": st.name,
+        "source": st.source,
+        "feasible": bool(result.feasible),
+        "status": result.status,
+        "objective": {
+            "kind": result.objective,
+            "value": float(result.objective_value),
+            "start_value": _f(result.start_objective),
+            "unit": OBJECTIVE_UNITS[result.objective],
+            "sense": "maximize" if result.objective in MAXIMIZED else "minimize",
+        },
+        "variables": variables,
+        "derived": figures,
+        "start_derived": start_figures,
+        "verdict": figures.get("verdict"),
+        "binding_constraints": [c.name for c in result.constraints if c.active],
+        "constraints": constraint_rows(result),
+        "spring": result.design.to_dict(),
+    }
+
+
+def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict:
+    """The run record of :func:`isodesign.optimize.optimize` (``record.json``).
+
+    Command line, isodesign version and package versions, the resolved study,
+    the solver settings, every start (status, iterations, time, objective, start
+    and final values), the final design, objective, constraints, flat direction,
+    re-check and wall time.
+    """
+    from . import __version__
+
+    starts = []
+    for s in result.starts:
+        starts.append({
+            "index": s.index, "status": s.status, "success": s.success,
+            "feasible": s.feasible, "iterations": s.iterations, "wall_s": s.wall_s,
+            "objective": s.objective, "max_violation": s.max_violation,
+            "start": dict(s.start), "final": dict(s.final),
+        })
+    rec = {
+        "kind": "isodesign optimize",
+        "command_line": command_line(argv),
+        "isodesign_version": __version__,
+        "environment": environment(),
+        "study": resolved_study_dict(result.study),
+        "study_source": result.study.source,
+        "solver_settings": result.settings,
+        "starts": starts,
+        "n_reached_best": result.n_reached_best,
+        "feasible": bool(result.feasible),
+        "status": result.status,
+        "objective": result.objective,
+        "objective_value": result.objective_value,
+        "start_objective_value": result.start_objective,
+        "design": {k: float(v) for k, v in result.values.items()},
+        "start_design": {k: float(v) for k, v in result.start_values.items()},
+        "constraints": constraint_rows(result),
+        "violations": [{"name": n, "amount": v} for n, v in result.violations],
+        "flat_direction": result.flat_direction,
+        "recheck_max_rel_diff": result.recheck_max_rel_diff,
+        "wall_s": result.wall_s,
+    }
+    if result.feasible:
+        rec["figures"] = design_figures(result.design, result.analysis)
+    if extra:
+        rec.update(extra)
+    return rec
+
+
+def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dict:
+    """The run record of :func:`isodesign.pareto.pareto_front` (``record.json``)."""
+    from . import __version__
+
+    points = []
+    for i, d in enumerate(result.designs):
+        points.append({
+            result.objectives[0]: result.values[i, 0],
+            result.objectives[1]: result.values[i, 1],
+            "design": dict(d),
+            "status": result.statuses[i],
+            "nondominated": bool(result.front[i]),
+        })
+    rec = {
+        "kind": "isodesign pareto",
+        "command_line": command_line(argv),
+        "isodesign_version": __version__,
+        "environment": environment(),
+        "study": resolved_study_dict(study),
+        "study_source": study.source,
+        "objectives": list(result.objectives),
+        "settings": result.settings,
+        "points": points,
+        "hypervolume": result.hypervolume,
+        "reference_point_minimized": result.reference_point,
+        "ideal_point_minimized": result.ideal_point,
+        "wall_s": result.wall_s,
+    }
+    if extra:
+        rec.update(extra)
+    return rec
