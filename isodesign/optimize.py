@@ -1305,7 +1305,6 @@ def evaluate_design(study: Study, values: dict, *, grid: Grid | None = None,
     else:
         u = kinematic_velocity(d, grid.omega, a)
     mt = metrics(study, grid, d, u, sigma, diaphragm=dia)
-    db = 10.0 / LN10
     objs = {kind: objective_natural(kind, mt, study, grid)
             for kind in objectives or (study.objective["kind"],)}
     cons = {}
