@@ -257,15 +257,30 @@ def pareto_plot(result, path: str | Path, *, annotate: int = 5, dpi: int = 130) 
     ref_nat = [(-r if k in MAXIMIZED else r) for k, r in zip((a, b), ref, strict=True)]
     ax.plot(ref_nat[1] * sb, ref_nat[0] * sa, "kx", ms=8,
             label=f"hypervolume reference (HV = {result.hypervolume:.3f})")
+    xs = x[ok]
+    log_x = b in ("total_volume", "rms_velocity") and xs.size and xs.min() > 0 \
+        and xs.max() / xs.min() > 5.0
+    if log_x:
+        ax.set_xscale("log")
+        from matplotlib.ticker import FuncFormatter, NullFormatter
+
+        ax.xaxis.set_major_formatter(FuncFormatter(lambda t, _pos: f"{t:g}"))
+        ax.xaxis.set_minor_formatter(NullFormatter())
+    ax.margins(0.08)
     n = len(order)
     if n and annotate > 0:
         picks = sorted({int(t + 0.5) for t in np.linspace(0, n - 1, min(annotate, n))})
-        for j, k in enumerate(picks):
+        tx = np.log(x[order]) if log_x else x[order]
+        xmid = 0.5 * (tx.min() + tx.max())
+        ymid = 0.5 * (y[order].min() + y[order].max())
+        for k in picks:
             i = order[k]
-            dx = 12 if k < n - 1 else -12
+            right = (np.log(x[i]) if log_x else x[i]) > xmid
+            upper = y[i] > ymid
             ax.annotate(_design_label(result.designs[i]), (x[i], y[i]),
-                        xytext=(dx, -28 if j % 2 else 10), textcoords="offset points",
-                        fontsize=7, ha="left" if dx > 0 else "right",
+                        xytext=(-14 if right else 14, -30 if upper else 16),
+                        textcoords="offset points", fontsize=7,
+                        ha="right" if right else "left", va="top" if upper else "bottom",
                         arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.6},
                         bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.8",
                               "alpha": 0.9})

@@ -365,9 +365,10 @@ class StabilityFigures:
     Attributes
     ----------
     natural_frequency_hz : float
-        ``f_n = sqrt(K0 / (m/n)) / (2 pi)`` with ``K0 = k_s/(N+1) + Re k_D(X_ref, f_n)``:
-        the air spring's low-frequency limit plus the diaphragm's storage stiffness at the
-        reference amplitude, evaluated at ``f_n`` itself (a fixed point).
+        ``f_n = sqrt(K0 / (m/n)) / (2 pi)`` with ``K0 = k_s/(N+1) + Re k_D(X_ref, f_air)``
+        (:func:`isodesign.isolator.static_stiffness`): the air spring's low-frequency limit
+        plus the diaphragm's storage stiffness at the reference amplitude and at the air
+        spring's own natural frequency; the optimizer's constraints use the same K0.
     static_stiffness_n_per_m : float
         ``K0`` per isolator, N/m.
     air_static_stiffness_n_per_m : float
@@ -427,7 +428,7 @@ class StabilityFigures:
 
         rows = [
             ("natural_frequency_hz", self.natural_frequency_hz, "Hz",
-             "sqrt(K0/(m/n))/(2 pi), K0 = k_s/(N+1) + Re k_D(X_ref, f_n)"),
+             "sqrt(K0/(m/n))/(2 pi), K0 = k_s/(N+1) + Re k_D(X_ref, f_air)"),
             ("static_stiffness_n_per_m", self.static_stiffness_n_per_m, "N/m",
              "K0 per isolator"),
             ("air_static_stiffness_n_per_m", self.air_static_stiffness_n_per_m, "N/m",
