@@ -80,6 +80,9 @@ RECHECK_RTOL = 1e-6
 #: equivalent.
 FLAT_TOLERANCE_DB = 0.01
 FLAT_TOLERANCE_REL = 1e-3
+#: Slack on ``J <= J* + tolerance`` when accepting the tie-break point: IPOPT meets
+#: the bound to its constraint tolerance, not exactly.
+TIE_BREAK_SLACK = 1e-6
 
 
 # ---------------------------------------------------------------------------
@@ -789,7 +792,8 @@ class Problem:
     def values(self, x: np.ndarray) -> dict:
         """Design-variable values at x (fixed ones from the study)."""
         vals = {v.name: v.start for v in self.study.variables}
-        vals.update(self.scaling.to_values(x[: self.nz]))
+        # IPOPT relaxes bounds by ~1e-8: report the design inside its box
+        vals.update(self.scaling.to_values(np.clip(x[: self.nz], -1.0, 1.0)))
         return vals
 
     def sigma(self, x: np.ndarray) -> float:
@@ -1132,7 +1136,7 @@ def _tie_break(study: Study, prob: Problem, best: dict, tol_j: float):
         # with zero objective weight the epigraph variables are slack: make them tight
         # (the point stays feasible) and re-evaluate the objective and constraints
         cand = prob.retighten(sols["max"])
-        if cand["max_violation"] <= 1e-6 and cand["J"] <= best["J"] + tol_j * (1 + 1e-9):
+        if cand["max_violation"] <= 1e-6 and cand["J"] <= best["J"] + tol_j + TIE_BREAK_SLACK:
             chosen = cand
     info["chosen_capillary_diameter_m"] = prob.values(chosen["x"])["capillary_diameter_m"]
     return info, chosen

@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import InputError, check_choice, check_positive, check_range
+from .errors import InputError, check_choice, check_range
 
 __all__ = [
     "DESIGN_VARIABLES",
@@ -191,12 +191,7 @@ class Study:
 
         ``study.with_changes(objective={"kind": "total_volume"})``.
         """
-        raw = copy.deepcopy(self.raw)
-        for k, v in tables.items():
-            if isinstance(v, dict) and isinstance(raw.get(k), dict):
-                raw[k].update(v)
-            else:
-                raw[k] = v
+        raw = _merge(self.raw, tables)  # nested tables merge like a study file's
         return study_from_dict(raw, source=self.source, fill_defaults=False)
 
 
@@ -258,12 +253,16 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         raw["hardware"].pop("piston_area_m2", None)
 
     p = raw["payload"]
-    payload = Payload(
-        mass_kg=_num(where, "payload.mass_kg", p.get("mass_kg"), 0, None, True, "kg"),
-        isolators=p.get("isolators", 4),
-        spacing_m=p.get("spacing_m"),
-        cg_height_m=p.get("cg_height_m"),
-    )
+    try:
+        payload = Payload(
+            mass_kg=_num(where, "payload.mass_kg", p.get("mass_kg"), 0, None, True, "kg"),
+            isolators=p.get("isolators", 4),
+            spacing_m=p.get("spacing_m"),
+            cg_height_m=p.get("cg_height_m"),
+        )
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(msg if msg.startswith(where) else f"{where}: payload.{msg}") from None
 
     # hardware: fixed spring parameters
     h = dict(raw["hardware"])
@@ -303,7 +302,10 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         extra = set(fl) - {"criterion"}
         if extra:
             raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} only apply to csv")
-        floor = FloorSpectrum.from_criterion(fl["criterion"])
+        try:
+            floor = FloorSpectrum.from_criterion(fl["criterion"])
+        except InputError as exc:
+            raise InputError(f"{where}: floor.{exc}") from None
     else:
         path = Path(fl["csv"])
         if not path.is_absolute() and source not in ("<dict>", "<default>"):
@@ -313,7 +315,10 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     tg = raw["target"]
     if "criterion" not in tg:
         raise InputError(f"{where}: [target] criterion is required (e.g. \"VC-E\")")
-    target = criterion(tg["criterion"])
+    try:
+        target = criterion(tg["criterion"])
+    except InputError as exc:
+        raise InputError(f"{where}: target.{exc}") from None
     bmin = _num(where, "target.band_min_hz", tg.get("band_min_hz", 1.0), 0, None, True, "Hz")
     bmax = _num(where, "target.band_max_hz", tg.get("band_max_hz", 80.0), 0, None, True, "Hz")
     if bmin > bmax:
@@ -344,6 +349,12 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     dia = m.get("diaphragm", "viscoelastic")
     if not isinstance(dia, str):
         raise InputError(f"{where}: models.diaphragm must be a string")
+    from .diaphragm import diaphragm_model
+
+    try:
+        diaphragm_model(dia)
+    except InputError as exc:
+        raise InputError(f"{where}: models.{exc}") from None
     ppb = m.get("points_per_band", 6)
     if isinstance(ppb, bool) or not isinstance(ppb, int) or not 3 <= ppb <= 200:
         raise InputError(f"{where}: models.points_per_band must be an integer in [3, 200]")
@@ -364,12 +375,12 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         fixed = spec.get("fixed", False)
         if not isinstance(fixed, bool):
             raise InputError(f"{w}.fixed must be true or false")
-        start = check_positive(f"{w}.start", spec.get("start"))
+        start = _num(where, f"variables.{name}.start", spec.get("start"), 0, None, True)
         if fixed:
             lo = hi = start
         else:
-            lo = check_positive(f"{w}.lower", spec.get("lower"))
-            hi = check_positive(f"{w}.upper", spec.get("upper"))
+            lo = _num(where, f"variables.{name}.lower", spec.get("lower"), 0, None, True)
+            hi = _num(where, f"variables.{name}.upper", spec.get("upper"), 0, None, True)
             if not lo < hi:
                 raise InputError(f"{w}: lower ({lo:g}) must be below upper ({hi:g})")
             if not lo <= start <= hi:
@@ -393,6 +404,15 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
             raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "
                              "max_natural_frequency_hz")
+    dmin = cons.get("min_capillary_diameter_m")
+    dvar = next(v for v in variables if v.name == "capillary_diameter_m")
+    if dmin and dvar.fixed and dvar.start < dmin:
+        raise InputError(f"{where}: variables.capillary_diameter_m is fixed at "
+                         f"{dvar.start:g} m, below constraints.min_capillary_diameter_m "
+                         f"({dmin:g} m)")
+    if dmin and not dvar.fixed and dvar.upper <= dmin:
+        raise InputError(f"{where}: variables.capillary_diameter_m.upper ({dvar.upper:g} m) "
+                         f"must exceed constraints.min_capillary_diameter_m ({dmin:g} m)")
     mv = c.get("model_validity", True)
     if not isinstance(mv, bool):
         raise InputError(f"{where}: constraints.model_validity must be true or false")

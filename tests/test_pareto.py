@@ -1,0 +1,209 @@
+"""Pareto fronts: non-dominance and hypervolume by hand, and a small front of the default study."""
+
+from __future__ import annotations
+
+import itertools
+import math
+
+import numpy as np
+import pytest
+
+from isodesign.errors import InputError
+from isodesign.optimize import evaluate_design, optimize
+from isodesign.pareto import hypervolume_2d, nondominated, pareto_front
+from isodesign.study import default_study
+
+STAIRS = [(1.0, 3.0), (2.0, 2.0), (3.0, 1.0)]
+
+
+# --------------------------------------------------------------------------------------------
+# nondominated
+# --------------------------------------------------------------------------------------------
+def test_nondominated_by_hand():
+    pts = np.array([*STAIRS, (3.0, 3.0), (2.5, 2.0), (2.0, 2.0), (0.5, 5.0)])
+    # (3, 3) is dominated by (2, 2); (2.5, 2) by (2, 2) (equal in one, better in the other);
+    # the duplicate (2, 2) does not dominate its twin; (0.5, 5) is dominated by nobody
+    assert nondominated(pts).tolist() == [True, True, True, False, False, True, True]
+
+
+def test_nondominated_drops_non_finite_rows():
+    pts = np.array([(1.0, 1.0), (math.nan, 0.0), (0.0, math.inf), (2.0, 0.5)])
+    assert nondominated(pts).tolist() == [True, False, False, True]
+    # a NaN row dominates nothing
+    assert nondominated(np.array([(math.nan, math.nan), (5.0, 5.0)])).tolist() == [False, True]
+
+
+def test_nondominated_single_and_empty():
+    assert nondominated(np.array([(1.0, 2.0)])).tolist() == [True]
+    assert nondominated(np.zeros((0, 2))).tolist() == []
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_nondominated_against_the_definition(seed):
+    rng = np.random.default_rng(seed)
+    pts = rng.integers(0, 8, size=(40, 2)).astype(float)
+    mask = nondominated(pts)
+    for i, p in enumerate(pts):
+        dominated_by = [q for q in pts if np.all(q <= p) and np.any(q < p)]
+        assert mask[i] == (not dominated_by)
+        if not mask[i]:  # every dropped point is dominated by a kept one
+            assert any(np.all(q <= p) and np.any(q < p) for q in pts[mask])
+
+
+# --------------------------------------------------------------------------------------------
+# hypervolume_2d
+# --------------------------------------------------------------------------------------------
+def test_hypervolume_staircase_by_hand():
+    # rectangles from the reference (4, 4): 3 x 1 + 2 x 1 + 1 x 1 = 6
+    assert hypervolume_2d(np.array(STAIRS), np.array([4.0, 4.0])) == 6.0
+
+
+def test_hypervolume_ignores_dominated_points():
+    pts = np.array([*STAIRS, (3.0, 3.0), (2.5, 2.5), (2.0, 2.0), (3.5, 1.0)])
+    assert hypervolume_2d(pts, np.array([4.0, 4.0])) == 6.0
+
+
+def test_hypervolume_ignores_points_beyond_the_reference():
+    ref = np.array([4.0, 4.0])
+    # better than the reference in one objective only, or on its boundary
+    pts = np.array([*STAIRS, (0.5, 5.0), (5.0, 0.5), (4.0, 0.0), (0.0, 4.0), (9.0, 9.0)])
+    assert hypervolume_2d(pts, ref) == 6.0
+    assert hypervolume_2d(np.array([(5.0, 5.0), (0.0, 4.0)]), ref) == 0.0
+    assert hypervolume_2d(np.zeros((0, 2)), ref) == 0.0
+
+
+@pytest.mark.parametrize(
+    ("pts", "ref", "hv"),
+    [
+        ([(1.0, 1.0)], (2.0, 3.0), 2.0),
+        ([(0.0, 0.0)], (1.0, 1.0), 1.0),
+        ([(1.0, 2.0), (2.0, 1.0)], (3.0, 3.0), 3.0),  # 2 x 1 + 1 x 2 - overlap 1 x 1
+        ([(0.5, 0.5), (1.0, 0.25)], (1.5, 1.0), 0.5 + 0.125),
+    ],
+)
+def test_hypervolume_small_cases_by_hand(pts, ref, hv):
+    assert hypervolume_2d(np.array(pts), np.array(ref)) == pytest.approx(hv, rel=1e-15)
+
+
+def test_hypervolume_is_order_invariant_and_scales():
+    ref = np.array([4.0, 4.0])
+    for perm in itertools.permutations(STAIRS):
+        assert hypervolume_2d(np.array(perm), ref) == 6.0
+    scale = np.array([2.0, 0.5])
+    assert hypervolume_2d(np.array(STAIRS) * scale, ref * scale) == pytest.approx(6.0)
+
+
+def _cell_count(pts: np.ndarray, ref: np.ndarray) -> int:
+    """Dominated area of integer points by counting the unit cells it covers."""
+    n = 0
+    for i in range(int(ref[0])):
+        for j in range(int(ref[1])):
+            # cell [i, i+1] x [j, j+1] is dominated when some point is <= its lower corner
+            if np.any((pts[:, 0] <= i) & (pts[:, 1] <= j)):
+                n += 1
+    return n
+
+
+@pytest.mark.parametrize("seed", range(5))
+def test_hypervolume_against_cell_counting(seed):
+    rng = np.random.default_rng(seed)
+    pts = rng.integers(-2, 14, size=(25, 2)).astype(float)
+    ref = np.array([10.0, 12.0])
+    inside = pts[np.all(pts < ref, axis=1)]
+    # shift so that every counted point lies in the positive quadrant of the cell grid
+    lo = np.minimum(inside.min(axis=0), 0.0) if inside.size else np.zeros(2)
+    assert hypervolume_2d(pts, ref) == _cell_count(inside - lo, ref - lo)
+
+
+# --------------------------------------------------------------------------------------------
+# pareto_front: input checks
+# --------------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("objectives", "points", "fragment"),
+    [
+        (("worst_band_margin", "worst_band_margin"), 3, "two different objectives"),
+        (("worst_band_margin", "cost"), 3, "unknown 'cost'"),
+        (("worst_band_margin",), 3, "two different objectives"),
+        (("worst_band_margin", "total_volume"), 1, "points: must be an integer >= 2"),
+        (("worst_band_margin", "total_volume"), 2.5, "points: must be an integer >= 2"),
+    ],
+)
+def test_pareto_front_refuses_bad_input(objectives, points, fragment):
+    with pytest.raises(InputError, match=fragment):
+        pareto_front(default_study(), objectives=objectives, points=points)
+
+
+# --------------------------------------------------------------------------------------------
+# a small front of the default study: worst-band margin against total volume
+# --------------------------------------------------------------------------------------------
+POINTS = 4
+
+
+@pytest.fixture(scope="module")
+def front():
+    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40},
+                                      solver={"starts": 2})
+    return st, pareto_front(st, points=POINTS), optimize(st)
+
+
+@pytest.mark.slow
+def test_front_points_are_feasible_and_reproduced(front):
+    st, pf, _ = front
+    assert pf.objectives == ("worst_band_margin", "total_volume")
+    assert pf.values.shape == (POINTS, 2) and len(pf.designs) == POINTS
+    assert np.all(np.isfinite(pf.values))
+    assert all(s == "Solve_Succeeded" for s in pf.statuses), pf.statuses
+    for i, d in enumerate(pf.designs):
+        ev = evaluate_design(st, d, objectives=pf.objectives)
+        assert ev["max_violation"] <= 1e-6, i
+        assert ev["objectives"]["worst_band_margin"] == pytest.approx(pf.values[i, 0], rel=1e-6)
+        assert ev["objectives"]["total_volume"] == pytest.approx(pf.values[i, 1], rel=1e-6)
+        for v in st.variables:
+            assert v.lower * (1 - 1e-6) <= d[v.name] <= v.upper * (1 + 1e-6)
+
+
+@pytest.mark.slow
+def test_front_is_monotone(front):
+    _, pf, _ = front
+    margin, volume = pf.values[:, 0], pf.values[:, 1]
+    # the sweep goes from the margin's optimum to the least volume: less volume, less margin
+    assert np.all(np.diff(volume) < 0)
+    assert np.all(np.diff(margin) < 0)
+    assert pf.front.all()
+    # epsilon-constraint on ln V, equally spaced: the interior points sit on their bound, so
+    # their volumes are geometric between the two anchors
+    expected = np.geomspace(volume[0], volume[-1], POINTS)
+    np.testing.assert_allclose(volume, expected, rtol=1e-6)
+
+
+@pytest.mark.slow
+def test_front_starts_at_the_single_objective_optimum(front):
+    _, pf, single = front
+    assert single.feasible
+    # the same starts: the front's first point is (within 0.05 dB) at least that optimum
+    assert pf.values[0, 0] >= single.objective_value - 0.05
+    # and no point of the front has more margin than the first
+    assert np.all(pf.values[:, 0] <= pf.values[0, 0] + 1e-9)
+
+
+@pytest.mark.slow
+def test_front_hypervolume(front):
+    _, pf, _ = front
+    norm = pf.normalized()
+    # ideal point -> 0, reference (nadir + 10 % of the range) -> 1
+    np.testing.assert_allclose(norm.min(axis=0), [0.0, 0.0], atol=1e-12)
+    np.testing.assert_allclose(norm.max(axis=0), [1.0 / 1.1, 1.0 / 1.1], rtol=1e-12)
+    assert pf.hypervolume == pytest.approx(hypervolume_2d(norm[pf.front], np.ones(2)),
+                                           rel=1e-12)
+    # by hand: staircase of the normalized points, sorted by the first (minimized) objective
+    p = norm[np.argsort(norm[:, 0])]
+    hv, prev = 0.0, 1.0
+    for x, y in p:
+        hv += (1.0 - x) * (prev - y)
+        prev = y
+    assert pf.hypervolume == pytest.approx(hv, rel=1e-12)
+    assert 0.0 < pf.hypervolume < 1.0
+    assert pf.hypervolume_of(pf.values) == pytest.approx(pf.hypervolume, rel=1e-12)
+    # a point that adds nothing (dominated by the front) leaves the hypervolume unchanged
+    worse = np.vstack([pf.values, [pf.values[1, 0] - 1.0, pf.values[1, 1] * 1.1]])
+    assert pf.hypervolume_of(worse) == pytest.approx(pf.hypervolume, rel=1e-12)
