@@ -115,8 +115,9 @@ class Grid:
 
 
 def build_grid(study: Study, *, points_per_band: int | None = None,
-               objectives: tuple = ()) -> Grid:
-    """The NLP's frequency grid for a study (NumPy)."""
+               objectives: tuple = (), extra_peak_hz: tuple = ()) -> Grid:
+    """The NLP's frequency grid for a study (NumPy); ``extra_peak_hz`` adds peak-grid
+    frequencies (the exchange method of :func:`optimize`)."""
     from .linearization import response_grid
 
     ppb = points_per_band or study.models["points_per_band"]
@@ -131,6 +132,8 @@ def build_grid(study: Study, *, points_per_band: int | None = None,
     f_lo = max(0.05, 0.25 * min(fn0, study.constraints.get("min_natural_frequency_hz") or fn0))
     f_hi = 6.0 * max(fn0, study.constraints.get("max_natural_frequency_hz") or fn0)
     peak = np.geomspace(f_lo, f_hi, study.models["peak_points"])
+    if extra_peak_hz:
+        peak = np.unique(np.concatenate([peak, np.asarray(extra_peak_hz, float)]))
     parts = [rg.omega, 2.0 * math.pi * peak]
     point = None
     if "transmissibility_at" in (study.objective["kind"], *objectives):
@@ -501,13 +504,15 @@ class Problem:
         Objective kinds present in the NLP (default: the study's objective).
     """
 
-    def __init__(self, study: Study, objectives: tuple | None = None):
+    def __init__(self, study: Study, objectives: tuple | None = None,
+                 extra_peak_hz: tuple = ()):
         import casadi as ca
 
         self.study = study
         self.objectives = tuple(objectives or (study.objective["kind"],))
         self.objective = self.objectives[0]
-        self.grid = build_grid(study, objectives=self.objectives)
+        self.extra_peak_hz = tuple(extra_peak_hz)
+        self.grid = build_grid(study, objectives=self.objectives, extra_peak_hz=extra_peak_hz)
         self.dia = diaphragm_model(study.models["diaphragm"])
         bnds = _bounds(study)
         free = [v for v in study.variables if v.free]
@@ -830,7 +835,13 @@ class StartRecord:
 
 @dataclass(frozen=True)
 class ConstraintReport:
-    """A constraint at the optimum, in natural units."""
+    """A constraint at the optimum (its worst row for vector constraints).
+
+    ``value``, ``lower`` and ``upper`` are in natural units (``unit``);
+    ``margin`` is the NLP's margin in its internal units (the log of the ratio
+    to the bound, or dB), which is what ``active`` (margin < 1e-4) is judged on;
+    :attr:`margin_natural` is the distance to the nearest bound in ``unit``.
+    """
 
     name: str
     value: float
@@ -841,6 +852,13 @@ class ConstraintReport:
     active: bool
     description: str
 
+    @property
+    def margin_natural(self) -> float:
+        """Distance to the nearest bound in the constraint's own unit (>= 0: satisfied)."""
+        m = [self.value - self.lower] if self.lower is not None else []
+        m += [self.upper - self.value] if self.upper is not None else []
+        return min(m) if m else math.inf
+
 
 @dataclass(frozen=True, eq=False)
 class OptimizationResult:
@@ -848,7 +866,9 @@ class OptimizationResult:
 
     ``feasible`` is False when no start found a design that satisfies every
     constraint; ``design`` is then the best point found (least violation),
-    reported with ``violations`` and not to be used as a design.
+    reported with ``violations`` and not to be used as a design. ``peak`` records
+    the exchange method on the peak grid: rounds, added frequencies, and the
+    continuous peak of |T| at the optimum (dB, Hz).
     """
 
     study: Study
@@ -870,6 +890,7 @@ class OptimizationResult:
     start_analysis: Any = None
     wall_s: float = 0.0
     settings: dict = field(default_factory=dict)
+    peak: dict | None = None
 
     @property
     def success(self) -> bool:
@@ -1063,6 +1084,7 @@ def optimize(study: Study, *, progress=None) -> OptimizationResult:
     final = best
     if study.solver["tie_break"]:
         flat, final = _tie_break(study, prob, best, tol_j)
+    prob, final, best, flat, peak_info = _refine_peak(study, prob, final, best, flat, tol_j)
     vals = prob.values(final["x"])
     d = study.design_at(vals)
     diff = recheck(prob, final, d)
@@ -1088,8 +1110,90 @@ def optimize(study: Study, *, progress=None) -> OptimizationResult:
         constraints=tuple(_constraint_reports(prob, final["g"])), starts=tuple(records),
         n_reached_best=n_best, violations=(), flat_direction=flat,
         recheck_max_rel_diff=diff, analysis=analysis, start_analysis=start_analysis,
+        peak=peak_info,
         wall_s=time.perf_counter() - t_all, settings=settings,
     )
+
+
+#: Tolerance of the continuous peak of |T| over its sampled value (exchange method).
+PEAK_TOLERANCE_DB = 0.01
+#: Refinement rounds of the peak grid.
+PEAK_ROUNDS = 3
+
+
+def continuous_peak_db(prob: Problem, values: dict, sigma: float) -> tuple[float, float]:
+    """Peak of |T| at the operating amplitude between the grid's frequencies (NumPy).
+
+    A dense log grid over the peak grid's span, then a parabola through the
+    largest sample and its neighbours in ln f. Returns (peak in dB, frequency in Hz).
+    """
+    from .linearization import EQUIVALENT_AMPLITUDE_FACTOR
+
+    st = prob.study
+    d = st.design_at(values)
+    pk = prob.grid.omega[prob.grid.peak_slice] / (2.0 * math.pi)
+    f = np.geomspace(pk.min(), pk.max(), 4001)
+    a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
+    w = 2.0 * math.pi * f
+    from .spring import complex_stiffness
+
+    k = complex_stiffness(d, f, a, flow=st.models["flow"],
+                          amplitude_mode=st.models["amplitude_mode"], diaphragm=prob.dia,
+                          pairwise=True, warn=False).k
+    t2 = np.abs(transmissibility(Cx.from_complex(k), st.payload.mass_per_isolator_kg,
+                                 w).to_complex()) ** 2
+    i = int(np.clip(np.argmax(t2), 1, f.size - 2))
+    x = np.log(f[i - 1: i + 2])
+    y = 10.0 * np.log10(t2[i - 1: i + 2])
+    c2, c1, c0 = np.polyfit(x - x[1], y, 2)
+    if c2 < 0:
+        xm = -c1 / (2.0 * c2)
+        return float(c0 - c1 * c1 / (4.0 * c2)), float(f[i] * math.exp(xm))
+    return float(y[1]), float(f[i])
+
+
+def _refine_peak(study: Study, prob: Problem, final: dict, best: dict, flat, tol_j):
+    """Exchange method for the semi-infinite peak constraint (and objective).
+
+    The NLP bounds |T| at the peak grid's frequencies only, so an optimum can hide
+    a sharper peak between them. After each solve, the continuous peak at the
+    operating amplitude is measured; if it exceeds the bound (or the sampled
+    objective) by more than :data:`PEAK_TOLERANCE_DB`, frequencies around it are
+    added to the grid and the NLP is rebuilt and solved again from the current
+    design (then the tie-break again).
+    """
+    bound = study.constraints.get("max_peak_transmissibility_db")
+    kind = prob.objective
+    watch = bound is not None or kind == "peak_transmissibility"
+    info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None}
+    if not watch:
+        return prob, final, best, flat, info
+    extra: list[float] = list(prob.extra_peak_hz)
+    for _ in range(PEAK_ROUNDS + 1):
+        vals = prob.values(final["x"])
+        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(final["x"]))
+        info.update(peak_db=peak_db, peak_frequency_hz=f_pk)
+        sampled = objective_value_to_natural(kind, final["J"]) \
+            if kind == "peak_transmissibility" else None
+        limit = min(v for v in (bound, sampled) if v is not None)
+        if peak_db <= limit + PEAK_TOLERANCE_DB or info["rounds"] >= PEAK_ROUNDS:
+            break
+        new = [f_pk * r for r in (0.99, 0.995, 1.0, 1.005, 1.01)]
+        extra += new
+        info["added_frequencies_hz"] += new
+        info["rounds"] += 1
+        prob = Problem(study, objectives=prob.objectives, extra_peak_hz=tuple(extra))
+        sol = prob.solve(prob.initial_guess(vals))
+        if sol["max_violation"] > 1e-6:
+            raise SolverError(
+                f"peak refinement: the re-solve with {len(extra)} added frequencies failed "
+                f"({sol['status']})"
+            )
+        best = sol
+        final = sol
+        if study.solver["tie_break"]:
+            flat, final = _tie_break(study, prob, sol, _flat_tolerance(kind, sol["J"]))
+    return prob, final, best, flat, info
 
 
 def _flat_tolerance(kind: str, j: float) -> float:

@@ -261,26 +261,34 @@ def pareto_plot(result, path: str | Path, *, annotate: int = 5, dpi: int = 130) 
     log_x = b in ("total_volume", "rms_velocity") and xs.size and xs.min() > 0 \
         and xs.max() / xs.min() > 5.0
     if log_x:
-        ax.set_xscale("log")
-        from matplotlib.ticker import FuncFormatter, NullFormatter
+        from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
 
+        ax.set_xscale("log")
+        decades = np.arange(np.floor(np.log10(xs.min())), np.ceil(np.log10(xs.max())) + 1)
+        ticks = [m * 10.0**e for e in decades for m in (1, 2, 5)
+                 if xs.min() / 1.3 <= m * 10.0**e <= xs.max() * 1.3]
+        if len(ticks) >= 2:
+            ax.xaxis.set_major_locator(FixedLocator(ticks))
         ax.xaxis.set_major_formatter(FuncFormatter(lambda t, _pos: f"{t:g}"))
         ax.xaxis.set_minor_formatter(NullFormatter())
     ax.margins(0.08)
     n = len(order)
     if n and annotate > 0:
+        # labels go toward the reference point: the region a front dominates is empty
         picks = sorted({int(t + 0.5) for t in np.linspace(0, n - 1, min(annotate, n))})
         tx = np.log(x[order]) if log_x else x[order]
-        xmid = 0.5 * (tx.min() + tx.max())
-        ymid = 0.5 * (y[order].min() + y[order].max())
-        for k in picks:
+        span = max(float(tx.max() - tx.min()), 1e-300)
+        ref_right = ref_nat[1] * sb > float(np.median(x[order]))
+        ref_up = ref_nat[0] * sa > float(np.median(y[order]))
+        for j, k in enumerate(picks):
             i = order[k]
-            right = (np.log(x[i]) if log_x else x[i]) > xmid
-            upper = y[i] > ymid
+            dy = 16 + 24 * (j % 2) if ref_up else -30 - 24 * (j % 2)
+            pos = ((np.log(x[i]) if log_x else x[i]) - tx.min()) / span
+            right = pos <= 0.85 if ref_right else pos < 0.15
             ax.annotate(_design_label(result.designs[i]), (x[i], y[i]),
-                        xytext=(-14 if right else 14, -30 if upper else 16),
+                        xytext=(14 if right else -14, dy),
                         textcoords="offset points", fontsize=7,
-                        ha="right" if right else "left", va="top" if upper else "bottom",
+                        ha="left" if right else "right", va="bottom" if ref_up else "top",
                         arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.6},
                         bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.8",
                               "alpha": 0.9})

@@ -23,11 +23,13 @@ __all__ = [
     "design_figures",
     "dumps_toml",
     "environment",
+    "grid_notes",
     "optimization_design",
     "optimization_record",
     "pareto_record",
     "resolved_study_dict",
     "study_toml",
+    "variables_at_bounds",
     "write_json",
 ]
 
@@ -135,8 +137,9 @@ def resolved_study_dict(study) -> dict:
     """The study's resolved dictionary (``study.raw``) ready to be written elsewhere.
 
     A floor CSV named by a relative path is resolved against the study file's
-    directory (as :func:`isodesign.study.load_study` does), so that the written
-    study loads from any directory.
+    directory (as :func:`isodesign.study.load_study` does) and a diaphragm table
+    (``models.diaphragm = "table:PATH"``) against the working directory (as the
+    optimizer reads it), so that the written study loads from any directory.
     """
     import copy
 
@@ -147,6 +150,12 @@ def resolved_study_dict(study) -> dict:
         if not p.is_absolute() and study.source not in ("<dict>", "<default>", ""):
             p = Path(study.source).parent / p
         fl["csv"] = str(p.resolve())
+    # a diaphragm table is read relative to the working directory of the run
+    models = raw.get("models", {})
+    dia = models.get("diaphragm") if isinstance(models, dict) else None
+    if isinstance(dia, str) and (dia.startswith("table:") or dia.lower().endswith(".csv")):
+        prefix = "table:" if dia.startswith("table:") else ""
+        models["diaphragm"] = prefix + str(Path(dia[len(prefix):]).resolve())
     return raw
 
 
@@ -261,12 +270,58 @@ def constraint_rows(result) -> list[dict]:
     return [_constraint_dict(c) for c in result.constraints]
 
 
+def variables_at_bounds(result, rtol: float = 1e-4) -> dict:
+    """Free design variables that ended on a bound: name -> ``"lower"`` or ``"upper"``.
+
+    The lower bound of D_c is the larger of its ``lower`` and
+    ``constraints.min_capillary_diameter_m`` (as in the NLP). Bounds are not
+    constraints of the NLP, so they are not in ``result.constraints``.
+    """
+    st = result.study
+    dmin = st.constraints.get("min_capillary_diameter_m")
+    out = {}
+    for v in st.variables:
+        if v.fixed:
+            continue
+        lo = max(v.lower, dmin) if v.name == "capillary_diameter_m" and dmin else v.lower
+        x = float(result.values[v.name])
+        if abs(math.log(x / lo)) <= rtol:
+            out[v.name] = "lower"
+        elif abs(math.log(x / v.upper)) <= rtol:
+            out[v.name] = "upper"
+    return out
+
+
+#: Excess (dB) of the analysis's peak |T| over the optimizer's bound that is reported.
+PEAK_EXCESS_DB = 0.005
+
+
+def grid_notes(result, figures: dict) -> list[str]:
+    """Constraints the NLP meets on its grid but the finer band analysis does not.
+
+    The NLP enforces ``max_peak_transmissibility_db`` at ``models.peak_points``
+    log-spaced frequencies only; the band analysis locates the peak itself.
+    """
+    out = []
+    bound = result.study.constraints.get("max_peak_transmissibility_db")
+    peak = figures.get("peak_transmissibility_db")
+    if bound is not None and peak is not None and peak > bound + PEAK_EXCESS_DB:
+        out.append(
+            f"peak |T| at A* is {peak:.2f} dB at {figures['peak_frequency_hz']:.3g} Hz in "
+            f"the analysis, above constraints.max_peak_transmissibility_db = {bound:g} dB, "
+            f"which the optimizer enforces at {result.study.models['peak_points']} grid "
+            "frequencies only (raise models.peak_points)"
+        )
+    return out
+
+
 def optimization_design(result) -> dict:
     """The content of ``design.json``: variables, derived figures, objective, verdict."""
     from .optimize import OBJECTIVE_UNITS
     from .study import MAXIMIZED
 
     st = result.study
+    at = variables_at_bounds(result)
     variables = {}
     for v in st.variables:
         variables[v.name] = {
@@ -275,6 +330,7 @@ def optimization_design(result) -> dict:
             "lower": float(v.lower),
             "upper": float(v.upper),
             "fixed": bool(v.fixed),
+            "at_bound": at.get(v.name),
         }
     figures = design_figures(result.design, result.analysis)
     start_figures = design_figures(st.design_at(result.start_values), result.start_analysis)
@@ -294,7 +350,9 @@ def optimization_design(result) -> dict:
         "derived": figures,
         "start_derived": start_figures,
         "verdict": figures.get("verdict"),
+        "notes": grid_notes(result, figures),
         "binding_constraints": [c.name for c in result.constraints if c.active],
+        "variables_at_bounds": at,
         "constraints": constraint_rows(result),
         "spring": result.design.to_dict(),
     }

@@ -1,0 +1,526 @@
+"""Optimize a design study: the spring's N, V_t0, L_c and D_c for a payload, floor and target.
+
+STUDY.toml (default: the built-in study, isodesign/data/default_study.toml) states the
+payload, the spring hardware, the floor, the instrument's criterion, the models, the
+variables' bounds, the constraints, the objective and the solver (docs/optimization.md).
+Multi-start IPOPT finds the optimum; the flat direction L_c/D_c^4 is resolved by the
+documented tie-break (largest D_c); the optimum is re-checked with the NumPy analysis.
+Prints start design against optimum, every constraint with its margin (binding ones
+marked), the starts that reached the best design, the flat direction and the re-check.
+Writes to OUTDIR: design.json, design.toml, bands.csv, starts.csv, record.json,
+study_resolved.toml (replay: isodesign optimize OUTDIR/study_resolved.toml -o NEWDIR) and
+response.png. Exit status 0: feasible optimum; 1: no feasible design (report printed,
+record.json and starts.csv still written); 2: bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+#: Files written by ``isodesign optimize`` (feasible run, plots on).
+OUTPUT_FILES = (
+    "design.json",
+    "design.toml",
+    "bands.csv",
+    "starts.csv",
+    "record.json",
+    "study_resolved.toml",
+    "response.png",
+)
+
+
+def add_study_arguments(parser: argparse.ArgumentParser) -> None:
+    """The study file and the solver overrides (shared with ``isodesign pareto``)."""
+    parser.add_argument(
+        "study",
+        nargs="?",
+        metavar="STUDY.toml",
+        help="study file (docs/optimization.md); default: the built-in default study",
+    )
+    parser.add_argument(
+        "--starts",
+        type=int,
+        metavar="N",
+        help="number of starts: the study's start plus N-1 Latin-hypercube points "
+        "(overrides solver.starts; 1..256)",
+    )
+    parser.add_argument(
+        "--workers",
+        type=int,
+        metavar="N",
+        help="worker processes for the starts (overrides solver.workers; 1..64)",
+    )
+    parser.add_argument(
+        "--seed",
+        type=int,
+        metavar="N",
+        help="seed of the Latin hypercube (overrides solver.seed; >= 0)",
+    )
+    parser.add_argument(
+        "--quiet",
+        action="store_true",
+        help="no progress bar; print only the result (warnings and errors still go to stderr)",
+    )
+    parser.add_argument("--no-plots", action="store_true", help="write no PNG files")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``isodesign optimize``."""
+    add_study_arguments(parser)
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="OUTDIR",
+        required=True,
+        help="output directory, created if needed",
+    )
+
+
+# ---------------------------------------------------------------------------
+# helpers shared with ``isodesign pareto`` (imports inside: --help stays light)
+# ---------------------------------------------------------------------------
+def load_study_from_args(args):
+    """The study of ``args.study`` (or the default) with the solver options applied.
+
+    The overrides are folded into the study, so ``study.raw`` (written as
+    ``study_resolved.toml``) replays the run without the options.
+    """
+    from isodesign.errors import InputError
+    from isodesign.study import default_study, load_study
+
+    study = default_study() if args.study is None else load_study(args.study)
+    changes = {}
+    for opt, key, lo, hi in (("--starts", "starts", 1, 256), ("--workers", "workers", 1, 64),
+                             ("--seed", "seed", 0, None)):
+        v = getattr(args, key, None)
+        if v is None:
+            continue
+        if v < lo or (hi is not None and v > hi):
+            rng = f"[{lo}, {hi}]" if hi is not None else f"[{lo}, inf)"
+            raise InputError(f"{opt}: must be an integer in {rng}, got {v}")
+        changes[key] = v
+    if changes:
+        study = study.with_changes(solver=changes)
+    return study
+
+
+def prepare_output_dir(path):
+    """Create the output directory (InputError naming ``--output`` if it is a file)."""
+    from pathlib import Path
+
+    from isodesign.errors import InputError
+
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise InputError(f"--output: {out} exists and is not a directory")
+    out.mkdir(parents=True, exist_ok=True)
+    return out
+
+
+def canonical_command(args, name: str) -> list[str]:
+    """The command line equivalent to ``args`` (for the run record)."""
+    words = ["isodesign", name]
+    if args.study is not None:
+        words.append(str(args.study))
+    for opt in ("objectives", "points", "starts", "workers", "seed"):
+        v = getattr(args, opt, None)
+        if v is not None:
+            words += [f"--{opt}", str(v)]
+    words += ["-o", str(args.output)]
+    for flag in ("no_plots", "quiet"):
+        if getattr(args, flag, False):
+            words.append("--" + flag.replace("_", "-"))
+    return words
+
+
+def study_label(study) -> str:
+    """``'name' (source)`` for summaries."""
+    src = "built-in default study" if study.source == "<default>" else study.source
+    return f"{study.name!r} ({src})"
+
+
+def progress_enabled(args) -> bool:
+    """A progress bar only on an interactive terminal and without ``--quiet``."""
+    return not args.quiet and sys.stderr.isatty()
+
+
+class StartProgress:
+    """A rich progress bar over the starts (a no-op when disabled).
+
+    Use as a context manager; call it as ``progress(done, total, out)`` (the
+    callback of :func:`isodesign.optimize.optimize`).
+    """
+
+    def __init__(self, enabled: bool, total: int, objective: str, what: str = "starts"):
+        self.enabled = enabled
+        self.total = total
+        self.objective = objective
+        self.what = what
+        self.best = None
+        self._progress = None
+        self._task = None
+
+    def __enter__(self):
+        if self.enabled:
+            from rich.console import Console
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+            )
+
+            self._progress = Progress(
+                TextColumn("{task.description}"), BarColumn(), MofNCompleteColumn(),
+                TimeElapsedColumn(), console=Console(stderr=True), transient=True,
+            )
+            self._progress.start()
+            self._task = self._progress.add_task(self.what, total=self.total)
+        return self
+
+    def update(self, done: int, total: int, description: str | None = None) -> None:
+        """Move the bar (and change its label)."""
+        if self._progress is not None:
+            kw = {} if description is None else {"description": description}
+            self._progress.update(self._task, completed=done, total=total, **kw)
+
+    def __call__(self, done: int, total: int, out=None) -> None:
+        if self._progress is None:
+            return
+        from isodesign.optimize import objective_value_to_natural
+        from isodesign.study import MAXIMIZED
+
+        if isinstance(out, dict) and out.get("max_violation", 1.0) <= 1e-6:
+            v = objective_value_to_natural(self.objective, out["J"])
+            better = (v > self.best if self.objective in MAXIMIZED else v < self.best) \
+                if self.best is not None else True
+            if better:
+                self.best = v
+        label = self.what
+        if self.best is not None:
+            label += f"  best {format_objective(self.objective, self.best)}"
+        if done >= total:
+            label = "tie-break, re-check, band analysis"
+        self.update(done, total, label)
+
+    def __exit__(self, *exc):
+        if self._progress is not None:
+            self._progress.stop()
+        return False
+
+
+def format_objective(kind: str, value) -> str:
+    """An objective value in display units (dB, L, um/s)."""
+    if value is None:
+        return "n/a"
+    if kind in ("worst_band_margin", "peak_transmissibility", "transmissibility_at"):
+        return f"{value:+.3f} dB"
+    if kind == "total_volume":
+        return f"{value * 1e3:.4g} L"
+    if kind == "rms_velocity":
+        return f"{value * 1e6:.4g} um/s"
+    return f"{value:.6g}"
+
+
+def table(rows: list[list[str]], header: list[str], *, indent: str = "  ",
+          align: str | None = None) -> str:
+    """Aligned text table (``align``: one of ``<``/``>`` per column, default all left)."""
+    cols = len(header)
+    align = align or "<" * cols
+    widths = [max(len(str(r[i])) for r in [header, *rows]) for i in range(cols)]
+    lines = []
+    for r in [header, *rows]:
+        cells = [f"{r[i]!s:{align[i]}{widths[i]}}" for i in range(cols)]
+        lines.append((indent + "  ".join(cells)).rstrip())
+    return "\n".join(lines)
+
+
+# ---------------------------------------------------------------------------
+# the summary
+# ---------------------------------------------------------------------------
+def _g(x, fmt="#.4g", scale=1.0) -> str:
+    return "n/a" if x is None else f"{x * scale:{fmt}}"
+
+
+def design_rows(result, figures: dict, start_figures: dict) -> list[list[str]]:
+    """Start against optimum: variables and derived figures (display units)."""
+    v0, v1 = result.start_values, result.values
+    f0, f1 = start_figures, figures
+
+    def margin(f):
+        if f.get("worst_band_margin_db") is None:
+            return "n/a"
+        return f"{f['worst_band_margin_db']:+.2f} at {f['worst_band_hz']:g} Hz"
+
+    rows = [
+        ["N = V_b0/V_t0", _g(v0["volume_ratio"]), _g(v1["volume_ratio"])],
+        ["V_t0 (L)", _g(v0["top_volume_m3"], scale=1e3), _g(v1["top_volume_m3"], scale=1e3)],
+        ["L_c (mm)", _g(v0["capillary_length_m"], scale=1e3),
+         _g(v1["capillary_length_m"], scale=1e3)],
+        ["D_c (mm)", _g(v0["capillary_diameter_m"], scale=1e3),
+         _g(v1["capillary_diameter_m"], scale=1e3)],
+        ["total volume (L)", _g(f0["total_volume_m3"], scale=1e3),
+         _g(f1["total_volume_m3"], scale=1e3)],
+        ["p0 (bar abs)", _g(f0["pressure_pa"], scale=1e-5), _g(f1["pressure_pa"], scale=1e-5)],
+        ["k_s (kN/m)", _g(f0["single_chamber_stiffness_k_s_n_per_m"], scale=1e-3),
+         _g(f1["single_chamber_stiffness_k_s_n_per_m"], scale=1e-3)],
+        ["static stiffness K0 (kN/m)", _g(f0.get("static_stiffness_n_per_m"), scale=1e-3),
+         _g(f1.get("static_stiffness_n_per_m"), scale=1e-3)],
+        ["natural frequency (Hz)", _g(f0.get("natural_frequency_hz")),
+         _g(f1.get("natural_frequency_hz"))],
+        ["Zener damping ratio", _g(f0.get("zener_damping_ratio"), ".3g"),
+         _g(f1.get("zener_damping_ratio"), ".3g")],
+        ["peak |T| at A* (dB)", _g(f0.get("peak_transmissibility_db"), ".2f"),
+         _g(f1.get("peak_transmissibility_db"), ".2f")],
+        ["peak |T| linear (dB)", _g(f0.get("linear_peak_transmissibility_db"), ".2f"),
+         _g(f1.get("linear_peak_transmissibility_db"), ".2f")],
+        ["worst-band margin (dB)", margin(f0), margin(f1)],
+        ["tilt margin", _g(f0.get("tilt_margin"), ".3g"), _g(f1.get("tilt_margin"), ".3g")],
+        [f"objective {result.objective} (NLP grid)",
+         format_objective(result.objective, result.start_objective),
+         format_objective(result.objective, result.objective_value)],
+    ]
+    return rows
+
+
+def constraint_table(rows: list[dict]) -> str:
+    """Every constraint: value, bound, margin (own unit), binding ones marked ``*``."""
+    out = []
+    for c in rows:
+        bounds = []
+        if c["lower"] is not None:
+            bounds.append(f">= {c['lower']:.5g}")
+        if c["upper"] is not None:
+            bounds.append(f"<= {c['upper']:.5g}")
+        out.append(["*" if c["binding"] else "", c["name"], f"{c['value']:.5g}",
+                    ", ".join(bounds), _g(c["margin"], ".3g"), c["unit"]])
+    return table(out, ["", "constraint", "value", "bound", "margin", "unit"],
+                 align="<<><><")
+
+
+def bounds_text(design: dict) -> str:
+    """Which free variables ended on a bound (bounds are not NLP constraints)."""
+    at = design["variables_at_bounds"]
+    if not at:
+        return "variables at a bound: none"
+    parts = [f"{n} ({side} bound {design['variables'][n][side]:g})" for n, side in at.items()]
+    return "variables at a bound: " + ", ".join(parts)
+
+
+def flat_text(result) -> str:
+    """The flat-direction report and the tie-break, one paragraph."""
+    fd = result.flat_direction
+    if fd is None:
+        if not result.study.solver["tie_break"]:
+            return "flat direction: not examined (solver.tie_break = false)"
+        return "flat direction: not examined (D_c is fixed)"
+    d0, d1 = fd["capillary_diameter_range_m"]
+    l0, l1 = fd["capillary_length_range_m"]
+    tol = format_objective(result.objective, fd["objective_tolerance"]) \
+        if result.objective in ("worst_band_margin", "peak_transmissibility",
+                                "transmissibility_at") \
+        else f"{fd['objective_tolerance']:.3g} (relative)"
+    tol = tol.lstrip("+")
+    state = ("flat: a valley, the objective does not fix the pair" if fd["flat"]
+             else "not flat: the constraints or the non-laminar terms fix the pair")
+    return (f"flat direction ({fd['pair']}): within {tol} of the optimum, D_c spans "
+            f"{d0 * 1e3:#.4g}-{d1 * 1e3:#.4g} mm and L_c {min(l0, l1) * 1e3:#.4g}-"
+            f"{max(l0, l1) * 1e3:#.4g} mm ({state});\n  tie-break: {fd['tie_break']} -> "
+            f"D_c = {fd['chosen_capillary_diameter_m'] * 1e3:#.4g} mm")
+
+
+def starts_text(result) -> str:
+    """How many starts converged, were feasible and reached the best design."""
+    n = len(result.starts)
+    conv = sum(1 for s in result.starts if s.success)
+    feas = sum(1 for s in result.starts if s.feasible)
+    st = result.study.solver
+    lhs = max(0, n - 1)
+    return (f"{n} starts (the study's start + {lhs} Latin hypercube, seed {st['seed']}; "
+            f"{st['workers']} workers): {conv} converged, {feas} feasible, "
+            f"{result.n_reached_best} reached the best design")
+
+
+def summary(result, design: dict) -> str:
+    """The full text summary of a feasible run."""
+    st = result.study
+    p = st.payload
+    tg = st.raw["target"]
+    sense = "maximize" if design["objective"]["sense"] == "maximize" else "minimize"
+    lines = [
+        f"study {study_label(st)}: {sense} {result.objective}",
+        f"  payload {p.mass_kg:g} kg on {p.isolators} isolators; floor: "
+        f"{result.analysis.floor_name}; target {result.analysis.target_name} in "
+        f"{tg['band_min_hz']:g}-{tg['band_max_hz']:g} Hz ({len(st.bands)} bands); "
+        f"flow {st.models['flow']}, {st.models['amplitude_mode']}, diaphragm "
+        f"{st.models['diaphragm']}",
+        f"  {starts_text(result)}; {result.wall_s:.1f} s",
+        "",
+        table(design_rows(result, design["derived"], design["start_derived"]),
+              ["", "start", "optimum"], align="<>>"),
+        "",
+        bounds_text(design),
+        "",
+        "constraints at the optimum (* binding; margin in the constraint's unit):",
+        constraint_table(design["constraints"]),
+        "",
+        flat_text(result),
+        f"re-check: the NumPy analysis agrees with the NLP to "
+        f"{result.recheck_max_rel_diff:.2g} relative (required 1e-06)",
+        f"start:   {design['start_derived'].get('verdict')}",
+        f"optimum: {design['verdict']}",
+    ]
+    return "\n".join(lines)
+
+
+def failure_report(result) -> str:
+    """Report of a run without a feasible design: status, violations, best point."""
+    from isodesign.record import constraint_rows
+
+    cons = {c["name"]: c for c in constraint_rows(result)}
+    lines = [
+        f"study {study_label(result.study)}: NO FEASIBLE DESIGN",
+        f"  {starts_text(result)}",
+        f"  IPOPT status of the best point found: {result.status}",
+        "  most violated constraints (violation in the NLP's units: ln of the quantity, "
+        "or dB):",
+    ]
+    rows = []
+    for name, amount in result.violations[:6]:
+        c = cons.get(name)
+        if c is not None:
+            bound = c["upper"] if c["upper"] is not None and c["value"] > c["upper"] \
+                else c["lower"]
+            rel = "above" if c["upper"] is not None and c["value"] > c["upper"] else "below"
+            detail = f"{c['value']:.4g} {c['unit']} {rel} its bound {bound:.4g}"
+        elif name == "implicit_equations":
+            detail = "the flow/stroke equations are not solved at this point"
+        else:
+            detail = ""
+        rows.append([name, f"{amount:.3g}", detail])
+    lines.append(table(rows, ["constraint", "violation", "at the best point"], indent="    "))
+    v = result.values
+    lines.append(
+        f"  best point found (not a design): N = {v['volume_ratio']:.4g}, V_t0 = "
+        f"{v['top_volume_m3'] * 1e3:.4g} L, L_c = {v['capillary_length_m'] * 1e3:.4g} mm, "
+        f"D_c = {v['capillary_diameter_m'] * 1e3:.4g} mm"
+    )
+    lines.append("  relax the violated constraints or widen the variables' bounds "
+                 "(docs/optimization.md, 'When no design is feasible')")
+    return "\n".join(lines)
+
+
+def bands_frame(result):
+    """``analysis.to_frame()`` of the optimum plus the start design's columns."""
+    df = result.analysis.to_frame()
+    s = result.start_analysis
+    df["start_payload_velocity_rms_m_s"] = s.payload_velocity_rms_m_s
+    df["start_margin_db"] = s.margin_db
+    df["start_passes"] = s.band_passes
+    return df
+
+
+def write_outputs(result, out, args, *, plots: bool) -> list:
+    """Write every output file of a run; return the paths written."""
+    from isodesign.designfile import save_design
+    from isodesign.record import (
+        optimization_design,
+        optimization_record,
+        study_toml,
+        write_json,
+    )
+
+    written = []
+    rec = optimization_record(result, argv=canonical_command(args, "optimize")[1:],
+                              extra={"argv": list(sys.argv)})
+    written.append(write_json(out / "record.json", rec))
+    p = out / "starts.csv"
+    result.starts_frame().to_csv(p, index=False)
+    written.append(p)
+    p = out / "study_resolved.toml"
+    p.write_text(study_toml(result.study, header=(
+        f"Resolved study of an isodesign optimize run (defaults filled in, command-line\n"
+        f"overrides applied). Replay: isodesign optimize {p} -o NEWDIR")), encoding="utf-8")
+    written.append(p)
+    if not result.feasible:
+        return written
+    design = optimization_design(result)
+    written.append(write_json(out / "design.json", design))
+    written.append(save_design(result.design, out / "design.toml", header=(
+        f"Optimized spring of study {result.study.name!r} (isodesign optimize); p0 from the "
+        f"payload ({result.study.payload.mass_kg:g} kg on {result.study.payload.isolators} "
+        "isolators).")))
+    p = out / "bands.csv"
+    bands_frame(result).to_csv(p, index=False)
+    written.append(p)
+    if plots:
+        from isodesign.plotting import optimization_plot
+
+        written.append(optimization_plot(result, out / "response.png"))
+    return written
+
+
+def run_optimization(study, args):
+    """``optimize(study)`` with the progress bar of ``args``."""
+    from isodesign.optimize import optimize
+
+    with StartProgress(progress_enabled(args), study.solver["starts"],
+                       study.objective["kind"]) as bar:
+        return optimize(study, progress=bar)
+
+
+def execute(study, out, args) -> int:
+    """Optimize ``study`` into ``out`` and print the report; return the exit status."""
+    import warnings
+
+    from isodesign.errors import ModelValidityWarning, SolverError
+    from isodesign.record import environment, write_json
+
+    try:
+        result = run_optimization(study, args)
+    except SolverError as exc:
+        # no result object: record what is known, then let the CLI report it (status 1)
+        from isodesign import __version__
+        from isodesign.record import command_line, resolved_study_dict
+
+        write_json(out / "record.json", {
+            "kind": "isodesign optimize",
+            "command_line": command_line(canonical_command(args, "optimize")[1:]),
+            "argv": list(sys.argv), "isodesign_version": __version__,
+            "environment": environment(), "study": resolved_study_dict(study),
+            "error": str(exc),
+        })
+        raise
+    written = write_outputs(result, out, args, plots=not args.no_plots)
+    if not result.feasible:
+        print(failure_report(result))
+        worst = ", ".join(f"{n} ({v:.3g})" for n, v in result.violations[:3])
+        print(f"isodesign: error: no feasible design ({result.status}); most violated: "
+              f"{worst}; wrote {out / 'record.json'}", file=sys.stderr)
+        return 1
+    from isodesign.record import optimization_design
+
+    design = optimization_design(result)
+    if args.quiet:
+        print(f"{result.study.name}: {result.objective} "
+              f"{format_objective(result.objective, result.objective_value)}; "
+              f"{design['verdict']}")
+    else:
+        print(summary(result, design))
+        print("wrote " + ", ".join(str(p.name) for p in written) + f" to {out}")
+    sys.stdout.flush()
+    for line in result.analysis.warnings:
+        warnings.warn(f"optimum: spring model at A*: {line}", ModelValidityWarning,
+                      stacklevel=2)
+    for line in design["notes"]:
+        warnings.warn(f"optimum: {line}", ModelValidityWarning, stacklevel=2)
+    return 0
+
+
+def run(args) -> int:
+    """Run ``isodesign optimize``."""
+    study = load_study_from_args(args)
+    out = prepare_output_dir(args.output)
+    return execute(study, out, args)

@@ -1,0 +1,216 @@
+"""Pareto front of two objectives of a study (epsilon-constraint sweep, warm starts).
+
+Objective A (the first of --objectives) is optimized subject to objective B <= eps, for
+--points values of eps between B at A's optimum and B's own optimum, each solve
+warm-started from the previous one. The default front is the worst-band margin (maximized)
+against the total chamber volume (minimized): how much margin each litre of isolator buys.
+Prints the front as a table and its hypervolume (normalized space, reference point = nadir
++ 10 % of the front's range). Writes to OUTDIR: pareto.csv, pareto.json (hypervolume,
+reference and ideal points), pareto.png, record.json and study_resolved.toml. See
+docs/optimization.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from isodesign.commands.optimize import add_study_arguments
+
+#: Default objectives (must equal isodesign.pareto.DEFAULT_OBJECTIVES; a test checks it).
+#: Kept here so that --help does not load NumPy.
+DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
+#: Objective names (must equal the keys of isodesign.study.OBJECTIVES; a test checks it).
+OBJECTIVE_CHOICES = (
+    "worst_band_margin",
+    "rms_velocity",
+    "peak_transmissibility",
+    "transmissibility_at",
+    "total_volume",
+)
+DEFAULT_POINTS = 20
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``isodesign pareto``."""
+    add_study_arguments(parser)
+    parser.add_argument(
+        "--objectives",
+        metavar="A,B",
+        default=",".join(DEFAULT_OBJECTIVES),
+        help="objective A (optimized) and B (swept as a constraint); default %(default)s; "
+        f"names: {', '.join(OBJECTIVE_CHOICES)}",
+    )
+    parser.add_argument(
+        "--points",
+        type=int,
+        default=DEFAULT_POINTS,
+        metavar="K",
+        help="number of epsilon values, both anchors included (>= 2; default %(default)s)",
+    )
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="OUTDIR",
+        required=True,
+        help="output directory, created if needed",
+    )
+
+
+def parse_objectives(text: str) -> tuple[str, str]:
+    """``A,B`` -> (A, B); InputError naming --objectives otherwise."""
+    from isodesign.commands import input_error
+
+    names = tuple(t.strip() for t in text.split(","))
+    if len(names) != 2 or not all(names):
+        raise input_error(f"--objectives: give two names A,B, got {text!r}")
+    for n in names:
+        if n not in OBJECTIVE_CHOICES:
+            raise input_error(
+                f"--objectives: unknown objective {n!r}; valid: {', '.join(OBJECTIVE_CHOICES)}"
+            )
+    if names[0] == names[1]:
+        raise input_error(f"--objectives: need two different objectives, got {text!r}")
+    return names  # type: ignore[return-value]
+
+
+def _natural_points(result) -> dict:
+    """Reference and ideal points back in each objective's natural sense and unit."""
+    from isodesign.study import MAXIMIZED
+
+    out = {}
+    for name, pt in (("reference_point", result.reference_point),
+                     ("ideal_point", result.ideal_point)):
+        out[name] = {k: float(-v if k in MAXIMIZED else v)
+                     for k, v in zip(result.objectives, pt, strict=True)}
+    return out
+
+
+def pareto_json(result) -> dict:
+    """The content of ``pareto.json``."""
+    from isodesign.optimize import OBJECTIVE_UNITS
+    from isodesign.study import MAXIMIZED
+
+    nat = _natural_points(result)
+    return {
+        "objectives": list(result.objectives),
+        "units": {k: OBJECTIVE_UNITS[k] for k in result.objectives},
+        "sense": {k: "maximize" if k in MAXIMIZED else "minimize" for k in result.objectives},
+        "hypervolume": result.hypervolume,
+        "hypervolume_space": "both objectives minimized (margins negated) and normalized: "
+        "ideal point -> 0, reference point -> 1",
+        "reference_point": nat["reference_point"],
+        "ideal_point": nat["ideal_point"],
+        "reference_point_minimized": list(map(float, result.reference_point)),
+        "ideal_point_minimized": list(map(float, result.ideal_point)),
+        "reference_margin": result.settings.get("reference_margin"),
+        "points": len(result.designs),
+        "nondominated": int(sum(bool(f) for f in result.front)),
+        "wall_s": result.wall_s,
+        "settings": result.settings,
+    }
+
+
+def front_table(result) -> str:
+    """Every point, sorted by objective B; dominated ones marked, failed ones kept."""
+    import math
+
+    from isodesign.commands.optimize import format_objective, table
+
+    a, b = result.objectives
+    order = sorted(range(len(result.designs)),
+                   key=lambda i: (math.isnan(result.values[i, 1]), result.values[i, 1]))
+    rows = []
+    for i in order:
+        d = result.designs[i]
+        va, vb = result.values[i]
+        ok = not (math.isnan(va) or math.isnan(vb))
+        rows.append([
+            str(i), format_objective(a, va) if ok else "failed",
+            format_objective(b, vb) if ok else "",
+            f"{d['volume_ratio']:.4g}", f"{d['top_volume_m3'] * 1e3:.4g}",
+            f"{d['capillary_length_m'] * 1e3:.4g}", f"{d['capillary_diameter_m'] * 1e3:.4g}",
+            "yes" if result.front[i] else ("no" if ok else ""),
+        ])
+    return table(rows, ["#", a, b, "N", "V_t0 (L)", "L_c (mm)", "D_c (mm)", "front"],
+                 align=">>>>>>><")
+
+
+class _SweepProgress:
+    """Progress bar of the anchors and the epsilon sweep (no-op when disabled)."""
+
+    def __init__(self, enabled: bool, total: int, objective: str):
+        from isodesign.commands.optimize import StartProgress
+
+        self.bar = StartProgress(enabled, total, objective, what="anchors (multi-start)")
+
+    def __enter__(self):
+        self.bar.__enter__()
+        return self
+
+    def __call__(self, done: int, total: int) -> None:
+        self.bar.update(done, total, "epsilon sweep")
+
+    def __exit__(self, *exc):
+        return self.bar.__exit__(*exc)
+
+
+def run(args) -> int:
+    """Run ``isodesign pareto``."""
+    from isodesign.commands.optimize import (
+        canonical_command,
+        load_study_from_args,
+        prepare_output_dir,
+        progress_enabled,
+        study_label,
+    )
+    from isodesign.errors import InputError
+
+    objectives = parse_objectives(args.objectives)
+    if args.points < 2:
+        raise InputError(f"--points: must be an integer >= 2, got {args.points}")
+    study = load_study_from_args(args)
+    out = prepare_output_dir(args.output)
+
+    from isodesign.pareto import pareto_front
+    from isodesign.record import pareto_record, study_toml, write_json
+
+    with _SweepProgress(progress_enabled(args), args.points, objectives[0]) as bar:
+        result = pareto_front(study, objectives, args.points, progress=bar)
+    df = result.to_frame()
+    df.to_csv(out / "pareto.csv", index=False)
+    written = [out / "pareto.csv"]
+    written.append(write_json(out / "pareto.json", pareto_json(result)))
+    written.append(write_json(out / "record.json", pareto_record(
+        result, study, argv=canonical_command(args, "pareto")[1:],
+        extra={"argv": list(sys.argv)})))
+    p = out / "study_resolved.toml"
+    p.write_text(study_toml(study, header=(
+        "Resolved study of an isodesign pareto run (defaults filled in, command-line\n"
+        f"overrides applied). Replay: isodesign pareto {p} --objectives "
+        f"{','.join(objectives)} --points {args.points} -o NEWDIR")), encoding="utf-8")
+    written.append(p)
+    if not args.no_plots:
+        from isodesign.plotting import pareto_plot
+
+        written.append(pareto_plot(result, out / "pareto.png"))
+    nat = _natural_points(result)
+    from isodesign.commands.optimize import format_objective
+
+    a, b = objectives
+    ref = ", ".join(f"{k} {format_objective(k, v)}" for k, v in nat["reference_point"].items())
+    ideal = ", ".join(f"{k} {format_objective(k, v)}" for k, v in nat["ideal_point"].items())
+    n_front = int(sum(bool(f) for f in result.front))
+    if not args.quiet:
+        print(f"study {study_label(study)}: Pareto front of {a} (optimized) against {b} "
+              f"(epsilon-constraint, {args.points} points, {result.settings['starts']} starts "
+              f"for the anchor); {result.wall_s:.1f} s")
+        print(front_table(result))
+    print(f"{n_front} of {len(result.designs)} points non-dominated; hypervolume "
+          f"{result.hypervolume:.4f} (normalized: ideal point -> 0, reference point -> 1)")
+    print(f"  reference point (nadir + {result.settings['reference_margin']:.0%} of the "
+          f"range): {ref}")
+    print(f"  ideal point: {ideal}")
+    if not args.quiet:
+        print("wrote " + ", ".join(p.name for p in written) + f" to {out}")
+    return 0
