@@ -1061,7 +1061,10 @@ def optimize(study: Study, *, progress=None) -> OptimizationResult:
         cand = [i for i, s in enumerate(sols) if s is not None]
         if not cand:
             raise SolverError("no start could be initialized (see the start records)")
-        ib = min(cand, key=lambda i: sols[i]["max_violation"])
+        # least violation, preferring starts whose implicit equations are solved (a start
+        # stopped by the iteration limit may leave them unsolved: not a physical point)
+        ib = min(cand, key=lambda i: (_equation_residual(sols[i]) > 1e-6,
+                                      sols[i]["max_violation"]))
         sol = sols[ib]
         viol = sorted(sol["violations"], key=lambda t: -t[1])
         vals = prob.values(sol["x"])
@@ -1194,6 +1197,10 @@ def _refine_peak(study: Study, prob: Problem, final: dict, best: dict, flat, tol
         if study.solver["tie_break"]:
             flat, final = _tie_break(study, prob, sol, _flat_tolerance(kind, sol["J"]))
     return prob, final, best, flat, info
+
+
+def _equation_residual(sol: dict) -> float:
+    return dict(sol["violations"]).get("implicit_equations", 0.0)
 
 
 def _flat_tolerance(kind: str, j: float) -> float:

@@ -159,7 +159,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     points : int
         Number of epsilon values (>= 2), anchors included.
     progress : callable or None
-        ``progress(done, total)``.
+        ``progress(done, total)`` after each start of the anchor and each sweep point.
     """
     a, b = _check_objectives(objectives)
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
@@ -168,7 +168,14 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     st = study.with_changes(objective=_objective_table(study, a))
     prob = Problem(st, objectives=(a, b))
     starts = start_points(st, prob.scaling)
-    results = run_starts(prob, starts, workers=st.solver.get("workers"))
+    total = len(starts) + points
+
+    def start_progress(done, _n, _out):
+        if progress:
+            progress(done, total)
+
+    results = run_starts(prob, starts, workers=st.solver.get("workers"),
+                         progress=start_progress)
     good = [r for r in results if isinstance(r, dict) and r["max_violation"] <= 1e-6]
     if not good:
         raise SolverError(f"pareto: no feasible design when minimizing {a} alone")
@@ -183,7 +190,9 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     x = anchor_a["x"]
     for k, e in enumerate(eps):
         e_k = e + 1e-9 * max(1.0, abs(e))
-        sol = prob.solve(x, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
+        # the last point is B's own optimum: start it from B's anchor
+        x_start = anchor_b["x"] if k == points - 1 else x
+        sol = prob.solve(x_start, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
         if sol["max_violation"] > 1e-6 and k > 0:
             # warm start failed: retry from the anchor of B (always feasible for e >= jb_min)
             sol = prob.solve(anchor_b["x"], prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
@@ -196,7 +205,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         designs.append(prob.values(sol["x"]))
         statuses.append(sol["status"])
         if progress:
-            progress(k + 1, points)
+            progress(len(starts) + k + 1, total)
     v = np.array(values, float)
     mins = np.column_stack([_minimized(a, v[:, 0]), _minimized(b, v[:, 1])])
     front = nondominated(mins)

@@ -349,6 +349,12 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     dia = m.get("diaphragm", "viscoelastic")
     if not isinstance(dia, str):
         raise InputError(f"{where}: models.diaphragm must be a string")
+    if source not in ("<dict>", "<default>") and (dia.startswith("table:")
+                                                  or dia.lower().endswith(".csv")):
+        # a table path is relative to the study file, like the floor's CSV
+        rel = dia[len("table:"):] if dia.startswith("table:") else dia
+        if not Path(rel).is_absolute():
+            dia = f"table:{Path(source).parent / rel}"
     from .diaphragm import diaphragm_model
 
     try:

@@ -298,7 +298,9 @@ def test_default_like_optimum_is_rechecked(default_run):
 def test_default_like_optimum_on_the_analysis_path(default_run):
     """evaluate_design (its own sigma and velocity solvers) reproduces the NLP's optimum."""
     st, res = default_run
-    ev = evaluate_design(st, res.values)
+    # on the NLP's own grid: the peak grid may have been refined around the peak
+    grid = build_grid(st, extra_peak_hz=tuple(res.peak["added_frequencies_hz"]))
+    ev = evaluate_design(st, res.values, grid=grid)
     assert ev["objectives"]["worst_band_margin"] == pytest.approx(res.objective_value, rel=1e-6)
     assert ev["max_violation"] <= 1e-6
     names = {c.name for c in res.constraints}
@@ -342,8 +344,11 @@ def test_multi_start_bookkeeping(default_run):
     best = max(feasible)  # worst_band_margin is maximized
     assert best_start(res).objective == best
     # the result is the best start's optimum, moved along a flat direction at most within
-    # the tie-break's tolerance
-    assert best - FLAT_TOLERANCE_DB - 1e-9 <= res.objective_value <= best + 1e-9
+    # the tie-break's tolerance; a refinement of the peak grid (exchange method) adds
+    # constraints, so it can only lower the objective further
+    assert res.objective_value <= best + 1e-9
+    if res.peak["rounds"] == 0:
+        assert best - FLAT_TOLERANCE_DB - 1e-9 <= res.objective_value
     assert res.n_reached_best == sum(1 for j in feasible if j >= best - FLAT_TOLERANCE_DB)
     # the start design's objective, on the NLP and on the analysis path
     assert res.start_objective is not None
