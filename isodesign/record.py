@@ -396,7 +396,7 @@ def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict
         "constraints": constraint_rows(result),
         "violations": [{"name": n, "amount": v} for n, v in result.violations],
         "flat_direction": result.flat_direction,
-        "peak_refinement": getattr(result, "peak", None),
+        "peak_refinement": result.peak,
         "recheck_max_rel_diff": result.recheck_max_rel_diff,
         "wall_s": result.wall_s,
     }
