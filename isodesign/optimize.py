@@ -37,6 +37,7 @@ Trust
 
 from __future__ import annotations
 
+import dataclasses
 import math
 import time
 from dataclasses import dataclass, field
@@ -104,6 +105,18 @@ class Grid:
     target_band_rows: np.ndarray  # rows of the response grid's bands that are target bands
     target_limit_m_s: np.ndarray
     point_index: int | None = None
+    n_slots: int = 0  # the last n_slots peak-grid points: movable (NLP parameters)
+
+    @property
+    def slot_slice(self) -> slice:
+        end = self.n_floor + self.n_peak
+        return slice(end - self.n_slots, end)
+
+    def with_slots(self, slot_hz) -> Grid:
+        """The same grid with the movable peak frequencies set (Hz)."""
+        w = self.omega.copy()
+        w[self.slot_slice] = 2.0 * math.pi * np.asarray(slot_hz, float)
+        return dataclasses.replace(self, omega=w)
 
     @property
     def floor_slice(self) -> slice:
@@ -115,9 +128,12 @@ class Grid:
 
 
 def build_grid(study: Study, *, points_per_band: int | None = None,
-               objectives: tuple = (), extra_peak_hz: tuple = ()) -> Grid:
-    """The NLP's frequency grid for a study (NumPy); ``extra_peak_hz`` adds peak-grid
-    frequencies (the exchange method of :func:`optimize`)."""
+               objectives: tuple = (), extra_peak_hz: tuple = (), slots: int = 0) -> Grid:
+    """The NLP's frequency grid for a study (NumPy).
+
+    ``extra_peak_hz`` adds fixed peak-grid frequencies; ``slots`` appends that many
+    movable ones (the exchange method of :func:`optimize`; initially copies of the
+    first peak frequencies, which changes nothing)."""
     from .linearization import response_grid
 
     ppb = points_per_band or study.models["points_per_band"]
@@ -134,6 +150,8 @@ def build_grid(study: Study, *, points_per_band: int | None = None,
     peak = np.geomspace(f_lo, f_hi, study.models["peak_points"])
     if extra_peak_hz:
         peak = np.unique(np.concatenate([peak, np.asarray(extra_peak_hz, float)]))
+    if slots:
+        peak = np.concatenate([peak, peak[:slots]])
     parts = [rg.omega, 2.0 * math.pi * peak]
     point = None
     if "transmissibility_at" in (study.objective["kind"], *objectives):
@@ -142,7 +160,7 @@ def build_grid(study: Study, *, points_per_band: int | None = None,
         parts.append(np.array([2.0 * math.pi * f_pt]))
     return Grid(omega=np.concatenate(parts), n_floor=rg.omega.size, n_peak=peak.size,
                 response=rg, target_band_rows=rows, target_limit_m_s=limits,
-                point_index=point)
+                point_index=point, n_slots=slots)
 
 
 #: Frequency of the ``transmissibility_at`` objective when the study names none.
@@ -512,7 +530,9 @@ class Problem:
         self.objectives = tuple(objectives or (study.objective["kind"],))
         self.objective = self.objectives[0]
         self.extra_peak_hz = tuple(extra_peak_hz)
-        self.grid = build_grid(study, objectives=self.objectives, extra_peak_hz=extra_peak_hz)
+        self.grid = build_grid(study, objectives=self.objectives, extra_peak_hz=extra_peak_hz,
+                               slots=PEAK_SLOTS)
+        self.slot_hz = self.grid.omega[self.grid.slot_slice] / (2.0 * math.pi)
         self.dia = diaphragm_model(study.models["diaphragm"])
         bnds = _bounds(study)
         free = [v for v in study.variables if v.free]
@@ -562,8 +582,13 @@ class Problem:
                 vals.append(X(study.variable(n).start))
         v = ca.vertcat(*vals)
         y_row = y.T if self.self_consistent else X.zeros(1, n_all)
+        # the movable peak frequencies are parameters: refining the peak grid needs no
+        # rebuild of the NLP
+        sl = self.grid.slot_slice
+        p_slot = X.sym("slot_omega", self.grid.n_slots)
+        w_sym = ca.vertcat(ca.DM(w[: sl.start]), p_slot, ca.DM(w[sl.stop:]))
         # v and s keep their shape: map broadcasts them (and sums their derivatives)
-        outs = mapped(v, s, y_row, ca.DM(w).T)
+        outs = mapped(v, s, y_row, w_sym.T)
         res_u, t_re, t_im, r_re, r_im, ln_mach, ln_re = (o.T for o in outs)
         pq_mx = {"T": Cx(t_re, t_im), "R": Cx(r_re, r_im), "ln_mach": ln_mach, "ln_re": ln_re}
         d_mx = study.design_at({n: vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
@@ -608,7 +633,7 @@ class Problem:
             js.append(jk)
         self.constraints = cons
         x = ca.vertcat(z, s, y, c, *aux)
-        p = ca.vertcat(p_w, p_wd, p_eps)
+        p = ca.vertcat(p_w, p_wd, p_eps, p_slot)
         g = ca.vertcat(res_u, res_s, *[c.expr for c in cons])
         self.n_eq = int(res_u.numel()) + int(res_s.numel())
         self.nc = nf
@@ -640,10 +665,10 @@ class Problem:
         self.lbx, self.ubx = lbx, ubx
         self.np = int(p.numel())
         self.eval_fn = ca.Function("eval", [x, p], [j_total, g])
-        self._j_fn = ca.Function("objectives", [x], [ca.vertcat(*js)])
+        self._j_fn_p = ca.Function("objectives", [x, p_slot], [ca.vertcat(*js)])
         x_core = ca.vertcat(z, s, y)
-        self._chain_fn = ca.Function("chain", [x_core], [ca.cumsum(inc)])
-        self._aux_fn = ca.Function("aux_quantities", [x_core],
+        self._chain_fn_p = ca.Function("chain", [x_core, p_slot], [ca.cumsum(inc)])
+        self._aux_fn_p = ca.Function("aux_quantities", [x_core, p_slot],
                                    [mt["ln_ms_band"] - mt["ln_limit2"], mt["ln_T2_peak"],
                                     mt["ms_all"]])
         opts = {
@@ -670,11 +695,28 @@ class Problem:
             w[:] = weights
         e = np.full(nk, 1e20) if eps is None else np.asarray(
             [1e20 if v is None else v for v in eps], float)
-        return np.concatenate([w, [diameter_weight], e])
+        return np.concatenate([w, [diameter_weight], e, 2.0 * math.pi * self.slot_hz])
+
+    def set_slots(self, frequencies_hz) -> None:
+        """Move the movable peak-grid frequencies (Hz); the grid follows."""
+        f = np.asarray(frequencies_hz, float)
+        if f.size != self.grid.n_slots:
+            raise ValueError(f"set_slots: need {self.grid.n_slots} frequencies, got {f.size}")
+        self.slot_hz = f.copy()
+        self.grid = self.grid.with_slots(f)
+
+    def _slot_omega(self) -> np.ndarray:
+        return 2.0 * math.pi * self.slot_hz
 
     def objective_values(self, x: np.ndarray) -> np.ndarray:
         """Internal values J_k of every objective at x."""
-        return np.asarray(self._j_fn(x)).ravel()
+        return np.asarray(self._j_fn_p(x, self._slot_omega())).ravel()
+
+    def _aux_fn(self, x_core):
+        return self._aux_fn_p(x_core, self._slot_omega())
+
+    def _chain_fn(self, x_core):
+        return self._chain_fn_p(x_core, self._slot_omega())
 
     def _reference_sigma(self) -> float:
         from .response import solve_stroke_rms
@@ -1120,8 +1162,10 @@ def optimize(study: Study, *, progress=None) -> OptimizationResult:
 
 #: Tolerance of the continuous peak of |T| over its sampled value (exchange method).
 PEAK_TOLERANCE_DB = 0.01
-#: Refinement rounds of the peak grid.
-PEAK_ROUNDS = 3
+#: Refinement rounds of the peak grid (five movable frequencies each).
+PEAK_ROUNDS = 2
+#: Movable peak-grid frequencies reserved in every NLP (parameters, no rebuild).
+PEAK_SLOTS = 5 * PEAK_ROUNDS
 
 
 def continuous_peak_db(prob: Problem, values: dict, sigma: float) -> tuple[float, float]:
@@ -1161,17 +1205,15 @@ def _refine_peak(study: Study, prob: Problem, final: dict, best: dict, flat, tol
     The NLP bounds |T| at the peak grid's frequencies only, so an optimum can hide
     a sharper peak between them. After each solve, the continuous peak at the
     operating amplitude is measured; if it exceeds the bound (or the sampled
-    objective) by more than :data:`PEAK_TOLERANCE_DB`, frequencies around it are
-    added to the grid and the NLP is rebuilt and solved again from the current
-    design (then the tie-break again).
+    objective) by more than :data:`PEAK_TOLERANCE_DB`, five of the grid's movable
+    frequencies (NLP parameters: no rebuild) are placed within +-1 % of it and the
+    NLP is solved again from the current design (then the tie-break again).
     """
     bound = study.constraints.get("max_peak_transmissibility_db")
     kind = prob.objective
-    watch = bound is not None or kind == "peak_transmissibility"
     info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None}
-    if not watch:
+    if bound is None and kind != "peak_transmissibility":
         return prob, final, best, flat, info
-    extra: list[float] = list(prob.extra_peak_hz)
     for _ in range(PEAK_ROUNDS + 1):
         vals = prob.values(final["x"])
         peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(final["x"]))
@@ -1182,15 +1224,17 @@ def _refine_peak(study: Study, prob: Problem, final: dict, best: dict, flat, tol
         if peak_db <= limit + PEAK_TOLERANCE_DB or info["rounds"] >= PEAK_ROUNDS:
             break
         new = [f_pk * r for r in (0.99, 0.995, 1.0, 1.005, 1.01)]
-        extra += new
+        k = info["rounds"] * len(new)
+        slots = prob.slot_hz.copy()
+        slots[k: k + len(new)] = new
+        prob.set_slots(slots)
         info["added_frequencies_hz"] += new
         info["rounds"] += 1
-        prob = Problem(study, objectives=prob.objectives, extra_peak_hz=tuple(extra))
         sol = prob.solve(prob.initial_guess(vals))
         if sol["max_violation"] > 1e-6:
             raise SolverError(
-                f"peak refinement: the re-solve with {len(extra)} added frequencies failed "
-                f"({sol['status']})"
+                f"peak refinement: the re-solve with frequencies added near {f_pk:.4g} Hz "
+                f"failed ({sol['status']})"
             )
         best = sol
         final = sol

@@ -25,7 +25,10 @@ import numpy as np
 from .errors import InputError, SolverError
 from .optimize import (
     OBJECTIVE_UNITS,
+    PEAK_ROUNDS,
+    PEAK_TOLERANCE_DB,
     Problem,
+    continuous_peak_db,
     natural_to_objective_value,
     objective_value_to_natural,
     run_starts,
@@ -197,6 +200,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
             # warm start failed: retry from the anchor of B (always feasible for e >= jb_min)
             sol = prob.solve(anchor_b["x"], prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
         if sol["max_violation"] <= 1e-6:
+            sol = _refine_point(prob, sol, [None, e_k])
+        if sol["max_violation"] <= 1e-6:
             x = sol["x"]
             values.append((objective_value_to_natural(a, sol["J_all"][0]),
                            objective_value_to_natural(b, sol["J_all"][1])))
@@ -225,6 +230,38 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
                   "units": (OBJECTIVE_UNITS[a], OBJECTIVE_UNITS[b]),
                   "starts": len(starts)},
     )
+
+
+def _refine_point(prob: Problem, sol: dict, eps) -> dict:
+    """The exchange method of :func:`isodesign.optimize.optimize` for one sweep point.
+
+    If the continuous peak of |T| exceeds the study's bound (or the sampled peak
+    objective) by more than PEAK_TOLERANCE_DB, move five of the NLP's movable
+    peak frequencies around it and solve again (at most PEAK_ROUNDS rounds). The
+    frequencies stay for the next point, whose peak is usually close.
+    """
+    st = prob.study
+    bound = st.constraints.get("max_peak_transmissibility_db")
+    kinds = prob.objectives
+    if bound is None and "peak_transmissibility" not in kinds:
+        return sol
+    for rnd in range(PEAK_ROUNDS):
+        vals = prob.values(sol["x"])
+        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(sol["x"]))
+        limits = [bound] if bound is not None else []
+        for k, kind in enumerate(kinds):
+            if kind == "peak_transmissibility":
+                limits.append(objective_value_to_natural(kind, sol["J_all"][k]))
+        if peak_db <= min(limits) + PEAK_TOLERANCE_DB:
+            break
+        slots = prob.slot_hz.copy()
+        slots[5 * rnd: 5 * rnd + 5] = [f_pk * r for r in (0.99, 0.995, 1.0, 1.005, 1.01)]
+        prob.set_slots(slots)
+        new = prob.solve(prob.initial_guess(vals), prob.params(weights=[1.0, 0.0], eps=eps))
+        if new["max_violation"] > 1e-6:
+            break
+        sol = new
+    return sol
 
 
 #: The hypervolume reference point is the front's nadir pushed out by this
