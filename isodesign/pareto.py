@@ -31,8 +31,7 @@ from .optimize import (
     continuous_peak_db,
     natural_to_objective_value,
     objective_value_to_natural,
-    run_starts,
-    start_points,
+    optimize,
 )
 from .study import MAXIMIZED, OBJECTIVES, Study
 
@@ -148,10 +147,13 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     """Epsilon-constraint Pareto front of two objectives with warm starts.
 
     One parametric NLP (:class:`isodesign.optimize.Problem` with both objectives)
-    is built once. Anchors: A minimized from every start of the study
-    (multi-start), then B minimized from the best A. The sweep minimizes A
-    subject to ``B <= eps`` for ``points`` values of eps from B at A's optimum
-    to B's optimum, each warm-started from the previous solution.
+    is built once. Anchor A is :func:`isodesign.optimize.optimize` of the study
+    with objective A (multi-start, peak refinement, tie-break, re-check), so the
+    front starts at the reported single-objective optimum; anchor B is B
+    minimized from there. The sweep minimizes A subject to ``B <= eps`` for
+    ``points`` values of eps from B at A's optimum to B's optimum, each
+    warm-started from the previous solution, and refines each point's peak grid
+    like ``optimize`` does.
 
     Parameters
     ----------
@@ -169,20 +171,29 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
     t0 = time.perf_counter()
     st = study.with_changes(objective=_objective_table(study, a))
-    prob = Problem(st, objectives=(a, b))
-    starts = start_points(st, prob.scaling)
-    total = len(starts) + points
+    total = points + 1
 
-    def start_progress(done, _n, _out):
+    def start_progress(done, n, _out):
         if progress:
-            progress(done, total)
+            progress(0, total)
 
-    results = run_starts(prob, starts, workers=st.solver.get("workers"),
-                         progress=start_progress)
-    good = [r for r in results if isinstance(r, dict) and r["max_violation"] <= 1e-6]
-    if not good:
-        raise SolverError(f"pareto: no feasible design when minimizing {a} alone")
-    anchor_a = min(good, key=lambda r: r["J"])
+    # anchor A: the full single-objective optimization (multi-start, peak refinement,
+    # tie-break, re-check), so the front starts at the optimum `optimize` reports
+    res_a = optimize(st, progress=start_progress)
+    if not res_a.feasible:
+        raise SolverError(f"pareto: no feasible design when minimizing {a} alone "
+                          f"({res_a.status})")
+    if progress:
+        progress(1, total)
+    prob = Problem(st, objectives=(a, b))
+    added = list((res_a.peak or {}).get("added_frequencies_hz", []))[: prob.grid.n_slots]
+    if added:
+        slots = prob.slot_hz.copy()
+        slots[: len(added)] = added
+        prob.set_slots(slots)
+    anchor_a = prob.solve(prob.initial_guess(res_a.values))
+    if anchor_a["max_violation"] > 1e-6:
+        raise SolverError(f"pareto: re-solving the optimum of {a} failed ({anchor_a['status']})")
     anchor_b = prob.solve(anchor_a["x"], prob.params(weights=[0.0, 1.0]))
     if anchor_b["max_violation"] > 1e-6:
         raise SolverError(f"pareto: minimizing {b} failed ({anchor_b['status']})")
@@ -193,12 +204,14 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     x = anchor_a["x"]
     for k, e in enumerate(eps):
         e_k = e + 1e-9 * max(1.0, abs(e))
-        # the last point is B's own optimum: start it from B's anchor
-        x_start = anchor_b["x"] if k == points - 1 else x
+        # the last point is B's own optimum: start it from B's anchor (its unknowns
+        # solved again: the movable peak frequencies may have moved since)
+        x_start = _consistent(prob, anchor_b) if k == points - 1 else x
         sol = prob.solve(x_start, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
         if sol["max_violation"] > 1e-6 and k > 0:
             # warm start failed: retry from the anchor of B (always feasible for e >= jb_min)
-            sol = prob.solve(anchor_b["x"], prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
+            sol = prob.solve(_consistent(prob, anchor_b),
+                             prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
         if sol["max_violation"] <= 1e-6:
             sol = _refine_point(prob, sol, [None, e_k])
         if sol["max_violation"] <= 1e-6:
@@ -210,7 +223,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         designs.append(prob.values(sol["x"]))
         statuses.append(sol["status"])
         if progress:
-            progress(len(starts) + k + 1, total)
+            progress(k + 2, total)
     v = np.array(values, float)
     mins = np.column_stack([_minimized(a, v[:, 0]), _minimized(b, v[:, 1])])
     front = nondominated(mins)
@@ -228,8 +241,14 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         settings={"method": "epsilon-constraint, one parametric IPOPT NLP, warm starts",
                   "points": points, "reference_margin": REFERENCE_MARGIN,
                   "units": (OBJECTIVE_UNITS[a], OBJECTIVE_UNITS[b]),
-                  "starts": len(starts)},
+                  "starts": st.solver["starts"]},
     )
+
+
+def _consistent(prob: Problem, sol: dict) -> np.ndarray:
+    """A start at a solution's design with every implicit unknown solved for the
+    current grid (the movable peak frequencies included)."""
+    return prob.initial_guess(prob.values(sol["x"]))
 
 
 def _refine_point(prob: Problem, sol: dict, eps) -> dict:
