@@ -1010,10 +1010,14 @@ def _solve_start(vals: dict):
         x0 = prob.initial_guess(vals)
     except SolverError as exc:
         return str(exc)
-    return prob.solve(x0)
+    return prob.solve(x0, _POOL_PARAMS)
 
 
-def run_starts(prob: Problem, starts: list[dict], *, workers=None, progress=None) -> list:
+_POOL_PARAMS = None  # the NLP parameters of the starts (None: minimize the first objective)
+
+
+def run_starts(prob: Problem, starts: list[dict], *, workers=None, progress=None,
+               params=None) -> list:
     """Solve every start; in forked worker processes when more than one core is free.
 
     The workers inherit the built solver through ``fork`` (nothing is pickled but
@@ -1021,13 +1025,14 @@ def run_starts(prob: Problem, starts: list[dict], *, workers=None, progress=None
     back in start order: a solution dict, or the error message of a start whose
     initial guess failed.
     """
-    global _POOL_PROBLEM
+    global _POOL_PROBLEM, _POOL_PARAMS
     import os
 
     n = len(starts)
     if workers is None:
         workers = min(DEFAULT_WORKERS, os.cpu_count() or 1)
     _POOL_PROBLEM = prob
+    _POOL_PARAMS = params
     results: list = [None] * n
     try:
         ctx = None
@@ -1053,6 +1058,7 @@ def run_starts(prob: Problem, starts: list[dict], *, workers=None, progress=None
                         progress(done, n, out)
     finally:
         _POOL_PROBLEM = None
+        _POOL_PARAMS = None
     return results
 
 

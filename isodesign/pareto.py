@@ -32,6 +32,8 @@ from .optimize import (
     natural_to_objective_value,
     objective_value_to_natural,
     optimize,
+    run_starts,
+    start_points,
 )
 from .study import MAXIMIZED, OBJECTIVES, Study
 
@@ -196,7 +198,15 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         raise SolverError(f"pareto: re-solving the optimum of {a} failed ({anchor_a['status']})")
     anchor_b = prob.solve(anchor_a["x"], prob.params(weights=[0.0, 1.0]))
     if anchor_b["max_violation"] > 1e-6:
-        raise SolverError(f"pareto: minimizing {b} failed ({anchor_b['status']})")
+        # from A's optimum IPOPT can stall; minimize B from the study's starts instead
+        outs = run_starts(prob, start_points(st, prob.scaling),
+                          workers=st.solver.get("workers"),
+                          params=prob.params(weights=[0.0, 1.0]))
+        good = [o for o in outs if isinstance(o, dict) and o["max_violation"] <= 1e-6]
+        if not good:
+            raise SolverError(f"pareto: minimizing {b} failed ({anchor_b['status']}) from A's "
+                              "optimum and from every start")
+        anchor_b = min(good, key=lambda o: o["J_all"][1])
     jb_at_a = float(anchor_a["J_all"][1])
     jb_min = float(anchor_b["J_all"][1])
     eps = np.linspace(jb_at_a, jb_min, points)
