@@ -406,7 +406,7 @@ def resistance_function(flow: str, design, omega, *, with_slope: bool = False):
             c = (d.capillary_length_m / d.capillary_diameter_m * fr + d.minor_loss) * (
                 4.0 * U / (3.0 * math.pi * area)
             )
-            return Cx(c, np.zeros_like(c))
+            return Cx(c, 0.0)  # real: no zero array
 
         return c_zhao
     raise InputError(f"flow: unknown model {flow!r}; valid: {', '.join(FLOW_MODELS)}")

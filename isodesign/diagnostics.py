@@ -180,7 +180,7 @@ def evaluate_diagnostics(
     shape = np.broadcast_shapes(np.shape(omega), np.shape(amplitude_m), np.shape(velocity))
     u = np.broadcast_to(velocity, shape)
     rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
-    re = rho * u * dc / mu
+    re = u * (rho * dc / mu)
     # frequency-only quantities on the frequency axis, then broadcast
     re_w0 = kinetic_reynolds(d, omega)
     alpha0 = 0.5 * np.sqrt(re_w0)
@@ -188,13 +188,14 @@ def evaluate_diagnostics(
     lumped0 = omega * size0 / d.speed_of_sound_m_s <= LUMPED_LIMIT
     re_w = np.broadcast_to(re_w0, shape)
     alpha = np.broadcast_to(alpha0, shape)
-    a0 = u / (omega * dc)
-    mach = u / d.speed_of_sound_m_s
-    p_amp = np.abs(k_air) * amplitude_m / d.piston_area_m2
-    u_kin = np.broadcast_to(kinematic_velocity(d, omega, amplitude_m), shape)
+    a0 = u * (1.0 / (omega * dc))
+    mach = u * (1.0 / d.speed_of_sound_m_s)
+    p_amp = np.abs(k_air) * (amplitude_m / d.piston_area_m2)
+    u_kin = (u if amplitude_mode == "kinematic"  # u is Eq. 37's velocity already
+             else np.broadcast_to(kinematic_velocity(d, omega, amplitude_m), shape))
     # driven velocity N Q/|D| from Eq. 38 itself: k_air = k_s (1 - N/D), so
     # N/|D| = |1 - k_air/k_s| (exact, and cheaper than recomputing D)
-    ratio = np.abs(1.0 - k_air / d.single_chamber_stiffness_n_per_m)
+    ratio = np.abs(1.0 - k_air * (1.0 / d.single_chamber_stiffness_n_per_m))
     u_driven = u_kin * ratio
 
     checks: dict[str, np.ndarray] = {}
