@@ -1071,7 +1071,8 @@ def _indexed_start(item):
 DEFAULT_WORKERS = 2
 
 
-def optimize(study: Study, *, progress=None) -> OptimizationResult:
+def optimize(study: Study, *, progress=None, problem: Problem | None = None,
+             analyze: bool = True) -> OptimizationResult:
     """Optimize a study: multi-start IPOPT, tie-break, re-check, analysis.
 
     Parameters
@@ -1079,6 +1080,11 @@ def optimize(study: Study, *, progress=None) -> OptimizationResult:
     study : Study
     progress : callable or None
         ``progress(done, total, record)`` after each start (for a progress bar).
+    problem : Problem, optional
+        A prebuilt NLP of this study whose first objective is the study's (a Pareto
+        study passes its two-objective NLP); built here by default.
+    analyze : bool
+        Run the fine-grid band responses of the optimum and of the start (default).
 
     Returns
     -------
@@ -1088,7 +1094,7 @@ def optimize(study: Study, *, progress=None) -> OptimizationResult:
         disagree (a bug, never a silently wrong design).
     """
     t_all = time.perf_counter()
-    prob = Problem(study)
+    prob = problem if problem is not None else Problem(study)
     starts = start_points(study, prob.scaling)
     results = run_starts(prob, starts, workers=study.solver.get("workers"),
                          progress=progress)
@@ -1149,11 +1155,14 @@ def optimize(study: Study, *, progress=None) -> OptimizationResult:
 
     kw = {"flow": study.models["flow"], "amplitude_mode": study.models["amplitude_mode"],
           "diaphragm": prob.dia}
-    analysis = band_response(d, study.payload, study.floor, study.target, bands=study.bands,
-                             derive_pressure=False, warn=False, **kw)
-    d0 = study.design_at(start_vals)
-    start_analysis = band_response(d0, study.payload, study.floor, study.target,
-                                   bands=study.bands, derive_pressure=False, warn=False, **kw)
+    analysis = start_analysis = None
+    if analyze:
+        analysis = band_response(d, study.payload, study.floor, study.target,
+                                 bands=study.bands, derive_pressure=False, warn=False, **kw)
+        d0 = study.design_at(start_vals)
+        start_analysis = band_response(d0, study.payload, study.floor, study.target,
+                                       bands=study.bands, derive_pressure=False, warn=False,
+                                       **kw)
     j0 = None
     try:
         x00 = prob.initial_guess(start_vals)
@@ -1276,7 +1285,7 @@ def _tie_break(study: Study, prob: Problem, best: dict, tol_j: float):
     """
     if "capillary_diameter_m" not in prob.scaling.names:
         return None, best
-    eps = [best["J"] + tol_j]
+    eps = [best["J"] + tol_j] + [None] * (len(prob.objectives) - 1)
     sols = {}
     for name, wd in (("max", -1.0), ("min", 1.0)):
         sol = prob.solve(best["x"], prob.params(weights=[0.0] * len(prob.objectives),

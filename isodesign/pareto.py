@@ -153,9 +153,10 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     with objective A (multi-start, peak refinement, tie-break, re-check), so the
     front starts at the reported single-objective optimum; anchor B is B
     minimized from there. The sweep minimizes A subject to ``B <= eps`` for
-    ``points`` values of eps from B at A's optimum to B's optimum, each
-    warm-started from the previous solution, and refines each point's peak grid
-    like ``optimize`` does.
+    ``points`` values of eps from B at A's optimum to B's optimum, in two chains
+    (one from each anchor, meeting in the middle, in two forked workers), each
+    point warm-started from the previous one of its chain, and refines each
+    point's peak grid like ``optimize`` does.
 
     Parameters
     ----------
@@ -180,19 +181,15 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
             progress(0, total)
 
     # anchor A: the full single-objective optimization (multi-start, peak refinement,
-    # tie-break, re-check), so the front starts at the optimum `optimize` reports
-    res_a = optimize(st, progress=start_progress)
+    # tie-break, re-check) on this Pareto NLP, so the front starts at the optimum that
+    # `optimize` reports
+    prob = Problem(st, objectives=(a, b))
+    res_a = optimize(st, progress=start_progress, problem=prob, analyze=False)
     if not res_a.feasible:
         raise SolverError(f"pareto: no feasible design when minimizing {a} alone "
                           f"({res_a.status})")
     if progress:
         progress(1, total)
-    prob = Problem(st, objectives=(a, b))
-    added = list((res_a.peak or {}).get("added_frequencies_hz", []))[: prob.grid.n_slots]
-    if added:
-        slots = prob.slot_hz.copy()
-        slots[: len(added)] = added
-        prob.set_slots(slots)
     anchor_a = prob.solve(prob.initial_guess(res_a.values))
     if anchor_a["max_violation"] > 1e-6:
         raise SolverError(f"pareto: re-solving the optimum of {a} failed ({anchor_a['status']})")
@@ -210,30 +207,24 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     jb_at_a = float(anchor_a["J_all"][1])
     jb_min = float(anchor_b["J_all"][1])
     eps = np.linspace(jb_at_a, jb_min, points)
+    # two warm-started chains, one from each anchor, meeting in the middle: they run in
+    # the two forked workers when the machine has the cores
+    half = (points + 1) // 2
+    chains = [(anchor_a, list(range(half))),
+              (anchor_b, list(range(points - 1, half - 1, -1)))]
+    sols = _run_chains(prob, chains, eps, anchor_b, st.solver.get("workers"))
     values, designs, statuses = [], [], []
-    x = anchor_a["x"]
-    for k, e in enumerate(eps):
-        e_k = e + 1e-9 * max(1.0, abs(e))
-        # the last point is B's own optimum: start it from B's anchor (its unknowns
-        # solved again: the movable peak frequencies may have moved since)
-        x_start = _consistent(prob, anchor_b) if k == points - 1 else x
-        sol = prob.solve(x_start, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
-        if sol["max_violation"] > 1e-6 and k > 0:
-            # warm start failed: retry from the anchor of B (always feasible for e >= jb_min)
-            sol = prob.solve(_consistent(prob, anchor_b),
-                             prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
+    for k in range(points):
+        sol = sols[k]
         if sol["max_violation"] <= 1e-6:
-            sol = _refine_point(prob, sol, [None, e_k])
-        if sol["max_violation"] <= 1e-6:
-            x = sol["x"]
             values.append((objective_value_to_natural(a, sol["J_all"][0]),
                            objective_value_to_natural(b, sol["J_all"][1])))
         else:
             values.append((math.nan, math.nan))
         designs.append(prob.values(sol["x"]))
         statuses.append(sol["status"])
-        if progress:
-            progress(k + 2, total)
+    if progress:
+        progress(total, total)
     v = np.array(values, float)
     mins = np.column_stack([_minimized(a, v[:, 0]), _minimized(b, v[:, 1])])
     front = nondominated(mins)
@@ -253,6 +244,61 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
                   "units": (OBJECTIVE_UNITS[a], OBJECTIVE_UNITS[b]),
                   "starts": st.solver["starts"]},
     )
+
+
+_CHAIN_PROBLEM: Problem | None = None  # inherited by the forked chain workers
+
+
+def _chain(prob: Problem, anchor: dict, indices: list[int], eps, anchor_b: dict) -> dict:
+    """Solve a chain of sweep points, each warm-started from the previous one."""
+    out = {}
+    x = _consistent(prob, anchor)
+    for k in indices:
+        e_k = eps[k] + 1e-9 * max(1.0, abs(eps[k]))
+        sol = prob.solve(x, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
+        if sol["max_violation"] > 1e-6:
+            # warm start failed: retry from B's anchor (feasible for every eps >= B's min)
+            sol = prob.solve(_consistent(prob, anchor_b),
+                             prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
+        if sol["max_violation"] <= 1e-6:
+            sol = _refine_point(prob, sol, [None, e_k])
+            x = sol["x"]
+        out[k] = sol
+    return out
+
+
+def _chain_worker(args):
+    anchor, indices, eps, anchor_b = args
+    return _chain(_CHAIN_PROBLEM, anchor, indices, eps, anchor_b)
+
+
+def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
+    """Run the sweep chains, in forked workers when there are two cores."""
+    global _CHAIN_PROBLEM
+    import multiprocessing as mp
+    import os
+
+    workers = min(2, os.cpu_count() or 1) if workers is None else workers
+    sols: dict = {}
+    ctx = None
+    if workers > 1:
+        try:
+            ctx = mp.get_context("fork")
+        except ValueError:
+            ctx = None
+    if ctx is None:
+        for anchor, idx in chains:
+            sols.update(_chain(prob, anchor, idx, eps, anchor_b))
+        return sols
+    _CHAIN_PROBLEM = prob
+    try:
+        with ctx.Pool(processes=len(chains)) as pool:
+            for part in pool.map(_chain_worker,
+                                 [(anchor, idx, eps, anchor_b) for anchor, idx in chains]):
+                sols.update(part)
+    finally:
+        _CHAIN_PROBLEM = None
+    return sols
 
 
 def _consistent(prob: Problem, sol: dict) -> np.ndarray:
