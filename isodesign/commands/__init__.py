@@ -149,3 +149,21 @@ def write_text(path: str | Path, text: str) -> Path:
     p = Path(path)
     p.write_text(text, encoding="utf-8")
     return p
+
+
+def write_result(res, args, summary_text: str) -> int:
+    """Print a result's summary, write its table (``-o``, ``-`` = standard output) and
+    its plot (``--plot``); shared by the commands that produce one result object."""
+    to_stdout = args.output == "-"
+    if not to_stdout:
+        print(summary_text)
+    if args.output:
+        df = res.to_frame()
+        df.to_csv(sys.stdout if to_stdout else args.output, index=False)
+        if not to_stdout:
+            print(f"wrote {args.output} ({len(df)} rows)")
+    if args.plot:
+        res.plot(args.plot)
+        if not to_stdout:
+            print(f"wrote {args.plot}")
+    return 0

@@ -212,7 +212,7 @@ def run(args) -> int:
     """Run ``isodesign response``."""
     import warnings
 
-    from isodesign.commands import check_output_path
+    from isodesign.commands import check_output_path, write_result
     from isodesign.errors import ModelValidityWarning
     from isodesign.response import band_response
 
@@ -237,17 +237,5 @@ def run(args) -> int:
     for line in res.warnings:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"
-    if not to_stdout:
-        print(summary(res, label, not args.design_pressure))
-    if args.output:
-        import sys
-
-        df = res.to_frame()
-        df.to_csv(sys.stdout if to_stdout else args.output, index=False)
-        if not to_stdout:
-            print(f"wrote {args.output} ({len(df)} rows)")
-    if args.plot:
-        res.plot(args.plot)
-        if not to_stdout:
-            print(f"wrote {args.plot}")
-    return 0
+    return write_result(res, args, "" if to_stdout else summary(res, label,
+                                                                not args.design_pressure))

@@ -85,7 +85,13 @@ def run(args) -> int:
     """Run ``isodesign transmissibility``."""
     import warnings
 
-    from isodesign.commands import FREQUENCY_UNITS, LENGTH_UNITS, check_output_path, parse_values
+    from isodesign.commands import (
+        FREQUENCY_UNITS,
+        LENGTH_UNITS,
+        check_output_path,
+        parse_values,
+        write_result,
+    )
     from isodesign.commands.response import load_design, make_payload
     from isodesign.errors import ModelValidityWarning
     from isodesign.response import harmonic_response
@@ -111,17 +117,5 @@ def run(args) -> int:
     for line in res.warnings:
         warnings.warn(line, ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"
-    if not to_stdout:
-        print(summary(res, label, not args.design_pressure))
-    if args.output:
-        import sys
-
-        df = res.to_frame()
-        df.to_csv(sys.stdout if to_stdout else args.output, index=False)
-        if not to_stdout:
-            print(f"wrote {args.output} ({len(df)} rows)")
-    if args.plot:
-        res.plot(args.plot)
-        if not to_stdout:
-            print(f"wrote {args.plot}")
-    return 0
+    return write_result(res, args, "" if to_stdout else summary(res, label,
+                                                                not args.design_pressure))
