@@ -30,6 +30,11 @@ Trust
   finds the range of D_c over which the objective stays within a tolerance of
   the optimum and returns the largest D_c in it (the most manufacturable:
   larger bores clog less and are easier to make to tolerance).
+* The peak of |T| is a semi-infinite constraint (every frequency): after a
+  solve the continuous peak is measured and, if it lies above the bound between
+  the sampled frequencies, movable grid frequencies (NLP parameters) are placed
+  around it and the NLP is solved again (an exchange method; see
+  :func:`continuous_peak_db`).
 * Failure is explicit: infeasible, iteration limit and restoration failure are
   reported with IPOPT's status, the most violated constraints and the best
   point found.
