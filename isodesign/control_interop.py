@@ -28,7 +28,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .capillary import FLOW_MODELS, QUASI_STEADY_INERTANCE_COEFFICIENT, poiseuille_resistance
+from .capillary import FLOW_MODELS, resistance_function
 from .diaphragm import diaphragm_model
 from .errors import InputError, check_choice, check_range
 
@@ -72,12 +72,10 @@ def resistance_coefficients(design, flow: str) -> tuple[float, float]:
     ``poiseuille``: ``(C_u, 0)``; ``quasi_steady``: ``(C_u, (4/3) L_c / A_c)``.
     """
     check_choice("flow", flow, RATIONAL_FLOW_MODELS)
-    c0 = float(poiseuille_resistance(design))
-    if flow == "poiseuille":
-        return c0, 0.0
-    return c0, QUASI_STEADY_INERTANCE_COEFFICIENT * design.capillary_length_m / (
-        design.capillary_area_m2
-    )
+    # the flow model itself at zero velocity: Re C is c0, Im C = w c1 (both models'
+    # small-amplitude resistance is frequency-independent, their inertance constant)
+    c = resistance_function(flow, design, 1.0)(0.0)
+    return float(np.asarray(c.re)), float(np.asarray(c.im))
 
 
 def transfer_function_polynomials(
