@@ -83,7 +83,7 @@ class Space:
     """Free design variables in the NLP's log scaling ``ln x = c + h z``, z in [-1, 1]."""
 
     def __init__(self, study):
-        from isodesign.optimize import _bounds
+        from isodesign.optimization.optimizer import _bounds
 
         b = _bounds(study)
         self.study = study
@@ -135,8 +135,8 @@ def _fmt_design(vals: dict) -> str:
 # ---------------------------------------------------------------------------
 def bench_optimize() -> dict:
     """``optimize(default_study())`` end to end, median of 3."""
-    from isodesign.optimize import optimize
-    from isodesign.study import default_study
+    from isodesign.optimization.optimizer import optimize
+    from isodesign.optimization.study import default_study
 
     load0 = _load()
     t, outs = _timed(lambda: optimize(default_study()), OPTIMIZE_REPEATS)
@@ -175,8 +175,8 @@ def bench_optimize() -> dict:
 
 def bench_optimize_breakdown() -> dict:
     """Informative: where the optimize time goes, each stage once (as optimize runs them)."""
-    import isodesign.optimize as opt_mod
-    from isodesign.optimize import (
+    import isodesign.optimization.optimizer as opt_mod
+    from isodesign.optimization.optimizer import (
         Problem,
         _flat_tolerance,
         _tie_break,
@@ -184,8 +184,8 @@ def bench_optimize_breakdown() -> dict:
         run_starts,
         start_points,
     )
+    from isodesign.optimization.study import default_study
     from isodesign.response import band_response
-    from isodesign.study import default_study
 
     st = default_study()
     load0 = _load()
@@ -244,8 +244,8 @@ def bench_optimize_breakdown() -> dict:
     # the same 2-worker run in a fresh process with one OpenBLAS thread per process
     code = (
         "import time, warnings; warnings.simplefilter('ignore')\n"
-        "from isodesign.study import default_study\n"
-        "from isodesign.optimize import Problem, run_starts, start_points\n"
+        "from isodesign.optimization.study import default_study\n"
+        "from isodesign.optimization.optimizer import Problem, run_starts, start_points\n"
         "st = default_study(); p = Problem(st); s = start_points(st, p.scaling)\n"
         "t = time.perf_counter(); r = run_starts(p, s, workers=2)\n"
         "print(time.perf_counter() - t, sum(x['wall_s'] for x in r if isinstance(x, dict)))\n"
@@ -336,8 +336,8 @@ def bench_cli_optimize() -> dict:
 # ---------------------------------------------------------------------------
 def bench_pareto() -> dict:
     """``pareto_front(default_study(), points=20)``, median of 3."""
-    from isodesign.pareto import pareto_front
-    from isodesign.study import default_study
+    from isodesign.optimization.pareto import pareto_front
+    from isodesign.optimization.study import default_study
 
     load0 = _load()
     t, outs = _timed(lambda: pareto_front(default_study(), points=PARETO_POINTS), PARETO_REPEATS)
@@ -368,7 +368,7 @@ def bench_pareto() -> dict:
 def _nsga_problem(study, space, grid, archive):
     from pymoo.core.problem import ElementwiseProblem
 
-    from isodesign.optimize import evaluate_design
+    from isodesign.optimization.optimizer import evaluate_design
 
     names = list(
         evaluate_design(
@@ -413,10 +413,10 @@ def _nsga() -> dict:
     from pymoo.config import Config
     from pymoo.optimize import minimize
 
-    import isodesign.optimize as opt_mod
-    from isodesign.optimize import build_grid, evaluate_design
-    from isodesign.pareto import hypervolume_2d, nondominated
-    from isodesign.study import default_study
+    import isodesign.optimization.optimizer as opt_mod
+    from isodesign.optimization.optimizer import build_grid, evaluate_design
+    from isodesign.optimization.pareto import hypervolume_2d, nondominated
+    from isodesign.optimization.study import default_study
 
     Config.warnings["not_compiled"] = False
     if "pareto" not in _CACHE:
@@ -526,7 +526,7 @@ def _nsga() -> dict:
     # largest gains and every dominating one (at most 3 + 3 solves)
     cand = [int(i) for i in np.argsort(-gain)[:3] if math.isfinite(gain[i])]
     cand += [i for i, _ in dom[:3] if i not in cand]
-    from isodesign.optimize import Problem
+    from isodesign.optimization.optimizer import Problem
 
     prob = Problem(
         study.with_changes(objective={"kind": PARETO_OBJECTIVES[0]}), objectives=PARETO_OBJECTIVES
@@ -754,8 +754,8 @@ def bench_slsqp() -> dict:
     """scipy SLSQP (finite differences) maximizing the worst-band margin from the study start."""
     from scipy.optimize import minimize
 
-    from isodesign.optimize import build_grid, evaluate_design
-    from isodesign.study import default_study
+    from isodesign.optimization.optimizer import build_grid, evaluate_design
+    from isodesign.optimization.study import default_study
 
     study = default_study()
     space = Space(study)

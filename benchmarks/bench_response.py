@@ -18,8 +18,8 @@ TARGET_BAND_RESPONSE_S = 0.05
 
 
 def _setup():
-    from isodesign.design import SpringDesign
-    from isodesign.isolator import Payload
+    from isodesign.response.isolator import Payload
+    from isodesign.spring.design import SpringDesign
 
     return SpringDesign.reference(), Payload(400.0, 4)
 

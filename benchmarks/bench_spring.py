@@ -30,8 +30,8 @@ def bench_default_model() -> dict:
     dict
         A result row.
     """
-    from isodesign.design import SpringDesign
-    from isodesign.spring import complex_stiffness
+    from isodesign.spring.design import SpringDesign
+    from isodesign.spring.stiffness import complex_stiffness
 
     design = SpringDesign.reference()
     f = np.geomspace(0.2, 24.0, 200)
@@ -69,8 +69,8 @@ def bench_literal_model() -> dict:
         A result row (the median is in points per second; ``min``/``max`` are the
         slowest and fastest repeats converted the same way).
     """
-    from isodesign.design import SpringDesign
-    from isodesign.spring import complex_stiffness
+    from isodesign.spring.design import SpringDesign
+    from isodesign.spring.stiffness import complex_stiffness
 
     design = SpringDesign.reference()
     f = np.geomspace(0.2, 24.0, 1000)

@@ -11,20 +11,20 @@ import importlib
 __version__ = "0.1.0"
 
 _EXPORTS = {
-    "SpringDesign": "design",
-    "piston_area_from_diaphragm": "design",
-    "Gas": "gas",
-    "AIR": "gas",
-    "pressure_from_load": "gas",
-    "complex_stiffness": "spring",
-    "stiffness_function": "spring",
-    "StiffnessResult": "spring",
+    "SpringDesign": "spring.design",
+    "piston_area_from_diaphragm": "spring.design",
+    "Gas": "spring.gas",
+    "AIR": "spring.gas",
+    "pressure_from_load": "spring.gas",
+    "complex_stiffness": "spring.stiffness",
+    "stiffness_function": "spring.stiffness",
+    "StiffnessResult": "spring.stiffness",
     "InputError": "errors",
     "SolverError": "errors",
     "ModelValidityWarning": "errors",
-    "ViscoelasticDiaphragm": "diaphragm",
-    "TableDiaphragm": "diaphragm",
-    "NoDiaphragm": "diaphragm",
+    "ViscoelasticDiaphragm": "spring.diaphragm",
+    "TableDiaphragm": "spring.diaphragm",
+    "NoDiaphragm": "spring.diaphragm",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -10,6 +10,8 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
+from isodesign.optimization.study import MAXIMIZED
+
 __all__ = ["optimization_plot", "pareto_plot", "plot_stiffness"]
 
 _LINESTYLES = ("-", "--", ":", "-.")
@@ -140,7 +142,7 @@ def optimization_plot(result, path: str | Path, *, dpi: int = 130) -> Path:
     Parameters
     ----------
     result : OptimizationResult
-        A feasible result of :func:`isodesign.optimize.optimize` (with
+        A feasible result of :func:`isodesign.optimization.optimizer.optimize` (with
         ``analysis`` and ``start_analysis``).
     path : str or Path
         Output file (``.png``, ``.pdf``, ``.svg``).
@@ -236,7 +238,6 @@ def pareto_plot(result, path: str | Path, *, annotate: int = 5, dpi: int = 130) 
     """
     import numpy as np
 
-    from .study import MAXIMIZED
 
     a, b = result.objectives
     sa, ua, na = OBJECTIVE_DISPLAY.get(a, (1.0, "", a))

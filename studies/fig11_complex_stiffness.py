@@ -11,7 +11,7 @@ paper's Table 2 frequencies and a fine log grid) at 0.05, 0.15 and 0.5 mm, for
 (c) the package's self-consistent models (``flow="quasi_steady"`` and
     ``flow="womersley"`` with ``amplitude_mode="self_consistent"``);
 (d) optionally, a direct time-domain integration of the nonlinear lumped
-    equations (``isodesign.simulate.simulate_grid``) as an independent check of
+    equations (``isodesign.spring.simulate.simulate_grid``) as an independent check of
     the harmonic balance behind (c).
 
 Every curve includes the default diaphragm (``"viscoelastic"``, illustrative
@@ -47,9 +47,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from isodesign.design import SpringDesign
 from isodesign.errors import ModelValidityWarning
-from isodesign.spring import complex_stiffness
+from isodesign.spring.design import SpringDesign
+from isodesign.spring.stiffness import complex_stiffness
 
 #: The paper's Table 2 excitation frequencies, Hz.
 TABLE2_FREQUENCIES_HZ = (
@@ -149,7 +149,7 @@ def evaluate_curves(design: SpringDesign, grids: dict[str, np.ndarray]) -> pd.Da
     pandas.DataFrame
         One row per (model, diaphragm, grid, frequency, amplitude) with the
         complex stiffness and every diagnostic column of
-        :meth:`isodesign.spring.StiffnessResult.to_frame`.
+        :meth:`isodesign.spring.stiffness.StiffnessResult.to_frame`.
     """
     frames = []
     for key, spec in MODELS.items():
@@ -176,7 +176,7 @@ def evaluate_curves(design: SpringDesign, grids: dict[str, np.ndarray]) -> pd.Da
 def run_simulation(design: SpringDesign) -> pd.DataFrame | None:
     """Time-domain check of the self-consistent quasi-steady model.
 
-    Calls ``isodesign.simulate.simulate_grid(design, f, X, flow="quasi_steady",
+    Calls ``isodesign.spring.simulate.simulate_grid(design, f, X, flow="quasi_steady",
     diaphragm="viscoelastic")`` on :data:`SIMULATION_FREQUENCIES_HZ` x
     :data:`AMPLITUDES_M` and compares with the harmonic balance.
 
@@ -190,12 +190,12 @@ def run_simulation(design: SpringDesign) -> pd.DataFrame | None:
     pandas.DataFrame or None
         One row per point: simulated and harmonic-balance stiffness and their
         relative differences; ``None`` (with a printed note) when
-        ``isodesign.simulate`` is not available.
+        ``isodesign.spring.simulate`` is not available.
     """
     try:
-        from isodesign.simulate import simulate_grid
+        from isodesign.spring.simulate import simulate_grid
     except ImportError as exc:
-        print(f"note: time-domain check skipped: isodesign.simulate is not available ({exc})")
+        print(f"note: time-domain check skipped: isodesign.spring.simulate is not available ({exc})")
         return None
     f = np.asarray(SIMULATION_FREQUENCIES_HZ)
     x = np.asarray(AMPLITUDES_M)
@@ -630,7 +630,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--no-simulation",
         action="store_true",
-        help="skip the time-domain check (isodesign.simulate)",
+        help="skip the time-domain check (isodesign.spring.simulate)",
     )
     ap.add_argument(
         "--fine-points",

@@ -1,7 +1,7 @@
 """Optimal spring against payload mass: the default study rerun for 300 to 1200 kg.
 
 For each payload mass (on the default study's 4 isolators) the default study
-(:func:`isodesign.study.default_study`: reference spring hardware, VC-A floor,
+(:func:`isodesign.optimization.study.default_study`: reference spring hardware, VC-A floor,
 VC-C needed in the 4-80 Hz bands, total volume <= 6 L, ...) is optimized again
 from scratch with ``study.with_changes(payload={"mass_kg": m})``; each run is
 independent (its own multi-start). The chamber pressure follows the payload
@@ -34,9 +34,9 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from isodesign.optimize import optimize
-from isodesign.record import variables_at_bounds
-from isodesign.study import default_study
+from isodesign.io.record import variables_at_bounds
+from isodesign.optimization.optimizer import optimize
+from isodesign.optimization.study import default_study
 
 #: Payload masses of the sweep, kg (on the default study's 4 isolators).
 DEFAULT_MASSES_KG = (300.0, 450.0, 600.0, 800.0, 1000.0, 1200.0)

@@ -20,7 +20,7 @@ from isodesign.commands.stiffness import (
     FLOW_CHOICES,
     TABLE2_FREQUENCIES_HZ,
 )
-from isodesign.designfile import design_to_toml, reference_design_path
+from isodesign.io.designfile import design_to_toml, reference_design_path
 
 STIFFNESS_COLUMNS = (
     "frequency_hz",
@@ -96,8 +96,8 @@ def test_command_table_modules_follow_the_protocol():
 
 
 def test_choices_match_the_library():
-    from isodesign.capillary import FLOW_MODELS
-    from isodesign.spring import AMPLITUDE_MODES
+    from isodesign.spring.capillary import FLOW_MODELS
+    from isodesign.spring.stiffness import AMPLITUDE_MODES
 
     assert FLOW_CHOICES == FLOW_MODELS
     assert AMPLITUDE_MODE_CHOICES == AMPLITUDE_MODES

@@ -18,7 +18,7 @@ import pytest
 
 from isodesign.cli import main
 from isodesign.commands.optimize import OUTPUT_FILES
-from isodesign.study import default_study, load_study
+from isodesign.optimization.study import default_study, load_study
 
 FAST_STUDY = """\
 name = "fast"
@@ -87,7 +87,7 @@ def test_default_study_file_is_the_builtin_study():
 
 
 def test_resolved_study_toml_round_trips(tmp_path, fast_study):
-    from isodesign.record import study_toml
+    from isodesign.io.record import study_toml
 
     st = load_study(fast_study).with_changes(solver={"starts": 3, "seed": 7})
     p = tmp_path / "resolved.toml"
@@ -100,7 +100,7 @@ NOMINAL_BANDS_HZ = (1, 1.25, 1.6, 2, 2.5, 3.15, 4, 5, 6.3, 8, 10, 12.5, 16, 20, 
 
 
 def test_resolved_study_makes_a_floor_csv_path_absolute(tmp_path):
-    from isodesign.record import study_toml
+    from isodesign.io.record import study_toml
 
     sub = tmp_path / "studies"
     sub.mkdir()
@@ -280,8 +280,8 @@ def test_output_must_be_given(capsys):
 # -- pareto ------------------------------------------------------------------------------------
 def test_pareto_command_constants_match_the_library():
     from isodesign.commands import pareto as cmd
-    from isodesign.pareto import DEFAULT_OBJECTIVES
-    from isodesign.study import OBJECTIVES
+    from isodesign.optimization.pareto import DEFAULT_OBJECTIVES
+    from isodesign.optimization.study import OBJECTIVES
 
     assert cmd.DEFAULT_OBJECTIVES == DEFAULT_OBJECTIVES
     assert set(cmd.OBJECTIVE_CHOICES) == set(OBJECTIVES)

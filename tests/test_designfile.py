@@ -10,7 +10,7 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from isodesign import Gas, InputError, SpringDesign, piston_area_from_diaphragm, pressure_from_load
-from isodesign.designfile import (
+from isodesign.io.designfile import (
     DESIGN_KEYS,
     design_from_dict,
     design_to_toml,

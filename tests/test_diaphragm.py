@@ -8,14 +8,14 @@ import numpy as np
 import pytest
 
 from isodesign import SpringDesign, complex_stiffness
-from isodesign.design import piston_area_from_diaphragm
-from isodesign.diaphragm import (
+from isodesign.errors import InputError
+from isodesign.spring.design import piston_area_from_diaphragm
+from isodesign.spring.diaphragm import (
     NoDiaphragm,
     TableDiaphragm,
     ViscoelasticDiaphragm,
     diaphragm_model,
 )
-from isodesign.errors import InputError
 
 TWO_PI = 2.0 * math.pi
 

@@ -1,4 +1,4 @@
-"""Tests of isodesign.isolator: payload, transmissibility formulas, Zener form, tilt margin."""
+"""Tests of isodesign.response.isolator: payload, transmissibility formulas, Zener form, tilt margin."""
 
 from __future__ import annotations
 
@@ -7,11 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from isodesign.cplx import Cx
-from isodesign.design import SpringDesign
 from isodesign.errors import InputError
-from isodesign.gas import P_ATM
-from isodesign.isolator import (
+from isodesign.numerics.cplx import Cx
+from isodesign.response.isolator import (
     Payload,
     loaded_design,
     natural_frequency_hz,
@@ -22,6 +20,8 @@ from isodesign.isolator import (
     zener_optimum,
     zener_transmissibility,
 )
+from isodesign.spring.design import SpringDesign
+from isodesign.spring.gas import P_ATM
 
 
 @pytest.fixture(scope="module")

@@ -16,9 +16,7 @@ import pytest
 from scipy.optimize import brentq, minimize_scalar
 
 from isodesign.errors import SolverError
-from isodesign.gas import AIR, G_STANDARD, P_ATM
-from isodesign.isolator import natural_frequency_hz, zener_damping_ratio
-from isodesign.optimize import (
+from isodesign.optimization.optimizer import (
     FLAT_TOLERANCE_DB,
     RECHECK_RTOL,
     TIE_BREAK_SLACK,
@@ -26,7 +24,9 @@ from isodesign.optimize import (
     evaluate_design,
     optimize,
 )
-from isodesign.study import DESIGN_VARIABLES, MAXIMIZED, default_study
+from isodesign.optimization.study import DESIGN_VARIABLES, MAXIMIZED, default_study
+from isodesign.response.isolator import natural_frequency_hz, zener_damping_ratio
+from isodesign.spring.gas import AIR, G_STANDARD, P_ATM
 
 #: Every constraint of a study switched off.
 ALL_OFF = {

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from isodesign.errors import InputError
-from isodesign.optimize import evaluate_design, optimize
-from isodesign.pareto import hypervolume_2d, nondominated, pareto_front
-from isodesign.study import default_study
+from isodesign.optimization.optimizer import evaluate_design, optimize
+from isodesign.optimization.pareto import hypervolume_2d, nondominated, pareto_front
+from isodesign.optimization.study import default_study
 
 STAIRS = [(1.0, 3.0), (2.0, 2.0), (3.0, 1.0)]
 

@@ -8,29 +8,10 @@ import warnings
 import numpy as np
 import pytest
 
-from isodesign.bands import third_octave_bands
-from isodesign.cplx import Cx
-from isodesign.criteria import FloorSpectrum, criterion
-from isodesign.design import SpringDesign
-from isodesign.diaphragm import ViscoelasticDiaphragm
 from isodesign.errors import InputError, ModelValidityWarning
-from isodesign.isolator import (
-    Payload,
-    loaded_design,
-    relative_transmissibility,
-    zener_damping_ratio,
-    zener_optimum,
-    zener_transmissibility,
-)
-from isodesign.linearization import (
-    EQUIVALENT_AMPLITUDE_FACTOR,
-    band_margin_db,
-    band_mean_square,
-    rayleigh_average,
-    rayleigh_rule,
-    response_grid,
-    stroke_variance,
-)
+from isodesign.floor.bands import third_octave_bands
+from isodesign.floor.criteria import FloorSpectrum, criterion
+from isodesign.numerics.cplx import Cx
 from isodesign.response import (
     LINEAR_REFERENCE_AMPLITUDE_M,
     band_response,
@@ -41,7 +22,26 @@ from isodesign.response import (
     to_frd,
     to_transfer_function,
 )
-from isodesign.spring import complex_stiffness
+from isodesign.response.isolator import (
+    Payload,
+    loaded_design,
+    relative_transmissibility,
+    zener_damping_ratio,
+    zener_optimum,
+    zener_transmissibility,
+)
+from isodesign.response.linearization import (
+    EQUIVALENT_AMPLITUDE_FACTOR,
+    band_margin_db,
+    band_mean_square,
+    rayleigh_average,
+    rayleigh_rule,
+    response_grid,
+    stroke_variance,
+)
+from isodesign.spring.design import SpringDesign
+from isodesign.spring.diaphragm import ViscoelasticDiaphragm
+from isodesign.spring.stiffness import complex_stiffness
 
 TWO_PI = 2.0 * math.pi
 
@@ -622,10 +622,10 @@ def cli_main(monkeypatch):
 
 
 def test_cli_choices_match_the_package():
-    from isodesign.capillary import FLOW_MODELS
     from isodesign.commands import response as cmd
     from isodesign.response import BRANCHES, RANDOM_METHODS
-    from isodesign.spring import AMPLITUDE_MODES
+    from isodesign.spring.capillary import FLOW_MODELS
+    from isodesign.spring.stiffness import AMPLITUDE_MODES
 
     assert cmd.FLOW_CHOICES == FLOW_MODELS
     assert cmd.AMPLITUDE_MODE_CHOICES == AMPLITUDE_MODES

@@ -1,7 +1,7 @@
-"""Tests of isodesign.simulate: the nonlinear time-domain check of the frequency-domain model.
+"""Tests of isodesign.spring.simulate: the nonlinear time-domain check of the frequency-domain model.
 
 The measured numbers behind every tolerance are in docs/simulation.md (reproduce them with
-``python -m isodesign.simulate``).
+``python -m isodesign.spring.simulate``).
 """
 
 from __future__ import annotations
@@ -13,9 +13,9 @@ import numpy as np
 import pytest
 
 from isodesign import SpringDesign, complex_stiffness
-from isodesign.diaphragm import ViscoelasticDiaphragm
 from isodesign.errors import InputError, SolverError
-from isodesign.simulate import (
+from isodesign.spring.diaphragm import ViscoelasticDiaphragm
+from isodesign.spring.simulate import (
     REFERENCE_AMPLITUDES_M,
     REFERENCE_FREQUENCIES_HZ,
     SimulationGridResult,

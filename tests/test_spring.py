@@ -1,4 +1,4 @@
-"""Tests of the spring model k*(X_p, w): isodesign.spring, capillary, diaphragm.
+"""Tests of the spring model k*(X_p, w): isodesign.spring.stiffness, capillary, diaphragm.
 
 Every expected value comes from outside the code under test: analytic limits of
 Eq. 38, the three-parameter (Zener) isolator of physics notes section 5, the
@@ -17,16 +17,17 @@ import pytest
 from hypothesis import HealthCheck, assume, given, settings
 from hypothesis import strategies as st
 
-from isodesign.capillary import (
+from isodesign.errors import InputError, ModelValidityWarning
+from isodesign.spring.capillary import (
     churchill_friction_factor,
     churchill_friction_re_product,
     poiseuille_resistance,
     resistance,
     womersley_zeta,
 )
-from isodesign.design import SpringDesign
-from isodesign.errors import InputError, ModelValidityWarning
-from isodesign.spring import complex_stiffness, driven_velocity, stiffness_function
+from isodesign.spring.design import SpringDesign
+from isodesign.spring.equations import driven_velocity
+from isodesign.spring.stiffness import complex_stiffness, stiffness_function
 
 # --------------------------------------------------------------------------------------------
 # The paper's Table 1, written out here (not read from isodesign) for the hand computations

@@ -8,15 +8,15 @@ import re
 import pytest
 
 from isodesign.errors import InputError
-from isodesign.gas import G_STANDARD, P_ATM
-from isodesign.record import dumps_toml
-from isodesign.study import (
+from isodesign.io.record import dumps_toml
+from isodesign.optimization.study import (
     DESIGN_VARIABLES,
     OBJECTIVES,
     default_study,
     load_study,
     study_from_dict,
 )
+from isodesign.spring.gas import G_STANDARD, P_ATM
 
 SRC = "bad_study.toml"
 

@@ -82,7 +82,7 @@ def run(args) -> int:
     from pathlib import Path
 
     from isodesign.commands.optimize import execute, prepare_output_dir
-    from isodesign.study import default_study
+    from isodesign.optimization.study import default_study
 
     root = Path(args.output)
     print("== 1. optimization of the default study (isodesign optimize) ==")

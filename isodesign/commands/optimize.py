@@ -87,7 +87,7 @@ def load_study_from_args(args):
     ``study_resolved.toml``) replays the run without the options.
     """
     from isodesign.errors import InputError
-    from isodesign.study import default_study, load_study
+    from isodesign.optimization.study import default_study, load_study
 
     study = default_study() if args.study is None else load_study(args.study)
     changes = {}
@@ -149,7 +149,7 @@ class StartProgress:
     """A rich progress bar over the starts (a no-op when disabled).
 
     Use as a context manager; call it as ``progress(done, total, out)`` (the
-    callback of :func:`isodesign.optimize.optimize`).
+    callback of :func:`isodesign.optimization.optimizer.optimize`).
     """
 
     def __init__(self, enabled: bool, total: int, objective: str, what: str = "starts"):
@@ -189,8 +189,8 @@ class StartProgress:
     def __call__(self, done: int, total: int, out=None) -> None:
         if self._progress is None:
             return
-        from isodesign.optimize import objective_value_to_natural
-        from isodesign.study import MAXIMIZED
+        from isodesign.optimization.optimizer import objective_value_to_natural
+        from isodesign.optimization.study import MAXIMIZED
 
         if isinstance(out, dict) and out.get("max_violation", 1.0) <= 1e-6:
             v = objective_value_to_natural(self.objective, out["J"])
@@ -377,7 +377,7 @@ def summary(result, design: dict) -> str:
 
 def failure_report(result) -> str:
     """Report of a run without a feasible design: status, violations, best point."""
-    from isodesign.record import constraint_rows
+    from isodesign.io.record import constraint_rows
 
     cons = {c["name"]: c for c in constraint_rows(result)}
     lines = [
@@ -424,8 +424,8 @@ def bands_frame(result):
 
 def write_outputs(result, out, args, *, plots: bool) -> list:
     """Write every output file of a run; return the paths written."""
-    from isodesign.designfile import save_design
-    from isodesign.record import (
+    from isodesign.io.designfile import save_design
+    from isodesign.io.record import (
         optimization_design,
         optimization_record,
         study_toml,
@@ -464,7 +464,7 @@ def write_outputs(result, out, args, *, plots: bool) -> list:
 
 def run_optimization(study, args):
     """``optimize(study)`` with the progress bar of ``args``."""
-    from isodesign.optimize import optimize
+    from isodesign.optimization.optimizer import optimize
 
     with StartProgress(progress_enabled(args), study.solver["starts"],
                        study.objective["kind"]) as bar:
@@ -476,14 +476,14 @@ def execute(study, out, args) -> int:
     import warnings
 
     from isodesign.errors import ModelValidityWarning, SolverError
-    from isodesign.record import environment, write_json
+    from isodesign.io.record import environment, write_json
 
     try:
         result = run_optimization(study, args)
     except SolverError as exc:
         # no result object: record what is known, then let the CLI report it (status 1)
         from isodesign import __version__
-        from isodesign.record import command_line, resolved_study_dict
+        from isodesign.io.record import command_line, resolved_study_dict
 
         write_json(out / "record.json", {
             "kind": "isodesign optimize",
@@ -500,7 +500,7 @@ def execute(study, out, args) -> int:
         print(f"isodesign: error: no feasible design ({result.status}); most violated: "
               f"{worst}; wrote {out / 'record.json'}", file=sys.stderr)
         return 1
-    from isodesign.record import optimization_design
+    from isodesign.io.record import optimization_design
 
     design = optimization_design(result)
     if args.quiet:

@@ -17,10 +17,10 @@ import sys
 
 from isodesign.commands.optimize import add_study_arguments
 
-#: Default objectives (must equal isodesign.pareto.DEFAULT_OBJECTIVES; a test checks it).
+#: Default objectives (must equal isodesign.optimization.pareto.DEFAULT_OBJECTIVES; a test checks it).
 #: Kept here so that --help does not load NumPy.
 DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
-#: Objective names (must equal the keys of isodesign.study.OBJECTIVES; a test checks it).
+#: Objective names (must equal the keys of isodesign.optimization.study.OBJECTIVES; a test checks it).
 OBJECTIVE_CHOICES = (
     "worst_band_margin",
     "rms_velocity",
@@ -76,7 +76,7 @@ def parse_objectives(text: str) -> tuple[str, str]:
 
 def _natural_points(result) -> dict:
     """Reference and ideal points back in each objective's natural sense and unit."""
-    from isodesign.study import MAXIMIZED
+    from isodesign.optimization.study import MAXIMIZED
 
     out = {}
     for name, pt in (("reference_point", result.reference_point),
@@ -88,8 +88,8 @@ def _natural_points(result) -> dict:
 
 def pareto_json(result) -> dict:
     """The content of ``pareto.json``."""
-    from isodesign.optimize import OBJECTIVE_UNITS
-    from isodesign.study import MAXIMIZED
+    from isodesign.optimization.optimizer import OBJECTIVE_UNITS
+    from isodesign.optimization.study import MAXIMIZED
 
     nat = _natural_points(result)
     return {
@@ -172,8 +172,8 @@ def run(args) -> int:
     study = load_study_from_args(args)
     out = prepare_output_dir(args.output)
 
-    from isodesign.pareto import pareto_front
-    from isodesign.record import pareto_record, study_toml, write_json
+    from isodesign.io.record import pareto_record, study_toml, write_json
+    from isodesign.optimization.pareto import pareto_front
 
     with _SweepProgress(progress_enabled(args), args.points, objectives[0]) as bar:
         result = pareto_front(study, objectives, args.points, progress=bar)

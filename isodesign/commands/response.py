@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import argparse
 
-#: Model options (must match isodesign.capillary.FLOW_MODELS, isodesign.spring.AMPLITUDE_MODES
-#: and isodesign.response.RANDOM_METHODS; tests check it). Kept here so that --help does
+#: Model options (must match isodesign.spring.capillary.FLOW_MODELS, isodesign.spring.stiffness.AMPLITUDE_MODES
+#: and isodesign.response.random_input.RANDOM_METHODS; tests check it). Kept here so that --help does
 #: not load NumPy.
 FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
 AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
@@ -124,11 +124,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def load_design(path):
     """The design of ``path`` (or the reference spring) and its label."""
-    from isodesign.design import SpringDesign
+    from isodesign.spring.design import SpringDesign
 
     if path is None:
         return SpringDesign.reference(), "reference spring (paper Table 1)"
-    from isodesign.designfile import load_design as _load
+    from isodesign.io.designfile import load_design as _load
 
     return _load(path), str(path)
 
@@ -136,7 +136,7 @@ def load_design(path):
 def make_payload(args, **extra):
     """The Payload of ``--payload-kg`` and ``--isolators`` (InputError naming the option)."""
     from isodesign.errors import InputError
-    from isodesign.isolator import Payload
+    from isodesign.response.isolator import Payload
 
     n = args.isolators
     if n is None or n < 1:

@@ -32,8 +32,8 @@ TABLE2_FREQUENCIES_HZ = (
 #: Default amplitudes (m): 0.05, 0.15 and 0.5 mm, low, middle and top of Table 2.
 DEFAULT_AMPLITUDES_M = (0.05e-3, 0.15e-3, 0.5e-3)
 
-#: Model options (must match isodesign.capillary.FLOW_MODELS and
-#: isodesign.spring.AMPLITUDE_MODES; tests check it). Kept here, not imported,
+#: Model options (must match isodesign.spring.capillary.FLOW_MODELS and
+#: isodesign.spring.stiffness.AMPLITUDE_MODES; tests check it). Kept here, not imported,
 #: so that ``isodesign stiffness --help`` does not load NumPy.
 FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
 AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
@@ -115,11 +115,11 @@ def grid_from_args(args) -> tuple[list[float], list[float]]:
 
 def load(path):
     """The design of ``path``, or the reference spring for ``None``; and its label."""
-    from isodesign.design import SpringDesign
+    from isodesign.spring.design import SpringDesign
 
     if path is None:
         return SpringDesign.reference(), "reference spring (paper Table 1)"
-    from isodesign.designfile import load_design
+    from isodesign.io.designfile import load_design
 
     return load_design(path), str(path)
 
@@ -130,7 +130,7 @@ def model_label(flow: str, amplitude_mode: str, diaphragm: str) -> str:
 
 
 def compute(design, freq, amp, *, flow, amplitude_mode, diaphragm, label=None):
-    """Run :func:`~isodesign.spring.complex_stiffness`; one warning per failed validity check.
+    """Run :func:`~isodesign.spring.stiffness.complex_stiffness`; one warning per failed validity check.
 
     Returns
     -------
@@ -139,7 +139,7 @@ def compute(design, freq, amp, *, flow, amplitude_mode, diaphragm, label=None):
     import warnings
 
     from isodesign.errors import ModelValidityWarning
-    from isodesign.spring import complex_stiffness
+    from isodesign.spring.stiffness import complex_stiffness
 
     res = complex_stiffness(
         design, freq, amp, flow=flow, amplitude_mode=amplitude_mode, diaphragm=diaphragm, warn=False

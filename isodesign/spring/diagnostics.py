@@ -15,14 +15,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .capillary import (
+from isodesign.numerics.cplx import Cx
+from isodesign.spring.capillary import (
     LAMINAR_REYNOLDS_LIMIT,
     QUASI_STEADY_WOMERSLEY_LIMIT,
     ZHAO_RANGES,
     flow_regime,
     kinetic_reynolds,
 )
-from .cplx import Cx
+from isodesign.spring.equations import kinematic_velocity
 
 __all__ = ["CHECK_DESCRIPTIONS", "Diagnostics", "evaluate_diagnostics"]
 
@@ -174,7 +175,7 @@ def evaluate_diagnostics(
     iterations: np.ndarray | None = None,
 ) -> Diagnostics:
     """Compute :class:`Diagnostics` for evaluated points (NumPy only)."""
-    from .spring import kinematic_velocity
+
 
     d = design
     shape = np.broadcast_shapes(np.shape(omega), np.shape(amplitude_m), np.shape(velocity))

@@ -25,19 +25,19 @@ from the top to the bottom chamber):
   Eqs. 14-15 with ``kappa -> n``.
 * Tube, ``flow="quasi_steady"``: ``m_dot = rho_up A_c u`` (``rho_up``: density
   of the upstream chamber) and the plug-flow momentum balance (Eq. 17 with the
-  inertance coefficient of :data:`~isodesign.capillary.QUASI_STEADY_INERTANCE_COEFFICIENT`,
+  inertance coefficient of :data:`~isodesign.spring.capillary.QUASI_STEADY_INERTANCE_COEFFICIENT`,
   Eq. 20 with the minor loss)::
 
       rho_tube L_c c_I du/dt = (p_t - p_b) - L_c mu Phi(Re) u / (2 D_c^2) - K rho_up |u| u / 2
 
   with ``Phi = f Re`` the Churchill all-regime friction
-  (:func:`~isodesign.capillary.churchill_friction_re_product`) at the
+  (:func:`~isodesign.spring.capillary.churchill_friction_re_product`) at the
   instantaneous ``Re = rho_up |u| D_c / mu`` (``Phi -> 64`` at ``u -> 0``: the
   laminar law is linear), and ``rho_tube = (rho_t + rho_b)/2`` (smooth across
   ``u = 0``).
 * Tube, ``flow="poiseuille"``: no inertia, no minor loss (Eq. 41's model):
   ``m_dot = (p_t - p_b) / C_u`` with ``C_u`` from
-  :func:`~isodesign.capillary.poiseuille_resistance`.
+  :func:`~isodesign.spring.capillary.poiseuille_resistance`.
 * Force on the piston ``F = A_p (p_t - p0)`` (Eq. 3); with ``F_1 = a cos wt +
   b sin wt`` its first harmonic, ``k_air = (b + j a) / X``; the diaphragm's
   describing-function model is added in the frequency domain (Eq. 42).
@@ -60,15 +60,17 @@ from typing import Any
 
 import numpy as np
 
-from .capillary import (
+from isodesign.errors import InputError, SolverError, check_positive, check_range
+from isodesign.spring.amplitude import solve_velocity_amplitude
+from isodesign.spring.capillary import (
     QUASI_STEADY_INERTANCE_COEFFICIENT,
     churchill_friction_re_product,
     poiseuille_resistance,
 )
-from .design import SpringDesign
-from .diaphragm import diaphragm_model
-from .errors import InputError, SolverError, check_positive, check_range
-from .spring import air_stiffness, solve_velocity_amplitude
+from isodesign.spring.design import SpringDesign
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import air_stiffness
+from isodesign.spring.stiffness import complex_stiffness
 
 __all__ = [
     "MAX_STROKE_FRACTION",
@@ -171,7 +173,7 @@ class SimulationResult:
 
     def to_frame(self):
         """One-row :class:`pandas.DataFrame` (same column names as
-        :meth:`isodesign.spring.StiffnessResult.to_frame` where they overlap)."""
+        :meth:`isodesign.spring.stiffness.StiffnessResult.to_frame` where they overlap)."""
         import pandas as pd
 
         df = pd.DataFrame([self._row()])
@@ -667,7 +669,7 @@ def simulate_stiffness(
         loss). Other frequency-domain models raise :class:`InputError`.
     diaphragm : str or model
         Diaphragm model added in the frequency domain
-        (:func:`isodesign.diaphragm.diaphragm_model`), e.g. ``"none"``.
+        (:func:`isodesign.spring.diaphragm.diaphragm_model`), e.g. ``"none"``.
     rtol : float
         Relative (and, on the scaled states, absolute) tolerance of the
         integrator, per case.
@@ -800,7 +802,7 @@ def simulate_grid(
 def agreement_table(grid: SimulationGridResult, design, *, modes=("self_consistent", "kinematic")):
     """Compare the simulated air stiffness with the frequency-domain model.
 
-    For each amplitude mode of :func:`isodesign.spring.complex_stiffness` (same
+    For each amplitude mode of :func:`isodesign.spring.stiffness.complex_stiffness` (same
     flow law, ``diaphragm="none"``: the diaphragm is added identically on both
     sides and would only dilute the errors), the columns ``{mode}_abs_err``
     (``||k_fd|/|k_sim| - 1|``), ``{mode}_re_err``, ``{mode}_im_err`` (relative
@@ -824,7 +826,6 @@ def agreement_table(grid: SimulationGridResult, design, *, modes=("self_consiste
     """
     import pandas as pd
 
-    from .spring import complex_stiffness
 
     k_sim = grid.k_air.ravel()
     eta_sim = k_sim.imag / k_sim.real

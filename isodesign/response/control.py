@@ -28,9 +28,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .capillary import FLOW_MODELS, resistance_function
-from .diaphragm import diaphragm_model
-from .errors import InputError, check_choice, check_range
+from isodesign.errors import InputError, check_choice, check_range
+from isodesign.response.model import linear_transmissibility, prepare_inputs
+from isodesign.spring.capillary import FLOW_MODELS, resistance_function
+from isodesign.spring.diaphragm import diaphragm_model
 
 __all__ = [
     "RATIONAL_FLOW_MODELS",
@@ -92,7 +93,7 @@ def transfer_function_polynomials(
     Parameters
     ----------
     design : SpringDesign
-        With p0 set (see :func:`isodesign.isolator.loaded_design`).
+        With p0 set (see :func:`isodesign.response.isolator.loaded_design`).
     mass_per_isolator_kg : float
     flow : {'poiseuille', 'quasi_steady'}
     output : {'transmissibility', 'relative', 'stiffness'}
@@ -160,10 +161,9 @@ def to_transfer_function(
     """
     import control
 
-    from .response import _prepare
 
     check_rational(flow, diaphragm)
-    d, payload = _prepare(design, payload, derive_pressure)
+    d, payload = prepare_inputs(design, payload, derive_pressure)
     num, den = transfer_function_polynomials(d, payload.mass_per_isolator_kg, flow, output)
     return control.TransferFunction(num, den)
 
@@ -181,7 +181,7 @@ def to_frd(
 ):
     """The linear-regime transmissibility as a ``control.FrequencyResponseData`` (any model).
 
-    ``T(jw)`` of :func:`isodesign.response.linear_transmissibility` at a fixed small stroke
+    ``T(jw)`` of :func:`isodesign.response.model.linear_transmissibility` at a fixed small stroke
     amplitude, on ``omega = 2 pi frequency_hz``.
 
     Parameters
@@ -190,7 +190,7 @@ def to_frd(
     frequency_hz : array_like, optional
         Default: 400 points log-spaced from 0.1 to 100 Hz.
     flow, amplitude_mode, diaphragm : str
-        Spring models (:func:`isodesign.spring.complex_stiffness`).
+        Spring models (:func:`isodesign.spring.stiffness.complex_stiffness`).
     amplitude_m : float
         Stroke amplitude of the linearization (default 1 um).
     derive_pressure : bool
@@ -201,7 +201,6 @@ def to_frd(
     """
     import control
 
-    from .response import linear_transmissibility
 
     f = np.geomspace(0.1, 100.0, 400) if frequency_hz is None else frequency_hz
     f = np.atleast_1d(np.asarray(f, dtype=float))

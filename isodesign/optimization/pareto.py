@@ -3,7 +3,7 @@
 :func:`pareto_front` minimizes objective A subject to ``objective B <= eps``
 for a sweep of ``eps`` between B's two anchors (B at A's optimum, and B's own
 optimum), each NLP warm-started from the previous solution with one
-parametric IPOPT solver built once (:class:`isodesign.optimize.Problem` with
+parametric IPOPT solver built once (:class:`isodesign.optimization.optimizer.Problem` with
 both objectives, parametric weights and bounds). The points are filtered for
 non-dominance; the front's
 hypervolume is computed in the normalized space of the two (minimized)
@@ -22,8 +22,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .errors import InputError, SolverError
-from .optimize import (
+from isodesign.errors import InputError, SolverError
+from isodesign.optimization.optimizer import (
     OBJECTIVE_UNITS,
     PEAK_ROUNDS,
     PEAK_TOLERANCE_DB,
@@ -35,7 +35,8 @@ from .optimize import (
     run_starts,
     start_points,
 )
-from .study import MAXIMIZED, OBJECTIVES, Study
+from isodesign.optimization.study import MAXIMIZED, OBJECTIVES, Study
+from isodesign.plotting import pareto_plot
 
 __all__ = ["DEFAULT_OBJECTIVES", "ParetoResult", "hypervolume_2d", "nondominated", "pareto_front"]
 
@@ -129,7 +130,6 @@ class ParetoResult:
 
     def plot(self, path) -> None:
         """PNG of the front with the designs annotated."""
-        from .plotting import pareto_plot
 
         pareto_plot(self, path)
 
@@ -148,8 +148,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
                  progress=None) -> ParetoResult:
     """Epsilon-constraint Pareto front of two objectives with warm starts.
 
-    One parametric NLP (:class:`isodesign.optimize.Problem` with both objectives)
-    is built once. Anchor A is :func:`isodesign.optimize.optimize` of the study
+    One parametric NLP (:class:`isodesign.optimization.optimizer.Problem` with both objectives)
+    is built once. Anchor A is :func:`isodesign.optimization.optimizer.optimize` of the study
     with objective A (multi-start, peak refinement, tie-break, re-check), so the
     front starts at the reported single-objective optimum; anchor B is B
     minimized from there. The sweep minimizes A subject to ``B <= eps`` for
@@ -308,7 +308,7 @@ def _consistent(prob: Problem, sol: dict) -> np.ndarray:
 
 
 def _refine_point(prob: Problem, sol: dict, eps) -> dict:
-    """The exchange method of :func:`isodesign.optimize.optimize` for one sweep point.
+    """The exchange method of :func:`isodesign.optimization.optimizer.optimize` for one sweep point.
 
     If the continuous peak of |T| exceeds the study's bound (or the sampled peak
     objective) by more than PEAK_TOLERANCE_DB, move five of the NLP's movable

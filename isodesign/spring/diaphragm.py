@@ -30,9 +30,10 @@ from pathlib import Path
 
 import numpy as np
 
-from . import backend as bk
-from .cplx import Cx
-from .errors import InputError, check_positive, check_range
+from isodesign.errors import InputError, check_positive, check_range
+from isodesign.io.files import read_csv_columns
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx
 
 __all__ = [
     "DIAPHRAGM_MODELS",
@@ -188,7 +189,6 @@ class TableDiaphragm:
         """Read a CSV with columns ``frequency_hz, amplitude_m, k_real_n_per_m,
         k_imag_n_per_m`` (one row per grid point, a full grid, any order;
         ``#`` comment lines allowed)."""
-        from .io import read_csv_columns
 
         cols = read_csv_columns(
             path,

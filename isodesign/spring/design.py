@@ -3,7 +3,7 @@
 A :class:`SpringDesign` holds SI values. Its fields may also be CasADi symbols
 (the optimizer replaces N, V_t0, L_c, D_c by decision variables with
 :func:`dataclasses.replace`); validation applies to numeric values only, and
-every derived quantity is computed through :mod:`isodesign.backend` so it works
+every derived quantity is computed through :mod:`isodesign.numerics.backend` so it works
 on both.
 
 Paper references: Table 1 (:meth:`SpringDesign.reference`), Eq. 39 (N), Eq. 40
@@ -17,9 +17,9 @@ import math
 from dataclasses import dataclass, field
 from typing import Any
 
-from . import backend as bk
-from .errors import InputError, check_positive, check_range
-from .gas import AIR, P_ATM, Gas, pressure_from_load
+from isodesign.errors import InputError, check_positive, check_range
+from isodesign.numerics import backend as bk
+from isodesign.spring.gas import AIR, P_ATM, Gas, pressure_from_load
 
 __all__ = ["SpringDesign", "piston_area_from_diaphragm"]
 

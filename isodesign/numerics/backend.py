@@ -15,7 +15,7 @@ Rules for code written against this module
 * No ``abs``, ``max``, ``min``, ``sqrt`` at 0 or Python ``if`` on values that may
   be symbolic. Use :func:`smooth_abs`, :func:`softplus`, :func:`smooth_max` or
   :func:`where` (CasADi ``if_else``) for switches that are continuous anyway.
-* Complex numbers are carried as (real, imag) pairs, see :mod:`isodesign.cplx`.
+* Complex numbers are carried as (real, imag) pairs, see :mod:`isodesign.numerics.cplx`.
 """
 
 from __future__ import annotations

@@ -1,4 +1,4 @@
-"""Design files: a :class:`~isodesign.design.SpringDesign` as a TOML document.
+"""Design files: a :class:`~isodesign.spring.design.SpringDesign` as a TOML document.
 
 Schema (SI values; see ``docs/design-file.md``)::
 
@@ -34,7 +34,10 @@ import math
 from pathlib import Path
 from typing import Any
 
-from .errors import InputError
+from isodesign.errors import InputError
+from isodesign.io.files import read_toml
+from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.gas import G_STANDARD, Gas, pressure_from_load
 
 __all__ = [
     "DESIGN_KEYS",
@@ -86,7 +89,7 @@ _SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas"))
 
 def reference_design_path() -> Path:
     """Path of the shipped design file of the paper's Table 1 spring."""
-    return Path(__file__).with_name("data") / "reference.toml"
+    return Path(__file__).parent.parent / "data" / "reference.toml"
 
 
 def _check_keys(d: dict, valid: dict[str, str], where: str, source: str) -> None:
@@ -137,7 +140,6 @@ def _with_source(exc: InputError, source: str) -> InputError:
 
 
 def _gas(d: Any, source: str):
-    from .gas import Gas
 
     if not isinstance(d, dict):
         raise InputError(f"{source}: gas: expected a table [gas], got {_toml_type(d)}")
@@ -157,7 +159,6 @@ def _gas(d: Any, source: str):
 
 
 def _pressure_from_load(d: Any, piston_area_m2: float, source: str) -> float:
-    from .gas import pressure_from_load
 
     if not isinstance(d, dict):
         raise InputError(f"{source}: load: expected a table [load], got {_toml_type(d)}")
@@ -177,7 +178,7 @@ def _pressure_from_load(d: Any, piston_area_m2: float, source: str) -> float:
 
 
 def design_from_dict(d: dict, source: str = "design"):
-    """Build a :class:`~isodesign.design.SpringDesign` from a design-file dictionary.
+    """Build a :class:`~isodesign.spring.design.SpringDesign` from a design-file dictionary.
 
     Parameters
     ----------
@@ -197,7 +198,6 @@ def design_from_dict(d: dict, source: str = "design"):
         conflicting alternatives (``piston_area_m2`` with diaphragm radii,
         ``pressure_pa`` with ``[load]``).
     """
-    from .design import SpringDesign, piston_area_from_diaphragm
 
     if not isinstance(d, dict):
         raise InputError(f"{source}: expected a TOML table of design keys, got {_toml_type(d)}")
@@ -280,7 +280,6 @@ def load_design(path):
         Unreadable or malformed file, or any schema error (the message names
         the file and the key).
     """
-    from .io import read_toml
 
     d = read_toml(path, what="design")
     return design_from_dict(d, source=f"design file {path}")
@@ -324,7 +323,7 @@ def design_to_toml(design, *, header: str | None = None) -> str:
 
     Floats are written with their shortest round-trip representation; the
     pressure is written as ``pressure_pa`` (with the load it carries as a
-    comment); gas fields equal to the defaults of :class:`~isodesign.gas.Gas`
+    comment); gas fields equal to the defaults of :class:`~isodesign.spring.gas.Gas`
     are written only for name, R, kappa and a fixed viscosity.
 
     Parameters
@@ -334,7 +333,6 @@ def design_to_toml(design, *, header: str | None = None) -> str:
     header : str, optional
         Comment lines placed at the top (without the ``#``).
     """
-    from .gas import G_STANDARD, Gas
 
     lines: list[str] = []
     if header:

@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from . import backend as bk
+from isodesign.numerics import backend as bk
 
 __all__ = ["Cx", "as_cx"]
 

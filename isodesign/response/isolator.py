@@ -10,7 +10,7 @@ and the relative motion (the spring's stroke) is ``x - x_f = (T - 1) x_f`` with
 ``T - 1 = (m/n) w^2 / (k* - (m/n) w^2)``.
 
 Every formula here is written once for NumPy and CasADi (complex values as
-:class:`~isodesign.cplx.Cx` pairs); solvers that close the amplitude
+:class:`~isodesign.numerics.cplx.Cx` pairs); solvers that close the amplitude
 dependence live in :mod:`isodesign.response`.
 
 Physics notes used: section 5 (Zener form, classical optimum), section 8
@@ -22,11 +22,11 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from . import backend as bk
-from .capillary import poiseuille_resistance
-from .cplx import Cx, as_cx
-from .errors import InputError, check_positive, check_range
-from .gas import G_STANDARD
+from isodesign.errors import InputError, check_positive, check_range
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx, as_cx
+from isodesign.spring.capillary import poiseuille_resistance
+from isodesign.spring.gas import G_STANDARD
 
 __all__ = [
     "Payload",
@@ -101,7 +101,7 @@ def loaded_design(design, payload: Payload):
 
     ``p0 = p_atm + m g / (n A_p)``: each of the payload's ``isolators`` identical springs
     carries an equal share of ``mass_kg`` under the payload's gravity ``g_m_s2``
-    (:meth:`isodesign.design.SpringDesign.with_load`).
+    (:meth:`isodesign.spring.design.SpringDesign.with_load`).
 
     Parameters
     ----------

@@ -15,7 +15,7 @@ Contents
 
 Units: SI inside (m, m/s, m/s^2, PSDs in (m/s)^2/Hz); frequencies in Hz.
 Only numpy is imported at module level; pandas is imported inside ``to_frame`` and friends.
-The band definitions live in :mod:`isodesign.bands` and are re-exported here.
+The band definitions live in :mod:`isodesign.floor.bands` and are re-exported here.
 """
 
 from __future__ import annotations
@@ -32,7 +32,8 @@ from typing import Any
 
 import numpy as np
 
-from isodesign.bands import (
+from isodesign.errors import InputError, check_choice, check_finite_array, check_positive
+from isodesign.floor.bands import (
     BAND_INDEX_MAX,
     BAND_INDEX_MIN,
     RELATIVE_BANDWIDTH,
@@ -41,7 +42,6 @@ from isodesign.bands import (
     band_power_weight,
     third_octave_bands,
 )
-from isodesign.errors import InputError, check_choice, check_finite_array, check_positive
 
 __all__ = [
     "QUANTITIES",

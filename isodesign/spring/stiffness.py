@@ -40,213 +40,32 @@ from typing import Any
 
 import numpy as np
 
-from . import backend as bk
-from .capillary import FLOW_MODELS, SMOOTH_FLOW_MODELS, resistance_function
-from .cplx import Cx
-from .diagnostics import Diagnostics, evaluate_diagnostics
-from .diaphragm import diaphragm_model
-from .errors import InputError, ModelValidityWarning, SolverError, check_choice, check_positive
+from isodesign.errors import (
+    InputError,
+    ModelValidityWarning,
+    SolverError,
+    check_choice,
+    check_positive,
+)
+from isodesign.spring.amplitude import solve_velocity_amplitude
+from isodesign.spring.capillary import FLOW_MODELS, SMOOTH_FLOW_MODELS, resistance_function
+from isodesign.spring.diagnostics import Diagnostics, evaluate_diagnostics
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import (
+    air_stiffness,
+    amplitude_residual,
+    kinematic_velocity,
+)
 
 __all__ = [
     "AMPLITUDE_MODES",
     "StiffnessResult",
-    "air_stiffness",
-    "amplitude_residual",
+    "check_models",
     "complex_stiffness",
-    "driven_velocity",
-    "kinematic_velocity",
-    "solve_velocity_amplitude",
     "stiffness_function",
 ]
 
 AMPLITUDE_MODES = ("self_consistent", "kinematic")
-
-
-# ---------------------------------------------------------------------------
-# backend-agnostic physics
-# ---------------------------------------------------------------------------
-def _jw_tau(design, omega, c: Cx) -> Cx:
-    """``j w tau = j w s C`` with ``s = V_b0/(n R T0)``."""
-    s = design.compliance_factor_s2_per_m2
-    return Cx(-omega * s * c.im, omega * s * c.re)
-
-
-def air_stiffness(design, omega, c: Cx) -> Cx:
-    """Air stiffness without diaphragm, Eq. 38, for a (complex) resistance C.
-
-    ``k_d* = k_s (1 + j w tau) / (N + 1 + j w tau)`` with ``k_s = n p0 A_p^2/V_t0``
-    (Eq. 40) and ``tau = V_b0 C / (n R T0)``. Limits: ``k_s/(N+1)`` as w -> 0 and
-    ``k_s`` as w -> inf (the tube blocks).
-    """
-    jwt = _jw_tau(design, omega, c)
-    return design.single_chamber_stiffness_n_per_m * (1.0 + jwt) / (1.0 + design.volume_ratio + jwt)
-
-
-def kinematic_velocity(design, omega, amplitude_m):
-    """Eq. 37: ``u_max = (A_p / A_c) X_p w`` (compressibility neglected)."""
-    return design.area_ratio * amplitude_m * omega
-
-
-def driven_velocity(design, omega, amplitude_m, c: Cx):
-    """Tube velocity amplitude that the chamber pressures drive for a given C.
-
-    ``U = (A_p/A_c) X w N / |1 + N + j w tau|`` (exact for the linearized
-    chambers, Eqs. 29-35).
-    """
-    d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
-    return design.volume_ratio * kinematic_velocity(design, omega, amplitude_m) / d.abs()
-
-
-def amplitude_residual(flow: str, design, omega, amplitude_m, log_velocity):
-    """Harmonic-balance residual ``F(x)`` of the self-consistent flow amplitude.
-
-    ``F(x) = x + ln|1 + N + j w s C(e^x)| - ln(N (A_p/A_c) X w)``, zero at the
-    self-consistent ``x = ln U``; smooth in every argument (an equality
-    constraint of the NLP, or the function of a rootfinder).
-    """
-    c = resistance_function(flow, design, omega)(bk.exp(log_velocity))
-    d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
-    q = design.volume_ratio * kinematic_velocity(design, omega, amplitude_m)
-    return log_velocity + 0.5 * bk.log(d.abs2()) - bk.log(q)
-
-
-# ---------------------------------------------------------------------------
-# NumPy solver
-# ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class _Solve:
-    velocity: np.ndarray
-    iterations: np.ndarray
-    converged: np.ndarray
-    residual: np.ndarray
-    resistance_re: np.ndarray
-    resistance_im: np.ndarray
-
-    @property
-    def resistance(self) -> Cx:
-        """The resistance C at the solution."""
-        return Cx(self.resistance_re, self.resistance_im)
-
-
-def solve_velocity_amplitude(
-    flow: str, design, omega, amplitude_m, *, tol: float = 1e-12, max_iter: int = 60
-) -> _Solve:
-    """Solve the self-consistent tube velocity amplitude on NumPy arrays.
-
-    Solves ``h(U) = U |D(U)| - N Q = 0`` (``D = 1 + N + j w s C(U)``, ``Q`` the
-    kinematic velocity of Eq. 37), the same root as :func:`amplitude_residual`,
-    without logarithms. ``h`` is increasing and every evaluation brackets the
-    root: ``N Q / |D(U)|`` lies on the other side of it. Start: ``U_hi = N Q /
-    |D(0)|``; then Newton steps on ``ln U`` (exact for power laws) with the
-    analytic slope of the resistance, safeguarded by bisection inside the
-    bracket, on the points not yet converged (``|h| <= tol N Q``, i.e. U to
-    about ``tol`` relative).
-
-    Returns
-    -------
-    _Solve
-        ``velocity`` (m/s), ``iterations``, ``converged``, the final relative
-        ``residual`` ``h / (N Q)`` and the ``resistance`` C at the solution.
-    """
-    omega, amp = np.broadcast_arrays(np.asarray(omega, float), np.asarray(amplitude_m, float))
-    shape = omega.shape
-    w_flat, x_flat = omega.ravel(), amp.ravel()
-    # Blocks of cache-sized arrays: large temporaries are page-faulted afresh at
-    # every allocation, which doubles the cost of each elementwise operation.
-    parts = [
-        _solve_block(flow, design, w_flat[i : i + _BLOCK], x_flat[i : i + _BLOCK], tol, max_iter)
-        for i in range(0, w_flat.size, _BLOCK)
-    ]
-    if not parts:
-        parts = [_solve_block(flow, design, w_flat, x_flat, tol, max_iter)]
-    return _Solve(
-        *(
-            np.concatenate([getattr(p, k) for p in parts]).reshape(shape)
-            for k in (
-                "velocity",
-                "iterations",
-                "converged",
-                "residual",
-                "resistance_re",
-                "resistance_im",
-            )
-        )
-    )
-
-
-_BLOCK = 16384
-
-
-def _solve_block(flow, design, w_all, x_all, tol, max_iter) -> _Solve:
-    """:func:`solve_velocity_amplitude` on one block of flat arrays."""
-    nq_all = design.volume_ratio * kinematic_velocity(design, w_all, x_all)
-    n1 = 1.0 + design.volume_ratio
-    s = design.compliance_factor_s2_per_m2
-
-    def evaluate(u, idx):
-        """|D(U)| and d|D|/dU at the points idx."""
-        w = w_all if idx is None else w_all[idx]
-        c, dcr = resistance_function(flow, design, w, with_slope=True)(u)
-        dr = n1 - w * s * c.im
-        di = w * s * c.re
-        mod = np.sqrt(dr * dr + di * di)
-        return mod, di * w * s * dcr / mod
-
-    with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-        mod0, _ = evaluate(np.zeros_like(w_all), None)
-    hi = nq_all / mod0
-    lo = np.zeros_like(hi)
-    u = hi.copy()
-    res = np.full(u.shape, np.inf)
-    iters = np.ones(u.shape, dtype=int)
-    done = np.zeros(u.shape, dtype=bool)
-    active = np.arange(u.size)
-    for _ in range(max_iter):
-        if active.size == 0:
-            break
-        ua, nq = u[active], nq_all[active]
-        with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-            mod, dmod = evaluate(ua, active)
-        h = ua * mod - nq
-        r = h / nq
-        iters[active] += 1
-        res[active] = r
-        conv = np.abs(r) <= tol
-        # bracket update: the driven velocity N Q/|D(U)| lies across the root
-        ud = nq / mod
-        above = h > 0
-        hi_a = np.where(
-            above, np.minimum(ua, hi[active]), np.minimum(hi[active], np.maximum(ud, ua))
-        )
-        lo_a = np.where(
-            above, np.maximum(lo[active], np.minimum(ud, ua)), np.maximum(ua, lo[active])
-        )
-        # Newton on h near the root (quadratic, no transcendental); far from it a
-        # Newton step in ln U, exact for power laws h ~ U^p:
-        # F = ln(U|D|/NQ), F' = 1 + U d|D|/dU / |D| >= 1
-        step = ua - h / (mod + ua * dmod)
-        far = np.flatnonzero(np.abs(r) > 0.02)
-        if far.size:
-            with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
-                step[far] = ua[far] * np.power(
-                    nq[far] / (ua[far] * mod[far]),
-                    1.0 / (1.0 + ua[far] * dmod[far] / mod[far]),
-                )
-        inside = (step > lo_a) & (step < hi_a)
-        u_new = np.where(inside, step, 0.5 * (lo_a + hi_a))
-        hi[active], lo[active] = hi_a, lo_a
-        u[active] = np.where(conv, ua, u_new)
-        done[active] = conv
-        active = active[~conv]
-    c = resistance_function(flow, design, w_all)(u)
-    return _Solve(
-        velocity=u,
-        iterations=iters,
-        converged=done,
-        residual=res,
-        resistance_re=np.broadcast_to(c.re, u.shape),
-        resistance_im=np.broadcast_to(c.im, u.shape),
-    )
 
 
 # ---------------------------------------------------------------------------
@@ -383,7 +202,7 @@ def complex_stiffness(
     amplitude_m : float or array
         Piston displacement amplitudes X_p, m (> 0).
     flow : str
-        Capillary model (:data:`isodesign.capillary.FLOW_MODELS`). Default
+        Capillary model (:data:`isodesign.spring.capillary.FLOW_MODELS`). Default
         ``quasi_steady``: all-regime (laminar to turbulent) and passive for any
         input, which is what the amplitudes of real tables need (the tube flow of
         the reference spring reaches Re ~ 7000 at 0.5 mm).
@@ -393,7 +212,7 @@ def complex_stiffness(
         overestimates the tube velocity as soon as the tube blocks).
     diaphragm : str or model
         ``viscoelastic`` (default, illustrative parameters), ``none``,
-        ``table:PATH.csv`` or a model object (:mod:`isodesign.diaphragm`).
+        ``table:PATH.csv`` or a model object (:mod:`isodesign.spring.diaphragm`).
     pairwise : bool
         ``False`` (default): the result has shape ``frequency.shape +
         amplitude.shape`` (every frequency with every amplitude). ``True``:

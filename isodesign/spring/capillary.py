@@ -5,7 +5,7 @@ the mass flow through it, ``C = (P_t - P_b) / m_dot_tb`` in Pa s/kg (paper
 Eq. 35). It may be complex: an imaginary part is the inertance of the air slug.
 Every model is a function of the tube's velocity amplitude ``U`` (m/s) and the
 angular frequency ``w``; where ``U`` comes from (Eq. 37 or a self-consistent
-solve) is decided in :mod:`isodesign.spring`.
+solve) is decided in :mod:`isodesign.spring.stiffness`.
 
 Models, by name (:data:`FLOW_MODELS`):
 
@@ -44,7 +44,7 @@ itself), and within 0.2 % of the exact first harmonic for Blasius friction
 (``U^1.75``: 0.8844 against 0.8861). In the laminar-turbulent transition (peak
 Re 2,400 to 3,000) the friction term differs from the exact describing function
 of Churchill's law by up to 9 %; the effect on k is at most 1.2 % on the
-reference spring, and the time-domain check (:mod:`isodesign.simulate`,
+reference spring, and the time-domain check (:mod:`isodesign.spring.simulate`,
 ``docs/simulation.md``) bounds the whole harmonic-balance error at 2.3 % in |k|
 over 0.2-24 Hz and 0.05-0.5 mm.
 """
@@ -56,9 +56,9 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import backend as bk
-from .cplx import Cx
-from .errors import InputError
+from isodesign.errors import InputError
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx
 
 __all__ = [
     "FLOW_MODELS",

@@ -11,7 +11,7 @@ Everything the closure of the amplitude dependence needs that is not a solver:
   Gauss rule that is exact for every polynomial in ``A`` up to degree ``2n - 1``.
 * :class:`ResponseGrid` (built once in NumPy by :func:`response_grid`) and the
   backend-agnostic quadratures :func:`stroke_variance` and :func:`band_mean_square`. They
-  use only ``+ - * /`` on :class:`~isodesign.cplx.Cx` pairs and a weighted sum with
+  use only ``+ - * /`` on :class:`~isodesign.numerics.cplx.Cx` pairs and a weighted sum with
   precomputed NumPy weights, so the same functions evaluate NumPy arrays (the analysis
   path, :mod:`isodesign.response`) and CasADi ``SX``/``MX`` column vectors (the optimizer).
 
@@ -27,8 +27,8 @@ Frequencies ``f_j`` (Hz, strictly increasing, one evaluation of the spring each)
   *velocity* PSD evaluated band-aware (a band-constant floor takes its band's own constant
   at both edges), so that the payload's band mean-square velocity is
   ``sum_j band_weight[b, j] |T_j|^2``. This is exactly the rule of
-  :meth:`isodesign.criteria.FloorSpectrum.band_rms` (trapezoid in ``f`` on
-  :meth:`~isodesign.criteria.FloorSpectrum.band_grid`): points shared by two adjacent bands,
+  :meth:`isodesign.floor.criteria.FloorSpectrum.band_rms` (trapezoid in ``f`` on
+  :meth:`~isodesign.floor.criteria.FloorSpectrum.band_grid`): points shared by two adjacent bands,
   or by the bands and the stroke grid, are evaluated once and their weights added.
 """
 
@@ -40,10 +40,11 @@ from functools import lru_cache
 
 import numpy as np
 
-from . import backend as bk
-from .bands import Bands, third_octave_bands
-from .cplx import Cx, as_cx
-from .errors import InputError, check_choice
+from isodesign.errors import InputError, check_choice
+from isodesign.floor.bands import Bands, third_octave_bands
+from isodesign.floor.criteria import FloorSpectrum
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx, as_cx
 
 __all__ = [
     "EQUIVALENT_AMPLITUDE_FACTOR",
@@ -357,7 +358,6 @@ def response_grid(floor, bands=None, *, target=None, points_per_band: int = 50) 
     (at least ``points_per_band``). The stroke integral covers the floor's whole range, not
     only the bands: floor motion outside the bands still moves the spring.
     """
-    from .criteria import FloorSpectrum
 
     if not isinstance(floor, FloorSpectrum):
         raise InputError(f"floor: expected a FloorSpectrum, got {type(floor).__name__}")
@@ -438,7 +438,7 @@ def stroke_variance(relative_transmissibility: Cx, grid: ResponseGrid):
     ----------
     relative_transmissibility : Cx
         ``T - 1`` at ``grid.frequency_hz`` (NumPy arrays whose first axis is the grid, or
-        CasADi n x 1 columns); :func:`isodesign.isolator.relative_transmissibility`.
+        CasADi n x 1 columns); :func:`isodesign.response.isolator.relative_transmissibility`.
     grid : ResponseGrid
 
     Returns

@@ -13,7 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .errors import InputError
+from isodesign.errors import InputError
 
 __all__ = ["read_csv_columns", "read_csv_header_comments", "read_toml"]
 

@@ -17,6 +17,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from isodesign import __version__
+from isodesign.optimization.optimizer import OBJECTIVE_UNITS
+from isodesign.optimization.study import MAXIMIZED
+
 __all__ = [
     "command_line",
     "constraint_rows",
@@ -137,7 +141,7 @@ def resolved_study_dict(study) -> dict:
     """The study's resolved dictionary (``study.raw``) ready to be written elsewhere.
 
     A floor CSV named by a relative path is resolved against the study file's
-    directory (as :func:`isodesign.study.load_study` does) and a diaphragm table
+    directory (as :func:`isodesign.optimization.study.load_study` does) and a diaphragm table
     (``models.diaphragm = "table:PATH"``) against the working directory (as the
     optimizer reads it), so that the written study loads from any directory.
     """
@@ -162,7 +166,7 @@ def resolved_study_dict(study) -> dict:
 def study_toml(study, *, header: str | None = None) -> str:
     """The resolved study as TOML (:func:`dumps_toml` of :func:`resolved_study_dict`).
 
-    Loading the text with :func:`isodesign.study.load_study` gives a study with
+    Loading the text with :func:`isodesign.optimization.study.load_study` gives a study with
     the same ``raw`` dictionary: the run can be replayed from it.
 
     Parameters
@@ -187,7 +191,7 @@ def _db(x):
 
 
 def _analysis_figures(res) -> dict:
-    """Figures of a :class:`~isodesign.response.BandResponse` (None-safe)."""
+    """Figures of a :class:`~isodesign.response.random_input.BandResponse` (None-safe)."""
     if res is None:
         return {}
     s = res.stability
@@ -240,7 +244,7 @@ def design_figures(design, analysis=None) -> dict:
 
 
 def _constraint_dict(c) -> dict:
-    """A :class:`~isodesign.optimize.ConstraintReport` with its margin in natural units."""
+    """A :class:`~isodesign.optimization.optimizer.ConstraintReport` with its margin in natural units."""
     lo, hi, v = c.lower, c.upper, c.value
     margins = []
     if lo is not None:
@@ -261,7 +265,7 @@ def _constraint_dict(c) -> dict:
 
 
 def constraint_rows(result) -> list[dict]:
-    """The constraints of an :class:`~isodesign.optimize.OptimizationResult` as dicts.
+    """The constraints of an :class:`~isodesign.optimization.optimizer.OptimizationResult` as dicts.
 
     ``margin`` is the distance to the nearest bound in the constraint's own unit
     (positive: satisfied); ``margin_nlp`` is the optimizer's margin in its
@@ -317,8 +321,6 @@ def grid_notes(result, figures: dict) -> list[str]:
 
 def optimization_design(result) -> dict:
     """The content of ``design.json``: variables, derived figures, objective, verdict."""
-    from .optimize import OBJECTIVE_UNITS
-    from .study import MAXIMIZED
 
     st = result.study
     at = variables_at_bounds(result)
@@ -359,14 +361,13 @@ def optimization_design(result) -> dict:
 
 
 def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict:
-    """The run record of :func:`isodesign.optimize.optimize` (``record.json``).
+    """The run record of :func:`isodesign.optimization.optimizer.optimize` (``record.json``).
 
     Command line, isodesign version and package versions, the resolved study,
     the solver settings, every start (status, iterations, time, objective, start
     and final values), the final design, objective, constraints, flat direction,
     re-check and wall time.
     """
-    from . import __version__
 
     starts = []
     for s in result.starts:
@@ -408,8 +409,7 @@ def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict
 
 
 def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dict:
-    """The run record of :func:`isodesign.pareto.pareto_front` (``record.json``)."""
-    from . import __version__
+    """The run record of :func:`isodesign.optimization.pareto.pareto_front` (``record.json``)."""
 
     points = []
     for i, d in enumerate(result.designs):

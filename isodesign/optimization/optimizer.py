@@ -8,7 +8,7 @@ volume ratio N, top-chamber volume V_t0, capillary length L_c and diameter D_c
 equality constraints:
 
 * ``y_j = ln U_j``: the self-consistent tube velocity amplitude at every grid
-  frequency (:func:`isodesign.spring.amplitude_residual` = 0);
+  frequency (:func:`isodesign.spring.equations.amplitude_residual` = 0);
 * ``s = ln sigma``: the RMS stroke of the spring under the random floor input,
   ``sigma^2 = integral |T - 1|^2 S_x df`` with the spring's amplitude taken as
   ``A* = 1.880 sigma`` (:mod:`isodesign.response`).
@@ -50,12 +50,11 @@ from typing import Any
 
 import numpy as np
 
-from . import backend as bk
-from .capillary import LAMINAR_REYNOLDS_LIMIT, QUASI_STEADY_WOMERSLEY_LIMIT, resistance_function
-from .cplx import Cx
-from .diaphragm import diaphragm_model
-from .errors import InputError, SolverError
-from .isolator import (
+from isodesign.errors import InputError, SolverError
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.study import DESIGN_VARIABLES, OBJECTIVES, Study
+from isodesign.response.isolator import (
     natural_frequency_hz,
     relative_transmissibility,
     static_stiffness,
@@ -63,8 +62,23 @@ from .isolator import (
     transmissibility,
     zener_damping_ratio,
 )
-from .spring import amplitude_residual, kinematic_velocity
-from .study import DESIGN_VARIABLES, OBJECTIVES, Study
+from isodesign.response.linearization import (
+    EQUIVALENT_AMPLITUDE_FACTOR,
+    band_mean_square,
+    response_grid,
+    stroke_variance,
+)
+from isodesign.response.random_input import band_response, solve_stroke_rms
+from isodesign.spring.amplitude import solve_velocity_amplitude
+from isodesign.spring.capillary import (
+    LAMINAR_REYNOLDS_LIMIT,
+    QUASI_STEADY_WOMERSLEY_LIMIT,
+    resistance_function,
+)
+from isodesign.spring.diagnostics import LUMPED_LIMIT
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import air_stiffness, amplitude_residual, kinematic_velocity
+from isodesign.spring.stiffness import complex_stiffness
 
 __all__ = [
     "ConstraintReport",
@@ -106,7 +120,7 @@ class Grid:
     omega: np.ndarray
     n_floor: int
     n_peak: int
-    response: Any  # isodesign.response.ResponseGrid of the floor part
+    response: Any  # isodesign.response.linearization.ResponseGrid of the floor part
     target_band_rows: np.ndarray  # rows of the response grid's bands that are target bands
     target_limit_m_s: np.ndarray
     point_index: int | None = None
@@ -139,7 +153,6 @@ def build_grid(study: Study, *, points_per_band: int | None = None,
     ``extra_peak_hz`` adds fixed peak-grid frequencies; ``slots`` appends that many
     movable ones (the exchange method of :func:`optimize`; initially copies of the
     first peak frequencies, which changes nothing)."""
-    from .linearization import response_grid
 
     ppb = points_per_band or study.models["points_per_band"]
     rg = response_grid(study.floor, study.bands, target=study.target, points_per_band=ppb)
@@ -185,8 +198,6 @@ def point_quantities(study: Study, d, omega, velocity, sigma, dia) -> dict:
     ``T`` and ``R`` (absolute and relative transmissibility at the spring
     amplitude ``A* = 1.880 sigma``), ``ln_mach`` and ``ln_re`` of the tube flow.
     """
-    from .linearization import EQUIVALENT_AMPLITUDE_FACTOR
-    from .spring import air_stiffness
 
     m_i = study.payload.mass_per_isolator_kg
     a_star = EQUIVALENT_AMPLITUDE_FACTOR * sigma
@@ -228,11 +239,10 @@ def combine(study: Study, grid: Grid, pq: dict, dq: dict) -> dict:
     """Grid-level quantities from the per-point and design-level ones, any backend.
 
     The quadratures of sigma^2 and of the band mean squares are
-    :func:`isodesign.linearization.stroke_variance` and
-    :func:`~isodesign.linearization.band_mean_square`, the same functions the
+    :func:`isodesign.response.linearization.stroke_variance` and
+    :func:`~isodesign.response.linearization.band_mean_square`, the same functions the
     band response uses.
     """
-    from .linearization import band_mean_square, stroke_variance
 
     fl, pk = grid.floor_slice, grid.peak_slice
     var = stroke_variance(_take(pq["R"], fl), grid.response)
@@ -326,7 +336,6 @@ def _constraints(study: Study, mt: dict, n_all: int) -> list[_Con]:
         out.append(_Con("mach", mt["ln_mach"], -inf, math.log(c["max_mach"]), n_all,
                         "capillary Mach number <= max at every grid frequency"))
     if c["model_validity"]:
-        from .diagnostics import LUMPED_LIMIT
 
         for name, e in zip(("tube", "top_chamber", "bottom_chamber"), mt["ln_lumped"],
                            strict=True):
@@ -549,7 +558,6 @@ class Problem:
         )
         self.self_consistent = study.models["amplitude_mode"] == "self_consistent"
         flow = study.models["flow"]
-        from .linearization import EQUIVALENT_AMPLITUDE_FACTOR
 
         # -- the per-point physics as one SX function, mapped over the grid --------
         dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
@@ -725,7 +733,6 @@ class Problem:
         return self._chain_fn_p(x_core, self._slot_omega())
 
     def _reference_sigma(self) -> float:
-        from .response import solve_stroke_rms
 
         st = self.study
         sigma, _ = solve_stroke_rms(st.start_design(), st.payload, self.grid.response,
@@ -737,7 +744,6 @@ class Problem:
     # -- starting points ---------------------------------------------------
     def initial_guess(self, values: dict) -> np.ndarray:
         """A consistent x0 at a design: implicit unknowns from the NumPy solvers."""
-        from .response import solve_stroke_rms
 
         st = self.study
         d = st.design_at(values)
@@ -791,8 +797,6 @@ class Problem:
         return np.asarray(vals[: self.naux], float)
 
     def _velocity(self, d, sigma) -> np.ndarray:
-        from .linearization import EQUIVALENT_AMPLITUDE_FACTOR
-        from .spring import solve_velocity_amplitude
 
         a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
         w = self.grid.omega
@@ -1157,7 +1161,6 @@ def optimize(study: Study, *, progress=None, problem: Problem | None = None,
     vals = prob.values(final["x"])
     d = study.design_at(vals)
     diff = recheck(prob, final, d)
-    from .response import band_response
 
     kw = {"flow": study.models["flow"], "amplitude_mode": study.models["amplitude_mode"],
           "diaphragm": prob.dia}
@@ -1201,7 +1204,6 @@ def continuous_peak_db(prob: Problem, values: dict, sigma: float) -> tuple[float
     A dense log grid over the peak grid's span, then a parabola through the
     largest sample and its neighbours in ln f. Returns (peak in dB, frequency in Hz).
     """
-    from .linearization import EQUIVALENT_AMPLITUDE_FACTOR
 
     st = prob.study
     d = st.design_at(values)
@@ -1209,7 +1211,6 @@ def continuous_peak_db(prob: Problem, values: dict, sigma: float) -> tuple[float
     f = np.geomspace(pk.min(), pk.max(), 4001)
     a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
     w = 2.0 * math.pi * f
-    from .spring import complex_stiffness
 
     k = complex_stiffness(d, f, a, flow=st.models["flow"],
                           amplitude_mode=st.models["amplitude_mode"], diaphragm=prob.dia,
@@ -1383,7 +1384,6 @@ def recheck(prob: Problem, sol: dict, d) -> float:
     IPOPT reports (epigraph variables included) with the analysis's, to
     :data:`RECHECK_RTOL` relative (in natural units; dB values absolute below 1).
     """
-    from .response import solve_stroke_rms
 
     st = prob.study
     sigma, _ = solve_stroke_rms(d, st.payload, prob.grid.response, flow=st.models["flow"],
@@ -1476,9 +1476,6 @@ def evaluate_design(study: Study, values: dict, *, grid: Grid | None = None,
         value in the NLP's units, with ``lower``/``upper``), ``max_violation``
         and ``sigma``.
     """
-    from .linearization import EQUIVALENT_AMPLITUDE_FACTOR
-    from .response import solve_stroke_rms
-    from .spring import solve_velocity_amplitude
 
     grid = grid or build_grid(study)
     d = study.design_at(values)

@@ -33,7 +33,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from .errors import InputError, check_choice, check_range
+from isodesign.errors import InputError, check_choice, check_range
+from isodesign.floor.criteria import FloorSpectrum, criterion, third_octave_bands
+from isodesign.io.files import read_toml
+from isodesign.response.isolator import Payload
+from isodesign.spring.capillary import SMOOTH_FLOW_MODELS
+from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.gas import Gas
+from isodesign.spring.stiffness import AMPLITUDE_MODES
 
 __all__ = [
     "DESIGN_VARIABLES",
@@ -178,7 +186,6 @@ class Study:
 
     def design_at(self, values: dict):
         """The spring at given design-variable values (fixed ones from the study)."""
-        from .design import SpringDesign
 
         vals = {v.name: (v.start if v.fixed else values.get(v.name, v.start))
                 for v in self.variables}
@@ -230,8 +237,6 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     study file need only state what differs. Every error names the file, the
     table and the key.
     """
-    from .criteria import FloorSpectrum, criterion, third_octave_bands
-    from .isolator import Payload
 
     where = source
     _check_keys(d, "", where)
@@ -271,7 +276,6 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         if "piston_area_m2" in h:
             raise InputError(f"{where}: [hardware] give piston_area_m2 or diaphragm_r1_m + "
                              "diaphragm_r2_m, not both")
-        from .design import piston_area_from_diaphragm
 
         hw["piston_area_m2"] = piston_area_from_diaphragm(h.get("diaphragm_r1_m"),
                                                           h.get("diaphragm_r2_m"))
@@ -286,7 +290,6 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         hw["polytropic_index"] = _num(where, "hardware.polytropic_index", h["polytropic_index"],
                                       1.0, 1.67)
     if "gas" in h:
-        from .gas import Gas
 
         try:
             hw["gas"] = Gas(**h["gas"])
@@ -330,8 +333,6 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
                          f"{bmax:g} Hz")
 
     # models
-    from .capillary import SMOOTH_FLOW_MODELS
-    from .spring import AMPLITUDE_MODES
 
     m = raw["models"]
     flow = m.get("flow", "womersley")
@@ -355,7 +356,6 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         rel = dia[len("table:"):] if dia.startswith("table:") else dia
         if not Path(rel).is_absolute():
             dia = f"table:{Path(source).parent / rel}"
-    from .diaphragm import diaphragm_model
 
     try:
         diaphragm_model(dia)
@@ -480,7 +480,6 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
 
 def load_study(path) -> Study:
     """Read and validate a study TOML file (missing keys take the default study's values)."""
-    from .io import read_toml
 
     return study_from_dict(read_toml(path, what="study"), source=str(path))
 

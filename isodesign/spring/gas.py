@@ -13,8 +13,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-from . import backend as bk
-from .errors import InputError, check_positive, check_range
+from isodesign.errors import InputError, check_positive, check_range
+from isodesign.numerics import backend as bk
 
 __all__ = ["AIR", "G_STANDARD", "P_ATM", "Gas", "pressure_from_load"]
 

@@ -1,0 +1,1 @@
+"""The floor: one-third-octave bands, units, vibration criteria and floor spectra."""

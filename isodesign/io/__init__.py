@@ -1,0 +1,1 @@
+"""Files in and out: TOML and CSV readers, design files, run records."""

@@ -1,0 +1,1 @@
+"""Design studies and their optimization: study schema, the CasADi NLP, Pareto fronts."""

@@ -1,0 +1,562 @@
+"""Response to random floor vibration: the band response and its closures.
+
+Random floor motion is given by a velocity PSD (:func:`band_response`). The spring's
+amplitude dependence is closed by equivalent linearization iterated to convergence on the
+stroke RMS ``sigma`` (one scalar; secant in ``ln sigma``). The quadratures are the
+backend-agnostic functions of :mod:`isodesign.response.linearization`, the same ones the
+optimizer evaluates on CasADi symbols. See ``docs/response.md``.
+"""
+
+from __future__ import annotations
+
+import math
+import warnings
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from isodesign.errors import (
+    InputError,
+    ModelValidityWarning,
+    SolverError,
+    check_choice,
+    check_positive,
+)
+from isodesign.numerics.cplx import Cx
+from isodesign.response.isolator import (
+    Payload,
+    relative_transmissibility,
+)
+from isodesign.response.linearization import (
+    EQUIVALENT_AMPLITUDE_FACTOR,
+    RAYLEIGH_NODES,
+    ResponseGrid,
+    band_mean_square,
+    equivalent_amplitude,
+    rayleigh_rule,
+    response_grid,
+    stroke_variance,
+)
+from isodesign.response.model import (
+    LINEAR_REFERENCE_AMPLITUDE_M,
+    SpringModel,
+    emit_flags,
+    resolve_floor,
+    resolve_target,
+    spring_model,
+)
+from isodesign.response.stability import StabilityFigures, stability_of_model
+
+__all__ = [
+    "BandResponse",
+    "RANDOM_METHODS",
+    "band_response",
+    "solve_stroke_rms",
+]
+
+#: Spring amplitude for the random closure: ``A* = 1.880 sigma`` or the Rayleigh average.
+RANDOM_METHODS = ("equivalent_amplitude", "rayleigh")
+
+# ---------------------------------------------------------------------------
+# random floor input: band response
+# ---------------------------------------------------------------------------
+@dataclass(frozen=True)
+class _Eval:
+    log_sigma_in: float
+    log_sigma_out: float
+    k: np.ndarray
+    result: Any
+
+
+def _random_evaluator(model: SpringModel, grid: ResponseGrid, method: str, nodes: int):
+    """``x = ln sigma -> (ln sigma_new, k, StiffnessResult)`` for the random closure."""
+    f, w = grid.frequency_hz, grid.omega
+    if method == "rayleigh":
+        a, wq = rayleigh_rule(nodes)
+
+    def evaluate(x: float) -> _Eval:
+        sigma = math.exp(x)
+        if method == "equivalent_amplitude":
+            res = model.stiffness(f, equivalent_amplitude(sigma), pairwise=True)
+            k = res.k
+        else:
+            res = model.stiffness(f, sigma * a, pairwise=False)  # (n, nodes)
+            k = res.k @ wq
+        rel = relative_transmissibility(Cx.from_complex(k), model.mass, w)
+        s2 = float(stroke_variance(rel, grid))
+        return _Eval(x, 0.5 * math.log(s2), k, res)
+
+    return evaluate
+
+
+def _random_closure(evaluate, x0: float, rtol: float, max_iter: int):
+    """Secant (then Brent) on ``g(x) = ln sigma_new(e^x) - x``; returns (eval, n, slope)."""
+    from scipy.optimize import brentq
+
+    hist: list[_Eval] = []
+
+    def g(x):
+        e = evaluate(x)
+        hist.append(e)
+        return e.log_sigma_out - x
+
+    x_prev, g_prev = x0, g(x0)
+    if abs(g_prev) <= rtol:
+        return hist[-1], len(hist), None
+    x, gx = x_prev + g_prev, None  # first step: the fixed-point iteration
+    gx = g(x)
+    for _ in range(max_iter):
+        if abs(gx) <= rtol:
+            break
+        den = gx - g_prev
+        step = -gx * (x - x_prev) / den if den != 0 else gx
+        if not math.isfinite(step):
+            step = gx
+        step = max(-2.0, min(2.0, step))
+        x_prev, g_prev = x, gx
+        x = x + step
+        gx = g(x)
+    if abs(gx) > rtol:  # fallback: bracket and Brent
+        gs = [(e.log_sigma_in, e.log_sigma_out - e.log_sigma_in) for e in hist]
+        pos = [p for p in gs if p[1] > 0]
+        neg = [p for p in gs if p[1] < 0]
+        if not pos or not neg:
+            best = min(gs, key=lambda p: abs(p[1]))[0]
+            for d in range(1, 16):
+                for xt in (best - d, best + d):
+                    gt = g(xt)
+                    (pos if gt > 0 else neg).append((xt, gt))
+                if pos and neg:
+                    break
+        if not pos or not neg:
+            raise SolverError("random closure: no bracket of the stroke RMS sigma found")
+        a = max(pos, key=lambda p: p[0]) if pos[0][0] < neg[0][0] else min(pos, key=lambda p: p[0])
+        b = min(neg, key=lambda p: abs(p[0] - a[0]))
+        try:
+            x = brentq(g, a[0], b[0], xtol=1e-15, rtol=4.5e-16, maxiter=200)
+        except (ValueError, RuntimeError) as exc:
+            raise SolverError(f"random closure: Brent's method failed ({exc})") from None
+        gx = g(x)
+        if abs(gx) > rtol:
+            raise SolverError(
+                f"random closure did not converge: |ln(sigma_new/sigma)| = {abs(gx):.3g} > "
+                f"rtol = {rtol:g} after {len(hist)} evaluations"
+            )
+    last = hist[-1]
+    slope = None
+    if len(hist) >= 2:
+        e1, e0 = hist[-1], hist[-2]
+        dx = e1.log_sigma_in - e0.log_sigma_in
+        if dx != 0:
+            slope = (e1.log_sigma_out - e0.log_sigma_out) / dx
+    return last, len(hist), slope
+
+
+def solve_stroke_rms(
+    design,
+    payload,
+    grid: ResponseGrid,
+    *,
+    flow: str = "quasi_steady",
+    amplitude_mode: str = "self_consistent",
+    diaphragm="viscoelastic",
+    derive_pressure: bool = False,
+    rtol: float = 1e-12,
+    max_iter: int = 50,
+) -> tuple[float, dict]:
+    """RMS stroke sigma of the random-input closure on a given response grid (NumPy).
+
+    The same closure as :func:`band_response` (equivalent amplitude
+    ``A* = 1.880 sigma``, secant in ``ln sigma`` from the linear-regime value), on a
+    prebuilt :class:`~isodesign.response.linearization.ResponseGrid`; the optimizer uses it
+    to initialize and to re-check its NLP.
+
+    Returns
+    -------
+    sigma : float
+        RMS stroke, m.
+    info : dict
+        ``iterations`` and ``closure_slope``.
+    """
+    model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
+    f, w = grid.frequency_hz, grid.omega
+    k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
+    s2_lin = float(
+        stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w), grid)
+    )
+    if not s2_lin > 0:
+        raise InputError("floor: the spectrum carries no motion (PSD zero)")
+    evaluate = _random_evaluator(model, grid, "equivalent_amplitude", RAYLEIGH_NODES)
+    ev, n_it, slope = _random_closure(evaluate, 0.5 * math.log(s2_lin), rtol, int(max_iter))
+    return math.exp(ev.log_sigma_in), {"iterations": n_it, "closure_slope": slope}
+
+
+@dataclass(frozen=True, eq=False)
+class BandResponse:
+    """Payload band response to a random floor, with the compliance verdict.
+
+    Attributes
+    ----------
+    grid : ResponseGrid
+        Frequencies and quadrature weights (``grid.bands`` the bands).
+    transmissibility : ndarray of complex (n_points,)
+        ``T`` on ``grid.frequency_hz`` at the final linearization.
+    transmissibility_linear : ndarray of complex (n_points,)
+        ``T`` at :data:`LINEAR_REFERENCE_AMPLITUDE_M` (the starting point).
+    floor_velocity_rms_m_s : ndarray (n_bands,)
+    payload_velocity_rms_m_s, payload_displacement_rms_m, payload_acceleration_rms_m_s2 :
+        ndarray (n_bands,)
+    limit_velocity_rms_m_s : ndarray (n_bands,)
+        The target curve.
+    stroke_rms_m : float
+        RMS stroke ``sigma`` computed from the final ``T``.
+    equivalent_amplitude_m : float
+        ``A* = 1.880 sigma`` (the amplitude the spring sees with the default method).
+    stability : StabilityFigures
+        With the excited peak at the final linearization.
+    spring_diagnostics : StiffnessResult
+        The spring at the final linearization (shape (n_points,), or (n_points, nodes) for
+        ``random_method='rayleigh'``); ``.warnings`` lists validity flags.
+    iterations : int
+        Evaluations of the closure (one spring evaluation each, the linear start excluded).
+    converged : bool
+    closure_slope : float or None
+        ``d ln sigma_new / d ln sigma`` at the solution (< 1: a stable, locally unique fixed
+        point).
+    random_method, flow, amplitude_mode, diaphragm, floor_name, target_name : str
+    design : SpringDesign
+    payload : Payload
+    """
+
+    grid: ResponseGrid
+    transmissibility: np.ndarray
+    transmissibility_linear: np.ndarray
+    floor_velocity_rms_m_s: np.ndarray
+    payload_velocity_rms_m_s: np.ndarray
+    payload_displacement_rms_m: np.ndarray
+    payload_acceleration_rms_m_s2: np.ndarray
+    limit_velocity_rms_m_s: np.ndarray
+    stroke_rms_m: float
+    equivalent_amplitude_m: float
+    stability: StabilityFigures
+    spring_diagnostics: Any
+    iterations: int
+    converged: bool
+    closure_slope: float | None
+    random_method: str
+    flow: str
+    amplitude_mode: str
+    diaphragm: str
+    floor_name: str = ""
+    target_name: str = ""
+    design: Any = field(repr=False, default=None)
+    payload: Payload | None = None
+
+    @property
+    def bands(self):
+        """The one-third-octave bands."""
+        return self.grid.bands
+
+    @property
+    def margin_db(self) -> np.ndarray:
+        """``20 log10(limit / payload)`` per band (positive: below the limit)."""
+        with np.errstate(divide="ignore"):
+            return 20.0 * np.log10(self.limit_velocity_rms_m_s / self.payload_velocity_rms_m_s)
+
+    @property
+    def band_passes(self) -> np.ndarray:
+        """Payload band RMS velocity <= limit, per band."""
+        return self.payload_velocity_rms_m_s <= self.limit_velocity_rms_m_s
+
+    @property
+    def passes(self) -> bool:
+        """True when every band meets the target."""
+        return bool(np.all(self.band_passes))
+
+    @property
+    def worst_band_hz(self) -> float:
+        """Nominal centre of the band with the smallest margin."""
+        return float(self.bands.nominal_hz[int(np.argmin(self.margin_db))])
+
+    @property
+    def worst_band_label(self) -> str:
+        """Label of that band."""
+        return self.bands.labels[int(np.argmin(self.margin_db))]
+
+    @property
+    def worst_margin_db(self) -> float:
+        """Smallest margin over the bands, dB."""
+        return float(np.min(self.margin_db))
+
+    @property
+    def warnings(self) -> tuple[str, ...]:
+        """Validity warnings of the spring model at the final linearization."""
+        return tuple(self.spring_diagnostics.warnings)
+
+    def verdict(self) -> str:
+        """One line: PASS/FAIL, worst band and margin."""
+        n = len(self.bands)
+        nfail = int(np.sum(~self.band_passes))
+        head = (
+            f"PASS: {self.target_name} met in all {n} bands"
+            if self.passes
+            else f"FAIL: {self.target_name} exceeded in {nfail} of {n} bands"
+        )
+        return (
+            f"{head}; worst band {self.worst_band_label} Hz, margin {self.worst_margin_db:+.2f} dB"
+        )
+
+    def to_frame(self):
+        """One row per band: floor, payload (v, x, a), target, margin and pass."""
+        df = self.bands.to_frame()
+        df["floor_velocity_rms_m_s"] = self.floor_velocity_rms_m_s
+        df["payload_velocity_rms_m_s"] = self.payload_velocity_rms_m_s
+        df["payload_displacement_rms_m"] = self.payload_displacement_rms_m
+        df["payload_acceleration_rms_m_s2"] = self.payload_acceleration_rms_m_s2
+        df["limit_velocity_rms_m_s"] = self.limit_velocity_rms_m_s
+        df["margin_db"] = self.margin_db
+        df["passes"] = self.band_passes
+        df.attrs.update(
+            floor=self.floor_name,
+            target=self.target_name,
+            stroke_rms_m=self.stroke_rms_m,
+            equivalent_amplitude_m=self.equivalent_amplitude_m,
+            random_method=self.random_method,
+            flow=self.flow,
+            amplitude_mode=self.amplitude_mode,
+            diaphragm=self.diaphragm,
+            verdict=self.verdict(),
+        )
+        return df
+
+    def transmissibility_frame(self):
+        """``T`` on the grid: final linearization and linear regime."""
+        import pandas as pd
+
+        t, tl = self.transmissibility, self.transmissibility_linear
+        return pd.DataFrame(
+            {
+                "frequency_hz": self.grid.frequency_hz,
+                "transmissibility_abs": np.abs(t),
+                "transmissibility_phase_deg": np.degrees(np.angle(t)),
+                "linear_transmissibility_abs": np.abs(tl),
+            }
+        )
+
+    def plot(self, path) -> Path:
+        """Floor, payload and target band RMS velocity, and |T| vs frequency (PNG etc.)."""
+        import matplotlib
+
+        matplotlib.use("Agg")
+        import matplotlib.pyplot as plt
+
+        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+        c = self.bands.centre_hz
+        um = 1e6
+        ax1.loglog(c, self.floor_velocity_rms_m_s * um, "o-", ms=3,
+                   label=f"floor ({self.floor_name})")  # fmt: skip
+        ax1.loglog(c, self.payload_velocity_rms_m_s * um, "s-", ms=3, label="payload")
+        ax1.loglog(c, self.limit_velocity_rms_m_s * um, "k--", label=f"target {self.target_name}")
+        bad = ~self.band_passes
+        if bad.any():
+            ax1.plot(c[bad], self.payload_velocity_rms_m_s[bad] * um, "rx", ms=8,
+                     label="exceeds")  # fmt: skip
+        ax1.set_xlabel("one-third-octave band centre (Hz)")
+        ax1.set_ylabel("band RMS velocity (um/s)")
+        ax1.set_title(self.verdict(), fontsize=9)
+        ax1.grid(True, which="both", alpha=0.3)
+        ax1.legend(fontsize=8)
+        f = self.grid.frequency_hz
+        ax2.loglog(
+            f,
+            np.abs(self.transmissibility),
+            label=f"A* = {self.equivalent_amplitude_m * 1e6:.3g} um ({self.random_method})",
+        )
+        ax2.loglog(f, np.abs(self.transmissibility_linear), "k--", lw=1,
+                   label=f"linear ({LINEAR_REFERENCE_AMPLITUDE_M * 1e6:g} um)")  # fmt: skip
+        ax2.axhline(1.0, color="0.6", lw=0.8)
+        ax2.set_xlabel("frequency (Hz)")
+        ax2.set_ylabel("|T| (payload / floor)")
+        ax2.grid(True, which="both", alpha=0.3)
+        ax2.legend(fontsize=8)
+        fig.tight_layout()
+        p = Path(path)
+        fig.savefig(p, dpi=120)
+        plt.close(fig)
+        return p
+
+
+def band_response(
+    design,
+    payload,
+    floor,
+    target,
+    *,
+    bands=None,
+    points_per_band: int = 50,
+    flow: str = "quasi_steady",
+    amplitude_mode: str = "self_consistent",
+    diaphragm="viscoelastic",
+    random_method: str = "equivalent_amplitude",
+    rayleigh_nodes: int = RAYLEIGH_NODES,
+    stroke_amplitude_m: float | None = None,
+    rtol: float = 1e-10,
+    max_iter: int = 50,
+    derive_pressure: bool = True,
+    strict: bool = True,
+    warn: bool = True,
+) -> BandResponse:
+    """One-third-octave band response of the payload to a random floor, and compliance.
+
+    The floor is a one-sided velocity PSD ``S_v``. With the spring linearized at the
+    stroke's RMS ``sigma``, the payload's band mean-square velocity is
+    ``integral_band |T|^2 S_v df`` and the stroke variance
+    ``sigma^2 = integral |T - 1|^2 S_v / w^2 df`` over the floor's whole range
+    (:func:`~isodesign.response.linearization.band_mean_square`,
+    :func:`~isodesign.response.linearization.stroke_variance` on a
+    :class:`~isodesign.response.linearization.ResponseGrid`). ``sigma`` is closed self-consistently:
+    ``g(x) = ln sigma_new(e^x) - x = 0`` in ``x = ln sigma``, from the linear-regime sigma,
+    by a secant iteration (Brent's method if it fails), to ``|g| <= rtol``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+    payload : Payload
+    floor : FloorSpectrum, str or path
+        The floor: a spectrum, a criterion name (``"VC-A"``: the floor exactly on the curve)
+        or a CSV file (:func:`resolve_floor`).
+    target : str, CriterionCurve or path
+        The instrument's criterion (:func:`resolve_target`).
+    bands : Bands or (f_min_hz, f_max_hz), optional
+        Default: the target's bands within the floor's range.
+    points_per_band : int
+        Trapezoid points per band, edges included (>= 2; default 50).
+    flow, amplitude_mode, diaphragm : str
+        Spring models (:func:`isodesign.spring.stiffness.complex_stiffness`; ``amplitude_mode`` is the
+        tube-flow amplitude of the spring model).
+    random_method : {'equivalent_amplitude', 'rayleigh'}
+        ``equivalent_amplitude`` (default): the spring at ``A* = 1.880 sigma``
+        (:data:`EQUIVALENT_AMPLITUDE_FACTOR`), exact for quadratic damping, one spring
+        evaluation per iteration. ``rayleigh``: the Rayleigh average of ``k*`` over the
+        amplitude distribution of a narrow-band Gaussian stroke (:func:`rayleigh_rule`,
+        ``rayleigh_nodes`` evaluations per frequency and iteration).
+    rayleigh_nodes : int
+        Nodes of the Rayleigh rule.
+    stroke_amplitude_m : float, optional
+        Skip the closure: evaluate the spring at this fixed amplitude.
+    rtol : float
+        Tolerance on ``|ln(sigma_new / sigma)|``.
+    max_iter : int
+        Secant iterations before the Brent fallback.
+    derive_pressure : bool
+        Derive p0 from the payload (default) or use the design's.
+    strict : bool
+        Raise SolverError if the closure does not converge (default); otherwise return the
+        last iterate with ``converged=False`` and a warning.
+    warn : bool
+        Emit one ModelValidityWarning with the spring's validity flags.
+
+    Returns
+    -------
+    BandResponse
+
+    Raises
+    ------
+    InputError
+        Bad design, payload, floor (``floor: ...``), target (``target: ...``), bands outside
+        the floor data or the curve (``bands: ...``), unknown model names.
+    SolverError
+        The closure did not converge (``strict=True``).
+    """
+    check_choice("random_method", random_method, RANDOM_METHODS)
+    model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
+    rtol = check_positive("rtol", rtol)
+    fl = resolve_floor(floor)
+    tg = resolve_target(target)
+    grid = response_grid(fl, bands, target=tg, points_per_band=points_per_band)
+    f, w = grid.frequency_hz, grid.omega
+    k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
+    t_lin = model.transmissibility(k_lin, f)
+    evaluate = _random_evaluator(model, grid, random_method, rayleigh_nodes)
+    converged, slope = True, None
+    if stroke_amplitude_m is not None:
+        amp = check_positive("stroke_amplitude_m", stroke_amplitude_m, unit="m")
+        ev = evaluate(math.log(amp / EQUIVALENT_AMPLITUDE_FACTOR))
+        n_it = 1
+    else:
+        s2_lin = float(
+            stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w), grid)
+        )
+        if not s2_lin > 0:
+            raise InputError(f"floor: the spectrum {fl.name!r} carries no motion (PSD zero)")
+        try:
+            ev, n_it, slope = _random_closure(evaluate, 0.5 * math.log(s2_lin), rtol,
+                                              int(max_iter))  # fmt: skip
+        except SolverError as exc:
+            if strict:
+                raise
+            warnings.warn(f"band_response: {exc}", ModelValidityWarning, stacklevel=2)
+            converged = False
+            ev = evaluate(0.5 * math.log(s2_lin))
+            n_it = int(max_iter)
+    k = ev.k
+    t = model.transmissibility(k, f)
+    tc = Cx.from_complex(t)
+    rel = relative_transmissibility(Cx.from_complex(k), model.mass, w)
+    sigma = math.sqrt(float(stroke_variance(rel, grid)))
+    sigma_in = math.exp(ev.log_sigma_in)
+    ms_v = np.asarray(band_mean_square(tc, grid, "velocity"))
+    ms_x = np.asarray(band_mean_square(tc, grid, "displacement"))
+    ms_a = np.asarray(band_mean_square(tc, grid, "acceleration"))
+    if random_method == "equivalent_amplitude":
+
+        def t_exc(ff):
+            return model.transmissibility(model.k(ff, equivalent_amplitude(sigma_in)), ff)
+
+    else:
+        a, wq = rayleigh_rule(rayleigh_nodes)
+
+        def t_exc(ff):
+            return model.transmissibility(model.k(ff, sigma_in * a, pairwise=False) @ wq, ff)
+
+    stab = stability_of_model(
+        model,
+        payload,
+        excited=(t_exc, equivalent_amplitude(sigma_in), (f, t)),
+        linear_coarse=(f, t_lin),
+    )
+    res = BandResponse(
+        grid=grid,
+        transmissibility=t,
+        transmissibility_linear=t_lin,
+        floor_velocity_rms_m_s=grid.floor_velocity_rms_m_s,
+        payload_velocity_rms_m_s=np.sqrt(ms_v),
+        payload_displacement_rms_m=np.sqrt(ms_x),
+        payload_acceleration_rms_m_s2=np.sqrt(ms_a),
+        limit_velocity_rms_m_s=grid.limit_velocity_m_s,
+        stroke_rms_m=sigma,
+        equivalent_amplitude_m=equivalent_amplitude(sigma_in),
+        stability=stab,
+        spring_diagnostics=ev.result,
+        iterations=n_it,
+        converged=converged,
+        closure_slope=slope,
+        random_method=random_method,
+        flow=flow,
+        amplitude_mode=amplitude_mode,
+        diaphragm=stab.diaphragm,
+        floor_name=fl.name,
+        target_name=tg.name,
+        design=model.design,
+        payload=payload,
+    )
+    lines = list(res.warnings)
+    if slope is not None and slope >= 1.0:
+        lines.append(
+            f"closure: d ln sigma_new/d ln sigma = {slope:.3g} >= 1 at the solution; the "
+            "stroke RMS may not be unique"
+        )
+    emit_flags(lines, "band_response", warn)
+    return res

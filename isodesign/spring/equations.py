@@ -1,0 +1,79 @@
+"""The air-spring equations of the dual-chamber spring (paper Eqs. 37, 38, 42).
+
+* Eq. 38: ``k_d* = k_s (1 + j w tau) / (N + 1 + j w tau)``, ``tau = V_b0 C / (n R T0)``
+  (:func:`air_stiffness`), for a complex flow resistance ``C`` (inertance included) and a
+  polytropic index ``n`` (kappa if adiabatic).
+* Eq. 37: the kinematic flow amplitude ``u_max = (A_p/A_c) X_p w`` (:func:`kinematic_velocity`).
+* The driven flow amplitude ``U = (A_p/A_c) X w N / |1 + N + j w tau|`` and its
+  harmonic-balance residual (:func:`driven_velocity`, :func:`amplitude_residual`); the
+  derivation is in ``docs/spring-model.md``.
+* Eq. 42: ``k*_{d+D} = k_d* + k_D*``, air and diaphragm in parallel (:func:`spring_stiffness`).
+
+Every function evaluates on NumPy arrays and on CasADi symbols.
+"""
+from __future__ import annotations
+
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx
+from isodesign.spring.capillary import resistance_function
+
+__all__ = [
+    "air_stiffness",
+    "amplitude_residual",
+    "driven_velocity",
+    "kinematic_velocity",
+    "spring_stiffness",
+]
+
+
+# ---------------------------------------------------------------------------
+# backend-agnostic physics
+# ---------------------------------------------------------------------------
+def _jw_tau(design, omega, c: Cx) -> Cx:
+    """``j w tau = j w s C`` with ``s = V_b0/(n R T0)``."""
+    s = design.compliance_factor_s2_per_m2
+    return Cx(-omega * s * c.im, omega * s * c.re)
+
+
+def air_stiffness(design, omega, c: Cx) -> Cx:
+    """Air stiffness without diaphragm, Eq. 38, for a (complex) resistance C.
+
+    ``k_d* = k_s (1 + j w tau) / (N + 1 + j w tau)`` with ``k_s = n p0 A_p^2/V_t0``
+    (Eq. 40) and ``tau = V_b0 C / (n R T0)``. Limits: ``k_s/(N+1)`` as w -> 0 and
+    ``k_s`` as w -> inf (the tube blocks).
+    """
+    jwt = _jw_tau(design, omega, c)
+    return design.single_chamber_stiffness_n_per_m * (1.0 + jwt) / (1.0 + design.volume_ratio + jwt)
+
+
+def kinematic_velocity(design, omega, amplitude_m):
+    """Eq. 37: ``u_max = (A_p / A_c) X_p w`` (compressibility neglected)."""
+    return design.area_ratio * amplitude_m * omega
+
+
+def driven_velocity(design, omega, amplitude_m, c: Cx):
+    """Tube velocity amplitude that the chamber pressures drive for a given C.
+
+    ``U = (A_p/A_c) X w N / |1 + N + j w tau|`` (exact for the linearized
+    chambers, Eqs. 29-35).
+    """
+    d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
+    return design.volume_ratio * kinematic_velocity(design, omega, amplitude_m) / d.abs()
+
+
+def amplitude_residual(flow: str, design, omega, amplitude_m, log_velocity):
+    """Harmonic-balance residual ``F(x)`` of the self-consistent flow amplitude.
+
+    ``F(x) = x + ln|1 + N + j w s C(e^x)| - ln(N (A_p/A_c) X w)``, zero at the
+    self-consistent ``x = ln U``; smooth in every argument (an equality
+    constraint of the NLP, or the function of a rootfinder).
+    """
+    c = resistance_function(flow, design, omega)(bk.exp(log_velocity))
+    d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
+    q = design.volume_ratio * kinematic_velocity(design, omega, amplitude_m)
+    return log_velocity + 0.5 * bk.log(d.abs2()) - bk.log(q)
+
+
+def spring_stiffness(air: Cx, diaphragm: Cx) -> Cx:
+    """Eq. 42: the spring's complex stiffness, air and diaphragm in parallel (N/m)."""
+    return air + diaphragm
