@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 from isodesign.errors import InputError, ModelValidityWarning
+from isodesign.floor import FloorSpectrum, criterion
 from isodesign.floor.bands import third_octave_bands
-from isodesign.floor.criteria import FloorSpectrum, criterion
 from isodesign.numerics.cplx import Cx
 from isodesign.response import (
     LINEAR_REFERENCE_AMPLITUDE_M,

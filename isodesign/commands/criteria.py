@@ -82,7 +82,7 @@ def run(args) -> int:
     """Run ``isodesign criteria``."""
     from isodesign.commands import check_output_path, write_text
     from isodesign.errors import InputError, check_positive
-    from isodesign.floor.criteria import criteria_table
+    from isodesign.floor import criteria_table
 
     check_positive("--fmin", args.fmin, unit="Hz")
     check_positive("--fmax", args.fmax, unit="Hz")

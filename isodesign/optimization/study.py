@@ -34,7 +34,7 @@ from pathlib import Path
 from typing import Any
 
 from isodesign.errors import InputError, check_choice, check_range
-from isodesign.floor.criteria import FloorSpectrum, criterion, third_octave_bands
+from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.io.files import read_toml
 from isodesign.response.isolator import Payload
 from isodesign.spring.capillary import SMOOTH_FLOW_MODELS

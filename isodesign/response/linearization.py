@@ -27,8 +27,8 @@ Frequencies ``f_j`` (Hz, strictly increasing, one evaluation of the spring each)
   *velocity* PSD evaluated band-aware (a band-constant floor takes its band's own constant
   at both edges), so that the payload's band mean-square velocity is
   ``sum_j band_weight[b, j] |T_j|^2``. This is exactly the rule of
-  :meth:`isodesign.floor.criteria.FloorSpectrum.band_rms` (trapezoid in ``f`` on
-  :meth:`~isodesign.floor.criteria.FloorSpectrum.band_grid`): points shared by two adjacent bands,
+  :meth:`isodesign.floor.FloorSpectrum.band_rms` (trapezoid in ``f`` on
+  :meth:`~isodesign.floor.FloorSpectrum.band_grid`): points shared by two adjacent bands,
   or by the bands and the stroke grid, are evaluated once and their weights added.
 """
 
@@ -41,8 +41,8 @@ from functools import lru_cache
 import numpy as np
 
 from isodesign.errors import InputError, check_choice
+from isodesign.floor import FloorSpectrum
 from isodesign.floor.bands import Bands, third_octave_bands
-from isodesign.floor.criteria import FloorSpectrum
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx, as_cx
 

@@ -36,7 +36,7 @@ from isodesign.errors import (
     SolverError,
     check_positive,
 )
-from isodesign.floor.criteria import (
+from isodesign.floor import (
     CriterionCurve,
     FloorSpectrum,
     criterion,
@@ -96,7 +96,7 @@ def _looks_like_file(x) -> bool:
 
 
 def resolve_floor(floor):
-    """A :class:`~isodesign.floor.criteria.FloorSpectrum` from a spectrum, a criterion or a CSV file.
+    """A :class:`~isodesign.floor.FloorSpectrum` from a spectrum, a criterion or a CSV file.
 
     Parameters
     ----------
@@ -137,7 +137,7 @@ def resolve_floor(floor):
 
 
 def resolve_target(target):
-    """A :class:`~isodesign.floor.criteria.CriterionCurve` from a name, a curve or a CSV file.
+    """A :class:`~isodesign.floor.CriterionCurve` from a name, a curve or a CSV file.
 
     Raises
     ------
