@@ -195,7 +195,7 @@ def run_simulation(design: SpringDesign) -> pd.DataFrame | None:
     try:
         from isodesign.spring.simulate import simulate_grid
     except ImportError as exc:
-        print(f"note: time-domain check skipped: isodesign.spring.simulate is not available ({exc})")
+        print(f"note: time-domain check skipped: the simulator is not available ({exc})")
         return None
     f = np.asarray(SIMULATION_FREQUENCIES_HZ)
     x = np.asarray(AMPLITUDES_M)

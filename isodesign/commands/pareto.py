@@ -17,10 +17,10 @@ import sys
 
 from isodesign.commands.optimize import add_study_arguments
 
-#: Default objectives (must equal isodesign.optimization.pareto.DEFAULT_OBJECTIVES; a test checks it).
+#: Default objectives (must equal optimization.pareto.DEFAULT_OBJECTIVES; a test checks it).
 #: Kept here so that --help does not load NumPy.
 DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
-#: Objective names (must equal the keys of isodesign.optimization.study.OBJECTIVES; a test checks it).
+#: Objective names (must equal the keys of optimization.study.OBJECTIVES; a test checks it).
 OBJECTIVE_CHOICES = (
     "worst_band_margin",
     "rms_velocity",

@@ -14,8 +14,8 @@ from __future__ import annotations
 
 import argparse
 
-#: Model options (must match isodesign.spring.capillary.FLOW_MODELS, isodesign.spring.stiffness.AMPLITUDE_MODES
-#: and isodesign.response.random_input.RANDOM_METHODS; tests check it). Kept here so that --help does
+#: Model options (must match spring.capillary.FLOW_MODELS, spring.stiffness.AMPLITUDE_MODES
+#: and response.random_input.RANDOM_METHODS; tests check it). Kept here so that --help does
 #: not load NumPy.
 FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
 AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")

@@ -130,7 +130,7 @@ def model_label(flow: str, amplitude_mode: str, diaphragm: str) -> str:
 
 
 def compute(design, freq, amp, *, flow, amplitude_mode, diaphragm, label=None):
-    """Run :func:`~isodesign.spring.stiffness.complex_stiffness`; one warning per failed validity check.
+    """Run :func:`~isodesign.spring.stiffness.complex_stiffness`; a warning per failed check.
 
     Returns
     -------

@@ -244,7 +244,7 @@ def design_figures(design, analysis=None) -> dict:
 
 
 def _constraint_dict(c) -> dict:
-    """A :class:`~isodesign.optimization.optimizer.ConstraintReport` with its margin in natural units."""
+    """A :class:`~isodesign.optimization.optimizer.ConstraintReport`, margin in natural units."""
     lo, hi, v = c.lower, c.upper, c.value
     margins = []
     if lo is not None:

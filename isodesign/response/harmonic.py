@@ -35,9 +35,9 @@ from isodesign.response.stability import StabilityFigures, stability_of_model
 
 __all__ = [
     "BRANCHES",
-    "HarmonicResponse",
     "SCAN_AMPLITUDE_RANGE_M",
     "SCAN_POINTS_PER_DECADE",
+    "HarmonicResponse",
     "harmonic_response",
 ]
 
@@ -406,7 +406,9 @@ def harmonic_response(
         branch=branch,
         spring=spring,
         transmissibility_linear=t_lin,
-        stability=stability_of_model(model, payload, linear_coarse=(f, t_lin) if f.size > 20 else None),
+        stability=stability_of_model(
+            model, payload, linear_coarse=(f, t_lin) if f.size > 20 else None
+        ),
         design=model.design,
         payload=payload,
     )

@@ -84,7 +84,7 @@ def prepare_inputs(design, payload, derive_pressure: bool):
         raise InputError(f"design: expected a SpringDesign, got {type(design).__name__}")
     if not isinstance(payload, Payload):
         raise InputError(
-            f"payload: expected an isodesign.response.isolator.Payload, got {type(payload).__name__}"
+            f"payload: expected an isodesign.Payload, got {type(payload).__name__}"
         )
     return (loaded_design(design, payload) if derive_pressure else design), payload
 

@@ -50,8 +50,8 @@ from isodesign.response.model import (
 from isodesign.response.stability import StabilityFigures, stability_of_model
 
 __all__ = [
-    "BandResponse",
     "RANDOM_METHODS",
+    "BandResponse",
     "band_response",
     "solve_stroke_rms",
 ]
@@ -434,8 +434,8 @@ def band_response(
     points_per_band : int
         Trapezoid points per band, edges included (>= 2; default 50).
     flow, amplitude_mode, diaphragm : str
-        Spring models (:func:`isodesign.spring.stiffness.complex_stiffness`; ``amplitude_mode`` is the
-        tube-flow amplitude of the spring model).
+        Spring models (:func:`~isodesign.spring.stiffness.complex_stiffness`;
+        ``amplitude_mode`` is the tube-flow amplitude of the spring model).
     random_method : {'equivalent_amplitude', 'rayleigh'}
         ``equivalent_amplitude`` (default): the spring at ``A* = 1.880 sigma``
         (:data:`EQUIVALENT_AMPLITUDE_FACTOR`), exact for quadratic damping, one spring

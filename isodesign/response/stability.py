@@ -27,8 +27,8 @@ from isodesign.spring.diaphragm import diaphragm_model
 
 __all__ = [
     "StabilityFigures",
-    "stability_of_model",
     "stability_figures",
+    "stability_of_model",
 ]
 
 # ---------------------------------------------------------------------------

@@ -55,10 +55,6 @@ DESIGN_FIELDS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capilla
 pytestmark = pytest.mark.filterwarnings("ignore::isodesign.errors.ModelValidityWarning")
 
 
-@pytest.fixture(scope="module")
-def ref() -> SpringDesign:
-    return SpringDesign.reference()
-
 
 def k_of(design, f, x, **kw) -> np.ndarray:
     """Complex stiffness as a plain complex array (warnings off)."""

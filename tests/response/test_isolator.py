@@ -1,4 +1,4 @@
-"""Tests of isodesign.response.isolator: payload, transmissibility formulas, Zener form, tilt margin."""
+"""Tests of isodesign.response.isolator: payload, transmissibility, Zener form, tilt margin."""
 
 from __future__ import annotations
 
@@ -20,14 +20,7 @@ from isodesign.response.isolator import (
     zener_optimum,
     zener_transmissibility,
 )
-from isodesign.spring.design import SpringDesign
 from isodesign.spring.gas import P_ATM
-
-
-@pytest.fixture(scope="module")
-def ref():
-    return SpringDesign.reference()
-
 
 # --------------------------------------------------------------------------------------------
 # Payload and p0

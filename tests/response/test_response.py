@@ -53,10 +53,6 @@ def _quiet():
         yield
 
 
-@pytest.fixture(scope="module")
-def ref():
-    return SpringDesign.reference()
-
 
 @pytest.fixture(scope="module")
 def payload():

@@ -1,4 +1,4 @@
-"""Tests of isodesign.spring.simulate: the nonlinear time-domain check of the frequency-domain model.
+"""Tests of isodesign.spring.simulate: the time-domain check of the frequency-domain model.
 
 The measured numbers behind every tolerance are in docs/simulation.md (reproduce them with
 ``python -m isodesign.spring.simulate``).
