@@ -11,7 +11,7 @@ paper's Table 2 frequencies and a fine log grid) at 0.05, 0.15 and 0.5 mm, for
 (c) the package's self-consistent models (``flow="quasi_steady"`` and
     ``flow="womersley"`` with ``amplitude_mode="self_consistent"``);
 (d) optionally, a direct time-domain integration of the nonlinear lumped
-    equations (``isodesign.spring.simulate.simulate_grid``) as an independent check of
+    equations (``isodesign.simulation.harmonic_rig.simulate_grid``) as an independent check of
     the harmonic balance behind (c).
 
 Every curve includes the default diaphragm (``"viscoelastic"``, illustrative
@@ -176,7 +176,7 @@ def evaluate_curves(design: SpringDesign, grids: dict[str, np.ndarray]) -> pd.Da
 def run_simulation(design: SpringDesign) -> pd.DataFrame | None:
     """Time-domain check of the self-consistent quasi-steady model.
 
-    Calls ``isodesign.spring.simulate.simulate_grid(design, f, X, flow="quasi_steady",
+    Calls ``isodesign.simulation.harmonic_rig.simulate_grid(design, f, X, flow="quasi_steady",
     diaphragm="viscoelastic")`` on :data:`SIMULATION_FREQUENCIES_HZ` x
     :data:`AMPLITUDES_M` and compares with the harmonic balance.
 
@@ -190,10 +190,10 @@ def run_simulation(design: SpringDesign) -> pd.DataFrame | None:
     pandas.DataFrame or None
         One row per point: simulated and harmonic-balance stiffness and their
         relative differences; ``None`` (with a printed note) when
-        ``isodesign.spring.simulate`` is not available.
+        ``isodesign.simulation.harmonic_rig`` is not available.
     """
     try:
-        from isodesign.spring.simulate import simulate_grid
+        from isodesign.simulation.harmonic_rig import simulate_grid
     except ImportError as exc:
         print(f"note: time-domain check skipped: the simulator is not available ({exc})")
         return None
@@ -630,7 +630,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument(
         "--no-simulation",
         action="store_true",
-        help="skip the time-domain check (isodesign.spring.simulate)",
+        help="skip the time-domain check (isodesign.simulation.harmonic_rig)",
     )
     ap.add_argument(
         "--fine-points",

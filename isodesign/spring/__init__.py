@@ -10,5 +10,4 @@ One concept a module:
 * :mod:`~isodesign.spring.amplitude`: the self-consistent tube-velocity solver.
 * :mod:`~isodesign.spring.stiffness`: :func:`complex_stiffness` ``k*(X_p, w)``.
 * :mod:`~isodesign.spring.diagnostics`: flow figures and the validity checks.
-* :mod:`~isodesign.spring.simulate`: the independent time-domain simulator.
 """

@@ -44,7 +44,7 @@ itself), and within 0.2 % of the exact first harmonic for Blasius friction
 (``U^1.75``: 0.8844 against 0.8861). In the laminar-turbulent transition (peak
 Re 2,400 to 3,000) the friction term differs from the exact describing function
 of Churchill's law by up to 9 %; the effect on k is at most 1.2 % on the
-reference spring, and the time-domain check (:mod:`isodesign.spring.simulate`,
+reference spring, and the time-domain check (:mod:`isodesign.simulation.harmonic_rig`,
 ``docs/simulation.md``) bounds the whole harmonic-balance error at 2.3 % in |k|
 over 0.2-24 Hz and 0.05-0.5 mm.
 """

@@ -1,7 +1,7 @@
-"""Tests of isodesign.spring.simulate: the time-domain check of the frequency-domain model.
+"""Tests of isodesign.simulation.harmonic_rig: the time-domain check of the frequency-domain model.
 
 The measured numbers behind every tolerance are in docs/simulation.md (reproduce them with
-``python -m isodesign.spring.simulate``).
+``python -m isodesign.simulation.harmonic_rig``).
 """
 
 from __future__ import annotations
@@ -15,7 +15,7 @@ import pytest
 from isodesign import SpringDesign, complex_stiffness
 from isodesign.errors import InputError, SolverError
 from isodesign.spring.diaphragm import ViscoelasticDiaphragm
-from isodesign.spring.simulate import (
+from isodesign.simulation.harmonic_rig import (
     REFERENCE_AMPLITUDES_M,
     REFERENCE_FREQUENCIES_HZ,
     SimulationGridResult,
