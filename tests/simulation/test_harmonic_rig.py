@@ -14,7 +14,6 @@ import pytest
 
 from isodesign import SpringDesign, complex_stiffness
 from isodesign.errors import InputError, SolverError
-from isodesign.spring.diaphragm import ViscoelasticDiaphragm
 from isodesign.simulation.harmonic_rig import (
     REFERENCE_AMPLITUDES_M,
     REFERENCE_FREQUENCIES_HZ,
@@ -24,6 +23,7 @@ from isodesign.simulation.harmonic_rig import (
     simulate_grid,
     simulate_stiffness,
 )
+from isodesign.spring.diaphragm import ViscoelasticDiaphragm
 
 REF = SpringDesign.reference()
 
