@@ -15,7 +15,7 @@ $(STAMP): pyproject.toml
 	@touch $(STAMP)
 
 demo: $(STAMP)
-	$(BIN)/isodesign demo -o out/demo
+	$(BIN)/isodesign demo -o out/demo --overwrite
 
 test: $(STAMP)
 	$(BIN)/ruff check isodesign tests studies benchmarks

@@ -10,16 +10,28 @@ modules import their heavy dependencies inside ``run``, so ``isodesign
 Exit status: 0 success; 1 solver failure (:class:`~isodesign.errors.SolverError`);
 2 bad input (usage errors, :class:`~isodesign.errors.InputError` and any other
 ``ValueError``, unreadable or malformed files); 3 internal error (a bug: rerun
-with ``--debug`` for the traceback); 130 interrupted. Every error is one line on
-standard error, ``isodesign: error: <message>``; every
+with ``--debug`` for the traceback); 130 interrupted (SIGINT or SIGTERM). Every error is
+one line on standard error, ``isodesign: error: <message>``; every
 :class:`~isodesign.errors.ModelValidityWarning` is one line
 ``isodesign: warning: <message>``.
+
+Interrupts: while a command runs, SIGINT and SIGTERM go to :func:`_on_signal`, which ends
+the forked worker processes, marks every open run directory interrupted
+(:func:`isodesign.io.rundir.interrupt_active_runs`), prints one line and exits with 130
+at once (``os._exit``: no exception travels through CasADi/IPOPT, which would print its
+own ``KeyboardInterruptException``). Forked children ignore SIGINT (the terminal sends it
+to the whole process group; the parent ends them), take SIGTERM's default action and die
+with the parent (``PR_SET_PDEATHSIG`` on Linux), so no worker prints a traceback or
+outlives the run.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import re
+import signal
 import sys
 import traceback
 import warnings
@@ -90,7 +102,16 @@ class _Formatter(argparse.RawDescriptionHelpFormatter):
 
 
 class _Parser(argparse.ArgumentParser):
-    """ArgumentParser whose usage errors are one line: ``isodesign: error: ...``."""
+    """ArgumentParser whose usage errors are one line: ``isodesign: error: ...``.
+
+    A word that starts with ``-`` and a digit or ``.digit`` (``-1,2``, ``-1e-3``,
+    ``-.5:2:3``) is a value, not an option (argparse's own rule accepts only plain
+    negative numbers): ``--freq -1,2`` reaches the option's own check, which names it.
+    """
+
+    def __init__(self, *a, **kw):
+        super().__init__(*a, **kw)
+        self._negative_number_matcher = re.compile(r"^-\.?\d")
 
     def error(self, message: str):
         hint = f" (see '{self.prog} --help')"
@@ -131,7 +152,8 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
         ),
         epilog=(
             f"Run '{PROG} COMMAND --help' for the options of a command.\n"
-            "Exit status: 0 ok, 1 solver failure, 2 bad input, 3 internal error.\n"
+            "Exit status: 0 ok, 1 solver failure or no feasible design, 2 bad input,\n"
+            "3 internal error, 130 interrupted.\n"
             "Docs: docs/cli.md, docs/optimization.md, docs/design-file.md."
         ),
     )
@@ -201,6 +223,107 @@ def _report(exc: BaseException, debug: bool) -> int:
     return status
 
 
+_MAIN_PID: int | None = None
+_FORK_HOOK_INSTALLED = False
+
+
+def _in_forked_child() -> None:
+    """Signal dispositions of every process forked while a command runs (its workers)."""
+    if os.getpid() == _MAIN_PID:  # pragma: no cover - runs only in the child
+        return
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        try:
+            import ctypes
+
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG: die with the parent
+        except (OSError, AttributeError):  # pragma: no cover - no libc prctl
+            pass
+
+
+def _end_workers() -> None:
+    """Terminate (then kill) the multiprocessing children of this process."""
+    mp = sys.modules.get("multiprocessing")
+    if mp is None:
+        return
+    try:
+        children = mp.active_children()
+    except Exception:  # pragma: no cover - best effort inside a signal handler
+        return
+    for p in children:
+        try:
+            p.terminate()
+        except Exception:  # pragma: no cover
+            pass
+    for p in children:
+        try:
+            p.join(timeout=2.0)
+            if p.is_alive():  # pragma: no cover - SIGTERM is the default action in workers
+                p.kill()
+                p.join(timeout=1.0)
+        except Exception:  # pragma: no cover
+            pass
+
+
+def _on_signal(signum, frame) -> None:  # pragma: no cover - exercised by subprocess tests
+    """SIGINT/SIGTERM while a command runs: end workers, mark runs interrupted, exit 130."""
+    if os.getpid() != _MAIN_PID:  # a forked child that kept the parent's handler
+        os._exit(EXIT_INTERRUPTED)
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C does not cut the cleanup
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    name = signal.Signals(signum).name
+    where = ""
+    try:
+        _end_workers()
+        rundir = sys.modules.get("isodesign.io.rundir")
+        if rundir is not None:
+            kept = rundir.interrupt_active_runs(f"interrupted by {name}")
+            if kept:
+                where = "; partial run kept in " + ", ".join(str(p) for p in kept) + \
+                    " (run_status interrupted)"
+        else:
+            files = sys.modules.get("isodesign.io.files")
+            if files is not None:
+                files.discard_pending_writes()
+    except Exception as exc:  # never a traceback from the handler
+        where = f"; cleanup incomplete ({type(exc).__name__}: {_one_line(str(exc))})"
+    try:
+        sys.stdout.flush()
+    except Exception:
+        pass
+    try:
+        os.write(2, f"{PROG}: interrupted by {name}{where}\n".encode())
+    except OSError:
+        pass
+    os._exit(EXIT_INTERRUPTED)
+
+
+def _install_signal_handlers() -> dict:
+    """Handlers of SIGINT/SIGTERM for the run; returns the previous ones (to restore)."""
+    global _MAIN_PID, _FORK_HOOK_INSTALLED
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        return {}
+    _MAIN_PID = os.getpid()
+    if not _FORK_HOOK_INSTALLED:
+        os.register_at_fork(after_in_child=_in_forked_child)
+        _FORK_HOOK_INSTALLED = True
+    old = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        old[sig] = signal.signal(sig, _on_signal)
+    return old
+
+
+def _restore_signal_handlers(old: dict) -> None:
+    global _MAIN_PID
+    for sig, h in old.items():
+        signal.signal(sig, h)
+    _MAIN_PID = None
+
+
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; return the exit status.
 
@@ -222,16 +345,19 @@ def main(argv: Sequence[str] | None = None) -> int:
     debug = bool(getattr(args, "debug", False))
     from isodesign.errors import ModelValidityWarning  # NumPy: only once a command runs
 
+    old_handlers = _install_signal_handlers()
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
         warnings.filterwarnings("always", category=ModelValidityWarning)
         try:
             return int(args._run(args) or 0)
-        except KeyboardInterrupt:
+        except KeyboardInterrupt:  # raised before the handlers were in place, or by a test
             print(f"{PROG}: interrupted", file=sys.stderr)
             return EXIT_INTERRUPTED
         except Exception as exc:
             return _report(exc, debug)
+        finally:
+            _restore_signal_handlers(old_handlers)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -15,19 +15,97 @@ Each command is a module ``isodesign.commands.<name>`` registered in
 
 The helpers below use only the standard library, so that importing this
 package costs nothing on the ``--help`` path.
+
+Output (``docs/cli.md``, "Output directories" and "Output files"): a command that writes a
+directory adds :func:`add_output_dir_arguments` to its parser and, in ``run``, after
+validating its inputs and before computing, opens :func:`run_directory`; a command that
+writes single files checks them with :func:`check_output_path` first and writes them with
+:func:`write_text` / :func:`write_frame` / :func:`write_figure` (whole or not at all).
+Every count a user can give is checked with :func:`check_count` (its range in the message).
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
+import os
 import sys
 from pathlib import Path
 
-__all__ = ["check_output_path", "input_error", "parse_values", "write_text"]
+__all__ = [
+    "MAX_GRID_POINTS",
+    "MAX_LIST_VALUES",
+    "add_output_dir_arguments",
+    "check_count",
+    "check_grid_size",
+    "check_output_path",
+    "input_error",
+    "parse_values",
+    "run_directory",
+    "write_figure",
+    "write_frame",
+    "write_text",
+]
 
 #: Unit suffixes accepted by :func:`parse_values`, per quantity: suffix -> factor to SI.
 FREQUENCY_UNITS = {"Hz": 1.0, "hz": 1.0}
 LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6}
+#: Most values one list option (``--freq``, ``--amplitude``, ...) may give.
+MAX_LIST_VALUES = 10_000
+#: Most points of a frequency x amplitude grid (``stiffness``, ``transmissibility``).
+MAX_GRID_POINTS = 200_000
+
+
+def check_count(value, option: str, lo: int, hi: int) -> int:
+    """Require an integer count in [lo, hi]; InputError naming ``option`` and the range."""
+    if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
+        shown = str(value)
+        if len(shown) > 24:
+            shown = shown[:20] + "..."
+        raise input_error(f"{option}: must be an integer in [{lo}, {hi}], got {shown}")
+    return value
+
+
+def check_grid_size(n_a: int, n_b: int, option_a: str, option_b: str) -> None:
+    """At most :data:`MAX_GRID_POINTS` points in an ``option_a`` x ``option_b`` grid."""
+    if n_a * n_b > MAX_GRID_POINTS:
+        raise input_error(
+            f"{option_a} x {option_b}: {n_a} x {n_b} = {n_a * n_b} points; the grid may have "
+            f"at most {MAX_GRID_POINTS} (fewer values, or several runs)"
+        )
+
+
+def add_output_dir_arguments(parser, *, required: bool = True, default: str | None = None,
+                             what: str = "output directory") -> None:
+    """``-o/--output OUTDIR`` and ``--overwrite``: the run-directory contract's options."""
+    parser.add_argument(
+        "-o",
+        "--output",
+        metavar="OUTDIR",
+        required=required,
+        default=default,
+        help=f"{what}: written whole when the run ends (docs/cli.md, 'Output directories'); "
+        "refused if it already holds a run, unless --overwrite"
+        + ("" if default is None else " (default %(default)s)"),
+    )
+    parser.add_argument(
+        "--overwrite",
+        action="store_true",
+        help="replace an earlier run in OUTDIR (only the files that run wrote)",
+    )
+
+
+def run_directory(args, command: str, *, known_outputs=(), option: str = "--output"):
+    """The :class:`~isodesign.io.rundir.RunDirectory` of ``args.output`` (checked now).
+
+    Use as ``with run_directory(args, "report") as run: run.write_text(...)``; call it
+    before the computation so that a bad target fails first.
+    """
+    from isodesign.io.rundir import RunDirectory
+
+    return RunDirectory(args.output, command=command,
+                        overwrite=bool(getattr(args, "overwrite", False)), option=option,
+                        known_outputs=known_outputs)
 
 
 def input_error(message: str) -> Exception:
@@ -47,12 +125,33 @@ def _split_unit(text: str, units: dict[str, float]) -> tuple[str, float | None]:
     return text, None
 
 
+def _units_text(units: dict[str, float], unit_name: str) -> str:
+    names = sorted(set(units), key=lambda u: (units[u], u))
+    return f"accepted units: {', '.join(names)} (none: {unit_name})"
+
+
 def _number(token: str, name: str, units: dict[str, float], default: float, unit_name: str):
     body, factor = _split_unit(token.strip(), units)
     try:
         v = float(body)
     except ValueError:
-        raise input_error(f"{name}: {token.strip()!r} is not a number") from None
+        text = token.strip()
+        i = len(text)
+        while i > 0 and text[i - 1].isalpha():
+            i -= 1
+        if 0 < i < len(text):
+            try:
+                float(text[:i])
+            except ValueError:
+                pass
+            else:
+                raise input_error(
+                    f"{name}: unknown unit {text[i:]!r} in {text!r}; "
+                    f"{_units_text(units, unit_name)}"
+                ) from None
+        raise input_error(
+            f"{name}: {_clip(text)!r} is not a number ({_units_text(units, unit_name)})"
+        ) from None
     if not math.isfinite(v) or v <= 0:
         raise input_error(
             f"{name}: every value must be finite and > 0 {unit_name}, got {token.strip()!r}"
@@ -91,6 +190,9 @@ def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: st
     text = spec.strip()
     if not text:
         raise input_error(f"{name}: empty; give values like 0.2,1,5 or a range 0.2:24:50")
+    if len(text) > 20 * MAX_LIST_VALUES:
+        raise input_error(f"{name}: too long ({len(text)} characters); at most "
+                          f"{MAX_LIST_VALUES} values")
     body, factor = _split_unit(text, units)
     default = 1.0 if factor is None else factor
     if ":" in body:
@@ -101,15 +203,13 @@ def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: st
             )
         start = _number(parts[0], name, units, default, unit_name)
         stop = _number(parts[1], name, units, default, unit_name)
-        try:
-            count = int(parts[2].strip())
-        except ValueError:
+        c = parts[2].strip()
+        if not (c.isascii() and c.isdigit()) or len(c) > 9 or not 2 <= int(c) <= MAX_LIST_VALUES:
             raise input_error(
-                f"{name}: the count of start:stop:count must be an integer >= 2, "
-                f"got {parts[2].strip()!r}"
-            ) from None
-        if count < 2:
-            raise input_error(f"{name}: the count of start:stop:count must be >= 2, got {count}")
+                f"{name}: the count of start:stop:count must be an integer in "
+                f"[2, {MAX_LIST_VALUES}], got {_clip(c)!r}"
+            )
+        count = int(c)
         if not stop > start:
             raise input_error(
                 f"{name}: in start:stop:count, stop must be greater than start "
@@ -121,34 +221,69 @@ def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: st
         return values
     items = body.split(",")
     if any(not it.strip() for it in items):
-        raise input_error(f"{name}: empty item in {spec.strip()!r}")
+        raise input_error(f"{name}: empty item in {_clip(spec.strip())!r}")
+    if len(items) > MAX_LIST_VALUES:
+        raise input_error(
+            f"{name}: {len(items)} values; give between 1 and {MAX_LIST_VALUES}"
+        )
     return [_number(it, name, units, default, unit_name) for it in items]
 
 
+def _clip(text: str, n: int = 40) -> str:
+    return text if len(text) <= n else text[: n - 3] + "..."
+
+
 def check_output_path(path: str | Path | None, option: str) -> None:
-    """Fail early (before any computation) if ``path`` cannot be created.
+    """Fail early (before any computation) if the file ``path`` cannot be written.
 
     ``None`` and ``-`` (standard output) pass. Raises InputError naming the
-    option if the parent directory does not exist or ``path`` is a directory.
+    option if ``path`` is empty or a directory, its parent does not exist or is a
+    file, or the parent (or an existing ``path``) is not writable.
     """
     if path is None or str(path) == "-":
         return
+    if str(path).strip() == "":
+        raise input_error(f"{option}: empty; give a file name")
     p = Path(path)
     if p.is_dir():
         raise input_error(f"{option}: {p} is a directory; give a file name")
     parent = p.parent
+    if parent.exists() and not parent.is_dir():
+        raise input_error(f"{option}: {parent} is a file, not a directory")
     if not parent.is_dir():
         raise input_error(f"{option}: directory {parent} does not exist")
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise input_error(f"{option}: cannot write in {parent} (permission denied)")
+    if p.exists() and not os.access(p, os.W_OK):
+        raise input_error(f"{option}: {p} is not writable (permission denied)")
 
 
 def write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` (``-`` = standard output); return the path."""
+    """Write ``text`` to ``path`` whole or not at all (``-`` = standard output)."""
     if str(path) == "-":
         sys.stdout.write(text)
         return Path("-")
-    p = Path(path)
-    p.write_text(text, encoding="utf-8")
-    return p
+    from isodesign.io.files import atomic_write_text
+
+    return atomic_write_text(path, text)
+
+
+def write_frame(frame, path: str | Path) -> int:
+    """Write a DataFrame as CSV (``-`` = standard output), whole or not at all; rows."""
+    if str(path) == "-":
+        frame.to_csv(sys.stdout, index=False)
+    else:
+        write_text(path, frame.to_csv(index=False))
+    return len(frame)
+
+
+@contextlib.contextmanager
+def write_figure(path: str | Path):
+    """``with write_figure(p) as tmp: fig.savefig(tmp)``: the file appears whole or not."""
+    from isodesign.io.files import atomic_path
+
+    with atomic_path(path) as tmp:
+        yield tmp
 
 
 def write_result(res, args, summary_text: str) -> int:
@@ -158,12 +293,12 @@ def write_result(res, args, summary_text: str) -> int:
     if not to_stdout:
         print(summary_text)
     if args.output:
-        df = res.to_frame()
-        df.to_csv(sys.stdout if to_stdout else args.output, index=False)
+        n = write_frame(res.to_frame(), args.output)
         if not to_stdout:
-            print(f"wrote {args.output} ({len(df)} rows)")
+            print(f"wrote {args.output} ({n} rows)")
     if args.plot:
-        res.plot(args.plot)
+        with write_figure(args.plot) as tmp:
+            res.plot(tmp)
         if not to_stdout:
             print(f"wrote {args.plot}")
     return 0

@@ -92,8 +92,16 @@ def run(args) -> int:
 
     layout = args.layout or ("long" if args.format == "csv" else "wide")
     names = None
-    if args.names:
-        names = tuple(n.strip() for n in args.names.split(",") if n.strip())
+    if args.names is not None:
+        items = [n.strip() for n in args.names.split(",")]
+        if not any(items):
+            raise InputError(
+                f"--names: no criterion named in {args.names[:40]!r}; give a comma list like "
+                "VC-A,VC-E,NIST-A, or leave --names out for every criterion"
+            )
+        if not all(items):
+            raise InputError(f"--names: empty item in {args.names[:40]!r}")
+        names = tuple(items)
     df = criteria_table(args.fmin, args.fmax, layout=layout, names=names, velocity_unit=args.unit)
     if args.format == "csv":
         text = df.to_csv(index=False)

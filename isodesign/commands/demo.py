@@ -12,7 +12,9 @@
    amplitude_mode=kinematic): stiffness.csv, stiffness_paper_model.csv, stiffness.png.
    The paper's model is flagged outside its validity at most points (warnings).
 
-Exit status 0 when both parts succeed (1 if the optimization finds no feasible design).
+DIR appears whole when the demo ends, with the run's status in DIR/record.json; a DIR that
+holds an earlier run is refused unless --overwrite (docs/cli.md). Exit status 0 when both
+parts succeed (1 if the optimization finds no feasible design).
 """
 
 from __future__ import annotations
@@ -27,31 +29,29 @@ MODELS = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign demo``."""
-    parser.add_argument(
-        "-o",
-        "--output",
-        metavar="DIR",
-        default="out/demo",
-        help="output directory, created if needed (default %(default)s)",
-    )
+    from isodesign.commands import add_output_dir_arguments
+
+    add_output_dir_arguments(parser, required=False, default="out/demo")
     parser.add_argument(
         "--quiet", action="store_true", help="no progress bar; short optimization summary"
     )
 
 
-def stiffness_comparison(out) -> None:
-    """The reference spring's complex stiffness, default model vs the paper's, into ``out``."""
+#: Entries of the demo's directory.
+OUTPUT_FILES = ("optimize", "stiffness", "record.json")
+
+
+def stiffness_comparison(run, prefix: str = "stiffness/") -> None:
+    """The reference spring's complex stiffness, default model vs the paper's, into ``run``."""
     from isodesign.commands.stiffness import (
         DEFAULT_AMPLITUDES_M,
         TABLE2_FREQUENCIES_HZ,
         compute,
         load,
         summary,
-        write_csv,
     )
     from isodesign.plotting import plot_stiffness
 
-    out.mkdir(parents=True, exist_ok=True)
     design, label = load(None)
     results = []
     for filename, name, flow, mode in MODELS:
@@ -64,34 +64,39 @@ def stiffness_comparison(out) -> None:
             diaphragm="viscoelastic",
             label=name,
         )
-        write_csv(res, out / filename)
-        print(summary(res, title=f"{name}, {label}: wrote {out / filename}"))
+        path = run.write_csv(prefix + filename, res.to_frame())
+        print(summary(res, title=f"{name}, {label}: wrote {path}"))
         results.append((name, res))
-    png = out / "stiffness.png"
-    plot_stiffness(
-        png,
-        [r for _, r in results],
-        labels=["default (quasi_steady, self-consistent)", "paper (zhao, kinematic)"],
-        title=f"Complex stiffness, {label}",
-    )
-    print(f"wrote {png}")
+    with run.writing(prefix + "stiffness.png") as tmp:
+        plot_stiffness(
+            tmp,
+            [r for _, r in results],
+            labels=["default (quasi_steady, self-consistent)", "paper (zhao, kinematic)"],
+            title=f"Complex stiffness, {label}",
+        )
+    print(f"wrote {run.final_path(prefix + 'stiffness.png')}")
 
 
 def run(args) -> int:
     """Run ``isodesign demo``."""
     from pathlib import Path
 
-    from isodesign.commands.optimize import execute, prepare_output_dir
+    from isodesign.commands import run_directory
+    from isodesign.commands.optimize import execute
     from isodesign.optimization.study import default_study
 
-    root = Path(args.output)
-    print("== 1. optimization of the default study (isodesign optimize) ==")
+    study = default_study()
+    rundir = run_directory(args, "demo", known_outputs=OUTPUT_FILES)
     opt_args = argparse.Namespace(
-        study=None, output=str(root / "optimize"), starts=None, workers=None, seed=None,
-        quiet=args.quiet, no_plots=False,
+        study=None, output=str(Path(args.output) / "optimize"), starts=None, workers=None,
+        seed=None, quiet=args.quiet, no_plots=False, overwrite=False,
     )
-    status = execute(default_study(), prepare_output_dir(opt_args.output), opt_args)
-    print()
-    print("== 2. complex stiffness of the reference spring: default model vs the paper's ==")
-    stiffness_comparison(root / "stiffness")
+    with rundir:
+        print("== 1. optimization of the default study (isodesign optimize) ==")
+        status = execute(study, rundir, opt_args, prefix="optimize/")
+        if status != 0:
+            rundir.status = "infeasible"
+        print()
+        print("== 2. complex stiffness of the reference spring: default model vs the paper's ==")
+        stiffness_comparison(rundir)
     return status

@@ -9,8 +9,10 @@ Prints start design against optimum, every constraint with its margin (binding o
 marked), the starts that reached the best design, the flat direction and the re-check.
 Writes to OUTDIR: design.json, design.toml, bands.csv, starts.csv, record.json,
 study_resolved.toml (replay: isodesign optimize OUTDIR/study_resolved.toml -o NEWDIR) and
-response.png. Exit status 0: feasible optimum; 1: no feasible design (report printed,
-record.json and starts.csv still written); 2: bad input.
+response.png. OUTDIR appears whole when the run ends, its record.json carrying the run's
+status; an OUTDIR that holds a run is refused unless --overwrite (docs/cli.md). Exit status
+0: feasible optimum; 1: no feasible design (report printed, record.json, starts.csv and
+study_resolved.toml still written); 2: bad input; 130: interrupted.
 """
 
 from __future__ import annotations
@@ -40,20 +42,20 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--starts",
-        type=int,
+        type=_int_option,
         metavar="N",
         help="number of starts: the study's start plus N-1 Latin-hypercube points "
         "(overrides solver.starts; 1..256)",
     )
     parser.add_argument(
         "--workers",
-        type=int,
+        type=_int_option,
         metavar="N",
         help="worker processes for the starts (overrides solver.workers; 1..64)",
     )
     parser.add_argument(
         "--seed",
-        type=int,
+        type=_int_option,
         metavar="N",
         help="seed of the Latin hypercube (overrides solver.seed; >= 0)",
     )
@@ -65,16 +67,21 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-plots", action="store_true", help="write no PNG files")
 
 
+def _int_option(text: str) -> int:
+    """An integer option value (argparse type): digits only, at most 12 of them."""
+    t = text.strip()
+    body = t[1:] if t[:1] in "+-" else t
+    if not (body.isascii() and body.isdigit()) or len(body) > 12:
+        raise argparse.ArgumentTypeError(f"expected an integer, got {t[:24]!r}")
+    return int(t)
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign optimize``."""
+    from isodesign.commands import add_output_dir_arguments
+
     add_study_arguments(parser)
-    parser.add_argument(
-        "-o",
-        "--output",
-        metavar="OUTDIR",
-        required=True,
-        help="output directory, created if needed",
-    )
+    add_output_dir_arguments(parser)
 
 
 # ---------------------------------------------------------------------------
@@ -89,33 +96,30 @@ def load_study_from_args(args):
     from isodesign.errors import InputError
     from isodesign.optimization.study import default_study, load_study
 
-    study = default_study() if args.study is None else load_study(args.study)
     changes = {}
     for opt, key, lo, hi in (("--starts", "starts", 1, 256), ("--workers", "workers", 1, 64),
-                             ("--seed", "seed", 0, None)):
+                             ("--seed", "seed", 0, SEED_MAX)):
         v = getattr(args, key, None)
         if v is None:
             continue
-        if v < lo or (hi is not None and v > hi):
-            rng = f"[{lo}, {hi}]" if hi is not None else f"[{lo}, inf)"
-            raise InputError(f"{opt}: must be an integer in {rng}, got {v}")
+        if v < lo or v > hi:
+            raise InputError(f"{opt}: must be an integer in [{lo}, {hi}], got {v}")
         changes[key] = v
+    study = default_study() if args.study is None else load_study(args.study)
     if changes:
         study = study.with_changes(solver=changes)
     return study
 
 
-def prepare_output_dir(path):
-    """Create the output directory (InputError naming ``--output`` if it is a file)."""
-    from pathlib import Path
+#: Largest --seed (NumPy's generators take any integer; this keeps records readable).
+SEED_MAX = 2**32 - 1
 
-    from isodesign.errors import InputError
 
-    out = Path(path)
-    if out.exists() and not out.is_dir():
-        raise InputError(f"--output: {out} exists and is not a directory")
-    out.mkdir(parents=True, exist_ok=True)
-    return out
+def open_run(args, command: str = "optimize", known_outputs=OUTPUT_FILES):
+    """The run directory of ``args.output`` (checked now: before any computation)."""
+    from isodesign.commands import run_directory
+
+    return run_directory(args, command, known_outputs=known_outputs)
 
 
 def canonical_command(args, name: str) -> list[str]:
@@ -128,7 +132,7 @@ def canonical_command(args, name: str) -> list[str]:
         if v is not None:
             words += [f"--{opt}", str(v)]
     words += ["-o", str(args.output)]
-    for flag in ("no_plots", "quiet"):
+    for flag in ("no_plots", "quiet", "overwrite"):
         if getattr(args, flag, False):
             words.append("--" + flag.replace("_", "-"))
     return words
@@ -422,43 +426,46 @@ def bands_frame(result):
     return df
 
 
-def write_outputs(result, out, args, *, plots: bool) -> list:
-    """Write every output file of a run; return the paths written."""
-    from isodesign.io.designfile import save_design
-    from isodesign.io.record import (
-        optimization_design,
-        optimization_record,
-        study_toml,
-        write_json,
-    )
+def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
+    """Write every output file of a run into the run directory; return the paths.
+
+    ``run`` is a :class:`~isodesign.io.rundir.RunDirectory`; ``prefix`` a subdirectory
+    inside it (``"optimize/"`` for ``isodesign demo``). The run record's fields go into
+    ``run.record`` (written as ``record.json`` when the run ends, with its status).
+    """
+    from isodesign.io.designfile import design_to_toml
+    from isodesign.io.record import optimization_design, optimization_record, study_toml
 
     written = []
     rec = optimization_record(result, argv=canonical_command(args, "optimize")[1:],
                               extra={"argv": list(sys.argv)})
-    written.append(write_json(out / "record.json", rec))
-    p = out / "starts.csv"
-    result.starts_frame().to_csv(p, index=False)
-    written.append(p)
-    p = out / "study_resolved.toml"
-    p.write_text(study_toml(result.study, header=(
+    if prefix:
+        run.record.setdefault("parts", {})[prefix.rstrip("/")] = rec
+    else:
+        run.record.update(rec)
+    written.append(run.write_csv(prefix + "starts.csv", result.starts_frame()))
+    name = prefix + "study_resolved.toml"
+    written.append(run.write_text(name, study_toml(result.study, header=(
         f"Resolved study of an isodesign optimize run (defaults filled in, command-line\n"
-        f"overrides applied). Replay: isodesign optimize {p} -o NEWDIR")), encoding="utf-8")
-    written.append(p)
+        f"overrides applied). Replay: isodesign optimize {run.final_path(name)} -o NEWDIR"))))
+    if prefix:  # a part of a larger run (demo): its own record too
+        written.append(run.write_json(prefix + "record.json", {
+            **rec, "run_status": "complete" if result.feasible else "infeasible"}))
     if not result.feasible:
         return written
     design = optimization_design(result)
-    written.append(write_json(out / "design.json", design))
-    written.append(save_design(result.design, out / "design.toml", header=(
+    written.append(run.write_json(prefix + "design.json", design))
+    written.append(run.write_text(prefix + "design.toml", design_to_toml(result.design, header=(
         f"Optimized spring of study {result.study.name!r} (isodesign optimize); p0 from the "
         f"payload ({result.study.payload.mass_kg:g} kg on {result.study.payload.isolators} "
-        "isolators).")))
-    p = out / "bands.csv"
-    bands_frame(result).to_csv(p, index=False)
-    written.append(p)
+        "isolators)."))))
+    written.append(run.write_csv(prefix + "bands.csv", bands_frame(result)))
     if plots:
         from isodesign.plotting import optimization_plot
 
-        written.append(optimization_plot(result, out / "response.png"))
+        with run.writing(prefix + "response.png") as tmp:
+            optimization_plot(result, tmp)
+        written.append(run.final_path(prefix + "response.png"))
     return written
 
 
@@ -471,34 +478,36 @@ def run_optimization(study, args):
         return optimize(study, progress=bar)
 
 
-def execute(study, out, args) -> int:
-    """Optimize ``study`` into ``out`` and print the report; return the exit status."""
+def execute(study, run, args, *, prefix: str = "") -> int:
+    """Optimize ``study`` into the run directory ``run`` and print the report; the status.
+
+    A :class:`~isodesign.errors.SolverError` propagates (the run directory records it as
+    a failed run); an infeasible study sets ``run.status = "infeasible"`` and returns 1.
+    """
     import warnings
 
-    from isodesign.errors import ModelValidityWarning, SolverError
-    from isodesign.io.record import environment, write_json
+    from isodesign.errors import ModelValidityWarning
+    from isodesign.io.record import command_line, environment, resolved_study_dict
 
-    try:
-        result = run_optimization(study, args)
-    except SolverError as exc:
-        # no result object: record what is known, then let the CLI report it (status 1)
-        from isodesign import __version__
-        from isodesign.io.record import command_line, resolved_study_dict
-
-        write_json(out / "record.json", {
-            "kind": "isodesign optimize",
+    # what is known before the solve: recorded even if the run fails or is interrupted
+    base = {"kind": "isodesign optimize",
             "command_line": command_line(canonical_command(args, "optimize")[1:]),
-            "argv": list(sys.argv), "isodesign_version": __version__,
             "environment": environment(), "study": resolved_study_dict(study),
-            "error": str(exc),
-        })
-        raise
-    written = write_outputs(result, out, args, plots=not args.no_plots)
+            "study_source": study.source}
+    if prefix:
+        run.record.setdefault("parts", {})[prefix.rstrip("/")] = base
+    else:
+        run.record.update(base)
+    result = run_optimization(study, args)
+    written = write_outputs(result, run, args, plots=not args.no_plots, prefix=prefix)
+    out = run.final_path(prefix) if prefix else run.target
     if not result.feasible:
+        run.status = "infeasible"
         print(failure_report(result))
         worst = ", ".join(f"{n} ({v:.3g})" for n, v in result.violations[:3])
         print(f"isodesign: error: no feasible design ({result.status}); most violated: "
-              f"{worst}; wrote {out / 'record.json'}", file=sys.stderr)
+              f"{worst}; wrote {run.final_path('record.json')} (run_status infeasible)",
+              file=sys.stderr)
         return 1
     from isodesign.io.record import optimization_design
 
@@ -522,5 +531,5 @@ def execute(study, out, args) -> int:
 def run(args) -> int:
     """Run ``isodesign optimize``."""
     study = load_study_from_args(args)
-    out = prepare_output_dir(args.output)
-    return execute(study, out, args)
+    with open_run(args) as rundir:  # the target is checked here, before the computation
+        return execute(study, rundir, args)

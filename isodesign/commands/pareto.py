@@ -6,8 +6,10 @@ warm-started from the previous one. The default front is the worst-band margin (
 against the total chamber volume (minimized): how much margin each litre of isolator buys.
 Prints the front as a table and its hypervolume (normalized space, reference point = nadir
 + 10 % of the front's range). Writes to OUTDIR: pareto.csv, pareto.json (hypervolume,
-reference and ideal points), pareto.png, record.json and study_resolved.toml. See
-docs/optimization.md.
+reference and ideal points), pareto.png, record.json and study_resolved.toml; OUTDIR
+appears whole when the run ends, with the run's status in record.json (docs/cli.md). A
+study without a feasible design still gets its record (run_status infeasible) and exit 1.
+See docs/optimization.md.
 """
 
 from __future__ import annotations
@@ -29,6 +31,11 @@ OBJECTIVE_CHOICES = (
     "total_volume",
 )
 DEFAULT_POINTS = 20
+#: Range of --points (each point is an IPOPT solve of a few tenths of a second).
+POINTS_RANGE = (2, 500)
+#: Files written by ``isodesign pareto``.
+OUTPUT_FILES = ("pareto.csv", "pareto.json", "pareto.png", "record.json",
+                "study_resolved.toml")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -41,26 +48,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="objective A (optimized) and B (swept as a constraint); default %(default)s; "
         f"names: {', '.join(OBJECTIVE_CHOICES)}",
     )
+    from isodesign.commands import add_output_dir_arguments
+    from isodesign.commands.optimize import _int_option
+
     parser.add_argument(
         "--points",
-        type=int,
+        type=_int_option,
         default=DEFAULT_POINTS,
         metavar="K",
-        help="number of epsilon values, both anchors included (>= 2; default %(default)s)",
+        help="number of epsilon values, both anchors included "
+        f"({POINTS_RANGE[0]}..{POINTS_RANGE[1]}; default %(default)s)",
     )
-    parser.add_argument(
-        "-o",
-        "--output",
-        metavar="OUTDIR",
-        required=True,
-        help="output directory, created if needed",
-    )
+    add_output_dir_arguments(parser)
 
 
 def parse_objectives(text: str) -> tuple[str, str]:
     """``A,B`` -> (A, B); InputError naming --objectives otherwise."""
     from isodesign.commands import input_error
 
+    if len(text) > 200:
+        raise input_error(f"--objectives: give two names A,B, got {text[:40]!r}...")
     names = tuple(t.strip() for t in text.split(","))
     if len(names) != 2 or not all(names):
         raise input_error(f"--objectives: give two names A,B, got {text!r}")
@@ -155,45 +162,90 @@ class _SweepProgress:
         return self.bar.__exit__(*exc)
 
 
+def _sense(name: str) -> str:
+    from isodesign.optimization.study import MAXIMIZED
+
+    return "maximizing" if name in MAXIMIZED else "minimizing"
+
+
+def _infeasible(run, args, objectives, exc) -> int:
+    """A study whose anchor has no feasible design: record, report, exit status 1."""
+    a, b = objectives
+    run.status = "infeasible"
+    msg = f"pareto: no feasible design when {_sense(a)} {a} alone"
+    run.record["error"] = msg
+    run.record["solver_message"] = str(exc)
+    run.record["objectives"] = list(objectives)
+    run.record["sense"] = {a: _sense(a).removesuffix("imizing") + "imize",
+                           b: _sense(b).removesuffix("imizing") + "imize"}
+    print(f"Pareto front of {a} ({_sense(a)}) against {b}: NO FEASIBLE DESIGN when "
+          f"{_sense(a)} {a} alone, so there is no front; relax the study's constraints or "
+          "widen its variables' bounds (isodesign optimize STUDY.toml shows the most "
+          "violated constraints)")
+    print(f"isodesign: error: {msg}; wrote {run.final_path('record.json')} "
+          "(run_status infeasible)", file=sys.stderr)
+    return 1
+
+
 def run(args) -> int:
     """Run ``isodesign pareto``."""
+    from isodesign.commands import check_count
     from isodesign.commands.optimize import (
-        canonical_command,
-        load_study_from_args,
-        prepare_output_dir,
-        progress_enabled,
-        study_label,
+        OUTPUT_FILES as OPTIMIZE_FILES,
     )
-    from isodesign.errors import InputError
+    from isodesign.commands.optimize import (
+        load_study_from_args,
+        open_run,
+    )
 
     objectives = parse_objectives(args.objectives)
-    if args.points < 2:
-        raise InputError(f"--points: must be an integer >= 2, got {args.points}")
+    check_count(args.points, "--points", *POINTS_RANGE)
     study = load_study_from_args(args)
-    out = prepare_output_dir(args.output)
+    rundir = open_run(args, "pareto", known_outputs=(*OUTPUT_FILES, *OPTIMIZE_FILES))
+    with rundir:
+        return _execute(study, rundir, args, objectives)
 
-    from isodesign.io.record import pareto_record, study_toml, write_json
+
+def _execute(study, run, args, objectives) -> int:
+    from isodesign.commands.optimize import canonical_command, progress_enabled, study_label
+    from isodesign.errors import SolverError
+    from isodesign.io.record import (
+        command_line,
+        environment,
+        pareto_record,
+        resolved_study_dict,
+        study_toml,
+    )
     from isodesign.optimization.pareto import pareto_front
 
-    with _SweepProgress(progress_enabled(args), args.points, objectives[0]) as bar:
-        result = pareto_front(study, objectives, args.points, progress=bar)
-    df = result.to_frame()
-    df.to_csv(out / "pareto.csv", index=False)
-    written = [out / "pareto.csv"]
-    written.append(write_json(out / "pareto.json", pareto_json(result)))
-    written.append(write_json(out / "record.json", pareto_record(
-        result, study, argv=canonical_command(args, "pareto")[1:],
-        extra={"argv": list(sys.argv)})))
-    p = out / "study_resolved.toml"
-    p.write_text(study_toml(study, header=(
+    out = run.target
+    run.record.update({"command_line": command_line(canonical_command(args, "pareto")[1:]),
+                       "environment": environment(), "study": resolved_study_dict(study),
+                       "study_source": study.source})
+    name = "study_resolved.toml"
+    run.write_text(name, study_toml(study, header=(
         "Resolved study of an isodesign pareto run (defaults filled in, command-line\n"
-        f"overrides applied). Replay: isodesign pareto {p} --objectives "
-        f"{','.join(objectives)} --points {args.points} -o NEWDIR")), encoding="utf-8")
-    written.append(p)
+        f"overrides applied). Replay: isodesign pareto {run.final_path(name)} --objectives "
+        f"{','.join(objectives)} --points {args.points} -o NEWDIR")))
+    try:
+        with _SweepProgress(progress_enabled(args), args.points, objectives[0]) as bar:
+            result = pareto_front(study, objectives, args.points, progress=bar)
+    except SolverError as exc:
+        if "no feasible design" in str(exc):
+            return _infeasible(run, args, objectives, exc)
+        raise
+    written = [run.write_csv("pareto.csv", result.to_frame())]
+    written.append(run.write_json("pareto.json", pareto_json(result)))
+    run.record.update(pareto_record(result, study, argv=canonical_command(args, "pareto")[1:],
+                                    extra={"argv": list(sys.argv)}))
+    written.append(run.final_path("record.json"))
+    written.append(run.final_path(name))
     if not args.no_plots:
         from isodesign.plotting import pareto_plot
 
-        written.append(pareto_plot(result, out / "pareto.png"))
+        with run.writing("pareto.png") as tmp:
+            pareto_plot(result, tmp)
+        written.append(run.final_path("pareto.png"))
     nat = _natural_points(result)
     from isodesign.commands.optimize import format_objective
 
@@ -202,7 +254,7 @@ def run(args) -> int:
     ideal = ", ".join(f"{k} {format_objective(k, v)}" for k, v in nat["ideal_point"].items())
     n_front = int(sum(bool(f) for f in result.front))
     if not args.quiet:
-        print(f"study {study_label(study)}: Pareto front of {a} (optimized) against {b} "
+        print(f"study {study_label(study)}: Pareto front of {a} ({_sense(a)}) against {b} "
               f"(epsilon-constraint, {args.points} points, {result.settings['starts']} starts "
               f"for the anchor); {result.wall_s:.1f} s")
         print(front_table(result))

@@ -22,6 +22,15 @@ AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
 RANDOM_METHOD_CHOICES = ("equivalent_amplitude", "rayleigh")
 #: Default load per isolator (kg) when --payload-kg is not given.
 DEFAULT_KG_PER_ISOLATOR = 100.0
+#: Ranges of the counts a user gives: --isolators, --points-per-band.
+ISOLATORS_RANGE = (1, 1000)
+POINTS_PER_BAND_RANGE = (2, 2000)
+
+
+def _int_option(text: str) -> int:
+    from isodesign.commands.optimize import _int_option as parse
+
+    return parse(text)
 
 
 def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
@@ -40,7 +49,11 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
         f"(default {DEFAULT_KG_PER_ISOLATOR:g} kg per isolator)",
     )
     parser.add_argument(
-        "--isolators", type=int, default=4, metavar="N", help="number of isolators (default 4)"
+        "--isolators",
+        type=_int_option,
+        default=4,
+        metavar="N",
+        help="number of isolators (1..1000; default 4)",
     )
     parser.add_argument(
         "--design-pressure",
@@ -90,10 +103,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--points-per-band",
-        type=int,
+        type=_int_option,
         default=50,
         metavar="N",
-        help="integration points per band (default %(default)s)",
+        help="integration points per band (2..2000; default %(default)s)",
     )
     parser.add_argument(
         "--random-method",
@@ -135,19 +148,38 @@ def load_design(path):
 
 def make_payload(args, **extra):
     """The Payload of ``--payload-kg`` and ``--isolators`` (InputError naming the option)."""
+    from isodesign.commands import check_count
     from isodesign.errors import InputError
     from isodesign.response.isolator import Payload
 
-    n = args.isolators
-    if n is None or n < 1:
-        raise InputError(f"--isolators: must be an integer >= 1, got {n}")
+    n = check_count(args.isolators, "--isolators", *ISOLATORS_RANGE)
     mass = DEFAULT_KG_PER_ISOLATOR * n if args.payload_kg is None else args.payload_kg
     if not mass > 0 or mass == float("inf"):
         raise InputError(f"--payload-kg: must be finite and > 0 kg, got {args.payload_kg}")
     for opt, v in extra.items():
-        if v is not None and not v > 0:
-            raise InputError(f"--{opt.replace('_', '-')}: must be > 0 m, got {v}")
+        if v is not None and not (0 < v < float("inf")):
+            raise InputError(f"--{opt.replace('_', '-')}: must be finite and > 0 m, got {v}")
     return Payload(mass, n, **extra)
+
+
+def check_payload_pressure(design, payload, derive: bool = True) -> None:
+    """InputError naming ``--payload-kg`` if the payload needs a non-finite chamber pressure.
+
+    (A finite pressure beyond the model's validity is flagged by the analysis, not refused.)
+    """
+    import math
+
+    from isodesign.errors import InputError
+    from isodesign.spring.gas import P_ATM
+
+    if not derive:
+        return
+    p0 = P_ATM + payload.load_per_isolator_n / float(design.piston_area_m2)
+    if not math.isfinite(p0):
+        raise InputError(
+            f"--payload-kg: {payload.mass_kg:g} kg on {payload.isolators} isolators needs a "
+            f"chamber pressure beyond floating point ({p0:g} Pa); give a physical payload"
+        )
 
 
 def _bands(spec):
@@ -155,11 +187,16 @@ def _bands(spec):
 
     if spec is None:
         return None
+    import math
+
     parts = spec.split(":")
     try:
         lo, hi = (float(p) for p in parts)
     except ValueError:
-        raise InputError(f"--bands: expected FMIN:FMAX in Hz, got {spec!r}") from None
+        raise InputError(f"--bands: expected FMIN:FMAX in Hz, got {spec[:40]!r}") from None
+    if not (math.isfinite(lo) and math.isfinite(hi) and 0 < lo <= hi):
+        raise InputError(f"--bands: FMIN and FMAX must be finite with 0 < FMIN <= FMAX Hz, "
+                         f"got {spec[:40]!r}")
     return (lo, hi)
 
 
@@ -212,14 +249,16 @@ def run(args) -> int:
     """Run ``isodesign response``."""
     import warnings
 
-    from isodesign.commands import check_output_path, write_result
+    from isodesign.commands import check_count, check_output_path, write_result
     from isodesign.errors import ModelValidityWarning
     from isodesign.response import band_response
 
     check_output_path(args.output, "--output")
     check_output_path(args.plot, "--plot")
+    check_count(args.points_per_band, "--points-per-band", *POINTS_PER_BAND_RANGE)
     payload = make_payload(args, spacing_m=args.spacing_m, cg_height_m=args.cg_height_m)
     design, label = load_design(args.design)
+    check_payload_pressure(design, payload, not args.design_pressure)
     res = band_response(
         design,
         payload,

@@ -19,6 +19,7 @@ from pathlib import Path
 from isodesign.commands import (
     FREQUENCY_UNITS,
     LENGTH_UNITS,
+    check_grid_size,
     check_output_path,
     input_error,
     parse_values,
@@ -110,6 +111,7 @@ def grid_from_args(args) -> tuple[list[float], list[float]]:
         if args.amplitude is None
         else parse_values(args.amplitude, "--amplitude", units=LENGTH_UNITS, unit_name="m")
     )
+    check_grid_size(len(freq), len(amp), "--freq", "--amplitude")
     return freq, amp
 
 
@@ -219,14 +221,9 @@ def summary(res, *, title: str | None = None) -> str:
 
 def write_csv(res, path) -> int:
     """Write ``res.to_frame()`` as CSV (full precision) to ``path`` ('-' = stdout)."""
-    import sys
+    from isodesign.commands import write_frame
 
-    df = res.to_frame()
-    if str(path) == "-":
-        df.to_csv(sys.stdout, index=False)
-    else:
-        df.to_csv(path, index=False)
-    return len(df)
+    return write_frame(res.to_frame(), path)
 
 
 def run(args) -> int:
@@ -256,9 +253,11 @@ def run(args) -> int:
         if not to_stdout:
             print(f"wrote {args.output} ({n} rows)")
     if args.plot:
+        from isodesign.commands import write_figure
         from isodesign.plotting import plot_stiffness
 
-        plot_stiffness(args.plot, [res], title=label)
+        with write_figure(args.plot) as tmp:
+            plot_stiffness(tmp, [res], title=label)
         if not to_stdout:
             print(f"wrote {args.plot}")
     return 0

@@ -88,20 +88,23 @@ def run(args) -> int:
     from isodesign.commands import (
         FREQUENCY_UNITS,
         LENGTH_UNITS,
+        check_grid_size,
         check_output_path,
         parse_values,
         write_result,
     )
-    from isodesign.commands.response import load_design, make_payload
+    from isodesign.commands.response import check_payload_pressure, load_design, make_payload
     from isodesign.errors import ModelValidityWarning
     from isodesign.response import harmonic_response
 
     freq = parse_values(args.freq, "--freq", units=FREQUENCY_UNITS, unit_name="Hz")
     amp = parse_values(args.floor_amplitude, "--floor-amplitude", units=LENGTH_UNITS, unit_name="m")
+    check_grid_size(len(freq), len(amp), "--freq", "--floor-amplitude")
     check_output_path(args.output, "--output")
     check_output_path(args.plot, "--plot")
     payload = make_payload(args)
     design, label = load_design(args.design)
+    check_payload_pressure(design, payload, not args.design_pressure)
     res = harmonic_response(
         design,
         payload,

@@ -1,21 +1,123 @@
-"""Small, strict file readers: CSV columns and TOML documents.
+"""Small, strict file readers (CSV columns, TOML documents) and whole-or-nothing writers.
 
-Every failure raises :class:`~isodesign.errors.InputError` naming the file and,
+Every reading failure raises :class:`~isodesign.errors.InputError` naming the file and,
 where it applies, the column, row or key.
+
+Every writer here writes a file whole or not at all: the content goes to a temporary
+file beside the target (same directory, so same file system), is flushed and
+``fsync``-ed, and is renamed over the target (:func:`os.replace`, atomic on POSIX).
+A reader sees the old file or the new one, never a truncated one; an interrupted
+write leaves at most the hidden temporary file, which :func:`discard_pending_writes`
+removes (the CLI calls it when a run is interrupted).
 """
 
 from __future__ import annotations
 
+import contextlib
 import csv
 import math
+import os
+import tempfile
 import tomllib
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
 
 from isodesign.errors import InputError
 
-__all__ = ["read_csv_columns", "read_csv_header_comments", "read_toml"]
+__all__ = [
+    "atomic_path",
+    "atomic_write_bytes",
+    "atomic_write_text",
+    "discard_pending_writes",
+    "read_csv_columns",
+    "read_csv_header_comments",
+    "read_toml",
+]
+
+#: Temporary files of writes in progress (removed by :func:`discard_pending_writes`).
+_PENDING: set[Path] = set()
+
+
+def _fsync_dir(directory: Path) -> None:
+    """Make a rename in ``directory`` durable (best effort: not every file system can)."""
+    try:
+        fd = os.open(directory, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+@contextlib.contextmanager
+def atomic_path(path) -> Iterator[Path]:
+    """A temporary path to write ``path`` through; renamed over ``path`` on success.
+
+    For writers that take a file name (``DataFrame.to_csv``, ``Figure.savefig``): the
+    temporary name keeps the suffix, so format detection by extension still works.
+    On an exception the temporary file is removed and ``path`` is left as it was.
+
+    Parameters
+    ----------
+    path : str or Path
+        The final file.
+
+    Yields
+    ------
+    Path
+        Where to write; it is fsync-ed and renamed to ``path`` when the block ends.
+    """
+    final = Path(path)
+    fd, tmp_name = tempfile.mkstemp(
+        prefix=f".{final.stem}.", suffix=f".tmp{final.suffix}", dir=final.parent or "."
+    )
+    os.close(fd)
+    tmp = Path(tmp_name)
+    _PENDING.add(tmp)
+    try:
+        yield tmp
+        with open(tmp, "rb+") as fh:
+            os.fsync(fh.fileno())
+        os.chmod(tmp, 0o666 & ~_umask())
+        os.replace(tmp, final)
+        _fsync_dir(final.parent)
+    finally:
+        _PENDING.discard(tmp)
+        with contextlib.suppress(FileNotFoundError):
+            tmp.unlink()
+
+
+def _umask() -> int:
+    mask = os.umask(0)
+    os.umask(mask)
+    return mask
+
+
+def atomic_write_bytes(path, data: bytes) -> Path:
+    """Write ``data`` to ``path`` whole or not at all; return the path."""
+    final = Path(path)
+    with atomic_path(final) as tmp:
+        with open(tmp, "wb") as fh:
+            fh.write(data)
+    return final
+
+
+def atomic_write_text(path, text: str) -> Path:
+    """Write ``text`` (UTF-8) to ``path`` whole or not at all; return the path."""
+    return atomic_write_bytes(path, text.encode("utf-8"))
+
+
+def discard_pending_writes() -> None:
+    """Remove the temporary files of writes that were cut short (interrupted runs)."""
+    for tmp in list(_PENDING):
+        with contextlib.suppress(OSError):
+            tmp.unlink()
+        _PENDING.discard(tmp)
 
 
 def read_csv_header_comments(path) -> dict[str, str]:
@@ -36,8 +138,8 @@ def read_csv_header_comments(path) -> dict[str, str]:
                         out[k.strip().lower()] = v.strip()
     except OSError as exc:
         raise InputError(f"{p}: cannot read file ({exc.strerror})") from None
-    except UnicodeDecodeError:
-        raise InputError(f"{p}: not a UTF-8 text file") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{p}: not a UTF-8 text file (byte {exc.start})") from None
     return out
 
 
@@ -62,7 +164,11 @@ def read_csv_columns(path, required, *, optional=(), what="CSV") -> dict[str, np
             ]
     except OSError as exc:
         raise InputError(f"{what} file {p}: cannot read ({exc.strerror})") from None
-    except (UnicodeDecodeError, csv.Error) as exc:
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"{what} file {p}: not a UTF-8 text file (undecodable byte at offset {exc.start})"
+        ) from None
+    except csv.Error as exc:
         raise InputError(f"{what} file {p}: malformed ({exc})") from None
     if not rows:
         raise InputError(
@@ -86,7 +192,7 @@ def read_csv_columns(path, required, *, optional=(), what="CSV") -> dict[str, np
                 raise InputError(f"{what} file {p}: row {i} has no value for column {name}")
             try:
                 v = float(r[j])
-            except ValueError:
+            except (ValueError, OverflowError):
                 raise InputError(
                     f"{what} file {p}: row {i}, column {name}: not a number ({r[j]!r})"
                 ) from None
@@ -101,9 +207,18 @@ def read_toml(path, *, what="TOML") -> dict:
     """Parse a TOML file, turning parse errors into :class:`InputError`."""
     p = Path(path)
     try:
+        if p.is_dir():
+            raise InputError(f"{what} file {p}: is a directory, not a TOML file")
         with p.open("rb") as fh:
             return tomllib.load(fh)
     except OSError as exc:
         raise InputError(f"{what} file {p}: cannot read ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(
+            f"{what} file {p}: not a UTF-8 text file (undecodable byte at offset {exc.start}); "
+            "a TOML file is expected"
+        ) from None
     except tomllib.TOMLDecodeError as exc:
         raise InputError(f"{what} file {p}: malformed TOML ({exc})") from None
+    except RecursionError:
+        raise InputError(f"{what} file {p}: malformed TOML (nested too deeply)") from None

@@ -1,7 +1,10 @@
 """Run records: every optimizer run written down so that a study can be replayed.
 
 In the spirit of OpenMDAO's case recorders (without its framework): the
-output directory of a run holds the resolved study (``study_resolved.toml``,
+output directory of a run (written under the contract of :mod:`isodesign.io.rundir`, which
+adds the status fields ``run_status`` (one of :data:`RUN_STATUSES`), ``files``,
+``manifest``, ``started_utc``, ``finished_utc`` and, for a failure, ``error``) holds
+the resolved study (``study_resolved.toml``,
 loadable with ``isodesign optimize``), the solver settings, the package
 versions, every start with its status, iterations and time, and the final
 design (``record.json``, ``starts.csv``, ``design.json``).
@@ -18,10 +21,13 @@ from pathlib import Path
 from typing import Any
 
 from isodesign import __version__
+from isodesign.io.files import atomic_write_text
+from isodesign.io.rundir import RUN_STATUSES
 from isodesign.optimization.optimizer import OBJECTIVE_UNITS
 from isodesign.optimization.study import MAXIMIZED
 
 __all__ = [
+    "RUN_STATUSES",
     "command_line",
     "constraint_rows",
     "design_figures",
@@ -114,11 +120,10 @@ def _jsonable(v):
 
 
 def write_json(path, data: dict) -> Path:
-    """Write JSON (NumPy values converted, non-finite floats as null)."""
+    """Write JSON (NumPy values converted, non-finite floats as null), whole or not at all."""
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
-    p.write_text(json.dumps(_jsonable(data), indent=2) + "\n", encoding="utf-8")
-    return p
+    return atomic_write_text(p, json.dumps(_jsonable(data), indent=2) + "\n")
 
 
 # ---------------------------------------------------------------------------
