@@ -38,6 +38,14 @@ def _is_symbolic(x: Any) -> bool:
     return type(x).__module__.startswith("casadi")
 
 
+def _shown(value: Any) -> str:
+    """``repr(value)``, shortened (a 400-digit integer is reported by its size)."""
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) > 10**15:
+        return f"an integer of {len(str(abs(value)))} digits"
+    r = repr(value)
+    return r if len(r) <= 60 else r[:57] + "..."
+
+
 def check_positive(name: str, value: Any, *, unit: str = "", allow_array: bool = False):
     """Require a finite value > 0 (every entry for arrays); symbols pass through."""
     if _is_symbolic(value):
@@ -57,9 +65,11 @@ def check_positive(name: str, value: Any, *, unit: str = "", allow_array: bool =
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a number > 0{u}, got {value!r}") from None
+        raise InputError(f"{name}: expected a number > 0{u}, got {_shown(value)}") from None
+    except OverflowError:
+        raise InputError(f"{name}: must be finite and > 0{u}, got {_shown(value)}") from None
     if not math.isfinite(v) or v <= 0:
-        raise InputError(f"{name}: must be finite and > 0{u}, got {value!r}")
+        raise InputError(f"{name}: must be finite and > 0{u}, got {_shown(value)}")
     return v
 
 
@@ -83,14 +93,16 @@ def check_range(
     try:
         v = float(value)
     except (TypeError, ValueError):
-        raise InputError(f"{name}: expected a number in {rng}{u}, got {value!r}") from None
+        raise InputError(f"{name}: expected a number in {rng}{u}, got {_shown(value)}") from None
+    except OverflowError:
+        raise InputError(f"{name}: must be in {rng}{u}, got {_shown(value)}") from None
     bad = not math.isfinite(v)
     if lo is not None:
         bad |= v <= lo if lo_open else v < lo
     if hi is not None:
         bad |= v >= hi if hi_open else v > hi
     if bad:
-        raise InputError(f"{name}: must be in {rng}{u}, got {value!r}")
+        raise InputError(f"{name}: must be in {rng}{u}, got {_shown(value)}")
     return v
 
 

@@ -36,6 +36,7 @@ from typing import Any
 
 from isodesign.errors import InputError
 from isodesign.io.files import read_toml
+from isodesign.response.isolator import MAX_ISOLATORS
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
 from isodesign.spring.gas import G_STANDARD, Gas, pressure_from_load
 
@@ -71,7 +72,7 @@ REQUIRED_KEYS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capilla
 #: Keys of the ``[load]`` table.
 LOAD_KEYS: dict[str, str] = {
     "mass_kg": "supported payload mass, kg (> 0)",
-    "isolators": "number of identical isolators sharing the payload (integer >= 1)",
+    "isolators": "number of identical isolators sharing the payload (integer, 1..1000)",
 }
 #: Keys of the ``[gas]`` table.
 GAS_KEYS: dict[str, str] = {
@@ -108,7 +109,13 @@ def _number(d: dict, key: str, source: str, label: str | None = None) -> float:
         raise InputError(
             f"{source}: {name}: expected a number ({_meaning(name)}), got {_toml_type(v)} {v!r}"
         )
-    v = float(v)
+    try:
+        v = float(v)
+    except OverflowError:
+        raise InputError(
+            f"{source}: {name}: must be finite ({_meaning(name)}), got an integer of "
+            f"{len(str(abs(v)))} digits"
+        ) from None
     if not math.isfinite(v):
         raise InputError(f"{source}: {name}: must be finite ({_meaning(name)}), got {v!r}")
     return v
@@ -172,8 +179,11 @@ def _pressure_from_load(d: Any, piston_area_m2: float, source: str) -> float:
     if mass <= 0:
         raise InputError(f"{source}: load.mass_kg: must be > 0 kg, got {d['mass_kg']!r}")
     n = d["isolators"]
-    if isinstance(n, bool) or not isinstance(n, int) or n < 1:
-        raise InputError(f"{source}: load.isolators: must be an integer >= 1, got {n!r}")
+    if isinstance(n, bool) or not isinstance(n, int) or not 1 <= n <= MAX_ISOLATORS:
+        shown = f"{n!r:.40}" if not isinstance(n, int) or abs(n) < 10**15 else "a larger integer"
+        raise InputError(
+            f"{source}: load.isolators: must be an integer in [1, {MAX_ISOLATORS}], got {shown}"
+        )
     return pressure_from_load(mass, n, piston_area_m2)
 
 

@@ -20,7 +20,10 @@ Physics notes used: section 5 (Zener form, classical optimum), section 8
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
+
+import numpy as np
 
 from isodesign.errors import InputError, check_positive, check_range
 from isodesign.numerics import backend as bk
@@ -40,6 +43,10 @@ __all__ = [
     "zener_optimum",
     "zener_transmissibility",
 ]
+
+
+#: Most isolators a payload may stand on.
+MAX_ISOLATORS = 1000
 
 
 @dataclass(frozen=True)
@@ -68,10 +75,19 @@ class Payload:
     g_m_s2: float = G_STANDARD
 
     def __post_init__(self):
+        for name in ("mass_kg", "spacing_m", "cg_height_m", "g_m_s2"):
+            v = getattr(self, name)
+            if v is None and name in ("spacing_m", "cg_height_m"):
+                continue
+            if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real):
+                raise InputError(f"{name}: expected a number, got {type(v).__name__} {v!r:.40}")
         object.__setattr__(self, "mass_kg", check_positive("mass_kg", self.mass_kg, unit="kg"))
         n = self.isolators
-        if isinstance(n, bool) or not isinstance(n, int | float) or int(n) != n or n < 1:
-            raise InputError(f"isolators: must be an integer >= 1, got {n!r}")
+        if (isinstance(n, bool | np.bool_) or not isinstance(n, numbers.Integral)
+                or not 1 <= n <= MAX_ISOLATORS):
+            shown = f"{n!r:.40}" if not isinstance(n, int) or n < 10**6 else "a larger integer"
+            raise InputError(f"isolators: must be an integer in [1, {MAX_ISOLATORS}], got "
+                             f"{shown}")
         object.__setattr__(self, "isolators", int(n))
         if self.spacing_m is not None:
             object.__setattr__(

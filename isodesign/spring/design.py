@@ -14,8 +14,11 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import numbers
 from dataclasses import dataclass, field
 from typing import Any
+
+import numpy as np
 
 from isodesign.errors import InputError, check_positive, check_range
 from isodesign.numerics import backend as bk
@@ -44,6 +47,18 @@ def piston_area_from_diaphragm(r1_m, r2_m):
 
 def _sym(x: Any) -> bool:
     return bk.is_casadi(x)
+
+
+def _check_real(name: str, value: Any) -> None:
+    """Strict types at the API's edge, as in design files: a real number, not a bool/str."""
+    if _sym(value):
+        return
+    ok = isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
+    if isinstance(value, np.ndarray):
+        ok = value.ndim == 0 and value.dtype.kind in "fiu"
+    if not ok:
+        shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:37] + "..."
+        raise InputError(f"{name}: expected a number, got {type(value).__name__} {shown}")
 
 
 @dataclass(frozen=True)
@@ -91,6 +106,12 @@ class SpringDesign:
     roughness_m: float = 0.0
 
     def __post_init__(self):
+        for name in ("volume_ratio", "top_volume_m3", "capillary_length_m",
+                     "capillary_diameter_m", "piston_area_m2", "pressure_pa", "temperature_k",
+                     "minor_loss", "roughness_m"):
+            _check_real(name, getattr(self, name))
+        if self.polytropic_index is not None:
+            _check_real("polytropic_index", self.polytropic_index)
         for name, unit in (
             ("volume_ratio", ""),
             ("top_volume_m3", "m^3"),

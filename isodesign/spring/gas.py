@@ -11,6 +11,7 @@ Paper references (Sections 3.1.1-3.1.2):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from isodesign.errors import InputError, check_positive, check_range
@@ -114,6 +115,14 @@ def pressure_from_load(
     """
     m = check_positive("mass_kg", mass_kg, unit="kg")
     a = check_positive("piston_area_m2", piston_area_m2, unit="m^2")
-    if isinstance(n_isolators, bool) or int(n_isolators) != n_isolators or n_isolators < 1:
-        raise InputError(f"n_isolators: must be an integer >= 1, got {n_isolators!r}")
-    return p_atm_pa + m * g_m_s2 / (int(n_isolators) * a)
+    if (isinstance(n_isolators, bool) or not isinstance(n_isolators, int | float)
+            or int(n_isolators) != n_isolators or not 1 <= n_isolators <= 10**6):
+        raise InputError(f"n_isolators: must be an integer in [1, 1000000], got "
+                         f"{n_isolators!r:.40}")
+    p0 = p_atm_pa + m * g_m_s2 / (int(n_isolators) * a)
+    if not math.isfinite(p0):
+        raise InputError(
+            f"mass_kg: {m:g} kg on {int(n_isolators)} isolators of {a:g} m^2 needs a chamber "
+            "pressure beyond floating point; give a physical payload"
+        )
+    return p0

@@ -49,6 +49,7 @@ from isodesign.errors import (
 )
 from isodesign.spring.amplitude import solve_velocity_amplitude
 from isodesign.spring.capillary import FLOW_MODELS, SMOOTH_FLOW_MODELS, resistance_function
+from isodesign.spring.design import SpringDesign
 from isodesign.spring.diagnostics import Diagnostics, evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import (
@@ -232,6 +233,9 @@ def complex_stiffness(
     amplitude_mode="kinematic"`` and its comparison model (dashed) with
     ``flow="poiseuille"``.
     """
+    if not isinstance(design, SpringDesign):
+        raise InputError(f"design: expected a SpringDesign, got {type(design).__name__} "
+                         f"{design!r:.40}")
     check_models(flow, amplitude_mode)
     dia = diaphragm_model(diaphragm)
     f, x = _grid(frequency_hz, amplitude_m, pairwise)  # un-broadcast, broadcastable
