@@ -333,6 +333,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         Arguments without the program name (default ``sys.argv[1:]``).
     """
     argv = list(sys.argv[1:] if argv is None else argv)
+    old_handlers = _install_signal_handlers()
+    try:
+        return _main(argv)
+    except KeyboardInterrupt:  # raised before the handlers were in place, or by a test
+        print(f"{PROG}: interrupted", file=sys.stderr)
+        return EXIT_INTERRUPTED
+    finally:
+        _restore_signal_handlers(old_handlers)
+
+
+def _main(argv: list[str]) -> int:
     try:
         parser = build_parser(_selected_command(argv))
         args = parser.parse_args(argv)
@@ -345,19 +356,13 @@ def main(argv: Sequence[str] | None = None) -> int:
     debug = bool(getattr(args, "debug", False))
     from isodesign.errors import ModelValidityWarning  # NumPy: only once a command runs
 
-    old_handlers = _install_signal_handlers()
     with warnings.catch_warnings():
         warnings.showwarning = _show_warning
         warnings.filterwarnings("always", category=ModelValidityWarning)
         try:
             return int(args._run(args) or 0)
-        except KeyboardInterrupt:  # raised before the handlers were in place, or by a test
-            print(f"{PROG}: interrupted", file=sys.stderr)
-            return EXIT_INTERRUPTED
         except Exception as exc:
             return _report(exc, debug)
-        finally:
-            _restore_signal_handlers(old_handlers)
 
 
 if __name__ == "__main__":  # pragma: no cover

@@ -40,6 +40,7 @@ __all__ = [
     "check_grid_size",
     "check_output_path",
     "input_error",
+    "option_names",
     "parse_values",
     "run_directory",
     "write_figure",
@@ -64,6 +65,25 @@ def check_count(value, option: str, lo: int, hi: int) -> int:
             shown = shown[:20] + "..."
         raise input_error(f"{option}: must be an integer in [{lo}, {hi}], got {shown}")
     return value
+
+
+@contextlib.contextmanager
+def option_names(**names: str):
+    """Report the library's parameter names as the options the user typed.
+
+    ``with option_names(floor="--floor", diaphragm="--diaphragm"): band_response(...)``
+    turns an :class:`~isodesign.errors.InputError` ``"floor: ..."`` into ``"--floor: ..."``.
+    """
+    from isodesign.errors import InputError
+
+    try:
+        yield
+    except InputError as exc:
+        msg = str(exc)
+        for param, option in names.items():
+            if msg.startswith(f"{param}:"):
+                raise InputError(option + msg[len(param):]) from None
+        raise
 
 
 def check_grid_size(n_a: int, n_b: int, option_a: str, option_b: str) -> None:
@@ -194,6 +214,8 @@ def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: st
         raise input_error(f"{name}: too long ({len(text)} characters); at most "
                           f"{MAX_LIST_VALUES} values")
     body, factor = _split_unit(text, units)
+    if not body.strip():
+        raise input_error(f"{name}: no value before the unit in {_clip(text)!r}")
     default = 1.0 if factor is None else factor
     if ":" in body:
         parts = body.split(":")

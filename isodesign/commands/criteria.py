@@ -80,7 +80,7 @@ def format_table(df) -> str:
 
 def run(args) -> int:
     """Run ``isodesign criteria``."""
-    from isodesign.commands import check_output_path, write_text
+    from isodesign.commands import check_output_path, option_names, write_text
     from isodesign.errors import InputError, check_positive
     from isodesign.floor import criteria_table
 
@@ -102,7 +102,9 @@ def run(args) -> int:
         if not all(items):
             raise InputError(f"--names: empty item in {args.names[:40]!r}")
         names = tuple(items)
-    df = criteria_table(args.fmin, args.fmax, layout=layout, names=names, velocity_unit=args.unit)
+    with option_names(unit="--unit", criterion="--names", names="--names"):
+        df = criteria_table(args.fmin, args.fmax, layout=layout, names=names,
+                            velocity_unit=args.unit)
     if args.format == "csv":
         text = df.to_csv(index=False)
     else:

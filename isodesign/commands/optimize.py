@@ -71,8 +71,11 @@ def _int_option(text: str) -> int:
     """An integer option value (argparse type): digits only, at most 12 of them."""
     t = text.strip()
     body = t[1:] if t[:1] in "+-" else t
-    if not (body.isascii() and body.isdigit()) or len(body) > 12:
+    if not (body.isascii() and body.isdigit()):
         raise argparse.ArgumentTypeError(f"expected an integer, got {t[:24]!r}")
+    if len(body) > 12:
+        raise argparse.ArgumentTypeError(
+            f"expected an integer of at most 12 digits, got one of {len(body)} digits")
     return int(t)
 
 

@@ -22,6 +22,9 @@ AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
 RANDOM_METHOD_CHOICES = ("equivalent_amplitude", "rayleigh")
 #: Default load per isolator (kg) when --payload-kg is not given.
 DEFAULT_KG_PER_ISOLATOR = 100.0
+#: Library parameter -> the option a user typed (error messages).
+RESPONSE_OPTION_NAMES = {"floor": "--floor", "target": "--target", "diaphragm": "--diaphragm",
+                         "bands": "--bands"}
 #: Ranges of the counts a user gives: --isolators, --points-per-band.
 ISOLATORS_RANGE = (1, 1000)
 POINTS_PER_BAND_RANGE = (2, 2000)
@@ -249,7 +252,7 @@ def run(args) -> int:
     """Run ``isodesign response``."""
     import warnings
 
-    from isodesign.commands import check_count, check_output_path, write_result
+    from isodesign.commands import check_count, check_output_path, option_names, write_result
     from isodesign.errors import ModelValidityWarning
     from isodesign.response import band_response
 
@@ -259,20 +262,21 @@ def run(args) -> int:
     payload = make_payload(args, spacing_m=args.spacing_m, cg_height_m=args.cg_height_m)
     design, label = load_design(args.design)
     check_payload_pressure(design, payload, not args.design_pressure)
-    res = band_response(
-        design,
-        payload,
-        args.floor,
-        args.target,
-        bands=_bands(args.bands),
-        points_per_band=args.points_per_band,
-        flow=args.flow,
-        amplitude_mode=args.amplitude_mode,
-        diaphragm=args.diaphragm,
-        random_method=args.random_method,
-        derive_pressure=not args.design_pressure,
-        warn=False,
-    )
+    with option_names(**RESPONSE_OPTION_NAMES):
+        res = band_response(
+            design,
+            payload,
+            args.floor,
+            args.target,
+            bands=_bands(args.bands),
+            points_per_band=args.points_per_band,
+            flow=args.flow,
+            amplitude_mode=args.amplitude_mode,
+            diaphragm=args.diaphragm,
+            random_method=args.random_method,
+            derive_pressure=not args.design_pressure,
+            warn=False,
+        )
     for line in res.warnings:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"

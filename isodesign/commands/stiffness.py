@@ -140,12 +140,13 @@ def compute(design, freq, amp, *, flow, amplitude_mode, diaphragm, label=None):
     """
     import warnings
 
+    from isodesign.commands import option_names
     from isodesign.errors import ModelValidityWarning
     from isodesign.spring.stiffness import complex_stiffness
 
-    res = complex_stiffness(
-        design, freq, amp, flow=flow, amplitude_mode=amplitude_mode, diaphragm=diaphragm, warn=False
-    )
+    with option_names(diaphragm="--diaphragm"):
+        res = complex_stiffness(design, freq, amp, flow=flow, amplitude_mode=amplitude_mode,
+                                diaphragm=diaphragm, warn=False)
     prefix = f"{label}: " if label else f"{flow}/{amplitude_mode}: "
     for line in res.warnings:
         warnings.warn(prefix + line, ModelValidityWarning, stacklevel=2)

@@ -90,6 +90,7 @@ def run(args) -> int:
         LENGTH_UNITS,
         check_grid_size,
         check_output_path,
+        option_names,
         parse_values,
         write_result,
     )
@@ -105,18 +106,19 @@ def run(args) -> int:
     payload = make_payload(args)
     design, label = load_design(args.design)
     check_payload_pressure(design, payload, not args.design_pressure)
-    res = harmonic_response(
-        design,
-        payload,
-        freq,
-        amp,
-        flow=args.flow,
-        amplitude_mode=args.amplitude_mode,
-        diaphragm=args.diaphragm,
-        derive_pressure=not args.design_pressure,
-        branch=args.branch,
-        warn=False,
-    )
+    with option_names(diaphragm="--diaphragm"):
+        res = harmonic_response(
+            design,
+            payload,
+            freq,
+            amp,
+            flow=args.flow,
+            amplitude_mode=args.amplitude_mode,
+            diaphragm=args.diaphragm,
+            derive_pressure=not args.design_pressure,
+            branch=args.branch,
+            warn=False,
+        )
     for line in res.warnings:
         warnings.warn(line, ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"

@@ -181,6 +181,24 @@ def check_run_target(target, *, overwrite: bool = False, option: str = "--output
     return []
 
 
+@contextlib.contextmanager
+def _signals_blocked() -> Iterator[None]:
+    """Hold SIGINT and SIGTERM back (main thread, POSIX) while a run is moved into place."""
+    import signal
+    import threading
+
+    if not hasattr(signal, "pthread_sigmask") or \
+            threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    sigs = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, sigs)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
 def _sha256(p: Path) -> str:
     h = hashlib.sha256()
     with open(p, "rb") as fh:
@@ -334,10 +352,11 @@ class RunDirectory:
         if status == "interrupted":
             return self.interrupt(error or "interrupted")
         self.status, self.error = status, error
-        self._write_record(status, error)
-        self._move_into_place()
-        self._deactivate()
-        self.final = self.target
+        with _signals_blocked():  # an interrupt waits until the run is in place
+            self._write_record(status, error)
+            self._move_into_place()
+            self._deactivate()
+            self.final = self.target
         return self.target
 
     def interrupt(self, reason: str = "interrupted") -> Path:

@@ -1,0 +1,133 @@
+"""SIGINT and SIGTERM to a running ``isodesign optimize``: exit 130, one line, no traceback,
+no worker left, the partial run set aside and marked interrupted (never in place).
+
+Each test starts a real subprocess on a small study (4 starts on 2 forked workers), waits
+until the workers exist, and signals it: to the whole process group (what Ctrl-C does)
+or to the main process only (what ``kill`` does).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
+                                reason="reads /proc to find the workers")
+
+STUDY = """\
+name = "interrupt"
+
+[models]
+points_per_band = 4
+peak_points = 30
+
+[solver]
+starts = 6
+workers = 2
+"""
+
+
+def _children(pid: int) -> list[int]:
+    out = []
+    task_dir = Path(f"/proc/{pid}/task")
+    try:
+        tasks = list(task_dir.iterdir())
+    except FileNotFoundError:
+        return out
+    for t in tasks:
+        try:
+            out += [int(c) for c in (t / "children").read_text().split()]
+        except (FileNotFoundError, ProcessLookupError):
+            pass
+    return out
+
+
+def _alive(pid: int) -> bool:
+    try:
+        status = Path(f"/proc/{pid}/status").read_text()
+    except (FileNotFoundError, ProcessLookupError):
+        return False
+    state = next((ln.split()[1] for ln in status.splitlines() if ln.startswith("State:")), "")
+    return state not in ("Z", "X")  # a zombie has ended (it awaits its new parent's wait)
+
+
+def _start(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
+    study = tmp_path / "study.toml"
+    study.write_text(STUDY, encoding="utf-8")
+    out = tmp_path / "run"
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2]) + os.pathsep + \
+        env.get("PYTHONPATH", "")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "isodesign", "optimize", str(study), "-o", str(out), "--quiet"],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        start_new_session=True,  # its own process group: the test's group is not signalled
+    )
+    return proc, out
+
+
+def _wait_for_workers(proc: subprocess.Popen, n: int = 2, timeout: float = 60.0) -> list[int]:
+    t0 = time.monotonic()
+    while time.monotonic() - t0 < timeout:
+        kids = _children(proc.pid)
+        if len(kids) >= n:
+            time.sleep(0.3)  # let them start solving
+            return _children(proc.pid)
+        if proc.poll() is not None:
+            break
+        time.sleep(0.05)
+    proc.kill()
+    _out, err = proc.communicate()
+    pytest.fail(f"no workers appeared (status {proc.returncode}); stderr: {err}")
+
+
+def _check_interrupted(proc, out: Path, workers: list[int], signame: str) -> None:
+    try:
+        stdout, stderr = proc.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        pytest.fail("the run did not end after the signal")
+    assert proc.returncode == 130, (proc.returncode, stderr)
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1, stderr
+    assert lines[0].startswith(f"isodesign: interrupted by {signame}"), stderr
+    for bad in ("Traceback", "KeyboardInterrupt", "ForkPoolWorker", "Exception"):
+        assert bad not in stderr + stdout, (bad, stderr)
+    # every worker has ended
+    t0 = time.monotonic()
+    while any(_alive(w) for w in workers) and time.monotonic() - t0 < 5:
+        time.sleep(0.05)
+    assert not [w for w in workers if _alive(w)], "workers outlived the run"
+    # on disk: no run at the target; the partial run is set aside, marked interrupted
+    assert not out.exists()
+    aside = out.with_name(out.name + ".interrupted")
+    rec = json.loads((aside / "record.json").read_text())
+    assert rec["run_status"] == "interrupted"
+    assert rec["error"] == f"interrupted by {signame}"
+    assert "design.json" not in rec["files"]
+    assert str(aside) in lines[0]
+    leftovers = [p.name for p in out.parent.iterdir() if "isodesign-partial" in p.name]
+    assert not leftovers
+    # no half-written temporary file inside
+    assert not [p for p in aside.rglob(".*.tmp*")]
+
+
+def test_sigint_to_the_process_group_mid_run(tmp_path):
+    proc, out = _start(tmp_path)
+    workers = _wait_for_workers(proc)
+    os.killpg(proc.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
+    _check_interrupted(proc, out, workers, "SIGINT")
+
+
+def test_sigterm_to_the_main_process_mid_run(tmp_path):
+    proc, out = _start(tmp_path)
+    workers = _wait_for_workers(proc)
+    os.kill(proc.pid, signal.SIGTERM)
+    _check_interrupted(proc, out, workers, "SIGTERM")
