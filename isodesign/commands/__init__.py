@@ -35,6 +35,7 @@ from pathlib import Path
 __all__ = [
     "MAX_GRID_POINTS",
     "MAX_LIST_VALUES",
+    "PLOT_SUFFIXES",
     "add_output_dir_arguments",
     "check_count",
     "check_grid_size",
@@ -255,18 +256,28 @@ def _clip(text: str, n: int = 40) -> str:
     return text if len(text) <= n else text[: n - 3] + "..."
 
 
-def check_output_path(path: str | Path | None, option: str) -> None:
+#: File types of plots (``--plot``).
+PLOT_SUFFIXES = (".png", ".pdf", ".svg")
+
+
+def check_output_path(path: str | Path | None, option: str, *, suffixes=None) -> None:
     """Fail early (before any computation) if the file ``path`` cannot be written.
 
     ``None`` and ``-`` (standard output) pass. Raises InputError naming the
-    option if ``path`` is empty or a directory, its parent does not exist or is a
-    file, or the parent (or an existing ``path``) is not writable.
+    option if ``path`` is empty or a directory, has a suffix not in ``suffixes``
+    (when given), its parent does not exist or is a file, or the parent (or an
+    existing ``path``) is not writable.
     """
     if path is None or str(path) == "-":
         return
     if str(path).strip() == "":
         raise input_error(f"{option}: empty; give a file name")
     p = Path(path)
+    if suffixes is not None and p.suffix.lower() not in suffixes:
+        raise input_error(
+            f"{option}: unsupported file type {p.suffix or '(none)'!r}; "
+            f"valid: {', '.join(suffixes)}"
+        )
     if p.is_dir():
         raise input_error(f"{option}: {p} is a directory; give a file name")
     parent = p.parent

@@ -252,12 +252,18 @@ def run(args) -> int:
     """Run ``isodesign response``."""
     import warnings
 
-    from isodesign.commands import check_count, check_output_path, option_names, write_result
+    from isodesign.commands import (
+        PLOT_SUFFIXES,
+        check_count,
+        check_output_path,
+        option_names,
+        write_result,
+    )
     from isodesign.errors import ModelValidityWarning
     from isodesign.response import band_response
 
     check_output_path(args.output, "--output")
-    check_output_path(args.plot, "--plot")
+    check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     check_count(args.points_per_band, "--points-per-band", *POINTS_PER_BAND_RANGE)
     payload = make_payload(args, spacing_m=args.spacing_m, cg_height_m=args.cg_height_m)
     design, label = load_design(args.design)

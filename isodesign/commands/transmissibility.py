@@ -88,6 +88,7 @@ def run(args) -> int:
     from isodesign.commands import (
         FREQUENCY_UNITS,
         LENGTH_UNITS,
+        PLOT_SUFFIXES,
         check_grid_size,
         check_output_path,
         option_names,
@@ -102,7 +103,7 @@ def run(args) -> int:
     amp = parse_values(args.floor_amplitude, "--floor-amplitude", units=LENGTH_UNITS, unit_name="m")
     check_grid_size(len(freq), len(amp), "--freq", "--floor-amplitude")
     check_output_path(args.output, "--output")
-    check_output_path(args.plot, "--plot")
+    check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     payload = make_payload(args)
     design, label = load_design(args.design)
     check_payload_pressure(design, payload, not args.design_pressure)

@@ -182,6 +182,7 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
     ("response", ["{binary.toml}"], ["binary.toml", "not a UTF-8 text file"]),
     ("response", ["-o", "{not_a_dir}/r.csv"], ["--output", "is a file"]),
     ("response", ["--plot", "{tmp}/missing/r.png"], ["--plot", "does not exist"]),
+    ("response", ["--plot", "{tmp}/r.txt"], ["--plot", "unsupported file type", ".png"]),
     # -- transmissibility ---------------------------------------------------------------------
     ("transmissibility", ["--freq", "-1,2"], ["--freq", "> 0 Hz"]),
     ("transmissibility", ["--freq", "0.2:24:100000000"], ["--freq", "[2, 10000]"]),
@@ -196,6 +197,7 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
     ("transmissibility", ["--diaphragm", "x"], ["--diaphragm"]),
     ("transmissibility", ["{latin1.toml}"], ["latin1.toml", "not a UTF-8 text file"]),
     ("transmissibility", ["-o", "{tmp}"], ["--output", "is a directory"]),
+    ("transmissibility", ["--plot", "{tmp}/t"], ["--plot", "unsupported file type"]),
     # -- optimize (every case fails before the solver starts) ---------------------------------
     ("optimize", ["{study_big_int.toml}", "-o", "{tmp}/o"], ["study_big_int.toml",
                                                              "payload.mass_kg", "401 digits"]),
