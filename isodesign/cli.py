@@ -81,6 +81,7 @@ EXIT_SOLVER = 1
 EXIT_INPUT = 2
 EXIT_INTERNAL = 3
 EXIT_INTERRUPTED = 130
+EXIT_BROKEN_PIPE = 141  # 128 + SIGPIPE, what a shell reports for a writer whose reader left
 
 
 class _Formatter(argparse.RawDescriptionHelpFormatter):
@@ -361,6 +362,13 @@ def _main(argv: list[str]) -> int:
         warnings.filterwarnings("always", category=ModelValidityWarning)
         try:
             return int(args._run(args) or 0)
+        except BrokenPipeError:  # the reader of stdout went away (`isodesign ... -o - | head`)
+            try:
+                devnull = os.open(os.devnull, os.O_WRONLY)
+                os.dup2(devnull, sys.stdout.fileno())
+            except (OSError, ValueError):
+                pass
+            return EXIT_BROKEN_PIPE
         except Exception as exc:
             return _report(exc, debug)
 

@@ -41,6 +41,7 @@ __all__ = [
     "check_grid_size",
     "check_output_path",
     "input_error",
+    "int_option",
     "option_names",
     "parse_values",
     "run_directory",
@@ -56,6 +57,24 @@ LENGTH_UNITS = {"m": 1.0, "mm": 1e-3, "um": 1e-6}
 MAX_LIST_VALUES = 10_000
 #: Most points of a frequency x amplitude grid (``stiffness``, ``transmissibility``).
 MAX_GRID_POINTS = 200_000
+
+
+def int_option(text: str) -> int:
+    """An integer option value (an argparse ``type``): digits only, at most 12 of them.
+
+    ``int()`` would accept ``1_000`` and spend time on a 100000-digit number; the range
+    itself is checked by :func:`check_count` (so the message gives it).
+    """
+    import argparse
+
+    t = text.strip()
+    body = t[1:] if t[:1] in "+-" else t
+    if not (body.isascii() and body.isdigit()):
+        raise argparse.ArgumentTypeError(f"expected an integer, got {t[:24]!r}")
+    if len(body) > 12:
+        raise argparse.ArgumentTypeError(
+            f"expected an integer of at most 12 digits, got one of {len(body)} digits")
+    return int(t)
 
 
 def check_count(value, option: str, lo: int, hi: int) -> int:

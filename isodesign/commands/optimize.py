@@ -20,6 +20,8 @@ from __future__ import annotations
 import argparse
 import sys
 
+from isodesign.commands import int_option as _int_option
+
 #: Files written by ``isodesign optimize`` (feasible run, plots on).
 OUTPUT_FILES = (
     "design.json",
@@ -65,18 +67,6 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
         help="no progress bar; print only the result (warnings and errors still go to stderr)",
     )
     parser.add_argument("--no-plots", action="store_true", help="write no PNG files")
-
-
-def _int_option(text: str) -> int:
-    """An integer option value (argparse type): digits only, at most 12 of them."""
-    t = text.strip()
-    body = t[1:] if t[:1] in "+-" else t
-    if not (body.isascii() and body.isdigit()):
-        raise argparse.ArgumentTypeError(f"expected an integer, got {t[:24]!r}")
-    if len(body) > 12:
-        raise argparse.ArgumentTypeError(
-            f"expected an integer of at most 12 digits, got one of {len(body)} digits")
-    return int(t)
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:

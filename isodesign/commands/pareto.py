@@ -49,7 +49,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         f"names: {', '.join(OBJECTIVE_CHOICES)}",
     )
     from isodesign.commands import add_output_dir_arguments
-    from isodesign.commands.optimize import _int_option
+    from isodesign.commands import int_option as _int_option
 
     parser.add_argument(
         "--points",

@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import argparse
 
+from isodesign.commands import int_option as _int_option
+
 #: Model options (must match spring.capillary.FLOW_MODELS, spring.stiffness.AMPLITUDE_MODES
 #: and response.random_input.RANDOM_METHODS; tests check it). Kept here so that --help does
 #: not load NumPy.
@@ -28,12 +30,6 @@ RESPONSE_OPTION_NAMES = {"floor": "--floor", "target": "--target", "diaphragm": 
 #: Ranges of the counts a user gives: --isolators, --points-per-band.
 ISOLATORS_RANGE = (1, 1000)
 POINTS_PER_BAND_RANGE = (2, 2000)
-
-
-def _int_option(text: str) -> int:
-    from isodesign.commands.optimize import _int_option as parse
-
-    return parse(text)
 
 
 def add_payload_arguments(parser: argparse.ArgumentParser) -> None:

@@ -21,7 +21,7 @@ from isodesign.commands import (
     MAX_LIST_VALUES,
     parse_values,
 )
-from isodesign.commands.optimize import _int_option
+from isodesign.commands import int_option as _int_option
 from isodesign.commands.pareto import OBJECTIVE_CHOICES, parse_objectives
 from isodesign.commands.response import _bands
 from isodesign.errors import InputError
