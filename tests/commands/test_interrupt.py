@@ -58,15 +58,17 @@ def _alive(pid: int) -> bool:
     return state not in ("Z", "X")  # a zombie has ended (it awaits its new parent's wait)
 
 
-def _start(tmp_path: Path) -> tuple[subprocess.Popen, Path]:
+def _start(tmp_path: Path, command: str = "optimize", study_text: str = STUDY,
+           extra=()) -> tuple[subprocess.Popen, Path]:
     study = tmp_path / "study.toml"
-    study.write_text(STUDY, encoding="utf-8")
+    study.write_text(study_text, encoding="utf-8")
     out = tmp_path / "run"
     env = dict(os.environ)
     env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2]) + os.pathsep + \
         env.get("PYTHONPATH", "")
     proc = subprocess.Popen(
-        [sys.executable, "-m", "isodesign", "optimize", str(study), "-o", str(out), "--quiet"],
+        [sys.executable, "-m", "isodesign", command, str(study), "-o", str(out), "--quiet",
+         *extra],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
         start_new_session=True,  # its own process group: the test's group is not signalled
     )
@@ -131,3 +133,23 @@ def test_sigterm_to_the_main_process_mid_run(tmp_path):
     workers = _wait_for_workers(proc)
     os.kill(proc.pid, signal.SIGTERM)
     _check_interrupted(proc, out, workers, "SIGTERM")
+
+
+def test_sigint_to_pareto_mid_run(tmp_path):
+    proc, out = _start(tmp_path, "pareto", extra=("--points", "3"))
+    workers = _wait_for_workers(proc)
+    os.killpg(proc.pid, signal.SIGINT)
+    _check_interrupted(proc, out, workers, "SIGINT")
+
+
+def test_sigint_while_ipopt_runs_in_the_main_process(tmp_path):
+    # one worker: the starts are solved in the main process, inside CasADi/IPOPT
+    proc, out = _start(tmp_path, study_text=STUDY.replace("workers = 2", "workers = 1"))
+    t0 = time.monotonic()
+    while not list(tmp_path.glob(".run.isodesign-partial-*")):
+        assert proc.poll() is None and time.monotonic() - t0 < 60, proc.communicate()
+        time.sleep(0.02)
+    time.sleep(1.0)  # building the NLP or solving a start
+    assert proc.poll() is None
+    os.killpg(proc.pid, signal.SIGINT)
+    _check_interrupted(proc, out, [], "SIGINT")
