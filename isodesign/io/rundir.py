@@ -48,6 +48,7 @@ import os
 import shutil
 import sys
 import tempfile
+import warnings
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -244,6 +245,8 @@ class RunDirectory:
         self.overwrite = overwrite
         self.replaces = check_run_target(target, overwrite=overwrite, option=option,
                                          known_outputs=known_outputs)
+        prev = read_run_record(self.target) if self.replaces else None
+        self._previous_start = None if prev is None else prev.get("started_utc")
         self.status = "complete"
         self.error: str | None = None
         self.files: list[str] = []
@@ -353,6 +356,7 @@ class RunDirectory:
             return self.interrupt(error or "interrupted")
         self.status, self.error = status, error
         with _signals_blocked():  # an interrupt waits until the run is in place
+            self._claim_target()
             self._write_record(status, error)
             self._move_into_place()
             self._deactivate()
@@ -386,6 +390,21 @@ class RunDirectory:
     def _deactivate(self) -> None:
         with contextlib.suppress(ValueError):
             _ACTIVE.remove(self)
+
+    def _claim_target(self) -> None:
+        """If another run finished into the target while this one ran, go beside it."""
+        t = self.target
+        prev = read_run_record(t) if t.is_dir() else None
+        if prev is None or (self.overwrite and prev.get("started_utc") == self._previous_start):
+            return
+        k = 2
+        dest = t.with_name(f"{t.name}-{k}")
+        while dest.exists():
+            k += 1
+            dest = t.with_name(f"{t.name}-{k}")
+        self.target, self.replaces = dest, []
+        warnings.warn(f"{self.option}: {t} received another run while this one ran; this "
+                      f"run is in {dest}", RuntimeWarning, stacklevel=4)
 
     def _move_into_place(self) -> None:
         t = self.target

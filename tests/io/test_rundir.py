@@ -207,3 +207,17 @@ def test_discard_pending_writes_removes_cut_short_temporaries(tmp_path):
     discard_pending_writes()
     assert not tmp.exists() and not p.exists()
     assert tmp not in _PENDING
+
+
+def test_two_runs_into_one_target_never_mix(tmp_path):
+    target = tmp_path / "r"
+    first = RunDirectory(target, command="t")
+    second = RunDirectory(target, command="t")  # checked while the target was still free
+    with first:
+        first.write_text("a.csv", "first")
+    with pytest.warns(RuntimeWarning, match="received another run"), second:
+        second.write_text("b.csv", "second")
+    assert sorted(os.listdir(target)) == ["a.csv", "record.json"]
+    other = tmp_path / "r-2"
+    assert sorted(os.listdir(other)) == ["b.csv", "record.json"]
+    assert _record(other)["output_directory"] == str(other)
