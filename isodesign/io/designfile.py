@@ -184,7 +184,11 @@ def _pressure_from_load(d: Any, piston_area_m2: float, source: str) -> float:
         raise InputError(
             f"{source}: load.isolators: must be an integer in [1, {MAX_ISOLATORS}], got {shown}"
         )
-    return pressure_from_load(mass, n, piston_area_m2)
+    try:
+        return pressure_from_load(mass, n, piston_area_m2)
+    except InputError as exc:
+        msg = str(exc)
+        raise InputError(f"{source}: load.{msg}" if msg.startswith("mass_kg:") else msg) from None
 
 
 def design_from_dict(d: dict, source: str = "design"):

@@ -51,6 +51,8 @@ FILES: dict[str, bytes] = {
     "missing_key.toml": _design(capillary_diameter_m=None).encode(),
     "unknown_key.toml": (REFERENCE + "colour = 3\n").encode(),
     "orifice.toml": _design(capillary_diameter_m="0.02").encode(),
+    "load_heavy.toml": (_design(pressure_pa=None) + "[load]\nmass_kg = 1e308\nisolators = 4\n"
+                        ).encode(),
     "load_big.toml": (_design(pressure_pa=None) + f"[load]\nmass_kg = 1e308\nisolators = {BIG}\n"
                       ).encode(),
     "binary.toml": bytes(range(256)) * 4,
@@ -85,6 +87,7 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
     ("stiffness", ["{missing_key.toml}"], ["missing_key.toml", "capillary_diameter_m"]),
     ("stiffness", ["{unknown_key.toml}"], ["unknown_key.toml", "colour"]),
     ("stiffness", ["{orifice.toml}"], ["orifice.toml", "capillary_diameter_m"]),
+    ("stiffness", ["{load_heavy.toml}"], ["load_heavy.toml", "load.mass_kg", "1e+308 kg"]),
     ("stiffness", ["{load_big.toml}"], ["load_big.toml", "load.isolators", "[1, 1000]"]),
     ("stiffness", ["{binary.toml}"], ["binary.toml", "not a UTF-8 text file"]),
     ("stiffness", ["{latin1.toml}"], ["latin1.toml", "not a UTF-8 text file"]),
