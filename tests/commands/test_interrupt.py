@@ -153,3 +153,34 @@ def test_sigint_while_ipopt_runs_in_the_main_process(tmp_path):
     assert proc.poll() is None
     os.killpg(proc.pid, signal.SIGINT)
     _check_interrupted(proc, out, [], "SIGINT")
+
+
+def test_sigint_to_stiffness_leaves_no_partial_file(tmp_path):
+    # a single-file command: the CSV and the plot appear whole or not at all
+    out = tmp_path / "k.csv"
+    (tmp_path / "k.png").write_bytes(b"an earlier plot")
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2]) + os.pathsep + \
+        env.get("PYTHONPATH", "")
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "isodesign", "stiffness", "--freq", "0.1:50:4000",
+         "--amplitude", "0.01:1:40mm", "-o", str(out), "--plot", str(tmp_path / "k.png")],
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        start_new_session=True,
+    )
+    time.sleep(1.5)
+    assert proc.poll() is None, proc.communicate()
+    os.killpg(proc.pid, signal.SIGINT)
+    _stdout, stderr = proc.communicate(timeout=30)
+    assert proc.returncode == 130, stderr
+    lines = stderr.strip().splitlines()
+    assert lines[-1] == "isodesign: interrupted by SIGINT", stderr
+    assert all(ln.startswith("isodesign: warning: ") for ln in lines[:-1]), stderr
+    assert "Traceback" not in stderr
+    # each file is the earlier one, absent, or whole: never a truncated one
+    if out.exists():
+        assert len(out.read_text().splitlines()) == 1 + 4000 * 40
+    png = (tmp_path / "k.png").read_bytes()
+    assert png == b"an earlier plot" or (png.startswith(b"\x89PNG") and png.endswith(
+        b"IEND\xaeB`\x82"))
+    assert not [p.name for p in tmp_path.iterdir() if p.name.startswith(".")]
