@@ -295,7 +295,9 @@ def _on_signal(signum, frame) -> None:  # pragma: no cover - exercised by subpro
     except Exception:
         pass
     try:
-        os.write(2, f"{PROG}: interrupted by {name}{where}\n".encode())
+        # a progress bar (rich, on a terminal) hid the cursor and holds the line
+        tty = "\r\x1b[2K\x1b[?25h" if os.isatty(2) else ""
+        os.write(2, f"{tty}{PROG}: interrupted by {name}{where}\n".encode())
     except OSError:
         pass
     os._exit(EXIT_INTERRUPTED)
