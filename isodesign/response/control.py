@@ -104,7 +104,7 @@ def transfer_function_polynomials(
     """
     check_choice("output", output, TRANSFER_OUTPUTS)
     c0, c1 = resistance_coefficients(design, flow)
-    sf = float(design.compliance_factor_s2_per_m2)
+    sf = float(design.compliance_factor_kg_per_pa)
     ks = float(design.single_chamber_stiffness_n_per_m)
     n1 = 1.0 + float(design.volume_ratio)
     m = float(mass_per_isolator_kg)

@@ -195,7 +195,7 @@ def zener_damping_ratio(design, mass_per_isolator_kg, resistance=None):
     c_flow = poiseuille_resistance(design) if resistance is None else resistance
     n = design.volume_ratio
     ks = design.single_chamber_stiffness_n_per_m
-    tau = design.compliance_factor_s2_per_m2 * c_flow
+    tau = design.compliance_factor_kg_per_pa * c_flow
     c = ks * n * tau / ((n + 1.0) ** 2)
     k = ks / (n + 1.0)
     return c / (2.0 * bk.sqrt(k * mass_per_isolator_kg))

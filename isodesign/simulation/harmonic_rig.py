@@ -465,7 +465,7 @@ class _Model:
         k_air = k_air.re + 1j * k_air.im
         xh = -1j * amplitude
         pt = k_air * xh / self.ap
-        pb = pt / (1.0 + 1j * omega * d.compliance_factor_s2_per_m2 * c)
+        pb = pt / (1.0 + 1j * omega * d.compliance_factor_kg_per_pa * c)
         mdot = (pt - pb) / c
         dmt = -mdot / (1j * omega)
         uh = mdot / (self.rho0 * self.ac)

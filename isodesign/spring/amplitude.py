@@ -88,7 +88,7 @@ def _solve_block(flow, design, w_all, x_all, tol, max_iter) -> _Solve:
     """:func:`solve_velocity_amplitude` on one block of flat arrays."""
     nq_all = design.volume_ratio * kinematic_velocity(design, w_all, x_all)
     n1 = 1.0 + design.volume_ratio
-    s = design.compliance_factor_s2_per_m2
+    s = design.compliance_factor_kg_per_pa
 
     def evaluate(u, idx):
         """|D(U)| and d|D|/dU at the points idx."""

@@ -206,8 +206,12 @@ class SpringDesign:
         return self.single_chamber_stiffness_n_per_m / (1 + self.volume_ratio)
 
     @property
-    def compliance_factor_s2_per_m2(self):
-        """s = V_b0 / (n R T0), so that tau = s C in Eq. 38."""
+    def compliance_factor_kg_per_pa(self):
+        """Bottom-chamber mass compliance ``s = V_b0 / (n R T0)``, kg/Pa (= m s^2).
+
+        The mass of gas the bottom chamber takes up per pascal of pressure rise
+        (``dm = s dp``), so that ``tau = s C`` in Eq. 38 with C in Pa s/kg.
+        """
         return self.bottom_volume_m3 / (
             self.process_index * self.gas.gas_constant_j_per_kg_k * self.temperature_k
         )

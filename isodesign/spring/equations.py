@@ -31,7 +31,7 @@ __all__ = [
 # ---------------------------------------------------------------------------
 def _jw_tau(design, omega, c: Cx) -> Cx:
     """``j w tau = j w s C`` with ``s = V_b0/(n R T0)``."""
-    s = design.compliance_factor_s2_per_m2
+    s = design.compliance_factor_kg_per_pa
     return Cx(-omega * s * c.im, omega * s * c.re)
 
 
