@@ -70,14 +70,11 @@ from isodesign.response.linearization import (
 )
 from isodesign.response.random_input import band_response, solve_stroke_rms
 from isodesign.spring.amplitude import solve_velocity_amplitude
-from isodesign.spring.capillary import (
-    LAMINAR_REYNOLDS_LIMIT,
-    QUASI_STEADY_WOMERSLEY_LIMIT,
-    resistance_function,
-)
+from isodesign.spring.capillary import LAMINAR_REYNOLDS_LIMIT, QUASI_STEADY_WOMERSLEY_LIMIT
 from isodesign.spring.diagnostics import LUMPED_LIMIT
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, amplitude_residual, kinematic_velocity
+from isodesign.spring.flow_models import resistance_function
 from isodesign.spring.stiffness import complex_stiffness
 
 __all__ = [

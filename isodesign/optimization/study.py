@@ -37,9 +37,9 @@ from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.io.files import read_toml
 from isodesign.response.isolator import Payload
-from isodesign.spring.capillary import SMOOTH_FLOW_MODELS
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS
 from isodesign.spring.gas import Gas
 from isodesign.spring.stiffness import AMPLITUDE_MODES
 

@@ -30,11 +30,10 @@ import numpy as np
 
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.response.model import linear_transmissibility, prepare_inputs
-from isodesign.spring.capillary import FLOW_MODELS, resistance_function
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import RATIONAL_FLOW_MODELS, flow_model, resistance_function
 
 __all__ = [
-    "RATIONAL_FLOW_MODELS",
     "StepMetrics",
     "dominant_pole_pair",
     "resistance_coefficients",
@@ -44,16 +43,13 @@ __all__ = [
     "transfer_function_polynomials",
 ]
 
-#: Flow models with a rational (affine in s) small-amplitude resistance.
-RATIONAL_FLOW_MODELS = ("poiseuille", "quasi_steady")
 #: Outputs of :func:`to_transfer_function`.
 TRANSFER_OUTPUTS = ("transmissibility", "relative", "stiffness")
 
 
 def check_rational(flow: str, diaphragm) -> None:
     """Raise InputError unless (flow, diaphragm) has a rational transfer function."""
-    check_choice("flow", flow, FLOW_MODELS)
-    if flow not in RATIONAL_FLOW_MODELS:
+    if not flow_model(flow).rational:
         raise InputError(
             f"flow: {flow!r} has no rational transfer function (its resistance is not affine "
             f"in s); valid: {', '.join(RATIONAL_FLOW_MODELS)} (with diaphragm='none'), or use "

@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from isodesign.response.control import (
-    RATIONAL_FLOW_MODELS,
     dominant_pole_pair,
     transfer_function_polynomials,
 )
@@ -24,6 +23,7 @@ from isodesign.response.model import (
     spring_model,
 )
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import flow_model
 
 __all__ = [
     "StabilityFigures",
@@ -158,7 +158,7 @@ def stability_of_model(
     f_pk, t_pk = peak_of(t_lin, fn, linear_coarse)
     pole_z = pole_f = None
     dia = diaphragm_model(model.diaphragm)
-    if model.flow in RATIONAL_FLOW_MODELS and dia.name == "none":
+    if flow_model(model.flow).rational and dia.name == "none":
         import control
 
 

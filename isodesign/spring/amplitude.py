@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from isodesign.numerics.cplx import Cx
-from isodesign.spring.capillary import resistance_function
 from isodesign.spring.equations import kinematic_velocity
+from isodesign.spring.flow_models import resistance_function
 
 __all__ = ["solve_velocity_amplitude"]
 

@@ -1,33 +1,12 @@
-"""Capillary flow resistance C(X_p, w) between the two chambers.
+"""Capillary flow laws: the dimensionless groups, friction laws and impedances.
 
-``C`` is the ratio of the first-harmonic pressure difference across the tube to
-the mass flow through it, ``C = (P_t - P_b) / m_dot_tb`` in Pa s/kg (paper
-Eq. 35). It may be complex: an imaginary part is the inertance of the air slug.
-Every model is a function of the tube's velocity amplitude ``U`` (m/s) and the
-angular frequency ``w``; where ``U`` comes from (Eq. 37 or a self-consistent
-solve) is decided in :mod:`isodesign.spring.stiffness`.
-
-Models, by name (:data:`FLOW_MODELS`):
-
-``poiseuille``
-    Unidirectional laminar flow, Eq. 41: ``C_u = 128 mu L_c / (pi rho D_c^4)``;
-    the linear model of earlier work (Harris, DeBra, Erin & Wilson). No minor loss,
-    no inertia.
-``zhao``
-    The paper's oscillating-flow friction, Eq. 24 (laminar correlation) in Eq. 36
-    with the minor loss K, literally as printed. Singular at Re_w = 3.673 and
-    non-passive near it (physics notes, section 2). NumPy only: it never enters
-    an optimizer. ``zhao_turbulent`` uses Eq. 25 instead.
-``quasi_steady``
-    All-regime steady friction (Churchill 1977, laminar to turbulent joined
-    smoothly) plus the minor loss K, linearized by the describing function of
-    Eq. 22, plus the inertance of the air in the tube (Eq. 17's ``rho du/dt``,
-    kept, with the developed-laminar coefficient 4/3). Passive for every input.
-    The default.
-``womersley``
-    Exact laminar oscillating flow in a rigid tube (Womersley; physics notes,
-    section 4) plus the minor loss K. Passive. Frequency-dependent resistance and
-    inertance (4/3 of the plug value at low frequency).
+The flow resistance between the two chambers is
+``C = (P_t - P_b) / m_dot_tb`` in Pa s/kg (paper Eq. 35); it may be complex (an
+imaginary part is the inertance of the air slug). This module holds the physics
+the flow models are built from (Reynolds and Womersley numbers, the describing
+velocity, the Churchill, Poiseuille and Zhao friction laws, the Womersley
+impedance). The models themselves (name, resistance ``C(U, w)``, validity checks,
+whether they may enter the NLP) are registered in :mod:`isodesign.spring.flow_models`.
 
 The describing function used by ``quasi_steady``
 ------------------------------------------------
@@ -61,26 +40,22 @@ from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
 
 __all__ = [
-    "FLOW_MODELS",
     "LAMINAR_REYNOLDS_LIMIT",
+    "QUASI_STEADY_INERTANCE_COEFFICIENT",
     "QUASI_STEADY_WOMERSLEY_LIMIT",
+    "TURBULENT_REYNOLDS_LIMIT",
+    "ZHAO_RANGES",
     "churchill_friction_factor",
     "churchill_friction_re_product",
     "describing_velocity",
     "flow_regime",
     "kinetic_reynolds",
     "poiseuille_resistance",
-    "resistance",
-    "resistance_function",
     "womersley_number",
     "womersley_zeta",
     "zhao_friction",
 ]
 
-#: Names of the capillary flow models.
-FLOW_MODELS = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
-#: Models written for both backends (and therefore allowed in the optimizer).
-SMOOTH_FLOW_MODELS = ("quasi_steady", "womersley", "poiseuille")
 #: Upper Reynolds number of laminar pipe flow (Eq. 26).
 LAMINAR_REYNOLDS_LIMIT = 2300.0
 #: Start of fully turbulent pipe flow used for the regime label.
@@ -297,116 +272,3 @@ def womersley_zeta(alpha) -> Cx:
         t = bk.log(alpha)
         return Cx(bk.exp(s_r(t)), s_i(t) * alpha * alpha)
     return Cx.from_complex(_womersley_zeta_exact(alpha))
-
-
-# ---------------------------------------------------------------------------
-# the resistance C(U, w)
-# ---------------------------------------------------------------------------
-def resistance(flow: str, design, omega, velocity_amplitude) -> Cx:
-    """Complex flow resistance ``C = (P_t - P_b) / m_dot`` in Pa s/kg.
-
-    Parameters
-    ----------
-    flow : str
-        One of :data:`FLOW_MODELS`.
-    design : SpringDesign
-        The spring (fields may be CasADi symbols for the smooth models).
-    omega : array or symbol
-        Angular frequency, rad/s.
-    velocity_amplitude : array or symbol
-        Amplitude U of the cross-sectional mean velocity in the tube, m/s.
-
-    Returns
-    -------
-    Cx
-        Real part: resistance; imaginary part: ``w`` times the inertance.
-    """
-    return resistance_function(flow, design, omega)(velocity_amplitude)
-
-
-def resistance_function(flow: str, design, omega, *, with_slope: bool = False):
-    """Return ``U -> C(U, w)`` for one model, design and set of frequencies.
-
-    The parts that do not depend on the velocity amplitude (the Womersley
-    impedance, the inertance) are computed once, so a solver iterating on ``U``
-    pays only for the amplitude-dependent part. :func:`resistance` is this
-    function applied once.
-
-    With ``with_slope=True`` (NumPy, smooth models) the returned function gives
-    ``(C, dRe(C)/dU)``: every model's inertance is independent of ``U``.
-    """
-    d = design
-    area = d.capillary_area_m2
-    if flow == "poiseuille":  # Eq. 41
-
-        def c_poiseuille(U):
-            c_u = poiseuille_resistance(d)
-            z = 0.0 * U * omega
-            return (Cx(c_u + z, z), z) if with_slope else Cx(c_u + z, z)
-
-        return c_poiseuille
-    if flow == "quasi_steady":
-        rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
-        # Eq. 17's rho du/dt, kept: inertance (4/3) L / A_c of developed laminar flow
-        c_i = QUASI_STEADY_INERTANCE_COEFFICIENT * omega * d.capillary_length_m / area
-        friction_scale = d.capillary_length_m * mu / (rho * dc * dc)
-        rel_rough = d.roughness_m / dc
-
-        def c_quasi_steady(U):
-            u_eq = describing_velocity(U)
-            re_eq = rho * u_eq * dc / mu
-            if with_slope:
-                phi, dphi = churchill_friction_re_product(re_eq, rel_rough, with_slope=True)
-            else:
-                phi = churchill_friction_re_product(re_eq, rel_rough)
-            # (L/D) f U_eq = L mu Phi / (rho D^2): finite as U -> 0
-            c_r = (friction_scale * phi + d.minor_loss * u_eq) / (2.0 * area)
-            c = Cx(c_r, c_i + 0.0 * c_r)
-            if not with_slope:
-                return c
-            k = 8.0 / (3.0 * math.pi)
-            return c, (friction_scale * dphi * rho * k * dc / mu + d.minor_loss * k) / (2.0 * area)
-
-        return c_quasi_steady
-    if flow == "womersley":
-        alpha = womersley_number(d, omega)
-        if bk.is_casadi(alpha) or np.size(alpha) <= 64:
-            zeta = womersley_zeta(alpha)
-        else:  # many points share few frequencies: evaluate the Bessel functions once each
-            uniq, inv = np.unique(np.asarray(alpha), return_inverse=True)
-            zu = womersley_zeta(uniq)
-            zeta = Cx(zu.re[inv].reshape(np.shape(alpha)), zu.im[inv].reshape(np.shape(alpha)))
-        c_u = poiseuille_resistance(d)
-        c_r0, c_i = c_u * zeta.re, c_u * zeta.im
-
-        def c_womersley(U):
-            minor = d.minor_loss * describing_velocity(U) / (2.0 * area)  # Eq. 22 applied to K
-            c = Cx(c_r0 + minor, c_i + 0.0 * minor)
-            if not with_slope:
-                return c
-            return c, d.minor_loss * 8.0 / (3.0 * math.pi) / (2.0 * area) + 0.0 * minor
-
-        return c_womersley
-    if flow in ("zhao", "zhao_turbulent"):
-        if bk.is_casadi(
-            omega, d.capillary_diameter_m, d.capillary_length_m, d.volume_ratio, d.top_volume_m3
-        ):
-            raise InputError(
-                f"flow: {flow!r} is the paper's literal model, singular at Re_w = 3.673 and "
-                "non-passive near it; it is not available on CasADi symbols (not in any NLP). "
-                f"Valid for optimization: {', '.join(SMOOTH_FLOW_MODELS)}"
-            )
-        re_w = kinetic_reynolds(d, omega)
-        corr = "laminar" if flow == "zhao" else "turbulent"
-
-        def c_zhao(U):
-            a0 = U / (omega * d.capillary_diameter_m)  # x_max / D_c, x_max = u_max / w
-            fr = zhao_friction(re_w, a0, corr)
-            # Eq. 36: C = (L/D fr + K) 4 u_max / (3 pi A_c)
-            c = (d.capillary_length_m / d.capillary_diameter_m * fr + d.minor_loss) * (
-                4.0 * U / (3.0 * math.pi * area)
-            )
-            return Cx(c, 0.0)  # real: no zero array
-
-        return c_zhao
-    raise InputError(f"flow: unknown model {flow!r}; valid: {', '.join(FLOW_MODELS)}")

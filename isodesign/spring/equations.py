@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
-from isodesign.spring.capillary import resistance_function
+from isodesign.spring.flow_models import resistance_function
 
 __all__ = [
     "air_stiffness",

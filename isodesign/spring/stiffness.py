@@ -48,13 +48,18 @@ from isodesign.errors import (
     check_positive,
 )
 from isodesign.spring.amplitude import solve_velocity_amplitude
-from isodesign.spring.capillary import FLOW_MODELS, SMOOTH_FLOW_MODELS, resistance_function
 from isodesign.spring.diagnostics import Diagnostics, evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import (
     air_stiffness,
     amplitude_residual,
     kinematic_velocity,
+)
+from isodesign.spring.flow_models import (
+    FLOW_MODELS,
+    SMOOTH_FLOW_MODELS,
+    flow_model,
+    resistance_function,
 )
 
 __all__ = [
@@ -171,12 +176,12 @@ def check_models(flow: str, amplitude_mode: str) -> None:
     """Validate a flow-model / amplitude-mode pair (names and compatibility)."""
     check_choice("flow", flow, FLOW_MODELS)
     check_choice("amplitude_mode", amplitude_mode, AMPLITUDE_MODES)
-    if flow.startswith("zhao") and amplitude_mode == "self_consistent":
+    if amplitude_mode == "self_consistent" and not flow_model(flow).self_consistent:
         raise InputError(
             f"amplitude_mode: 'self_consistent' is not defined for flow={flow!r}: the paper's "
             "friction is independent of the amplitude and negative below Re_w = 3.673, so the "
             "harmonic balance has no unique root. Use amplitude_mode='kinematic' to reproduce "
-            "the paper, or a passive model (quasi_steady, womersley, poiseuille)"
+            f"the paper, or a passive model ({', '.join(SMOOTH_FLOW_MODELS)})"
         )
 
 
@@ -202,7 +207,7 @@ def complex_stiffness(
     amplitude_m : float or array
         Piston displacement amplitudes X_p, m (> 0).
     flow : str
-        Capillary model (:data:`isodesign.spring.capillary.FLOW_MODELS`). Default
+        Capillary model (:data:`isodesign.spring.flow_models.FLOW_MODELS`). Default
         ``quasi_steady``: all-regime (laminar to turbulent) and passive for any
         input, which is what the amplitudes of real tables need (the tube flow of
         the reference spring reaches Re ~ 7000 at 0.5 mm).
@@ -319,7 +324,7 @@ def stiffness_function(
     import casadi as ca
 
     check_models(flow, amplitude_mode)
-    if flow not in SMOOTH_FLOW_MODELS:
+    if not flow_model(flow).smooth:
         raise InputError(
             f"flow: {flow!r} is not available on CasADi symbols; valid: "
             f"{', '.join(SMOOTH_FLOW_MODELS)}"

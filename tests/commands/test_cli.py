@@ -96,7 +96,7 @@ def test_command_table_modules_follow_the_protocol():
 
 
 def test_choices_match_the_library():
-    from isodesign.spring.capillary import FLOW_MODELS
+    from isodesign.spring.flow_models import FLOW_MODELS
     from isodesign.spring.stiffness import AMPLITUDE_MODES
 
     assert FLOW_CHOICES == FLOW_MODELS

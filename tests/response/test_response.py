@@ -620,7 +620,7 @@ def cli_main(monkeypatch):
 def test_cli_choices_match_the_package():
     from isodesign.commands import response as cmd
     from isodesign.response import BRANCHES, RANDOM_METHODS
-    from isodesign.spring.capillary import FLOW_MODELS
+    from isodesign.spring.flow_models import FLOW_MODELS
     from isodesign.spring.stiffness import AMPLITUDE_MODES
 
     assert cmd.FLOW_CHOICES == FLOW_MODELS

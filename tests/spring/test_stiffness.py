@@ -22,11 +22,11 @@ from isodesign.spring.capillary import (
     churchill_friction_factor,
     churchill_friction_re_product,
     poiseuille_resistance,
-    resistance,
     womersley_zeta,
 )
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.equations import driven_velocity
+from isodesign.spring.flow_models import resistance
 from isodesign.spring.stiffness import complex_stiffness, stiffness_function
 
 # --------------------------------------------------------------------------------------------
