@@ -26,6 +26,7 @@ from isodesign.errors import InputError, check_positive, check_range
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx, as_cx
 from isodesign.spring.capillary import poiseuille_resistance
+from isodesign.spring.equations import spring_stiffness
 from isodesign.spring.gas import G_STANDARD
 
 __all__ = [
@@ -153,7 +154,7 @@ def static_stiffness(design, diaphragm, mass_per_isolator_kg,
     """
     k_air = design.static_stiffness_n_per_m
     w_air = bk.sqrt(k_air / mass_per_isolator_kg)
-    return k_air + diaphragm.stiffness(w_air, amplitude_m).re
+    return spring_stiffness(Cx(k_air, 0.0), diaphragm.stiffness(w_air, amplitude_m)).re
 
 
 def tilt_margin(stiffness_n_per_m, payload: Payload):

@@ -69,7 +69,7 @@ from isodesign.spring.capillary import (
 )
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
-from isodesign.spring.equations import air_stiffness
+from isodesign.spring.equations import air_stiffness, spring_stiffness
 from isodesign.spring.flow_models import SIMULATION_FLOW_MODELS, flow_model
 from isodesign.spring.stiffness import complex_stiffness
 
@@ -617,7 +617,7 @@ def _results(design, f, x, flow, dia, raw) -> list[SimulationResult]:
             SimulationResult(
                 frequency_hz=float(f[i]),
                 amplitude_m=float(x[i]),
-                k=k_air + complex(kd[i]),
+                k=spring_stiffness(k_air, complex(kd[i])),
                 k_air=k_air,
                 velocity_amplitude_m_s=float(raw["u1"][i]),
                 peak_velocity_m_s=float(raw["u_peak"][i]),

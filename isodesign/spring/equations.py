@@ -74,6 +74,24 @@ def amplitude_residual(flow: str, design, omega, amplitude_m, log_velocity):
     return log_velocity + 0.5 * bk.log(d.abs2()) - bk.log(q)
 
 
-def spring_stiffness(air: Cx, diaphragm: Cx) -> Cx:
-    """Eq. 42: the spring's complex stiffness, air and diaphragm in parallel (N/m)."""
+def spring_stiffness(air, diaphragm):
+    """Eq. 42: the spring's complex stiffness, air and diaphragm in parallel (N/m).
+
+    ``k*_{d+D} = k_d* + k_D*``: the piston force is the air force plus the diaphragm's,
+    both at the same piston motion. The one place the two are combined (the NumPy
+    result, the CasADi function, the optimizer, the time-domain rig, the static
+    stiffness).
+
+    Parameters
+    ----------
+    air : Cx or complex ndarray
+        The air spring ``k_d*`` (Eq. 38), N/m.
+    diaphragm : Cx or complex ndarray
+        The diaphragm ``k_D*``, N/m.
+
+    Returns
+    -------
+    Cx or complex ndarray
+        ``k*_{d+D}``, of the type of the inputs (a :class:`Cx` if either is one).
+    """
     return air + diaphragm

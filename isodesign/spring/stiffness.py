@@ -54,6 +54,7 @@ from isodesign.spring.equations import (
     air_stiffness,
     amplitude_residual,
     kinematic_velocity,
+    spring_stiffness,
 )
 from isodesign.spring.flow_models import (
     FLOW_MODELS,
@@ -264,7 +265,7 @@ def complex_stiffness(
         k_air_c = k_air.re + 1j * k_air.im
         k_d = dia.stiffness(w, x)
         k_d_c = np.broadcast_to(k_d.re + 1j * np.asarray(k_d.im), shape)
-        k_tot = k_air_c + k_d_c
+        k_tot = spring_stiffness(k_air_c, k_d_c)
     diag = evaluate_diagnostics(
         flow,
         design,
@@ -353,7 +354,7 @@ def stiffness_function(
         x_sol = rf(lq - amplitude_residual(flow, d, w, amp, lq), p)
         u = ca.exp(x_sol)
     c = resistance_function(flow, d, w)(u)
-    k = air_stiffness(d, w, c) + dia.stiffness(w, amp)
+    k = spring_stiffness(air_stiffness(d, w, c), dia.stiffness(w, amp))
     return ca.Function(
         "k_star",
         [*syms, f_hz, amp],
