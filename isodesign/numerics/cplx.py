@@ -132,7 +132,17 @@ def _large_numpy(a: Cx, b: Cx) -> bool:
 
 
 def as_cx(x) -> Cx:
-    """Promote a real value, Python complex or :class:`Cx` to a :class:`Cx`."""
+    """Promote a real value, a complex number or array, or a :class:`Cx` to a :class:`Cx`.
+
+    Parameters
+    ----------
+    x : float, complex, ndarray, CasADi SX/MX/DM or Cx
+        The value (a real one gets a zero imaginary part of the same backend).
+
+    Returns
+    -------
+    Cx
+    """
     if isinstance(x, Cx):
         return x
     if isinstance(x, complex | np.complexfloating):

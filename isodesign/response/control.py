@@ -67,6 +67,13 @@ def resistance_coefficients(design, flow: str) -> tuple[float, float]:
     """``(c0, c1)`` of the small-amplitude resistance ``C(s) = c0 + c1 s`` (Pa s/kg, Pa s^2/kg).
 
     ``poiseuille``: ``(C_u, 0)``; ``quasi_steady``: ``(C_u, (4/3) L_c / A_c)``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (numbers).
+    flow : str
+        A rational flow model (:data:`isodesign.spring.flow_models.RATIONAL_FLOW_MODELS`).
     """
     check_choice("flow", flow, RATIONAL_FLOW_MODELS)
     # the flow model itself at zero velocity: Re C is c0, Im C = w c1 (both models'
@@ -215,6 +222,11 @@ def to_frd(
 
 def dominant_pole_pair(sys) -> tuple[float, float, complex] | None:
     """The slowest-decaying complex pole pair of a system (python-control ``damp``).
+
+    Parameters
+    ----------
+    sys : control.TransferFunction or control.StateSpace
+        A linear system.
 
     Returns
     -------

@@ -144,6 +144,17 @@ def stability_of_model(
 
     ``excited = (t_of_f, amplitude, coarse)`` adds the excited peak; ``linear_coarse`` and
     ``coarse`` are ``(f, T)`` arrays already computed, to start the peak searches.
+
+    Parameters
+    ----------
+    model : SpringModel
+        The bound spring model.
+    payload : Payload
+        The payload (its spacing and CG height give the tilt margin).
+    excited : tuple, optional
+        ``(t_of_f, amplitude, coarse)``: adds the peak at an excitation amplitude.
+    linear_coarse : tuple of ndarray, optional
+        ``(f, T)`` of the linear transmissibility, to start the peak search.
     """
     d = model.design
     x_ref = LINEAR_REFERENCE_AMPLITUDE_M

@@ -742,6 +742,9 @@ def simulate_grid(
     allow_unconverged : bool
         Return cases that did not reach the periodic state (``converged=False``)
         instead of raising :class:`SolverError`.
+    **kwargs
+        The keyword arguments of :func:`simulate_stiffness` (flow, diaphragm,
+        tolerances, method, ...).
 
     Returns
     -------

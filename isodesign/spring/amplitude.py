@@ -49,6 +49,21 @@ def solve_velocity_amplitude(
     bracket, on the points not yet converged (``|h| <= tol N Q``, i.e. U to
     about ``tol`` relative).
 
+    Parameters
+    ----------
+    flow : str
+        A self-consistent flow model (NumPy).
+    design : SpringDesign
+        The spring (numbers).
+    omega : ndarray
+        Angular frequencies, rad/s (same shape as ``amplitude_m``).
+    amplitude_m : ndarray
+        Piston displacement amplitudes, m.
+    tol : float
+        Relative tolerance on U.
+    max_iter : int
+        Iteration limit.
+
     Returns
     -------
     _Solve

@@ -81,22 +81,50 @@ ZHAO_RANGES = {
 # dimensionless groups
 # ---------------------------------------------------------------------------
 def describing_velocity(velocity_amplitude):
-    """``U_eq = 8 U / (3 pi)``, the describing-function velocity of Eq. 22."""
+    """``U_eq = 8 U / (3 pi)``, the describing-function velocity of Eq. 22.
+
+    Parameters
+    ----------
+    velocity_amplitude : float, ndarray or CasADi symbol
+        Velocity amplitude U, m/s.
+    """
     return 8.0 * velocity_amplitude / (3.0 * math.pi)
 
 
 def kinetic_reynolds(design, omega):
-    """Kinetic Reynolds number ``Re_w = rho w D_c^2 / mu`` (paper, after Eq. 23)."""
+    """Kinetic Reynolds number ``Re_w = rho w D_c^2 / mu`` (paper, after Eq. 23).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    """
     return design.density_kg_m3 * omega * design.capillary_diameter_m**2 / design.viscosity_pa_s
 
 
 def womersley_number(design, omega):
-    """Womersley number ``alpha = (D_c/2) sqrt(w rho / mu) = sqrt(Re_w)/2``."""
+    """Womersley number ``alpha = (D_c/2) sqrt(w rho / mu) = sqrt(Re_w)/2``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    """
     return 0.5 * bk.sqrt(kinetic_reynolds(design, omega))
 
 
 def flow_regime(reynolds) -> np.ndarray:
-    """Label each Reynolds number 'laminar', 'transitional' or 'turbulent'."""
+    """Label each Reynolds number 'laminar', 'transitional' or 'turbulent'.
+
+    Parameters
+    ----------
+    reynolds : array_like
+        Reynolds numbers (NumPy).
+    """
     re = np.asarray(reynolds, dtype=float)
     out = np.full(re.shape, "transitional", dtype=object)
     out[re <= LAMINAR_REYNOLDS_LIMIT] = "laminar"
@@ -108,7 +136,13 @@ def flow_regime(reynolds) -> np.ndarray:
 # friction laws
 # ---------------------------------------------------------------------------
 def poiseuille_resistance(design):
-    """Unidirectional laminar flow constant, Eq. 41: ``128 mu L_c / (pi rho D_c^4)``."""
+    """Unidirectional laminar flow constant, Eq. 41: ``128 mu L_c / (pi rho D_c^4)``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    """
     d = design.capillary_diameter_m
     return (
         128.0
@@ -133,6 +167,15 @@ def churchill_friction_re_product(reynolds, relative_roughness=0.0, *, with_slop
     With ``with_slope=True`` also returns ``dPhi/dRe`` (NumPy only; used by the
     self-consistent solver). On NumPy the points with ``Re <= 1000`` skip the
     turbulent terms: there ``Phi = 64`` to better than 1e-13 relative.
+
+    Parameters
+    ----------
+    reynolds : float, ndarray or CasADi symbol
+        Reynolds number (> 0).
+    relative_roughness : float, ndarray or CasADi symbol
+        Roughness over diameter, ``eps / D``.
+    with_slope : bool
+        Also return ``dPhi/dRe`` (NumPy only).
     """
     if bk.is_casadi(reynolds, relative_roughness):
         return _churchill(reynolds, relative_roughness, False)[0]
@@ -188,7 +231,15 @@ def _churchill(re, rel_rough, with_slope):
 
 def churchill_friction_factor(reynolds, relative_roughness=0.0):
     """Churchill (1977) Darcy friction factor ``f(Re)``; see
-    :func:`churchill_friction_re_product`."""
+    :func:`churchill_friction_re_product`.
+
+    Parameters
+    ----------
+    reynolds : float, ndarray or CasADi symbol
+        Reynolds number (> 0).
+    relative_roughness : float, ndarray or CasADi symbol
+        Roughness over diameter, ``eps / D``.
+    """
     return churchill_friction_re_product(reynolds, relative_roughness) / reynolds
 
 
@@ -201,6 +252,15 @@ def zhao_friction(kinetic_re, dimensionless_amplitude, correlation: str = "lamin
 
     Eq. 24 has a pole at ``Re_w = 2.04^(1/0.548) = 3.673`` and is negative
     below it: the model is not passive there (physics notes, section 2).
+
+    Parameters
+    ----------
+    kinetic_re : ndarray
+        Kinetic Reynolds number ``Re_w``.
+    dimensionless_amplitude : ndarray
+        ``A0 = x_max / D_c``.
+    correlation : {'laminar', 'turbulent'}
+        Eq. 24 or Eq. 25.
     """
     if correlation == "laminar":
         return 4.0 / dimensionless_amplitude * (3.27 / (np.power(kinetic_re, 0.548) - 2.04))
@@ -266,6 +326,11 @@ def womersley_zeta(alpha) -> Cx:
 
     NumPy: scipy's Bessel functions (exact). CasADi: a cubic B-spline of the
     exact function in ln(alpha), valid for 1e-3 <= alpha <= 1e3.
+
+    Parameters
+    ----------
+    alpha : float, ndarray or CasADi symbol
+        Womersley number (> 0).
     """
     if bk.is_casadi(alpha):
         s_r, s_i = _womersley_splines()

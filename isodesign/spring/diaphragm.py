@@ -313,6 +313,12 @@ def diaphragm_model(spec) -> NoDiaphragm | ViscoelasticDiaphragm | TableDiaphrag
 
     ``"viscoelastic"`` (default parameters), ``"none"``, ``"table:PATH"`` or a
     path ending in ``.csv`` (a :class:`TableDiaphragm`), or an instance.
+
+    Parameters
+    ----------
+    spec : str, Path or model
+        ``"viscoelastic"``, ``"none"`` (or None), ``"table:PATH"``, a ``.csv`` path, or
+        a model instance (returned as is).
     """
     if isinstance(spec, NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm):
         return spec

@@ -41,13 +41,32 @@ def air_stiffness(design, omega, c: Cx) -> Cx:
     ``k_d* = k_s (1 + j w tau) / (N + 1 + j w tau)`` with ``k_s = n p0 A_p^2/V_t0``
     (Eq. 40) and ``tau = V_b0 C / (n R T0)``. Limits: ``k_s/(N+1)`` as w -> 0 and
     ``k_s`` as w -> inf (the tube blocks).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    c : Cx
+        Flow resistance C (Pa s/kg), complex (inertance in the imaginary part).
     """
     jwt = _jw_tau(design, omega, c)
     return design.single_chamber_stiffness_n_per_m * (1.0 + jwt) / (1.0 + design.volume_ratio + jwt)
 
 
 def kinematic_velocity(design, omega, amplitude_m):
-    """Eq. 37: ``u_max = (A_p / A_c) X_p w`` (compressibility neglected)."""
+    """Eq. 37: ``u_max = (A_p / A_c) X_p w`` (compressibility neglected).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    amplitude_m : float, ndarray or CasADi symbol
+        Piston displacement amplitude X_p, m.
+    """
     return design.area_ratio * amplitude_m * omega
 
 
@@ -56,6 +75,17 @@ def driven_velocity(design, omega, amplitude_m, c: Cx):
 
     ``U = (A_p/A_c) X w N / |1 + N + j w tau|`` (exact for the linearized
     chambers, Eqs. 29-35).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    amplitude_m : float, ndarray or CasADi symbol
+        Piston displacement amplitude X_p, m.
+    c : Cx
+        Flow resistance C (Pa s/kg), complex (inertance in the imaginary part).
     """
     d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
     return design.volume_ratio * kinematic_velocity(design, omega, amplitude_m) / d.abs()
@@ -67,6 +97,19 @@ def amplitude_residual(flow: str, design, omega, amplitude_m, log_velocity):
     ``F(x) = x + ln|1 + N + j w s C(e^x)| - ln(N (A_p/A_c) X w)``, zero at the
     self-consistent ``x = ln U``; smooth in every argument (an equality
     constraint of the NLP, or the function of a rootfinder).
+
+    Parameters
+    ----------
+    flow : str
+        A smooth flow model (:data:`isodesign.spring.flow_models.SMOOTH_FLOW_MODELS`).
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    amplitude_m : float, ndarray or CasADi symbol
+        Piston displacement amplitude X_p, m.
+    log_velocity : float, ndarray or CasADi symbol
+        ``x = ln U`` with U in m/s.
     """
     c = resistance_function(flow, design, omega)(bk.exp(log_velocity))
     d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)

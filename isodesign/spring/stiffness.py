@@ -174,7 +174,15 @@ def _grid(frequency_hz, amplitude_m, pairwise: bool):
 
 
 def check_models(flow: str, amplitude_mode: str) -> None:
-    """Validate a flow-model / amplitude-mode pair (names and compatibility)."""
+    """Validate a flow-model / amplitude-mode pair (names and compatibility).
+
+    Parameters
+    ----------
+    flow : str
+        A flow model (:data:`isodesign.spring.flow_models.FLOW_MODELS`).
+    amplitude_mode : str
+        ``self_consistent`` or ``kinematic``.
+    """
     check_choice("flow", flow, FLOW_MODELS)
     check_choice("amplitude_mode", amplitude_mode, AMPLITUDE_MODES)
     if amplitude_mode == "self_consistent" and not flow_model(flow).self_consistent:
@@ -321,6 +329,17 @@ def stiffness_function(
     rootfinder on :func:`amplitude_residual`, so derivatives follow from the
     implicit function theorem. The expressions are the same functions the NumPy
     path evaluates.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring; N, V_t0, L_c and D_c become the function's inputs.
+    flow : str
+        A smooth flow model (:data:`isodesign.spring.flow_models.SMOOTH_FLOW_MODELS`).
+    amplitude_mode : str
+        ``self_consistent`` (default) or ``kinematic``.
+    diaphragm : str or model
+        As in :func:`complex_stiffness`.
     """
     import casadi as ca
 
