@@ -1,4 +1,4 @@
-"""Optimizer speed and quality (issue 4 targets): one default `optimize` (all starts) in
+"""Optimizer speed and quality (targets): one default `optimize` (all starts) in
 under 10 s, a 20-point Pareto front in under 60 s, the CasADi front against pymoo's NSGA-II
 (10,000 evaluations of the NumPy analysis path: hypervolume at least NSGA-II's in at most a
 tenth of its wall time), and scipy's SLSQP with finite differences on the single-objective
@@ -26,7 +26,7 @@ from pathlib import Path
 
 import numpy as np
 
-#: Targets of issue 4.
+#: Targets.
 TARGET_OPTIMIZE_S = 10.0
 TARGET_PARETO_S = 60.0
 TARGET_TIME_RATIO = 0.1  # CasADi front wall time / NSGA-II wall time

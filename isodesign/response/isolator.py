@@ -197,7 +197,7 @@ def static_stiffness(design, diaphragm, mass_per_isolator_kg,
 
 
 def tilt_margin(stiffness_n_per_m, payload: Payload):
-    """Static rocking (tilt) margin ``n k (s/2)^2 / (m g h)`` (physics notes, section 8).
+    """Static rocking (tilt) margin ``n k (s/2)^2 / (m g h)`` (docs/physics.md, section 8).
 
     Rocking about the diaphragm plane is statically stable when the isolators'
     total vertical stiffness ``n k`` times ``(s/2)^2`` exceeds ``m g h`` (``s`` the
@@ -224,7 +224,7 @@ def tilt_margin(stiffness_n_per_m, payload: Payload):
 
 
 def zener_damping_ratio(design, mass_per_isolator_kg, resistance=None):
-    """Damping ratio of the linearized spring's Zener form (physics notes, section 5).
+    """Damping ratio of the linearized spring's Zener form (docs/physics.md, section 5).
 
     With Poiseuille flow (or any flow model's small-amplitude, low-frequency
     resistance ``C``) and no diaphragm, Eq. 38 is a spring ``k = k_s/(N+1)`` in
@@ -249,7 +249,7 @@ def zener_damping_ratio(design, mass_per_isolator_kg, resistance=None):
 
 
 def zener_transmissibility(volume_ratio, damping_ratio, frequency_ratio):
-    """Closed-form |T| of the Zener isolator (physics notes, section 5).
+    """Closed-form |T| of the Zener isolator (docs/physics.md, section 5).
 
     ``T^2 = [1 + 4 z^2 r^2 (N+1)^2/N^2] / [(1-r^2)^2 + (4 z^2 r^2/N^2)(N+1-r^2)^2]``
     with ``r = w/w_n``, ``w_n = sqrt(k/m)``, ``k = k_s/(N+1)``.

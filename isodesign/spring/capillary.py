@@ -19,10 +19,10 @@ evaluates the steady friction factor at the describing-function velocity
 
 This is exact for laminar friction (``f = 64/Re`` makes the law linear, and
 ``C`` becomes Eq. 41's ``C_u``) and for the quadratic minor loss (Eq. 22
-itself), and within 0.2 % of the exact first harmonic for Blasius friction
-(``U^1.75``: 0.8844 against 0.8861). In the laminar-turbulent transition (peak
-Re 2,400 to 3,000) the friction term differs from the exact describing function
-of Churchill's law by up to 9 %; the effect on k is at most 1.2 % on the
+itself), and within 0.5 % of the exact first harmonic for Blasius friction
+(``U^1.75``: 0.884 against 0.880; docs/physics.md, section 7). In the
+laminar-turbulent transition (peak Re 2,400 to 3,000) the friction term differs
+from the exact describing function of Churchill's law by up to 9 %; the effect on k is at most 1.2 % on the
 reference spring, and the time-domain check (:mod:`isodesign.simulation.harmonic_rig`,
 ``docs/simulation.md``) bounds the whole harmonic-balance error at 2.3 % in |k|
 over 0.2-24 Hz and 0.05-0.5 mm.
@@ -251,7 +251,7 @@ def zhao_friction(kinetic_re, dimensionless_amplitude, correlation: str = "lamin
     (Eq. 25, turbulent, 81 <= Re_w <= 540, 53.4 <= A0 <= 113.5).
 
     Eq. 24 has a pole at ``Re_w = 2.04^(1/0.548) = 3.673`` and is negative
-    below it: the model is not passive there (physics notes, section 2).
+    below it: the model is not passive there (docs/physics.md, section 2).
 
     Parameters
     ----------
@@ -320,7 +320,7 @@ def womersley_zeta(alpha) -> Cx:
 
     ``zeta(alpha) = Z'(w) / (128 mu / (pi D^4))`` with the exact solution
     ``Z' = i w rho / (A F)``, ``F = 1 - 2 J1(z)/(z J0(z))``, ``z = i^(3/2) alpha``
-    (physics notes, section 4). Limits: ``zeta -> 1 + j alpha^2/6`` (Poiseuille
+    (docs/physics.md, section 4). Limits: ``zeta -> 1 + j alpha^2/6`` (Poiseuille
     plus 4/3 of the plug inertance) as alpha -> 0, ``zeta -> j alpha^2/8 +
     alpha/(4 sqrt 2) (1 + j)`` as alpha -> inf.
 

@@ -133,7 +133,7 @@ class SpringDesign:
         N is 1.5e-3 / 8.1e-4 = 1.852 from the volumes (the table rounds it to
         1.9); the viscosity is Table 1's fixed 1.79e-5 Pa s and the temperature
         288.1 K. Note that Table 1's p0 = 4.93e5 Pa with A_p = 5.3e-3 m^2 carries
-        about 212 kg, not the 100 kg named in the text (physics notes, section 1);
+        about 212 kg, not the 100 kg named in the text (docs/physics.md, section 1);
         :meth:`with_load` derives p0 from a payload instead.
         """
         return cls(

@@ -19,7 +19,7 @@ the chamber pressures actually drive through the tube is::
 
 Eq. 37 replaces this by ``U = (A_p/A_c) X w`` (the tube never blocks), which is
 wrong by the factor ``N/|1 + N + j w tau|``: 0.65 at low frequency for N = 1.85
-and far smaller once the tube blocks (physics notes, section 3). The
+and far smaller once the tube blocks (docs/physics.md, section 3). The
 ``self_consistent`` mode solves the harmonic-balance equation above, written as
 the residual in ``x = ln U`` (:func:`amplitude_residual`)::
 
