@@ -130,3 +130,13 @@ def test_simulator_accepts_exactly_the_time_domain_models():
         else:
             with pytest.raises(InputError, match="time-domain simulation"):
                 _check_flow(name)
+
+
+def test_mean_reynolds_number_eq27(ref):
+    """Eq. 27 with Eq. 28's cycle-averaged velocity ``2U/pi``."""
+    res = complex_stiffness(ref, [0.5, 5.0], 2e-4, warn=False)
+    d = res.diagnostics
+    u = d.velocity_amplitude_m_s
+    peak = ref.density_kg_m3 * u * ref.capillary_diameter_m / ref.viscosity_pa_s
+    np.testing.assert_allclose(d.reynolds, peak, rtol=1e-12)
+    np.testing.assert_allclose(d.reynolds_mean, 2 * peak / math.pi, rtol=1e-12)

@@ -501,7 +501,7 @@ NOTES_TABLE = [  # (X_p, f, U kinematic, U self-consistent)
 
 
 @pytest.mark.parametrize(("x", "f", "u_kin", "u_sc"), NOTES_TABLE)
-def test_notes_velocity_table(ref, x, f, u_kin, u_sc):
+def test_harmonic_balance_velocity_table(ref, x, f, u_kin, u_sc):
     kin = complex_stiffness(ref, f, x, flow="zhao", amplitude_mode="kinematic", warn=False)
     assert kin.diagnostics.velocity_amplitude_m_s.item() == pytest.approx(u_kin, rel=0.01)
     # womersley = laminar friction + K, like the notes (plus the exact unsteady inertia)
