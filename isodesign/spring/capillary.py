@@ -22,10 +22,10 @@ This is exact for laminar friction (``f = 64/Re`` makes the law linear, and
 itself), and within 0.5 % of the exact first harmonic for Blasius friction
 (``U^1.75``: 0.884 against 0.880; docs/physics.md, section 7). In the
 laminar-turbulent transition (peak Re 2,400 to 3,000) the friction term differs
-from the exact describing function of Churchill's law by up to 9 %; the effect on k is at most 1.2 % on the
-reference spring, and the time-domain check (:mod:`isodesign.simulation.harmonic_rig`,
-``docs/simulation.md``) bounds the whole harmonic-balance error at 2.3 % in |k|
-over 0.2-24 Hz and 0.05-0.5 mm.
+from the exact describing function of Churchill's law by up to 9 %; the effect on
+k is at most 1.2 % on the reference spring, and the time-domain check
+(:mod:`isodesign.simulation.harmonic_rig`, ``docs/simulation.md``) bounds the
+whole harmonic-balance error at 2.3 % in |k| over 0.2-24 Hz and 0.05-0.5 mm.
 """
 
 from __future__ import annotations
