@@ -140,3 +140,22 @@ def test_mean_reynolds_number_eq27(ref):
     peak = ref.density_kg_m3 * u * ref.capillary_diameter_m / ref.viscosity_pa_s
     np.testing.assert_allclose(d.reynolds, peak, rtol=1e-12)
     np.testing.assert_allclose(d.reynolds_mean, 2 * peak / math.pi, rtol=1e-12)
+
+
+def test_spring_stiffness_eq42_on_every_backend():
+    """Eq. 42 (air + diaphragm) on NumPy complex arrays, Cx pairs and CasADi symbols."""
+    from isodesign.numerics.cplx import Cx
+    from isodesign.spring.equations import spring_stiffness
+
+    air = np.array([8000 + 500j, 9000 + 2500j])
+    dia = np.array([5000 + 400j, 5200 + 900j])
+    out = spring_stiffness(air, dia)
+    assert isinstance(out, np.ndarray) and np.array_equal(out, air + dia)
+    pair = spring_stiffness(Cx.from_complex(air), Cx.from_complex(dia))
+    assert np.array_equal(pair.to_complex(), air + dia)
+    mixed = spring_stiffness(Cx.from_complex(air), dia)
+    assert isinstance(mixed, Cx) and np.array_equal(mixed.to_complex(), air + dia)
+    a, b = ca.SX.sym("a"), ca.SX.sym("b")
+    sym = spring_stiffness(Cx(a, 2 * a), Cx(b, 0.5 * b))
+    f = ca.Function("k", [a, b], [sym.re, sym.im])
+    assert [float(v) for v in f(3.0, 4.0)] == [7.0, 8.0]
