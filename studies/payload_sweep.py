@@ -35,7 +35,7 @@ import numpy as np
 import pandas as pd
 
 from isodesign.io.record import variables_at_bounds
-from isodesign.optimization.optimizer import optimize
+from isodesign.optimization.driver import optimize
 from isodesign.optimization.study import default_study
 
 #: Payload masses of the sweep, kg (on the default study's 4 isolators).
