@@ -79,7 +79,7 @@ def _timed(fn, n: int) -> tuple[dict, list]:
 
 
 # ---------------------------------------------------------------------------
-# the scaled variable space of the NLP (same formula as optimize.Problem.scaling)
+# the scaled variable space of the NLP (same formula as optimization.variables.log_scaling)
 # ---------------------------------------------------------------------------
 class Space:
     """Free design variables in the NLP's log scaling ``ln x = c + h z``, z in [-1, 1]."""
@@ -653,7 +653,8 @@ def bench_nsga() -> dict:
             f"{r['load1']} after; evaluate_design {r['t_eval'] * 1e3:.1f} ms per evaluation "
             f"measured first (20 random designs), {r['t_nsga'] / max(r['n_eval'], 1) * 1e3:.1f} "
             f"ms per evaluation inside NSGA-II (serial, one process); 4 variables z in [-1, 1] "
-            f"(log scaling of optimize._bounds), {len(r['names'])} constraint groups G_k = worst "
+            f"(log scaling of optimization.variables.effective_bounds), {len(r['names'])} "
+            f"constraint groups G_k = worst "
             f"signed violation - 1e-6 <= 0; {r['n_feasible_evals']} feasible evaluations, "
             f"{r['failures']} failed analyses; final front {r['n_front_nsga']} feasible "
             f"non-dominated points, margin {r['nsga_margin_range'][0]:.3f} to "
@@ -713,7 +714,7 @@ def _peak_note(r: dict) -> str:
         )
 
     return (
-        f"Continuous peak |T| (optimize.continuous_peak_db, between the 80 peak-grid "
+        f"Continuous peak |T| (optimization.refine.continuous_peak_db, between the 80 peak-grid "
         f"frequencies both fronts are judged on): CasADi front {count(r['peak_c'])}, NSGA-II "
         f"front {count(r['peak_n'])}. "
     )

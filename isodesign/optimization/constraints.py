@@ -24,9 +24,10 @@ __all__ = [
     "ConstraintReport",
     "build_constraints",
     "constraint_reports",
+    "flow_validity_constraints",
 ]
 
-LN10 = math.log(10.0)
+_LN10 = math.log(10.0)
 #: The NLP keeps this fraction of each model-validity limit (Reynolds number,
 #: acoustic compactness, Womersley number): the constraints hold at the NLP's grid
 #: points, and the margin keeps the finer analysis grid inside the limits too.
@@ -66,7 +67,7 @@ def build_constraints(study, mt: dict, n_all: int) -> list[Constraint]:
     if c["max_peak_transmissibility_db"] is not None:
         n = _size(mt["ln_T2_peak"])
         out.append(Constraint("peak_transmissibility", mt["ln_T2_peak"], -inf,
-                              c["max_peak_transmissibility_db"] * LN10 / 10.0, n,
+                              c["max_peak_transmissibility_db"] * _LN10 / 10.0, n,
                               "|T| <= T_max (dB) at every peak-grid frequency"))
     if c["min_damping_ratio"]:
         out.append(Constraint("damping_ratio", mt["ln_zeta"], math.log(c["min_damping_ratio"]),
@@ -170,7 +171,7 @@ def _exp(v):
 
 
 def _db_of_ln2(v):
-    return 10.0 * v / LN10
+    return 10.0 * v / _LN10
 
 
 _NATURAL = {

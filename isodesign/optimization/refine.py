@@ -37,6 +37,7 @@ __all__ = [
     "Refined",
     "continuous_peak_db",
     "flat_tolerance",
+    "peak_slots",
     "refine_branches",
     "refine_peak",
     "tie_break",
@@ -209,7 +210,7 @@ class Refined:
     ``start`` is the index of the start, ``best`` the refined optimum of its
     branch, ``final`` the returned (tie-broken) point, ``slot_hz`` the movable
     peak frequencies its refinement placed, ``branches`` the refined branches
-    ((start, refined objective J) each).
+    ((start, refined objective J) each, the winner first).
     """
 
     start: int
@@ -237,7 +238,7 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     :data:`BRANCH_TOLERANCE` of a refined one reached the same branch and are skipped.
     Every other branch is refined, however far behind on the sampled grid: the
     re-solve after a peak refinement is a new local solve and can move a branch a
-    long way (on the default study at 717 kg, 4.74 -> 5.22 dB), so the sampled
+    long way (on the default study at 717 kg, a start at 4.74 dB refines to 5.22 dB), so the sampled
     objective bounds nothing. The winner is the branch with the best refined
     optimum (before its tie-break). Each branch starts from the study's peak grid;
     the winner's movable frequencies are restored on ``prob`` (the re-check
@@ -271,5 +272,6 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     win = min(done, key=lambda r: r.best.objective)
     if not np.array_equal(prob.slot_hz, win.slot_hz):
         prob.set_slots(win.slot_hz)
+    ranked = [win] + [r for r in done if r is not win]
     return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz,
-                   tuple((r.start, r.best.objective) for r in done))
+                   tuple((r.start, r.best.objective) for r in ranked))
