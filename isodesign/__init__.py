@@ -70,8 +70,8 @@ _EXPORTS = {
     "Study": "optimization.study",
     "load_study": "optimization.study",
     "default_study": "optimization.study",
-    "optimize": "optimization.optimizer",
-    "OptimizationResult": "optimization.optimizer",
+    "optimize": "optimization.driver",
+    "OptimizationResult": "optimization.result",
     "pareto_front": "optimization.pareto",
     "ParetoResult": "optimization.pareto",
     # design files
