@@ -149,7 +149,24 @@ def _analyses(study, prob, d, start_vals):
 
 
 def solver_settings(study) -> dict:
-    """The solver settings a run records."""
+    """The solver settings a run records.
+
+    Parameters
+    ----------
+    study : Study
+        Its ``solver`` table gives the iteration limit, tolerance, number of
+        starts and seed.
+
+    Returns
+    -------
+    dict
+        ``solver`` (a description), ``options`` (IPOPT's ``max_iter``, ``tol``,
+        ``constr_viol_tol`` and the fixed :data:`~.problem.IPOPT_OPTIONS`, without
+        the ``ipopt.`` prefix), ``starts``, ``seed``, ``recheck_rtol`` (relative
+        agreement required of the NumPy re-check) and ``flat_tolerance_db`` /
+        ``flat_tolerance_rel`` (the tie-break's objective tolerances). Written to
+        ``record.json`` so that a run can be replayed.
+    """
     return {
         "solver": "ipopt (CasADi nlpsol, exact Hessian)",
         "options": {"max_iter": study.solver["max_iter"], "tol": study.solver["tol"],
