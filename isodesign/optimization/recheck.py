@@ -30,7 +30,30 @@ def recheck(prob, sol, d) -> float:
     solvers (not the NLP's values) and evaluates :func:`.metrics.metrics` on them.
     Every constraint quantity must agree with the NLP's solution, and the objective
     IPOPT reports (epigraph variables included) with the analysis's, to
-    :data:`RECHECK_RTOL` relative (in natural units; dB values absolute below 1).
+    :data:`RECHECK_RTOL` relative (the objectives in natural units, and absolute
+    where their magnitude is below 1, whatever the unit).
+
+    Parameters
+    ----------
+    prob : Problem
+        The NLP that produced ``sol``, with its movable peak frequencies where the
+        refinement left them (the re-check evaluates on the same grid).
+    sol : Solution
+        The NLP's optimum: its ``x`` gives the NLP's design, ``ln sigma`` and (self-
+        consistent mode) ``ln U`` at every grid frequency; its ``objectives`` the
+        internal values J.
+    d : SpringDesign
+        The design at the optimum (``study.design_at(sol.values)``), on which the
+        NumPy path solves sigma and the velocities afresh.
+
+    Returns
+    -------
+    float
+        The largest relative difference found: ``|sigma_np / sigma_nlp - 1|``; for
+        each metric ``|exp(a - b) - 1|`` on the ``ln_*`` quantities (a relative
+        difference of the quantity itself) and ``|a / b - 1|`` otherwise, worst over
+        the vector's rows; for each objective ``|v_nlp - v_np| / max(1, |v_np|)``
+        in natural units.
 
     Raises
     ------
@@ -87,12 +110,35 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
     from the NumPy solvers. Used by the re-check, by the comparison with
     gradient-free optimizers (benchmarks) and by studies.
 
+    Parameters
+    ----------
+    study : Study
+    values : dict
+        Design-variable values (SI): ``volume_ratio`` (-), ``top_volume_m3``,
+        ``capillary_length_m``, ``capillary_diameter_m``; missing or fixed ones
+        take the study's start values.
+    grid : Grid, optional
+        The frequency grid; default :func:`.grid.build_grid` of the study (fixed
+        peak grid, no movable frequencies).
+    objectives : tuple of str
+        Objective kinds to evaluate; default the study's own.
+
     Returns
     -------
     dict
-        ``objectives`` (kind -> natural value), ``constraints`` (name -> worst
-        value in the NLP's units, with ``lower``/``upper``), ``max_violation``,
-        ``sigma`` and ``metrics``.
+        ``objectives`` (kind -> natural value: dB, m/s or m^3); ``constraints``
+        (name -> ``value``, the expression at every row as an array in the NLP's
+        log or dB units, ``lower``, ``upper`` and ``violation``, the worst row's
+        distance outside the bounds); ``max_violation`` (the largest violation, NLP
+        units); ``sigma`` (RMS stroke, m) and ``metrics`` (the metrics dict).
+
+    Notes
+    -----
+    sigma solves ``sigma^2 = sum_j w_j |T_j - 1|^2`` with the stiffness at
+    ``A* = 1.880 sigma`` (:func:`isodesign.response.random_input.solve_stroke_rms`);
+    the tube velocity amplitudes at ``A*`` are self-consistent
+    (:func:`isodesign.spring.amplitude.solve_velocity_amplitude`) or kinematic, as
+    ``models.amplitude_mode`` says.
     """
 
     grid = grid or build_grid(study)
