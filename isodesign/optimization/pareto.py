@@ -44,7 +44,21 @@ def _minimized(kind: str, v: np.ndarray) -> np.ndarray:
 
 
 def nondominated(points: np.ndarray) -> np.ndarray:
-    """Boolean mask of the non-dominated rows of an (n, 2) array (both minimized)."""
+    """Boolean mask of the non-dominated rows of an (n, 2) array (both minimized).
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        Objective values to minimize (maximized objectives negated first).
+        Rows with a non-finite value (failed sweep points, NaN) are never kept
+        and dominate nothing.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        True where no finite row is at least as good in both objectives and
+        strictly better in one. Duplicate rows are all kept.
+    """
     p = np.asarray(points, float)
     keep = np.ones(len(p), dtype=bool)
     for i in range(len(p)):
@@ -62,6 +76,26 @@ def hypervolume_2d(points: np.ndarray, reference: np.ndarray) -> float:
     Exact sweep: sort the non-dominated points by the first objective and add
     the rectangles they dominate. Points not better than the reference in both
     objectives contribute nothing.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        Objective values to minimize, in the same units as ``reference``
+        (:func:`pareto_front` passes normalized values: ideal point 0).
+    reference : array_like, shape (2,)
+        The reference point bounding the area (normalized: ``(1, 1)``).
+
+    Returns
+    -------
+    float
+        The dominated area, in the product of the two objectives' units
+        (dimensionless when normalized; 1 is the whole box from the ideal point).
+
+    Notes
+    -----
+    With the non-dominated points sorted by increasing first objective ``x_i``
+    (so decreasing second objective ``y_i``), the area is
+    ``sum_i (r_x - x_i) (y_{i-1} - y_i)`` with ``y_0 = r_y``.
     """
     p = np.asarray(points, float)
     r = np.asarray(reference, float)

@@ -208,6 +208,32 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     table and the key. Each table is validated by its own function
     (``_payload``, ``_hardware``, ``_floor``, ``_target``, ``_models``,
     ``_variables``, ``_constraints``, ``_objective``, ``_solver``).
+
+    Parameters
+    ----------
+    d : dict
+        The study's tables, as parsed from TOML (see the module docstring for the
+        schema); SI values, frequencies in Hz.
+    source : str
+        Where ``d`` came from: the study file's path (relative floor CSV and
+        diaphragm table paths are resolved against its directory; errors start
+        with it), or ``"<dict>"`` / ``"<default>"``.
+    fill_defaults : bool
+        Fill missing tables and keys from the default study (:func:`default_study`);
+        False when ``d`` is already resolved (:meth:`Study.with_changes`).
+
+    Returns
+    -------
+    Study
+        Validated; ``raw`` holds the resolved dictionary.
+
+    Raises
+    ------
+    InputError
+        An unknown key, a value of the wrong type or outside its range, an
+        inconsistent combination (e.g. ``lower >= upper``, ``min_tilt_margin``
+        without ``payload.spacing_m`` and ``cg_height_m``), or a start design
+        that is not a valid spring.
     """
 
     where = source
@@ -488,7 +514,24 @@ def _check_start_design(st: Study, where: str) -> None:
 
 
 def load_study(path) -> Study:
-    """Read and validate a study TOML file (missing keys take the default study's values)."""
+    """Read and validate a study TOML file (missing keys take the default study's values).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The study file (TOML, SI values). Relative paths inside it (floor CSV,
+        diaphragm table) are taken relative to its directory.
+
+    Returns
+    -------
+    Study
+
+    Raises
+    ------
+    InputError
+        An unreadable or malformed file, or an invalid study (see
+        :func:`study_from_dict`); the message names the file and the key.
+    """
 
     return study_from_dict(read_toml(path, what="study"), source=str(path))
 
