@@ -21,20 +21,10 @@ import isodesign
 #: Functions without a complete Parameters section yet: (module, name) -> reason.
 _RANDOM_REWRITE = "module rewritten with the random-input closure; documented there"
 _CLI_REWORK = "CLI output helpers being reworked (CLI robustness); documented there"
-_RECORD = "reads the optimizer's result dict; its signature changes with the optimizer split"
 KNOWN_GAPS = {
     ("isodesign.commands", "check_output_path"): _CLI_REWORK,
     ("isodesign.commands", "input_error"): _CLI_REWORK,
     ("isodesign.commands", "write_text"): _CLI_REWORK,
-    ("isodesign.io.record", "constraint_rows"): _RECORD,
-    ("isodesign.io.record", "dumps_toml"): _RECORD,
-    ("isodesign.io.record", "grid_notes"): _RECORD,
-    ("isodesign.io.record", "optimization_design"): _RECORD,
-    ("isodesign.io.record", "optimization_record"): _RECORD,
-    ("isodesign.io.record", "pareto_record"): _RECORD,
-    ("isodesign.io.record", "resolved_study_dict"): _RECORD,
-    ("isodesign.io.record", "variables_at_bounds"): _RECORD,
-    ("isodesign.io.record", "write_json"): _RECORD,
     ("isodesign.response.linearization", "band_margin_db"): _RANDOM_REWRITE,
     ("isodesign.response.linearization", "equivalent_amplitude"): _RANDOM_REWRITE,
     ("isodesign.response.random_input", "solve_stroke_rms"): _RANDOM_REWRITE,
