@@ -297,7 +297,7 @@ def _fill(arg: str, d: Path) -> str:
 def test_hostile_input_gets_one_clear_error(command, argv, fragments, hostile_dir, capsys,
                                             monkeypatch):
     # nothing may reach the solver: a case that would start the optimizer fails loudly
-    import isodesign.optimization.optimizer as optimizer
+    import isodesign.optimization.driver as optimizer
 
     def _no_solve(*a, **k):
         raise AssertionError("the computation started before the input was rejected")

@@ -143,7 +143,7 @@ def test_pareto_on_an_infeasible_study_writes_its_record(capsys, studies, feasib
 
 
 def test_a_solver_failure_is_recorded_as_failed(capsys, studies, tmp_path, monkeypatch):
-    import isodesign.optimization.optimizer as optimizer
+    import isodesign.optimization.driver as optimizer
     from isodesign.errors import SolverError
 
     def boom(*a, **k):
@@ -160,7 +160,7 @@ def test_a_solver_failure_is_recorded_as_failed(capsys, studies, tmp_path, monke
 
 def test_an_unwritable_output_fails_before_the_computation(capsys, studies, tmp_path,
                                                           monkeypatch):
-    import isodesign.optimization.optimizer as optimizer
+    import isodesign.optimization.driver as optimizer
 
     calls = []
     monkeypatch.setattr(optimizer, "optimize", lambda *a, **k: calls.append(1))
