@@ -112,6 +112,14 @@ def build_constraints(study, mt: dict, n_all: int) -> list[Constraint]:
     if c["max_mach"]:
         out.append(Constraint("mach", mt["ln_mach"], -inf, math.log(c["max_mach"]), n_all,
                               "capillary Mach number <= max at every grid frequency"))
+    if c.get("max_pressure_pa"):
+        # p0 = p_atm + m g/(n A_p) is set by the payload and the piston area, not by the
+        # design variables: a constant row (the study refuses a payload beyond the bound),
+        # reported with its margin like every constraint
+        ln_p0 = math.log(study.start_design().pressure_pa)
+        out.append(Constraint("chamber_pressure", ln_p0 + 0.0 * mt["ln_total_volume"], -inf,
+                              math.log(c["max_pressure_pa"]), 1,
+                              "static chamber pressure p0 <= max (set by the payload)"))
     if c["model_validity"]:
         out += _lumped_constraints(mt)
         out += flow_validity_constraints(study.models["flow"], mt, n_all)
@@ -266,6 +274,7 @@ _NATURAL = {
     "peak_transmissibility": (_db_of_ln2, "dB"),
     "damping_ratio": (_exp, "-"),
     "mach": (_exp, "-"),
+    "chamber_pressure": (_exp, "Pa"),
     "laminar": (_exp, "Re"),
     "quasi_steady_alpha": (_exp, "alpha"),
     "lumped_tube": (_exp, "w l/c"),

@@ -19,7 +19,7 @@ from __future__ import annotations
 import math
 import time
 
-from isodesign.errors import SolverError
+from isodesign.errors import InputError, SolverError
 from isodesign.optimization.constraints import constraint_reports
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
@@ -33,6 +33,7 @@ from isodesign.optimization.refine import (
 )
 from isodesign.optimization.result import OptimizationResult, StartRecord
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+from isodesign.optimization.study import Study
 from isodesign.response.random_input import band_response
 
 __all__ = ["optimize", "solver_settings"]
@@ -60,6 +61,9 @@ def optimize(study, *, progress=None, problem: Problem | None = None,
         :class:`SolverError` when the NLP's optimum and the NumPy analysis
         disagree (a bug, never a silently wrong design).
     """
+    if not isinstance(study, Study):
+        raise InputError(f"study: expected a Study (load_study(path) or default_study()), "
+                         f"got {type(study).__name__} {study!r:.40}")
     t_all = time.perf_counter()
     prob = problem if problem is not None else Problem(study)
     starts = start_points(study, prob.scaling)

@@ -198,6 +198,9 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     progress : callable or None
         ``progress(done, total)`` after each start of the anchor and each sweep point.
     """
+    if not isinstance(study, Study):
+        raise InputError(f"study: expected a Study (load_study(path) or default_study()), "
+                         f"got {type(study).__name__} {study!r:.40}")
     a, b = _check_objectives(objectives)
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
@@ -215,7 +218,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     prob = Problem(st, objectives=(a, b))
     res_a = optimize(st, progress=start_progress, problem=prob, analyze=False)
     if not res_a.feasible:
-        raise SolverError(f"pareto: no feasible design when minimizing {a} alone "
+        verb = "maximizing" if OBJECTIVES[a].maximized else "minimizing"
+        raise SolverError(f"pareto: no feasible design when {verb} {a} alone "
                           f"({res_a.status})")
     if progress:
         progress(1, total)
@@ -230,7 +234,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
                           params=prob.params(weights=[0.0, 1.0]))
         good = [o for o in outs if isinstance(o, Solution) and o.feasible]
         if not good:
-            raise SolverError(f"pareto: minimizing {b} failed ({anchor_b.status}) from A's "
+            raise SolverError(f"pareto: {'maximizing' if OBJECTIVES[b].maximized else 'minimizing'}"
+                              f" {b} failed ({anchor_b.status}) from A's "
                               "optimum and from every start")
         anchor_b = min(good, key=lambda o: o.objectives[1])
     jb_at_a = float(anchor_a.objectives[1])

@@ -91,6 +91,7 @@ _DEFAULT = {
         "max_peak_transmissibility_db": 15.0,
         "min_damping_ratio": 0.05,
         "max_mach": 0.3,
+        "max_pressure_pa": False,
         "model_validity": True,
     },
     "objective": {"kind": "worst_band_margin"},
@@ -114,7 +115,7 @@ _KEYS = {
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
                     "min_natural_frequency_hz", "max_natural_frequency_hz",
                     "max_peak_transmissibility_db", "min_damping_ratio", "max_mach",
-                    "model_validity"},
+                    "max_pressure_pa", "model_validity"},
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
@@ -281,6 +282,13 @@ def _resolve(d: dict, fill_defaults: bool) -> dict:
         "diaphragm_r1_m" in d["hardware"] or "diaphragm_r2_m" in d["hardware"]
     ):
         raw["hardware"].pop("piston_area_m2", None)
+    # a variable the user fixes keeps only the bounds the user gave (the default study's
+    # bounds are not its own: a fixed value outside them is the user's choice)
+    for name, spec in (d.get("variables") or {}).items() if fill_defaults else ():
+        if isinstance(spec, dict) and spec.get("fixed") is True:
+            for k in ("lower", "upper"):
+                if k not in spec:
+                    raw["variables"][name].pop(k, None)
     return raw
 
 
@@ -425,6 +433,13 @@ def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
         fixed = _bool(where, f"variables.{name}.fixed", spec.get("fixed", False))
         start = _num(where, f"variables.{name}.start", spec.get("start"), 0, None, True)
         if fixed:
+            # a fixed variable's own bounds, where given, must hold its value
+            own = {k: _num(where, f"variables.{name}.{k}", spec[k], 0, None, True)
+                   for k in ("lower", "upper") if k in spec}
+            if not own.get("lower", start) <= start <= own.get("upper", start):
+                rng = (f"[{own.get('lower', start):g}, {own.get('upper', start):g}]")
+                raise InputError(f"{w}.start ({start:g}) is fixed outside its own bounds "
+                                 f"[lower, upper] = {rng}")
             lo = hi = start
         else:
             lo = _num(where, f"variables.{name}.lower", spec.get("lower"), 0, None, True)
@@ -435,6 +450,10 @@ def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
                 raise InputError(f"{w}.start ({start:g}) must lie in [lower, upper] = "
                                  f"[{lo:g}, {hi:g}]")
         variables.append(VariableSpec(name, start, lo, hi, fixed))
+    if all(v.fixed for v in variables):
+        raise InputError(f"{where}: [variables] every design variable is fixed, so there is "
+                         "nothing to optimize; free at least one (fixed = false with lower "
+                         "and upper), or analyze the fixed spring with isodesign response")
     return tuple(variables)
 
 
@@ -506,11 +525,26 @@ def _solver(s: dict, where: str) -> dict:
 def _check_start_design(st: Study, where: str) -> None:
     """The start design must be a valid spring (names the field otherwise)."""
     try:
-        st.start_design()
+        d = st.start_design()
     except InputError as exc:
+        msg = str(exc)
+        if msg.startswith("mass_kg:"):  # the payload's weight, not the spring, is at fault
+            raise InputError(f"{where}: payload.{msg}") from None
         raise InputError(f"{where}: start design: {exc}") from None
-    if not math.isfinite(st.start_design().pressure_pa):
+    if not math.isfinite(d.pressure_pa):
         raise InputError(f"{where}: payload gives a non-finite pressure")
+    pmax = st.constraints.get("max_pressure_pa")
+    if pmax and d.pressure_pa > pmax:
+        # p0 = p_atm + m g / (n A_p) depends on the payload and the piston area only: no
+        # design variable can meet the bound, so the study is refused, not optimized
+        p = st.payload
+        raise InputError(
+            f"{where}: constraints.max_pressure_pa = {pmax:g} Pa, but the payload "
+            f"({p.mass_kg:g} kg on {p.isolators} isolators of A_p = "
+            f"{d.piston_area_m2:g} m^2) needs p0 = {d.pressure_pa:.4g} Pa; no design "
+            "variable changes p0: more isolators, a larger piston_area_m2 or a lighter "
+            "payload meet it"
+        )
 
 
 def load_study(path) -> Study:

@@ -1,0 +1,92 @@
+"""Hostile studies and the optimizer's Python edge: one clear InputError naming the key or
+parameter (never an AttributeError or OverflowError), and the max_pressure_pa constraint."""
+
+from __future__ import annotations
+
+import pytest
+
+from isodesign.errors import InputError
+from isodesign.optimization.driver import optimize
+from isodesign.optimization.pareto import pareto_front
+from isodesign.optimization.study import default_study, study_from_dict
+from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
+
+ALL_FIXED = {"variables": {
+    "volume_ratio": {"start": 1.85, "fixed": True},
+    "top_volume_m3": {"start": 8.1e-4, "fixed": True},
+    "capillary_length_m": {"start": 1.2e-2, "fixed": True},
+    "capillary_diameter_m": {"start": 0.9e-3, "fixed": True},
+}}
+
+
+def test_a_study_with_every_variable_fixed_is_refused():
+    with pytest.raises(InputError, match=r"every design variable is fixed"):
+        study_from_dict(ALL_FIXED)
+
+
+def test_three_fixed_variables_are_fine():
+    d = {"variables": dict(ALL_FIXED["variables"])}
+    d["variables"]["volume_ratio"] = {"start": 1.85, "lower": 0.5, "upper": 8.0}
+    st = study_from_dict(d)
+    assert [v.name for v in st.variables if not v.fixed] == ["volume_ratio"]
+
+
+@pytest.mark.parametrize(("spec", "match"), [
+    ({"start": 9.0, "lower": 0.5, "upper": 8.0, "fixed": True},
+     r"variables.volume_ratio.start \(9\) .*fixed.* \[0.5, 8\]"),
+    ({"start": 0.1, "lower": 0.5, "fixed": True}, r"variables.volume_ratio.start \(0.1\)"),
+    ({"start": 9.0, "upper": 8.0, "fixed": True}, r"variables.volume_ratio.start \(9\)"),
+])
+def test_a_fixed_variable_outside_its_own_bounds_is_refused(spec, match):
+    with pytest.raises(InputError, match=match):
+        study_from_dict({"variables": {"volume_ratio": spec}})
+
+
+def test_a_fixed_variable_inside_its_bounds_is_fine():
+    st = study_from_dict({"variables": {"volume_ratio": {"start": 2.0, "lower": 0.5,
+                                                         "upper": 8.0, "fixed": True}}})
+    assert st.variable("volume_ratio").fixed
+
+
+def test_an_overflowing_payload_is_named_as_the_payload():
+    with pytest.raises(InputError, match=r"payload.mass_kg") as ei:
+        study_from_dict({"payload": {"mass_kg": 1e308}})
+    assert "pressure_pa" not in str(ei.value)
+
+
+def test_max_pressure_pa_is_off_by_default_and_checked_when_on():
+    st = default_study()
+    assert st.constraints["max_pressure_pa"] is None
+    p0 = st.start_design().pressure_pa
+    ok = study_from_dict({"constraints": {"max_pressure_pa": MAX_STATIC_PRESSURE_PA}})
+    assert ok.constraints["max_pressure_pa"] == MAX_STATIC_PRESSURE_PA
+    with pytest.raises(InputError, match=r"constraints.max_pressure_pa.*payload") as ei:
+        study_from_dict({"constraints": {"max_pressure_pa": 0.9 * p0}})
+    assert f"{p0:.4g}" in str(ei.value)
+    with pytest.raises(InputError, match=r"constraints.max_pressure_pa"):
+        study_from_dict({"constraints": {"max_pressure_pa": "1e6"}})
+    with pytest.raises(InputError, match=r"constraints.max_pressure_pa"):
+        study_from_dict({"constraints": {"max_pressure_pa": -1.0}})
+
+
+@pytest.mark.parametrize("study", ["default", None, 3, {"name": "x"}])
+def test_optimize_and_pareto_name_the_study_parameter(study):
+    with pytest.raises(InputError, match=r"^study: expected a Study"):
+        optimize(study)
+    with pytest.raises(InputError, match=r"^study: expected a Study"):
+        pareto_front(study)
+
+
+def test_max_pressure_pa_is_reported_as_a_constraint_of_the_run():
+    st = study_from_dict({
+        "models": {"points_per_band": 4, "peak_points": 30},
+        "solver": {"starts": 1, "workers": 1},
+        "constraints": {"max_pressure_pa": MAX_STATIC_PRESSURE_PA},
+    })
+    res = optimize(st, analyze=False)
+    assert res.feasible
+    row = next(c for c in res.constraints if c.name == "chamber_pressure")
+    p0 = st.start_design().pressure_pa
+    assert row.value == pytest.approx(p0, rel=1e-9)
+    assert row.upper == pytest.approx(MAX_STATIC_PRESSURE_PA)
+    assert row.unit == "Pa" and not row.active
