@@ -64,6 +64,20 @@ def int_option(text: str) -> int:
 
     ``int()`` would accept ``1_000`` and spend time on a 100000-digit number; the range
     itself is checked by :func:`check_count` (so the message gives it).
+
+    Parameters
+    ----------
+    text : str
+        The word the user typed.
+
+    Returns
+    -------
+    int
+
+    Raises
+    ------
+    argparse.ArgumentTypeError
+        Not an optional sign and 1-12 digits (argparse prints it naming the option).
     """
     import argparse
 
@@ -78,7 +92,22 @@ def int_option(text: str) -> int:
 
 
 def check_count(value, option: str, lo: int, hi: int) -> int:
-    """Require an integer count in [lo, hi]; InputError naming ``option`` and the range."""
+    """Require an integer count in [lo, hi]; InputError naming ``option`` and the range.
+
+    Parameters
+    ----------
+    value : int
+        The count.
+    option : str
+        The option or key as the user typed it (``--points``).
+    lo, hi : int
+        The valid range, both ends included.
+
+    Returns
+    -------
+    int
+        ``value``.
+    """
     if isinstance(value, bool) or not isinstance(value, int) or not lo <= value <= hi:
         shown = str(value)
         if len(shown) > 24:
@@ -93,6 +122,11 @@ def option_names(**names: str):
 
     ``with option_names(floor="--floor", diaphragm="--diaphragm"): band_response(...)``
     turns an :class:`~isodesign.errors.InputError` ``"floor: ..."`` into ``"--floor: ..."``.
+
+    Parameters
+    ----------
+    **names : str
+        Library parameter name -> the option that sets it.
     """
     from isodesign.errors import InputError
 
@@ -107,7 +141,15 @@ def option_names(**names: str):
 
 
 def check_grid_size(n_a: int, n_b: int, option_a: str, option_b: str) -> None:
-    """At most :data:`MAX_GRID_POINTS` points in an ``option_a`` x ``option_b`` grid."""
+    """At most :data:`MAX_GRID_POINTS` points in an ``option_a`` x ``option_b`` grid.
+
+    Parameters
+    ----------
+    n_a, n_b : int
+        Number of values of each option.
+    option_a, option_b : str
+        The two options, for the message (``--freq``, ``--amplitude``).
+    """
     if n_a * n_b > MAX_GRID_POINTS:
         raise input_error(
             f"{option_a} x {option_b}: {n_a} x {n_b} = {n_a * n_b} points; the grid may have "
@@ -117,7 +159,19 @@ def check_grid_size(n_a: int, n_b: int, option_a: str, option_b: str) -> None:
 
 def add_output_dir_arguments(parser, *, required: bool = True, default: str | None = None,
                              what: str = "output directory") -> None:
-    """``-o/--output OUTDIR`` and ``--overwrite``: the run-directory contract's options."""
+    """``-o/--output OUTDIR`` and ``--overwrite``: the run-directory contract's options.
+
+    Parameters
+    ----------
+    parser : argparse.ArgumentParser
+        The command's parser.
+    required : bool
+        Whether ``-o`` must be given.
+    default : str, optional
+        The default directory when not required.
+    what : str
+        What the directory is, for the help text.
+    """
     parser.add_argument(
         "-o",
         "--output",
@@ -140,6 +194,21 @@ def run_directory(args, command: str, *, known_outputs=(), option: str = "--outp
 
     Use as ``with run_directory(args, "report") as run: run.write_text(...)``; call it
     before the computation so that a bad target fails first.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+        With ``output`` and (optionally) ``overwrite``.
+    command : str
+        The command's name (``record.json["kind"] = "isodesign <command>"``).
+    known_outputs : iterable of str
+        The command's file names (an earlier run without a manifest owns these).
+    option : str
+        The option naming the directory, for messages.
+
+    Returns
+    -------
+    RunDirectory
     """
     from isodesign.io.rundir import RunDirectory
 
@@ -149,7 +218,18 @@ def run_directory(args, command: str, *, known_outputs=(), option: str = "--outp
 
 
 def input_error(message: str) -> Exception:
-    """An :class:`~isodesign.errors.InputError` (imported lazily: it loads NumPy)."""
+    """An :class:`~isodesign.errors.InputError` (imported lazily: it loads NumPy).
+
+    Parameters
+    ----------
+    message : str
+        One line naming the option and its valid range.
+
+    Returns
+    -------
+    InputError
+        To be raised by the caller.
+    """
     from isodesign.errors import InputError
 
     return InputError(message)
@@ -286,6 +366,15 @@ def check_output_path(path: str | Path | None, option: str, *, suffixes=None) ->
     option if ``path`` is empty or a directory, has a suffix not in ``suffixes``
     (when given), its parent does not exist or is a file, or the parent (or an
     existing ``path``) is not writable.
+
+    Parameters
+    ----------
+    path : str or Path or None
+        The output file.
+    option : str
+        The option as the user typed it (``--output``).
+    suffixes : sequence of str, optional
+        Accepted file types (``PLOT_SUFFIXES``).
     """
     if path is None or str(path) == "-":
         return
@@ -311,7 +400,19 @@ def check_output_path(path: str | Path | None, option: str, *, suffixes=None) ->
 
 
 def write_text(path: str | Path, text: str) -> Path:
-    """Write ``text`` to ``path`` whole or not at all (``-`` = standard output)."""
+    """Write ``text`` to ``path`` whole or not at all (``-`` = standard output).
+
+    Parameters
+    ----------
+    path : str or Path
+        The file, or ``-``.
+    text : str
+        Written as UTF-8.
+
+    Returns
+    -------
+    Path
+    """
     if str(path) == "-":
         sys.stdout.write(text)
         return Path("-")
@@ -321,7 +422,20 @@ def write_text(path: str | Path, text: str) -> Path:
 
 
 def write_frame(frame, path: str | Path) -> int:
-    """Write a DataFrame as CSV (``-`` = standard output), whole or not at all; rows."""
+    """Write a DataFrame as CSV (``-`` = standard output), whole or not at all.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Written without its index.
+    path : str or Path
+        The file, or ``-``.
+
+    Returns
+    -------
+    int
+        Number of rows written.
+    """
     if str(path) == "-":
         frame.to_csv(sys.stdout, index=False)
     else:
@@ -331,7 +445,13 @@ def write_frame(frame, path: str | Path) -> int:
 
 @contextlib.contextmanager
 def write_figure(path: str | Path):
-    """``with write_figure(p) as tmp: fig.savefig(tmp)``: the file appears whole or not."""
+    """``with write_figure(p) as tmp: fig.savefig(tmp)``: the file appears whole or not.
+
+    Parameters
+    ----------
+    path : str or Path
+        The figure file (its suffix, kept by the temporary name, sets the format).
+    """
     from isodesign.io.files import atomic_path
 
     with atomic_path(path) as tmp:

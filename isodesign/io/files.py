@@ -99,7 +99,15 @@ def _umask() -> int:
 
 
 def atomic_write_bytes(path, data: bytes) -> Path:
-    """Write ``data`` to ``path`` whole or not at all; return the path."""
+    """Write ``data`` to ``path`` whole or not at all; return the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (its directory must exist).
+    data : bytes
+        The content.
+    """
     final = Path(path)
     with atomic_path(final) as tmp:
         with open(tmp, "wb") as fh:
@@ -108,7 +116,15 @@ def atomic_write_bytes(path, data: bytes) -> Path:
 
 
 def atomic_write_text(path, text: str) -> Path:
-    """Write ``text`` (UTF-8) to ``path`` whole or not at all; return the path."""
+    """Write ``text`` (UTF-8) to ``path`` whole or not at all; return the path.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file (its directory must exist).
+    text : str
+        The content.
+    """
     return atomic_write_bytes(path, text.encode("utf-8"))
 
 

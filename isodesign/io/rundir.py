@@ -96,7 +96,13 @@ def _jsonable(v: Any):
 
 
 def read_run_record(directory) -> dict | None:
-    """The ``record.json`` of an isodesign run in ``directory``, or None if it holds none."""
+    """The ``record.json`` of an isodesign run in ``directory``, or None if it holds none.
+
+    Parameters
+    ----------
+    directory : str or Path
+        A directory that may hold a run.
+    """
     p = Path(directory) / RECORD_NAME
     try:
         rec = json.loads(p.read_text(encoding="utf-8"))
@@ -446,6 +452,11 @@ def interrupt_active_runs(reason: str = "interrupted") -> list[Path]:
 
     Called by the CLI's SIGINT/SIGTERM handler. Runs opened by another process (a
     parent, before a fork) are left alone.
+
+    Parameters
+    ----------
+    reason : str
+        Recorded as the runs' ``error`` (``interrupted by SIGINT``).
     """
     out = []
     for run in list(_ACTIVE):
