@@ -126,7 +126,7 @@ def _jsonable(v):
     if isinstance(v, np.ndarray):
         return _jsonable(v.tolist())
     if isinstance(v, np.generic):
-        return v.item()
+        v = v.item()  # a Python scalar: NaN or infinite NumPy floats become null below
     if isinstance(v, float) and not math.isfinite(v):
         return None
     return v
@@ -142,8 +142,9 @@ def write_json(path, data: dict) -> Path:
         overwritten.
     data : dict
         Nested dicts, lists, tuples, NumPy arrays and scalars, Python scalars.
-        Keys become strings; arrays become lists; Python floats that are NaN or
-        infinite become ``null``.
+        Keys become strings; arrays become lists; floats that are NaN or
+        infinite (Python floats and NumPy scalars alike) become ``null``, so the
+        file is strict JSON.
 
     Returns
     -------
