@@ -118,8 +118,12 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
         ``capillary_length_m``, ``capillary_diameter_m``; missing or fixed ones
         take the study's start values.
     grid : Grid, optional
-        The frequency grid; default :func:`.grid.build_grid` of the study (fixed
-        peak grid, no movable frequencies).
+        The frequency grid; default :func:`.grid.build_grid` of the study and the
+        objectives asked for (fixed peak grid, no movable frequencies; the one
+        frequency of ``transmissibility_at`` appended when asked for, at the
+        study's ``objective.frequency_hz``, else
+        :data:`~.grid.DEFAULT_POINT_FREQUENCY_HZ`). A grid passed in must carry
+        that frequency itself.
     objectives : tuple of str
         Objective kinds to evaluate; default the study's own.
 
@@ -141,7 +145,9 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
     ``models.amplitude_mode`` says.
     """
 
-    grid = grid or build_grid(study)
+    kinds = tuple(objectives) or (study.objective["kind"],)
+    # the grid carries the one extra frequency of a one-frequency objective asked for
+    grid = grid or build_grid(study, objectives=kinds)
     d = study.design_at(values)
     dia = diaphragm_model(study.models["diaphragm"])
     sigma, _ = solve_stroke_rms(d, study.payload, grid.response, flow=study.models["flow"],
@@ -153,7 +159,7 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
         u = kinematic_velocity(d, grid.omega, a)
     mt = metrics(study, grid, d, u, sigma, diaphragm=dia)
     objs = {kind: OBJECTIVES[kind].value(mt, study, grid)
-            for kind in objectives or (study.objective["kind"],)}
+            for kind in kinds}
     cons = {}
     worst = 0.0
     for c in build_constraints(study, mt, grid.omega.size):
