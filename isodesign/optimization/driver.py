@@ -8,7 +8,8 @@ Trust
   best start of each distinct branch (:func:`.refine.refine_branches`).
 * Re-check: the optimum is re-evaluated with the NumPy analysis path (its own
   solvers for U and sigma); objective and constraints must agree to 1e-6
-  relative, else :class:`~isodesign.errors.SolverError` (:mod:`.recheck`).
+  relative (an objective in dB to 1e-6 dB), else
+  :class:`~isodesign.errors.SolverError` (:mod:`.recheck`).
 * Failure is explicit: infeasible, iteration limit and restoration failure are
   reported with IPOPT's status, the most violated constraints and the best
   point found.
@@ -162,9 +163,10 @@ def solver_settings(study) -> dict:
     dict
         ``solver`` (a description), ``options`` (IPOPT's ``max_iter``, ``tol``,
         ``constr_viol_tol`` and the fixed :data:`~.problem.IPOPT_OPTIONS`, without
-        the ``ipopt.`` prefix), ``starts``, ``seed``, ``recheck_rtol`` (relative
-        agreement required of the NumPy re-check) and ``flat_tolerance_db`` /
-        ``flat_tolerance_rel`` (the tie-break's objective tolerances). Written to
+        the ``ipopt.`` prefix), ``starts``, ``seed``, ``recheck_rtol`` (agreement
+        required of the NumPy re-check: relative, absolute in dB for a dB
+        objective) and ``flat_tolerance_db`` / ``flat_tolerance_rel`` (the
+        tie-break's objective tolerances). Written to
         ``record.json`` so that a run can be replayed.
     """
     return {

@@ -17,7 +17,8 @@ from isodesign.spring.equations import kinematic_velocity
 
 __all__ = ["RECHECK_RTOL", "evaluate_design", "recheck"]
 
-#: Relative agreement required between the NLP and the NumPy re-check.
+#: Agreement required between the NLP and the NumPy re-check: relative, and absolute
+#: (dB) for the objectives in dB.
 RECHECK_RTOL = 1e-6
 _METRIC_KEYS = ("stroke_variance", "ln_ms_band", "ln_T2_peak", "ln_total_volume", "ln_tilt",
                 "ln_lumped", "ln_fn", "ln_zeta", "ln_mach", "ln_re", "ln_T2_point")
@@ -30,8 +31,9 @@ def recheck(prob, sol, d) -> float:
     solvers (not the NLP's values) and evaluates :func:`.metrics.metrics` on them.
     Every constraint quantity must agree with the NLP's solution, and the objective
     IPOPT reports (epigraph variables included) with the analysis's, to
-    :data:`RECHECK_RTOL` relative (the objectives in natural units, and absolute
-    where their magnitude is below 1, whatever the unit).
+    :data:`RECHECK_RTOL`: relative, except the objectives in dB, compared in dB
+    with :data:`RECHECK_RTOL` as an absolute tolerance (the unit from the
+    objective registry, :data:`~.objectives.OBJECTIVES`).
 
     Parameters
     ----------
@@ -52,8 +54,9 @@ def recheck(prob, sol, d) -> float:
         The largest relative difference found: ``|sigma_np / sigma_nlp - 1|``; for
         each metric ``|exp(a - b) - 1|`` on the ``ln_*`` quantities (a relative
         difference of the quantity itself) and ``|a / b - 1|`` otherwise, worst over
-        the vector's rows; for each objective ``|v_nlp - v_np| / max(1, |v_np|)``
-        in natural units.
+        the vector's rows; for each objective in natural units, ``|v_nlp - v_np|``
+        (dB) for an objective in dB and ``|v_nlp - v_np| / |v_np|`` for the others
+        (``rms_velocity`` in m/s, ``total_volume`` in m^3).
 
     Raises
     ------
@@ -91,7 +94,8 @@ def recheck(prob, sol, d) -> float:
         obj = OBJECTIVES[kind]
         v_nlp = obj.to_natural(float(sol.objectives[k]))
         v_np = obj.value(mt_np, st, prob.grid)
-        m = abs(v_nlp - v_np) / max(1.0, abs(v_np))
+        # absolute in dB; relative in any other unit (m/s, m^3: values far below 1)
+        m = abs(v_nlp - v_np) if obj.db else abs(v_nlp - v_np) / abs(v_np)
         names.append((f"objective {kind}", m))
         worst = max(worst, m)
     if not worst <= RECHECK_RTOL:
