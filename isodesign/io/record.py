@@ -176,16 +176,16 @@ def command_line(argv=None, prog: str = "isodesign") -> list[str]:
 def resolved_study_dict(study) -> dict:
     """The study's resolved dictionary (``study.raw``) ready to be written elsewhere.
 
-    A floor CSV named by a relative path is resolved against the study file's
-    directory (as :func:`isodesign.optimization.study.load_study` does) and a diaphragm table
-    (``models.diaphragm = "table:PATH"``) against the working directory (as the
-    optimizer reads it), so that the written study loads from any directory.
+    A floor CSV and a diaphragm table (``models.diaphragm = "table:PATH"`` or
+    ``"PATH.csv"``) named by relative paths are resolved against the study file's
+    directory (as :func:`isodesign.optimization.study.load_study` does), so that
+    the written study loads the same files from any directory.
 
     Parameters
     ----------
     study : Study
         Its ``raw`` dictionary and ``source`` (the study file's path, or
-        ``"<dict>"``, ``"<default>"`` or ``""``: then a relative CSV path is taken
+        ``"<dict>"``, ``"<default>"`` or ``""``: then a relative path is taken
         relative to the working directory).
 
     Returns
@@ -197,18 +197,22 @@ def resolved_study_dict(study) -> dict:
     import copy
 
     raw = copy.deepcopy(study.raw)
-    fl = raw.get("floor", {})
-    if isinstance(fl, dict) and "csv" in fl:
-        p = Path(fl["csv"])
+
+    def absolute(path: str) -> str:
+        p = Path(path)
         if not p.is_absolute() and study.source not in ("<dict>", "<default>", ""):
             p = Path(study.source).parent / p
-        fl["csv"] = str(p.resolve())
-    # a diaphragm table is read relative to the working directory of the run
+        return str(p.resolve())
+
+    fl = raw.get("floor", {})
+    if isinstance(fl, dict) and "csv" in fl:
+        fl["csv"] = absolute(fl["csv"])
+    # a diaphragm table is read relative to the study file's directory, like the CSV
     models = raw.get("models", {})
     dia = models.get("diaphragm") if isinstance(models, dict) else None
     if isinstance(dia, str) and (dia.startswith("table:") or dia.lower().endswith(".csv")):
         prefix = "table:" if dia.startswith("table:") else ""
-        models["diaphragm"] = prefix + str(Path(dia[len(prefix):]).resolve())
+        models["diaphragm"] = prefix + absolute(dia[len(prefix):])
     return raw
 
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -58,3 +59,31 @@ def test_pareto_record_of_an_infeasible_sweep_point_is_strict_json(tmp_path):
     assert out["points"][0]["worst_band_margin"] == 5.0
     assert out["points"][1]["worst_band_margin"] is None
     assert out["points"][1]["total_volume"] is None
+
+
+@pytest.mark.parametrize("prefix", ["table:", ""])
+def test_resolved_study_replays_a_relative_diaphragm_table_from_another_cwd(
+        tmp_path, monkeypatch, prefix):
+    """models.diaphragm = "table:rel.csv" is relative to the study file's folder."""
+    from isodesign.io.record import study_toml
+    from isodesign.optimization.study import load_study
+
+    folder, elsewhere, out = (tmp_path / n for n in ("study", "elsewhere", "out"))
+    for p in (folder, elsewhere, out):
+        p.mkdir()
+    rows = ["frequency_hz,amplitude_m,k_real_n_per_m,k_imag_n_per_m"]
+    rows += [f"{f},{x},5000,500" for f in (0.1, 100.0) for x in (1e-5, 1e-3)]
+    (folder / "rel.csv").write_text("\n".join(rows) + "\n", encoding="utf-8")
+    (folder / "s.toml").write_text(
+        f'name = "rel"\n\n[models]\ndiaphragm = "{prefix}rel.csv"\n', encoding="utf-8")
+    monkeypatch.chdir(elsewhere)  # the study file is not in the working directory
+    st = load_study(folder / "s.toml")
+    assert Path(st.models["diaphragm"].removeprefix("table:")).resolve() == \
+        (folder / "rel.csv").resolve()
+    written = out / "study_resolved.toml"
+    written.write_text(study_toml(st, header="replay"), encoding="utf-8")
+    monkeypatch.chdir(tmp_path)  # and loaded back from yet another directory
+    back = load_study(written)
+    assert Path(back.models["diaphragm"].removeprefix("table:")).resolve() == \
+        (folder / "rel.csv").resolve()
+    assert back.raw["models"]["diaphragm"].startswith(prefix)
