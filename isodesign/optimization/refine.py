@@ -200,7 +200,13 @@ def refine_peak(study, prob, final, best, flat):
         refinement's record (rounds, added frequencies, continuous peak).
         ``info`` holds ``rounds``, ``added_frequencies_hz``, ``peak_db`` and
         ``peak_frequency_hz`` (the continuous peak of the returned point, last
-        measured; ``None`` when the peak is not checked: no bound, other objective).
+        measured), ``limit_db`` (the limit it was held to, dB), ``limit``
+        (``"bound"`` or ``"objective"``: which one set it), ``excess_db``
+        (``peak_db - limit_db``) and ``met`` (the peak is within
+        :data:`PEAK_TOLERANCE_DB` of the limit; False when it is still above after
+        the last round), all ``None`` when the peak is not checked (no bound, other
+        objective); ``max_rounds`` and ``tolerance_db`` (:data:`~.problem.PEAK_ROUNDS`
+        and :data:`PEAK_TOLERANCE_DB`).
 
     Raises
     ------
@@ -212,22 +218,28 @@ def refine_peak(study, prob, final, best, flat):
     The limit is the bound, or for the ``peak_transmissibility`` objective the
     smaller of the bound and the sampled peak J (the objective must not
     understate the true peak). At most :data:`~.problem.PEAK_ROUNDS` rounds; a peak
-    still above the limit after the last round is recorded in ``peak_db`` but not
-    refined further.
+    still above the limit after the last round is not refined further: ``met`` is
+    False and :func:`isodesign.optimization.driver.optimize` reports the excess as a
+    violation of the returned design.
     """
     bound = study.constraints.get("max_peak_transmissibility_db")
     kind = prob.objective
-    info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None}
+    info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None,
+            "limit_db": None, "limit": None, "excess_db": None, "met": None,
+            "max_rounds": PEAK_ROUNDS, "tolerance_db": PEAK_TOLERANCE_DB}
     if not _peak_refined(study, prob):
         return final, best, flat, info
     for _ in range(PEAK_ROUNDS + 1):
         vals = prob.values(final.x)
         peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(final.x))
-        info.update(peak_db=peak_db, peak_frequency_hz=f_pk)
         sampled = OBJECTIVES[kind].to_natural(final.objective) \
             if kind == "peak_transmissibility" else None
         limit = min(v for v in (bound, sampled) if v is not None)
-        if peak_db <= limit + PEAK_TOLERANCE_DB or info["rounds"] >= PEAK_ROUNDS:
+        met = peak_db <= limit + PEAK_TOLERANCE_DB
+        info.update(peak_db=peak_db, peak_frequency_hz=f_pk, limit_db=limit,
+                    limit="bound" if limit == bound else "objective",
+                    excess_db=peak_db - limit, met=bool(met))
+        if met or info["rounds"] >= PEAK_ROUNDS:
             break
         info["added_frequencies_hz"] += peak_slots(prob, info["rounds"], f_pk)
         info["rounds"] += 1
