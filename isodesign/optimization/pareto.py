@@ -26,7 +26,7 @@ from isodesign import plotting
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
-from isodesign.optimization.multistart import run_starts, start_points
+from isodesign.optimization.multistart import available_cores, run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS, Problem
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db, peak_slots
@@ -183,7 +183,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     front starts at the reported single-objective optimum; anchor B is B
     minimized from there. The sweep minimizes A subject to ``B <= eps`` for
     ``points`` values of eps from B at A's optimum to B's optimum, in two chains
-    (one from each anchor, meeting in the middle, in two forked workers), each
+    (one from each anchor, meeting in the middle, in two forked workers when
+    ``solver.workers`` and the cores available to the process are both 2 or more), each
     point warm-started from the previous one of its chain, and refines each
     point's peak grid like ``optimize`` does.
 
@@ -303,12 +304,12 @@ def _chain_worker(args):
 
 
 def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
-    """Run the sweep chains, in forked workers when there are two cores."""
+    """Run the sweep chains, in forked workers when ``workers`` (default 2), capped by
+    the cores available to the process, is more than 1."""
     global _CHAIN_PROBLEM
     import multiprocessing as mp
-    import os
 
-    workers = min(2, os.cpu_count() or 1) if workers is None else workers
+    workers = min(2 if workers is None else workers, available_cores())
     sols: dict = {}
     ctx = None
     if workers > 1:

@@ -22,7 +22,9 @@ Tables and keys
                    model_validity (each numeric one may be ``false`` to switch it off)
 ``[objective]``    kind, frequency_hz (for ``transmissibility_at``), band_min_hz,
                    band_max_hz (for ``rms_velocity``)
-``[solver]``       starts, seed, max_iter, tol, tie_break
+``[solver]``       starts, seed, max_iter, tol, tie_break, workers (forked processes
+                   for the starts and the Pareto sweep; capped by the cores available
+                   to the process and by the number of starts)
 """
 
 from __future__ import annotations
