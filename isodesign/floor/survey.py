@@ -385,7 +385,7 @@ class SurveyResult:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
-        fig = Figure(figsize=(7.5, 4.8), layout="constrained")
+        fig = Figure(figsize=(9.0, 4.8), layout="constrained")
         FigureCanvasAgg(fig)
         ax = fig.add_subplot(1, 1, 1)
         c = self.bands.centre_hz
@@ -401,16 +401,17 @@ class SurveyResult:
         for letter in "ABCDEFG":
             cv = criterion(f"VC-{letter}")
             ax.plot(vb.centre_hz, cv.velocity_rms_m_s(vb) / 1e-6, color="0.6", lw=0.8)
-            ax.text(vb.centre_hz[-1] * 1.03, cv.velocity_rms_m_s(vb)[-1] / 1e-6,
+            ax.text(vb.centre_hz[-1] * 1.15, cv.velocity_rms_m_s(vb)[-1] / 1e-6,
                     cv.name, fontsize=7, va="center", color="0.4")  # fmt: skip
         ax.set_xscale("log")
         ax.set_yscale("log")
+        ax.set_xlim(c[0] / 1.15, max(c[-1], vb.centre_hz[-1]) * 1.6)
         ax.set_xlabel("one-third-octave band centre (Hz)")
         ax.set_ylabel("band RMS velocity (um/s)")
         ax.set_title(f"{Path(self.source).name}: {self.duration_s:.0f} s, "
                      f"{self.n_segments} segments")  # fmt: skip
         ax.grid(True, which="both", alpha=0.3)
-        ax.legend(fontsize=7, loc="lower left")
+        ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.06, 1.0))
         p = Path(path)
         fig.savefig(p, dpi=dpi)
         return p

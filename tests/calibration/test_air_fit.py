@@ -29,7 +29,7 @@ TOL = {"minor_loss": 1.2, "capillary_diameter_m": 0.08e-3, "polytropic_index": 0
 @pytest.mark.slow
 @pytest.mark.parametrize("seed", [0, 1])
 def test_air_side_parameters_are_recovered(dual_chamber_rig, rig, seed):
-    d, f, amp, k = dual_chamber_rig
+    _, f, amp, k = dual_chamber_rig
     data = rig.measured(f, amp, rig.noisy(k, SIGMA, 10 + seed), "dual_chamber")
     fit = fit_air_side(data, REF, diaphragm=rig.true_diaphragm)
     print(fit.report())
