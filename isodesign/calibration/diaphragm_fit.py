@@ -165,7 +165,7 @@ class DiaphragmFit:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
 
-        fig = Figure(figsize=(7.5, 8.5), layout="constrained")
+        fig = Figure(figsize=(9.5, 8.5), layout="constrained")
         FigureCanvasAgg(fig)
         ax1, ax2, ax3 = fig.subplots(3, 1, sharex=True)
         m = self.measured
@@ -192,7 +192,7 @@ class DiaphragmFit:
             f"diaphragm fit ({m.configuration}): lambda {self.regularization:.2g}, "
             f"RMS residual {self.rms_relative_residual:.2%} of |k|"
         )
-        ax1.legend(fontsize=7, ncol=2)
+        ax1.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         ax2.set_ylabel("loss factor Im k_D / Re k_D")
         ax3.set_ylabel("residual of k (% of |k|)\no: Re, s: Im")
         ax3.axhline(0.0, color="0.5", lw=0.8)

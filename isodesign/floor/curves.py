@@ -69,6 +69,9 @@ class CurveSegment:
             raise InputError(f"f_lo_hz: must be <= f_hi_hz ({hi:g} Hz), got {lo:g} Hz")
         check_choice("quantity", self.quantity, QUANTITIES)
         check_positive("value", self.value)
+        e = float(self.exponent)
+        if not np.isfinite(e) or abs(e) > 4:
+            raise InputError(f"exponent: must be finite and in [-4, 4], got {self.exponent!r}")
 
 
 @dataclass(frozen=True)

@@ -293,6 +293,8 @@ def test_segment_validation():
         CurveSegment(8, 1, "velocity", 1.0)
     with pytest.raises(InputError, match="segments"):
         CriterionCurve("x", "d", "s")
+    with pytest.raises(InputError, match="exponent"):
+        CurveSegment(1, 4, "acceleration", 0.01, float("nan"))
 
 
 # --------------------------------------------------------------------------------------------
