@@ -272,6 +272,14 @@ def _check_data(measured, kd, levels, idx) -> list[str]:
                 f"not passive at {f[i]:.3g} Hz, {measured.amplitude_m[i] * 1e3:.4g} mm: "
                 f"Im k_D* = {kd.imag[i]:.4g} N/m (the passive fit cannot follow it)"
             )
+    med = [float(np.median(kd.real[idx == j])) for j in range(levels.size)]
+    for j in range(levels.size - 1):
+        if med[j + 1] > 1.02 * med[j]:
+            flags.append(
+                f"the data stiffen from {levels[j] * 1e3:.4g} to {levels[j + 1] * 1e3:.4g} mm "
+                f"(median Re k_D* {med[j]:.4g} -> {med[j + 1]:.4g} N/m): the softening "
+                "constraint does not let the fit follow (check the amplitudes and the air model)"
+            )
     if np.any(kd.real <= 0):
         flags.append(
             f"Re k_D* <= 0 at {int(np.sum(kd.real <= 0))} points: the air model or the design "

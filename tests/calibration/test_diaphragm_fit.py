@@ -150,6 +150,10 @@ def test_non_passive_sparse_and_malformed_data_are_rejected(single_chamber_rig, 
     flipped = rig.measured(f, amp, np.conj(kn), "single_chamber")  # phase sign convention wrong
     with pytest.raises(InputError, match=r"not passive.*phase sign"):
         fit_diaphragm(flipped, REF)
+    stiffening = rig.measured(f, amp[::-1], kn, "single_chamber")  # amplitudes reversed
+    fit = fit_diaphragm(stiffening, REF)
+    assert any("the data stiffen from 0.05 to 0.1 mm" in fl for fl in fit.flags)
+    check_passive_and_softening(fit.model)  # the constraints hold whatever the data
     sparse = rig.measured(f[::7], amp, kn[::7], "single_chamber")  # 3 frequencies
     with pytest.raises(InputError, match=r"too sparse: amplitude 0\.05 mm has 3 distinct"):
         fit_diaphragm(sparse, REF)
