@@ -104,6 +104,16 @@ class AirFit:
         lines.append("  correlation: " + "  ".join(AIR_PARAMETERS[n][0] for n in self.names))
         for nm, row in zip(self.names, self.correlation, strict=True):
             lines.append(f"    {AIR_PARAMETERS[nm][0]:<4}" + "".join(f"{c:8.3f}" for c in row))
+        p = len(self.names)
+        for i in range(p):
+            for j in range(i + 1, p):
+                if abs(self.correlation[i, j]) > 0.95:
+                    a, b = AIR_PARAMETERS[self.names[i]][0], AIR_PARAMETERS[self.names[j]][0]
+                    lines.append(
+                        f"note: {a} and {b} are {abs(self.correlation[i, j]):.1%} correlated: "
+                        "the data fix a combination of them; fix one (--parameters) or add "
+                        "larger amplitudes (the minor loss grows as U^2, the laminar friction as U)"
+                    )
         for b in self.at_bound:
             lines.append(f"note: {b} ended on its bound; its standard error is not meaningful")
         lines.append(

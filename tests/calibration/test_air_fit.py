@@ -41,6 +41,7 @@ def test_air_side_parameters_are_recovered(dual_chamber_rig, rig, seed):
     c = fit.correlation
     np.testing.assert_allclose(np.diag(c), 1.0, rtol=1e-12)
     assert np.allclose(c, c.T) and abs(c[0, 1]) > 0.9  # K and D_c: a flat direction
+    assert "K and D_c are" in fit.report()
     # the calibrated spring reproduces the data within the noise
     assert fit.rms_relative_residual < 1.3 * SIGMA
 
