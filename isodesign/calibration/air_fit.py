@@ -179,6 +179,10 @@ def fit_air_side(
         ``isodesign fit diaphragm``); ``"none"`` if the data are the air alone.
     flow : str
         A smooth flow model (:data:`~isodesign.spring.capillary.SMOOTH_FLOW_MODELS`).
+    max_iterations : int
+        Levenberg-Marquardt iterations at most.
+    tolerance : float
+        Stop when an accepted step lowers the cost by less than this fraction.
 
     Returns
     -------

@@ -131,6 +131,17 @@ class MeasuredStiffness:
 def read_measured_csv(path, *, configuration: str | None = None) -> MeasuredStiffness:
     """Read measured complex stiffness (schema in the module docstring).
 
+    Parameters
+    ----------
+    path : str or Path
+        The CSV file.
+    configuration : {'single_chamber', 'dual_chamber'}, optional
+        What was measured; overrides the ``# configuration:`` header line.
+
+    Returns
+    -------
+    MeasuredStiffness
+
     Raises
     ------
     InputError

@@ -216,6 +216,19 @@ def air_share(
 
     ``single_chamber``: ``k_s`` (Eq. 40), real and constant. ``dual_chamber``: ``k_d*``
     (Eq. 38) from :func:`complex_stiffness` with ``diaphragm="none"``.
+
+    Parameters
+    ----------
+    measured : MeasuredStiffness
+        The points (and the configuration).
+    design : SpringDesign
+        The spring on the rig.
+    flow, amplitude_mode : str
+        Air model of dual-chamber data.
+
+    Returns
+    -------
+    tuple of (ndarray of complex, str)
     """
     if measured.configuration == "single_chamber":
         ks = float(design.single_chamber_stiffness_n_per_m)
@@ -352,6 +365,8 @@ def fit_diaphragm(
         Constant-loss term: chosen by cross-validation, always, never.
     folds : int
         Cross-validation folds (points assigned at random with ``seed``).
+    seed : int
+        Seed of the random fold assignment.
 
     Returns
     -------

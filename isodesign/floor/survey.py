@@ -124,7 +124,13 @@ def _header(path: Path) -> tuple[dict[str, str], int]:
 
 
 def is_record_csv(path) -> bool:
-    """True if ``path`` is a CSV time history (a ``time_s`` column or ``sample_rate_hz`` header)."""
+    """True if ``path`` is a CSV time history (a ``time_s`` column or ``sample_rate_hz`` header).
+
+    Parameters
+    ----------
+    path : str or Path
+        A file (a missing or unreadable file is not a record).
+    """
     p = Path(path)
     if not p.is_file():
         return False
@@ -150,6 +156,19 @@ def read_record(path, *, unit: str | None = None, sample_rate_hz: float | None =
     ``sample_rate_hz``. The first non-comment line names the columns: an optional ``time_s``
     (strictly increasing, uniform within 1 %), then one to three axes (e.g. ``x,y,z``).
     The arguments override the header.
+
+    Parameters
+    ----------
+    path : str or Path
+        The record.
+    unit : str, optional
+        Unit of the values (overrides the header).
+    sample_rate_hz : float, optional
+        Sample rate without a time column (overrides the header).
+
+    Returns
+    -------
+    SurveyRecord
 
     Raises
     ------
@@ -523,8 +542,21 @@ def floor_from_record(
 ) -> FloorSpectrum:
     """Read and analyze a record; the floor of one axis and statistic (1-80 Hz bands).
 
-    Keyword arguments go to :func:`analyze_record` (``f_min_hz``, ``f_max_hz``,
-    ``percentile``) except ``unit`` and ``sample_rate_hz``, which go to :func:`read_record`.
+    Parameters
+    ----------
+    path : str or Path
+        The record (:func:`read_record`).
+    statistic : {'mean', 'max', 'percentile'}
+        Band statistic across segments.
+    axis : str, optional
+        Axis column (default ``z``, or the only axis).
+    **kwargs
+        ``f_min_hz``, ``f_max_hz``, ``percentile`` go to :func:`analyze_record`; ``unit``,
+        ``sample_rate_hz`` to :func:`read_record`.
+
+    Returns
+    -------
+    FloorSpectrum
     """
     read_kw = {k: kwargs.pop(k) for k in ("unit", "sample_rate_hz") if k in kwargs}
     return analyze_record(read_record(path, **read_kw), **kwargs).floor(statistic, axis)

@@ -308,6 +308,11 @@ def load_diaphragm(path):
     (:data:`~isodesign.spring.diaphragm.VISCOELASTIC_PARAMETERS`), ``"none"``,
     ``"table:PATH.csv"`` or ``"fit:PATH.toml"`` (a relative path is taken from the design
     file's folder). ``--diaphragm DESIGN.toml`` reads the same table.
+
+    Parameters
+    ----------
+    path : str or Path
+        A design file.
     """
     d = read_toml(path, what="design")
     if "diaphragm" not in d:
@@ -316,7 +321,13 @@ def load_diaphragm(path):
 
 
 def diaphragm_to_toml(diaphragm) -> str:
-    """The ``[diaphragm]`` table of a :class:`ViscoelasticDiaphragm` (append to a design file)."""
+    """The ``[diaphragm]`` table of a :class:`ViscoelasticDiaphragm` (append to a design file).
+
+    Parameters
+    ----------
+    diaphragm : ViscoelasticDiaphragm
+        The model whose parameters are written.
+    """
     if not isinstance(diaphragm, ViscoelasticDiaphragm):
         raise InputError(
             "diaphragm: only a viscoelastic diaphragm is written as parameters; refer to a fit "

@@ -56,6 +56,7 @@ __all__ = [
     "NoDiaphragm",
     "TableDiaphragm",
     "ViscoelasticDiaphragm",
+    "bernstein_basis",
     "diaphragm_from_dict",
     "diaphragm_model",
 ]
@@ -305,6 +306,18 @@ def bernstein_basis(t, degree: int) -> list:
     """Bernstein polynomials ``B_m(t) = C(M, m) t^m (1-t)^(M-m)``, m = 0..M (any backend).
 
     Non-negative on [0, 1] and summing to 1 there.
+
+    Parameters
+    ----------
+    t : float, array or CasADi symbol
+        The argument, in [0, 1].
+    degree : int
+        The degree M (>= 0).
+
+    Returns
+    -------
+    list
+        ``[B_0(t), ..., B_M(t)]``.
     """
     if degree == 0:
         return [1.0 + 0.0 * t]
@@ -540,6 +553,13 @@ def diaphragm_from_dict(d: dict, source: str = "diaphragm"):
     :data:`VISCOELASTIC_PARAMETERS`; ``"none"``; ``"table:PATH.csv"`` or
     ``"fit:PATH.toml"`` (paths relative to the design file's folder when
     ``source`` is a file path).
+
+    Parameters
+    ----------
+    d : dict
+        The table.
+    source : str
+        Where it came from (a design file path makes relative paths relative to it).
     """
     if not isinstance(d, dict):
         raise InputError(f"{source}: [diaphragm] must be a table")
@@ -603,6 +623,11 @@ def diaphragm_model(
     :class:`FittedDiaphragm` written by ``isodesign fit diaphragm``), a path
     ending in ``.toml`` (a fit file, or a design file with a ``[diaphragm]``
     table), a ``[diaphragm]`` table as a dict, or an instance.
+
+    Parameters
+    ----------
+    spec : str, Path, dict or model
+        The specification (a model instance is returned as is).
     """
     if isinstance(spec, NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm | FittedDiaphragm):
         return spec
