@@ -26,9 +26,9 @@ import numpy as np
 from isodesign.calibration.data import MeasuredStiffness
 from isodesign.errors import InputError, SolverError
 from isodesign.io.designfile import design_to_toml
-from isodesign.spring.capillary import SMOOTH_FLOW_MODELS, resistance_function
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, amplitude_residual, kinematic_velocity
+from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS, resistance_function
 
 __all__ = ["AIR_PARAMETERS", "AirFit", "fit_air_side"]
 
@@ -178,7 +178,7 @@ def fit_air_side(
         The diaphragm in parallel (known, or fitted from single-chamber data with
         ``isodesign fit diaphragm``); ``"none"`` if the data are the air alone.
     flow : str
-        A smooth flow model (:data:`~isodesign.spring.capillary.SMOOTH_FLOW_MODELS`).
+        A smooth flow model (:data:`~isodesign.spring.flow_models.SMOOTH_FLOW_MODELS`).
     max_iterations : int
         Levenberg-Marquardt iterations at most.
     tolerance : float

@@ -51,6 +51,7 @@ from isodesign.numerics.cplx import Cx
 
 __all__ = [
     "DIAPHRAGM_MODELS",
+    "DIAPHRAGM_SPECS",
     "VISCOELASTIC_PARAMETERS",
     "FittedDiaphragm",
     "NoDiaphragm",
@@ -61,7 +62,15 @@ __all__ = [
     "diaphragm_model",
 ]
 
-DIAPHRAGM_MODELS = ("viscoelastic", "table", "fit", "none")
+#: Diaphragm models: name -> how a user writes it (``diaphragm=...``, ``--diaphragm``).
+DIAPHRAGM_SPECS = {
+    "viscoelastic": "viscoelastic",
+    "none": "none",
+    "table": "table:PATH.csv",
+    "fit": "fit:PATH.toml",
+}
+#: Names of the diaphragm models.
+DIAPHRAGM_MODELS = tuple(DIAPHRAGM_SPECS)
 
 
 @dataclass(frozen=True)
@@ -659,6 +668,6 @@ def diaphragm_model(
         if s == "fit":
             raise InputError("diaphragm: 'fit' needs a fit file: use 'fit:PATH.toml'")
     raise InputError(
-        f"diaphragm: unknown model {spec!r}; valid: viscoelastic, none, table:PATH.csv, "
-        "fit:PATH.toml, DESIGN.toml with a [diaphragm] table"
+        f"diaphragm: unknown model {spec!r}; valid: {', '.join(DIAPHRAGM_SPECS.values())}, "
+        "DESIGN.toml with a [diaphragm] table"
     )
