@@ -175,8 +175,9 @@ def command_line(argv=None, prog: str = "isodesign") -> list[str]:
 def resolved_study_dict(study) -> dict:
     """The study's resolved dictionary (``study.raw``) ready to be written elsewhere.
 
-    A floor CSV named by a relative path is resolved against the study file's
-    directory (as :func:`isodesign.optimization.study.load_study` does) and a diaphragm table
+    A floor CSV or survey record named by a relative path is resolved against the study file's
+    directory (as :func:`isodesign.optimization.study.load_study` does), so is a diaphragm fit
+    file (``fit:PATH``), and a diaphragm table
     (``models.diaphragm = "table:PATH"``) against the working directory (as the
     optimizer reads it), so that the written study loads from any directory.
 
@@ -197,17 +198,32 @@ def resolved_study_dict(study) -> dict:
 
     raw = copy.deepcopy(study.raw)
     fl = raw.get("floor", {})
-    if isinstance(fl, dict) and "csv" in fl:
-        p = Path(fl["csv"])
-        if not p.is_absolute() and study.source not in ("<dict>", "<default>", ""):
-            p = Path(study.source).parent / p
-        fl["csv"] = str(p.resolve())
+    for key in ("csv", "record"):  # a spectrum or a survey record, relative to the study file
+        if isinstance(fl, dict) and key in fl:
+            p = Path(fl[key])
+            if not p.is_absolute() and study.source not in ("<dict>", "<default>", ""):
+                p = Path(study.source).parent / p
+            fl[key] = str(p.resolve())
     # a diaphragm table is read relative to the working directory of the run
     models = raw.get("models", {})
     dia = models.get("diaphragm") if isinstance(models, dict) else None
     if isinstance(dia, str) and (dia.startswith("table:") or dia.lower().endswith(".csv")):
         prefix = "table:" if dia.startswith("table:") else ""
         models["diaphragm"] = prefix + str(Path(dia[len(prefix):]).resolve())
+    # a fit file (or a fit/table named in a [models.diaphragm] table) is read relative to the
+    # study file, as load_study does
+    spec = dia.get("model", "") if isinstance(dia, dict) else dia
+    if (isinstance(spec, str) and spec.startswith("fit:")) or (
+        isinstance(dia, dict) and isinstance(spec, str) and spec.startswith("table:")
+    ):
+        prefix = spec.split(":", 1)[0] + ":"
+        p = Path(spec[len(prefix):])
+        if not p.is_absolute() and study.source not in ("<dict>", "<default>", ""):
+            p = Path(study.source).parent / p
+        if isinstance(dia, dict):
+            dia["model"] = prefix + str(p.resolve())
+        else:
+            models["diaphragm"] = prefix + str(p.resolve())
     return raw
 
 

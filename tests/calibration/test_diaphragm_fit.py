@@ -203,3 +203,26 @@ def test_cli_fit_diaphragm_and_use_it(single_chamber_rig, rig, tmp_path, capsys)
     )
     assert cli_main(["fit", "diaphragm", str(tmp_path / "s.csv")]) == 2
     assert "too sparse" in capsys.readouterr().err
+
+
+def test_study_files_take_a_fitted_or_parameterized_diaphragm(single_fit, tmp_path):
+    """``models.diaphragm = "fit:FILE.toml"`` (relative to the study) and a
+    ``[models.diaphragm]`` table with viscoelastic parameters."""
+    from isodesign.optimization.study import load_study
+
+    _, fit = single_fit
+    (tmp_path / "dia.toml").write_text(fit.to_toml())
+    study = tmp_path / "s.toml"
+    study.write_text('[models]\ndiaphragm = "fit:dia.toml"\n')
+    st = load_study(study)
+    assert isinstance(diaphragm_model(st.models["diaphragm"]), FittedDiaphragm)
+    from isodesign.io.record import resolved_study_dict
+
+    resolved = resolved_study_dict(st)["models"]["diaphragm"]
+    assert resolved == f"fit:{(tmp_path / 'dia.toml').resolve()}"
+    study.write_text('[models.diaphragm]\nmodel = "viscoelastic"\nk0_n_per_m = 9000.0\n')
+    m = diaphragm_model(load_study(study).models["diaphragm"])
+    assert m.k0_n_per_m == 9000.0 and m.eta0 == 0.07
+    study.write_text('[models.diaphragm]\nk0_n_per_m = "stiff"\n')
+    with pytest.raises(InputError, match=r"models\..*k0_n_per_m: expected a number"):
+        load_study(study)

@@ -168,3 +168,31 @@ def test_cli_floor_and_survey_as_floor(tmp_path, capsys):
     assert n == int(FS * 600)
     assert cli_main(["floor", str(rec), "-o", str(out), "--fmax", "125"]) == 2
     assert "too low for the 125 Hz band" in capsys.readouterr().err
+
+
+def test_study_floor_from_a_record(tmp_path):
+    """``[floor] record = "survey.csv"`` with the statistic chosen (path relative to the study)."""
+    from isodesign.optimization.study import load_study
+
+    bands = third_octave_bands(1, 80)
+    v = synthesize(np.full(len(bands), 2e-6), bands, 3, duration_s=300.0)
+    _write(tmp_path / "site.csv", [f"unit: m/s; sample_rate_hz: {FS:g}"], ["z"], v[:, None])
+    study = tmp_path / "s.toml"
+    study.write_text('[floor]\nrecord = "site.csv"\nstatistic = "max"\n')
+    st = load_study(study)
+    direct = floor_from_record(tmp_path / "site.csv", statistic="max")
+    np.testing.assert_allclose(
+        st.floor.band_rms_velocity(bands), direct.band_rms_velocity(bands), rtol=1e-12
+    )
+    from isodesign.io.record import resolved_study_dict
+
+    assert resolved_study_dict(st)["floor"]["record"] == str((tmp_path / "site.csv").resolve())
+    study.write_text('[floor]\nrecord = "site.csv"\nstatistic = "median"\n')
+    with pytest.raises(InputError, match=r"floor\.statistic"):
+        load_study(study)
+    study.write_text('[floor]\nrecord = "site.csv"\nkind = "psd"\n')
+    with pytest.raises(InputError, match="do not apply to a record"):
+        load_study(study)
+    study.write_text('[floor]\nrecord = "site.csv"\ncsv = "site.csv"\n')
+    with pytest.raises(InputError, match="exactly one of"):
+        load_study(study)
