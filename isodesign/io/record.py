@@ -176,10 +176,11 @@ def command_line(argv=None, prog: str = "isodesign") -> list[str]:
 def resolved_study_dict(study) -> dict:
     """The study's resolved dictionary (``study.raw``) ready to be written elsewhere.
 
-    A floor CSV and a diaphragm table (``models.diaphragm = "table:PATH"`` or
-    ``"PATH.csv"``) named by relative paths are resolved against the study file's
-    directory (as :func:`isodesign.optimization.study.load_study` does), so that
-    the written study loads the same files from any directory.
+    A floor CSV or survey record, a diaphragm table (``models.diaphragm = "table:PATH"`` or
+    ``"PATH.csv"``) and a diaphragm fit file (``fit:PATH``, also inside a
+    ``[models.diaphragm]`` table) named by relative paths are resolved against the study
+    file's directory (as :func:`isodesign.optimization.study.load_study` does), so that the
+    written study loads the same files from any directory.
 
     Parameters
     ----------
@@ -205,14 +206,24 @@ def resolved_study_dict(study) -> dict:
         return str(p.resolve())
 
     fl = raw.get("floor", {})
-    if isinstance(fl, dict) and "csv" in fl:
-        fl["csv"] = absolute(fl["csv"])
-    # a diaphragm table is read relative to the study file's directory, like the CSV
+    for key in ("csv", "record"):  # a spectrum or a survey record, relative to the study file
+        if isinstance(fl, dict) and key in fl:
+            fl[key] = absolute(fl[key])
     models = raw.get("models", {})
     dia = models.get("diaphragm") if isinstance(models, dict) else None
     if isinstance(dia, str) and (dia.startswith("table:") or dia.lower().endswith(".csv")):
         prefix = "table:" if dia.startswith("table:") else ""
         models["diaphragm"] = prefix + absolute(dia[len(prefix):])
+    # a fit file (or a fit/table named in a [models.diaphragm] table), likewise
+    spec = dia.get("model", "") if isinstance(dia, dict) else dia
+    if (isinstance(spec, str) and spec.startswith("fit:")) or (
+        isinstance(dia, dict) and isinstance(spec, str) and spec.startswith("table:")
+    ):
+        prefix = spec.split(":", 1)[0] + ":"
+        if isinstance(dia, dict):
+            dia["model"] = prefix + absolute(spec[len(prefix):])
+        else:
+            models["diaphragm"] = prefix + absolute(spec[len(prefix):])
     return raw
 
 
