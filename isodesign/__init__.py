@@ -25,6 +25,7 @@ _EXPORTS = {
     "ViscoelasticDiaphragm": "spring.diaphragm",
     "TableDiaphragm": "spring.diaphragm",
     "NoDiaphragm": "spring.diaphragm",
+    "report": "reporting.render",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -56,6 +56,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.pareto",
         "Pareto front of two objectives (default: worst-band margin vs total volume)",
     ),
+    "report": (
+        "isodesign.commands.report",
+        "self-contained HTML report of a design, a run, or candidates side by side",
+    ),
     "demo": (
         "isodesign.commands.demo",
         "the product's main job on the default study, and the reference spring's stiffness",

@@ -8,6 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from isodesign.plotting.style import (
+    CANDIDATE_COLOURS,
     CANDIDATE_LINESTYLES,
     FLAGGED,
     frequency_axis,
@@ -17,7 +18,8 @@ from isodesign.plotting.style import (
 
 __all__ = ["plot_stiffness", "stiffness_figure"]
 
-_AMPLITUDE_COLOURS = ("C0", "C2", "C4", "C1", "C5", "C9", "C6", "C8")
+#: Amplitude colours (orange is kept for the validity flags).
+_AMPLITUDE_COLOURS = ("C0", "C2", "C4", "C5", "C9", "C6", "C8", "C7")
 
 
 def _curves(res):
@@ -34,7 +36,7 @@ def _curves(res):
 
 
 def stiffness_figure(results, *, labels: Sequence[str] | None = None, title: str | None = None,
-                     axes=None):
+                     axes=None, colour_by: str = "amplitude", amplitudes_m=None):
     """Real part of k* (kN/m per isolator) and loss factor vs frequency, one curve per amplitude.
 
     Parameters
@@ -47,6 +49,12 @@ def stiffness_figure(results, *, labels: Sequence[str] | None = None, title: str
     title : str, optional
     axes : pair of matplotlib Axes, optional
         Drawn into (real part, loss factor); default a new figure.
+    colour_by : {'amplitude', 'result'}
+        ``amplitude`` (default): one colour per amplitude, one line style per result;
+        ``result``: one colour per result (the candidates' colours of a comparison), one
+        line style per amplitude.
+    amplitudes_m : sequence of float, optional
+        Draw only these amplitudes (default all).
 
     Returns
     -------
@@ -57,19 +65,30 @@ def stiffness_figure(results, *, labels: Sequence[str] | None = None, title: str
     results = list(results)
     if labels is None:
         labels = [f"{r.flow} flow, {r.amplitude_mode}" for r in results]
-    if axes is None:
+    stacked = axes is None
+    if stacked:
         fig = new_figure(7.5, 6.5)
         ax_k, ax_eta = fig.subplots(2, 1, sharex=True)
     else:
         ax_k, ax_eta = axes
         fig = ax_k.figure
     colours: dict[float, str] = {}
+    styles: dict[float, object] = {}
     flagged = False
     f_all = []
+    keep = None if amplitudes_m is None else np.asarray(amplitudes_m, float)
     for i, (res, label) in enumerate(zip(results, labels, strict=True)):
-        ls = CANDIDATE_LINESTYLES[i % len(CANDIDATE_LINESTYLES)]
         for amp, f, k, eta, valid in _curves(res):
-            c = colours.setdefault(amp, _AMPLITUDE_COLOURS[len(colours) % len(_AMPLITUDE_COLOURS)])
+            if keep is not None and not np.any(np.isclose(keep, amp, rtol=1e-9)):
+                continue
+            if colour_by == "result":
+                c = CANDIDATE_COLOURS[i % len(CANDIDATE_COLOURS)]
+                ls = styles.setdefault(amp, CANDIDATE_LINESTYLES[len(styles)
+                                                              % len(CANDIDATE_LINESTYLES)])
+            else:
+                c = colours.setdefault(amp, _AMPLITUDE_COLOURS[len(colours)
+                                                               % len(_AMPLITUDE_COLOURS)])
+                ls = CANDIDATE_LINESTYLES[i % len(CANDIDATE_LINESTYLES)]
             name = f"stroke amplitude {amp * 1e3:.3g} mm"
             if len(results) > 1:
                 name += f", {label}"
@@ -82,7 +101,8 @@ def stiffness_figure(results, *, labels: Sequence[str] | None = None, title: str
                 flagged = True
             f_all.append(f)
     f_all = np.concatenate(f_all)
-    frequency_axis(ax_k, float(f_all.min()) / 1.05, float(f_all.max()) * 1.05, label=False)
+    frequency_axis(ax_k, float(f_all.min()) / 1.05, float(f_all.max()) * 1.05,
+                   label=not stacked)
     frequency_axis(ax_eta, float(f_all.min()) / 1.05, float(f_all.max()) * 1.05)
     ax_k.set_ylabel("real part Re k* per isolator (kN/m)")
     ax_eta.set_ylabel("loss factor Im k* / Re k* (-)")
@@ -91,8 +111,8 @@ def stiffness_figure(results, *, labels: Sequence[str] | None = None, title: str
         ax.grid(True, which="major", lw=0.4, alpha=0.6)
     if len(results) > 1:
         handles, names = ax_k.get_legend_handles_labels()
-        fig.legend(handles, names, loc="outside lower center", ncol=len(results),
-                   fontsize="small")
+        ncol = len(results) if colour_by == "amplitude" else max(1, len(styles))
+        fig.legend(handles, names, loc="outside lower center", ncol=ncol, fontsize="small")
     else:
         ax_k.legend(fontsize="small", loc="upper left")
     if title:

@@ -1,8 +1,10 @@
-"""Inputs of reports and of the analysis commands: a design with its job.
+"""Shareable HTML reports of a design, an optimization or a Pareto run, or a comparison.
 
-:func:`load_case` reads a design file, a study file or an optimize/pareto run directory.
+:func:`report` is also ``isodesign.report``; ``isodesign report INPUT... -o FILE.html`` is
+the command line (:mod:`isodesign.commands.report`).
 """
 
 from isodesign.reporting.inputs import Case, load_case
+from isodesign.reporting.render import SECTIONS, report
 
-__all__ = ["Case", "load_case"]
+__all__ = ["SECTIONS", "Case", "load_case", "report"]
