@@ -143,7 +143,7 @@ def _branch_breaks(designs, order) -> np.ndarray:
 
 
 def pareto_figure(result, *, annotate: int = 5, ax=None):
-    """The Pareto front of two objectives; the pass/fail line; a few designs annotated.
+    """The Pareto front of two objectives; the pass/fail line; a few designs listed.
 
     The swept objective (B) is on the x axis and the optimized one (A) on the y axis, in
     display units. Front points are joined in order of B, the line broken where a point
@@ -203,22 +203,27 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
             ax.xaxis.set_major_locator(FixedLocator(ticks))
         ax.xaxis.set_major_formatter(FuncFormatter(lambda t, _pos: f"{t:g}"))
         ax.xaxis.set_minor_formatter(NullFormatter())
-    ax.margins(0.08)
+    ax.margins(x=0.08, y=0.1)
     idx = np.flatnonzero(front)
     idx = idx[np.argsort(x[idx])]
     n = idx.size
     if n and annotate > 0:
+        # every front point numbered (its row in pareto.csv); the designs of a few, spread
+        # along the front, listed in a box in the corner a front leaves empty (toward the
+        # worse end of both objectives), so no label covers a point or the line
         picks = sorted({int(t + 0.5) for t in np.linspace(0, n - 1, min(annotate, n))})
-        for j, k in enumerate(picks):
-            i = idx[k]
-            right = k < n / 2
-            ax.annotate(_design_label(result.designs[i]), (x[i], y[i]),
-                        xytext=(14 if right else -14, -30 - 22 * (j % 2)),
-                        textcoords="offset points", fontsize=7,
-                        ha="left" if right else "right", va="top",
-                        arrowprops={"arrowstyle": "-", "color": "0.5", "lw": 0.6},
-                        bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.8",
-                              "alpha": 0.9})
+        for i in idx:
+            ax.annotate(str(i), (x[i], y[i]), xytext=(5, 5), textcoords="offset points",
+                        fontsize=7, color="0.25")
+        rows = [f"#{idx[k]}: {_design_label(result.designs[idx[k]]).replace(chr(10), ', ')}"
+                for k in picks]
+        down = a in MAXIMIZED
+        right = b not in MAXIMIZED
+        ax.text(0.985 if right else 0.015, 0.03 if down else 0.97,
+                "designs (per isolator)\n" + "\n".join(rows), transform=ax.transAxes,
+                ha="right" if right else "left", va="bottom" if down else "top", fontsize=7,
+                family="monospace", multialignment="left",
+                bbox={"boxstyle": "round,pad=0.4", "fc": "white", "ec": "0.75", "alpha": 0.95})
     better = {True: "higher is better", False: "lower is better"}
     ax.set_xlabel(f"{nb} ({ub}; {better[b in MAXIMIZED]})")
     ax.set_ylabel(f"{na} ({ua}; {better[a in MAXIMIZED]})")

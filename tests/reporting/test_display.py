@@ -116,3 +116,29 @@ def test_with_breaks_never_joins_gaps_or_branch_changes():
     assert np.isnan(y[1])
     # a NaN before index 3 (the branch change)
     assert np.isnan(y[3]) and x.size == 5
+
+
+def test_pareto_figure_breaks_the_line_at_gaps_and_branch_changes():
+    from types import SimpleNamespace
+
+    from isodesign.plotting.optimization import pareto_figure
+
+    def d(n):
+        return {"volume_ratio": n, "top_volume_m3": 1e-3, "capillary_length_m": 0.1,
+                "capillary_diameter_m": 1e-3}
+
+    # points sorted by volume: 0.8, 1.0 (same branch), unsolved, 1.6, then N jumps 2 -> 8
+    values = np.array([[-4.0, 1e-3], [-2.0, 2e-3], [np.nan, np.nan], [0.5, 3e-3],
+                       [1.0, 4e-3], [2.0, 5e-3]])
+    res = SimpleNamespace(objectives=("worst_band_margin", "total_volume"), values=values,
+                          designs=tuple(d(n) for n in (0.8, 1.0, 1.2, 1.6, 2.0, 8.0)),
+                          front=np.array([True, True, False, True, True, True]),
+                          hypervolume=0.5)
+    fig = pareto_figure(res)
+    ax = fig.axes[0]
+    front_line = next(ln for ln in ax.get_lines() if ln.get_label().startswith("non-dominated"))
+    y = np.asarray(front_line.get_ydata(), float)
+    assert np.isnan(y).sum() >= 2  # one break at the unsolved point, one at N 2 -> 8
+    pf = next(ln for ln in ax.get_lines() if ln.get_label().startswith("pass/fail"))
+    assert np.allclose(pf.get_ydata(), 0.0)
+    assert "per isolator" in ax.get_xlabel() and "(L;" in ax.get_xlabel()
