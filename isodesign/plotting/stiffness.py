@@ -109,12 +109,15 @@ def stiffness_figure(results, *, labels: Sequence[str] | None = None, title: str
     ax_eta.axhline(0.0, color="0.6", lw=0.6)
     for ax in (ax_k, ax_eta):
         ax.grid(True, which="major", lw=0.4, alpha=0.6)
+    handles, names = ax_k.get_legend_handles_labels()
+    flag = [i for i, nm in enumerate(names) if nm == "outside model validity"]
+    order = [i for i in range(len(names)) if i not in flag] + flag  # the flag entry last
+    handles, names = [handles[i] for i in order], [names[i] for i in order]
     if len(results) > 1:
-        handles, names = ax_k.get_legend_handles_labels()
         ncol = len(results) if colour_by == "amplitude" else max(1, len(styles))
         fig.legend(handles, names, loc="outside lower center", ncol=ncol, fontsize="small")
     else:
-        ax_k.legend(fontsize="small", loc="upper left")
+        ax_k.legend(handles, names, fontsize="small", loc="upper left")
     if title:
         fig.suptitle(title, fontsize=10)
     return fig
