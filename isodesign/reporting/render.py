@@ -21,7 +21,11 @@ import numpy as np
 from isodesign import __version__
 from isodesign.io.record import PEAK_EXCESS_DB, dumps_toml, environment, resolved_study_dict
 from isodesign.optimization.study import MAXIMIZED
-from isodesign.plotting.optimization import OBJECTIVE_DISPLAY, pareto_figure
+from isodesign.plotting.optimization import (
+    OBJECTIVE_DISPLAY,
+    optimization_figure,
+    pareto_figure,
+)
 from isodesign.plotting.response import (
     UM_PER_UIN,
     band_response_figure,
@@ -40,6 +44,7 @@ from isodesign.reporting.analysis import (
     model_caveats,
 )
 from isodesign.reporting.inputs import Case, load_case
+from isodesign.response.random_input import band_response
 
 __all__ = ["SECTIONS", "build_context", "render_html", "report", "timed_report"]
 
@@ -304,6 +309,7 @@ def _optimization(a: CaseAnalysis) -> dict | None:
         }
     starts = rec.get("starts", [])
     return {
+        "svg": _start_vs_optimum_svg(a),
         "label": c.label,
         "objective": f"{sense} {name}: start {_f(rec.get('start_objective_value'), ofmt, sc)} "
                      f"{unit}, optimum {_f(rec.get('objective_value'), ofmt, sc)} {unit} (on the "
@@ -317,6 +323,21 @@ def _optimization(a: CaseAnalysis) -> dict | None:
         "recheck": _f(rec.get("recheck_max_rel_diff"), ".2g"),
         "notes": dj.get("notes", []),
     }
+
+
+def _start_vs_optimum_svg(a: CaseAnalysis) -> str:
+    """Start design against optimum (bands and |T|), as optimize's response.png."""
+    c = a.case
+    st = c.study
+    start_design = st.design_at(c.record["start_design"])
+    m = c.models
+    kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
+          "random_method": m["random_method"], "derive_pressure": False, "warn": False}
+    start = band_response(start_design, st.payload, st.floor, st.target, bands=st.bands, **kw)
+    start_all = band_response(start_design, st.payload, st.floor, st.target, bands=None, **kw)
+    run = SimpleNamespace(analysis=a.judged, start_analysis=start, study=st, design=c.design,
+                          start_values=c.record["start_design"])
+    return _svg(optimization_figure(run, start_all=start_all, optimum_all=a.all_bands))
 
 
 def _pareto(a: CaseAnalysis) -> dict | None:
@@ -537,6 +558,10 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
         seen[c.label] = n + 1
         fixed.append(c if n == 0 else Case(**{**c.__dict__, "label": f"{c.label} ({n + 1})"}))
     analyses = [analyse(c) for c in fixed]
+    if command is None:  # called from Python: record the call
+        command = [f"isodesign.report({[str(p) for p in inputs]!r}"
+                   + (f", {str(output)!r}" if output is not None else "")
+                   + (f", study={str(study)!r}" if study is not None else "") + ")"]
     text = render_html(build_context(analyses, command=command, title=title))
     if output is None:
         return text

@@ -102,6 +102,7 @@ def test_report_of_an_optimize_run(optimize_report, optimize_run):
     p = assert_report(optimize_report, [*BASE_SECTIONS[:7], "optimization",
                                         *BASE_SECTIONS[7:]], figures=FIGS)
     assert p.tables["optimization"] >= 2  # start vs optimum, constraints
+    assert p.svgs["optimization"] == 1  # start vs optimum, bands and |T|
     body = " ".join(p.text)
     rec = json.loads((optimize_run / "record.json").read_text())
     for c in rec["constraints"]:
