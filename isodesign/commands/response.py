@@ -355,7 +355,9 @@ def run(args) -> int:
                                       bands=None, **kw)
             except ValueError:  # the judged bands are all the floor has
                 shown = res
-        save_plot(shown.plot(judged=job.judged_hz), args.plot)
+        peak = job.study.constraints.get("max_peak_transmissibility_db") if job.study else None
+        peak = peak if isinstance(peak, int | float) and not isinstance(peak, bool) else None
+        save_plot(shown.plot(judged=job.judged_hz, peak_limit_db=peak), args.plot)
         if not to_stdout:
             print(f"wrote {args.plot}")
     return status

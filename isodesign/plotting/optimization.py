@@ -13,6 +13,7 @@ from isodesign.plotting.response import (
     draw_bands,
     draw_transmissibility,
     finish_transmissibility,
+    floor_label,
     judged_mask,
 )
 from isodesign.plotting.style import (
@@ -112,8 +113,8 @@ def optimization_figure(result, *, start_all=None, optimum_all=None, fig=None):
     ax_m.set_title("transmissibility at each design's operating amplitude", fontsize=9.5)
     p = st.payload
     fig.suptitle(f"study {st.name}: optimum {design_caption(result.design)} per isolator; "
-                 f"payload {p.mass_kg:g} kg on {p.isolators} isolators; floor "
-                 f"{opt.floor_name}; limit {opt.target_name}", fontsize=10)
+                 f"payload {p.mass_kg:g} kg on {p.isolators} isolators; "
+                 f"{floor_label(opt.floor_name)}; limit {opt.target_name}", fontsize=10)
     return fig
 
 

@@ -32,6 +32,7 @@ __all__ = [
     "draw_bands",
     "draw_transmissibility",
     "finish_transmissibility",
+    "floor_label",
     "harmonic_figure",
     "judged_mask",
     "transmissibility_figure",
@@ -46,6 +47,12 @@ def design_caption(design) -> str:
     return (f"N {design.volume_ratio:.3g}, V_t0 {design.top_volume_m3 * 1e3:.3g} L, "
             f"L_c {design.capillary_length_m * 1e3:.3g} mm, "
             f"D_c {design.capillary_diameter_m * 1e3:.3g} mm")
+
+
+def floor_label(name: str) -> str:
+    """``VC-A floor`` as it is, ``site.csv`` as ``floor: site.csv``."""
+    name = name or "floor"
+    return name if "floor" in name.lower() else f"floor: {name}"
 
 
 def judged_mask(bands, judged_hz=None) -> np.ndarray:
@@ -83,9 +90,8 @@ def draw_bands(ax, entries, *, judged=None, floor=True, limit=True, legend=True)
     um = 1e6
     band_axis(ax, res0.bands, judged=judged)
     if floor:
-        name = res0.floor_name or "floor"
         ax.plot(c, res0.floor_velocity_rms_m_s * um, **FLOOR,
-                label=name if "floor" in name.lower() else f"floor: {name}")
+                label=floor_label(res0.floor_name))
     if limit:
         ax.plot(c, res0.limit_velocity_rms_m_s * um, **LIMIT,
                 label=f"limit: {res0.target_name}")
@@ -219,7 +225,8 @@ def band_response_figure(res, *, judged=None, title=None, peak_limit_db=None, fi
     if title is None:
         p = res.payload
         title = (f"{design_caption(res.design)} per isolator; payload {p.mass_kg:g} kg on "
-                 f"{p.isolators} isolators; floor {res.floor_name}; limit {res.target_name}")
+                 f"{p.isolators} isolators; {floor_label(res.floor_name)}; limit "
+                 f"{res.target_name}")
     fig.suptitle(title, fontsize=10)
     return fig
 

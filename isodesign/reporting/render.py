@@ -30,6 +30,7 @@ from isodesign.plotting.response import (
     UM_PER_UIN,
     band_response_figure,
     bands_figure,
+    floor_label,
     harmonic_figure,
     transmissibility_figure,
 )
@@ -427,7 +428,7 @@ def _figures(cases: list[CaseAnalysis]) -> dict:
         out["bands"] = _svg(band_response_figure(
             r, judged=a0.judged_mask, peak_limit_db=peak,
             title=f"{a0.case.label}: payload {st.payload.mass_kg:g} kg on "
-                  f"{st.payload.isolators} isolators, floor {r.floor_name}, "
+                  f"{st.payload.isolators} isolators, {floor_label(r.floor_name)}, "
                   f"limit {r.target_name}"))
         out["harmonic"] = _svg(harmonic_figure(a0.harmonic, peak_limit_db=peak))
         out["stiffness"] = _svg(stiffness_figure(
@@ -440,8 +441,8 @@ def _figures(cases: list[CaseAnalysis]) -> dict:
                for i, a in enumerate(cases)]
     out["bands"] = _svg(bands_figure(
         entries, judged=a0.judged_mask,
-        title=f"payload {st.payload.mass_kg:g} kg on {st.payload.isolators} isolators; floor "
-              f"{a0.all_bands.floor_name}; limit {a0.all_bands.target_name}"))
+        title=f"payload {st.payload.mass_kg:g} kg on {st.payload.isolators} isolators; "
+              f"{floor_label(a0.all_bands.floor_name)}; limit {a0.all_bands.target_name}"))
     curves = []
     for i, a in enumerate(cases):
         r = a.judged
