@@ -52,6 +52,16 @@ def all_bands_response(study, design):
     the spring's operating amplitude does not depend on the bands (the stroke integral
     runs over the floor's whole range), so the judged bands' values are the same.
     Models as the optimizer's re-analysis.
+
+    Parameters
+    ----------
+    study : Study
+    design : SpringDesign
+        With p0 from the payload.
+
+    Returns
+    -------
+    BandResponse
     """
     return band_response(design, study.payload, study.floor, study.target, bands=None,
                          flow=study.models["flow"], amplitude_mode=study.models["amplitude_mode"],
@@ -119,7 +129,18 @@ def optimization_figure(result, *, start_all=None, optimum_all=None, fig=None):
 
 
 def optimization_plot(result, path: str | Path, *, dpi: int = 130) -> Path:
-    """Write :func:`optimization_figure` to ``path`` with the Agg canvas; return the path."""
+    """Write :func:`optimization_figure` to ``path`` with the Agg canvas; return the path.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+    path : str or Path
+    dpi : int
+
+    Returns
+    -------
+    Path
+    """
     return save_figure(optimization_figure(result), path, dpi=dpi)
 
 
@@ -156,6 +177,15 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
     Returns
     -------
     Figure
+
+    Parameters
+    ----------
+    result : ParetoResult
+        Or any object with ``objectives``, ``values``, ``designs``, ``front`` and
+        ``hypervolume``.
+    annotate : int
+        Number of designs listed.
+    ax : matplotlib Axes, optional
     """
     a, b = result.objectives
     sa, ua, na = OBJECTIVE_DISPLAY.get(a, (1.0, "", a))
@@ -237,5 +267,13 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
 
 
 def pareto_plot(result, path: str | Path, *, annotate: int = 5, dpi: int = 130) -> Path:
-    """Write :func:`pareto_figure` to ``path`` with the Agg canvas; return the path."""
+    """Write :func:`pareto_figure` to ``path`` with the Agg canvas; return the path.
+
+    Parameters
+    ----------
+    result : ParetoResult
+    path : str or Path
+    annotate : int
+    dpi : int
+    """
     return save_figure(pareto_figure(result, annotate=annotate), path, dpi=dpi)

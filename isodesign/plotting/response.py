@@ -56,7 +56,18 @@ def floor_label(name: str) -> str:
 
 
 def judged_mask(bands, judged_hz=None) -> np.ndarray:
-    """Bands whose nominal centre lies in ``judged_hz = (lo, hi)`` (all when None)."""
+    """Bands whose nominal centre lies in ``judged_hz = (lo, hi)`` (all when None).
+
+    Parameters
+    ----------
+    bands : Bands
+    judged_hz : (float, float), optional
+        Nominal band centres, Hz, both included.
+
+    Returns
+    -------
+    ndarray of bool
+    """
     nominal = np.asarray(bands.nominal_hz, float)
     if judged_hz is None:
         return np.ones(nominal.shape, bool)
@@ -136,6 +147,24 @@ def draw_transmissibility(ax_mag, ax_phase, frequency_hz, transmissibility, *, s
     """|T| in dB (and its phase) against frequency; points outside validity crossed.
 
     Returns True when flagged points were drawn.
+
+    Parameters
+    ----------
+    ax_mag, ax_phase : matplotlib Axes
+        |T| (dB) and phase axes (``ax_phase`` None: magnitude only).
+    frequency_hz : array_like
+    transmissibility : array_like of complex
+    style : dict
+        Line style (:mod:`isodesign.plotting.style`).
+    label : str
+    valid : array_like of bool, optional
+        False where a model is outside its validity.
+    flagged_label : bool
+        Put the flag entry in the legend.
+
+    Returns
+    -------
+    bool
     """
     f = np.asarray(frequency_hz, float)
     t = np.asarray(transmissibility)
@@ -155,7 +184,16 @@ def draw_transmissibility(ax_mag, ax_phase, frequency_hz, transmissibility, *, s
 
 
 def finish_transmissibility(ax_mag, ax_phase, f, peak_limit_db, legend=True) -> None:
-    """The 0 dB line, the peak limit, axis labels, frequency ticks and the legend."""
+    """The 0 dB line, the peak limit, axis labels, frequency ticks and the legend.
+
+    Parameters
+    ----------
+    ax_mag, ax_phase : matplotlib Axes
+    f : array_like
+        Frequencies drawn, Hz (the axis range).
+    peak_limit_db : float or None
+    legend : bool
+    """
     ax_mag.axhline(0.0, **UNITY, label="|T| = 1 (0 dB)")
     if peak_limit_db is not None:
         ax_mag.axhline(peak_limit_db, **PEAK_LIMIT, label=f"peak limit {peak_limit_db:g} dB")
@@ -232,7 +270,20 @@ def band_response_figure(res, *, judged=None, title=None, peak_limit_db=None, fi
 
 
 def bands_figure(entries, *, judged=None, title=None, ax=None):
-    """Band RMS velocity of several payload responses (a comparison) on one axes."""
+    """Band RMS velocity of several payload responses (a comparison) on one axes.
+
+    Parameters
+    ----------
+    entries : sequence of (label, BandResponse, style dict)
+        The first provides the floor and the limit.
+    judged : array_like of bool, optional
+    title : str, optional
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    Figure
+    """
     if ax is None:
         fig = new_figure(8.5, 5.0)
         ax = fig.add_subplot()
@@ -245,7 +296,19 @@ def bands_figure(entries, *, judged=None, title=None, ax=None):
 
 
 def transmissibility_figure(curves, *, peak_limit_db=None, title=None, fig=None):
-    """|T| (dB) and phase of several curves: ``(label, frequency_hz, T, style, valid)``."""
+    """|T| (dB) and phase of several curves: ``(label, frequency_hz, T, style, valid)``.
+
+    Parameters
+    ----------
+    curves : sequence of (label, frequency_hz, T, style, valid or None)
+    peak_limit_db : float, optional
+    title : str, optional
+    fig : Figure, optional
+
+    Returns
+    -------
+    Figure
+    """
     if fig is None:
         fig = new_figure(8.5, 5.6)
     ax_m, ax_p = fig.subplots(2, 1, sharex=True, height_ratios=(1.6, 1.0))
@@ -269,6 +332,18 @@ def harmonic_figure(res, *, title=None, peak_limit_db=None, fig=None):
     coincides with the smallest amplitudes), the 0 dB line, the peak limit, points with
     several self-consistent strokes (jump phenomenon) and points outside the spring
     model's validity marked.
+
+    Parameters
+    ----------
+    res : HarmonicResponse
+    title : str, optional
+        Default: the design, payload and models.
+    peak_limit_db : float, optional
+    fig : Figure, optional
+
+    Returns
+    -------
+    Figure
     """
     if fig is None:
         fig = new_figure(12.0, 5.6)

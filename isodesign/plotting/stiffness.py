@@ -131,5 +131,13 @@ def plot_stiffness(path: str | Path, results: Sequence, *, labels: Sequence[str]
     -------
     Path
         The written file.
+
+    Parameters
+    ----------
+    path : str or Path
+    results : sequence of StiffnessResult
+    labels : sequence of str, optional
+    title : str, optional
+    dpi : int
     """
     return save_figure(stiffness_figure(results, labels=labels, title=title), path, dpi=dpi)

@@ -86,7 +86,17 @@ def candidate_style(i: int) -> dict:
 
 
 def new_figure(width_in: float, height_in: float):
-    """A :class:`~matplotlib.figure.Figure` with an Agg canvas (no pyplot, no backend switch)."""
+    """A :class:`~matplotlib.figure.Figure` with an Agg canvas (no pyplot, no backend switch).
+
+    Parameters
+    ----------
+    width_in, height_in : float
+        Size in inches.
+
+    Returns
+    -------
+    Figure
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
@@ -96,7 +106,21 @@ def new_figure(width_in: float, height_in: float):
 
 
 def save_figure(fig, path, *, dpi: int = 130) -> Path:
-    """Write ``fig`` to ``path`` (format from the suffix) with the Agg canvas; return the path."""
+    """Write ``fig`` to ``path`` (format from the suffix) with the Agg canvas; return the path.
+
+    Parameters
+    ----------
+    fig : Figure
+        Any Matplotlib figure; one from pyplot keeps its own canvas.
+    path : str or Path
+        Output file: PNG, PDF, SVG ...
+    dpi : int
+        Resolution of raster output.
+
+    Returns
+    -------
+    Path
+    """
     from matplotlib.backends.backend_agg import FigureCanvasAgg
 
     if not isinstance(fig.canvas, FigureCanvasAgg):
@@ -131,6 +155,18 @@ def with_breaks(x, y, breaks=None):
     index ``i`` where ``breaks[i]`` is True (a branch change between points ``i-1``
     and ``i``): Matplotlib draws no segment across a NaN, so no design that was never
     computed is implied.
+
+    Parameters
+    ----------
+    x, y : array_like
+        The points, in drawing order.
+    breaks : array_like of bool, optional
+        True at a point that starts a new segment.
+
+    Returns
+    -------
+    (ndarray, ndarray)
+        ``x`` and ``y`` with NaN separators.
     """
     x = np.asarray(x, dtype=float)
     y = np.asarray(y, dtype=float)
@@ -157,6 +193,14 @@ def band_axis(ax, bands, *, judged=None, label: bool = True) -> None:
     (1, 2, 4, 8, 16, 31.5, 63 Hz ...) are labelled, with their nominal names, so that
     labels never overlap. ``judged`` (a boolean mask over the bands) shades the judged
     range.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    bands : Bands
+    judged : array_like of bool, optional
+    label : bool
+        Write the axis label.
     """
     from matplotlib.ticker import FixedFormatter, FixedLocator, NullFormatter
 
@@ -189,7 +233,16 @@ def band_axis(ax, bands, *, judged=None, label: bool = True) -> None:
 
 
 def frequency_axis(ax, lo: float, hi: float, *, label: bool = True) -> None:
-    """A log frequency axis with plain-number ticks (0.5, 1, 2, 4, 8, 16, 31.5, 63 ...)."""
+    """A log frequency axis with plain-number ticks (0.5, 1, 2, 4, 8, 16, 31.5, 63 ...).
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+    lo, hi : float
+        Axis limits, Hz.
+    label : bool
+        Write the axis label.
+    """
     from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
 
     ax.set_xscale("log")

@@ -468,7 +468,19 @@ def _figures(cases: list[CaseAnalysis]) -> dict:
 # the report
 # ---------------------------------------------------------------------------
 def build_context(analyses: list[CaseAnalysis], *, command=None, title=None) -> dict:
-    """The template's variables for analysed cases (one: a design report; more: comparison)."""
+    """The template's variables for analysed cases (one: a design report; more: comparison).
+
+    Parameters
+    ----------
+    analyses : list of CaseAnalysis
+    command : sequence of str, optional
+        Recorded in the provenance.
+    title : str, optional
+
+    Returns
+    -------
+    dict
+    """
     cases = analyses
     jobs = [_job(a.case, a) for a in cases]
     same_job = all(j["rows"][:8] == jobs[0]["rows"][:8] for j in jobs)
@@ -572,7 +584,19 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
 
 
 def timed_report(inputs, output, **kw) -> tuple[Path, float]:
-    """:func:`report` and its wall time, s (for the command's summary and benchmarks)."""
+    """:func:`report` and its wall time, s (for the command's summary and benchmarks).
+
+    Parameters
+    ----------
+    inputs, output
+        As :func:`report`.
+    **kw
+        Passed to :func:`report`.
+
+    Returns
+    -------
+    (Path, float)
+    """
     t0 = time.perf_counter()
     p = report(inputs, output, **kw)
     return p, time.perf_counter() - t0
