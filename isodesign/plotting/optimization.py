@@ -174,10 +174,6 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
     grey, failed points are listed as crosses at the x axis. For the worst-band margin the
     pass/fail line (margin 0 dB) is drawn.
 
-    Returns
-    -------
-    Figure
-
     Parameters
     ----------
     result : ParetoResult
@@ -186,6 +182,10 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
     annotate : int
         Number of designs listed.
     ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    Figure
     """
     a, b = result.objectives
     sa, ua, na = OBJECTIVE_DISPLAY.get(a, (1.0, "", a))
