@@ -127,11 +127,6 @@ def plot_stiffness(path: str | Path, results: Sequence, *, labels: Sequence[str]
                    title: str | None = None, dpi: int = 150) -> Path:
     """Write :func:`stiffness_figure` to ``path`` (PNG, PDF, SVG) with the Agg canvas.
 
-    Returns
-    -------
-    Path
-        The written file.
-
     Parameters
     ----------
     path : str or Path
@@ -139,5 +134,10 @@ def plot_stiffness(path: str | Path, results: Sequence, *, labels: Sequence[str]
     labels : sequence of str, optional
     title : str, optional
     dpi : int
+
+    Returns
+    -------
+    Path
+        The written file.
     """
     return save_figure(stiffness_figure(results, labels=labels, title=title), path, dpi=dpi)
