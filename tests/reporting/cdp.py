@@ -9,6 +9,7 @@ on fd 4, each message JSON terminated by a NUL byte. No third-party package.
 from __future__ import annotations
 
 import base64
+import fcntl
 import json
 import os
 import select
@@ -26,6 +27,13 @@ CHROMIUM_FLAGS = (
 )
 
 
+def _high_fd(fd: int) -> int:
+    """``fd`` duplicated to a number >= 10 (close-on-exec), the original closed."""
+    new = fcntl.fcntl(fd, fcntl.F_DUPFD_CLOEXEC, 10)
+    os.close(fd)
+    return new
+
+
 def chromium_path() -> str | None:
     """The Chromium executable (Debian's ``chromium``), or None."""
     for name in ("chromium", "chromium-browser", "google-chrome"):
@@ -41,8 +49,10 @@ class Browser:
     def __init__(self, executable: str, timeout_s: float = 60.0):
         self.timeout_s = timeout_s
         self._profile = tempfile.TemporaryDirectory(prefix="isodesign-chromium-")
-        to_child_r, self._to_child_w = os.pipe()
-        self._from_child_r, from_child_w = os.pipe()
+        # the pipe ends move above fd 10 first, so that putting them on fd 3 and fd 4 in the
+        # child never overwrites one with the other (nor keeps a close-on-exec flag)
+        to_child_r, self._to_child_w = map(_high_fd, os.pipe())
+        self._from_child_r, from_child_w = map(_high_fd, os.pipe())
 
         def _fds():  # in the child: the pipe ends on fd 3 (commands) and fd 4 (replies)
             os.dup2(to_child_r, 3)
