@@ -17,12 +17,13 @@ from __future__ import annotations
 
 import argparse
 
-#: Model options (must match spring.capillary.FLOW_MODELS, spring.stiffness.AMPLITUDE_MODES
-#: and response.random_input.RANDOM_METHODS; tests check it). Kept here so that --help does
-#: not load NumPy.
-FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
-AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
-RANDOM_METHOD_CHOICES = ("equivalent_amplitude", "rayleigh")
+# The model choices come from the library's registries (declared once there). Loading them
+# loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
+from isodesign.response.random_input import RANDOM_METHODS
+from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
+from isodesign.spring.flow_models import FLOW_MODELS
+from isodesign.spring.stiffness import AMPLITUDE_MODES
+
 #: Default load per isolator (kg) when --payload-kg is not given.
 DEFAULT_KG_PER_ISOLATOR = 100.0
 
@@ -55,20 +56,20 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--flow",
-        choices=FLOW_CHOICES,
+        choices=FLOW_MODELS,
         help="capillary flow model (default: the study's or design file's, else quasi_steady)",
     )
     parser.add_argument(
         "--amplitude-mode",
-        choices=AMPLITUDE_MODE_CHOICES,
+        choices=AMPLITUDE_MODES,
         help="tube velocity amplitude of the spring model (default: the study's or design "
         "file's, else self_consistent)",
     )
     parser.add_argument(
         "--diaphragm",
         metavar="MODEL",
-        help="viscoelastic (illustrative parameters), none, or table:PATH.csv (default: the "
-        "study's or design file's, else viscoelastic)",
+        help=f"{', '.join(DIAPHRAGM_SPECS.values())} (illustrative parameters for "
+        "viscoelastic; default: the study's or design file's, else viscoelastic)",
     )
 
 
@@ -101,7 +102,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--random-method",
-        choices=RANDOM_METHOD_CHOICES,
+        choices=RANDOM_METHODS,
         help="spring amplitude of the random closure: A* = 1.88 sigma (default) or the "
         "Rayleigh average",
     )

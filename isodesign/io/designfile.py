@@ -419,7 +419,19 @@ def design_to_toml(design, *, header: str | None = None, models: dict | None = N
 
 def save_design(design, path, *, header: str | None = None,
                 models: dict | None = None) -> Path:
-    """Write :func:`design_to_toml` to ``path``; return the path."""
+    """Write :func:`design_to_toml` to ``path``; return the path.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring.
+    path : str or Path
+        Output file.
+    header : str, optional
+        Comment lines written first.
+    models : dict, optional
+        The models the design was made with (a ``[models]`` table).
+    """
     p = Path(path)
     p.write_text(design_to_toml(design, header=header, models=models), encoding="utf-8")
     return p

@@ -18,8 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from isodesign import __version__
-from isodesign.optimization.optimizer import OBJECTIVE_UNITS
-from isodesign.optimization.study import MAXIMIZED
+from isodesign.optimization.objectives import OBJECTIVES
 
 __all__ = [
     "command_line",
@@ -57,7 +56,27 @@ def _toml_value(v: Any) -> str:
 
 
 def dumps_toml(d: dict, _prefix: str = "") -> str:
-    """Serialize nested dicts of scalars and lists as TOML (tables after keys)."""
+    """Serialize nested dicts of scalars and lists as TOML (tables after keys).
+
+    Parameters
+    ----------
+    d : dict
+        Keys (bare TOML keys, not quoted) to values: bool, int, float (``nan``
+        and ``inf`` as TOML's special floats), str, lists or tuples of these, or a
+        nested dict, written as a ``[table]`` (dotted name) after the keys. ``None``
+        values are left out.
+
+    Returns
+    -------
+    str
+        TOML text ending in a newline; a table whose entries are all tables gets no
+        header of its own (TOML defines it implicitly).
+
+    Raises
+    ------
+    TypeError
+        A value of another type (a dict inside a list, a NumPy array, ...).
+    """
     lines = []
     tables = []
     for k, v in d.items():
@@ -114,7 +133,23 @@ def _jsonable(v):
 
 
 def write_json(path, data: dict) -> Path:
-    """Write JSON (NumPy values converted, non-finite floats as null)."""
+    """Write JSON (NumPy values converted, non-finite floats as null).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file; missing parent directories are created; an existing file is
+        overwritten.
+    data : dict
+        Nested dicts, lists, tuples, NumPy arrays and scalars, Python scalars.
+        Keys become strings; arrays become lists; Python floats that are NaN or
+        infinite become ``null``.
+
+    Returns
+    -------
+    Path
+        The path written (UTF-8, indented by 2, ending in a newline).
+    """
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     p.write_text(json.dumps(_jsonable(data), indent=2) + "\n", encoding="utf-8")
@@ -144,6 +179,19 @@ def resolved_study_dict(study) -> dict:
     directory (as :func:`isodesign.optimization.study.load_study` does) and a diaphragm table
     (``models.diaphragm = "table:PATH"``) against the working directory (as the
     optimizer reads it), so that the written study loads from any directory.
+
+    Parameters
+    ----------
+    study : Study
+        Its ``raw`` dictionary and ``source`` (the study file's path, or
+        ``"<dict>"``, ``"<default>"`` or ``""``: then a relative CSV path is taken
+        relative to the working directory).
+
+    Returns
+    -------
+    dict
+        A deep copy of ``study.raw`` with ``floor.csv`` and a diaphragm table path
+        made absolute; ``study.raw`` itself is not changed.
     """
     import copy
 
@@ -244,7 +292,7 @@ def design_figures(design, analysis=None) -> dict:
 
 
 def _constraint_dict(c) -> dict:
-    """A :class:`~isodesign.optimization.optimizer.ConstraintReport`, margin in natural units."""
+    """A :class:`~isodesign.optimization.constraints.ConstraintReport`, margin in natural units."""
     lo, hi, v = c.lower, c.upper, c.value
     margins = []
     if lo is not None:
@@ -265,11 +313,24 @@ def _constraint_dict(c) -> dict:
 
 
 def constraint_rows(result) -> list[dict]:
-    """The constraints of an :class:`~isodesign.optimization.optimizer.OptimizationResult` as dicts.
+    """The constraints of an :class:`~isodesign.optimization.result.OptimizationResult` as dicts.
 
     ``margin`` is the distance to the nearest bound in the constraint's own unit
     (positive: satisfied); ``margin_nlp`` is the optimizer's margin in its
     internal (log or dB) units; ``binding`` marks the active constraints.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        Its ``constraints``
+        (:class:`~isodesign.optimization.constraints.ConstraintReport` each).
+
+    Returns
+    -------
+    list of dict
+        One per constraint: ``name``, ``value``, ``lower``, ``upper`` (natural
+        units, ``None`` for an absent bound), ``unit``, ``margin``, ``margin_nlp``,
+        ``binding`` and ``description``.
     """
     return [_constraint_dict(c) for c in result.constraints]
 
@@ -280,6 +341,21 @@ def variables_at_bounds(result, rtol: float = 1e-4) -> dict:
     The lower bound of D_c is the larger of its ``lower`` and
     ``constraints.min_capillary_diameter_m`` (as in the NLP). Bounds are not
     constraints of the NLP, so they are not in ``result.constraints``.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        Its study (variables, bounds, ``min_capillary_diameter_m``) and final
+        ``values`` (SI).
+    rtol : float
+        A variable is on a bound when ``|ln(x / bound)| <= rtol``: a relative
+        tolerance (default 1e-4, i.e. 0.01 %).
+
+    Returns
+    -------
+    dict
+        Name -> ``"lower"`` or ``"upper"`` for each free variable on a bound (the
+        lower bound checked first); fixed variables are never listed.
     """
     st = result.study
     dmin = st.constraints.get("min_capillary_diameter_m")
@@ -305,6 +381,22 @@ def grid_notes(result, figures: dict) -> list[str]:
 
     The NLP enforces ``max_peak_transmissibility_db`` at ``models.peak_points``
     log-spaced frequencies only; the band analysis locates the peak itself.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        Gives the study's ``max_peak_transmissibility_db`` and
+        ``models.peak_points``.
+    figures : dict
+        The optimum's :func:`design_figures` with its analysis:
+        ``peak_transmissibility_db`` (the excited peak of |T|, dB) and
+        ``peak_frequency_hz``.
+
+    Returns
+    -------
+    list of str
+        A note when the analysis's peak exceeds the bound by more than
+        :data:`PEAK_EXCESS_DB`; empty otherwise (no bound, no analysis, or within).
     """
     out = []
     bound = result.study.constraints.get("max_peak_transmissibility_db")
@@ -320,7 +412,25 @@ def grid_notes(result, figures: dict) -> list[str]:
 
 
 def optimization_design(result) -> dict:
-    """The content of ``design.json``: variables, derived figures, objective, verdict."""
+    """The content of ``design.json``: variables, derived figures, objective, verdict.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        A feasible result; the figures include the band analysis when the run
+        made one (``optimize(..., analyze=True)``, the default).
+
+    Returns
+    -------
+    dict
+        ``study``, ``source``, ``feasible``, ``status``; ``objective`` (kind,
+        natural value and start value, unit, sense); ``variables`` (name -> value,
+        start, lower, upper as the study states them, fixed, ``at_bound``);
+        ``derived`` and ``start_derived`` (:func:`design_figures` of the optimum and
+        of the start design, SI); ``verdict``; ``notes`` (:func:`grid_notes`);
+        ``binding_constraints`` (names); ``variables_at_bounds``; ``constraints``
+        (:func:`constraint_rows`) and ``spring`` (the design's ``to_dict()``).
+    """
 
     st = result.study
     at = variables_at_bounds(result)
@@ -345,8 +455,8 @@ def optimization_design(result) -> dict:
             "kind": result.objective,
             "value": float(result.objective_value),
             "start_value": _f(result.start_objective),
-            "unit": OBJECTIVE_UNITS[result.objective],
-            "sense": "maximize" if result.objective in MAXIMIZED else "minimize",
+            "unit": OBJECTIVES[result.objective].unit,
+            "sense": OBJECTIVES[result.objective].sense_word,
         },
         "variables": variables,
         "derived": figures,
@@ -361,12 +471,34 @@ def optimization_design(result) -> dict:
 
 
 def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict:
-    """The run record of :func:`isodesign.optimization.optimizer.optimize` (``record.json``).
+    """The run record of :func:`isodesign.optimization.driver.optimize` (``record.json``).
 
     Command line, isodesign version and package versions, the resolved study,
     the solver settings, every start (status, iterations, time, objective, start
     and final values), the final design, objective, constraints, flat direction,
     re-check and wall time.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        Feasible or not; the figures are added only for a feasible one.
+    argv : sequence of str, optional
+        The command line after the program name (:func:`command_line`); default
+        ``sys.argv[1:]``.
+    extra : dict, optional
+        Further top-level entries, added last (they replace entries of the same
+        name).
+
+    Returns
+    -------
+    dict
+        The record, ready for :func:`write_json`: ``kind``, ``command_line``,
+        versions and ``environment``, ``study`` (:func:`resolved_study_dict`),
+        ``solver_settings``, ``starts`` (one dict per start), ``n_reached_best``,
+        status, objective and start objective (natural units), ``design`` and
+        ``start_design`` (SI), ``constraints``, ``violations``, ``flat_direction``,
+        ``peak_refinement``, ``recheck_max_rel_diff``, ``wall_s`` and, if feasible,
+        ``figures``.
     """
 
     starts = []
@@ -409,7 +541,30 @@ def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict
 
 
 def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dict:
-    """The run record of :func:`isodesign.optimization.pareto.pareto_front` (``record.json``)."""
+    """The run record of :func:`isodesign.optimization.pareto.pareto_front` (``record.json``).
+
+    Parameters
+    ----------
+    result : ParetoResult
+        The front: objective values (natural units), designs, statuses,
+        non-dominated flags, hypervolume, reference and ideal points.
+    study : Study
+        The study the front was computed for (recorded resolved, for a replay).
+    argv : sequence of str, optional
+        The command line after the program name; default ``sys.argv[1:]``.
+    extra : dict, optional
+        Further top-level entries, added last.
+
+    Returns
+    -------
+    dict
+        ``kind``, ``command_line``, versions and ``environment``, ``study``,
+        ``study_source``, ``objectives``, ``settings``, ``points`` (per sweep point:
+        both objective values keyed by kind, ``design``, ``status``,
+        ``nondominated``), ``hypervolume`` (normalized space),
+        ``reference_point_minimized`` and ``ideal_point_minimized`` (the objectives
+        as minimized: maximized ones negated) and ``wall_s``.
+    """
 
     points = []
     for i, d in enumerate(result.designs):

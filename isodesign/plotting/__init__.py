@@ -14,8 +14,8 @@ from __future__ import annotations
 import importlib
 
 _EXPORTS = {
-    "OBJECTIVE_DISPLAY": "optimization",
     "all_bands_response": "optimization",
+    "objective_display": "optimization",
     "optimization_figure": "optimization",
     "optimization_plot": "optimization",
     "pareto_figure": "optimization",

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from isodesign.optimization.study import MAXIMIZED
+from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.plotting.response import (
     design_caption,
     draw_bands,
@@ -27,22 +27,31 @@ from isodesign.plotting.style import (
 from isodesign.response.random_input import band_response
 
 __all__ = [
-    "OBJECTIVE_DISPLAY",
     "all_bands_response",
+    "objective_display",
     "optimization_figure",
     "optimization_plot",
     "pareto_figure",
     "pareto_plot",
 ]
 
-#: Display scale, unit and plain name of each optimization objective (natural value x scale).
-OBJECTIVE_DISPLAY = {
-    "worst_band_margin": (1.0, "dB", "worst judged band margin to the limit"),
-    "peak_transmissibility": (1.0, "dB", "peak |T| at the operating amplitude"),
-    "transmissibility_at": (1.0, "dB", "|T| at the chosen frequency"),
-    "rms_velocity": (1e6, "um/s", "payload RMS velocity"),
-    "total_volume": (1e3, "L", "chamber volume per isolator, V_t0 (1 + N)"),
-}
+def objective_display(kind: str) -> tuple[float, str, str, bool]:
+    """Display scale, unit, plain name and sense of an objective (its registry entry).
+
+    Parameters
+    ----------
+    kind : str
+        An objective name (:data:`isodesign.optimization.objectives.OBJECTIVES`).
+
+    Returns
+    -------
+    (float, str, str, bool)
+        Natural value x scale = displayed value; unit; label; True when maximized.
+    """
+    o = OBJECTIVES.get(kind)
+    if o is None:
+        return 1.0, "", kind, False
+    return o.display_scale, o.display_unit, o.label, o.maximized
 
 
 def all_bands_response(study, design):
@@ -188,8 +197,8 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
     Figure
     """
     a, b = result.objectives
-    sa, ua, na = OBJECTIVE_DISPLAY.get(a, (1.0, "", a))
-    sb, ub, nb = OBJECTIVE_DISPLAY.get(b, (1.0, "", b))
+    sa, ua, na, max_a = objective_display(a)
+    sb, ub, nb, max_b = objective_display(b)
     v = np.asarray(result.values, float)
     x, y = v[:, 1] * sb, v[:, 0] * sa
     ok = np.isfinite(x) & np.isfinite(y)
@@ -215,7 +224,7 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
     if failed.any():
         ax.plot(x[failed], np.full(int(failed.sum()), np.nanmin(y[ok]) if ok.any() else 0.0),
                 "x", color="C3", ms=7, label="sweep point not solved")
-    if a == "worst_band_margin" or b == "worst_band_margin":
+    if "worst_band_margin" in (a, b):
         if a == "worst_band_margin":
             ax.axhline(0.0, **LIMIT, label="pass/fail: margin 0 dB (above: passes)")
         else:
@@ -248,16 +257,16 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
                         fontsize=7, color="0.25")
         rows = [f"#{idx[k]}: {_design_label(result.designs[idx[k]]).replace(chr(10), ', ')}"
                 for k in picks]
-        down = a in MAXIMIZED
-        right = b not in MAXIMIZED
+        down = max_a
+        right = not max_b
         ax.text(0.985 if right else 0.015, 0.03 if down else 0.97,
                 "designs (per isolator)\n" + "\n".join(rows), transform=ax.transAxes,
                 ha="right" if right else "left", va="bottom" if down else "top", fontsize=7,
                 family="monospace", multialignment="left",
                 bbox={"boxstyle": "round,pad=0.4", "fc": "white", "ec": "0.75", "alpha": 0.95})
     better = {True: "higher is better", False: "lower is better"}
-    ax.set_xlabel(f"{nb} ({ub}; {better[b in MAXIMIZED]})")
-    ax.set_ylabel(f"{na} ({ua}; {better[a in MAXIMIZED]})")
+    ax.set_xlabel(f"{nb} ({ub}; {better[max_b]})")
+    ax.set_ylabel(f"{na} ({ua}; {better[max_a]})")
     ax.set_title(f"Pareto front: {na} against {nb}\n{int(front.sum())} non-dominated of "
                  f"{len(v)} points; hypervolume {result.hypervolume:.3f} (normalized)",
                  fontsize=10)

@@ -43,14 +43,25 @@ UM_PER_UIN = 0.0254
 
 
 def design_caption(design) -> str:
-    """``N 4.1, V_t0 1.18 L, L_c 180 mm, D_c 2.14 mm`` (per isolator)."""
+    """``N 4.1, V_t0 1.18 L, L_c 180 mm, D_c 2.14 mm`` (per isolator).
+
+    Parameters
+    ----------
+    design : SpringDesign
+    """
     return (f"N {design.volume_ratio:.3g}, V_t0 {design.top_volume_m3 * 1e3:.3g} L, "
             f"L_c {design.capillary_length_m * 1e3:.3g} mm, "
             f"D_c {design.capillary_diameter_m * 1e3:.3g} mm")
 
 
 def floor_label(name: str) -> str:
-    """``VC-A floor`` as it is, ``site.csv`` as ``floor: site.csv``."""
+    """``VC-A floor`` as it is, ``site.csv`` as ``floor: site.csv``.
+
+    Parameters
+    ----------
+    name : str
+        The floor spectrum's name.
+    """
     name = name or "floor"
     return name if "floor" in name.lower() else f"floor: {name}"
 
@@ -94,6 +105,8 @@ def draw_bands(ax, entries, *, judged=None, floor=True, limit=True, legend=True)
         target curve.
     judged : ndarray of bool, optional
         Judged bands (shaded; failing judged bands are circled). Default: all.
+    floor, limit, legend : bool
+        Draw the floor, the limit, the legend.
     """
     res0 = entries[0][1]
     c = np.asarray(res0.bands.centre_hz, float)

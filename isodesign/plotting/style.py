@@ -75,7 +75,13 @@ _CANDIDATE_MARKERS = ("s", "^", "D", "v", "P", "X", "*", "h")
 
 
 def candidate_style(i: int) -> dict:
-    """Line style of candidate ``i`` of a comparison (colour, line style, marker)."""
+    """Line style of candidate ``i`` of a comparison (colour, line style, marker).
+
+    Parameters
+    ----------
+    i : int
+        The candidate's position in the comparison.
+    """
     return {
         "color": CANDIDATE_COLOURS[i % len(CANDIDATE_COLOURS)],
         "ls": CANDIDATE_LINESTYLES[i % len(CANDIDATE_LINESTYLES)],
@@ -137,7 +143,16 @@ def save_figure(fig, path, *, dpi: int = 130) -> Path:
 
 
 def figure_svg(fig) -> str:
-    """The figure as an inline ``<svg>`` element (no XML prolog, text kept as text)."""
+    """The figure as an inline ``<svg>`` element (no XML prolog, text kept as text).
+
+    Parameters
+    ----------
+    fig : Figure
+
+    Returns
+    -------
+    str
+    """
     from matplotlib import rc_context
 
     buf = io.StringIO()

@@ -71,7 +71,13 @@ RANDOM_CAVEATS = {
 
 
 def model_caveats(models: dict) -> list[tuple[str, str, str]]:
-    """``(what, model, caveat)`` rows for the models in force."""
+    """``(what, model, caveat)`` rows for the models in force.
+
+    Parameters
+    ----------
+    models : dict
+        ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method``.
+    """
     dia = str(models.get("diaphragm", ""))
     dia_key = "table" if dia.startswith("table:") or dia.lower().endswith(".csv") else dia
     return [
@@ -125,7 +131,16 @@ def _flag_rows(where: str, lines, total: int) -> list[tuple[str, str, int, int, 
 
 
 def analyse(case: Case) -> CaseAnalysis:
-    """Band responses (judged and all bands), harmonic transmissibility, stiffness, flags."""
+    """Band responses (judged and all bands), harmonic transmissibility, stiffness, flags.
+
+    Parameters
+    ----------
+    case : Case
+
+    Returns
+    -------
+    CaseAnalysis
+    """
     st = case.study
     m = case.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"],
@@ -155,5 +170,10 @@ def analyse(case: Case) -> CaseAnalysis:
 
 
 def db(x) -> float:
-    """``20 log10 x`` (NaN for x <= 0 or None)."""
+    """``20 log10 x`` (NaN for x <= 0 or None).
+
+    Parameters
+    ----------
+    x : float or None
+    """
     return 20.0 * math.log10(x) if x is not None and x > 0 else float("nan")

@@ -27,7 +27,8 @@ from typing import Any
 from isodesign.errors import InputError
 from isodesign.io.designfile import design_from_dict, load_design_models
 from isodesign.io.files import read_toml
-from isodesign.optimization.study import MAXIMIZED, Study, default_study, load_study
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.study import Study, default_study, load_study
 
 __all__ = ["MODEL_DEFAULTS", "Case", "best_pareto_point", "input_kind", "load_case"]
 
@@ -101,7 +102,12 @@ def _read_json(path: Path) -> dict:
 
 
 def input_kind(path) -> str:
-    """``design``, ``study``, ``optimize`` or ``pareto`` for an input path (InputError else)."""
+    """``design``, ``study``, ``optimize`` or ``pareto`` for an input path (InputError else).
+
+    Parameters
+    ----------
+    path : str or Path
+    """
     p = Path(path)
     if p.is_dir():
         rec = p / "record.json"
@@ -186,14 +192,20 @@ def _study_from_record(rec: dict, p: Path) -> Study:
 
 
 def best_pareto_point(rec: dict) -> int:
-    """Index of the non-dominated point best in objective A (the front's anchor)."""
+    """Index of the non-dominated point best in objective A (the front's anchor).
+
+    Parameters
+    ----------
+    rec : dict
+        ``record.json`` of a Pareto run.
+    """
     a = rec["objectives"][0]
     best, arg = None, None
     for i, pt in enumerate(rec["points"]):
         v = pt.get(a)
         if v is None or not pt.get("nondominated") or not math.isfinite(v):
             continue
-        key = v if a in MAXIMIZED else -v
+        key = v if OBJECTIVES[a].maximized else -v
         if best is None or key > best:
             best, arg = key, i
     if arg is None:

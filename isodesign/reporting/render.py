@@ -23,7 +23,16 @@ _TEMPLATE = "report.html.j2"
 
 
 def render_html(context: dict) -> str:
-    """Render the report template with ``context`` (:func:`build_context`)."""
+    """Render the report template with ``context`` (:func:`build_context`).
+
+    Parameters
+    ----------
+    context : dict
+
+    Returns
+    -------
+    str
+    """
     import jinja2
 
     env = jinja2.Environment(

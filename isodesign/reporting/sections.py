@@ -16,9 +16,8 @@ import numpy as np
 
 from isodesign import __version__
 from isodesign.io.record import PEAK_EXCESS_DB, dumps_toml, environment, resolved_study_dict
-from isodesign.optimization.study import MAXIMIZED
 from isodesign.plotting.optimization import (
-    OBJECTIVE_DISPLAY,
+    objective_display,
     optimization_figure,
     pareto_figure,
 )
@@ -283,8 +282,8 @@ def _optimization(a: CaseAnalysis) -> dict | None:
                                    ("total volume (L)", "total_volume_m3", ".4g", 1e3)):
         sv.append([label, _f(f0.get(key), fmt, scale), _f(f1.get(key), fmt, scale), "", ""])
     obj = rec.get("objective", "")
-    sc, unit, name = OBJECTIVE_DISPLAY.get(obj, (1.0, "", obj))
-    sense = "maximize" if obj in MAXIMIZED else "minimize"
+    sc, unit, name, maximized = objective_display(obj)
+    sense = "maximize" if maximized else "minimize"
     ofmt = "+.2f" if unit == "dB" else ".4g"
     fd = rec.get("flat_direction")
     flat = None
@@ -347,8 +346,8 @@ def _pareto(a: CaseAnalysis) -> dict | None:
                           front=np.array([bool(p.get("nondominated")) for p in pts]),
                           hypervolume=float(rec.get("hypervolume") or float("nan")))
     fig = pareto_figure(res)
-    sa, ua, na = OBJECTIVE_DISPLAY.get(oa, (1.0, "", oa))
-    sb, ub, nb = OBJECTIVE_DISPLAY.get(ob, (1.0, "", ob))
+    sa, ua, na, _ = objective_display(oa)
+    sb, ub, nb, _ = objective_display(ob)
     rows = []
     order = np.argsort(np.where(np.isfinite(vals[:, 1]), vals[:, 1], np.inf), kind="stable")
     chosen = (c.pareto or {}).get("chosen_point")

@@ -6,7 +6,6 @@
 """
 
 from isodesign.simulation.harmonic_rig import (
-    SIMULATION_FLOW_MODELS,
     SimulationGridResult,
     SimulationResult,
     agreement_table,
@@ -15,7 +14,6 @@ from isodesign.simulation.harmonic_rig import (
 )
 
 __all__ = [
-    "SIMULATION_FLOW_MODELS",
     "SimulationGridResult",
     "SimulationResult",
     "agreement_table",

@@ -9,13 +9,13 @@ import pytest
 
 from isodesign.errors import InputError
 from isodesign.io.record import dumps_toml
+from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.study import (
-    DESIGN_VARIABLES,
-    OBJECTIVES,
     default_study,
     load_study,
     study_from_dict,
 )
+from isodesign.optimization.variables import DESIGN_VARIABLES
 from isodesign.spring.gas import G_STANDARD, P_ATM
 
 SRC = "bad_study.toml"

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from isodesign.optimization.optimizer import optimize
+from isodesign.optimization.driver import optimize
 from isodesign.optimization.study import default_study
 from isodesign.plotting.optimization import optimization_figure
 

@@ -1,0 +1,233 @@
+"""Objective and constraint quantities of a design, on NumPy arrays or CasADi symbols.
+
+One source of physics: the NLP (:mod:`isodesign.optimization.problem`) and the
+NumPy re-check (:mod:`isodesign.optimization.recheck`) evaluate the same three
+functions: :func:`point_quantities` per grid frequency, :func:`design_quantities`
+per design and :func:`combine` for the grid-level quadratures.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.grid import take
+from isodesign.response.isolator import (
+    natural_frequency_hz,
+    relative_transmissibility,
+    static_stiffness,
+    tilt_margin,
+    transmissibility,
+    zener_damping_ratio,
+)
+from isodesign.response.linearization import (
+    EQUIVALENT_AMPLITUDE_FACTOR,
+    band_mean_square,
+    stroke_variance,
+)
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import air_stiffness, spring_stiffness
+from isodesign.spring.flow_models import resistance_function
+
+__all__ = ["combine", "design_quantities", "metrics", "point_quantities"]
+
+
+def point_quantities(study, d, omega, velocity, sigma, dia) -> dict:
+    """Per-frequency quantities (elementwise in ``omega``), any backend.
+
+    The NLP maps this function over its grid as one small CasADi Function; the
+    re-check calls it on NumPy arrays.
+
+    Parameters
+    ----------
+    study : Study
+        Gives the payload mass per isolator and ``models["flow"]``.
+    d : SpringDesign
+        The spring, possibly with CasADi symbols for the free variables.
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    velocity : float, ndarray or CasADi symbol
+        Capillary (tube) velocity amplitude at ``omega``, m/s (self-consistent or
+        kinematic, as the study's ``amplitude_mode`` says).
+    sigma : float or CasADi symbol
+        RMS stroke of the spring under the random floor input, m.
+    dia : diaphragm model
+        From :func:`isodesign.spring.diaphragm.diaphragm_model`.
+
+    Returns
+    -------
+    dict
+        ``T`` and ``R`` (:class:`~isodesign.numerics.cplx.Cx`): absolute and relative
+        (``T - 1``) transmissibility with the complex stiffness at the equivalent
+        spring amplitude ``A* = 1.880 sigma``; ``ln_mach``, the log of the tube
+        Mach number ``U / c``; ``ln_re``, the log of the tube Reynolds number
+        ``rho U D_c / mu`` (peak values of the oscillating flow).
+
+    Notes
+    -----
+    The complex stiffness is Eq. 42 (:func:`isodesign.spring.equations.spring_stiffness`):
+    the air spring with the flow model's resistance at ``velocity`` plus the
+    diaphragm's stiffness at amplitude ``A*``. ``A* = 3 sqrt(pi/8) sigma`` is the
+    harmonic amplitude whose describing function equals the Gaussian average
+    (:data:`isodesign.response.linearization.EQUIVALENT_AMPLITUDE_FACTOR`).
+    """
+
+    m_i = study.payload.mass_per_isolator_kg
+    a_star = EQUIVALENT_AMPLITUDE_FACTOR * sigma
+    c = resistance_function(study.models["flow"], d, omega)(velocity)
+    k = spring_stiffness(air_stiffness(d, omega, c), dia.stiffness(omega, a_star))
+    return {
+        "T": transmissibility(k, m_i, omega),
+        "R": relative_transmissibility(k, m_i, omega),
+        "ln_mach": bk.log(velocity / d.speed_of_sound_m_s),
+        "ln_re": bk.log(d.density_kg_m3 * velocity * d.capillary_diameter_m / d.viscosity_pa_s),
+    }
+
+
+def design_quantities(study, grid, d, dia) -> dict:
+    """Design-level quantities (volume, stability, validity), any backend.
+
+    Parameters
+    ----------
+    study : Study
+        Gives the payload (mass per isolator, spacing and CG height).
+    grid : Grid
+        The NLP's grid; its highest frequency sets the validity quantities.
+    d : SpringDesign
+        The spring, possibly with CasADi symbols for the free variables.
+    dia : diaphragm model
+        Enters the static stiffness ``K0``.
+
+    Returns
+    -------
+    dict
+        Natural logs of: ``ln_total_volume`` (``V_t0 (1 + N)``, m^3); ``ln_tilt``
+        (tilt margin ``n K0 (s/2)^2 / (m g h)``, only when the payload has a spacing
+        and a CG height); ``ln_fn`` (undamped natural frequency
+        ``sqrt(K0 / (m/n)) / (2 pi)``, Hz); ``ln_zeta`` (Zener damping ratio);
+        ``ln_lumped``, a list of three: ``w_max L_c / c``, ``w_max V_t0^(1/3) / c``
+        and ``w_max V_b0^(1/3) / c`` (acoustic compactness of tube and chambers);
+        ``ln_alpha_max``, the Womersley number ``(D_c / 2) sqrt(w_max rho / mu)``.
+
+    Notes
+    -----
+    Logs keep the NLP's rows well scaled. The acoustic compactness is one quantity
+    per length (tube, each chamber) rather than their ``max``, which is not smooth.
+    ``w_max`` is the grid's highest angular frequency (rad/s), a NumPy number.
+    """
+    m_i = study.payload.mass_per_isolator_kg
+    k0 = static_stiffness(d, dia, m_i)
+    out = {"ln_total_volume": bk.log(d.total_volume_m3)}
+    if study.payload.spacing_m is not None and study.payload.cg_height_m is not None:
+        out["ln_tilt"] = bk.log(tilt_margin(k0, study.payload))
+    out["ln_fn"] = bk.log(natural_frequency_hz(k0, m_i))
+    out["ln_zeta"] = bk.log(zener_damping_ratio(d, m_i))
+    w_max = float(np.max(grid.omega))
+    # acoustic compactness of the lumped model (diagnostics.LUMPED_LIMIT), one
+    # smooth constraint per length instead of a max
+    c = d.speed_of_sound_m_s
+    out["ln_lumped"] = [
+        bk.log(w_max * d.capillary_length_m / c),
+        bk.log(w_max * bk.power(d.top_volume_m3, 1.0 / 3.0) / c),
+        bk.log(w_max * bk.power(d.bottom_volume_m3, 1.0 / 3.0) / c),
+    ]
+    out["ln_alpha_max"] = 0.5 * bk.log(
+        d.density_kg_m3 * w_max * d.capillary_diameter_m**2 / d.viscosity_pa_s
+    ) - math.log(2.0)
+    return out
+
+
+def combine(study, grid, pq: dict, dq: dict) -> dict:
+    """Grid-level quantities from the per-point and design-level ones, any backend.
+
+    The quadratures of sigma^2 and of the band mean squares are
+    :func:`isodesign.response.linearization.stroke_variance` and
+    :func:`~isodesign.response.linearization.band_mean_square`, the same functions the
+    band response uses.
+
+    Parameters
+    ----------
+    study : Study
+        The study (not read; kept so the three metric functions share a signature).
+    grid : Grid
+        The NLP's grid: its floor part carries the quadrature weights, its peak
+        part the resonance frequencies.
+    pq : dict
+        :func:`point_quantities` at every grid frequency (vectors of length
+        ``grid.omega.size``).
+    dq : dict
+        :func:`design_quantities` of the same design (copied into the result).
+
+    Returns
+    -------
+    dict
+        ``dq`` plus: ``stroke_variance`` (``sigma^2 = sum_j w_j |R_j|^2``, m^2, over
+        the floor grid); ``ms_all`` (payload band mean-square velocity
+        ``sum_j W_bj |T_j|^2``, (m/s)^2, every band of the response grid) and
+        ``ln_ms_band`` (its log); ``ln_limit2`` (log of the target's squared band
+        limits, NumPy); ``ln_T2_peak`` (``ln |T|^2`` at every peak-grid frequency);
+        ``ln_mach`` and ``ln_re`` (passed through); ``ln_T2_point`` (``ln |T|^2`` at
+        the one objective frequency, when the grid has one).
+
+    Notes
+    -----
+    The band margin in dB is ``10 (ln_limit2 - ln_ms_band) / ln 10`` and the peak
+    ``|T|`` in dB is ``10 ln_T2_peak / ln 10``. ``stroke_variance`` is computed from
+    ``R`` at the given ``sigma``; the NLP imposes ``sigma^2`` = the same sum as
+    equality constraints (a chain of partial sums), the NumPy path solves it with
+    its own solver.
+    """
+
+    fl, pk = grid.floor_slice, grid.peak_slice
+    var = stroke_variance(take(pq["R"], fl), grid.response)
+    ms = band_mean_square(take(pq["T"], fl), grid.response)
+    out = dict(dq)
+    out.update({
+        "stroke_variance": var,
+        "ms_all": ms,
+        "ln_ms_band": bk.log(ms),
+        "ln_limit2": 2.0 * np.log(grid.target_limit_m_s),
+        "ln_T2_peak": bk.log(take(pq["T"], pk).abs2()),
+        "ln_mach": pq["ln_mach"],
+        "ln_re": pq["ln_re"],
+    })
+    if grid.point_index is not None:
+        i = grid.point_index
+        out["ln_T2_point"] = bk.log(Cx(pq["T"].re[i], pq["T"].im[i]).abs2())
+    return out
+
+
+def metrics(study, grid, d, velocity, sigma, *, diaphragm=None) -> dict:
+    """Objective and constraint quantities of a design (NumPy or CasADi).
+
+    :func:`point_quantities` on every grid frequency, :func:`design_quantities`
+    and :func:`combine`: the NLP evaluates the same three functions (the first
+    mapped over the grid as a CasADi Function).
+
+    Parameters
+    ----------
+    study : Study
+    grid : Grid
+    d : SpringDesign
+        Design, possibly with CasADi symbols for the free variables.
+    velocity : array or symbol vector
+        Tube velocity amplitude at every grid frequency, m/s.
+    sigma : float or symbol
+        RMS stroke of the spring, m.
+    diaphragm : diaphragm model, optional
+        Default: the study's.
+
+    Returns
+    -------
+    dict
+        ``stroke_variance``, ``ms_all`` and ``ln_ms_band`` (target bands),
+        ``ln_limit2``, ``ln_T2_peak`` (vector), ``ln_total_volume``, ``ln_tilt``,
+        ``ln_fn``, ``ln_zeta``, ``ln_mach`` and ``ln_re`` (vectors),
+        ``ln_alpha_max`` and ``ln_T2_point`` (for an objective at one frequency).
+    """
+    dia = diaphragm or diaphragm_model(study.models["diaphragm"])
+    pq = point_quantities(study, d, grid.omega, velocity, sigma, dia)
+    return combine(study, grid, pq, design_quantities(study, grid, d, dia))
