@@ -81,6 +81,8 @@ _EXPORTS = {
     "simulate_stiffness": "simulation.harmonic_rig",
     "simulate_grid": "simulation.harmonic_rig",
     "SimulationResult": "simulation.harmonic_rig",
+    # reports
+    "report": "reporting.render",
     # errors
     "InputError": "errors",
     "SolverError": "errors",

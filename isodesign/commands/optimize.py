@@ -429,6 +429,7 @@ def write_outputs(result, out, args, *, plots: bool) -> list:
     from isodesign.io.record import (
         optimization_design,
         optimization_record,
+        resolved_study_dict,
         study_toml,
         write_json,
     )
@@ -449,7 +450,8 @@ def write_outputs(result, out, args, *, plots: bool) -> list:
         return written
     design = optimization_design(result)
     written.append(write_json(out / "design.json", design))
-    written.append(save_design(result.design, out / "design.toml", header=(
+    models = resolved_study_dict(result.study).get("models")  # a diaphragm table: absolute
+    written.append(save_design(result.design, out / "design.toml", models=models, header=(
         f"Optimized spring of study {result.study.name!r} (isodesign optimize); p0 from the "
         f"payload ({result.study.payload.mass_kg:g} kg on {result.study.payload.isolators} "
         "isolators).")))

@@ -2,7 +2,10 @@
 
 A payload of --payload-kg (default 100 kg per isolator) on --isolators identical springs
 (DESIGN.toml, default: the paper's reference spring) stands on a floor given as a
-criterion name (VC-A: the floor exactly on the curve) or a CSV spectrum. The spring's
+criterion name (VC-A: the floor exactly on the curve) or a CSV spectrum. The input may
+instead be a study file or an optimize/pareto run directory: its payload, floor, target,
+judged bands and models are used (an option given on the command line still wins), and a
+design file's [models] table (written by optimize) sets the models. The spring's
 amplitude dependence is closed self-consistently on the RMS stroke (equivalent
 linearization). Prints one row per one-third-octave band (floor, payload, target, margin
 in dB) and a PASS/FAIL verdict with the worst band; -o writes the table as CSV, --plot a
@@ -30,8 +33,10 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "design",
         nargs="?",
-        metavar="DESIGN.toml",
-        help="design file (docs/design-file.md); default: the paper's reference spring",
+        metavar="INPUT",
+        help="design file (docs/design-file.md), study file, or an optimize/pareto run "
+        "directory (its payload, floor, target, bands and models are used); default: the "
+        "paper's reference spring",
     )
     parser.add_argument(
         "--payload-kg",
@@ -41,7 +46,8 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
         f"(default {DEFAULT_KG_PER_ISOLATOR:g} kg per isolator)",
     )
     parser.add_argument(
-        "--isolators", type=int, default=4, metavar="N", help="number of isolators (default 4)"
+        "--isolators", type=int, metavar="N",
+        help="number of isolators (default: the study's, else 4)",
     )
     parser.add_argument(
         "--design-pressure",
@@ -50,22 +56,20 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--flow",
-        default="quasi_steady",
         choices=FLOW_MODELS,
-        help="capillary flow model (default %(default)s)",
+        help="capillary flow model (default: the study's or design file's, else quasi_steady)",
     )
     parser.add_argument(
         "--amplitude-mode",
-        default="self_consistent",
         choices=AMPLITUDE_MODES,
-        help="tube velocity amplitude of the spring model (default %(default)s)",
+        help="tube velocity amplitude of the spring model (default: the study's or design "
+        "file's, else self_consistent)",
     )
     parser.add_argument(
         "--diaphragm",
-        default="viscoelastic",
         metavar="MODEL",
-        help=f"{', '.join(DIAPHRAGM_SPECS.values())} (default viscoelastic, illustrative "
-        "parameters)",
+        help=f"{', '.join(DIAPHRAGM_SPECS.values())} (illustrative parameters for "
+        "viscoelastic; default: the study's or design file's, else viscoelastic)",
     )
 
 
@@ -74,21 +78,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_payload_arguments(parser)
     parser.add_argument(
         "--floor",
-        default="VC-A",
         metavar="NAME|FILE.csv",
         help="floor: criterion name (the floor exactly on the curve) or a CSV spectrum "
-        "(docs/criteria.md, section 4); default %(default)s",
+        "(docs/criteria.md, section 4); default: the study's, else VC-A",
     )
     parser.add_argument(
         "--target",
-        default="VC-E",
         metavar="NAME|FILE.csv",
-        help="the instrument's criterion: name or CSV curve; default %(default)s",
+        help="the instrument's criterion: name or CSV curve; default: the study's, else VC-E",
     )
     parser.add_argument(
         "--bands",
         metavar="FMIN:FMAX",
-        help="band range, nominal centres in Hz (default: the target's bands within the floor)",
+        help="judged band range, nominal centres in Hz (default: the study's, else the "
+        "target's bands within the floor)",
     )
     parser.add_argument(
         "--points-per-band",
@@ -99,7 +102,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--random-method",
-        default="equivalent_amplitude",
         choices=RANDOM_METHODS,
         help="spring amplitude of the random closure: A* = 1.88 sigma (default) or the "
         "Rayleigh average",
@@ -120,8 +122,15 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="write the band table to this CSV file ('-' = standard output, no summary)",
     )
     parser.add_argument(
-        "--plot", metavar="OUT.png", help="plot floor, payload and target, and |T| (PNG)"
+        "--plot", metavar="OUT.png",
+        help="plot floor, payload and target in every band (judged ones shaded), and |T| in "
+        "dB with its phase (PNG, PDF or SVG)",
     )
+
+
+#: Job when neither the input nor an option states it.
+DEFAULT_FLOOR = "VC-A"
+DEFAULT_TARGET = "VC-E"
 
 
 def load_design(path):
@@ -135,21 +144,100 @@ def load_design(path):
     return _load(path), str(path)
 
 
-def make_payload(args, **extra):
-    """The Payload of ``--payload-kg`` and ``--isolators`` (InputError naming the option)."""
+def make_payload(args, base=None, **extra):
+    """The Payload of ``--payload-kg`` and ``--isolators`` (InputError naming the option).
+
+    ``base`` (a study's payload) supplies what the options do not state.
+    """
     from isodesign.errors import InputError
     from isodesign.response.isolator import Payload
 
-    n = args.isolators
+    n = args.isolators if args.isolators is not None else (base.isolators if base else 4)
     if n is None or n < 1:
         raise InputError(f"--isolators: must be an integer >= 1, got {n}")
-    mass = DEFAULT_KG_PER_ISOLATOR * n if args.payload_kg is None else args.payload_kg
+    if args.payload_kg is not None:
+        mass = args.payload_kg
+    elif base is not None and args.isolators in (None, base.isolators):
+        mass = base.mass_kg
+    else:
+        mass = DEFAULT_KG_PER_ISOLATOR * n
     if not mass > 0 or mass == float("inf"):
         raise InputError(f"--payload-kg: must be finite and > 0 kg, got {args.payload_kg}")
     for opt, v in extra.items():
         if v is not None and not v > 0:
             raise InputError(f"--{opt.replace('_', '-')}: must be > 0 m, got {v}")
+    if base is not None:
+        extra = {k: (v if v is not None else getattr(base, k)) for k, v in extra.items()}
     return Payload(mass, n, **extra)
+
+
+def resolve_job(args, *, extra_payload: dict | None = None):
+    """Design, payload, floor, target, judged bands and models of the command's input.
+
+    A design file (or none) keeps the command's defaults, with the models of the file's
+    ``[models]`` table; a study file or a run directory supplies its whole job. Options
+    given on the command line override either.
+
+    Returns
+    -------
+    types.SimpleNamespace
+        ``design``, ``label``, ``payload``, ``floor``, ``target``, ``bands`` (Bands or a
+        (lo, hi) range or None), ``judged_hz`` (None: all bands judged), ``models`` and
+        ``models_source``.
+    """
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from isodesign.reporting.inputs import MODEL_DEFAULTS, input_kind, load_case
+
+    extra_payload = extra_payload or {}
+    models = dict(MODEL_DEFAULTS)
+    models_source = "defaults"
+    study = None
+    path = args.design
+    kind = None
+    if path is not None:
+        kind = input_kind(path)
+    if kind in ("study", "optimize", "pareto"):
+        case = load_case(path)
+        study = case.study
+        design = case.design
+        label = {"study": f"start design of study {study.name!r} ({path})",
+                 "optimize": f"optimum of study {study.name!r} ({path})",
+                 "pareto": f"best point of the Pareto run {path}"}[kind]
+        models.update(case.models)
+        models_source = case.models_source
+    else:
+        design, label = load_design(path)
+        if path is not None:
+            from isodesign.io.designfile import load_design_models
+
+            recorded = load_design_models(path)
+            if recorded:
+                models.update(recorded)
+                models_source = f"design file {Path(path).name} [models]"
+    given = {k: getattr(args, k, None) for k in MODEL_DEFAULTS}
+    overridden = [k for k, v in given.items() if v is not None]
+    models.update({k: v for k, v in given.items() if v is not None})
+    if overridden:
+        models_source += "; options " + ", ".join("--" + k.replace("_", "-") for k in overridden)
+    payload = make_payload(args, base=study.payload if study else None, **extra_payload)
+    floor = getattr(args, "floor", None)
+    target = getattr(args, "target", None)
+    bands = _bands(getattr(args, "bands", None))
+    judged_hz = bands
+    if study is not None:
+        floor = study.floor if floor is None else floor
+        target = study.target if target is None else target
+        if bands is None:
+            tg = study.raw["target"]
+            judged_hz = (float(tg["band_min_hz"]), float(tg["band_max_hz"]))
+            bands = study.bands
+    floor = DEFAULT_FLOOR if floor is None else floor
+    target = DEFAULT_TARGET if target is None else target
+    return SimpleNamespace(design=design, label=label, payload=payload, floor=floor,
+                           target=target, bands=bands, judged_hz=judged_hz, models=models,
+                           models_source=models_source, study=study)
 
 
 def _bands(spec):
@@ -181,17 +269,29 @@ def format_table(res) -> str:
     return "\n".join(lines)
 
 
-def summary(res, design_label: str, derived: bool) -> str:
+def models_line(models: dict, source: str) -> str:
+    """The models in force and where they come from (one summary line)."""
+    dia = str(models.get("diaphragm"))
+    note = " (illustrative parameters)" if dia == "viscoelastic" else ""
+    return (f"  models in force: flow={models.get('flow')}, "
+            f"amplitude_mode={models.get('amplitude_mode')}, diaphragm={dia}{note}"
+            + (f", random closure {models['random_method']}" if "random_method" in models
+               else "") + f" (from {source})")
+
+
+def summary(res, design_label: str, derived: bool, models_source: str = "options") -> str:
     """Header lines, the table and the verdict."""
     s = res.stability
     p = res.payload
+    models = {"flow": res.flow, "amplitude_mode": res.amplitude_mode,
+              "diaphragm": res.diaphragm, "random_method": res.random_method}
     lines = [
         f"band response: {design_label}; payload {p.mass_kg:g} kg on {p.isolators} isolators "
         f"({p.mass_per_isolator_kg:g} kg each), p0 = {s.pressure_pa / 1e5:.4g} bar "
         + ("(from the payload)" if derived else "(design's own)"),
-        f"  floor {res.floor_name}; target {res.target_name}; "
-        f"model flow={res.flow}, amplitude_mode={res.amplitude_mode}, "
-        f"diaphragm={res.diaphragm}; random closure {res.random_method}",
+        f"  floor {res.floor_name}; target {res.target_name}; bands "
+        f"{res.bands.labels[0]}-{res.bands.labels[-1]} Hz",
+        models_line(models, models_source),
         f"  natural frequency {s.natural_frequency_hz:.4g} Hz; peak |T| "
         f"{s.peak_transmissibility:.4g} at {s.peak_frequency_hz:.4g} Hz (linear), "
         f"{s.excited_peak_transmissibility:.4g} at {s.excited_peak_frequency_hz:.4g} Hz "
@@ -210,6 +310,20 @@ def summary(res, design_label: str, derived: bool) -> str:
     return "\n".join(lines)
 
 
+def save_plot(fig, path) -> None:
+    """Write a figure with the Agg canvas (the ``--plot`` of a command)."""
+    from isodesign.plotting.style import save_figure
+
+    save_figure(fig, path)
+
+
+def without_plot(args):
+    """``args`` with ``plot`` cleared (the command draws its figure itself)."""
+    import argparse
+
+    return argparse.Namespace(**{**vars(args), "plot": None})
+
+
 def run(args) -> int:
     """Run ``isodesign response``."""
     import warnings
@@ -220,24 +334,31 @@ def run(args) -> int:
 
     check_output_path(args.output, "--output")
     check_output_path(args.plot, "--plot")
-    payload = make_payload(args, spacing_m=args.spacing_m, cg_height_m=args.cg_height_m)
-    design, label = load_design(args.design)
-    res = band_response(
-        design,
-        payload,
-        args.floor,
-        args.target,
-        bands=_bands(args.bands),
-        points_per_band=args.points_per_band,
-        flow=args.flow,
-        amplitude_mode=args.amplitude_mode,
-        diaphragm=args.diaphragm,
-        random_method=args.random_method,
-        derive_pressure=not args.design_pressure,
-        warn=False,
-    )
+    job = resolve_job(args, extra_payload={"spacing_m": args.spacing_m,
+                                           "cg_height_m": args.cg_height_m})
+    m = job.models
+    kw = {"points_per_band": args.points_per_band, "flow": m["flow"],
+          "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
+          "random_method": m["random_method"], "derive_pressure": not args.design_pressure,
+          "warn": False}
+    res = band_response(job.design, job.payload, job.floor, job.target, bands=job.bands, **kw)
     for line in res.warnings:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"
-    return write_result(res, args, "" if to_stdout else summary(res, label,
-                                                                not args.design_pressure))
+    status = write_result(res, without_plot(args), "" if to_stdout else summary(
+        res, job.label, not args.design_pressure, job.models_source))
+    if args.plot:
+        # every band of the floor and the target, the judged ones shaded
+        shown = res
+        if job.judged_hz is not None:
+            try:
+                shown = band_response(job.design, job.payload, job.floor, job.target,
+                                      bands=None, **kw)
+            except ValueError:  # the judged bands are all the floor has
+                shown = res
+        peak = job.study.constraints.get("max_peak_transmissibility_db") if job.study else None
+        peak = peak if isinstance(peak, int | float) and not isinstance(peak, bool) else None
+        save_plot(shown.plot(judged=job.judged_hz, peak_limit_db=peak), args.plot)
+        if not to_stdout:
+            print(f"wrote {args.plot}")
+    return status

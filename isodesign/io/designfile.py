@@ -17,6 +17,11 @@ Schema (SI values; see ``docs/design-file.md``)::
     mass_kg = 100.0
     isolators = 4
 
+    [models]                              # optional: the models the design was made with
+    flow = "womersley"                    # (isodesign optimize records them; response and
+    amplitude_mode = "self_consistent"    #  transmissibility use them unless told otherwise)
+    diaphragm = "viscoelastic"
+
     [gas]                                 # optional (air, Sutherland viscosity)
     name = "air"
     gas_constant_j_per_kg_k = 286.9
@@ -52,10 +57,12 @@ __all__ = [
     "DESIGN_KEYS",
     "GAS_KEYS",
     "LOAD_KEYS",
+    "MODEL_KEYS",
     "design_from_dict",
     "design_to_toml",
     "diaphragm_to_toml",
     "load_design",
+    "load_design_models",
     "load_diaphragm",
     "reference_design_path",
     "save_design",
@@ -79,12 +86,21 @@ DESIGN_KEYS: dict[str, str] = {
     "gas": "table [gas]: name, gas_constant_j_per_kg_k, heat_capacity_ratio, viscosity_pa_s",
     "diaphragm": "table [diaphragm]: model (viscoelastic, none, table:PATH, fit:PATH) and the "
     "viscoelastic parameters",
+    "models": "table [models]: flow, amplitude_mode, diaphragm, random_method (optional)",
 }
 REQUIRED_KEYS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
 #: Keys of the ``[load]`` table.
 LOAD_KEYS: dict[str, str] = {
     "mass_kg": "supported payload mass, kg (> 0)",
     "isolators": "number of identical isolators sharing the payload (integer >= 1)",
+}
+#: Keys of the ``[models]`` table: the spring models a design was made with (optional; not
+#: part of the spring itself, so :func:`design_from_dict` checks and then ignores them).
+MODEL_KEYS: dict[str, str] = {
+    "flow": "capillary flow model (isodesign.spring.capillary.FLOW_MODELS)",
+    "amplitude_mode": "tube velocity amplitude: self_consistent or kinematic",
+    "diaphragm": "diaphragm model: viscoelastic, none or table:PATH.csv",
+    "random_method": "random closure: equivalent_amplitude or rayleigh",
 }
 #: Keys of the ``[gas]`` table.
 GAS_KEYS: dict[str, str] = {
@@ -97,7 +113,7 @@ GAS_KEYS: dict[str, str] = {
     "sutherland_s_k": "Sutherland constant S, K (> 0)",
 }
 
-_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas", "diaphragm"))
+_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas", "diaphragm", "models"))
 
 
 def reference_design_path() -> Path:
@@ -223,6 +239,8 @@ def design_from_dict(d: dict, source: str = "design"):
     for key in _SCALAR_KEYS:
         if key in d:
             _number(d, key, source)
+    if "models" in d:
+        _models(d["models"], source)
     kw: dict[str, Any] = {k: float(d[k]) for k in REQUIRED_KEYS}
     for key in ("temperature_k", "minor_loss", "polytropic_index", "roughness_m"):
         if key in d:
@@ -273,6 +291,37 @@ def design_from_dict(d: dict, source: str = "design"):
         return SpringDesign(**kw)
     except InputError as exc:
         raise _with_source(exc, source) from None
+
+
+def _models(d: Any, source: str) -> dict[str, str]:
+    """The ``[models]`` table, checked: known keys, string values."""
+    if not isinstance(d, dict):
+        raise InputError(f"{source}: models: expected a table [models], got {_toml_type(d)}")
+    _check_keys(d, MODEL_KEYS, " in [models]", source)
+    for k, v in d.items():
+        if not isinstance(v, str) or not v:
+            raise InputError(f"{source}: models.{k}: expected a non-empty string "
+                             f"({MODEL_KEYS[k]}), got {_toml_type(v)} {v!r}")
+    return dict(d)
+
+
+def load_design_models(path) -> dict[str, str]:
+    """The ``[models]`` table of a design file (empty when the file records none).
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML design file.
+
+    Returns
+    -------
+    dict of str to str
+        ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method`` (those recorded).
+    """
+    d = read_toml(path, what="design")
+    if not isinstance(d, dict) or "models" not in d:
+        return {}
+    return _models(d["models"], f"design file {path}")
 
 
 def load_design(path):
@@ -371,7 +420,7 @@ def _toml_string(s: str) -> str:
     return "".join(out)
 
 
-def design_to_toml(design, *, header: str | None = None) -> str:
+def design_to_toml(design, *, header: str | None = None, models: dict | None = None) -> str:
     """A design file (TOML text) for ``design``; :func:`load_design` reads it back exactly.
 
     Floats are written with their shortest round-trip representation; the
@@ -385,6 +434,9 @@ def design_to_toml(design, *, header: str | None = None) -> str:
         A numeric design (not CasADi symbols).
     header : str, optional
         Comment lines placed at the top (without the ``#``).
+    models : dict, optional
+        The models the design was made with: its keys of :data:`MODEL_KEYS` are written
+        as a ``[models]`` table (read back by :func:`load_design_models`).
     """
 
     lines: list[str] = []
@@ -401,6 +453,10 @@ def design_to_toml(design, *, header: str | None = None) -> str:
                     f"  # carries A_p (p0 - p_atm) = {load:.5g} N ({load / G_STANDARD:.4g} kg) "
                     "per spring"
                 )
+    if models:
+        kept = {k: str(models[k]) for k in MODEL_KEYS if models.get(k) is not None}
+        if kept:
+            lines += ["", "[models]"] + [f"{k} = {_toml_string(v)}" for k, v in kept.items()]
     lines += ["", "[gas]", f"name = {_toml_string(gas['name'])}"]
     for key in ("gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"):
         if key in gas:
@@ -414,7 +470,8 @@ def design_to_toml(design, *, header: str | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def save_design(design, path, *, header: str | None = None) -> Path:
+def save_design(design, path, *, header: str | None = None,
+                models: dict | None = None) -> Path:
     """Write :func:`design_to_toml` to ``path``; return the path.
 
     Parameters
@@ -425,7 +482,9 @@ def save_design(design, path, *, header: str | None = None) -> Path:
         Output file.
     header : str, optional
         Comment lines written first.
+    models : dict, optional
+        The models the design was made with (a ``[models]`` table).
     """
     p = Path(path)
-    p.write_text(design_to_toml(design, header=header), encoding="utf-8")
+    p.write_text(design_to_toml(design, header=header, models=models), encoding="utf-8")
     return p

@@ -22,7 +22,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from isodesign import plotting
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
@@ -32,6 +31,8 @@ from isodesign.optimization.problem import PEAK_ROUNDS, Problem
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db, peak_slots
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.study import Study
+from isodesign.plotting.optimization import pareto_figure
+from isodesign.results import ResultDisplay
 
 __all__ = ["DEFAULT_OBJECTIVES", "ParetoResult", "hypervolume_2d", "nondominated", "pareto_front"]
 
@@ -113,8 +114,8 @@ def hypervolume_2d(points: np.ndarray, reference: np.ndarray) -> float:
     return float(hv)
 
 
-@dataclass(frozen=True, eq=False)
-class ParetoResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class ParetoResult(ResultDisplay):
     """A Pareto front.
 
     ``values`` has one row per point (natural units: dB, m^3, ...), ``designs``
@@ -157,10 +158,33 @@ class ParetoResult:
         df.attrs["hypervolume"] = self.hypervolume
         return df
 
-    def plot(self, path) -> None:
-        """PNG of the front with the designs annotated."""
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Objectives, points, front size and hypervolume (for repr and notebooks)."""
+        ok = np.isfinite(self.values).all(axis=1)
+        return [
+            ("objectives", f"{self.objectives[0]} (optimized) vs {self.objectives[1]} (swept)"),
+            ("points", f"{len(self.designs)} ({int(ok.sum())} solved)"),
+            ("non-dominated", str(int(np.sum(self.front)))),
+            ("hypervolume", f"{self.hypervolume:.4f} (normalized)"),
+            ("wall time", f"{self.wall_s:.1f} s"),
+        ]
 
-        plotting.pareto_plot(self, path)
+    def plot(self, ax=None, *, annotate: int = 5):
+        """The front, the pass/fail line, a few designs listed.
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Drawn into; default a new figure.
+        annotate : int
+            Number of designs listed.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Made with an Agg canvas; the global Matplotlib backend is not touched.
+        """
+        return pareto_figure(self, annotate=annotate, ax=ax)
 
 
 def _check_objectives(objectives) -> tuple[str, str]:

@@ -12,7 +12,6 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,6 +24,8 @@ from isodesign.errors import (
     check_positive,
 )
 from isodesign.numerics.cplx import Cx
+from isodesign.plotting.response import band_response_figure, draw_bands, judged_mask
+from isodesign.plotting.style import OPTIMUM
 from isodesign.response.isolator import (
     Payload,
     relative_transmissibility,
@@ -48,6 +49,7 @@ from isodesign.response.model import (
     spring_model,
 )
 from isodesign.response.stability import StabilityFigures, stability_of_model
+from isodesign.results import ResultDisplay
 
 __all__ = [
     "RANDOM_METHODS",
@@ -193,8 +195,8 @@ def solve_stroke_rms(
     return math.exp(ev.log_sigma_in), {"iterations": n_it, "closure_slope": slope}
 
 
-@dataclass(frozen=True, eq=False)
-class BandResponse:
+@dataclass(frozen=True, eq=False, repr=False)
+class BandResponse(ResultDisplay):
     """Payload band response to a random floor, with the compliance verdict.
 
     Attributes
@@ -345,47 +347,49 @@ class BandResponse:
             }
         )
 
-    def plot(self, path) -> Path:
-        """Floor, payload and target band RMS velocity, and |T| vs frequency (PNG etc.)."""
-        import matplotlib
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Verdict, worst band, operating amplitude and models (for repr and notebooks)."""
+        return [
+            ("", "PASS" if self.passes else "FAIL"),
+            ("worst band", f"{self.worst_band_label} Hz {self.worst_margin_db:+.2f} dB"),
+            ("bands", f"{len(self.bands)} ({self.bands.labels[0]}-{self.bands.labels[-1]} Hz)"),
+            ("floor", self.floor_name),
+            ("limit", self.target_name),
+            ("stroke A*", f"{self.equivalent_amplitude_m * 1e6:.4g} um"),
+            ("natural frequency", f"{self.stability.natural_frequency_hz:.4g} Hz"),
+            ("models", f"{self.flow} flow, {self.amplitude_mode}, {self.diaphragm} diaphragm"),
+            ("validity flags", str(len(self.warnings))),
+        ]
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+    def plot(self, ax=None, *, judged=None, title=None, peak_limit_db=None):
+        """Floor, payload and limit per band; |T| in dB and its phase.
 
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
-        c = self.bands.centre_hz
-        um = 1e6
-        ax1.loglog(c, self.floor_velocity_rms_m_s * um, "o-", ms=3,
-                   label=f"floor ({self.floor_name})")  # fmt: skip
-        ax1.loglog(c, self.payload_velocity_rms_m_s * um, "s-", ms=3, label="payload")
-        ax1.loglog(c, self.limit_velocity_rms_m_s * um, "k--", label=f"target {self.target_name}")
-        bad = ~self.band_passes
-        if bad.any():
-            ax1.plot(c[bad], self.payload_velocity_rms_m_s[bad] * um, "rx", ms=8,
-                     label="exceeds")  # fmt: skip
-        ax1.set_xlabel("one-third-octave band centre (Hz)")
-        ax1.set_ylabel("band RMS velocity (um/s)")
-        ax1.set_title(self.verdict(), fontsize=9)
-        ax1.grid(True, which="both", alpha=0.3)
-        ax1.legend(fontsize=8)
-        f = self.grid.frequency_hz
-        ax2.loglog(
-            f,
-            np.abs(self.transmissibility),
-            label=f"A* = {self.equivalent_amplitude_m * 1e6:.3g} um ({self.random_method})",
-        )
-        ax2.loglog(f, np.abs(self.transmissibility_linear), "k--", lw=1,
-                   label=f"linear ({LINEAR_REFERENCE_AMPLITUDE_M * 1e6:g} um)")  # fmt: skip
-        ax2.axhline(1.0, color="0.6", lw=0.8)
-        ax2.set_xlabel("frequency (Hz)")
-        ax2.set_ylabel("|T| (payload / floor)")
-        ax2.grid(True, which="both", alpha=0.3)
-        ax2.legend(fontsize=8)
-        fig.tight_layout()
-        p = Path(path)
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        return p
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Draw the band panel only, into this axes. Default: a new figure with the
+            band panel and the transmissibility (dB and phase) at the operating
+            amplitude and in the linear regime.
+        judged : ndarray of bool or (lo, hi), optional
+            Judged bands (shaded; failing ones circled); default all.
+        title : str, optional
+        peak_limit_db : float, optional
+            A peak-|T| limit line.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Made with an Agg canvas; the global Matplotlib backend is not touched.
+        """
+        if ax is not None:
+            mask = judged if judged is None or not isinstance(judged, tuple) \
+                else judged_mask(self.bands, judged)
+            draw_bands(ax, [("payload", self, OPTIMUM)], judged=mask)
+            if title:
+                ax.set_title(title, fontsize=10)
+            return ax.figure
+        return band_response_figure(self, judged=judged, title=title,
+                                    peak_limit_db=peak_limit_db)
 
 
 def band_response(

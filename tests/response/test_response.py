@@ -12,6 +12,7 @@ from isodesign.errors import InputError, ModelValidityWarning
 from isodesign.floor import FloorSpectrum, criterion
 from isodesign.floor.bands import third_octave_bands
 from isodesign.numerics.cplx import Cx
+from isodesign.plotting.style import save_figure
 from isodesign.response import (
     LINEAR_REFERENCE_AMPLITUDE_M,
     band_response,
@@ -514,7 +515,9 @@ def test_band_response_result_api(default_response, tmp_path):
     assert r.stability.excited_peak_transmissibility < r.stability.peak_transmissibility
     sf = r.stability.to_frame()
     assert {"figure", "value", "unit", "definition"} <= set(sf)
-    p = r.plot(tmp_path / "r.png")
+    fig = r.plot()
+    assert len(fig.axes) >= 3  # bands, |T| (dB), phase
+    p = save_figure(fig, tmp_path / "r.png")
     assert p.stat().st_size > 1000
 
 
