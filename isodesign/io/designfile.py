@@ -306,7 +306,11 @@ def _models(d: Any, source: str) -> dict[str, str]:
 
 
 def load_design_models(path) -> dict[str, str]:
-    """The ``[models]`` table of a design file (empty when the file records none).
+    """The models a design file records (empty when it records none).
+
+    The ``[models]`` table names the models; a ``[diaphragm]`` table (the diaphragm with its
+    parameters) stands for ``diaphragm = PATH`` (the file itself, read by
+    :func:`load_diaphragm`). A file may state its diaphragm one way only.
 
     Parameters
     ----------
@@ -317,11 +321,25 @@ def load_design_models(path) -> dict[str, str]:
     -------
     dict of str to str
         ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method`` (those recorded).
+
+    Raises
+    ------
+    InputError
+        A malformed ``[models]`` table, or a diaphragm given both as ``models.diaphragm`` and
+        as a ``[diaphragm]`` table.
     """
     d = read_toml(path, what="design")
-    if not isinstance(d, dict) or "models" not in d:
+    if not isinstance(d, dict):
         return {}
-    return _models(d["models"], f"design file {path}")
+    models = _models(d["models"], f"design file {path}") if "models" in d else {}
+    if "diaphragm" in d:
+        if "diaphragm" in models:
+            raise InputError(
+                f"design file {path}: the diaphragm is given twice, as models.diaphragm and as "
+                "a [diaphragm] table: keep one"
+            )
+        models["diaphragm"] = str(path)
+    return models
 
 
 def load_design(path):
@@ -347,6 +365,7 @@ def load_design(path):
     design = design_from_dict(d, source=f"design file {path}")
     if "diaphragm" in d:  # validate it now (the model is read by load_diaphragm)
         diaphragm_from_dict(d["diaphragm"], str(path))
+    load_design_models(path)  # the models too (a diaphragm given twice is refused)
     return design
 
 
