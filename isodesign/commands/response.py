@@ -19,7 +19,7 @@ import argparse
 #: not load NumPy.
 FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
 AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
-RANDOM_METHOD_CHOICES = ("equivalent_amplitude", "rayleigh")
+RANDOM_METHOD_CHOICES = ("statistical", "equivalent_amplitude", "rayleigh")
 #: Default load per isolator (kg) when --payload-kg is not given.
 DEFAULT_KG_PER_ISOLATOR = 100.0
 
@@ -97,10 +97,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--random-method",
-        default="equivalent_amplitude",
+        default="statistical",
         choices=RANDOM_METHOD_CHOICES,
-        help="spring amplitude of the random closure: A* = 1.88 sigma (default) or the "
-        "Rayleigh average",
+        help="closure of the random response: statistical linearization of the tube flow at "
+        "its RMS velocity (default), or the older harmonic closures on the stroke, A* = 1.88 "
+        "sigma or the Rayleigh average",
     )
     parser.add_argument(
         "--spacing-m", type=float, metavar="M", help="narrowest isolator spacing (tilt margin)"

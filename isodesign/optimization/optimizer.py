@@ -1163,7 +1163,7 @@ def optimize(study: Study, *, progress=None, problem: Problem | None = None,
     diff = recheck(prob, final, d)
 
     kw = {"flow": study.models["flow"], "amplitude_mode": study.models["amplitude_mode"],
-          "diaphragm": prob.dia}
+          "diaphragm": prob.dia, "random_method": study.models["random_method"]}
     analysis = start_analysis = None
     if analyze:
         analysis = band_response(d, study.payload, study.floor, study.target,

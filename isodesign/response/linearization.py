@@ -45,6 +45,7 @@ from isodesign.floor import FloorSpectrum
 from isodesign.floor.bands import Bands, third_octave_bands
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx, as_cx
+from isodesign.spring.equations import tube_velocity_gain2
 
 __all__ = [
     "EQUIVALENT_AMPLITUDE_FACTOR",
@@ -58,6 +59,7 @@ __all__ = [
     "rayleigh_rule",
     "response_grid",
     "stroke_variance",
+    "tube_velocity_variance",
 ]
 
 #: ``A* / sigma = 3 sqrt(pi/8) = 1.8800``: the harmonic amplitude whose describing function
@@ -447,6 +449,32 @@ def stroke_variance(relative_transmissibility: Cx, grid: ResponseGrid):
         ``sigma^2``; the RMS stroke is its square root.
     """
     return _weighted_sum(grid.stroke_weight, as_cx(relative_transmissibility).abs2())
+
+
+def tube_velocity_variance(relative_transmissibility: Cx, resistance: Cx, design,
+                           grid: ResponseGrid):
+    """Variance of the capillary's mean velocity, ``sigma_u^2`` ((m/s)^2), any backend.
+
+    ``sigma_u^2 = sum_j stroke_weight[j] |T_j - 1|^2 |U/X|_j^2``: the stroke's spectrum
+    times the linear tube-velocity gain :func:`~isodesign.spring.equations.tube_velocity_gain2`
+    for the resistance ``C`` at the grid's frequencies (the random-input linearization's
+    ``C(w; sigma_u)``), i.e. ``integral |H_u(f)|^2 S_v(f) df`` with ``H_u`` the tube velocity
+    per floor velocity.
+
+    Parameters
+    ----------
+    relative_transmissibility : Cx
+        ``T - 1`` at ``grid.frequency_hz``.
+    resistance : Cx
+        ``C`` at ``grid.frequency_hz`` (Pa s/kg).
+    design : SpringDesign
+        The loaded design (fields may be CasADi symbols).
+    grid : ResponseGrid
+    """
+    rel = as_cx(relative_transmissibility)
+    return _weighted_sum(
+        grid.stroke_weight, rel.abs2() * tube_velocity_gain2(design, grid.omega, resistance)
+    )
 
 
 def band_mean_square(transmissibility: Cx, grid: ResponseGrid, quantity: str = "velocity"):
