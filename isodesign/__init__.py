@@ -25,6 +25,8 @@ _EXPORTS = {
     "ViscoelasticDiaphragm": "spring.diaphragm",
     "TableDiaphragm": "spring.diaphragm",
     "NoDiaphragm": "spring.diaphragm",
+    "simulate_random_response": "simulation.monte_carlo",
+    "MonteCarloResult": "simulation.monte_carlo",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -121,6 +121,51 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--plot", metavar="OUT.png", help="plot floor, payload and target, and |T| (PNG)"
     )
+    parser.add_argument(
+        "--verify-monte-carlo",
+        type=int,
+        metavar="SEEDS",
+        help="also simulate SEEDS random floor realizations in the time domain (nonlinear "
+        "lumped model) and print the closure's error per band (docs/simulation.md)",
+    )
+    parser.add_argument(
+        "--mc-duration-s",
+        type=float,
+        default=320.0,
+        metavar="S",
+        help="length of each Monte Carlo realization, s (default %(default)g)",
+    )
+
+
+def monte_carlo_table(res, mc) -> str:
+    """The closure against the Monte Carlo verifier, per band (um/s, dB), and the RMS values."""
+    import numpy as np
+
+    err = mc.error_db(res)
+    se = mc.standard_error_db()
+    lines = [
+        f"Monte Carlo: {len(mc.seeds)} seeds x {mc.duration_s:g} s, dt = "
+        f"{mc.time_step_s * 1e3:.3g} ms, flow={mc.flow}, diaphragm={mc.diaphragm} "
+        f"({mc.seconds_per_realization:.2g} s per realization)",
+        f"  {'band':>6}  {'closure':>9}  {'MC':>9}  {'MC s.e.':>7}  {'error':>7}",
+        f"  {'(Hz)':>6}  {'(um/s)':>9}  {'(um/s)':>9}  {'(dB)':>7}  {'(dB)':>7}",
+    ]
+    idx = [list(res.bands.index).index(b) for b in mc.bands.index]
+    for j, lab in enumerate(mc.bands.labels):
+        lines.append(
+            f"  {lab:>6}  {res.payload_velocity_rms_m_s[idx[j]] * 1e6:>9.4g}  "
+            f"{mc.payload_velocity_rms_m_s[j] * 1e6:>9.4g}  {se[j]:>7.3f}  {err[j]:>+7.2f}"
+        )
+    worst = int(np.argmax(np.abs(err)))
+    su = res.tube_velocity_rms_m_s
+    lines.append(
+        f"  worst band {mc.bands.labels[worst]} Hz: {err[worst]:+.2f} dB; stroke RMS "
+        f"{res.stroke_rms_m * 1e6:.4g} um vs {mc.stroke_rms_m * 1e6:.4g} um "
+        f"({100 * (res.stroke_rms_m / mc.stroke_rms_m - 1):+.1f} %); tube velocity RMS "
+        + (f"{su:.3g} m/s vs " if su is not None else "")
+        + f"{mc.tube_velocity_rms_m_s:.3g} m/s (kurtosis {mc.tube_velocity_kurtosis:.2f})"
+    )
+    return "\n".join(lines)
 
 
 def load_design(path):
@@ -214,10 +259,12 @@ def run(args) -> int:
     import warnings
 
     from isodesign.commands import check_output_path, write_result
-    from isodesign.errors import ModelValidityWarning
+    from isodesign.errors import InputError, ModelValidityWarning
     from isodesign.response import band_response
 
     check_output_path(args.output, "--output")
+    if args.verify_monte_carlo is not None and args.verify_monte_carlo < 1:
+        raise InputError(f"--verify-monte-carlo: SEEDS must be >= 1, got {args.verify_monte_carlo}")
     check_output_path(args.plot, "--plot")
     payload = make_payload(args, spacing_m=args.spacing_m, cg_height_m=args.cg_height_m)
     design, label = load_design(args.design)
@@ -238,5 +285,20 @@ def run(args) -> int:
     for line in res.warnings:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"
-    return write_result(res, args, "" if to_stdout else summary(res, label,
-                                                                not args.design_pressure))
+    mc = None
+    if args.verify_monte_carlo is not None:
+        from isodesign.simulation.monte_carlo import simulate_random_response
+
+        try:
+            mc = simulate_random_response(
+                design, payload, args.floor, bands=res.bands, seeds=args.verify_monte_carlo,
+                duration_s=args.mc_duration_s, flow=args.flow, diaphragm=args.diaphragm,
+                derive_pressure=not args.design_pressure,
+            )  # fmt: skip
+        except InputError as exc:
+            raise InputError(f"--verify-monte-carlo: {exc}") from None
+    status = write_result(res, args, "" if to_stdout else summary(res, label,
+                                                                  not args.design_pressure))
+    if mc is not None and not to_stdout:
+        print(monte_carlo_table(res, mc))
+    return status
