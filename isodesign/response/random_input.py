@@ -302,7 +302,9 @@ class BandResponse:
         The spring at the final linearization (shape (n_points,), or (n_points, nodes) for
         ``random_method='rayleigh'``); ``.warnings`` lists validity flags.
     iterations : int
-        Evaluations of the closure (one spring evaluation each, the linear start excluded).
+        Evaluations of the closure, the linear start excluded: one spring evaluation each
+        for the harmonic closures; for ``statistical`` the evaluations of the inner (tube
+        velocity) iteration, one vectorized expression on the grid each.
     converged : bool
     closure_slope : float or None
         ``d ln sigma_new / d ln sigma`` at the solution (< 1: a stable, locally unique fixed

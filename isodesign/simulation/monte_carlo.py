@@ -22,11 +22,13 @@ chamber): the same lumped equations as :mod:`isodesign.simulation.harmonic_rig`
   ``lambda_n`` the zeros of ``J0``, ``G`` the pressure gradient net of the minor loss;
   the modes faster than the step are held quasi-static);
 * payload: ``(m/n) z'' = A_p (p_t - p0) - F_D - (m/n) a_floor``;
-* diaphragm: the describing-function model has no time-domain law, so it is frozen at one
-  amplitude (default ``A* = 1.880 sigma`` with the verifier's own stroke RMS from a pilot
-  run) and realized as a linear viscoelastic element, a Prony series
-  ``k_inf + sum k_i j w tau_i / (1 + j w tau_i)`` fitted to ``k_D*(w, A)`` over the floor's
-  range (the fit error is reported).
+* diaphragm: a :class:`~isodesign.spring.diaphragm.PronyDiaphragm` is integrated as it is
+  (branch forces ``dq_i/dt = k_i z' - r_i q_i``); the describing-function models have no
+  time-domain law, so they are frozen at one amplitude (default ``A* = 1.880 sigma`` with
+  the verifier's own stroke RMS from a pilot run) and realized as a linear viscoelastic
+  element, a Prony series ``k_inf + sum k_i j w tau_i / (1 + j w tau_i)`` fitted to
+  ``k_D*(w, A)`` over the floor's range (:func:`prony_diaphragm`; the fit error is
+  reported).
 
 Floor synthesis: a periodic signal of period ``duration_s`` (frequency resolution
 ``1/duration_s``) with bins up to the floor's range: ``v(t) = sum A_k cos(w_k t + phi_k)``
@@ -63,12 +65,13 @@ from isodesign.response.model import (
     spring_model,
 )
 from isodesign.spring.capillary import QUASI_STEADY_INERTANCE_COEFFICIENT, poiseuille_resistance
-from isodesign.spring.diaphragm import NoDiaphragm, diaphragm_model
+from isodesign.spring.diaphragm import NoDiaphragm, PronyDiaphragm, diaphragm_model
 
 __all__ = [
     "MONTE_CARLO_FLOW_MODELS",
     "MonteCarloResult",
     "fit_prony",
+    "prony_diaphragm",
     "simulate_random_response",
 ]
 
@@ -241,6 +244,30 @@ def fit_prony(omega, k_target, *, per_decade: int = 3) -> tuple[float, np.ndarra
     return float(coef[0]), coef[1:][keep], rates[keep], err
 
 
+def prony_diaphragm(diaphragm, frequency_hz, amplitude_m) -> tuple[PronyDiaphragm, float]:
+    """A diaphragm model frozen at one amplitude, as a fitted :class:`PronyDiaphragm`.
+
+    Parameters
+    ----------
+    diaphragm : str or model
+        Any diaphragm model (:func:`~isodesign.spring.diaphragm.diaphragm_model`).
+    frequency_hz : array_like
+        Frequencies of the fit (Hz).
+    amplitude_m : float
+        The amplitude at which the model is frozen.
+
+    Returns
+    -------
+    PronyDiaphragm, float
+        The fit (:func:`fit_prony`) and its largest relative error.
+    """
+    dia = diaphragm_model(diaphragm)
+    w = 2.0 * math.pi * check_positive("frequency_hz", frequency_hz, unit="Hz", allow_array=True)
+    kd = dia.stiffness(w, check_positive("amplitude_m", amplitude_m, unit="m"))
+    k_inf, k, rate, err = fit_prony(w, kd.re + 1j * np.asarray(kd.im))
+    return PronyDiaphragm(k_inf, tuple(k.tolist()), tuple(rate.tolist())), err
+
+
 # ---------------------------------------------------------------------------
 # the simulation
 # ---------------------------------------------------------------------------
@@ -348,12 +375,18 @@ def _run(ctx, seed: int, dia_amp: float | None):
 
     t0 = time.perf_counter()
     model, n, n_skip = ctx["model"], ctx["n"], ctx["n_skip"]
-    w_fit = ctx["w_fit"]
-    if dia_amp is None:
+    dia = ctx["dia"]
+    if isinstance(dia, PronyDiaphragm):  # linear and causal: integrated as it is
+        k_inf, fit_err = dia.k_inf_n_per_m, 0.0
+        br_k = np.array(dia.branch_stiffness_n_per_m, dtype=float)
+        br_rate = np.array(dia.branch_rate_1_per_s, dtype=float)
+    elif dia_amp is None:
         k_inf, br_k, br_rate, fit_err = 0.0, np.zeros(0), np.zeros(0), 0.0
     else:
-        kd = ctx["dia"].stiffness(w_fit, dia_amp)
-        k_inf, br_k, br_rate, fit_err = fit_prony(w_fit, kd.re + 1j * np.asarray(kd.im))
+        pd, fit_err = prony_diaphragm(dia, ctx["f_fit"], dia_amp)
+        k_inf = pd.k_inf_n_per_m
+        br_k = np.array(pd.branch_stiffness_n_per_m, dtype=float)
+        br_rate = np.array(pd.branch_rate_1_per_s, dtype=float)
     p, gain, rate = _parameters(model.design, ctx["flow"], model.mass, k_inf, 1.0 / ctx["dt"])
     rng = np.random.default_rng(seed)
     kb, coef = _floor_spectrum(ctx["floor"], ctx["duration"], rng, ctx["amplitudes"],
@@ -501,10 +534,10 @@ def simulate_random_response(
         "n_skip": round(warm / dt),
         "dt": dt,
         "dia": dia,
-        "w_fit": 2.0 * math.pi * np.geomspace(fl.f_min_hz, fl.f_max_hz, 60),
+        "f_fit": np.geomspace(fl.f_min_hz, fl.f_max_hz, 60),
     }
     dia_amp = None
-    if not isinstance(dia, NoDiaphragm):
+    if not isinstance(dia, NoDiaphragm | PronyDiaphragm):
         if diaphragm_amplitude_m is not None:
             dia_amp = check_positive("diaphragm_amplitude_m", diaphragm_amplitude_m, unit="m")
         else:  # pilot run of the first seed at the linear-regime amplitude

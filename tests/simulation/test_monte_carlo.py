@@ -21,10 +21,11 @@ from isodesign.response import Payload, band_response, linear_transmissibility
 from isodesign.simulation.monte_carlo import (
     MonteCarloResult,
     fit_prony,
+    prony_diaphragm,
     simulate_random_response,
 )
 from isodesign.spring.capillary import churchill_friction_re_product
-from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.diaphragm import PronyDiaphragm, diaphragm_model
 
 VCA = FloorSpectrum.from_criterion("VC-A")
 VCA4 = FloorSpectrum.from_band_rms(VCA.bands, 4.0 * VCA.band_rms_velocity(), name="4x VC-A")
@@ -57,6 +58,23 @@ def test_prony_fit_of_the_diaphragm():
     kd = dia.stiffness(w, 4e-5)
     k_inf, k_i, rate_i, err = fit_prony(w, kd.re + 1j * kd.im)
     assert err < 0.05 and k_inf >= 0 and np.all(k_i > 0) and np.all(rate_i > 0)
+
+
+def test_prony_diaphragm_model():
+    pd = PronyDiaphragm(3000.0, (1000.0, 2000.0), (10.0, 300.0))
+    k = pd.stiffness(np.array([1e-6, 1e9]), 1e-5)
+    np.testing.assert_allclose(k.re, [3000.0, 6000.0], rtol=1e-9)  # static and glassy limits
+    assert np.all(k.im > 0) and k.im[0] < 1e-3
+    assert diaphragm_model(pd) is pd
+    w = 2 * math.pi * np.geomspace(1.0, 80.0, 30)
+    kk = pd.stiffness(w, 1e-5)
+    _, err = prony_diaphragm(pd, w / (2 * math.pi), 1e-5)
+    assert err < 0.01
+    assert np.all(np.diff(kk.re) > 0)
+    with pytest.raises(InputError, match=r"^diaphragm:"):
+        PronyDiaphragm(1.0, (1.0,), ())
+    with pytest.raises(InputError, match=r"^diaphragm:"):
+        PronyDiaphragm(1.0, (1.0,), (-1.0,))
 
 
 def test_linear_limit_matches_the_linear_transmissibility(ref):
@@ -100,7 +118,13 @@ CASES = [
     ("ref-4xVC-A", None, 100.0, VCA4, "quasi_steady", "none", 0.036),
     ("long-VC-A", "long", 150.0, VCA, "quasi_steady", "none", 0.03),
     ("long-4xVC-A", "long", 150.0, VCA4, "quasi_steady", "none", 0.03),
+    # end to end with the default diaphragm, frozen in the simulation as a Prony series at
+    # 1.880 x its own stroke RMS (that fit errs by 4 %: a causal element cannot follow the
+    # model's loss factor over its nearly flat storage stiffness)
     ("ref-VC-A-viscoelastic", None, 100.0, VCA, "quasi_steady", "viscoelastic", 0.03),
+    # the same diaphragm fitted at the closure's A*: closure and simulation see the same
+    # linear viscoelastic element (no fit error between them)
+    ("ref-4xVC-A-prony", None, 100.0, VCA4, "quasi_steady", "prony", 0.03),
     ("long-4xVC-A-womersley", "long", 150.0, VCA4, "womersley", "none", 0.03),
 ]
 
@@ -111,6 +135,10 @@ def test_statistical_closure_against_monte_carlo(ref, case):
     _, which, kg, floor, flow, dia, stroke_tol = case
     d = _long(ref) if which == "long" else ref
     p = Payload(4 * kg, 4)
+    if dia == "prony":
+        a_star = _closure(d, p, floor, flow=flow).equivalent_amplitude_m
+        dia, err = prony_diaphragm("viscoelastic", np.geomspace(0.89, 89.1, 60), a_star)
+        assert err < 0.1
     mc = simulate_random_response(d, p, floor, target="VC-E", seeds=4, duration_s=160.0,
                                   flow=flow, diaphragm=dia)  # fmt: skip
     assert np.nanmax(mc.standard_error_db()) < 0.08
@@ -119,9 +147,9 @@ def test_statistical_closure_against_monte_carlo(ref, case):
     assert np.max(np.abs(err)) < 0.3, err
     assert new.stroke_rms_m == pytest.approx(mc.stroke_rms_m, rel=stroke_tol)
     assert new.tube_velocity_rms_m_s == pytest.approx(mc.tube_velocity_rms_m_s, rel=0.04)
-    # the harmonic closure on the stroke errs by about 1 dB or more in every case
+    # the harmonic closure on the stroke errs by 0.7 to 2.7 dB in these cases
     old = _closure(d, p, floor, flow=flow, diaphragm=dia, random_method="equivalent_amplitude")
-    assert np.max(np.abs(mc.error_db(old))) > 0.75
+    assert np.max(np.abs(mc.error_db(old))) > 0.6
 
 
 def test_result_api(ref):
