@@ -247,23 +247,42 @@ def solve_stroke_rms(
     derive_pressure: bool = False,
     rtol: float = 1e-12,
     max_iter: int = 50,
+    random_method: str = "equivalent_amplitude",
 ) -> tuple[float, dict]:
     """RMS stroke sigma of the random-input closure on a given response grid (NumPy).
 
-    The same closure as :func:`band_response` (equivalent amplitude
-    ``A* = 1.880 sigma``, secant in ``ln sigma`` from the linear-regime value), on a
-    prebuilt :class:`~isodesign.response.linearization.ResponseGrid`; the optimizer uses it
-    to initialize and to re-check its NLP.
+    The same closures as :func:`band_response`, on a prebuilt
+    :class:`~isodesign.response.linearization.ResponseGrid`; the optimizer uses it to
+    initialize and to re-check its NLP. ``random_method``: ``equivalent_amplitude`` (the
+    spring at ``A* = 1.880 sigma``, secant in ``ln sigma`` from the linear-regime value) or
+    ``statistical`` (the tube's Gaussian-equivalent resistance at ``sigma_u``, both RMS
+    values solved together; ``docs/random-response.md``).
 
     Returns
     -------
     sigma : float
         RMS stroke, m.
     info : dict
-        ``iterations`` and ``closure_slope``.
+        ``iterations`` and ``closure_slope``; for ``statistical`` also
+        ``tube_velocity_rms_m_s`` (``sigma_u``).
     """
+    check_choice("random_method", random_method, ("equivalent_amplitude", "statistical"))
     model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
     f, w = grid.frequency_hz, grid.omega
+    if random_method == "statistical":
+        if flow not in SMOOTH_FLOW_MODELS:
+            raise InputError(f"flow: {flow!r} has no time-domain law to linearize "
+                             f"statistically; valid: {', '.join(SMOOTH_FLOW_MODELS)}")
+        st = _Statistical(model, grid)
+        s2_lin, su2_lin, _ = st.variances(
+            LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR, 1e-9)
+        if not s2_lin > 0:
+            raise InputError("floor: the spectrum carries no motion (PSD zero)")
+        x, y, _, n_it, slope = _statistical_closure(
+            st, 0.5 * math.log(s2_lin), 0.5 * math.log(max(su2_lin, 1e-300)), rtol,
+            int(max_iter))  # fmt: skip
+        return math.exp(x), {"iterations": n_it, "closure_slope": slope,
+                             "tube_velocity_rms_m_s": math.exp(y)}  # fmt: skip
     k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
     s2_lin = float(
         stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w), grid)
