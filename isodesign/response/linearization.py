@@ -59,6 +59,7 @@ __all__ = [
     "rayleigh_rule",
     "response_grid",
     "stroke_variance",
+    "stroke_weighted_sum",
     "tube_velocity_variance",
 ]
 
@@ -85,7 +86,18 @@ _QUANTITY_POWER = {"displacement": -2, "velocity": 0, "acceleration": 2}
 # equivalent amplitude and the Rayleigh average
 # ---------------------------------------------------------------------------
 def equivalent_amplitude(sigma):
-    """Equivalent harmonic amplitude ``A* = EQUIVALENT_AMPLITUDE_FACTOR * sigma`` (any backend)."""
+    """Equivalent harmonic amplitude ``A* = EQUIVALENT_AMPLITUDE_FACTOR * sigma`` (any backend).
+
+    Parameters
+    ----------
+    sigma : float, array or CasADi symbol
+        RMS stroke, m.
+
+    Returns
+    -------
+    float, array or CasADi symbol
+        ``A*`` in m.
+    """
     return EQUIVALENT_AMPLITUDE_FACTOR * sigma
 
 
@@ -472,9 +484,26 @@ def tube_velocity_variance(relative_transmissibility: Cx, resistance: Cx, design
     grid : ResponseGrid
     """
     rel = as_cx(relative_transmissibility)
-    return _weighted_sum(
-        grid.stroke_weight, rel.abs2() * tube_velocity_gain2(design, grid.omega, resistance)
+    return stroke_weighted_sum(
+        rel.abs2() * tube_velocity_gain2(design, grid.omega, resistance), grid
     )
+
+
+def stroke_weighted_sum(values, grid: ResponseGrid):
+    """``sum_j stroke_weight[j] values[j]`` (any backend): the variance of a response whose
+    squared gain per unit floor displacement is ``values`` (e.g. ``|T - 1|^2 |U/X|^2``).
+
+    Parameters
+    ----------
+    values : array or CasADi column
+        Squared gains at ``grid.frequency_hz``.
+    grid : ResponseGrid
+
+    Returns
+    -------
+    float or CasADi scalar
+    """
+    return _weighted_sum(grid.stroke_weight, values)
 
 
 def band_mean_square(transmissibility: Cx, grid: ResponseGrid, quantity: str = "velocity"):
@@ -501,6 +530,18 @@ def band_margin_db(band_mean_square_value, grid: ResponseGrid):
     """Margin per band in dB, ``10 log10(limit^2 / mean square)`` (any backend).
 
     Positive: below the limit. Needs a grid built with a target.
+
+    Parameters
+    ----------
+    band_mean_square_value : array or CasADi column
+        Payload band mean-square velocities ((m/s)^2), one per band of ``grid``.
+    grid : ResponseGrid
+        Built with a target (its ``limit_velocity_m_s``).
+
+    Returns
+    -------
+    array or CasADi column
+        Margins in dB.
     """
     if grid.limit_velocity_m_s is None:
         raise InputError("grid: built without a target; no limits to compare with")

@@ -258,6 +258,23 @@ def solve_stroke_rms(
     ``statistical`` (the tube's Gaussian-equivalent resistance at ``sigma_u``, both RMS
     values solved together; ``docs/random-response.md``).
 
+    Parameters
+    ----------
+    design : SpringDesign
+    payload : Payload
+    grid : ResponseGrid
+        The frequencies and quadrature weights (:func:`response_grid`).
+    flow, amplitude_mode, diaphragm : str
+        Spring models, as in :func:`band_response`.
+    derive_pressure : bool
+        Derive p0 from the payload (default ``False``: the design's own).
+    rtol : float
+        Tolerance on ``|ln(sigma_new / sigma)|``.
+    max_iter : int
+        Secant iterations before the Brent fallback.
+    random_method : {'equivalent_amplitude', 'statistical'}
+        The closure.
+
     Returns
     -------
     sigma : float

@@ -157,7 +157,14 @@ class MonteCarloResult:
     def error_db(self, response) -> np.ndarray:
         """``20 log10(response / Monte Carlo)`` per band, for a :class:`BandResponse`.
 
-        The bands of ``response`` must include this result's bands.
+        Parameters
+        ----------
+        response : BandResponse
+            Its bands must include this result's bands.
+
+        Returns
+        -------
+        ndarray (n_bands,)
         """
         idx = _band_positions(response.bands, self.bands)
         return 20.0 * np.log10(
@@ -214,6 +221,15 @@ def fit_prony(omega, k_target, *, per_decade: int = 3) -> tuple[float, np.ndarra
     Relaxation times log-spaced ``per_decade`` per decade from a decade below to a decade
     above the range of ``omega``; non-negative least squares on the real and imaginary
     parts relative to ``|k_target|`` (a passive, causal generalized Maxwell model).
+
+    Parameters
+    ----------
+    omega : array_like
+        Angular frequencies of the fit, rad/s.
+    k_target : array_like of complex
+        The complex stiffness to fit at ``omega``, N/m.
+    per_decade : int
+        Relaxation times per decade.
 
     Returns
     -------

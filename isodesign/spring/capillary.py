@@ -526,6 +526,20 @@ def gaussian_equivalent_resistance(flow: str, design, velocity_rms):
       (:func:`gaussian_friction_excess`).
 
     Frequency independent: one number for the whole spectrum. Any backend.
+
+    Parameters
+    ----------
+    flow : {'quasi_steady', 'womersley', 'poiseuille'}
+        The flow model (``poiseuille`` has no nonlinear part: 0).
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    velocity_rms : float, array or CasADi scalar
+        ``sigma_u``, RMS of the tube's mean velocity, m/s (> 0).
+
+    Returns
+    -------
+    float, array or CasADi scalar
+        ``C_nl`` in Pa s/kg.
     """
     d = design
     area = d.capillary_area_m2
@@ -552,6 +566,20 @@ def linear_resistance(flow: str, design, omega) -> Cx:
     ``quasi_steady``: Poiseuille's ``C_u`` plus the inertance ``j w (4/3) L / A_c``;
     ``womersley``: ``C_u zeta(alpha)`` (exact laminar oscillating flow); ``poiseuille``:
     ``C_u``. The limit of :func:`resistance` as the velocity amplitude goes to zero.
+
+    Parameters
+    ----------
+    flow : {'quasi_steady', 'womersley', 'poiseuille'}
+        The flow model.
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : array or CasADi symbol
+        Angular frequency, rad/s.
+
+    Returns
+    -------
+    Cx
+        Resistance (real) and ``w`` times the inertance (imaginary), Pa s/kg.
     """
     d = design
     c_u = poiseuille_resistance(d)
@@ -579,6 +607,20 @@ def statistical_resistance_function(flow: str, design, omega):
     frequency-dependent linear parts are computed once; each call adds the one
     frequency-independent equivalent resistance of the nonlinear drop at the tube
     velocity's RMS ``sigma_u`` (m/s). Any backend.
+
+    Parameters
+    ----------
+    flow : {'quasi_steady', 'womersley', 'poiseuille'}
+        The flow model.
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : array or CasADi symbol
+        Angular frequency, rad/s.
+
+    Returns
+    -------
+    callable
+        ``sigma_u -> Cx``.
     """
     lin = linear_resistance(flow, design, omega)
 

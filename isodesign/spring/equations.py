@@ -68,6 +68,20 @@ def tube_velocity_gain2(design, omega, c: Cx):
     ``U/X = (A_p/A_c) j w N / (1 + N + j w s C)`` (the linear relation behind
     :func:`driven_velocity`), so ``|U/X|^2 = (N (A_p/A_c) w)^2 / |1 + N + j w s C|^2``.
     With the stroke's spectrum it gives the tube velocity's variance (random input).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : array or CasADi symbol
+        Angular frequency, rad/s.
+    c : Cx
+        Flow resistance ``C`` at ``omega``, Pa s/kg.
+
+    Returns
+    -------
+    array or CasADi symbol
+        ``|U/X|^2`` in 1/s^2.
     """
     d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
     g = design.volume_ratio * design.area_ratio * omega
