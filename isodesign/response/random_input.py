@@ -52,7 +52,7 @@ from isodesign.response.model import (
     spring_model,
 )
 from isodesign.response.stability import StabilityFigures, stability_of_model
-from isodesign.spring.capillary import SMOOTH_FLOW_MODELS, statistical_resistance_function
+from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
 from isodesign.spring.diagnostics import evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness
@@ -287,9 +287,9 @@ def solve_stroke_rms(
     model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
     f, w = grid.frequency_hz, grid.omega
     if random_method == "statistical":
-        if flow not in SMOOTH_FLOW_MODELS:
+        if flow not in STATISTICAL_FLOW_MODELS:
             raise InputError(f"flow: {flow!r} has no time-domain law to linearize "
-                             f"statistically; valid: {', '.join(SMOOTH_FLOW_MODELS)}")
+                             f"statistically; valid: {', '.join(STATISTICAL_FLOW_MODELS)}")
         st = _Statistical(model, grid)
         s2_lin, su2_lin, _ = st.variances(
             LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR, 1e-9)
@@ -610,10 +610,10 @@ def band_response(
     rtol = check_positive("rtol", rtol)
     if stroke_amplitude_m is not None and random_method == "statistical":
         random_method = "equivalent_amplitude"  # a fixed harmonic amplitude: no closure
-    if random_method == "statistical" and flow not in SMOOTH_FLOW_MODELS:
+    if random_method == "statistical" and flow not in STATISTICAL_FLOW_MODELS:
         raise InputError(
             f"flow: {flow!r} has no time-domain law to linearize statistically; valid with "
-            f"random_method='statistical': {', '.join(SMOOTH_FLOW_MODELS)} (or use "
+            f"random_method='statistical': {', '.join(STATISTICAL_FLOW_MODELS)} (or use "
             "random_method='equivalent_amplitude')"
         )
     fl = resolve_floor(floor)

@@ -77,6 +77,7 @@ __all__ = [
     "FLOW_MODELS",
     "LAMINAR_REYNOLDS_LIMIT",
     "QUASI_STEADY_WOMERSLEY_LIMIT",
+    "STATISTICAL_FLOW_MODELS",
     "churchill_friction_factor",
     "churchill_friction_re_product",
     "describing_velocity",
@@ -432,6 +433,9 @@ def resistance_function(flow: str, design, omega, *, with_slope: bool = False):
 # ---------------------------------------------------------------------------
 # Gaussian (random-input) equivalent resistance
 # ---------------------------------------------------------------------------
+#: Flow models with a time-domain law whose nonlinear part the random-input (statistical)
+#: linearization replaces: the smooth models.
+STATISTICAL_FLOW_MODELS = ("quasi_steady", "womersley", "poiseuille")
 #: ``E|x|^3 = sqrt(8/pi)`` for a standard Gaussian ``x``: the Gaussian-equivalent gain of
 #: ``|u| u`` is ``sqrt(8/pi) sigma_u`` (against ``8 U/(3 pi)`` for a sine of amplitude U).
 GAUSSIAN_QUADRATIC_FACTOR = math.sqrt(8.0 / math.pi)
@@ -556,7 +560,7 @@ def gaussian_equivalent_resistance(flow: str, design, velocity_rms):
         ) / (2.0 * area)
     raise InputError(
         f"flow: the random-input (statistical) linearization needs a flow law with a "
-        f"time-domain form; valid: {', '.join(SMOOTH_FLOW_MODELS)}; got {flow!r}"
+        f"time-domain form; valid: {', '.join(STATISTICAL_FLOW_MODELS)}; got {flow!r}"
     )
 
 
@@ -596,7 +600,7 @@ def linear_resistance(flow: str, design, omega) -> Cx:
         return Cx(c_u + z, z)
     raise InputError(
         f"flow: the random-input (statistical) linearization needs a flow law with a "
-        f"time-domain form; valid: {', '.join(SMOOTH_FLOW_MODELS)}; got {flow!r}"
+        f"time-domain form; valid: {', '.join(STATISTICAL_FLOW_MODELS)}; got {flow!r}"
     )
 
 
