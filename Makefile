@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-fast lint bench clean venv
+.PHONY: demo test test-fast lint bench docs clean venv
 
 venv: $(STAMP)
 
@@ -30,5 +30,15 @@ lint: $(STAMP)
 bench: $(STAMP)
 	$(BIN)/python benchmarks/run.py
 
+DOCS_STAMP := $(VENV)/.installed-docs
+
+$(DOCS_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet -e ".[docs]"
+	@touch $(DOCS_STAMP)
+
+# the API reference (mkdocs + mkdocstrings, numpydoc style) and the docs/ pages, into site/
+docs: $(DOCS_STAMP)
+	$(BIN)/python -m mkdocs build --clean --strict
+
 clean:
-	rm -rf out build *.egg-info .pytest_cache
+	rm -rf out build site *.egg-info .pytest_cache

@@ -1,4 +1,4 @@
-"""Optimizer speed and quality (issue 4 targets): one default `optimize` (all starts) in
+"""Optimizer speed and quality (targets): one default `optimize` (all starts) in
 under 10 s, a 20-point Pareto front in under 60 s, the CasADi front against pymoo's NSGA-II
 (10,000 evaluations of the NumPy analysis path: hypervolume at least NSGA-II's in at most a
 tenth of its wall time), and scipy's SLSQP with finite differences on the single-objective
@@ -26,7 +26,9 @@ from pathlib import Path
 
 import numpy as np
 
-#: Targets of issue 4.
+from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+
+#: Targets.
 TARGET_OPTIMIZE_S = 10.0
 TARGET_PARETO_S = 60.0
 TARGET_TIME_RATIO = 0.1  # CasADi front wall time / NSGA-II wall time
@@ -41,8 +43,8 @@ NSGA_GENERATIONS = 100
 NSGA_SEED = 1
 #: Above this projected NSGA-II wall time the budget is cut (and labelled so).
 NSGA_MAX_WALL_S = 15 * 60.0
-#: Feasibility tolerance, the same as the NLP's acceptance (optimize: max_violation <= 1e-6).
-FEAS_TOL = 1e-6
+#: Feasibility tolerance, the same as the NLP's acceptance.
+FEAS_TOL = FEASIBILITY_TOLERANCE
 #: SLSQP: scipy's default forward-difference step (sqrt of the machine epsilon), in the
 #: scaled variable z in [-1, 1] (a relative step of about 1.5e-8 x half-width in x).
 SLSQP_EPS = math.sqrt(np.finfo(float).eps)
@@ -77,15 +79,15 @@ def _timed(fn, n: int) -> tuple[dict, list]:
 
 
 # ---------------------------------------------------------------------------
-# the scaled variable space of the NLP (same formula as optimize.Problem.scaling)
+# the scaled variable space of the NLP (same formula as optimization.variables.log_scaling)
 # ---------------------------------------------------------------------------
 class Space:
     """Free design variables in the NLP's log scaling ``ln x = c + h z``, z in [-1, 1]."""
 
     def __init__(self, study):
-        from isodesign.optimization.optimizer import _bounds
+        from isodesign.optimization.variables import effective_bounds
 
-        b = _bounds(study)
+        b = effective_bounds(study)
         self.study = study
         self.names = tuple(v.name for v in study.variables if v.free)
         self.c = np.array([0.5 * (math.log(b[n][0]) + math.log(b[n][1])) for n in self.names])
@@ -135,7 +137,7 @@ def _fmt_design(vals: dict) -> str:
 # ---------------------------------------------------------------------------
 def bench_optimize() -> dict:
     """``optimize(default_study())`` end to end, median of 3."""
-    from isodesign.optimization.optimizer import optimize
+    from isodesign.optimization.driver import optimize
     from isodesign.optimization.study import default_study
 
     load0 = _load()
@@ -175,15 +177,11 @@ def bench_optimize() -> dict:
 
 def bench_optimize_breakdown() -> dict:
     """Informative: where the optimize time goes, each stage once (as optimize runs them)."""
-    import isodesign.optimization.optimizer as opt_mod
-    from isodesign.optimization.optimizer import (
-        Problem,
-        _flat_tolerance,
-        _tie_break,
-        recheck,
-        run_starts,
-        start_points,
-    )
+    from isodesign.optimization.multistart import run_starts, start_points
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.recheck import recheck
+    from isodesign.optimization.refine import flat_tolerance, refine_branches
+    from isodesign.optimization.solution import Solution
     from isodesign.optimization.study import default_study
     from isodesign.response import band_response
 
@@ -196,25 +194,19 @@ def bench_optimize_breakdown() -> dict:
     t0 = time.perf_counter()
     sols = run_starts(prob, starts, workers=st.solver["workers"])
     t_starts = time.perf_counter() - t0
-    best = min(
-        (s for s in sols if isinstance(s, dict) and s["max_violation"] <= 1e-6),
-        key=lambda s: s["J"],
-    )
+    good = {i: s for i, s in enumerate(sols) if isinstance(s, Solution) and s.feasible}
+    # tie-break and peak refinement of the best start of each branch that could win
     t0 = time.perf_counter()
-    _, final = _tie_break(st, prob, best, _flat_tolerance(prob.objective, best["J"]))
+    win = refine_branches(st, prob, good, flat_tolerance(prob.objective))
+    final, info = win.final, win.peak
     t_tie = time.perf_counter() - t0
-    t_peak, peak_note = None, ""
-    if hasattr(opt_mod, "_refine_peak"):  # exchange method on the peak grid (newer optimize)
-        t0 = time.perf_counter()
-        prob, final, best, _, info = opt_mod._refine_peak(
-            st, prob, final, best, None, _flat_tolerance(prob.objective, best["J"])
-        )
-        t_peak = time.perf_counter() - t0
-        peak_note = (
-            f"peak refinement {t_peak:.2f} s ({info.get('rounds')} round(s), continuous peak "
-            f"{info.get('peak_db', math.nan):.3f} dB); "
-        )
-    d = st.design_at(prob.values(final["x"]))
+    t_peak = None
+    peak_note = (
+        f"tie-break + peak refinement of {len(win.branches)} branch(es) "
+        f"({info.get('rounds')} round(s), continuous peak "
+        f"{info.get('peak_db') or math.nan:.3f} dB); "
+    )
+    d = st.design_at(final.values)
     t0 = time.perf_counter()
     recheck(prob, final, d)
     t_re = time.perf_counter() - t0
@@ -239,16 +231,17 @@ def bench_optimize_breakdown() -> dict:
     t0 = time.perf_counter()
     serial = run_starts(prob, starts, workers=1)
     t_serial = time.perf_counter() - t0
-    walls_par = sum(x["wall_s"] for x in sols if isinstance(x, dict))
-    walls_ser = sum(x["wall_s"] for x in serial if isinstance(x, dict))
+    walls_par = sum(x.wall_s for x in sols if isinstance(x, Solution))
+    walls_ser = sum(x.wall_s for x in serial if isinstance(x, Solution))
     # the same 2-worker run in a fresh process with one OpenBLAS thread per process
     code = (
         "import time, warnings; warnings.simplefilter('ignore')\n"
         "from isodesign.optimization.study import default_study\n"
-        "from isodesign.optimization.optimizer import Problem, run_starts, start_points\n"
+        "from isodesign.optimization.problem import Problem\n"
+        "from isodesign.optimization.multistart import run_starts, start_points\n"
         "st = default_study(); p = Problem(st); s = start_points(st, p.scaling)\n"
         "t = time.perf_counter(); r = run_starts(p, s, workers=2)\n"
-        "print(time.perf_counter() - t, sum(x['wall_s'] for x in r if isinstance(x, dict)))\n"
+        "print(time.perf_counter() - t, sum(x.wall_s for x in r if not isinstance(x, str)))\n"
     )
     env = {**os.environ, "OPENBLAS_NUM_THREADS": "1"}
     try:
@@ -368,7 +361,7 @@ def bench_pareto() -> dict:
 def _nsga_problem(study, space, grid, archive):
     from pymoo.core.problem import ElementwiseProblem
 
-    from isodesign.optimization.optimizer import evaluate_design
+    from isodesign.optimization.recheck import evaluate_design
 
     names = list(
         evaluate_design(
@@ -413,9 +406,10 @@ def _nsga() -> dict:
     from pymoo.config import Config
     from pymoo.optimize import minimize
 
-    import isodesign.optimization.optimizer as opt_mod
-    from isodesign.optimization.optimizer import build_grid, evaluate_design
+    from isodesign.optimization.grid import build_grid
     from isodesign.optimization.pareto import hypervolume_2d, nondominated
+    from isodesign.optimization.recheck import evaluate_design
+    from isodesign.optimization.refine import continuous_peak_db
     from isodesign.optimization.study import default_study
 
     Config.warnings["not_compiled"] = False
@@ -526,7 +520,7 @@ def _nsga() -> dict:
     # largest gains and every dominating one (at most 3 + 3 solves)
     cand = [int(i) for i in np.argsort(-gain)[:3] if math.isfinite(gain[i])]
     cand += [i for i, _ in dom[:3] if i not in cand]
-    from isodesign.optimization.optimizer import Problem
+    from isodesign.optimization.problem import Problem
 
     prob = Problem(
         study.with_changes(objective={"kind": PARETO_OBJECTIVES[0]}), objectives=PARETO_OBJECTIVES
@@ -536,7 +530,7 @@ def _nsga() -> dict:
     # 80-point peak grid; optimize() refines it with the exchange method, pareto_front not)
     peak_c = peak_n = None
     bound = study.constraints.get("max_peak_transmissibility_db")
-    cpk = getattr(opt_mod, "continuous_peak_db", None)
+    cpk = continuous_peak_db
     if cpk is not None and bound is not None:
         peak_c = np.array([cpk(prob, d, r["sigma"])[0] for d, r in zip(dc, recheck, strict=True)])
         peak_n = np.array(
@@ -624,15 +618,15 @@ def _nlp_check(prob, space, points, lv, mv) -> list[dict]:
                 {"v": v, "nsga": m, "front": front, "nlp": math.nan, "status": str(exc)[:60]}
             )
             continue
-        ok = sol["max_violation"] <= FEAS_TOL
+        ok = sol.feasible
         out.append(
             {
                 "v": v,
                 "nsga": m,
                 "front": front,
-                "nlp": -float(sol["J_all"][0]) if ok else math.nan,
-                "status": sol["status"],
-                "design": prob.values(sol["x"]),
+                "nlp": -float(sol.objectives[0]) if ok else math.nan,
+                "status": sol.status,
+                "design": sol.values,
             }
         )
     return out
@@ -659,7 +653,8 @@ def bench_nsga() -> dict:
             f"{r['load1']} after; evaluate_design {r['t_eval'] * 1e3:.1f} ms per evaluation "
             f"measured first (20 random designs), {r['t_nsga'] / max(r['n_eval'], 1) * 1e3:.1f} "
             f"ms per evaluation inside NSGA-II (serial, one process); 4 variables z in [-1, 1] "
-            f"(log scaling of optimize._bounds), {len(r['names'])} constraint groups G_k = worst "
+            f"(log scaling of optimization.variables.effective_bounds), {len(r['names'])} "
+            f"constraint groups G_k = worst "
             f"signed violation - 1e-6 <= 0; {r['n_feasible_evals']} feasible evaluations, "
             f"{r['failures']} failed analyses; final front {r['n_front_nsga']} feasible "
             f"non-dominated points, margin {r['nsga_margin_range'][0]:.3f} to "
@@ -719,7 +714,7 @@ def _peak_note(r: dict) -> str:
         )
 
     return (
-        f"Continuous peak |T| (optimize.continuous_peak_db, between the 80 peak-grid "
+        f"Continuous peak |T| (optimization.refine.continuous_peak_db, between the 80 peak-grid "
         f"frequencies both fronts are judged on): CasADi front {count(r['peak_c'])}, NSGA-II "
         f"front {count(r['peak_n'])}. "
     )
@@ -754,7 +749,8 @@ def bench_slsqp() -> dict:
     """scipy SLSQP (finite differences) maximizing the worst-band margin from the study start."""
     from scipy.optimize import minimize
 
-    from isodesign.optimization.optimizer import build_grid, evaluate_design
+    from isodesign.optimization.grid import build_grid
+    from isodesign.optimization.recheck import evaluate_design
     from isodesign.optimization.study import default_study
 
     study = default_study()

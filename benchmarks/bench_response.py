@@ -1,4 +1,4 @@
-"""Payload response (issue 3 target): a full one-third-octave band response with the
+"""Payload response (target): a full one-third-octave band response with the
 self-consistent random-input linearization, default models, reference spring, 4 x 100 kg,
 VC-A floor, VC-E target, 20 bands (1 to 80 Hz) x 50 points; plus informative rows (the
 harmonic closures on the stroke, a harmonic sweep, the python-control transfer function);
@@ -14,7 +14,7 @@ import warnings
 
 from run import median_time
 
-#: Target of issue 3: a full band response in under 50 ms (median).
+#: Target: a full band response in under 50 ms (median).
 TARGET_BAND_RESPONSE_S = 0.05
 #: Target of the Monte Carlo verifier: one 320 s realization in under 10 s on one core.
 TARGET_MONTE_CARLO_S = 10.0
@@ -28,7 +28,7 @@ def _setup():
 
 
 def bench_band_response() -> dict:
-    """The issue-3 target: ``band_response(reference, 4 x 100 kg, "VC-A", "VC-E")``.
+    """The target: ``band_response(reference, 4 x 100 kg, "VC-A", "VC-E")``.
 
     Returns
     -------

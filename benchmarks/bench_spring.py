@@ -1,4 +1,4 @@
-"""Spring model throughput (issue 2 targets): the default self-consistent model on a
+"""Spring model throughput (targets): the default self-consistent model on a
 200 x 500 grid, the paper's literal model in points per second, and the CLI start-up.
 
 Run alone with ``python benchmarks/bench_spring.py`` (prints the rows) or through
@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 from run import median_time
 
-#: Targets of issue 2.
+#: Targets.
 TARGET_DEFAULT_S = 0.1
 TARGET_LITERAL_POINTS_PER_S = 1e7
 TARGET_HELP_S = 0.3

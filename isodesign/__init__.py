@@ -1,7 +1,21 @@
 """isodesign: design optimizer for vibration-isolation tables on dual-chamber air springs.
 
-The package is imported lazily: light commands (``isodesign --help``) load
-neither SciPy, CasADi nor pandas. Public names are resolved on first use.
+The public API, importable from the top level (``isodesign.complex_stiffness``, ...):
+
+* the spring: :class:`SpringDesign`, :class:`Gas`, :func:`complex_stiffness`,
+  :class:`StiffnessResult`, the diaphragm models, the flow-model registry;
+* the payload's response: :class:`Payload`, :func:`band_response`,
+  :func:`harmonic_response`, :func:`stability_figures`, python-control interop;
+* the floor: :func:`criterion`, :func:`criterion_names`, :class:`FloorSpectrum`,
+  :func:`third_octave_bands`;
+* design studies: :func:`load_study`, :func:`default_study`, :func:`optimize`,
+  :func:`pareto_front` (the subpackage is :mod:`isodesign.optimization`);
+* verification: :func:`simulate_stiffness` (time-domain rig);
+* errors: :class:`InputError`, :class:`SolverError`, :class:`ModelValidityWarning`.
+
+The package is imported lazily: ``import isodesign`` and ``isodesign --help`` load
+neither NumPy, SciPy, CasADi nor pandas. Each public name is resolved from its defining
+module on first use (:data:`__all__` lists them).
 """
 
 from __future__ import annotations
@@ -10,7 +24,9 @@ import importlib
 
 __version__ = "0.1.0"
 
+#: Public name -> module (relative to the package) that defines it.
 _EXPORTS = {
+    # the spring
     "SpringDesign": "spring.design",
     "piston_area_from_diaphragm": "spring.design",
     "Gas": "spring.gas",
@@ -19,14 +35,58 @@ _EXPORTS = {
     "complex_stiffness": "spring.stiffness",
     "stiffness_function": "spring.stiffness",
     "StiffnessResult": "spring.stiffness",
-    "InputError": "errors",
-    "SolverError": "errors",
-    "ModelValidityWarning": "errors",
+    "AMPLITUDE_MODES": "spring.stiffness",
+    "Diagnostics": "spring.diagnostics",
+    "FLOW_MODELS": "spring.flow_models",
+    "FlowModel": "spring.flow_models",
+    "flow_model": "spring.flow_models",
+    "DIAPHRAGM_MODELS": "spring.diaphragm",
     "ViscoelasticDiaphragm": "spring.diaphragm",
     "TableDiaphragm": "spring.diaphragm",
     "NoDiaphragm": "spring.diaphragm",
+    "diaphragm_model": "spring.diaphragm",
+    # the payload's response
+    "Payload": "response.isolator",
+    "loaded_design": "response.isolator",
+    "linear_transmissibility": "response.model",
+    "band_response": "response.random_input",
+    "BandResponse": "response.random_input",
+    "RANDOM_METHODS": "response.random_input",
+    "harmonic_response": "response.harmonic",
+    "HarmonicResponse": "response.harmonic",
+    "stability_figures": "response.stability",
+    "StabilityFigures": "response.stability",
+    "to_frd": "response.control",
+    "to_transfer_function": "response.control",
+    # the floor
+    "criterion": "floor.curves",
+    "criterion_names": "floor.curves",
+    "CriterionCurve": "floor.curves",
+    "criterion_from_csv": "floor.curve_files",
+    "FloorSpectrum": "floor.spectrum",
+    "Bands": "floor.bands",
+    "third_octave_bands": "floor.bands",
+    # design studies
+    "Study": "optimization.study",
+    "load_study": "optimization.study",
+    "default_study": "optimization.study",
+    "optimize": "optimization.driver",
+    "OptimizationResult": "optimization.result",
+    "pareto_front": "optimization.pareto",
+    "ParetoResult": "optimization.pareto",
+    # design files
+    "load_design": "io.designfile",
+    "save_design": "io.designfile",
+    # time-domain verification
+    "simulate_stiffness": "simulation.harmonic_rig",
+    "simulate_grid": "simulation.harmonic_rig",
+    "SimulationResult": "simulation.harmonic_rig",
     "simulate_random_response": "simulation.monte_carlo",
     "MonteCarloResult": "simulation.monte_carlo",
+    # errors
+    "InputError": "errors",
+    "SolverError": "errors",
+    "ModelValidityWarning": "errors",
 }
 
 __all__ = sorted(_EXPORTS)

@@ -39,7 +39,19 @@ def _is_symbolic(x: Any) -> bool:
 
 
 def check_positive(name: str, value: Any, *, unit: str = "", allow_array: bool = False):
-    """Require a finite value > 0 (every entry for arrays); symbols pass through."""
+    """Require a finite value > 0 (every entry for arrays); symbols pass through.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name as the user wrote it (it starts the error message).
+    value : float, array_like or CasADi symbol
+        The value given.
+    unit : str
+        Unit for the message.
+    allow_array : bool
+        Accept arrays (every entry is checked).
+    """
     if _is_symbolic(value):
         return value
     u = f" {unit}" if unit else ""
@@ -73,7 +85,21 @@ def check_range(
     hi_open: bool = False,
     unit: str = "",
 ):
-    """Require a finite scalar within [lo, hi] (open ends where asked)."""
+    """Require a finite scalar within [lo, hi] (open ends where asked).
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name as the user wrote it (it starts the error message).
+    value : float
+        The value given.
+    lo, hi : float or None
+        Bounds (None: unbounded).
+    lo_open, hi_open : bool
+        Exclude the bound itself.
+    unit : str
+        Unit for the message.
+    """
     if _is_symbolic(value):
         return value
     lb = "(" if lo_open else "["
@@ -95,7 +121,19 @@ def check_range(
 
 
 def check_finite_array(name: str, value: Any, *, positive: bool = True, unit: str = ""):
-    """Convert to a float array; require finite (and > 0) entries."""
+    """Convert to a float array; require finite (and > 0) entries.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name as the user wrote it (it starts the error message).
+    value : array_like
+        The values given.
+    positive : bool
+        Also require every entry > 0.
+    unit : str
+        Unit for the message.
+    """
     if positive:
         return check_positive(name, value, unit=unit, allow_array=True)
     try:
@@ -108,7 +146,17 @@ def check_finite_array(name: str, value: Any, *, positive: bool = True, unit: st
 
 
 def check_choice(name: str, value: Any, choices) -> str:
-    """Require one of the named choices (case-sensitive strings)."""
+    """Require one of the named choices (case-sensitive strings).
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name as the user wrote it (it starts the error message).
+    value : object
+        The value given.
+    choices : sequence of str
+        The valid values.
+    """
     choices = tuple(choices)
     if value not in choices:
         raise InputError(f"{name}: unknown value {value!r}; valid: {', '.join(map(str, choices))}")

@@ -10,7 +10,7 @@ from __future__ import annotations
 from collections.abc import Sequence
 from pathlib import Path
 
-from isodesign.optimization.study import MAXIMIZED
+from isodesign.optimization.objectives import OBJECTIVES
 
 __all__ = ["optimization_plot", "pareto_plot", "plot_stiffness"]
 
@@ -109,14 +109,14 @@ def plot_stiffness(
     return out
 
 
-#: Display scale and unit of each optimization objective (natural value x scale).
-OBJECTIVE_DISPLAY = {
-    "worst_band_margin": (1.0, "dB", "worst-band margin"),
-    "peak_transmissibility": (1.0, "dB", "peak |T|"),
-    "transmissibility_at": (1.0, "dB", "|T| at the chosen frequency"),
-    "rms_velocity": (1e6, "um/s", "payload RMS velocity"),
-    "total_volume": (1e3, "L", "total volume V_t0 (1 + N)"),
-}
+def _objective_display(kind: str) -> tuple[float, str, str]:
+    """Display scale, unit and label of an objective (natural value x scale)."""
+    o = OBJECTIVES.get(kind)
+    return (o.display_scale, o.display_unit, o.label) if o else (1.0, "", kind)
+
+
+def _maximized(kind: str) -> bool:
+    return kind in OBJECTIVES and OBJECTIVES[kind].maximized
 
 
 def _log_hz_axis(ax, lo: float, hi: float) -> None:
@@ -142,7 +142,7 @@ def optimization_plot(result, path: str | Path, *, dpi: int = 130) -> Path:
     Parameters
     ----------
     result : OptimizationResult
-        A feasible result of :func:`isodesign.optimization.optimizer.optimize` (with
+        A feasible result of :func:`isodesign.optimization.driver.optimize` (with
         ``analysis`` and ``start_analysis``).
     path : str or Path
         Output file (``.png``, ``.pdf``, ``.svg``).
@@ -240,8 +240,8 @@ def pareto_plot(result, path: str | Path, *, annotate: int = 5, dpi: int = 130) 
 
 
     a, b = result.objectives
-    sa, ua, na = OBJECTIVE_DISPLAY.get(a, (1.0, "", a))
-    sb, ub, nb = OBJECTIVE_DISPLAY.get(b, (1.0, "", b))
+    sa, ua, na = _objective_display(a)
+    sb, ub, nb = _objective_display(b)
     v = np.asarray(result.values, float)
     x, y = v[:, 1] * sb, v[:, 0] * sa
     ok = np.isfinite(x) & np.isfinite(y)
@@ -255,11 +255,11 @@ def pareto_plot(result, path: str | Path, *, annotate: int = 5, dpi: int = 130) 
         ax.plot(x[dom], y[dom], "o", color="0.7", ms=5, label="dominated")
     # the hypervolume's reference point, back in natural units
     ref = np.asarray(result.reference_point, float)
-    ref_nat = [(-r if k in MAXIMIZED else r) for k, r in zip((a, b), ref, strict=True)]
+    ref_nat = [(-r if _maximized(k) else r) for k, r in zip((a, b), ref, strict=True)]
     ax.plot(ref_nat[1] * sb, ref_nat[0] * sa, "kx", ms=8,
             label=f"hypervolume reference (HV = {result.hypervolume:.3f})")
     xs = x[ok]
-    log_x = b in ("total_volume", "rms_velocity") and xs.size and xs.min() > 0 \
+    log_x = b in OBJECTIVES and not OBJECTIVES[b].db and xs.size and xs.min() > 0 \
         and xs.max() / xs.min() > 5.0
     if log_x:
         from matplotlib.ticker import FixedLocator, FuncFormatter, NullFormatter
@@ -294,8 +294,8 @@ def pareto_plot(result, path: str | Path, *, annotate: int = 5, dpi: int = 130) 
                         bbox={"boxstyle": "round,pad=0.2", "fc": "white", "ec": "0.8",
                               "alpha": 0.9})
     sense = {True: "max", False: "min"}
-    ax.set_xlabel(f"{nb} ({ub}, {sense[b in MAXIMIZED]})")
-    ax.set_ylabel(f"{na} ({ua}, {sense[a in MAXIMIZED]})")
+    ax.set_xlabel(f"{nb} ({ub}, {sense[_maximized(b)]})")
+    ax.set_ylabel(f"{na} ({ua}, {sense[_maximized(a)]})")
     ax.set_title(f"Pareto front: {a} vs {b} ({int(front.sum())} non-dominated of "
                  f"{len(v)} points)", fontsize=10)
     ax.grid(True, lw=0.3, alpha=0.6)

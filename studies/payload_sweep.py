@@ -8,8 +8,10 @@ independent (its own multi-start). The chamber pressure follows the payload
 (p0 = p_atm + m g / (n A_p)), so the spring's stiffness, the natural frequency,
 the stroke and the tube flow all change with it.
 
-Besides the optimum, each row records the best feasible start that ended on a
-*different* volume-ratio branch (final N more than 10 % away from the optimum's):
+Besides the optimum, each row records the branches refined before the winner was
+chosen (``refined_branches``: refined objective @ start) and the best feasible start
+(on the sampled grid) that ended on a *different* volume-ratio branch (final N more
+than 10 % away from the optimum's):
 the default study has two local optima at the volume cap, a small-N branch
 (large top chamber) and a large-N branch (small top chamber), and which one is
 global can change with the payload.
@@ -35,7 +37,7 @@ import numpy as np
 import pandas as pd
 
 from isodesign.io.record import variables_at_bounds
-from isodesign.optimization.optimizer import optimize
+from isodesign.optimization.driver import optimize
 from isodesign.optimization.study import default_study
 
 #: Payload masses of the sweep, kg (on the default study's 4 isolators).
@@ -77,6 +79,8 @@ def sweep_row(mass_kg: float, result) -> dict:
         "worst_margin_db_analysis": np.nan,
         "peak_transmissibility_db": np.nan,
         "pressure_bar": result.design.pressure_pa / 1e5,
+        # every branch refined before the winner was chosen: refined objective (dB) @ start
+        "refined_branches": ";".join(f"{j:.4f}@{i}" for i, j in result.branches),
         "binding": ";".join([c.name for c in result.constraints if c.active]
                             + [f"{n}={side}" for n, side in variables_at_bounds(result).items()]),
         "n_reached_best": result.n_reached_best,

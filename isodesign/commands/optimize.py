@@ -149,7 +149,7 @@ class StartProgress:
     """A rich progress bar over the starts (a no-op when disabled).
 
     Use as a context manager; call it as ``progress(done, total, out)`` (the
-    callback of :func:`isodesign.optimization.optimizer.optimize`).
+    callback of :func:`isodesign.optimization.driver.optimize`).
     """
 
     def __init__(self, enabled: bool, total: int, objective: str, what: str = "starts"):
@@ -189,12 +189,13 @@ class StartProgress:
     def __call__(self, done: int, total: int, out=None) -> None:
         if self._progress is None:
             return
-        from isodesign.optimization.optimizer import objective_value_to_natural
-        from isodesign.optimization.study import MAXIMIZED
+        from isodesign.optimization.objectives import OBJECTIVES
+        from isodesign.optimization.solution import Solution
 
-        if isinstance(out, dict) and out.get("max_violation", 1.0) <= 1e-6:
-            v = objective_value_to_natural(self.objective, out["J"])
-            better = (v > self.best if self.objective in MAXIMIZED else v < self.best) \
+        if isinstance(out, Solution) and out.feasible:
+            obj = OBJECTIVES[self.objective]
+            v = obj.to_natural(out.objective)
+            better = (v > self.best if obj.maximized else v < self.best) \
                 if self.best is not None else True
             if better:
                 self.best = v
@@ -213,14 +214,12 @@ class StartProgress:
 
 def format_objective(kind: str, value) -> str:
     """An objective value in display units (dB, L, um/s)."""
+    from isodesign.optimization.objectives import OBJECTIVES
+
     if value is None:
         return "n/a"
-    if kind in ("worst_band_margin", "peak_transmissibility", "transmissibility_at"):
-        return f"{value:+.3f} dB"
-    if kind == "total_volume":
-        return f"{value * 1e3:.4g} L"
-    if kind == "rms_velocity":
-        return f"{value * 1e6:.4g} um/s"
+    if kind in OBJECTIVES:
+        return OBJECTIVES[kind].format(value)
     return f"{value:.6g}"
 
 
@@ -318,9 +317,10 @@ def flat_text(result) -> str:
         return "flat direction: not examined (D_c is fixed)"
     d0, d1 = fd["capillary_diameter_range_m"]
     l0, l1 = fd["capillary_length_range_m"]
+    from isodesign.optimization.objectives import OBJECTIVES
+
     tol = format_objective(result.objective, fd["objective_tolerance"]) \
-        if result.objective in ("worst_band_margin", "peak_transmissibility",
-                                "transmissibility_at") \
+        if OBJECTIVES[result.objective].db \
         else f"{fd['objective_tolerance']:.3g} (relative)"
     tol = tol.lstrip("+")
     state = ("flat: a valley, the objective does not fix the pair" if fd["flat"]
@@ -368,7 +368,8 @@ def summary(result, design: dict) -> str:
         "",
         flat_text(result),
         f"re-check: the NumPy analysis agrees with the NLP to "
-        f"{result.recheck_max_rel_diff:.2g} relative (required 1e-06)",
+        f"{result.recheck_max_rel_diff:.2g} relative "
+        f"(required {result.settings['recheck_rtol']:g})",
         f"start:   {design['start_derived'].get('verdict')}",
         f"optimum: {design['verdict']}",
     ]
@@ -464,7 +465,7 @@ def write_outputs(result, out, args, *, plots: bool) -> list:
 
 def run_optimization(study, args):
     """``optimize(study)`` with the progress bar of ``args``."""
-    from isodesign.optimization.optimizer import optimize
+    from isodesign.optimization.driver import optimize
 
     with StartProgress(progress_enabled(args), study.solver["starts"],
                        study.objective["kind"]) as bar:

@@ -20,7 +20,7 @@ from isodesign.commands.optimize import add_study_arguments
 #: Default objectives (must equal optimization.pareto.DEFAULT_OBJECTIVES; a test checks it).
 #: Kept here so that --help does not load NumPy.
 DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
-#: Objective names (must equal the keys of optimization.study.OBJECTIVES; a test checks it).
+#: Objective names (must equal the keys of optimization.objectives.OBJECTIVES; a test checks it).
 OBJECTIVE_CHOICES = (
     "worst_band_margin",
     "rms_velocity",
@@ -76,26 +76,25 @@ def parse_objectives(text: str) -> tuple[str, str]:
 
 def _natural_points(result) -> dict:
     """Reference and ideal points back in each objective's natural sense and unit."""
-    from isodesign.optimization.study import MAXIMIZED
+    from isodesign.optimization.objectives import OBJECTIVES
 
     out = {}
     for name, pt in (("reference_point", result.reference_point),
                      ("ideal_point", result.ideal_point)):
-        out[name] = {k: float(-v if k in MAXIMIZED else v)
+        out[name] = {k: float(-v if OBJECTIVES[k].maximized else v)
                      for k, v in zip(result.objectives, pt, strict=True)}
     return out
 
 
 def pareto_json(result) -> dict:
     """The content of ``pareto.json``."""
-    from isodesign.optimization.optimizer import OBJECTIVE_UNITS
-    from isodesign.optimization.study import MAXIMIZED
+    from isodesign.optimization.objectives import OBJECTIVES
 
     nat = _natural_points(result)
     return {
         "objectives": list(result.objectives),
-        "units": {k: OBJECTIVE_UNITS[k] for k in result.objectives},
-        "sense": {k: "maximize" if k in MAXIMIZED else "minimize" for k in result.objectives},
+        "units": {k: OBJECTIVES[k].unit for k in result.objectives},
+        "sense": {k: OBJECTIVES[k].sense_word for k in result.objectives},
         "hypervolume": result.hypervolume,
         "hypervolume_space": "both objectives minimized (margins negated) and normalized: "
         "ideal point -> 0, reference point -> 1",

@@ -14,12 +14,13 @@ from __future__ import annotations
 
 import argparse
 
-#: Model options (must match spring.capillary.FLOW_MODELS, spring.stiffness.AMPLITUDE_MODES
-#: and response.random_input.RANDOM_METHODS; tests check it). Kept here so that --help does
-#: not load NumPy.
-FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
-AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
-RANDOM_METHOD_CHOICES = ("statistical", "equivalent_amplitude", "rayleigh")
+# The model choices come from the library's registries (declared once there). Loading them
+# loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
+from isodesign.response.random_input import RANDOM_METHODS
+from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
+from isodesign.spring.flow_models import FLOW_MODELS
+from isodesign.spring.stiffness import AMPLITUDE_MODES
+
 #: Default load per isolator (kg) when --payload-kg is not given.
 DEFAULT_KG_PER_ISOLATOR = 100.0
 
@@ -50,20 +51,21 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--flow",
         default="quasi_steady",
-        choices=FLOW_CHOICES,
+        choices=FLOW_MODELS,
         help="capillary flow model (default %(default)s)",
     )
     parser.add_argument(
         "--amplitude-mode",
         default="self_consistent",
-        choices=AMPLITUDE_MODE_CHOICES,
+        choices=AMPLITUDE_MODES,
         help="tube velocity amplitude of the spring model (default %(default)s)",
     )
     parser.add_argument(
         "--diaphragm",
         default="viscoelastic",
         metavar="MODEL",
-        help="viscoelastic (default, illustrative parameters), none, or table:PATH.csv",
+        help=f"{', '.join(DIAPHRAGM_SPECS.values())} (default viscoelastic, illustrative "
+        "parameters)",
     )
 
 
@@ -98,7 +100,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--random-method",
         default="statistical",
-        choices=RANDOM_METHOD_CHOICES,
+        choices=RANDOM_METHODS,
         help="closure of the random response: statistical linearization of the tube flow at "
         "its RMS velocity (default), or the older harmonic closures on the stroke, A* = 1.88 "
         "sigma or the Rayleigh average",

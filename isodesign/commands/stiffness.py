@@ -24,6 +24,12 @@ from isodesign.commands import (
     parse_values,
 )
 
+# The model choices come from the library's registries (declared once there). Loading them
+# loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
+from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
+from isodesign.spring.flow_models import FLOW_MODELS
+from isodesign.spring.stiffness import AMPLITUDE_MODES
+
 #: Frequencies of the paper's Table 2 (Hz), the default.
 TABLE2_FREQUENCIES_HZ = (
     0.2, 0.3, 0.4, 0.5, 0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6, 1.8, 2.0, 2.2,
@@ -32,11 +38,6 @@ TABLE2_FREQUENCIES_HZ = (
 #: Default amplitudes (m): 0.05, 0.15 and 0.5 mm, low, middle and top of Table 2.
 DEFAULT_AMPLITUDES_M = (0.05e-3, 0.15e-3, 0.5e-3)
 
-#: Model options (must match isodesign.spring.capillary.FLOW_MODELS and
-#: isodesign.spring.stiffness.AMPLITUDE_MODES; tests check it). Kept here, not imported,
-#: so that ``isodesign stiffness --help`` does not load NumPy.
-FLOW_CHOICES = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
-AMPLITUDE_MODE_CHOICES = ("self_consistent", "kinematic")
 #: File types of --plot.
 PLOT_SUFFIXES = (".png", ".pdf", ".svg")
 
@@ -79,13 +80,13 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--flow",
         default="quasi_steady",
-        choices=FLOW_CHOICES,
+        choices=FLOW_MODELS,
         help="capillary flow model (default %(default)s; 'zhao' is the paper's Eq. 24)",
     )
     parser.add_argument(
         "--amplitude-mode",
         default="self_consistent",
-        choices=AMPLITUDE_MODE_CHOICES,
+        choices=AMPLITUDE_MODES,
         help="tube velocity amplitude: self_consistent (harmonic balance, default) or "
         "kinematic (the paper's Eq. 37; required by the zhao models)",
     )
@@ -93,8 +94,8 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
         "--diaphragm",
         default="viscoelastic",
         metavar="MODEL",
-        help="viscoelastic (default, illustrative parameters), none, or table:PATH.csv "
-        "(measured k_D* on a frequency x amplitude grid)",
+        help=f"{', '.join(DIAPHRAGM_SPECS.values())} (default viscoelastic, illustrative "
+        "parameters; a table is measured k_D* on a frequency x amplitude grid)",
     )
 
 

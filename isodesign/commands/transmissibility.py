@@ -15,11 +15,11 @@ from __future__ import annotations
 import argparse
 
 from isodesign.commands.response import add_payload_arguments
+from isodesign.response.harmonic import BRANCHES
 
 #: Default floor amplitudes (m) and frequency range.
 DEFAULT_FLOOR_AMPLITUDES = "1e-6,1e-5"
 DEFAULT_FREQ = "0.5:50:200"
-BRANCH_CHOICES = ("upper", "lower")
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -40,7 +40,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--branch",
         default="upper",
-        choices=BRANCH_CHOICES,
+        choices=BRANCHES,
         help="stroke returned where several exist: upper (largest, default) or lower",
     )
     parser.add_argument(

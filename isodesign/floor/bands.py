@@ -232,6 +232,13 @@ def band_index_near(frequency_hz: float, rel_tol: float = 0.02) -> int | None:
 
     Nominal centres differ from exact centres by at most 0.95 %, so both ``1.25`` and
     ``1.2589`` map to band -29 with the default 2 % tolerance.
+
+    Parameters
+    ----------
+    frequency_hz : float
+        A frequency, Hz.
+    rel_tol : float
+        Relative tolerance on the band centre.
     """
     f = float(frequency_hz)
     if not math.isfinite(f) or f <= 0:
@@ -253,6 +260,13 @@ def band_power_weight(bands: Bands, power: int) -> np.ndarray:
 
     For a velocity PSD ``S`` constant in a band, the band mean square of the quantity
     ``(2 pi f)**(power/2) * v`` is ``S * band_power_weight(bands, power)``.
+
+    Parameters
+    ----------
+    bands : Bands
+        The bands.
+    power : int
+        Even exponent of ``2 pi f``.
     """
     if power % 2:
         raise InputError(f"power: must be an even integer, got {power!r}")

@@ -362,7 +362,17 @@ def design_to_toml(design, *, header: str | None = None) -> str:
 
 
 def save_design(design, path, *, header: str | None = None) -> Path:
-    """Write :func:`design_to_toml` to ``path``; return the path."""
+    """Write :func:`design_to_toml` to ``path``; return the path.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring.
+    path : str or Path
+        Output file.
+    header : str, optional
+        Comment lines written first.
+    """
     p = Path(path)
     p.write_text(design_to_toml(design, header=header), encoding="utf-8")
     return p

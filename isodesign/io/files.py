@@ -19,7 +19,13 @@ __all__ = ["read_csv_columns", "read_csv_header_comments", "read_toml"]
 
 
 def read_csv_header_comments(path) -> dict[str, str]:
-    """Parse leading ``# key: value; key: value`` comment lines into a dict."""
+    """Parse leading ``# key: value; key: value`` comment lines into a dict.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    """
     out: dict[str, str] = {}
     p = Path(path)
     try:
@@ -46,6 +52,17 @@ def read_csv_columns(path, required, *, optional=(), what="CSV") -> dict[str, np
 
     Lines starting with ``#`` are comments. Every required column must exist and
     every value must be a finite number.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    required : sequence of str
+        Column names that must exist.
+    optional : sequence of str
+        Column names read if present.
+    what : str
+        What the file is, for error messages.
 
     Returns
     -------
@@ -98,7 +115,15 @@ def read_csv_columns(path, required, *, optional=(), what="CSV") -> dict[str, np
 
 
 def read_toml(path, *, what="TOML") -> dict:
-    """Parse a TOML file, turning parse errors into :class:`InputError`."""
+    """Parse a TOML file, turning parse errors into :class:`InputError`.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What the file is, for error messages.
+    """
     p = Path(path)
     try:
         with p.open("rb") as fh:

@@ -18,8 +18,7 @@ from pathlib import Path
 from typing import Any
 
 from isodesign import __version__
-from isodesign.optimization.optimizer import OBJECTIVE_UNITS
-from isodesign.optimization.study import MAXIMIZED
+from isodesign.optimization.objectives import OBJECTIVES
 
 __all__ = [
     "command_line",
@@ -244,7 +243,7 @@ def design_figures(design, analysis=None) -> dict:
 
 
 def _constraint_dict(c) -> dict:
-    """A :class:`~isodesign.optimization.optimizer.ConstraintReport`, margin in natural units."""
+    """A :class:`~isodesign.optimization.constraints.ConstraintReport`, margin in natural units."""
     lo, hi, v = c.lower, c.upper, c.value
     margins = []
     if lo is not None:
@@ -265,7 +264,7 @@ def _constraint_dict(c) -> dict:
 
 
 def constraint_rows(result) -> list[dict]:
-    """The constraints of an :class:`~isodesign.optimization.optimizer.OptimizationResult` as dicts.
+    """The constraints of an :class:`~isodesign.optimization.result.OptimizationResult` as dicts.
 
     ``margin`` is the distance to the nearest bound in the constraint's own unit
     (positive: satisfied); ``margin_nlp`` is the optimizer's margin in its
@@ -345,8 +344,8 @@ def optimization_design(result) -> dict:
             "kind": result.objective,
             "value": float(result.objective_value),
             "start_value": _f(result.start_objective),
-            "unit": OBJECTIVE_UNITS[result.objective],
-            "sense": "maximize" if result.objective in MAXIMIZED else "minimize",
+            "unit": OBJECTIVES[result.objective].unit,
+            "sense": OBJECTIVES[result.objective].sense_word,
         },
         "variables": variables,
         "derived": figures,
@@ -361,7 +360,7 @@ def optimization_design(result) -> dict:
 
 
 def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict:
-    """The run record of :func:`isodesign.optimization.optimizer.optimize` (``record.json``).
+    """The run record of :func:`isodesign.optimization.driver.optimize` (``record.json``).
 
     Command line, isodesign version and package versions, the resolved study,
     the solver settings, every start (status, iterations, time, objective, start

@@ -52,7 +52,17 @@ def _is_casadi_obj(x: Any) -> bool:
 
 
 def is_casadi(*xs: Any) -> bool:
-    """Return True when any argument is a CasADi object (SX, MX or DM)."""
+    """Return True when any argument is a CasADi object (SX, MX or DM).
+
+    Parameters
+    ----------
+    *xs : object
+        Values to inspect (CasADi is not imported to answer).
+
+    Returns
+    -------
+    bool
+    """
     return any(_is_casadi_obj(x) for x in xs)
 
 
@@ -63,47 +73,147 @@ def _cs():
 
 
 def exp(x):
-    """Exponential."""
+    """Exponential.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+
+    Returns
+    -------
+    same type as the input
+        NumPy array (or float) for NumPy input, a CasADi expression for CasADi input.
+    """
     return _cs().exp(x) if is_casadi(x) else np.exp(x)
 
 
 def log(x):
-    """Natural logarithm."""
+    """Natural logarithm.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+
+    Returns
+    -------
+    same type as the input
+        NumPy array (or float) for NumPy input, a CasADi expression for CasADi input.
+    """
     return _cs().log(x) if is_casadi(x) else np.log(x)
 
 
 def log1p(x):
-    """log(1 + x), accurate for small x."""
+    """log(1 + x), accurate for small x.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+
+    Returns
+    -------
+    same type as the input
+        NumPy array (or float) for NumPy input, a CasADi expression for CasADi input.
+    """
     return _cs().log1p(x) if is_casadi(x) else np.log1p(x)
 
 
 def sqrt(x):
-    """Square root (do not call at 0 on symbols: the derivative is infinite)."""
+    """Square root (do not call at 0 on symbols: the derivative is infinite).
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+
+    Returns
+    -------
+    same type as the input
+        NumPy array (or float) for NumPy input, a CasADi expression for CasADi input.
+    """
     return _cs().sqrt(x) if is_casadi(x) else np.sqrt(x)
 
 
 def sin(x):
-    """Sine."""
+    """Sine.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+
+    Returns
+    -------
+    same type as the input
+        NumPy array (or float) for NumPy input, a CasADi expression for CasADi input.
+    """
     return _cs().sin(x) if is_casadi(x) else np.sin(x)
 
 
 def cos(x):
-    """Cosine."""
+    """Cosine.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+
+    Returns
+    -------
+    same type as the input
+        NumPy array (or float) for NumPy input, a CasADi expression for CasADi input.
+    """
     return _cs().cos(x) if is_casadi(x) else np.cos(x)
 
 
 def tanh(x):
-    """Hyperbolic tangent."""
+    """Hyperbolic tangent.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+
+    Returns
+    -------
+    same type as the input
+        NumPy array (or float) for NumPy input, a CasADi expression for CasADi input.
+    """
     return _cs().tanh(x) if is_casadi(x) else np.tanh(x)
 
 
 def arctan2(y, x):
-    """Four-quadrant arctangent."""
+    """Four-quadrant arctangent ``atan2(y, x)``.
+
+    Parameters
+    ----------
+    y, x : float, ndarray or CasADi SX/MX/DM
+        Ordinate and abscissa.
+
+    Returns
+    -------
+    same type as the inputs
+        The angle in radians, in ``(-pi, pi]``.
+    """
     return _cs().atan2(y, x) if is_casadi(y, x) else np.arctan2(y, x)
 
 
 def power(x, p):
-    """x ** p for x > 0 and real p."""
+    """``x ** p`` for ``x > 0`` and real ``p``.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Base (positive).
+    p : float, ndarray or CasADi SX/MX/DM
+        Exponent.
+
+    Returns
+    -------
+    same type as the inputs
+    """
     if is_casadi(x, p):
         return x**p
     return np.power(x, p)
@@ -114,6 +224,17 @@ def ipow(x, n: int):
 
     On NumPy arrays this is several times faster than ``np.power`` with a float
     exponent; on CasADi symbols it is ``x ** n`` (CasADi's ``constpow``).
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Base.
+    n : int
+        Exponent, a non-negative integer (``ValueError`` otherwise).
+
+    Returns
+    -------
+    same type as ``x``
     """
     if n < 0 or int(n) != n:
         raise ValueError(f"ipow: n must be a non-negative integer, got {n!r}")
@@ -136,6 +257,17 @@ def where(cond, a, b):
     Only for switches whose two branches agree at the switching point (or for
     guards on parameters, not on decision variables): a jump breaks Newton-type
     solvers.
+
+    Parameters
+    ----------
+    cond : bool ndarray or CasADi expression
+        Where to take ``a``.
+    a, b : float, ndarray or CasADi SX/MX/DM
+        The two branches.
+
+    Returns
+    -------
+    ndarray or CasADi expression
     """
     if is_casadi(cond, a, b):
         return _cs().if_else(cond, a, b)
@@ -143,7 +275,19 @@ def where(cond, a, b):
 
 
 def sum(x, axis=None):
-    """Sum of the entries (all of them for CasADi)."""
+    """Sum of the entries.
+
+    Parameters
+    ----------
+    x : ndarray or CasADi SX/MX/DM
+        The values (a matrix for CasADi).
+    axis : {None, 0, 1}
+        None: every entry; 0: down the rows (column sums); 1: along each row.
+
+    Returns
+    -------
+    float, ndarray or CasADi expression
+    """
     if is_casadi(x):
         return (
             _cs().sum1(_cs().sum2(x))
@@ -158,6 +302,17 @@ def softplus(x, hardness: float = 1.0):
 
     Overflow-safe on both backends: ``max(z, 0) + log1p(exp(-|z|))``, an
     expression that is analytic everywhere although it is written with max/abs.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+    hardness : float
+        Sharpness ``h``; the error against ``max(x, 0)`` is at most ``ln(2)/h``.
+
+    Returns
+    -------
+    same type as ``x``
     """
     h = hardness
     if is_casadi(x):
@@ -171,24 +326,69 @@ def softplus(x, hardness: float = 1.0):
 
 
 def smooth_max(a, b, hardness: float):
-    """Smooth maximum of ``a`` and ``b``: ``b + softplus(a - b)``."""
+    """Smooth maximum of ``a`` and ``b``: ``b + softplus(a - b, hardness)``.
+
+    Parameters
+    ----------
+    a, b : float, ndarray or CasADi SX/MX/DM
+        The two values.
+    hardness : float
+        Sharpness of the corner (see :func:`softplus`).
+
+    Returns
+    -------
+    same type as the inputs
+    """
     return b + softplus(a - b, hardness)
 
 
 def smooth_abs(x, eps: float):
-    """Smooth ``|x|``: ``sqrt(x^2 + eps^2)``; differentiable at 0."""
+    """Smooth ``|x|``: ``sqrt(x^2 + eps^2)``; differentiable at 0.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+    eps : float
+        Rounding of the corner (the value at 0).
+
+    Returns
+    -------
+    same type as ``x``
+    """
     return sqrt(x * x + eps * eps)
 
 
 def logistic(x):
-    """Logistic function ``1/(1 + exp(-x))``, overflow-safe on NumPy."""
+    """Logistic function ``1/(1 + exp(-x))``, overflow-safe on NumPy.
+
+    Parameters
+    ----------
+    x : float, ndarray or CasADi SX/MX/DM
+        Argument.
+
+    Returns
+    -------
+    same type as ``x``
+        Values in (0, 1).
+    """
     if is_casadi(x):
         return 0.5 * (1 + _cs().tanh(0.5 * x))
     return 0.5 * (1.0 + np.tanh(0.5 * np.asarray(x, dtype=float)))
 
 
 def as_numpy(x) -> np.ndarray:
-    """Convert a CasADi DM (or anything array-like) to a NumPy float array."""
+    """Convert a CasADi DM (or anything array-like) to a NumPy float array.
+
+    Parameters
+    ----------
+    x : CasADi DM or array_like
+        Numeric values (a symbolic SX/MX cannot be converted).
+
+    Returns
+    -------
+    ndarray of float
+    """
     if is_casadi(x):
         return np.asarray(_cs().DM(x).full(), dtype=float)
     return np.asarray(x, dtype=float)

@@ -64,7 +64,7 @@ class Cx:
         return Cx(-self.re, -self.im)
 
     def __mul__(self, other) -> Cx:
-        if isinstance(other, Cx) or isinstance(other, complex):
+        if _is_complex(other):
             o = as_cx(other)
             if _large_numpy(self, o):
                 return Cx.from_complex(self.to_complex() * o.to_complex())
@@ -74,7 +74,7 @@ class Cx:
     __rmul__ = __mul__
 
     def __truediv__(self, other) -> Cx:
-        if isinstance(other, Cx) or isinstance(other, complex):
+        if _is_complex(other):
             o = as_cx(other)
             if _large_numpy(self, o):
                 return Cx.from_complex(self.to_complex() / o.to_complex())
@@ -112,6 +112,17 @@ class Cx:
 _NATIVE_MIN_SIZE = 4096
 
 
+def _is_complex(x) -> bool:
+    """True for a :class:`Cx`, a Python or NumPy complex scalar, or a complex NumPy array.
+
+    Those are split into (real, imaginary) parts before multiplying or dividing;
+    anything else (real numbers, real arrays, CasADi symbols) scales both parts.
+    """
+    if isinstance(x, Cx | complex | np.complexfloating):
+        return True
+    return isinstance(x, np.ndarray) and np.iscomplexobj(x)
+
+
 def _large_numpy(a: Cx, b: Cx) -> bool:
     """True when both pairs hold NumPy data and one of them is large."""
     parts = (a.re, a.im, b.re, b.im)
@@ -121,11 +132,21 @@ def _large_numpy(a: Cx, b: Cx) -> bool:
 
 
 def as_cx(x) -> Cx:
-    """Promote a real value, Python complex or :class:`Cx` to a :class:`Cx`."""
+    """Promote a real value, a complex number or array, or a :class:`Cx` to a :class:`Cx`.
+
+    Parameters
+    ----------
+    x : float, complex, ndarray, CasADi SX/MX/DM or Cx
+        The value (a real one gets a zero imaginary part of the same backend).
+
+    Returns
+    -------
+    Cx
+    """
     if isinstance(x, Cx):
         return x
-    if isinstance(x, complex):
-        return Cx(x.real, x.imag)
+    if isinstance(x, complex | np.complexfloating):
+        return Cx(float(x.real), float(x.imag))
     if isinstance(x, np.ndarray) and np.iscomplexobj(x):
         return Cx.from_complex(x)
     return Cx(

@@ -1,1 +1,64 @@
-"""Design studies and their optimization: study schema, the CasADi NLP, Pareto fronts."""
+"""Design studies and their optimization: study schema, the CasADi NLP, Pareto fronts.
+
+One file per concept:
+
+==================  =====================================================================
+``study``           the study schema (TOML), validated table by table
+``variables``       design variables, their bounds and the log scaling of the NLP
+``objectives``      the objective registry (name, unit, sense, NLP form, value, display)
+``constraints``     the NLP's constraints and their report at the optimum
+``grid``            the NLP's frequency grid
+``metrics``         objective and constraint quantities, NumPy or CasADi (one source)
+``problem``         the NLP (:class:`Problem`), built in named steps
+``solution``        one solve (:class:`Solution`) and :data:`FEASIBILITY_TOLERANCE`
+``multistart``      space-filling starts, solved in forked workers
+``refine``          peak refinement (exchange method), tie-break, branch choice
+``recheck``         the NumPy re-check of the optimum, :func:`evaluate_design`
+``result``          :class:`OptimizationResult`
+``driver``          :func:`optimize`
+``pareto``          epsilon-constraint Pareto fronts
+==================  =====================================================================
+
+Public names resolve lazily (``from isodesign.optimization import optimize``), so that
+importing one module of the package does not import them all.
+"""
+
+from __future__ import annotations
+
+import importlib
+
+_EXPORTS = {
+    "Study": "study",
+    "default_study": "study",
+    "load_study": "study",
+    "study_from_dict": "study",
+    "DESIGN_VARIABLES": "variables",
+    "VariableSpec": "variables",
+    "OBJECTIVES": "objectives",
+    "Objective": "objectives",
+    "ConstraintReport": "constraints",
+    "metrics": "metrics",
+    "Problem": "problem",
+    "FEASIBILITY_TOLERANCE": "solution",
+    "Solution": "solution",
+    "evaluate_design": "recheck",
+    "OptimizationResult": "result",
+    "StartRecord": "result",
+    "optimize": "driver",
+    "ParetoResult": "pareto",
+    "pareto_front": "pareto",
+}
+
+__all__ = sorted(_EXPORTS)
+
+
+def __getattr__(name: str):
+    if name in _EXPORTS:
+        value = getattr(importlib.import_module(f"{__name__}.{_EXPORTS[name]}"), name)
+        globals()[name] = value
+        return value
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))

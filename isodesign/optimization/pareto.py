@@ -3,7 +3,7 @@
 :func:`pareto_front` minimizes objective A subject to ``objective B <= eps``
 for a sweep of ``eps`` between B's two anchors (B at A's optimum, and B's own
 optimum), each NLP warm-started from the previous solution with one
-parametric IPOPT solver built once (:class:`isodesign.optimization.optimizer.Problem` with
+parametric IPOPT solver built once (:class:`isodesign.optimization.problem.Problem` with
 both objectives, parametric weights and bounds). The points are filtered for
 non-dominance; the front's
 hypervolume is computed in the normalized space of the two (minimized)
@@ -22,21 +22,16 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from isodesign import plotting
 from isodesign.errors import InputError, SolverError
-from isodesign.optimization.optimizer import (
-    OBJECTIVE_UNITS,
-    PEAK_ROUNDS,
-    PEAK_TOLERANCE_DB,
-    Problem,
-    continuous_peak_db,
-    natural_to_objective_value,
-    objective_value_to_natural,
-    optimize,
-    run_starts,
-    start_points,
-)
-from isodesign.optimization.study import MAXIMIZED, OBJECTIVES, Study
-from isodesign.plotting import pareto_plot
+from isodesign.optimization.driver import optimize
+from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
+from isodesign.optimization.multistart import run_starts, start_points
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.problem import PEAK_ROUNDS, Problem
+from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db, peak_slots
+from isodesign.optimization.solution import Solution
+from isodesign.optimization.study import Study
 
 __all__ = ["DEFAULT_OBJECTIVES", "ParetoResult", "hypervolume_2d", "nondominated", "pareto_front"]
 
@@ -45,7 +40,7 @@ DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
 
 def _minimized(kind: str, v: np.ndarray) -> np.ndarray:
     """Natural values -> values to minimize (margins negated)."""
-    return -np.asarray(v, float) if kind in MAXIMIZED else np.asarray(v, float)
+    return OBJECTIVES[kind].minimized(v)
 
 
 def nondominated(points: np.ndarray) -> np.ndarray:
@@ -131,7 +126,7 @@ class ParetoResult:
     def plot(self, path) -> None:
         """PNG of the front with the designs annotated."""
 
-        pareto_plot(self, path)
+        plotting.pareto_plot(self, path)
 
 
 def _check_objectives(objectives) -> tuple[str, str]:
@@ -148,8 +143,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
                  progress=None) -> ParetoResult:
     """Epsilon-constraint Pareto front of two objectives with warm starts.
 
-    One parametric NLP (:class:`isodesign.optimization.optimizer.Problem` with both objectives)
-    is built once. Anchor A is :func:`isodesign.optimization.optimizer.optimize` of the study
+    One parametric NLP (:class:`isodesign.optimization.problem.Problem` with both objectives)
+    is built once. Anchor A is :func:`isodesign.optimization.driver.optimize` of the study
     with objective A (multi-start, peak refinement, tie-break, re-check), so the
     front starts at the reported single-objective optimum; anchor B is B
     minimized from there. The sweep minimizes A subject to ``B <= eps`` for
@@ -191,21 +186,21 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     if progress:
         progress(1, total)
     anchor_a = prob.solve(prob.initial_guess(res_a.values))
-    if anchor_a["max_violation"] > 1e-6:
-        raise SolverError(f"pareto: re-solving the optimum of {a} failed ({anchor_a['status']})")
-    anchor_b = prob.solve(anchor_a["x"], prob.params(weights=[0.0, 1.0]))
-    if anchor_b["max_violation"] > 1e-6:
+    if not anchor_a.feasible:
+        raise SolverError(f"pareto: re-solving the optimum of {a} failed ({anchor_a.status})")
+    anchor_b = prob.solve(anchor_a.x, prob.params(weights=[0.0, 1.0]))
+    if not anchor_b.feasible:
         # from A's optimum IPOPT can stall; minimize B from the study's starts instead
         outs = run_starts(prob, start_points(st, prob.scaling),
                           workers=st.solver.get("workers"),
                           params=prob.params(weights=[0.0, 1.0]))
-        good = [o for o in outs if isinstance(o, dict) and o["max_violation"] <= 1e-6]
+        good = [o for o in outs if isinstance(o, Solution) and o.feasible]
         if not good:
-            raise SolverError(f"pareto: minimizing {b} failed ({anchor_b['status']}) from A's "
+            raise SolverError(f"pareto: minimizing {b} failed ({anchor_b.status}) from A's "
                               "optimum and from every start")
-        anchor_b = min(good, key=lambda o: o["J_all"][1])
-    jb_at_a = float(anchor_a["J_all"][1])
-    jb_min = float(anchor_b["J_all"][1])
+        anchor_b = min(good, key=lambda o: o.objectives[1])
+    jb_at_a = float(anchor_a.objectives[1])
+    jb_min = float(anchor_b.objectives[1])
     eps = np.linspace(jb_at_a, jb_min, points)
     # two warm-started chains, one from each anchor, meeting in the middle: they run in
     # the two forked workers when the machine has the cores
@@ -216,13 +211,13 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     values, designs, statuses = [], [], []
     for k in range(points):
         sol = sols[k]
-        if sol["max_violation"] <= 1e-6:
-            values.append((objective_value_to_natural(a, sol["J_all"][0]),
-                           objective_value_to_natural(b, sol["J_all"][1])))
+        if sol.feasible:
+            values.append((OBJECTIVES[a].to_natural(sol.objectives[0]),
+                           OBJECTIVES[b].to_natural(sol.objectives[1])))
         else:
             values.append((math.nan, math.nan))
-        designs.append(prob.values(sol["x"]))
-        statuses.append(sol["status"])
+        designs.append(sol.values)
+        statuses.append(sol.status)
     if progress:
         progress(total, total)
     v = np.array(values, float)
@@ -241,7 +236,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         wall_s=time.perf_counter() - t0,
         settings={"method": "epsilon-constraint, one parametric IPOPT NLP, warm starts",
                   "points": points, "reference_margin": REFERENCE_MARGIN,
-                  "units": (OBJECTIVE_UNITS[a], OBJECTIVE_UNITS[b]),
+                  "units": (OBJECTIVES[a].unit, OBJECTIVES[b].unit),
                   "starts": st.solver["starts"]},
     )
 
@@ -249,20 +244,21 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
 _CHAIN_PROBLEM: Problem | None = None  # inherited by the forked chain workers
 
 
-def _chain(prob: Problem, anchor: dict, indices: list[int], eps, anchor_b: dict) -> dict:
+def _chain(prob: Problem, anchor: Solution, indices: list[int], eps,
+           anchor_b: Solution) -> dict:
     """Solve a chain of sweep points, each warm-started from the previous one."""
     out = {}
     x = _consistent(prob, anchor)
     for k in indices:
         e_k = eps[k] + 1e-9 * max(1.0, abs(eps[k]))
         sol = prob.solve(x, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
-        if sol["max_violation"] > 1e-6:
+        if not sol.feasible:
             # warm start failed: retry from B's anchor (feasible for every eps >= B's min)
             sol = prob.solve(_consistent(prob, anchor_b),
                              prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
-        if sol["max_violation"] <= 1e-6:
+        if sol.feasible:
             sol = _refine_point(prob, sol, [None, e_k])
-            x = sol["x"]
+            x = sol.x
         out[k] = sol
     return out
 
@@ -301,14 +297,14 @@ def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
     return sols
 
 
-def _consistent(prob: Problem, sol: dict) -> np.ndarray:
+def _consistent(prob: Problem, sol: Solution) -> np.ndarray:
     """A start at a solution's design with every implicit unknown solved for the
     current grid (the movable peak frequencies included)."""
-    return prob.initial_guess(prob.values(sol["x"]))
+    return prob.initial_guess(sol.values)
 
 
-def _refine_point(prob: Problem, sol: dict, eps) -> dict:
-    """The exchange method of :func:`isodesign.optimization.optimizer.optimize` for one sweep point.
+def _refine_point(prob: Problem, sol: Solution, eps) -> Solution:
+    """The exchange method of :func:`isodesign.optimization.driver.optimize` for one sweep point.
 
     If the continuous peak of |T| exceeds the study's bound (or the sampled peak
     objective) by more than PEAK_TOLERANCE_DB, move five of the NLP's movable
@@ -321,19 +317,17 @@ def _refine_point(prob: Problem, sol: dict, eps) -> dict:
     if bound is None and "peak_transmissibility" not in kinds:
         return sol
     for rnd in range(PEAK_ROUNDS):
-        vals = prob.values(sol["x"])
-        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(sol["x"]))
+        vals = sol.values
+        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(sol.x), prob.tube_rms(sol.x))
         limits = [bound] if bound is not None else []
         for k, kind in enumerate(kinds):
             if kind == "peak_transmissibility":
-                limits.append(objective_value_to_natural(kind, sol["J_all"][k]))
+                limits.append(OBJECTIVES[kind].to_natural(sol.objectives[k]))
         if peak_db <= min(limits) + PEAK_TOLERANCE_DB:
             break
-        slots = prob.slot_hz.copy()
-        slots[5 * rnd: 5 * rnd + 5] = [f_pk * r for r in (0.99, 0.995, 1.0, 1.005, 1.01)]
-        prob.set_slots(slots)
+        peak_slots(prob, rnd, f_pk)
         new = prob.solve(prob.initial_guess(vals), prob.params(weights=[1.0, 0.0], eps=eps))
-        if new["max_violation"] > 1e-6:
+        if not new.feasible:
             break
         sol = new
     return sol
@@ -351,10 +345,6 @@ def _objective_table(study: Study, kind: str) -> dict:
     for k in ("frequency_hz", "band_min_hz", "band_max_hz"):
         if k in o:
             t[k] = o[k]
-    if kind == "transmissibility_at" and "frequency_hz" not in t:
-        t["frequency_hz"] = 10.0
+    if OBJECTIVES[kind].at_frequency and "frequency_hz" not in t:
+        t["frequency_hz"] = DEFAULT_POINT_FREQUENCY_HZ
     return t
-
-
-
-__all__ += ["natural_to_objective_value"]

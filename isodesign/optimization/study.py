@@ -36,35 +36,21 @@ from typing import Any
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.io.files import read_toml
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
-from isodesign.spring.capillary import SMOOTH_FLOW_MODELS
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS
 from isodesign.spring.gas import Gas
 from isodesign.spring.stiffness import AMPLITUDE_MODES
 
 __all__ = [
-    "DESIGN_VARIABLES",
-    "OBJECTIVES",
     "Study",
-    "VariableSpec",
     "default_study",
     "load_study",
     "study_from_dict",
 ]
-
-#: Design variables of the optimizer, in order.
-DESIGN_VARIABLES = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
-#: Objectives (all minimized internally; margins are maximized).
-OBJECTIVES = {
-    "worst_band_margin": "worst-band margin of payload velocity against the target, dB (max)",
-    "rms_velocity": "payload RMS velocity over a band range, m/s (min)",
-    "peak_transmissibility": "resonance peak of |T| at the operating amplitude, dB (min)",
-    "transmissibility_at": "|T| at a chosen frequency, dB (min)",
-    "total_volume": "total chamber volume V_t0 (1 + N), m^3 (min)",
-}
-#: Objectives that are maximized (reported with their natural sign).
-MAXIMIZED = ("worst_band_margin",)
 
 _DEFAULT = {
     "name": "default",
@@ -86,7 +72,7 @@ _DEFAULT = {
         "flow": "womersley",
         "amplitude_mode": "self_consistent",
         "diaphragm": "viscoelastic",
-        "random_method": "equivalent_amplitude",
+        "random_method": "statistical",
         "points_per_band": 6,
         "peak_points": 80,
     },
@@ -132,22 +118,6 @@ _KEYS = {
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
-
-
-@dataclass(frozen=True)
-class VariableSpec:
-    """Bounds and start of one design variable (SI units)."""
-
-    name: str
-    start: float
-    lower: float
-    upper: float
-    fixed: bool = False
-
-    @property
-    def free(self) -> bool:
-        """True when the optimizer may change it."""
-        return not self.fixed
 
 
 @dataclass(frozen=True, eq=False)
@@ -235,10 +205,35 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
 
     Missing tables and keys take the built-in default study's values, so a
     study file need only state what differs. Every error names the file, the
-    table and the key.
+    table and the key. Each table is validated by its own function
+    (``_payload``, ``_hardware``, ``_floor``, ``_target``, ``_models``,
+    ``_variables``, ``_constraints``, ``_objective``, ``_solver``).
     """
 
     where = source
+    _check_all_keys(d, where)
+    raw = _resolve(d, fill_defaults)
+    payload = _payload(raw["payload"], where)
+    hw = _hardware(raw["hardware"], where)
+    floor = _floor(raw["floor"], where, source)
+    target, bands, band_hz = _target(raw["target"], where)
+    models = _models(raw["models"], where, source)
+    variables = _variables(raw["variables"], where)
+    cons = _constraints(raw["constraints"], where, variables, payload)
+    obj = _objective(raw["objective"], where, band_hz)
+    solver = _solver(raw["solver"], where)
+    name = raw.get("name", "study")
+    if not isinstance(name, str):
+        raise InputError(f"{where}: name must be a string")
+    st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
+               bands=bands, models=models, variables=variables, constraints=cons,
+               objective=obj, solver=solver, source=source)
+    _check_start_design(st, where)
+    return st
+
+
+def _check_all_keys(d: dict, where: str) -> None:
+    """Unknown keys in any table."""
     _check_keys(d, "", where)
     for t in ("payload", "hardware", "floor", "target", "models", "variables", "constraints",
               "objective", "solver"):
@@ -248,6 +243,10 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         _check_keys(d["hardware"]["gas"], "hardware.gas", where)
     for name, spec in d.get("variables", {}).items():
         _check_keys(spec, "variable", f"{where} [variables.{name}]")
+
+
+def _resolve(d: dict, fill_defaults: bool) -> dict:
+    """The study with the default study's values filled in."""
     raw = _merge(_DEFAULT, d) if fill_defaults else copy.deepcopy(d)
     # a user's floor or hardware table replaces the default's alternatives
     if fill_defaults and "floor" in d:
@@ -256,10 +255,13 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         "diaphragm_r1_m" in d["hardware"] or "diaphragm_r2_m" in d["hardware"]
     ):
         raw["hardware"].pop("piston_area_m2", None)
+    return raw
 
-    p = raw["payload"]
+
+def _payload(p: dict, where: str) -> Payload:
+    """``[payload]``."""
     try:
-        payload = Payload(
+        return Payload(
             mass_kg=_num(where, "payload.mass_kg", p.get("mass_kg"), 0, None, True, "kg"),
             isolators=p.get("isolators", 4),
             spacing_m=p.get("spacing_m"),
@@ -269,14 +271,14 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         msg = str(exc)
         raise InputError(msg if msg.startswith(where) else f"{where}: payload.{msg}") from None
 
-    # hardware: fixed spring parameters
-    h = dict(raw["hardware"])
+
+def _hardware(h: dict, where: str) -> dict:
+    """``[hardware]``: the fixed spring parameters."""
     hw: dict[str, Any] = {}
     if "diaphragm_r1_m" in h or "diaphragm_r2_m" in h:
         if "piston_area_m2" in h:
             raise InputError(f"{where}: [hardware] give piston_area_m2 or diaphragm_r1_m + "
                              "diaphragm_r2_m, not both")
-
         hw["piston_area_m2"] = piston_area_from_diaphragm(h.get("diaphragm_r1_m"),
                                                           h.get("diaphragm_r2_m"))
     else:
@@ -290,14 +292,15 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         hw["polytropic_index"] = _num(where, "hardware.polytropic_index", h["polytropic_index"],
                                       1.0, 1.67)
     if "gas" in h:
-
         try:
             hw["gas"] = Gas(**h["gas"])
         except InputError as exc:
             raise InputError(f"{where}: [hardware.gas] {exc}") from None
+    return hw
 
-    # floor and target
-    fl = raw["floor"]
+
+def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
+    """``[floor]``: a criterion or a CSV spectrum (relative to the study file)."""
     if ("criterion" in fl) == ("csv" in fl):
         raise InputError(f"{where}: [floor] needs exactly one of criterion = \"VC-A\" or "
                          "csv = \"file.csv\"")
@@ -306,16 +309,18 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         if extra:
             raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} only apply to csv")
         try:
-            floor = FloorSpectrum.from_criterion(fl["criterion"])
+            return FloorSpectrum.from_criterion(fl["criterion"])
         except InputError as exc:
             raise InputError(f"{where}: floor.{exc}") from None
-    else:
-        path = Path(fl["csv"])
-        if not path.is_absolute() and source not in ("<dict>", "<default>"):
-            path = Path(source).parent / path
-        floor = FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
-                                       unit=fl.get("unit"))
-    tg = raw["target"]
+    path = Path(fl["csv"])
+    if not path.is_absolute() and source not in ("<dict>", "<default>"):
+        path = Path(source).parent / path
+    return FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
+                                  unit=fl.get("unit"))
+
+
+def _target(tg: dict, where: str):
+    """``[target]``: (criterion, bands, {"band_min_hz": ..., "band_max_hz": ...})."""
     if "criterion" not in tg:
         raise InputError(f"{where}: [target] criterion is required (e.g. \"VC-E\")")
     try:
@@ -331,10 +336,26 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     if len(bands) == 0:
         raise InputError(f"{where}: [target] no one-third octave band between {bmin:g} and "
                          f"{bmax:g} Hz")
+    return target, bands, {"band_min_hz": bmin, "band_max_hz": bmax}
 
-    # models
 
-    m = raw["models"]
+def _int_in(where: str, key: str, value, lo: int, hi: int | None) -> int:
+    """An integer in [lo, hi] (hi None: no upper limit), else the schema's message."""
+    if isinstance(value, bool) or not isinstance(value, int) or value < lo \
+            or (hi is not None and value > hi):
+        rng = f"in [{lo}, {hi}]" if hi is not None else f">= {lo}"
+        raise InputError(f"{where}: {key} must be an integer {rng}")
+    return value
+
+
+def _bool(where: str, key: str, value) -> bool:
+    if not isinstance(value, bool):
+        raise InputError(f"{where}: {key} must be true or false")
+    return value
+
+
+def _models(m: dict, where: str, source: str) -> dict:
+    """``[models]``: flow model, amplitude mode, diaphragm, grids."""
     flow = m.get("flow", "womersley")
     if isinstance(flow, str) and flow.startswith("zhao"):
         raise InputError(
@@ -346,7 +367,7 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     check_choice(f"{where}: models.amplitude_mode", m.get("amplitude_mode", "self_consistent"),
                  AMPLITUDE_MODES)
     check_choice(f"{where}: models.random_method",
-                 m.get("random_method", "equivalent_amplitude"), ("equivalent_amplitude",))
+                 m.get("random_method", "statistical"), ("statistical", "equivalent_amplitude"))
     dia = m.get("diaphragm", "viscoelastic")
     if not isinstance(dia, str):
         raise InputError(f"{where}: models.diaphragm must be a string")
@@ -356,31 +377,26 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         rel = dia[len("table:"):] if dia.startswith("table:") else dia
         if not Path(rel).is_absolute():
             dia = f"table:{Path(source).parent / rel}"
-
     try:
         diaphragm_model(dia)
     except InputError as exc:
         raise InputError(f"{where}: models.{exc}") from None
-    ppb = m.get("points_per_band", 6)
-    if isinstance(ppb, bool) or not isinstance(ppb, int) or not 3 <= ppb <= 200:
-        raise InputError(f"{where}: models.points_per_band must be an integer in [3, 200]")
-    npk = m.get("peak_points", 80)
-    if isinstance(npk, bool) or not isinstance(npk, int) or not 10 <= npk <= 2000:
-        raise InputError(f"{where}: models.peak_points must be an integer in [10, 2000]")
-    models = {"flow": flow, "amplitude_mode": m.get("amplitude_mode", "self_consistent"),
-              "diaphragm": dia, "random_method": m.get("random_method", "equivalent_amplitude"),
-              "points_per_band": ppb, "peak_points": npk}
+    ppb = _int_in(where, "models.points_per_band", m.get("points_per_band", 6), 3, 200)
+    npk = _int_in(where, "models.peak_points", m.get("peak_points", 80), 10, 2000)
+    return {"flow": flow, "amplitude_mode": m.get("amplitude_mode", "self_consistent"),
+            "diaphragm": dia, "random_method": m.get("random_method", "statistical"),
+            "points_per_band": ppb, "peak_points": npk}
 
-    # variables
+
+def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
+    """``[variables.<name>]`` for every design variable."""
     variables = []
     for name in DESIGN_VARIABLES:
-        spec = raw["variables"].get(name)
+        spec = table.get(name)
         if spec is None:
             raise InputError(f"{where}: [variables.{name}] is missing")
         w = f"{where}: variables.{name}"
-        fixed = spec.get("fixed", False)
-        if not isinstance(fixed, bool):
-            raise InputError(f"{w}.fixed must be true or false")
+        fixed = _bool(where, f"variables.{name}.fixed", spec.get("fixed", False))
         start = _num(where, f"variables.{name}.start", spec.get("start"), 0, None, True)
         if fixed:
             lo = hi = start
@@ -393,19 +409,19 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
                 raise InputError(f"{w}.start ({start:g}) must lie in [lower, upper] = "
                                  f"[{lo:g}, {hi:g}]")
         variables.append(VariableSpec(name, start, lo, hi, fixed))
+    return tuple(variables)
 
-    # constraints
-    c = raw["constraints"]
+
+def _constraints(c: dict, where: str, variables, payload) -> dict:
+    """``[constraints]``: each numeric one a positive number or false (off)."""
     cons: dict[str, Any] = {}
     for k in _KEYS["constraints"] - {"model_validity"}:
         v = c.get(k, False)
         if v is False or v is None:
             cons[k] = None
             continue
-        lo, lo_open = (0.0, True)
-        if k == "max_peak_transmissibility_db":
-            lo, lo_open = 0.0, False
-        cons[k] = _num(where, f"constraints.{k}", v, lo, None, lo_open)
+        lo_open = k != "max_peak_transmissibility_db"  # 0 dB is a valid peak bound
+        cons[k] = _num(where, f"constraints.{k}", v, 0.0, None, lo_open)
     if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
         if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
             raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "
@@ -419,63 +435,56 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     if dmin and not dvar.fixed and dvar.upper <= dmin:
         raise InputError(f"{where}: variables.capillary_diameter_m.upper ({dvar.upper:g} m) "
                          f"must exceed constraints.min_capillary_diameter_m ({dmin:g} m)")
-    mv = c.get("model_validity", True)
-    if not isinstance(mv, bool):
-        raise InputError(f"{where}: constraints.model_validity must be true or false")
-    cons["model_validity"] = mv
+    cons["model_validity"] = _bool(where, "constraints.model_validity",
+                                   c.get("model_validity", True))
     if cons["min_tilt_margin"] and (payload.spacing_m is None or payload.cg_height_m is None):
         raise InputError(f"{where}: constraints.min_tilt_margin needs payload.spacing_m and "
                          "payload.cg_height_m (or set min_tilt_margin = false)")
+    return cons
 
-    # objective
-    o = raw["objective"]
+
+#: Options of the ``[objective]`` table an objective may read (its
+#: :attr:`~isodesign.optimization.objectives.Objective.options`): the target table's
+#: key that gives the default (None: required) and the unit named in errors.
+_OBJECTIVE_OPTIONS = {
+    "frequency_hz": (None, "Hz"),
+    "band_min_hz": ("band_min_hz", ""),
+    "band_max_hz": ("band_max_hz", ""),
+}
+
+
+def _objective(o: dict, where: str, band_hz: dict) -> dict:
+    """``[objective]``: the kind (a registered objective) and the options it reads."""
     kind = check_choice(f"{where}: objective.kind", o.get("kind", "worst_band_margin"),
                         tuple(OBJECTIVES))
     obj = {"kind": kind}
-    if kind == "transmissibility_at":
-        obj["frequency_hz"] = _num(where, "objective.frequency_hz", o.get("frequency_hz"), 0,
-                                   None, True, "Hz")
-    if kind == "rms_velocity":
-        obj["band_min_hz"] = _num(where, "objective.band_min_hz", o.get("band_min_hz", bmin),
-                                  0, None, True)
-        obj["band_max_hz"] = _num(where, "objective.band_max_hz", o.get("band_max_hz", bmax),
-                                  0, None, True)
+    for key in OBJECTIVES[kind].options:
+        default, unit = _OBJECTIVE_OPTIONS[key]
+        value = o.get(key, band_hz[default] if default else None)
+        obj[key] = _num(where, f"objective.{key}", value, 0, None, True, unit)
+    return obj
 
-    # solver
-    s = raw["solver"]
-    starts = s.get("starts", 8)
-    if isinstance(starts, bool) or not isinstance(starts, int) or not 1 <= starts <= 256:
-        raise InputError(f"{where}: solver.starts must be an integer in [1, 256]")
-    seed = s.get("seed", 0)
-    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
-        raise InputError(f"{where}: solver.seed must be an integer >= 0")
-    max_iter = s.get("max_iter", 300)
-    if isinstance(max_iter, bool) or not isinstance(max_iter, int) or not 1 <= max_iter <= 10000:
-        raise InputError(f"{where}: solver.max_iter must be an integer in [1, 10000]")
-    tol = _num(where, "solver.tol", s.get("tol", 1e-9), 1e-14, 1e-2)
-    tie = s.get("tie_break", True)
-    if not isinstance(tie, bool):
-        raise InputError(f"{where}: solver.tie_break must be true or false")
-    workers = s.get("workers", 2)
-    if isinstance(workers, bool) or not isinstance(workers, int) or not 1 <= workers <= 64:
-        raise InputError(f"{where}: solver.workers must be an integer in [1, 64]")
-    solver = {"starts": starts, "seed": seed, "max_iter": max_iter, "tol": tol,
-              "tie_break": tie, "workers": workers}
 
-    name = raw.get("name", "study")
-    if not isinstance(name, str):
-        raise InputError(f"{where}: name must be a string")
-    st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
-               bands=bands, models=models, variables=tuple(variables), constraints=cons,
-               objective=obj, solver=solver, source=source)
-    # the start design must be a valid spring (names the field otherwise)
+def _solver(s: dict, where: str) -> dict:
+    """``[solver]``: starts, seed, iteration limit, tolerance, tie-break, workers."""
+    return {
+        "starts": _int_in(where, "solver.starts", s.get("starts", 8), 1, 256),
+        "seed": _int_in(where, "solver.seed", s.get("seed", 0), 0, None),
+        "max_iter": _int_in(where, "solver.max_iter", s.get("max_iter", 300), 1, 10000),
+        "tol": _num(where, "solver.tol", s.get("tol", 1e-9), 1e-14, 1e-2),
+        "tie_break": _bool(where, "solver.tie_break", s.get("tie_break", True)),
+        "workers": _int_in(where, "solver.workers", s.get("workers", 2), 1, 64),
+    }
+
+
+def _check_start_design(st: Study, where: str) -> None:
+    """The start design must be a valid spring (names the field otherwise)."""
     try:
         st.start_design()
     except InputError as exc:
         raise InputError(f"{where}: start design: {exc}") from None
     if not math.isfinite(st.start_design().pressure_pa):
         raise InputError(f"{where}: payload gives a non-finite pressure")
-    return st
 
 
 def load_study(path) -> Study:

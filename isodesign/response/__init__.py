@@ -13,7 +13,6 @@ One concept a module:
 """
 
 from isodesign.response.control import (
-    RATIONAL_FLOW_MODELS,
     StepMetrics,
     dominant_pole_pair,
     step_metrics,
@@ -57,7 +56,6 @@ __all__ = [
     "EQUIVALENT_AMPLITUDE_FACTOR",
     "LINEAR_REFERENCE_AMPLITUDE_M",
     "RANDOM_METHODS",
-    "RATIONAL_FLOW_MODELS",
     "SCAN_AMPLITUDE_RANGE_M",
     "BandResponse",
     "HarmonicResponse",

@@ -30,11 +30,10 @@ import numpy as np
 
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.response.model import linear_transmissibility, prepare_inputs
-from isodesign.spring.capillary import FLOW_MODELS, resistance_function
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import RATIONAL_FLOW_MODELS, flow_model, resistance_function
 
 __all__ = [
-    "RATIONAL_FLOW_MODELS",
     "StepMetrics",
     "dominant_pole_pair",
     "resistance_coefficients",
@@ -44,16 +43,13 @@ __all__ = [
     "transfer_function_polynomials",
 ]
 
-#: Flow models with a rational (affine in s) small-amplitude resistance.
-RATIONAL_FLOW_MODELS = ("poiseuille", "quasi_steady")
 #: Outputs of :func:`to_transfer_function`.
 TRANSFER_OUTPUTS = ("transmissibility", "relative", "stiffness")
 
 
 def check_rational(flow: str, diaphragm) -> None:
     """Raise InputError unless (flow, diaphragm) has a rational transfer function."""
-    check_choice("flow", flow, FLOW_MODELS)
-    if flow not in RATIONAL_FLOW_MODELS:
+    if not flow_model(flow).rational:
         raise InputError(
             f"flow: {flow!r} has no rational transfer function (its resistance is not affine "
             f"in s); valid: {', '.join(RATIONAL_FLOW_MODELS)} (with diaphragm='none'), or use "
@@ -71,6 +67,13 @@ def resistance_coefficients(design, flow: str) -> tuple[float, float]:
     """``(c0, c1)`` of the small-amplitude resistance ``C(s) = c0 + c1 s`` (Pa s/kg, Pa s^2/kg).
 
     ``poiseuille``: ``(C_u, 0)``; ``quasi_steady``: ``(C_u, (4/3) L_c / A_c)``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (numbers).
+    flow : str
+        A rational flow model (:data:`isodesign.spring.flow_models.RATIONAL_FLOW_MODELS`).
     """
     check_choice("flow", flow, RATIONAL_FLOW_MODELS)
     # the flow model itself at zero velocity: Re C is c0, Im C = w c1 (both models'
@@ -104,7 +107,7 @@ def transfer_function_polynomials(
     """
     check_choice("output", output, TRANSFER_OUTPUTS)
     c0, c1 = resistance_coefficients(design, flow)
-    sf = float(design.compliance_factor_s2_per_m2)
+    sf = float(design.compliance_factor_kg_per_pa)
     ks = float(design.single_chamber_stiffness_n_per_m)
     n1 = 1.0 + float(design.volume_ratio)
     m = float(mass_per_isolator_kg)
@@ -219,6 +222,11 @@ def to_frd(
 
 def dominant_pole_pair(sys) -> tuple[float, float, complex] | None:
     """The slowest-decaying complex pole pair of a system (python-control ``damp``).
+
+    Parameters
+    ----------
+    sys : control.TransferFunction or control.StateSpace
+        A linear system.
 
     Returns
     -------

@@ -26,6 +26,7 @@ from isodesign.errors import InputError, check_positive, check_range
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx, as_cx
 from isodesign.spring.capillary import poiseuille_resistance
+from isodesign.spring.equations import spring_stiffness
 from isodesign.spring.gas import G_STANDARD
 
 __all__ = [
@@ -118,13 +119,33 @@ def loaded_design(design, payload: Payload):
 
 
 def transmissibility(k: Cx, mass_per_isolator_kg, omega) -> Cx:
-    """Absolute transmissibility ``T = k* / (k* - (m/n) w^2)`` (floor to payload)."""
+    """Absolute transmissibility ``T = k* / (k* - (m/n) w^2)`` (floor to payload).
+
+    Parameters
+    ----------
+    k : Cx
+        Complex stiffness of one spring, N/m.
+    mass_per_isolator_kg : float
+        Payload mass per isolator m/n, kg.
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    """
     k = as_cx(k)
     return k / (k - mass_per_isolator_kg * omega * omega)
 
 
 def relative_transmissibility(k: Cx, mass_per_isolator_kg, omega) -> Cx:
-    """Stroke per floor motion, ``T - 1 = (m/n) w^2 / (k* - (m/n) w^2)``."""
+    """Stroke per floor motion, ``T - 1 = (m/n) w^2 / (k* - (m/n) w^2)``.
+
+    Parameters
+    ----------
+    k : Cx
+        Complex stiffness of one spring, N/m.
+    mass_per_isolator_kg : float
+        Payload mass per isolator m/n, kg.
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    """
     k = as_cx(k)
     mw2 = mass_per_isolator_kg * omega * omega
     # as_cx: a NumPy array on the left of "/" would make an object array of Cx
@@ -132,7 +153,15 @@ def relative_transmissibility(k: Cx, mass_per_isolator_kg, omega) -> Cx:
 
 
 def natural_frequency_hz(stiffness_n_per_m, mass_per_isolator_kg):
-    """Undamped natural frequency ``sqrt(k/m) / (2 pi)`` in Hz."""
+    """Undamped natural frequency ``sqrt(k/m) / (2 pi)`` in Hz.
+
+    Parameters
+    ----------
+    stiffness_n_per_m : float or ndarray
+        Stiffness of one spring, N/m.
+    mass_per_isolator_kg : float
+        Payload mass per isolator m/n, kg.
+    """
     return bk.sqrt(stiffness_n_per_m / mass_per_isolator_kg) / (2.0 * math.pi)
 
 
@@ -150,20 +179,38 @@ def static_stiffness(design, diaphragm, mass_per_isolator_kg,
     ``f_air = sqrt((k_s/(N+1)) / (m/n)) / (2 pi)``. Explicit and smooth, so the
     optimizer's constraints and the analysis's stability figures use the same
     number. Used for the natural frequency and the tilt margin.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (any backend).
+    diaphragm : diaphragm model
+        Its storage stiffness is added (Eq. 42).
+    mass_per_isolator_kg : float
+        Payload mass per isolator m/n, kg.
+    amplitude_m : float
+        Reference amplitude, m (1 um).
     """
     k_air = design.static_stiffness_n_per_m
     w_air = bk.sqrt(k_air / mass_per_isolator_kg)
-    return k_air + diaphragm.stiffness(w_air, amplitude_m).re
+    return spring_stiffness(Cx(k_air, 0.0), diaphragm.stiffness(w_air, amplitude_m)).re
 
 
 def tilt_margin(stiffness_n_per_m, payload: Payload):
-    """Static rocking (tilt) margin ``n k (s/2)^2 / (m g h)`` (physics notes, section 8).
+    """Static rocking (tilt) margin ``n k (s/2)^2 / (m g h)`` (docs/physics.md, section 8).
 
     Rocking about the diaphragm plane is statically stable when the isolators'
     total vertical stiffness ``n k`` times ``(s/2)^2`` exceeds ``m g h`` (``s`` the
     narrowest isolator spacing, ``h`` the centre-of-gravity height above the
     diaphragms): margin > 1. Isolator makers' rule of thumb: spacing at least
     twice the CG height.
+
+    Parameters
+    ----------
+    stiffness_n_per_m : float or CasADi symbol
+        Static stiffness of one spring, N/m.
+    payload : Payload
+        With ``spacing_m`` and ``cg_height_m`` set.
     """
     if payload.spacing_m is None or payload.cg_height_m is None:
         raise InputError("payload: spacing_m and cg_height_m are needed for the tilt margin")
@@ -177,7 +224,7 @@ def tilt_margin(stiffness_n_per_m, payload: Payload):
 
 
 def zener_damping_ratio(design, mass_per_isolator_kg, resistance=None):
-    """Damping ratio of the linearized spring's Zener form (physics notes, section 5).
+    """Damping ratio of the linearized spring's Zener form (docs/physics.md, section 5).
 
     With Poiseuille flow (or any flow model's small-amplitude, low-frequency
     resistance ``C``) and no diaphragm, Eq. 38 is a spring ``k = k_s/(N+1)`` in
@@ -195,17 +242,26 @@ def zener_damping_ratio(design, mass_per_isolator_kg, resistance=None):
     c_flow = poiseuille_resistance(design) if resistance is None else resistance
     n = design.volume_ratio
     ks = design.single_chamber_stiffness_n_per_m
-    tau = design.compliance_factor_s2_per_m2 * c_flow
+    tau = design.compliance_factor_kg_per_pa * c_flow
     c = ks * n * tau / ((n + 1.0) ** 2)
     k = ks / (n + 1.0)
     return c / (2.0 * bk.sqrt(k * mass_per_isolator_kg))
 
 
 def zener_transmissibility(volume_ratio, damping_ratio, frequency_ratio):
-    """Closed-form |T| of the Zener isolator (physics notes, section 5).
+    """Closed-form |T| of the Zener isolator (docs/physics.md, section 5).
 
     ``T^2 = [1 + 4 z^2 r^2 (N+1)^2/N^2] / [(1-r^2)^2 + (4 z^2 r^2/N^2)(N+1-r^2)^2]``
     with ``r = w/w_n``, ``w_n = sqrt(k/m)``, ``k = k_s/(N+1)``.
+
+    Parameters
+    ----------
+    volume_ratio : float or ndarray
+        N = V_b0 / V_t0.
+    damping_ratio : float or ndarray
+        ``zeta = k / (2 sqrt(k m) ...)`` of the Zener form (see :func:`zener_damping_ratio`).
+    frequency_ratio : float or ndarray
+        ``r = w / w_n``.
     """
     n, z, r = volume_ratio, damping_ratio, frequency_ratio
     num = 1.0 + 4.0 * z * z * r * r * (n + 1.0) ** 2 / (n * n)
@@ -215,6 +271,11 @@ def zener_transmissibility(volume_ratio, damping_ratio, frequency_ratio):
 
 def zener_optimum(volume_ratio):
     """Optimal damping of the Zener isolator at fixed N (Ruzicka and Derby, 1971).
+
+    Parameters
+    ----------
+    volume_ratio : float
+        N = V_b0 / V_t0.
 
     Returns
     -------

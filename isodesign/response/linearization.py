@@ -4,7 +4,7 @@ Everything the closure of the amplitude dependence needs that is not a solver:
 
 * :data:`EQUIVALENT_AMPLITUDE_FACTOR`, ``A* = 3 sqrt(pi/8) sigma = 1.880 sigma``: the
   harmonic amplitude whose describing function equals the Gaussian-input (random)
-  describing function of a quadratic damper (physics notes, section 7).
+  describing function of a quadratic damper (docs/physics.md, section 7).
 * :func:`rayleigh_rule` and :func:`rayleigh_average`: the exact Rayleigh average of a
   harmonic describing function over the amplitude distribution of a narrow-band Gaussian
   stroke, ``k_R(sigma) = integral k*(A) A^3/(2 sigma^4) exp(-A^2/(2 sigma^2)) dA``, by a
@@ -64,10 +64,10 @@ __all__ = [
 ]
 
 #: ``A* / sigma = 3 sqrt(pi/8) = 1.8800``: the harmonic amplitude whose describing function
-#: equals the Gaussian-input describing function for quadratic damping (physics notes,
-#: section 7). The Rayleigh average of ``8 A c/(3 pi)`` is ``c sqrt(8/pi) sigma`` =
-#: ``8 (A*) c/(3 pi)`` with ``A* = 3 sqrt(pi/8) sigma``; exact for any describing function
-#: linear in the amplitude.
+#: equals the Gaussian-input describing function for quadratic damping
+#: (docs/physics.md, section 7). The Rayleigh average of ``8 A c/(3 pi)`` is
+#: ``c sqrt(8/pi) sigma`` = ``8 (A*) c/(3 pi)`` with ``A* = 3 sqrt(pi/8) sigma``; exact for
+#: any describing function linear in the amplitude.
 EQUIVALENT_AMPLITUDE_FACTOR = 3.0 * math.sqrt(math.pi / 8.0)
 
 #: Default number of nodes of the Rayleigh-average Gauss rule (exact for polynomials in the
@@ -124,7 +124,7 @@ def rayleigh_rule(n: int = RAYLEIGH_NODES) -> tuple[np.ndarray, np.ndarray]:
 
     For a narrow-band Gaussian stroke of RMS ``sigma`` the amplitude envelope is
     Rayleigh-distributed, and the Gaussian-input describing function is the average of
-    the harmonic one (physics notes, section 7)::
+    the harmonic one (docs/physics.md, section 7)::
 
         k_R(sigma) = integral_0^inf k*(A) A^3 / (2 sigma^4) exp(-A^2 / (2 sigma^2)) dA
                    = integral_0^inf k*(sigma sqrt(2) u) 2 u^3 exp(-u^2) du   (A = sigma sqrt(2) u)

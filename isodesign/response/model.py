@@ -78,7 +78,17 @@ TWO_PI = 2.0 * math.pi
 # inputs
 # ---------------------------------------------------------------------------
 def prepare_inputs(design, payload, derive_pressure: bool):
-    """Validate (design, payload); return the design to use and the payload."""
+    """Validate (design, payload); return the design to use and the payload.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring.
+    payload : Payload
+        The payload.
+    derive_pressure : bool
+        Replace p0 by the pressure that carries the payload (Eq. 1).
+    """
 
     if not isinstance(design, SpringDesign):
         raise InputError(f"design: expected a SpringDesign, got {type(design).__name__}")
@@ -139,6 +149,11 @@ def resolve_floor(floor):
 def resolve_target(target):
     """A :class:`~isodesign.floor.CriterionCurve` from a name, a curve or a CSV file.
 
+    Parameters
+    ----------
+    target : str, CriterionCurve or path
+        A criterion name (:func:`isodesign.floor.criterion_names`), a curve, or a CSV file.
+
     Raises
     ------
     InputError
@@ -195,6 +210,25 @@ class SpringModel:
 
 
 def spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure) -> SpringModel:
+    """Validate the inputs and bind the spring model to the payload.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring.
+    payload : Payload
+        The payload and its isolators.
+    flow, amplitude_mode : str
+        The flow model and the amplitude mode (validated together).
+    diaphragm : str or model
+        The diaphragm (validated now).
+    derive_pressure : bool
+        Set p0 from the payload weight (Eq. 1) instead of the design's own.
+
+    Returns
+    -------
+    SpringModel
+    """
 
     d, payload = prepare_inputs(design, payload, derive_pressure)
     check_models(flow, amplitude_mode)
@@ -203,6 +237,17 @@ def spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressu
 
 
 def emit_flags(lines, what: str, warn: bool) -> None:
+    """Emit one :class:`~isodesign.errors.ModelValidityWarning` listing the flagged lines.
+
+    Parameters
+    ----------
+    lines : sequence of str
+        Validity flags (nothing is emitted when empty).
+    what : str
+        The computation, to prefix the message.
+    warn : bool
+        False: stay silent (the flags stay in the result).
+    """
     if warn and lines:
         warnings.warn(f"{what}: " + "; ".join(lines), ModelValidityWarning, stacklevel=3)
 
@@ -251,7 +296,15 @@ def linear_transmissibility(
 
 
 def linear_natural_frequency(model: SpringModel, amplitude_m: float) -> tuple[float, float]:
-    """``f_n = sqrt(K0/(m/n)) / (2 pi)`` with K0 from :func:`isolator.static_stiffness`."""
+    """``f_n = sqrt(K0/(m/n)) / (2 pi)`` with K0 from :func:`isolator.static_stiffness`.
+
+    Parameters
+    ----------
+    model : SpringModel
+        The bound spring model.
+    amplitude_m : float
+        Reference amplitude of the static stiffness, m.
+    """
 
     dia = diaphragm_model(model.diaphragm)
     k0 = float(np.asarray(static_stiffness(model.design, dia, model.mass, amplitude_m)))
@@ -269,6 +322,15 @@ def peak_of(t_of_f, f_center: float, coarse=None) -> tuple[float, float]:
     Then the vertex of the parabola in ``ln f`` through the best three points; if the fine
     step exceeds 2e-4 in ``ln f``, ``|T|`` is evaluated there. Accuracy: frequency about
     1e-6 relative, peak value about 1e-12.
+
+    Parameters
+    ----------
+    t_of_f : callable
+        ``f (Hz, ndarray) -> complex T``.
+    f_center : float
+        Where to look, Hz.
+    coarse : tuple of ndarray, optional
+        ``(f, T)`` already computed.
     """
     f1 = a1 = None
     if coarse is not None:

@@ -55,7 +55,7 @@ from isodesign.response.stability import StabilityFigures, stability_of_model
 from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
 from isodesign.spring.diagnostics import evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
-from isodesign.spring.equations import air_stiffness
+from isodesign.spring.equations import air_stiffness, spring_stiffness
 from isodesign.spring.stiffness import StiffnessResult
 
 __all__ = [
@@ -124,7 +124,7 @@ class _Statistical:
         c = (c_of or statistical_resistance_function(self.model.flow, d, omega))(sigma_u)
         k_air = air_stiffness(d, omega, c)
         k_d = self.dia.stiffness(omega, equivalent_amplitude(sigma))
-        return k_air + k_d, k_air, k_d, c
+        return spring_stiffness(k_air, k_d), k_air, k_d, c
 
     def variances(self, sigma, sigma_u, k_dia=None):
         """``(sigma^2, sigma_u^2, k)`` produced by the linearization at ``(sigma, sigma_u)``."""
@@ -132,7 +132,7 @@ class _Statistical:
         c = self.c_of(sigma_u)
         if k_dia is None:
             k_dia = self.dia.stiffness(w, equivalent_amplitude(sigma))
-        k = air_stiffness(d, w, c) + k_dia
+        k = spring_stiffness(air_stiffness(d, w, c), k_dia)
         rel = relative_transmissibility(k, self.model.mass, w)
         s2 = float(stroke_variance(rel, self.grid))
         su2 = float(tube_velocity_variance(rel, c, d, self.grid))

@@ -5,7 +5,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from isodesign.response.control import (
-    RATIONAL_FLOW_MODELS,
     dominant_pole_pair,
     transfer_function_polynomials,
 )
@@ -24,6 +23,7 @@ from isodesign.response.model import (
     spring_model,
 )
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import flow_model
 
 __all__ = [
     "StabilityFigures",
@@ -144,6 +144,17 @@ def stability_of_model(
 
     ``excited = (t_of_f, amplitude, coarse)`` adds the excited peak; ``linear_coarse`` and
     ``coarse`` are ``(f, T)`` arrays already computed, to start the peak searches.
+
+    Parameters
+    ----------
+    model : SpringModel
+        The bound spring model.
+    payload : Payload
+        The payload (its spacing and CG height give the tilt margin).
+    excited : tuple, optional
+        ``(t_of_f, amplitude, coarse)``: adds the peak at an excitation amplitude.
+    linear_coarse : tuple of ndarray, optional
+        ``(f, T)`` of the linear transmissibility, to start the peak search.
     """
     d = model.design
     x_ref = LINEAR_REFERENCE_AMPLITUDE_M
@@ -158,7 +169,7 @@ def stability_of_model(
     f_pk, t_pk = peak_of(t_lin, fn, linear_coarse)
     pole_z = pole_f = None
     dia = diaphragm_model(model.diaphragm)
-    if model.flow in RATIONAL_FLOW_MODELS and dia.name == "none":
+    if flow_model(model.flow).rational and dia.name == "none":
         import control
 
 

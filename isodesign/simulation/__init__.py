@@ -8,7 +8,6 @@
 """
 
 from isodesign.simulation.harmonic_rig import (
-    SIMULATION_FLOW_MODELS,
     SimulationGridResult,
     SimulationResult,
     agreement_table,
@@ -23,7 +22,6 @@ from isodesign.simulation.monte_carlo import (
 
 __all__ = [
     "MONTE_CARLO_FLOW_MODELS",
-    "SIMULATION_FLOW_MODELS",
     "MonteCarloResult",
     "SimulationGridResult",
     "SimulationResult",

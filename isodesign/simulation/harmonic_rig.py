@@ -69,12 +69,12 @@ from isodesign.spring.capillary import (
 )
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
-from isodesign.spring.equations import air_stiffness
+from isodesign.spring.equations import air_stiffness, spring_stiffness
+from isodesign.spring.flow_models import SIMULATION_FLOW_MODELS, flow_model
 from isodesign.spring.stiffness import complex_stiffness
 
 __all__ = [
     "MAX_STROKE_FRACTION",
-    "SIMULATION_FLOW_MODELS",
     "SimulationGridResult",
     "SimulationResult",
     "agreement_table",
@@ -82,8 +82,6 @@ __all__ = [
     "simulate_stiffness",
 ]
 
-#: Flow laws available in the time domain (the others are frequency-domain only).
-SIMULATION_FLOW_MODELS = ("quasi_steady", "poiseuille")
 #: Largest allowed swept volume A_p X as a fraction of V_t0 (V_t must stay > 0).
 MAX_STROKE_FRACTION = 0.5
 #: Integration methods of solve_ivp that are accepted.
@@ -271,7 +269,7 @@ def _check_flow(flow) -> str:
     if flow not in SIMULATION_FLOW_MODELS:
         raise InputError(
             f"flow: {flow!r} is not available in the time-domain simulation; valid: "
-            f"{', '.join(SIMULATION_FLOW_MODELS)} (womersley and zhao are frequency-domain "
+            f"{', '.join(SIMULATION_FLOW_MODELS)} (the other models are frequency-domain "
             "models with no time-domain counterpart here)"
         )
     return flow
@@ -366,7 +364,9 @@ class _Model:
         d = design
         self.design = d
         self.flow = flow
-        self.n_states = 4 if flow == "quasi_steady" else 3
+        #: the tube's momentum equation is a state ("inertial" law), or m_dot = dp / C_u
+        self.inertial = flow_model(flow).time_domain == "inertial"
+        self.n_states = 4 if self.inertial else 3
         self.p0 = d.pressure_pa
         self.vt0 = d.top_volume_m3
         self.vb0 = d.bottom_volume_m3
@@ -401,7 +401,7 @@ class _Model:
         rho_t = mt / vt
         rho_b = mb / self.vb0
         dp = dpt - dpb
-        if self.flow == "quasi_steady":
+        if self.inertial:
             u = y[3] * cases.scale_u
             up = u >= 0.0
             rho_up = np.where(up, rho_t, rho_b)
@@ -441,7 +441,7 @@ class _Model:
         out[0] = dpt_dt / (w * cases.scale_pt)
         out[1] = dpb_dt / (w * cases.scale_pb)
         out[2] = -mdot / (w * cases.scale_m)
-        if self.flow == "quasi_steady":
+        if self.inertial:
             re = rho_up * np.abs(u) * self.dc / self.mu
             phi = churchill_friction_re_product(re, self.rel_rough)
             drop = self.friction_scale * phi * u + 0.5 * self.k_minor * rho_up * np.abs(u) * u
@@ -465,7 +465,7 @@ class _Model:
         k_air = k_air.re + 1j * k_air.im
         xh = -1j * amplitude
         pt = k_air * xh / self.ap
-        pb = pt / (1.0 + 1j * omega * d.compliance_factor_s2_per_m2 * c)
+        pb = pt / (1.0 + 1j * omega * d.compliance_factor_kg_per_pa * c)
         mdot = (pt - pb) / c
         dmt = -mdot / (1j * omega)
         uh = mdot / (self.rho0 * self.ac)
@@ -474,7 +474,7 @@ class _Model:
         s_m = np.maximum(np.abs(dmt), 1e-3 * s_pt * self.vt0 / (self.r_gas * d.temperature_k))
         s_u = np.maximum(np.abs(uh), 1e-3 * d.area_ratio * amplitude * omega)
         states = [pt.real / s_pt, pb.real / s_pb, dmt.real / s_m]
-        if self.flow == "quasi_steady":
+        if self.inertial:
             states.append(uh.real / s_u)
         return _Cases(omega, amplitude, s_pt, s_pb, s_m, s_u, np.array(states))
 
@@ -617,7 +617,7 @@ def _results(design, f, x, flow, dia, raw) -> list[SimulationResult]:
             SimulationResult(
                 frequency_hz=float(f[i]),
                 amplitude_m=float(x[i]),
-                k=k_air + complex(kd[i]),
+                k=spring_stiffness(k_air, complex(kd[i])),
                 k_air=k_air,
                 velocity_amplitude_m_s=float(raw["u1"][i]),
                 peak_velocity_m_s=float(raw["u_peak"][i]),
@@ -742,6 +742,9 @@ def simulate_grid(
     allow_unconverged : bool
         Return cases that did not reach the periodic state (``converged=False``)
         instead of raising :class:`SolverError`.
+    **kwargs
+        The keyword arguments of :func:`simulate_stiffness` (flow, diaphragm,
+        tolerances, method, ...).
 
     Returns
     -------

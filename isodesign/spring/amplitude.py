@@ -11,8 +11,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from isodesign.numerics.cplx import Cx
-from isodesign.spring.capillary import resistance_function
 from isodesign.spring.equations import kinematic_velocity
+from isodesign.spring.flow_models import resistance_function
 
 __all__ = ["solve_velocity_amplitude"]
 
@@ -48,6 +48,21 @@ def solve_velocity_amplitude(
     analytic slope of the resistance, safeguarded by bisection inside the
     bracket, on the points not yet converged (``|h| <= tol N Q``, i.e. U to
     about ``tol`` relative).
+
+    Parameters
+    ----------
+    flow : str
+        A self-consistent flow model (NumPy).
+    design : SpringDesign
+        The spring (numbers).
+    omega : ndarray
+        Angular frequencies, rad/s (same shape as ``amplitude_m``).
+    amplitude_m : ndarray
+        Piston displacement amplitudes, m.
+    tol : float
+        Relative tolerance on U.
+    max_iter : int
+        Iteration limit.
 
     Returns
     -------
@@ -88,7 +103,7 @@ def _solve_block(flow, design, w_all, x_all, tol, max_iter) -> _Solve:
     """:func:`solve_velocity_amplitude` on one block of flat arrays."""
     nq_all = design.volume_ratio * kinematic_velocity(design, w_all, x_all)
     n1 = 1.0 + design.volume_ratio
-    s = design.compliance_factor_s2_per_m2
+    s = design.compliance_factor_kg_per_pa
 
     def evaluate(u, idx):
         """|D(U)| and d|D|/dU at the points idx."""

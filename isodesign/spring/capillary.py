@@ -1,33 +1,12 @@
-"""Capillary flow resistance C(X_p, w) between the two chambers.
+"""Capillary flow laws: the dimensionless groups, friction laws and impedances.
 
-``C`` is the ratio of the first-harmonic pressure difference across the tube to
-the mass flow through it, ``C = (P_t - P_b) / m_dot_tb`` in Pa s/kg (paper
-Eq. 35). It may be complex: an imaginary part is the inertance of the air slug.
-Every model is a function of the tube's velocity amplitude ``U`` (m/s) and the
-angular frequency ``w``; where ``U`` comes from (Eq. 37 or a self-consistent
-solve) is decided in :mod:`isodesign.spring.stiffness`.
-
-Models, by name (:data:`FLOW_MODELS`):
-
-``poiseuille``
-    Unidirectional laminar flow, Eq. 41: ``C_u = 128 mu L_c / (pi rho D_c^4)``;
-    the linear model of earlier work (Harris, DeBra, Erin & Wilson). No minor loss,
-    no inertia.
-``zhao``
-    The paper's oscillating-flow friction, Eq. 24 (laminar correlation) in Eq. 36
-    with the minor loss K, literally as printed. Singular at Re_w = 3.673 and
-    non-passive near it (physics notes, section 2). NumPy only: it never enters
-    an optimizer. ``zhao_turbulent`` uses Eq. 25 instead.
-``quasi_steady``
-    All-regime steady friction (Churchill 1977, laminar to turbulent joined
-    smoothly) plus the minor loss K, linearized by the describing function of
-    Eq. 22, plus the inertance of the air in the tube (Eq. 17's ``rho du/dt``,
-    kept, with the developed-laminar coefficient 4/3). Passive for every input.
-    The default.
-``womersley``
-    Exact laminar oscillating flow in a rigid tube (Womersley; physics notes,
-    section 4) plus the minor loss K. Passive. Frequency-dependent resistance and
-    inertance (4/3 of the plug value at low frequency).
+The flow resistance between the two chambers is
+``C = (P_t - P_b) / m_dot_tb`` in Pa s/kg (paper Eq. 35); it may be complex (an
+imaginary part is the inertance of the air slug). This module holds the physics
+the flow models are built from (Reynolds and Womersley numbers, the describing
+velocity, the Churchill, Poiseuille and Zhao friction laws, the Womersley
+impedance). The models themselves (name, resistance ``C(U, w)``, validity checks,
+whether they may enter the NLP) are registered in :mod:`isodesign.spring.flow_models`.
 
 The Gaussian-equivalent resistance (random input)
 -------------------------------------------------
@@ -53,13 +32,13 @@ evaluates the steady friction factor at the describing-function velocity
 
 This is exact for laminar friction (``f = 64/Re`` makes the law linear, and
 ``C`` becomes Eq. 41's ``C_u``) and for the quadratic minor loss (Eq. 22
-itself), and within 0.2 % of the exact first harmonic for Blasius friction
-(``U^1.75``: 0.8844 against 0.8861). In the laminar-turbulent transition (peak
-Re 2,400 to 3,000) the friction term differs from the exact describing function
-of Churchill's law by up to 9 %; the effect on k is at most 1.2 % on the
-reference spring, and the time-domain check (:mod:`isodesign.simulation.harmonic_rig`,
-``docs/simulation.md``) bounds the whole harmonic-balance error at 2.3 % in |k|
-over 0.2-24 Hz and 0.05-0.5 mm.
+itself), and within 0.5 % of the exact first harmonic for Blasius friction
+(``U^1.75``: 0.884 against 0.880; docs/physics.md, section 7). In the
+laminar-turbulent transition (peak Re 2,400 to 3,000) the friction term differs
+from the exact describing function of Churchill's law by up to 9 %; the effect on
+k is at most 1.2 % on the reference spring, and the time-domain check
+(:mod:`isodesign.simulation.harmonic_rig`, ``docs/simulation.md``) bounds the
+whole harmonic-balance error at 2.3 % in |k| over 0.2-24 Hz and 0.05-0.5 mm.
 """
 
 from __future__ import annotations
@@ -74,10 +53,12 @@ from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
 
 __all__ = [
-    "FLOW_MODELS",
     "LAMINAR_REYNOLDS_LIMIT",
+    "QUASI_STEADY_INERTANCE_COEFFICIENT",
     "QUASI_STEADY_WOMERSLEY_LIMIT",
     "STATISTICAL_FLOW_MODELS",
+    "TURBULENT_REYNOLDS_LIMIT",
+    "ZHAO_RANGES",
     "churchill_friction_factor",
     "churchill_friction_re_product",
     "describing_velocity",
@@ -87,18 +68,12 @@ __all__ = [
     "kinetic_reynolds",
     "linear_resistance",
     "poiseuille_resistance",
-    "resistance",
-    "resistance_function",
     "statistical_resistance_function",
     "womersley_number",
     "womersley_zeta",
     "zhao_friction",
 ]
 
-#: Names of the capillary flow models.
-FLOW_MODELS = ("quasi_steady", "womersley", "poiseuille", "zhao", "zhao_turbulent")
-#: Models written for both backends (and therefore allowed in the optimizer).
-SMOOTH_FLOW_MODELS = ("quasi_steady", "womersley", "poiseuille")
 #: Upper Reynolds number of laminar pipe flow (Eq. 26).
 LAMINAR_REYNOLDS_LIMIT = 2300.0
 #: Start of fully turbulent pipe flow used for the regime label.
@@ -124,22 +99,50 @@ ZHAO_RANGES = {
 # dimensionless groups
 # ---------------------------------------------------------------------------
 def describing_velocity(velocity_amplitude):
-    """``U_eq = 8 U / (3 pi)``, the describing-function velocity of Eq. 22."""
+    """``U_eq = 8 U / (3 pi)``, the describing-function velocity of Eq. 22.
+
+    Parameters
+    ----------
+    velocity_amplitude : float, ndarray or CasADi symbol
+        Velocity amplitude U, m/s.
+    """
     return 8.0 * velocity_amplitude / (3.0 * math.pi)
 
 
 def kinetic_reynolds(design, omega):
-    """Kinetic Reynolds number ``Re_w = rho w D_c^2 / mu`` (paper, after Eq. 23)."""
+    """Kinetic Reynolds number ``Re_w = rho w D_c^2 / mu`` (paper, after Eq. 23).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    """
     return design.density_kg_m3 * omega * design.capillary_diameter_m**2 / design.viscosity_pa_s
 
 
 def womersley_number(design, omega):
-    """Womersley number ``alpha = (D_c/2) sqrt(w rho / mu) = sqrt(Re_w)/2``."""
+    """Womersley number ``alpha = (D_c/2) sqrt(w rho / mu) = sqrt(Re_w)/2``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    """
     return 0.5 * bk.sqrt(kinetic_reynolds(design, omega))
 
 
 def flow_regime(reynolds) -> np.ndarray:
-    """Label each Reynolds number 'laminar', 'transitional' or 'turbulent'."""
+    """Label each Reynolds number 'laminar', 'transitional' or 'turbulent'.
+
+    Parameters
+    ----------
+    reynolds : array_like
+        Reynolds numbers (NumPy).
+    """
     re = np.asarray(reynolds, dtype=float)
     out = np.full(re.shape, "transitional", dtype=object)
     out[re <= LAMINAR_REYNOLDS_LIMIT] = "laminar"
@@ -151,7 +154,13 @@ def flow_regime(reynolds) -> np.ndarray:
 # friction laws
 # ---------------------------------------------------------------------------
 def poiseuille_resistance(design):
-    """Unidirectional laminar flow constant, Eq. 41: ``128 mu L_c / (pi rho D_c^4)``."""
+    """Unidirectional laminar flow constant, Eq. 41: ``128 mu L_c / (pi rho D_c^4)``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    """
     d = design.capillary_diameter_m
     return (
         128.0
@@ -176,6 +185,15 @@ def churchill_friction_re_product(reynolds, relative_roughness=0.0, *, with_slop
     With ``with_slope=True`` also returns ``dPhi/dRe`` (NumPy only; used by the
     self-consistent solver). On NumPy the points with ``Re <= 1000`` skip the
     turbulent terms: there ``Phi = 64`` to better than 1e-13 relative.
+
+    Parameters
+    ----------
+    reynolds : float, ndarray or CasADi symbol
+        Reynolds number (> 0).
+    relative_roughness : float, ndarray or CasADi symbol
+        Roughness over diameter, ``eps / D``.
+    with_slope : bool
+        Also return ``dPhi/dRe`` (NumPy only).
     """
     if bk.is_casadi(reynolds, relative_roughness):
         return _churchill(reynolds, relative_roughness, False)[0]
@@ -231,7 +249,15 @@ def _churchill(re, rel_rough, with_slope):
 
 def churchill_friction_factor(reynolds, relative_roughness=0.0):
     """Churchill (1977) Darcy friction factor ``f(Re)``; see
-    :func:`churchill_friction_re_product`."""
+    :func:`churchill_friction_re_product`.
+
+    Parameters
+    ----------
+    reynolds : float, ndarray or CasADi symbol
+        Reynolds number (> 0).
+    relative_roughness : float, ndarray or CasADi symbol
+        Roughness over diameter, ``eps / D``.
+    """
     return churchill_friction_re_product(reynolds, relative_roughness) / reynolds
 
 
@@ -243,7 +269,16 @@ def zhao_friction(kinetic_re, dimensionless_amplitude, correlation: str = "lamin
     (Eq. 25, turbulent, 81 <= Re_w <= 540, 53.4 <= A0 <= 113.5).
 
     Eq. 24 has a pole at ``Re_w = 2.04^(1/0.548) = 3.673`` and is negative
-    below it: the model is not passive there (physics notes, section 2).
+    below it: the model is not passive there (docs/physics.md, section 2).
+
+    Parameters
+    ----------
+    kinetic_re : ndarray
+        Kinetic Reynolds number ``Re_w``.
+    dimensionless_amplitude : ndarray
+        ``A0 = x_max / D_c``.
+    correlation : {'laminar', 'turbulent'}
+        Eq. 24 or Eq. 25.
     """
     if correlation == "laminar":
         return 4.0 / dimensionless_amplitude * (3.27 / (np.power(kinetic_re, 0.548) - 2.04))
@@ -303,131 +338,23 @@ def womersley_zeta(alpha) -> Cx:
 
     ``zeta(alpha) = Z'(w) / (128 mu / (pi D^4))`` with the exact solution
     ``Z' = i w rho / (A F)``, ``F = 1 - 2 J1(z)/(z J0(z))``, ``z = i^(3/2) alpha``
-    (physics notes, section 4). Limits: ``zeta -> 1 + j alpha^2/6`` (Poiseuille
+    (docs/physics.md, section 4). Limits: ``zeta -> 1 + j alpha^2/6`` (Poiseuille
     plus 4/3 of the plug inertance) as alpha -> 0, ``zeta -> j alpha^2/8 +
     alpha/(4 sqrt 2) (1 + j)`` as alpha -> inf.
 
     NumPy: scipy's Bessel functions (exact). CasADi: a cubic B-spline of the
     exact function in ln(alpha), valid for 1e-3 <= alpha <= 1e3.
+
+    Parameters
+    ----------
+    alpha : float, ndarray or CasADi symbol
+        Womersley number (> 0).
     """
     if bk.is_casadi(alpha):
         s_r, s_i = _womersley_splines()
         t = bk.log(alpha)
         return Cx(bk.exp(s_r(t)), s_i(t) * alpha * alpha)
     return Cx.from_complex(_womersley_zeta_exact(alpha))
-
-
-# ---------------------------------------------------------------------------
-# the resistance C(U, w)
-# ---------------------------------------------------------------------------
-def resistance(flow: str, design, omega, velocity_amplitude) -> Cx:
-    """Complex flow resistance ``C = (P_t - P_b) / m_dot`` in Pa s/kg.
-
-    Parameters
-    ----------
-    flow : str
-        One of :data:`FLOW_MODELS`.
-    design : SpringDesign
-        The spring (fields may be CasADi symbols for the smooth models).
-    omega : array or symbol
-        Angular frequency, rad/s.
-    velocity_amplitude : array or symbol
-        Amplitude U of the cross-sectional mean velocity in the tube, m/s.
-
-    Returns
-    -------
-    Cx
-        Real part: resistance; imaginary part: ``w`` times the inertance.
-    """
-    return resistance_function(flow, design, omega)(velocity_amplitude)
-
-
-def resistance_function(flow: str, design, omega, *, with_slope: bool = False):
-    """Return ``U -> C(U, w)`` for one model, design and set of frequencies.
-
-    The parts that do not depend on the velocity amplitude (the Womersley
-    impedance, the inertance) are computed once, so a solver iterating on ``U``
-    pays only for the amplitude-dependent part. :func:`resistance` is this
-    function applied once.
-
-    With ``with_slope=True`` (NumPy, smooth models) the returned function gives
-    ``(C, dRe(C)/dU)``: every model's inertance is independent of ``U``.
-    """
-    d = design
-    area = d.capillary_area_m2
-    if flow == "poiseuille":  # Eq. 41
-
-        def c_poiseuille(U):
-            c_u = poiseuille_resistance(d)
-            z = 0.0 * U * omega
-            return (Cx(c_u + z, z), z) if with_slope else Cx(c_u + z, z)
-
-        return c_poiseuille
-    if flow == "quasi_steady":
-        rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
-        # Eq. 17's rho du/dt, kept: inertance (4/3) L / A_c of developed laminar flow
-        c_i = QUASI_STEADY_INERTANCE_COEFFICIENT * omega * d.capillary_length_m / area
-        friction_scale = d.capillary_length_m * mu / (rho * dc * dc)
-        rel_rough = d.roughness_m / dc
-
-        def c_quasi_steady(U):
-            u_eq = describing_velocity(U)
-            re_eq = rho * u_eq * dc / mu
-            if with_slope:
-                phi, dphi = churchill_friction_re_product(re_eq, rel_rough, with_slope=True)
-            else:
-                phi = churchill_friction_re_product(re_eq, rel_rough)
-            # (L/D) f U_eq = L mu Phi / (rho D^2): finite as U -> 0
-            c_r = (friction_scale * phi + d.minor_loss * u_eq) / (2.0 * area)
-            c = Cx(c_r, c_i + 0.0 * c_r)
-            if not with_slope:
-                return c
-            k = 8.0 / (3.0 * math.pi)
-            return c, (friction_scale * dphi * rho * k * dc / mu + d.minor_loss * k) / (2.0 * area)
-
-        return c_quasi_steady
-    if flow == "womersley":
-        alpha = womersley_number(d, omega)
-        if bk.is_casadi(alpha) or np.size(alpha) <= 64:
-            zeta = womersley_zeta(alpha)
-        else:  # many points share few frequencies: evaluate the Bessel functions once each
-            uniq, inv = np.unique(np.asarray(alpha), return_inverse=True)
-            zu = womersley_zeta(uniq)
-            zeta = Cx(zu.re[inv].reshape(np.shape(alpha)), zu.im[inv].reshape(np.shape(alpha)))
-        c_u = poiseuille_resistance(d)
-        c_r0, c_i = c_u * zeta.re, c_u * zeta.im
-
-        def c_womersley(U):
-            minor = d.minor_loss * describing_velocity(U) / (2.0 * area)  # Eq. 22 applied to K
-            c = Cx(c_r0 + minor, c_i + 0.0 * minor)
-            if not with_slope:
-                return c
-            return c, d.minor_loss * 8.0 / (3.0 * math.pi) / (2.0 * area) + 0.0 * minor
-
-        return c_womersley
-    if flow in ("zhao", "zhao_turbulent"):
-        if bk.is_casadi(
-            omega, d.capillary_diameter_m, d.capillary_length_m, d.volume_ratio, d.top_volume_m3
-        ):
-            raise InputError(
-                f"flow: {flow!r} is the paper's literal model, singular at Re_w = 3.673 and "
-                "non-passive near it; it is not available on CasADi symbols (not in any NLP). "
-                f"Valid for optimization: {', '.join(SMOOTH_FLOW_MODELS)}"
-            )
-        re_w = kinetic_reynolds(d, omega)
-        corr = "laminar" if flow == "zhao" else "turbulent"
-
-        def c_zhao(U):
-            a0 = U / (omega * d.capillary_diameter_m)  # x_max / D_c, x_max = u_max / w
-            fr = zhao_friction(re_w, a0, corr)
-            # Eq. 36: C = (L/D fr + K) 4 u_max / (3 pi A_c)
-            c = (d.capillary_length_m / d.capillary_diameter_m * fr + d.minor_loss) * (
-                4.0 * U / (3.0 * math.pi * area)
-            )
-            return Cx(c, 0.0)  # real: no zero array
-
-        return c_zhao
-    raise InputError(f"flow: unknown model {flow!r}; valid: {', '.join(FLOW_MODELS)}")
 
 
 # ---------------------------------------------------------------------------

@@ -133,7 +133,7 @@ class SpringDesign:
         N is 1.5e-3 / 8.1e-4 = 1.852 from the volumes (the table rounds it to
         1.9); the viscosity is Table 1's fixed 1.79e-5 Pa s and the temperature
         288.1 K. Note that Table 1's p0 = 4.93e5 Pa with A_p = 5.3e-3 m^2 carries
-        about 212 kg, not the 100 kg named in the text (physics notes, section 1);
+        about 212 kg, not the 100 kg named in the text (docs/physics.md, section 1);
         :meth:`with_load` derives p0 from a payload instead.
         """
         return cls(
@@ -206,8 +206,12 @@ class SpringDesign:
         return self.single_chamber_stiffness_n_per_m / (1 + self.volume_ratio)
 
     @property
-    def compliance_factor_s2_per_m2(self):
-        """s = V_b0 / (n R T0), so that tau = s C in Eq. 38."""
+    def compliance_factor_kg_per_pa(self):
+        """Bottom-chamber mass compliance ``s = V_b0 / (n R T0)``, kg/Pa (= m s^2).
+
+        The mass of gas the bottom chamber takes up per pascal of pressure rise
+        (``dm = s dp``), so that ``tau = s C`` in Eq. 38 with C in Pa s/kg.
+        """
         return self.bottom_volume_m3 / (
             self.process_index * self.gas.gas_constant_j_per_kg_k * self.temperature_k
         )

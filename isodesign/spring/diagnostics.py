@@ -16,14 +16,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isodesign.numerics.cplx import Cx
-from isodesign.spring.capillary import (
-    LAMINAR_REYNOLDS_LIMIT,
-    QUASI_STEADY_WOMERSLEY_LIMIT,
-    ZHAO_RANGES,
-    flow_regime,
-    kinetic_reynolds,
-)
+from isodesign.spring.capillary import flow_regime, kinetic_reynolds
 from isodesign.spring.equations import kinematic_velocity
+from isodesign.spring.flow_models import FlowPoint, flow_check_descriptions, flow_model
 
 __all__ = ["CHECK_DESCRIPTIONS", "Diagnostics", "evaluate_diagnostics"]
 
@@ -40,6 +35,8 @@ KINEMATIC_MISMATCH_LIMIT = 0.1
 #: incompressible slug in the tube) is flagged.
 LUMPED_LIMIT = 0.3
 
+#: Name -> meaning of every validity check (the flow models' own come from
+#: :mod:`isodesign.spring.flow_models`).
 CHECK_DESCRIPTIONS = {
     "mach": f"tube Mach number <= {MACH_LIMIT} (incompressible flow, Eq. 17)",
     "small_signal": (
@@ -51,13 +48,7 @@ CHECK_DESCRIPTIONS = {
         f"acoustically compact: w l / c <= {LUMPED_LIMIT} for the tube length and chamber sizes "
         "(lumped model)"
     ),
-    "laminar": f"peak Reynolds number <= {LAMINAR_REYNOLDS_LIMIT:g} (laminar model, Eq. 26)",
-    "quasi_steady_alpha": (
-        f"Womersley number <= {QUASI_STEADY_WOMERSLEY_LIMIT} (quasi-steady friction within 5 % "
-        "of the exact laminar oscillating impedance)"
-    ),
-    "zhao_re_w": "kinetic Reynolds number inside the stated range of the Zhao correlation",
-    "zhao_a0": "dimensionless amplitude A0 inside the stated range of the Zhao correlation",
+    **flow_check_descriptions(),
     "kinematic_consistency": (
         f"Eq. 37's tube velocity within {KINEMATIC_MISMATCH_LIMIT:.0%} of the velocity the "
         "pressures drive (otherwise use amplitude_mode='self_consistent')"
@@ -174,9 +165,34 @@ def evaluate_diagnostics(
     converged: np.ndarray | None = None,
     iterations: np.ndarray | None = None,
 ) -> Diagnostics:
-    """Compute :class:`Diagnostics` for evaluated points (NumPy only)."""
+    """Compute :class:`Diagnostics` for evaluated points (NumPy only).
 
+    Parameters
+    ----------
+    flow : str
+        The flow model (its own checks come from its registry entry).
+    design : SpringDesign
+        The spring.
+    omega, amplitude_m : ndarray
+        Angular frequency (rad/s) and piston amplitude (m), broadcastable.
+    velocity : ndarray
+        Tube velocity amplitude used in the resistance, m/s.
+    c : Cx
+        The flow resistance at the points.
+    k_air, k_total : ndarray of complex
+        Air stiffness (Eq. 38) and total stiffness (Eq. 42), N/m.
+    diaphragm : diaphragm model
+        Supplies its own range checks (``in_range``).
+    amplitude_mode : str
+        ``self_consistent`` or ``kinematic``.
+    converged, iterations : ndarray, optional
+        From the self-consistent solver.
 
+    Returns
+    -------
+    Diagnostics
+    """
+    model = flow_model(flow)
     d = design
     shape = np.broadcast_shapes(np.shape(omega), np.shape(amplitude_m), np.shape(velocity))
     u = np.broadcast_to(velocity, shape)
@@ -206,15 +222,10 @@ def evaluate_diagnostics(
     )
     checks["passive"] = k_total.imag >= -1e-9 * np.abs(k_total)
     checks["lumped"] = lumped0
-    if flow in ("poiseuille", "womersley"):
-        checks["laminar"] = re <= LAMINAR_REYNOLDS_LIMIT
-    if flow == "quasi_steady":
-        checks["quasi_steady_alpha"] = alpha0 <= QUASI_STEADY_WOMERSLEY_LIMIT
-    if flow in ("zhao", "zhao_turbulent"):
-        lo_w, hi_w, lo_a, hi_a = ZHAO_RANGES["laminar" if flow == "zhao" else "turbulent"]
-        checks["zhao_re_w"] = (re_w0 >= lo_w) & (re_w0 <= hi_w)
-        checks["zhao_a0"] = (a0 >= lo_a) & (a0 <= hi_a)
-    if amplitude_mode == "kinematic" and flow != "poiseuille":
+    checks.update(model.validity(FlowPoint(
+        reynolds=re, kinetic_reynolds=re_w0, womersley_number=alpha0, dimensionless_amplitude=a0
+    )))
+    if amplitude_mode == "kinematic" and model.amplitude_dependent:
         # u is the kinematic velocity here, so u_driven / u is the ratio itself
         checks["kinematic_consistency"] = np.abs(ratio - 1.0) <= KINEMATIC_MISMATCH_LIMIT
     if converged is not None:

@@ -41,6 +41,7 @@ from isodesign.numerics.cplx import Cx
 
 __all__ = [
     "DIAPHRAGM_MODELS",
+    "DIAPHRAGM_SPECS",
     "NoDiaphragm",
     "PronyDiaphragm",
     "TableDiaphragm",
@@ -48,7 +49,14 @@ __all__ = [
     "diaphragm_model",
 ]
 
-DIAPHRAGM_MODELS = ("viscoelastic", "table", "none")
+#: Diaphragm models: name -> how a user writes it (``diaphragm=...``, ``--diaphragm``).
+DIAPHRAGM_SPECS = {
+    "viscoelastic": "viscoelastic",
+    "none": "none",
+    "table": "table:PATH.csv",
+}
+#: Names of the diaphragm models.
+DIAPHRAGM_MODELS = tuple(DIAPHRAGM_SPECS)
 
 
 @dataclass(frozen=True)
@@ -360,6 +368,12 @@ def diaphragm_model(spec):
 
     ``"viscoelastic"`` (default parameters), ``"none"``, ``"table:PATH"`` or a
     path ending in ``.csv`` (a :class:`TableDiaphragm`), or an instance.
+
+    Parameters
+    ----------
+    spec : str, Path or model
+        ``"viscoelastic"``, ``"none"`` (or None), ``"table:PATH"``, a ``.csv`` path, or
+        a model instance (returned as is).
     """
     if isinstance(spec, NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm | PronyDiaphragm):
         return spec
@@ -376,5 +390,5 @@ def diaphragm_model(spec):
         if s == "table":
             raise InputError("diaphragm: 'table' needs a CSV file: use 'table:PATH' or 'PATH.csv'")
     raise InputError(
-        f"diaphragm: unknown model {spec!r}; valid: viscoelastic, none, table:PATH.csv"
+        f"diaphragm: unknown model {spec!r}; valid: {', '.join(DIAPHRAGM_SPECS.values())}"
     )

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
-from isodesign.spring.capillary import resistance_function
+from isodesign.spring.flow_models import resistance_function
 
 __all__ = [
     "air_stiffness",
@@ -32,7 +32,7 @@ __all__ = [
 # ---------------------------------------------------------------------------
 def _jw_tau(design, omega, c: Cx) -> Cx:
     """``j w tau = j w s C`` with ``s = V_b0/(n R T0)``."""
-    s = design.compliance_factor_s2_per_m2
+    s = design.compliance_factor_kg_per_pa
     return Cx(-omega * s * c.im, omega * s * c.re)
 
 
@@ -42,13 +42,32 @@ def air_stiffness(design, omega, c: Cx) -> Cx:
     ``k_d* = k_s (1 + j w tau) / (N + 1 + j w tau)`` with ``k_s = n p0 A_p^2/V_t0``
     (Eq. 40) and ``tau = V_b0 C / (n R T0)``. Limits: ``k_s/(N+1)`` as w -> 0 and
     ``k_s`` as w -> inf (the tube blocks).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    c : Cx
+        Flow resistance C (Pa s/kg), complex (inertance in the imaginary part).
     """
     jwt = _jw_tau(design, omega, c)
     return design.single_chamber_stiffness_n_per_m * (1.0 + jwt) / (1.0 + design.volume_ratio + jwt)
 
 
 def kinematic_velocity(design, omega, amplitude_m):
-    """Eq. 37: ``u_max = (A_p / A_c) X_p w`` (compressibility neglected)."""
+    """Eq. 37: ``u_max = (A_p / A_c) X_p w`` (compressibility neglected).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    amplitude_m : float, ndarray or CasADi symbol
+        Piston displacement amplitude X_p, m.
+    """
     return design.area_ratio * amplitude_m * omega
 
 
@@ -57,6 +76,17 @@ def driven_velocity(design, omega, amplitude_m, c: Cx):
 
     ``U = (A_p/A_c) X w N / |1 + N + j w tau|`` (exact for the linearized
     chambers, Eqs. 29-35).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    amplitude_m : float, ndarray or CasADi symbol
+        Piston displacement amplitude X_p, m.
+    c : Cx
+        Flow resistance C (Pa s/kg), complex (inertance in the imaginary part).
     """
     d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
     return design.volume_ratio * kinematic_velocity(design, omega, amplitude_m) / d.abs()
@@ -94,6 +124,19 @@ def amplitude_residual(flow: str, design, omega, amplitude_m, log_velocity):
     ``F(x) = x + ln|1 + N + j w s C(e^x)| - ln(N (A_p/A_c) X w)``, zero at the
     self-consistent ``x = ln U``; smooth in every argument (an equality
     constraint of the NLP, or the function of a rootfinder).
+
+    Parameters
+    ----------
+    flow : str
+        A smooth flow model (:data:`isodesign.spring.flow_models.SMOOTH_FLOW_MODELS`).
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    amplitude_m : float, ndarray or CasADi symbol
+        Piston displacement amplitude X_p, m.
+    log_velocity : float, ndarray or CasADi symbol
+        ``x = ln U`` with U in m/s.
     """
     c = resistance_function(flow, design, omega)(bk.exp(log_velocity))
     d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
@@ -101,6 +144,24 @@ def amplitude_residual(flow: str, design, omega, amplitude_m, log_velocity):
     return log_velocity + 0.5 * bk.log(d.abs2()) - bk.log(q)
 
 
-def spring_stiffness(air: Cx, diaphragm: Cx) -> Cx:
-    """Eq. 42: the spring's complex stiffness, air and diaphragm in parallel (N/m)."""
+def spring_stiffness(air, diaphragm):
+    """Eq. 42: the spring's complex stiffness, air and diaphragm in parallel (N/m).
+
+    ``k*_{d+D} = k_d* + k_D*``: the piston force is the air force plus the diaphragm's,
+    both at the same piston motion. The one place the two are combined (the NumPy
+    result, the CasADi function, the optimizer, the time-domain rig, the static
+    stiffness).
+
+    Parameters
+    ----------
+    air : Cx or complex ndarray
+        The air spring ``k_d*`` (Eq. 38), N/m.
+    diaphragm : Cx or complex ndarray
+        The diaphragm ``k_D*``, N/m.
+
+    Returns
+    -------
+    Cx or complex ndarray
+        ``k*_{d+D}``, of the type of the inputs (a :class:`Cx` if either is one).
+    """
     return air + diaphragm

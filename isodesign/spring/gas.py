@@ -106,6 +106,10 @@ def pressure_from_load(
         Number of identical isolators sharing the load (>= 1).
     piston_area_m2 : float
         Effective piston area A_p of one isolator.
+    p_atm_pa : float
+        Ambient (gauge reference) pressure, Pa.
+    g_m_s2 : float
+        Gravitational acceleration, m/s^2.
 
     Returns
     -------

@@ -19,7 +19,7 @@ the chamber pressures actually drive through the tube is::
 
 Eq. 37 replaces this by ``U = (A_p/A_c) X w`` (the tube never blocks), which is
 wrong by the factor ``N/|1 + N + j w tau|``: 0.65 at low frequency for N = 1.85
-and far smaller once the tube blocks (physics notes, section 3). The
+and far smaller once the tube blocks (docs/physics.md, section 3). The
 ``self_consistent`` mode solves the harmonic-balance equation above, written as
 the residual in ``x = ln U`` (:func:`amplitude_residual`)::
 
@@ -48,13 +48,19 @@ from isodesign.errors import (
     check_positive,
 )
 from isodesign.spring.amplitude import solve_velocity_amplitude
-from isodesign.spring.capillary import FLOW_MODELS, SMOOTH_FLOW_MODELS, resistance_function
 from isodesign.spring.diagnostics import Diagnostics, evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import (
     air_stiffness,
     amplitude_residual,
     kinematic_velocity,
+    spring_stiffness,
+)
+from isodesign.spring.flow_models import (
+    FLOW_MODELS,
+    SMOOTH_FLOW_MODELS,
+    flow_model,
+    resistance_function,
 )
 
 __all__ = [
@@ -168,15 +174,23 @@ def _grid(frequency_hz, amplitude_m, pairwise: bool):
 
 
 def check_models(flow: str, amplitude_mode: str) -> None:
-    """Validate a flow-model / amplitude-mode pair (names and compatibility)."""
+    """Validate a flow-model / amplitude-mode pair (names and compatibility).
+
+    Parameters
+    ----------
+    flow : str
+        A flow model (:data:`isodesign.spring.flow_models.FLOW_MODELS`).
+    amplitude_mode : str
+        ``self_consistent`` or ``kinematic``.
+    """
     check_choice("flow", flow, FLOW_MODELS)
     check_choice("amplitude_mode", amplitude_mode, AMPLITUDE_MODES)
-    if flow.startswith("zhao") and amplitude_mode == "self_consistent":
+    if amplitude_mode == "self_consistent" and not flow_model(flow).self_consistent:
         raise InputError(
             f"amplitude_mode: 'self_consistent' is not defined for flow={flow!r}: the paper's "
             "friction is independent of the amplitude and negative below Re_w = 3.673, so the "
             "harmonic balance has no unique root. Use amplitude_mode='kinematic' to reproduce "
-            "the paper, or a passive model (quasi_steady, womersley, poiseuille)"
+            f"the paper, or a passive model ({', '.join(SMOOTH_FLOW_MODELS)})"
         )
 
 
@@ -202,7 +216,7 @@ def complex_stiffness(
     amplitude_m : float or array
         Piston displacement amplitudes X_p, m (> 0).
     flow : str
-        Capillary model (:data:`isodesign.spring.capillary.FLOW_MODELS`). Default
+        Capillary model (:data:`isodesign.spring.flow_models.FLOW_MODELS`). Default
         ``quasi_steady``: all-regime (laminar to turbulent) and passive for any
         input, which is what the amplitudes of real tables need (the tube flow of
         the reference spring reaches Re ~ 7000 at 0.5 mm).
@@ -259,7 +273,7 @@ def complex_stiffness(
         k_air_c = k_air.re + 1j * k_air.im
         k_d = dia.stiffness(w, x)
         k_d_c = np.broadcast_to(k_d.re + 1j * np.asarray(k_d.im), shape)
-        k_tot = k_air_c + k_d_c
+        k_tot = spring_stiffness(k_air_c, k_d_c)
     diag = evaluate_diagnostics(
         flow,
         design,
@@ -315,11 +329,22 @@ def stiffness_function(
     rootfinder on :func:`amplitude_residual`, so derivatives follow from the
     implicit function theorem. The expressions are the same functions the NumPy
     path evaluates.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring; N, V_t0, L_c and D_c become the function's inputs.
+    flow : str
+        A smooth flow model (:data:`isodesign.spring.flow_models.SMOOTH_FLOW_MODELS`).
+    amplitude_mode : str
+        ``self_consistent`` (default) or ``kinematic``.
+    diaphragm : str or model
+        As in :func:`complex_stiffness`.
     """
     import casadi as ca
 
     check_models(flow, amplitude_mode)
-    if flow not in SMOOTH_FLOW_MODELS:
+    if not flow_model(flow).smooth:
         raise InputError(
             f"flow: {flow!r} is not available on CasADi symbols; valid: "
             f"{', '.join(SMOOTH_FLOW_MODELS)}"
@@ -348,7 +373,7 @@ def stiffness_function(
         x_sol = rf(lq - amplitude_residual(flow, d, w, amp, lq), p)
         u = ca.exp(x_sol)
     c = resistance_function(flow, d, w)(u)
-    k = air_stiffness(d, w, c) + dia.stiffness(w, amp)
+    k = spring_stiffness(air_stiffness(d, w, c), dia.stiffness(w, amp))
     return ca.Function(
         "k_star",
         [*syms, f_hz, amp],

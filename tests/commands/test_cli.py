@@ -14,12 +14,7 @@ import pytest
 from isodesign import SpringDesign, complex_stiffness
 from isodesign.cli import COMMANDS, main
 from isodesign.commands import parse_values
-from isodesign.commands.stiffness import (
-    AMPLITUDE_MODE_CHOICES,
-    DEFAULT_AMPLITUDES_M,
-    FLOW_CHOICES,
-    TABLE2_FREQUENCIES_HZ,
-)
+from isodesign.commands.stiffness import DEFAULT_AMPLITUDES_M, TABLE2_FREQUENCIES_HZ
 from isodesign.io.designfile import design_to_toml, reference_design_path
 
 STIFFNESS_COLUMNS = (
@@ -95,12 +90,44 @@ def test_command_table_modules_follow_the_protocol():
         assert help_line and "\n" not in help_line
 
 
-def test_choices_match_the_library():
-    from isodesign.spring.capillary import FLOW_MODELS
+def _choices(command: str) -> dict[str, tuple]:
+    """Option -> choices of one command's parser."""
+    import argparse
+
+    from isodesign.cli import build_parser
+
+    sub = next(
+        a for a in build_parser(command)._actions if isinstance(a, argparse._SubParsersAction)
+    )
+    return {
+        a.option_strings[-1]: tuple(a.choices)
+        for a in sub.choices[command]._actions
+        if a.choices is not None and a.option_strings
+    }
+
+
+def test_model_choices_come_from_the_registries():
+    """Every command offers exactly the library's registered models (declared once)."""
+    from isodesign.response.harmonic import BRANCHES
+    from isodesign.response.random_input import RANDOM_METHODS
+    from isodesign.spring.flow_models import FLOW_MODELS
     from isodesign.spring.stiffness import AMPLITUDE_MODES
 
-    assert FLOW_CHOICES == FLOW_MODELS
-    assert AMPLITUDE_MODE_CHOICES == AMPLITUDE_MODES
+    for command in ("stiffness", "response", "transmissibility"):
+        ch = _choices(command)
+        assert ch["--flow"] == FLOW_MODELS
+        assert ch["--amplitude-mode"] == AMPLITUDE_MODES
+    assert _choices("response")["--random-method"] == RANDOM_METHODS
+    assert _choices("transmissibility")["--branch"] == BRANCHES
+
+
+@pytest.mark.parametrize("command", ["stiffness", "response"])
+def test_help_lists_the_diaphragm_models(command, capsys):
+    from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
+
+    assert main([command, "--help"]) == 0
+    out = " ".join(capsys.readouterr().out.split())
+    assert ", ".join(DIAPHRAGM_SPECS.values()) in out
 
 
 def test_internal_error_is_one_line_exit_3(capsys, monkeypatch):

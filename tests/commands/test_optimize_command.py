@@ -280,8 +280,8 @@ def test_output_must_be_given(capsys):
 # -- pareto ------------------------------------------------------------------------------------
 def test_pareto_command_constants_match_the_library():
     from isodesign.commands import pareto as cmd
+    from isodesign.optimization.objectives import OBJECTIVES
     from isodesign.optimization.pareto import DEFAULT_OBJECTIVES
-    from isodesign.optimization.study import OBJECTIVES
 
     assert cmd.DEFAULT_OBJECTIVES == DEFAULT_OBJECTIVES
     assert set(cmd.OBJECTIVE_CHOICES) == set(OBJECTIVES)

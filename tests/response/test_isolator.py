@@ -102,7 +102,7 @@ def test_natural_frequency_and_tilt_margin():
 
 
 # --------------------------------------------------------------------------------------------
-# Zener form (physics notes, section 5)
+# Zener form (docs/physics.md, section 5)
 # --------------------------------------------------------------------------------------------
 
 
@@ -130,7 +130,7 @@ def test_zener_damping_ratio_from_design(ref):
     n = d.volume_ratio
     ks = d.single_chamber_stiffness_n_per_m
     tau = (
-        d.compliance_factor_s2_per_m2
+        d.compliance_factor_kg_per_pa
         * 128
         * d.viscosity_pa_s
         * d.capillary_length_m

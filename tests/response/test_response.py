@@ -626,20 +626,6 @@ def cli_main(monkeypatch):
     return cli.main
 
 
-def test_cli_choices_match_the_package():
-    from isodesign.commands import response as cmd
-    from isodesign.response import BRANCHES, RANDOM_METHODS
-    from isodesign.spring.capillary import FLOW_MODELS
-    from isodesign.spring.stiffness import AMPLITUDE_MODES
-
-    assert cmd.FLOW_CHOICES == FLOW_MODELS
-    assert cmd.AMPLITUDE_MODE_CHOICES == AMPLITUDE_MODES
-    assert cmd.RANDOM_METHOD_CHOICES == RANDOM_METHODS
-    from isodesign.commands import transmissibility as tcmd
-
-    assert tcmd.BRANCH_CHOICES == BRANCHES
-
-
 def test_cli_response(cli_main, tmp_path, capsys):
     out = tmp_path / "bands.csv"
     assert cli_main(["response", "-o", str(out), "--spacing-m", "0.8", "--cg-height-m", "0.3"]) == 0

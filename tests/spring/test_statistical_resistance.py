@@ -15,9 +15,9 @@ from isodesign.spring.capillary import (
     gaussian_equivalent_resistance,
     gaussian_friction_excess,
     linear_resistance,
-        resistance,
     statistical_resistance_function,
 )
+from isodesign.spring.flow_models import resistance
 
 
 def _excess_by_quad(re_sigma: float) -> float:

@@ -1,10 +1,10 @@
 """Tests of the spring model k*(X_p, w): isodesign.spring.stiffness, capillary, diaphragm.
 
 Every expected value comes from outside the code under test: analytic limits of
-Eq. 38, the three-parameter (Zener) isolator of physics notes section 5, the
+Eq. 38, the three-parameter (Zener) isolator of docs/physics.md, section 5, the
 paper's equations written out by hand with plain NumPy, published friction
-laws, the Womersley asymptotes, central finite differences, and the physics
-notes' harmonic-balance table.
+laws, the Womersley asymptotes, central finite differences, and an independent
+harmonic-balance table (laminar friction + K, docs/physics.md, section 3).
 """
 
 from __future__ import annotations
@@ -22,11 +22,11 @@ from isodesign.spring.capillary import (
     churchill_friction_factor,
     churchill_friction_re_product,
     poiseuille_resistance,
-    resistance,
     womersley_zeta,
 )
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.equations import driven_velocity
+from isodesign.spring.flow_models import resistance
 from isodesign.spring.stiffness import complex_stiffness, stiffness_function
 
 # --------------------------------------------------------------------------------------------
@@ -62,7 +62,7 @@ def k_of(design, f, x, **kw) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------------------------
-# Reference numbers of the notes (section 1)
+# Reference numbers of docs/physics.md, section 1
 # --------------------------------------------------------------------------------------------
 def test_reference_design_numbers(ref):
     assert ref.volume_ratio == pytest.approx(N_REF, rel=1e-15)
@@ -72,8 +72,8 @@ def test_reference_design_numbers(ref):
     assert poiseuille_resistance(ref) == pytest.approx(
         128 * MU * L_C / (math.pi * RHO * D_C**4), rel=1e-14
     )
-    assert poiseuille_resistance(ref) == pytest.approx(2.234e6, rel=2e-3)  # notes: 2.234e6
-    assert ref.load_n / 9.80665 == pytest.approx(212, abs=0.5)  # notes: ~212 kg, not 100 kg
+    assert poiseuille_resistance(ref) == pytest.approx(2.234e6, rel=2e-3)  # hand value
+    assert ref.load_n / 9.80665 == pytest.approx(212, abs=0.5)  # ~212 kg, not 100 kg
 
 
 # --------------------------------------------------------------------------------------------
@@ -124,7 +124,7 @@ def test_resistance_at_least_poiseuille(ref, flow):
 
 
 def test_reference_limits_numbers(ref):
-    """The notes' numbers: 8,393 N/m and 23,935 N/m (literal model too)."""
+    """docs/physics.md's numbers: 8,393 N/m and 23,935 N/m (literal model too)."""
     for kw in ({"flow": "zhao", "amplitude_mode": "kinematic"}, {}):
         k_lo = k_of(ref, 1e-6, 1e-4, diaphragm="none", **kw).item()
         k_hi = k_of(ref, 1e5, 1e-4, diaphragm="none", **kw).item()
@@ -133,7 +133,7 @@ def test_reference_limits_numbers(ref):
 
 
 # --------------------------------------------------------------------------------------------
-# Eq. 38 with Eq. 41 is the Zener (three-parameter) isolator (notes section 5)
+# Eq. 38 with Eq. 41 is the Zener (three-parameter) isolator (docs/physics.md, section 5)
 # --------------------------------------------------------------------------------------------
 @pytest.mark.parametrize("n", [0.2, 0.5, 1.0, N_REF, 4.0, 10.0])
 def test_poiseuille_equals_zener(ref, n):
@@ -212,7 +212,7 @@ def test_zhao_flagged_non_passive(ref):
     assert not res.diagnostics.checks["zhao_a0"].any()
     np.testing.assert_allclose(
         res.diagnostics.dimensionless_amplitude[0], [463.0, 4630.0], rtol=2e-3
-    )  # notes: A0 = 463 and 4,630
+    )  # independent value: A0 = 463 and 4,630
     assert not res.diagnostics.checks["zhao_re_w"][:2].any()
 
 
@@ -252,8 +252,8 @@ def test_peak_frequency_falls_with_amplitude_zhao(ref, diaphragm):
         diaphragm=diaphragm,
     )
     assert np.all(np.diff(fp) < 0)
-    assert 2.5 < fp[0] < 3.2  # notes: near 3 Hz at 0.05 mm
-    assert 0.8 < fp[-1] < 1.1  # notes: near 1 Hz at 0.5 mm
+    assert 2.5 < fp[0] < 3.2  # independent value: near 3 Hz at 0.05 mm
+    assert 0.8 < fp[-1] < 1.1  # independent value: near 1 Hz at 0.5 mm
 
 
 def test_poiseuille_peak_independent_of_air_amplitude(ref):
@@ -490,7 +490,7 @@ def test_self_consistent_velocity_is_driven_velocity(ref, random_points, flow):
     np.testing.assert_allclose(res.diagnostics.driven_velocity_m_s, u, rtol=1e-10)
 
 
-# Physics notes section 3 (laminar friction + K = 1.5, harmonic balance)
+# Independent harmonic balance (laminar friction + K = 1.5; docs/physics.md, section 3)
 NOTES_TABLE = [  # (X_p, f, U kinematic, U self-consistent)
     (0.05e-3, 0.5, 1.31, 0.85),
     (0.05e-3, 2.0, 5.23, 3.24),
@@ -501,7 +501,7 @@ NOTES_TABLE = [  # (X_p, f, U kinematic, U self-consistent)
 
 
 @pytest.mark.parametrize(("x", "f", "u_kin", "u_sc"), NOTES_TABLE)
-def test_notes_velocity_table(ref, x, f, u_kin, u_sc):
+def test_harmonic_balance_velocity_table(ref, x, f, u_kin, u_sc):
     kin = complex_stiffness(ref, f, x, flow="zhao", amplitude_mode="kinematic", warn=False)
     assert kin.diagnostics.velocity_amplitude_m_s.item() == pytest.approx(u_kin, rel=0.01)
     # womersley = laminar friction + K, like the notes (plus the exact unsteady inertia)

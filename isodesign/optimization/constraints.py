@@ -1,0 +1,196 @@
+"""The NLP's constraints from the metrics, and their report at the optimum.
+
+Every constraint is ``lo <= expr <= hi`` in the NLP's units: the log of the
+constrained quantity, or dB. :func:`build_constraints` works on NumPy and CasADi
+metrics alike, so the re-check evaluates exactly the NLP's constraints.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from isodesign.numerics import backend as bk
+from isodesign.spring.capillary import LAMINAR_REYNOLDS_LIMIT, QUASI_STEADY_WOMERSLEY_LIMIT
+from isodesign.spring.diagnostics import LUMPED_LIMIT
+from isodesign.spring.flow_models import flow_model
+
+__all__ = [
+    "ACTIVE_MARGIN",
+    "VALIDITY_MARGIN",
+    "Constraint",
+    "ConstraintReport",
+    "build_constraints",
+    "constraint_reports",
+    "flow_validity_constraints",
+]
+
+_LN10 = math.log(10.0)
+#: The NLP keeps this fraction of each model-validity limit (Reynolds number,
+#: acoustic compactness, Womersley number): the constraints hold at the NLP's grid
+#: points, and the margin keeps the finer analysis grid inside the limits too.
+VALIDITY_MARGIN = 0.98
+#: A constraint whose margin (NLP units) is below this is reported as binding.
+ACTIVE_MARGIN = 1e-4
+
+
+@dataclass(frozen=True)
+class Constraint:
+    """One (vector) constraint ``lo <= expr <= hi`` in the NLP's (log) units."""
+
+    name: str
+    expr: Any
+    lo: float
+    hi: float
+    size: int = 1
+    describe: str = ""
+
+
+def build_constraints(study, mt: dict, n_all: int) -> list[Constraint]:
+    """The study's constraints on the metrics ``mt`` (NumPy or CasADi)."""
+    c = study.constraints
+    out: list[Constraint] = []
+    inf = math.inf
+    if c["max_total_volume_m3"]:
+        out.append(Constraint("total_volume", mt["ln_total_volume"], -inf,
+                              math.log(c["max_total_volume_m3"]), 1, "V_t0 (1 + N) <= V_max"))
+    if c["min_tilt_margin"]:
+        out.append(Constraint("tilt_margin", mt["ln_tilt"], math.log(c["min_tilt_margin"]), inf,
+                              1, "tilt margin n k (s/2)^2 / (m g h) >= min"))
+    if c["min_natural_frequency_hz"] or c["max_natural_frequency_hz"]:
+        lo = math.log(c["min_natural_frequency_hz"]) if c["min_natural_frequency_hz"] else -inf
+        hi = math.log(c["max_natural_frequency_hz"]) if c["max_natural_frequency_hz"] else inf
+        out.append(Constraint("natural_frequency", mt["ln_fn"], lo, hi, 1,
+                              "f_min <= natural frequency <= f_max"))
+    if c["max_peak_transmissibility_db"] is not None:
+        n = _size(mt["ln_T2_peak"])
+        out.append(Constraint("peak_transmissibility", mt["ln_T2_peak"], -inf,
+                              c["max_peak_transmissibility_db"] * _LN10 / 10.0, n,
+                              "|T| <= T_max (dB) at every peak-grid frequency"))
+    if c["min_damping_ratio"]:
+        out.append(Constraint("damping_ratio", mt["ln_zeta"], math.log(c["min_damping_ratio"]),
+                              inf, 1, "Zener damping ratio >= min"))
+    if c["max_mach"]:
+        out.append(Constraint("mach", mt["ln_mach"], -inf, math.log(c["max_mach"]), n_all,
+                              "capillary Mach number <= max at every grid frequency"))
+    if c["model_validity"]:
+        out += _lumped_constraints(mt)
+        out += flow_validity_constraints(study.models["flow"], mt, n_all)
+    return out
+
+
+def _lumped_constraints(mt: dict) -> list[Constraint]:
+    """Acoustic compactness of the tube and of both chambers."""
+    out = []
+    for name, e in zip(("tube", "top_chamber", "bottom_chamber"), mt["ln_lumped"], strict=True):
+        out.append(Constraint(f"lumped_{name}", e, -math.inf,
+                              math.log(VALIDITY_MARGIN * LUMPED_LIMIT), 1,
+                              f"acoustically compact {name.replace('_', ' ')}: w l / c <= "
+                              f"{LUMPED_LIMIT}"))
+    return out
+
+
+#: NLP form of the flow models' validity checks, by check name (the checks themselves are
+#: registered with each model in :mod:`isodesign.spring.flow_models`).
+_FLOW_CHECK_CONSTRAINTS = {
+    "laminar": lambda mt, n_all: Constraint(
+        "laminar", mt["ln_re"], -math.inf, math.log(VALIDITY_MARGIN * LAMINAR_REYNOLDS_LIMIT),
+        n_all, "peak Reynolds number <= 2300 (laminar model)"),
+    "quasi_steady_alpha": lambda mt, n_all: Constraint(
+        "quasi_steady_alpha", mt["ln_alpha_max"], -math.inf,
+        math.log(VALIDITY_MARGIN * QUASI_STEADY_WOMERSLEY_LIMIT), 1,
+        "Womersley number <= 3.4 at the highest grid frequency"),
+}
+
+
+def flow_validity_constraints(flow: str, mt: dict, n_all: int) -> list[Constraint]:
+    """The validity limits of a capillary flow model, from its registered checks."""
+    return [_FLOW_CHECK_CONSTRAINTS[c.name](mt, n_all) for c in flow_model(flow).checks
+            if c.name in _FLOW_CHECK_CONSTRAINTS]
+
+
+def _size(x) -> int:
+    return int(np.size(x)) if not bk.is_casadi(x) else int(x.numel())
+
+
+@dataclass(frozen=True)
+class ConstraintReport:
+    """A constraint at the optimum (its worst row for vector constraints).
+
+    ``value``, ``lower`` and ``upper`` are in natural units (``unit``);
+    ``margin`` is the NLP's margin in its internal units (the log of the ratio
+    to the bound, or dB), which is what ``active`` (margin < 1e-4) is judged on;
+    :attr:`margin_natural` is the distance to the nearest bound in ``unit``.
+    """
+
+    name: str
+    value: float
+    lower: float | None
+    upper: float | None
+    unit: str
+    margin: float
+    active: bool
+    description: str
+
+    @property
+    def margin_natural(self) -> float:
+        """Distance to the nearest bound in the constraint's own unit (>= 0: satisfied)."""
+        m = [self.value - self.lower] if self.lower is not None else []
+        m += [self.upper - self.value] if self.upper is not None else []
+        return min(m) if m else math.inf
+
+
+def constraint_reports(con_rows, g: np.ndarray) -> list[ConstraintReport]:
+    """Constraints in natural units with margins; epigraph rows are skipped.
+
+    ``con_rows`` is :attr:`isodesign.optimization.problem.Problem.con_rows`:
+    (constraint, first row in g, number of rows)."""
+    out = []
+    for c, row, n in con_rows:
+        if c.name.startswith(("epigraph_", "bound_")):
+            continue
+        gi = g[row: row + n]
+        lo, hi = c.lo, c.hi
+        conv, unit = _NATURAL.get(c.name, (math.exp, ""))
+        # the worst row of a vector constraint
+        if math.isfinite(hi) and not math.isfinite(lo):
+            k = int(np.argmax(gi))
+        elif math.isfinite(lo) and not math.isfinite(hi):
+            k = int(np.argmin(gi))
+        else:
+            k = int(np.argmin(np.minimum(gi - lo, hi - gi)))
+        v = float(gi[k])
+        margin = min(v - lo if math.isfinite(lo) else math.inf,
+                     hi - v if math.isfinite(hi) else math.inf)
+        out.append(ConstraintReport(
+            name=c.name, value=conv(v), lower=conv(lo) if math.isfinite(lo) else None,
+            upper=conv(hi) if math.isfinite(hi) else None, unit=unit,
+            margin=margin, active=margin < ACTIVE_MARGIN, description=c.describe,
+        ))
+    return out
+
+
+def _exp(v):
+    return math.exp(v)
+
+
+def _db_of_ln2(v):
+    return 10.0 * v / _LN10
+
+
+_NATURAL = {
+    "total_volume": (_exp, "m^3"),
+    "tilt_margin": (_exp, "-"),
+    "natural_frequency": (_exp, "Hz"),
+    "peak_transmissibility": (_db_of_ln2, "dB"),
+    "damping_ratio": (_exp, "-"),
+    "mach": (_exp, "-"),
+    "laminar": (_exp, "Re"),
+    "quasi_steady_alpha": (_exp, "alpha"),
+    "lumped_tube": (_exp, "w l/c"),
+    "lumped_top_chamber": (_exp, "w l/c"),
+    "lumped_bottom_chamber": (_exp, "w l/c"),
+}

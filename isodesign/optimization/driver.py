@@ -1,0 +1,163 @@
+"""The driver: :func:`optimize` a study (multi-start, refinement, re-check, analysis).
+
+Trust
+-----
+* Multi-start: space-filling starts (Latin hypercube in the scaled log space)
+  plus the study's start; the report says how many reached the best design.
+* The winning start is chosen after the tie-break and the peak refinement of the
+  best start of each distinct branch (:func:`.refine.refine_branches`).
+* Re-check: the optimum is re-evaluated with the NumPy analysis path (its own
+  solvers for U and sigma); objective and constraints must agree to 1e-6
+  relative, else :class:`~isodesign.errors.SolverError` (:mod:`.recheck`).
+* Failure is explicit: infeasible, iteration limit and restoration failure are
+  reported with IPOPT's status, the most violated constraints and the best
+  point found.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+from isodesign.errors import SolverError
+from isodesign.optimization.constraints import constraint_reports
+from isodesign.optimization.multistart import run_starts, start_points
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.problem import CONSTRAINT_VIOLATION_TOL, IPOPT_OPTIONS, Problem
+from isodesign.optimization.recheck import RECHECK_RTOL, recheck
+from isodesign.optimization.refine import (
+    FLAT_TOLERANCE_DB,
+    FLAT_TOLERANCE_REL,
+    flat_tolerance,
+    refine_branches,
+)
+from isodesign.optimization.result import OptimizationResult, StartRecord
+from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+from isodesign.response.random_input import band_response
+
+__all__ = ["optimize", "solver_settings"]
+
+
+def optimize(study, *, progress=None, problem: Problem | None = None,
+             analyze: bool = True) -> OptimizationResult:
+    """Optimize a study: multi-start IPOPT, tie-break, peak refinement, re-check, analysis.
+
+    Parameters
+    ----------
+    study : Study
+    progress : callable or None
+        ``progress(done, total, solution)`` after each start (for a progress bar).
+    problem : Problem, optional
+        A prebuilt NLP of this study whose first objective is the study's (a Pareto
+        study passes its two-objective NLP); built here by default.
+    analyze : bool
+        Run the fine-grid band responses of the optimum and of the start (default).
+
+    Returns
+    -------
+    OptimizationResult
+        Check ``.feasible`` (or call ``.raise_for_status()``). Raises
+        :class:`SolverError` when the NLP's optimum and the NumPy analysis
+        disagree (a bug, never a silently wrong design).
+    """
+    t_all = time.perf_counter()
+    prob = problem if problem is not None else Problem(study)
+    starts = start_points(study, prob.scaling)
+    results = run_starts(prob, starts, workers=study.solver.get("workers"),
+                         progress=progress)
+    records, sols = _start_records(prob, starts, results)
+    good = {i: sols[i] for i, r in enumerate(records) if r.feasible and sols[i] is not None}
+    if not good:
+        return _infeasible_result(study, prob, starts[0], records, sols, t_all)
+    obj = OBJECTIVES[prob.objective]
+    tol_j = flat_tolerance(prob.objective)
+    win = refine_branches(study, prob, good, tol_j)
+    j_win = good[win.start].objective
+    n_best = sum(1 for s in good.values() if abs(s.objective - j_win) <= tol_j)
+    final = win.final
+    d = study.design_at(final.values)
+    diff = recheck(prob, final, d)
+    analysis, start_analysis = _analyses(study, prob, d, starts[0]) if analyze else (None, None)
+    j0 = None
+    try:
+        x00 = prob.initial_guess(starts[0])
+        j0 = obj.to_natural(float(prob.objective_values(x00)[0]))
+    except SolverError:
+        pass
+    return OptimizationResult(
+        study=study, objective=prob.objective, feasible=True, status=final.status, design=d,
+        values=final.values, objective_value=obj.to_natural(final.objective),
+        start_values=starts[0], start_objective=j0,
+        constraints=tuple(constraint_reports(prob.con_rows, final.g)), starts=tuple(records),
+        n_reached_best=n_best, violations=(), flat_direction=win.flat,
+        recheck_max_rel_diff=diff, analysis=analysis, start_analysis=start_analysis,
+        peak=win.peak, wall_s=time.perf_counter() - t_all, settings=solver_settings(study),
+        branches=tuple((i, obj.to_natural(j)) for i, j in win.branches),
+    )
+
+
+def _start_records(prob, starts, results) -> tuple[list[StartRecord], list]:
+    """One record per start; the solutions (None where the initial guess failed)."""
+    records: list[StartRecord] = []
+    sols = []
+    to_nat = OBJECTIVES[prob.objective].to_natural
+    for i, (vals, out) in enumerate(zip(starts, results, strict=True)):
+        if isinstance(out, str):
+            records.append(StartRecord(i, vals, f"initial guess failed: {out}", False, False,
+                                       0, 0.0, math.nan, math.inf, {}))
+            sols.append(None)
+            continue
+        records.append(StartRecord(i, vals, out.status, out.success, out.feasible,
+                                   out.iterations, out.wall_s, to_nat(out.objective),
+                                   out.max_violation, out.values))
+        sols.append(out)
+    return records, sols
+
+
+def _infeasible_result(study, prob, start_vals, records, sols, t_all) -> OptimizationResult:
+    """The best point found when no start is feasible (least violation)."""
+    cand = [i for i, s in enumerate(sols) if s is not None]
+    if not cand:
+        raise SolverError("no start could be initialized (see the start records)")
+    # least violation, preferring starts whose implicit equations are solved (a start
+    # stopped by the iteration limit may leave them unsolved: not a physical point)
+    ib = min(cand, key=lambda i: (sols[i].equation_residual > FEASIBILITY_TOLERANCE,
+                                  sols[i].max_violation))
+    sol = sols[ib]
+    return OptimizationResult(
+        study=study, objective=prob.objective, feasible=False, status=sol.status,
+        design=study.design_at(sol.values), values=sol.values,
+        objective_value=OBJECTIVES[prob.objective].to_natural(sol.objective),
+        start_values=start_vals, start_objective=None,
+        constraints=tuple(constraint_reports(prob.con_rows, sol.g)), starts=tuple(records),
+        n_reached_best=0, violations=sol.violated(),
+        flat_direction=None, recheck_max_rel_diff=None,
+        wall_s=time.perf_counter() - t_all, settings=solver_settings(study),
+    )
+
+
+def _analyses(study, prob, d, start_vals):
+    """Fine-grid band responses of the optimum and of the start design."""
+    kw = {"flow": study.models["flow"], "amplitude_mode": study.models["amplitude_mode"],
+          "diaphragm": prob.dia, "random_method": study.models["random_method"]}
+    analysis = band_response(d, study.payload, study.floor, study.target,
+                             bands=study.bands, derive_pressure=False, warn=False, **kw)
+    start_analysis = band_response(study.design_at(start_vals), study.payload, study.floor,
+                                   study.target, bands=study.bands, derive_pressure=False,
+                                   warn=False, **kw)
+    return analysis, start_analysis
+
+
+def solver_settings(study) -> dict:
+    """The solver settings a run records."""
+    return {
+        "solver": "ipopt (CasADi nlpsol, exact Hessian)",
+        "options": {"max_iter": study.solver["max_iter"], "tol": study.solver["tol"],
+                    "constr_viol_tol": CONSTRAINT_VIOLATION_TOL,
+                    **{k.removeprefix("ipopt."): v for k, v in IPOPT_OPTIONS.items()}},
+        "starts": study.solver["starts"],
+        "seed": study.solver["seed"],
+        "recheck_rtol": RECHECK_RTOL,
+        "flat_tolerance_db": FLAT_TOLERANCE_DB,
+        "flat_tolerance_rel": FLAT_TOLERANCE_REL,
+    }

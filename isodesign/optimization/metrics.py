@@ -1,0 +1,181 @@
+"""Objective and constraint quantities of a design, on NumPy arrays or CasADi symbols.
+
+One source of physics: the NLP (:mod:`isodesign.optimization.problem`) and the
+NumPy re-check (:mod:`isodesign.optimization.recheck`) evaluate the same three
+functions: :func:`point_quantities` per grid frequency, :func:`design_quantities`
+per design and :func:`combine` for the grid-level quadratures.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.grid import take
+from isodesign.response.isolator import (
+    natural_frequency_hz,
+    relative_transmissibility,
+    static_stiffness,
+    tilt_margin,
+    transmissibility,
+    zener_damping_ratio,
+)
+from isodesign.response.linearization import (
+    EQUIVALENT_AMPLITUDE_FACTOR,
+    band_mean_square,
+    stroke_variance,
+    stroke_weighted_sum,
+)
+from isodesign.spring.capillary import gaussian_equivalent_resistance, linear_resistance
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
+from isodesign.spring.flow_models import resistance_function
+
+__all__ = ["combine", "design_quantities", "metrics", "point_quantities", "statistical"]
+
+
+def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
+    """Per-frequency quantities (elementwise in ``omega``), any backend.
+
+    ``T`` and ``R`` (absolute and relative transmissibility), ``ln_mach`` and ``ln_re`` of
+    the tube flow at the velocity amplitude ``velocity``. The diaphragm is at the stroke
+    amplitude ``A* = 1.880 sigma``. The capillary: with ``c_nl`` (the statistical closure,
+    ``docs/random-response.md``) its linear part plus the Gaussian-equivalent resistance
+    ``c_nl`` of the nonlinear drop, and ``G2 = |U/X|^2`` (the tube velocity per stroke) is
+    returned too; without, the harmonic describing function at the amplitude ``velocity``.
+    """
+
+    m_i = study.payload.mass_per_isolator_kg
+    a_star = EQUIVALENT_AMPLITUDE_FACTOR * sigma
+    flow = study.models["flow"]
+    if c_nl is None:
+        c = resistance_function(flow, d, omega)(velocity)
+    else:
+        lin = linear_resistance(flow, d, omega)
+        c = Cx(lin.re + c_nl, lin.im)
+    k = spring_stiffness(air_stiffness(d, omega, c), dia.stiffness(omega, a_star))
+    out = {
+        "T": transmissibility(k, m_i, omega),
+        "R": relative_transmissibility(k, m_i, omega),
+        "ln_mach": bk.log(velocity / d.speed_of_sound_m_s),
+        "ln_re": bk.log(d.density_kg_m3 * velocity * d.capillary_diameter_m / d.viscosity_pa_s),
+    }
+    if c_nl is not None:
+        out["G2"] = tube_velocity_gain2(d, omega, c)
+    return out
+
+
+def design_quantities(study, grid, d, dia) -> dict:
+    """Design-level quantities (volume, stability, validity), any backend."""
+    m_i = study.payload.mass_per_isolator_kg
+    k0 = static_stiffness(d, dia, m_i)
+    out = {"ln_total_volume": bk.log(d.total_volume_m3)}
+    if study.payload.spacing_m is not None and study.payload.cg_height_m is not None:
+        out["ln_tilt"] = bk.log(tilt_margin(k0, study.payload))
+    out["ln_fn"] = bk.log(natural_frequency_hz(k0, m_i))
+    out["ln_zeta"] = bk.log(zener_damping_ratio(d, m_i))
+    w_max = float(np.max(grid.omega))
+    # acoustic compactness of the lumped model (diagnostics.LUMPED_LIMIT), one
+    # smooth constraint per length instead of a max
+    c = d.speed_of_sound_m_s
+    out["ln_lumped"] = [
+        bk.log(w_max * d.capillary_length_m / c),
+        bk.log(w_max * bk.power(d.top_volume_m3, 1.0 / 3.0) / c),
+        bk.log(w_max * bk.power(d.bottom_volume_m3, 1.0 / 3.0) / c),
+    ]
+    out["ln_alpha_max"] = 0.5 * bk.log(
+        d.density_kg_m3 * w_max * d.capillary_diameter_m**2 / d.viscosity_pa_s
+    ) - math.log(2.0)
+    return out
+
+
+def combine(study, grid, pq: dict, dq: dict) -> dict:
+    """Grid-level quantities from the per-point and design-level ones, any backend.
+
+    The quadratures of sigma^2 and of the band mean squares are
+    :func:`isodesign.response.linearization.stroke_variance` and
+    :func:`~isodesign.response.linearization.band_mean_square`, the same functions the
+    band response uses.
+    """
+
+    fl, pk = grid.floor_slice, grid.peak_slice
+    r_fl = take(pq["R"], fl)
+    var = stroke_variance(r_fl, grid.response)
+    ms = band_mean_square(take(pq["T"], fl), grid.response)
+    out = dict(dq)
+    if "G2" in pq:  # the statistical closure: sigma_u^2 = integral |T-1|^2 |U/X|^2 S_x df
+        out["tube_velocity_variance"] = stroke_weighted_sum(r_fl.abs2() * pq["G2"][fl],
+                                                            grid.response)
+    out.update({
+        "stroke_variance": var,
+        "ms_all": ms,
+        "ln_ms_band": bk.log(ms),
+        "ln_limit2": 2.0 * np.log(grid.target_limit_m_s),
+        "ln_T2_peak": bk.log(take(pq["T"], pk).abs2()),
+        "ln_mach": pq["ln_mach"],
+        "ln_re": pq["ln_re"],
+    })
+    if grid.point_index is not None:
+        i = grid.point_index
+        out["ln_T2_point"] = bk.log(Cx(pq["T"].re[i], pq["T"].im[i]).abs2())
+    return out
+
+
+def statistical(study) -> bool:
+    """True when the study's random closure is the statistical linearization.
+
+    Parameters
+    ----------
+    study : Study
+        Its ``models.random_method`` is read.
+
+    Returns
+    -------
+    bool
+    """
+    return study.models.get("random_method") == "statistical"
+
+
+def metrics(study, grid, d, velocity, sigma, *, diaphragm=None, tube_rms=None) -> dict:
+    """Objective and constraint quantities of a design (NumPy or CasADi).
+
+    :func:`point_quantities` on every grid frequency, :func:`design_quantities`
+    and :func:`combine`: the NLP evaluates the same three functions (the first
+    mapped over the grid as a CasADi Function).
+
+    Parameters
+    ----------
+    study : Study
+    grid : Grid
+    d : SpringDesign
+        Design, possibly with CasADi symbols for the free variables.
+    velocity : array or symbol vector
+        Tube velocity amplitude at every grid frequency, m/s (harmonic closure; ignored
+        with ``tube_rms``).
+    sigma : float or symbol
+        RMS stroke of the spring, m.
+    tube_rms : float or symbol, optional
+        The statistical closure: the tube velocity's RMS ``sigma_u`` (m/s); the capillary's
+        nonlinear drop is its Gaussian-equivalent resistance there, the velocity of the Mach
+        and Reynolds checks ``sqrt(2) sigma_u``.
+    diaphragm : diaphragm model, optional
+        Default: the study's.
+
+    Returns
+    -------
+    dict
+        ``stroke_variance``, ``ms_all`` and ``ln_ms_band`` (target bands),
+        ``ln_limit2``, ``ln_T2_peak`` (vector), ``ln_total_volume``, ``ln_tilt``,
+        ``ln_fn``, ``ln_zeta``, ``ln_mach`` and ``ln_re`` (vectors),
+        ``ln_alpha_max`` and ``ln_T2_point`` (for an objective at one frequency).
+    """
+    dia = diaphragm or diaphragm_model(study.models["diaphragm"])
+    c_nl = None
+    if tube_rms is not None:
+        c_nl = gaussian_equivalent_resistance(study.models["flow"], d, tube_rms)
+        velocity = math.sqrt(2.0) * tube_rms + 0.0 * grid.omega
+    pq = point_quantities(study, d, grid.omega, velocity, sigma, dia, c_nl)
+    return combine(study, grid, pq, design_quantities(study, grid, d, dia))

@@ -1,0 +1,502 @@
+"""The NLP of a study (CasADi SX, IPOPT), built once and solved from many starts.
+
+Decision variables, scaled to [-1, 1] in log space (:mod:`.variables`): volume
+ratio N, top-chamber volume V_t0, capillary length L_c and diameter D_c (fixed ones
+are constants). Implicit unknowns, solved inside the NLP as equality constraints:
+
+* ``s = ln sigma``: the RMS stroke of the spring under the random floor input,
+  ``sigma^2 = integral |T - 1|^2 S_x df``, written as a chain of partial sums; the
+  diaphragm at ``A* = 1.880 sigma``;
+* with the statistical closure (``random_method = "statistical"``, the default;
+  ``docs/random-response.md``): ``y = ln sigma_u``, the RMS of the tube velocity,
+  ``sigma_u^2 = integral |T - 1|^2 |U/X|^2 S_x df`` (a second chain of partial sums), at
+  which the capillary's nonlinear drop is replaced by its Gaussian-equivalent resistance
+  (one expression per design, passed to every grid point);
+* with the harmonic closure (``equivalent_amplitude``): ``y_j = ln U_j``, the
+  self-consistent tube velocity amplitude at every grid frequency for the stroke amplitude
+  ``A* = 1.880 sigma`` (:func:`isodesign.spring.equations.amplitude_residual` = 0).
+
+Every objective and constraint is computed by :mod:`.metrics`, the same
+backend-agnostic functions that evaluate them on NumPy arrays for the re-check.
+Max-over-bands and max-over-frequency quantities are written in epigraph form
+(:mod:`.objectives`), so the NLP has no max or abs.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from types import SimpleNamespace
+
+import numpy as np
+
+from isodesign.errors import SolverError
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.constraints import Constraint, build_constraints
+from isodesign.optimization.grid import build_grid, take
+from isodesign.optimization.metrics import (
+    combine,
+    design_quantities,
+    point_quantities,
+    statistical,
+)
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.solution import Solution
+from isodesign.optimization.variables import DESIGN_VARIABLES, log_scaling
+from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
+from isodesign.response.random_input import solve_stroke_rms
+from isodesign.spring.amplitude import solve_velocity_amplitude
+from isodesign.spring.capillary import gaussian_equivalent_resistance
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import amplitude_residual, kinematic_velocity
+
+__all__ = [
+    "CONSTRAINT_VIOLATION_TOL",
+    "EPIGRAPH_BOUND",
+    "IPOPT_OPTIONS",
+    "PEAK_ROUNDS",
+    "PEAK_SLOTS",
+    "SIGMA_BOUNDS_M",
+    "VELOCITY_BOUNDS_M_S",
+    "Problem",
+]
+
+#: IPOPT options beyond max_iter and tol. Every start is consistent (the implicit
+#: unknowns solved by the NumPy path), so IPOPT must not push it off its bounds nor
+#: start with a large barrier parameter: a monotone barrier from mu = 1e-3 and
+#: tiny bound pushes converged from every start where the adaptive default often
+#: wandered off (measured on the default study, benchmarks/bench_optimize.py).
+IPOPT_OPTIONS = {
+    "ipopt.mu_strategy": "monotone",
+    "ipopt.mu_init": 1e-3,
+    "ipopt.bound_push": 1e-9,
+    "ipopt.bound_frac": 1e-9,
+    "ipopt.slack_bound_push": 1e-9,
+    "ipopt.slack_bound_frac": 1e-9,
+}
+#: IPOPT's constraint violation tolerance (``ipopt.constr_viol_tol``).
+CONSTRAINT_VIOLATION_TOL = 1e-9
+#: Boxes on the implicit unknowns of the NLP (far outside any physical solution).
+SIGMA_BOUNDS_M = (1e-13, 1e-1)
+VELOCITY_BOUNDS_M_S = (1e-12, 1e3)
+EPIGRAPH_BOUND = 300.0  # dB, or ln(m/s) for rms_velocity
+#: Refinement rounds of the peak grid (five movable frequencies each).
+PEAK_ROUNDS = 4
+#: Movable peak-grid frequencies reserved in every NLP (parameters, no rebuild).
+PEAK_SLOTS = 5 * PEAK_ROUNDS
+_NO_BOUND = 1e20  # an epsilon bound that never binds
+
+
+class Problem:
+    """The NLP of a study, built once and solved from many starts.
+
+    The objective is parametric, so that one built solver serves the main
+    solve, the flat-direction tie-break and a Pareto sweep::
+
+        minimize   sum_k w_k J_k + w_D ln D_c
+        subject to J_k <= eps_k  (k in objectives), physics, constraints
+
+    with parameters ``p = [w_1..w_K, w_D, eps_1..eps_K, slot frequencies]`` (see
+    :meth:`params`). The per-frequency physics (:func:`.metrics.point_quantities`
+    and the amplitude residual) is one small SX Function mapped over the grid, so
+    the exact Hessian is cheap to build and to evaluate.
+
+    Built in named steps: :meth:`_point_function` (per-frequency physics),
+    :meth:`_decision_variables`, :meth:`_physics` (metrics over the grid),
+    :meth:`_stroke_chain`, :meth:`_objectives_and_constraints`, :meth:`_assemble`
+    (rows, bounds) and :meth:`_build_solver`.
+
+    Parameters
+    ----------
+    study : Study
+    objectives : tuple of str
+        Objective kinds present in the NLP (default: the study's objective).
+    extra_peak_hz : tuple of float
+        Fixed frequencies added to the peak grid.
+    """
+
+    def __init__(self, study, objectives: tuple | None = None, extra_peak_hz: tuple = ()):
+        import casadi as ca
+
+        self.study = study
+        self.objectives = tuple(objectives or (study.objective["kind"],))
+        self.objective = self.objectives[0]
+        self.extra_peak_hz = tuple(extra_peak_hz)
+        self.grid = build_grid(study, objectives=self.objectives, extra_peak_hz=extra_peak_hz,
+                               slots=PEAK_SLOTS)
+        self.slot_hz = self.grid.omega[self.grid.slot_slice] / (2.0 * math.pi)
+        self.dia = diaphragm_model(study.models["diaphragm"])
+        self.scaling = log_scaling(study)
+        self.statistical = statistical(study)
+        self.self_consistent = (study.models["amplitude_mode"] == "self_consistent"
+                                and not self.statistical)
+        # SX throughout: with MX the Jacobian's colouring needed one sweep per grid point
+        # (measured 50-70 ms per Jacobian against ~1 ms for the expanded SX graph)
+        nlp = SimpleNamespace(ca=ca, X=ca.SX)
+        self._decision_variables(nlp)
+        self._physics(nlp, self._point_function(ca))
+        self._stroke_chain(nlp)
+        self._objectives_and_constraints(nlp)
+        self._assemble(nlp)
+        self._build_solver(nlp)
+
+    # -- construction steps ------------------------------------------------------
+    def _point_function(self, ca):
+        """The per-frequency physics as one SX Function ``(design, s, y, c_nl, w)``.
+
+        ``y`` is ``ln U`` at that frequency (harmonic closure) or ``ln sigma_u`` (statistical,
+        the same at every point, like ``s``); ``c_nl`` the Gaussian-equivalent resistance
+        (statistical closure; unused otherwise). Outputs: amplitude residual, T, R,
+        ln Mach, ln Re and ``|U/X|^2``.
+        """
+        study = self.study
+        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
+        d_sx = study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        s_sx, y_sx, w_sx = ca.SX.sym("s"), ca.SX.sym("y"), ca.SX.sym("w")
+        cnl_sx = ca.SX.sym("c_nl")
+        sig_sx = ca.exp(s_sx)
+        a_sx = EQUIVALENT_AMPLITUDE_FACTOR * sig_sx
+        if self.statistical:
+            pq = point_quantities(study, d_sx, w_sx, math.sqrt(2.0) * ca.exp(y_sx), sig_sx,
+                                  self.dia, cnl_sx)
+            return ca.Function("point", [dv, s_sx, y_sx, cnl_sx, w_sx],
+                               [ca.SX(0), pq["T"].re, pq["T"].im, pq["R"].re, pq["R"].im,
+                                pq["ln_mach"], pq["ln_re"], pq["G2"]])
+        if self.self_consistent:
+            u_sx = ca.exp(y_sx)
+            res_sx = amplitude_residual(study.models["flow"], d_sx, w_sx, a_sx, y_sx)
+        else:
+            u_sx = kinematic_velocity(d_sx, w_sx, a_sx)
+            res_sx = ca.SX(0)
+        pq = point_quantities(study, d_sx, w_sx, u_sx, sig_sx, self.dia)
+        return ca.Function("point", [dv, s_sx, y_sx, cnl_sx, w_sx],
+                           [res_sx, pq["T"].re, pq["T"].im, pq["R"].re, pq["R"].im,
+                            pq["ln_mach"], pq["ln_re"], ca.SX(0)])
+
+    def _decision_variables(self, nlp) -> None:
+        """Scaled design z, ln sigma s, ln U y, the design values and the slot parameters."""
+        ca, X = nlp.ca, nlp.X
+        nlp.n_all = self.grid.omega.size
+        nlp.z = X.sym("z", len(self.scaling.names))
+        nlp.s = X.sym("s")
+        nlp.y = X.sym("y", nlp.n_all if self.self_consistent else int(self.statistical))
+        vals = []
+        for n in DESIGN_VARIABLES:
+            if n in self.scaling.names:
+                k = self.scaling.names.index(n)
+                vals.append(ca.exp(self.scaling.center[k] + self.scaling.half[k] * nlp.z[k]))
+            else:
+                vals.append(X(self.study.variable(n).start))
+        nlp.vals = vals
+        # the movable peak frequencies are parameters: refining the peak grid needs no
+        # rebuild of the NLP
+        nlp.p_slot = X.sym("slot_omega", self.grid.n_slots)
+
+    def _physics(self, nlp, point) -> None:
+        """The point function mapped over the grid; the metrics of the design."""
+        ca, X = nlp.ca, nlp.X
+        w = self.grid.omega
+        mapped = point.map(nlp.n_all, "unroll")
+        v = ca.vertcat(*nlp.vals)
+        nlp.d = self.study.design_at({n: nlp.vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        if self.self_consistent:
+            y_row = nlp.y.T
+        elif self.statistical:
+            y_row = nlp.y  # ln sigma_u: broadcast like s
+        else:
+            y_row = X.zeros(1, nlp.n_all)
+        c_nl = (gaussian_equivalent_resistance(self.study.models["flow"], nlp.d,
+                                               ca.exp(nlp.y[0]))
+                if self.statistical else X(0))  # fmt: skip
+        sl = self.grid.slot_slice
+        w_sym = ca.vertcat(ca.DM(w[: sl.start]), nlp.p_slot, ca.DM(w[sl.stop:]))
+        # v, s and c_nl keep their shape: map broadcasts them (and sums their derivatives)
+        outs = mapped(v, nlp.s, y_row, c_nl, w_sym.T)
+        res_u, t_re, t_im, r_re, r_im, ln_mach, ln_re, g2 = (o.T for o in outs)
+        nlp.pq = {"T": Cx(t_re, t_im), "R": Cx(r_re, r_im), "ln_mach": ln_mach, "ln_re": ln_re}
+        if self.statistical:
+            nlp.pq["G2"] = g2
+        nlp.mt = combine(self.study, self.grid, nlp.pq,
+                         design_quantities(self.study, self.grid, nlp.d, self.dia))
+        nlp.res_u = res_u if self.self_consistent else X(0, 1)
+
+    def _stroke_chain(self, nlp) -> None:
+        """sigma^2 = sum_j stroke_weight_j |R_j|^2 as a chain of partial sums.
+
+        (:func:`isodesign.response.linearization.stroke_variance`) The partial sums
+        c_j are in units of sigma_ref^2, so that no constraint row couples all grid
+        points: a dense row would make the Jacobian's colouring need one sweep per point.
+        """
+        ca, X = nlp.ca, nlp.X
+        self.sigma_ref, self.tube_rms_ref = self._reference_sigma()
+        sw = np.asarray(self.grid.response.stroke_weight, float)
+        fl = self.grid.floor_slice
+        r2 = take(nlp.pq["R"], fl).abs2()
+        nlp.inc = sw / self.sigma_ref**2 * r2
+        nf = self.grid.n_floor
+        nlp.c = X.sym("stroke_partial_sums", nf)
+        res_chain = nlp.c - ca.vertcat(X(0), nlp.c[: nf - 1]) - nlp.inc
+        nlp.res_s = ca.vertcat(res_chain, ca.exp(2.0 * nlp.s) / self.sigma_ref**2 - nlp.c[nf - 1])
+        self._chain_weights = sw / self.sigma_ref**2
+        self.nc = nf
+        if self.statistical:  # sigma_u^2 = sum_j stroke_weight_j |R_j|^2 |U/X|_j^2, likewise
+            inc_u = sw / self.tube_rms_ref**2 * r2 * nlp.pq["G2"][fl]
+            cu = X.sym("tube_partial_sums", nf)
+            res_u = cu - ca.vertcat(X(0), cu[: nf - 1]) - inc_u
+            nlp.res_u = ca.vertcat(res_u, ca.exp(2.0 * nlp.y[0]) / self.tube_rms_ref**2
+                                   - cu[nf - 1])  # fmt: skip
+            nlp.c = ca.vertcat(nlp.c, cu)
+            nlp.inc = ca.vertcat(nlp.inc, inc_u)
+            self.nc = 2 * nf
+
+    def _objectives_and_constraints(self, nlp) -> None:
+        """The study's constraints, each objective's form, epsilon bounds and weights."""
+        ca, X = nlp.ca, nlp.X
+        aux: list = []
+
+        def sym(name, n):
+            a = X.sym(name, n)
+            aux.append(a)
+            return a
+
+        cons = build_constraints(self.study, nlp.mt, nlp.n_all)
+        nk = len(self.objectives)
+        nlp.p_w = X.sym("weights", nk)
+        nlp.p_wd = X.sym("w_diameter")
+        nlp.p_eps = X.sym("eps", nk)
+        j_total = nlp.p_wd * ca.log(nlp.d.capillary_diameter_m)
+        js = []
+        for k, kind in enumerate(self.objectives):
+            jk, _, ocons = OBJECTIVES[kind].nlp(nlp.mt, self.study, self.grid, sym)
+            cons += ocons
+            cons.append(Constraint(f"bound_{kind}", jk - nlp.p_eps[k], -math.inf, 0.0, 1,
+                                   f"{kind} <= epsilon"))
+            j_total = j_total + nlp.p_w[k] * jk
+            js.append(jk)
+        self.constraints = cons
+        nlp.aux, nlp.js, nlp.j_total = aux, js, j_total
+
+    def _assemble(self, nlp) -> None:
+        """x, p and g; constraint rows with their bounds; boxes on the variables."""
+        ca = nlp.ca
+        nlp.x = ca.vertcat(nlp.z, nlp.s, nlp.y, nlp.c, *nlp.aux)
+        nlp.p = ca.vertcat(nlp.p_w, nlp.p_wd, nlp.p_eps, nlp.p_slot)
+        nlp.g = ca.vertcat(nlp.res_u, nlp.res_s, *[c.expr for c in self.constraints])
+        self.n_eq = int(nlp.res_u.numel()) + int(nlp.res_s.numel())
+        lbg = [0.0] * self.n_eq
+        ubg = [0.0] * self.n_eq
+        self.con_rows = []
+        row = self.n_eq
+        for c in self.constraints:
+            n = int(c.expr.numel())
+            lbg += [c.lo] * n
+            ubg += [c.hi] * n
+            self.con_rows.append((c, row, n))
+            row += n
+        self.lbg, self.ubg = np.array(lbg), np.array(ubg)
+        self.nz, self.ny = int(nlp.z.numel()), int(nlp.y.numel())
+        self.naux = int(sum(int(a.numel()) for a in nlp.aux))
+        self.nx = int(nlp.x.numel())
+        self.np = int(nlp.p.numel())
+        self.lbx, self.ubx = self._variable_bounds()
+
+    def _variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
+        """The scaled design in [-1, 1]; generous physical boxes on the implicit unknowns
+        keep IPOPT's trial steps away from overflow."""
+        nz = self.nz
+        lbx = np.full(self.nx, -np.inf)
+        ubx = np.full(self.nx, np.inf)
+        lbx[:nz], ubx[:nz] = -1.0, 1.0
+        lbx[nz], ubx[nz] = math.log(SIGMA_BOUNDS_M[0]), math.log(SIGMA_BOUNDS_M[1])
+        i0 = nz + 1
+        lbx[i0: i0 + self.ny] = math.log(VELOCITY_BOUNDS_M_S[0])
+        ubx[i0: i0 + self.ny] = math.log(VELOCITY_BOUNDS_M_S[1])
+        i0 += self.ny + self.nc  # partial sums: free (a bound would be pushed off its zeros)
+        lbx[i0:], ubx[i0:] = -EPIGRAPH_BOUND, EPIGRAPH_BOUND
+        return lbx, ubx
+
+    def _build_solver(self, nlp) -> None:
+        """Evaluation functions and the IPOPT solver."""
+        ca = nlp.ca
+        mt = nlp.mt
+        self.eval_fn = ca.Function("eval", [nlp.x, nlp.p], [nlp.j_total, nlp.g])
+        self._j_fn_p = ca.Function("objectives", [nlp.x, nlp.p_slot], [ca.vertcat(*nlp.js)])
+        x_core = ca.vertcat(nlp.z, nlp.s, nlp.y)
+        nf = self.grid.n_floor
+        chain = (ca.vertcat(ca.cumsum(nlp.inc[:nf]), ca.cumsum(nlp.inc[nf:]))
+                 if self.statistical else ca.cumsum(nlp.inc))  # fmt: skip
+        self._chain_fn_p = ca.Function("chain", [x_core, nlp.p_slot], [chain])
+        self._aux_fn_p = ca.Function("aux_quantities", [x_core, nlp.p_slot],
+                                     [mt["ln_ms_band"] - mt["ln_limit2"], mt["ln_T2_peak"],
+                                      mt["ms_all"]])
+        self.solver = ca.nlpsol("isodesign", "ipopt",
+                                {"x": nlp.x, "f": nlp.j_total, "g": nlp.g, "p": nlp.p},
+                                self.ipopt_options())
+
+    def ipopt_options(self) -> dict:
+        """The options given to CasADi's nlpsol."""
+        return {
+            "ipopt.print_level": 0,
+            "print_time": False,
+            "ipopt.sb": "yes",
+            "ipopt.max_iter": self.study.solver["max_iter"],
+            "ipopt.tol": self.study.solver["tol"],
+            "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL,
+            **IPOPT_OPTIONS,
+            "error_on_fail": False,
+        }
+
+    # -- parameters and grid -------------------------------------------------------
+    def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:
+        """Parameter vector: objective weights (default: minimize the first objective),
+        the weight of ln D_c and the epsilon bounds (default: none)."""
+        nk = len(self.objectives)
+        w = np.zeros(nk)
+        if weights is None:
+            w[0] = 1.0
+        else:
+            w[:] = weights
+        e = np.full(nk, _NO_BOUND) if eps is None else np.asarray(
+            [_NO_BOUND if v is None else v for v in eps], float)
+        return np.concatenate([w, [diameter_weight], e, 2.0 * math.pi * self.slot_hz])
+
+    def set_slots(self, frequencies_hz) -> None:
+        """Move the movable peak-grid frequencies (Hz); the grid follows."""
+        f = np.asarray(frequencies_hz, float)
+        if f.size != self.grid.n_slots:
+            raise ValueError(f"set_slots: need {self.grid.n_slots} frequencies, got {f.size}")
+        self.slot_hz = f.copy()
+        self.grid = self.grid.with_slots(f)
+
+    def _slot_omega(self) -> np.ndarray:
+        return 2.0 * math.pi * self.slot_hz
+
+    def objective_values(self, x: np.ndarray) -> np.ndarray:
+        """Internal values J_k of every objective at x."""
+        return np.asarray(self._j_fn_p(x, self._slot_omega())).ravel()
+
+    def _aux_fn(self, x_core):
+        return self._aux_fn_p(x_core, self._slot_omega())
+
+    def _chain_fn(self, x_core):
+        return self._chain_fn_p(x_core, self._slot_omega())
+
+    def closure(self, d) -> tuple[float, float | None]:
+        """``(sigma, sigma_u)`` of a design from the NumPy closure (``sigma_u``: ``None``
+        for the harmonic closure)."""
+        st = self.study
+        sigma, info = solve_stroke_rms(
+            d, st.payload, self.grid.response, flow=st.models["flow"],
+            amplitude_mode=st.models["amplitude_mode"], diaphragm=self.dia,
+            random_method="statistical" if self.statistical else "equivalent_amplitude")
+        return sigma, info.get("tube_velocity_rms_m_s")
+
+    def _reference_sigma(self) -> tuple[float, float | None]:
+        return self.closure(self.study.start_design())
+
+    # -- starting points -------------------------------------------------------------
+    def initial_guess(self, values: dict) -> np.ndarray:
+        """A consistent x0 at a design: implicit unknowns from the NumPy solvers."""
+        d = self.study.design_at(values)
+        sigma, sigma_u = self.closure(d)
+        x0 = np.zeros(self.nx)
+        x0[: self.nz] = np.clip(self.scaling.to_z(values), -1.0, 1.0)
+        x0[self.nz] = math.log(sigma)
+        if self.statistical:
+            x0[self.nz + 1] = math.log(sigma_u)
+        elif self.self_consistent:
+            u = self.velocity(d, sigma)
+            x0[self.nz + 1: self.nz + 1 + self.ny] = np.log(u)
+        self.fill_dependent(x0)
+        return x0
+
+    def retighten(self, sol: Solution) -> Solution:
+        """A solution with its epigraph variables made tight and J, g re-evaluated."""
+        x = sol.x.copy()
+        x[self.nx - self.naux:] = self.aux_guess(x)
+        _, g = self.eval_fn(x, self.params())
+        g = np.asarray(g).ravel()
+        j_all = self.objective_values(x)
+        return sol.replace(x=x, g=g, objective=float(j_all[0]), objectives=j_all,
+                           violations=tuple(self.violations(g)))
+
+    def fill_dependent(self, x: np.ndarray) -> np.ndarray:
+        """Set the partial sums and the epigraph variables consistent with x (in place)."""
+        n_core = self.nz + 1 + self.ny
+        x[n_core: n_core + self.nc] = np.asarray(self._chain_fn(x[:n_core])).ravel()
+        x[self.nx - self.naux:] = self.aux_guess(x)
+        return x
+
+    def aux_guess(self, x: np.ndarray) -> np.ndarray:
+        """Epigraph variables on their boundary at x (worst margin, peak |T|, in dB)."""
+        if not self.naux:
+            return np.zeros(0)
+        n_core = self.nz + 1 + self.ny
+        margins, t2, ms = (np.asarray(v).ravel() for v in self._aux_fn(x[:n_core]))
+        # the objectives' NumPy values on the quantities the epigraphs bound
+        mt = {"ln_ms_band": margins, "ln_limit2": 0.0, "ln_T2_peak": t2, "ms_all": ms}
+        vals = []
+        for kind in self.objectives:
+            obj = OBJECTIVES[kind]
+            if obj.epigraph is not None:
+                vals.append(obj.epigraph(obj.value(mt, self.study, self.grid)))
+        return np.asarray(vals[: self.naux], float)
+
+    def velocity(self, d, sigma) -> np.ndarray:
+        """Tube velocity amplitude at every grid frequency (NumPy solver or kinematic)."""
+        a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
+        w = self.grid.omega
+        if self.self_consistent:
+            sol = solve_velocity_amplitude(self.study.models["flow"], d, w, a)
+            if not np.all(sol.converged):
+                raise SolverError("velocity amplitude did not converge at the initial guess")
+            return sol.velocity
+        return kinematic_velocity(d, w, a)
+
+    # -- solving -------------------------------------------------------------------
+    def solve(self, x0: np.ndarray, p=None) -> Solution:
+        """Run IPOPT from x0 (parameters from :meth:`params`, default: minimize the
+        first objective)."""
+        t0 = time.perf_counter()
+        p = self.params() if p is None else np.asarray(p, float)
+        res = self.solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p)
+        wall = time.perf_counter() - t0
+        stats = self.solver.stats()
+        x = np.asarray(res["x"]).ravel()
+        g = np.asarray(res["g"]).ravel()
+        j_all = self.objective_values(x)
+        return Solution(
+            x=x, values=self.values(x), objective=float(j_all[0]), objectives=j_all, g=g,
+            violations=tuple(self.violations(g)),
+            status=stats.get("return_status", "unknown"),
+            success=bool(stats.get("success", False)),
+            iterations=int(stats.get("iter_count", -1)), wall_s=wall,
+        )
+
+    def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
+        """Worst violation of each constraint group (equalities as 'implicit_equations')."""
+        out = []
+        eq = np.abs(g[: self.n_eq])
+        if eq.size:
+            out.append(("implicit_equations", float(np.max(eq))))
+        for c, row, n in self.con_rows:
+            gi = g[row: row + n]
+            v = np.maximum(np.maximum(self.lbg[row: row + n] - gi, gi - self.ubg[row: row + n]),
+                           0.0)
+            out.append((c.name, float(np.max(v)) if v.size else 0.0))
+        return out
+
+    def values(self, x: np.ndarray) -> dict:
+        """Design-variable values at x (fixed ones from the study)."""
+        vals = {v.name: v.start for v in self.study.variables}
+        # IPOPT relaxes bounds by ~1e-8: report the design inside its box
+        vals.update(self.scaling.to_values(np.clip(x[: self.nz], -1.0, 1.0)))
+        return vals
+
+    def sigma(self, x: np.ndarray) -> float:
+        """RMS stroke sigma at x (m)."""
+        return math.exp(x[self.nz])
+
+    def tube_rms(self, x: np.ndarray) -> float | None:
+        """RMS tube velocity sigma_u at x (m/s; statistical closure), else ``None``."""
+        return math.exp(x[self.nz + 1]) if self.statistical else None

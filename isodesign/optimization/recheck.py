@@ -1,0 +1,132 @@
+"""The NumPy re-check of the NLP's optimum, and designs evaluated on the NumPy path."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from isodesign.errors import SolverError
+from isodesign.optimization.constraints import build_constraints
+from isodesign.optimization.grid import build_grid
+from isodesign.optimization.metrics import metrics, statistical
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
+from isodesign.response.random_input import solve_stroke_rms
+from isodesign.spring.amplitude import solve_velocity_amplitude
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import kinematic_velocity
+
+__all__ = ["RECHECK_RTOL", "evaluate_design", "recheck"]
+
+#: Relative agreement required between the NLP and the NumPy re-check.
+RECHECK_RTOL = 1e-6
+_METRIC_KEYS = ("stroke_variance", "tube_velocity_variance", "ln_ms_band", "ln_T2_peak",
+                "ln_total_volume", "ln_tilt", "ln_lumped", "ln_fn", "ln_zeta", "ln_mach", "ln_re",
+                "ln_T2_point")
+
+
+def recheck(prob, sol, d) -> float:
+    """Re-evaluate the optimum with the NumPy analysis path; return the max rel. diff.
+
+    The NumPy path solves sigma and the velocity amplitudes with its own
+    solvers (not the NLP's values) and evaluates :func:`.metrics.metrics` on them.
+    Every constraint quantity must agree with the NLP's solution, and the objective
+    IPOPT reports (epigraph variables included) with the analysis's, to
+    :data:`RECHECK_RTOL` relative (in natural units; dB values absolute below 1).
+
+    Raises
+    ------
+    SolverError
+        When they disagree (a bug, never a silently wrong design).
+    """
+
+    st = prob.study
+    sigma, sigma_u = prob.closure(d)
+    u = None if prob.statistical else prob.velocity(d, sigma)
+    mt_np = metrics(st, prob.grid, d, u, sigma, diaphragm=prob.dia, tube_rms=sigma_u)
+    # the same quantities from the NLP's solution
+    x = sol.x
+    d_nlp = st.design_at(prob.values(x))
+    sig_nlp = prob.sigma(x)
+    if prob.statistical:
+        u_nlp = None
+    elif prob.self_consistent:
+        u_nlp = np.exp(x[prob.nz + 1: prob.nz + 1 + prob.ny])
+    else:
+        u_nlp = prob.velocity(d_nlp, sig_nlp)
+    mt_nlp = metrics(st, prob.grid, d_nlp, u_nlp, sig_nlp, diaphragm=prob.dia,
+                     tube_rms=prob.tube_rms(x))
+    worst = abs(sigma / sig_nlp - 1.0)
+    if prob.statistical:
+        worst = max(worst, abs(sigma_u / prob.tube_rms(x) - 1.0))
+    names = []
+    for key in _METRIC_KEYS:
+        if key not in mt_np:
+            continue
+        a = np.asarray(mt_np[key], float)
+        b = np.asarray(mt_nlp[key], float)
+        rel = np.abs(np.expm1(a - b)) if key.startswith("ln_") else np.abs(a / b - 1.0)
+        m = float(np.max(rel)) if rel.size else 0.0
+        names.append((key, m))
+        worst = max(worst, m)
+    # the objective IPOPT reports (epigraph variables included) against the analysis
+    for k, kind in enumerate(prob.objectives):
+        obj = OBJECTIVES[kind]
+        v_nlp = obj.to_natural(float(sol.objectives[k]))
+        v_np = obj.value(mt_np, st, prob.grid)
+        m = abs(v_nlp - v_np) / max(1.0, abs(v_np))
+        names.append((f"objective {kind}", m))
+        worst = max(worst, m)
+    if not worst <= RECHECK_RTOL:
+        bad = ", ".join(f"{k} {v:.2e}" for k, v in names if v > RECHECK_RTOL)
+        raise SolverError(
+            f"the NLP optimum disagrees with the NumPy analysis (max relative difference "
+            f"{worst:.2e} > {RECHECK_RTOL:g}: {bad or 'sigma'}); the design is not returned"
+        )
+    return worst
+
+
+def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -> dict:
+    """Objective and constraint values of a design on the NumPy analysis path.
+
+    The same :func:`.metrics.metrics` the NLP uses, with sigma and the tube velocities
+    from the NumPy solvers. Used by the re-check, by the comparison with
+    gradient-free optimizers (benchmarks) and by studies.
+
+    Returns
+    -------
+    dict
+        ``objectives`` (kind -> natural value), ``constraints`` (name -> worst
+        value in the NLP's units, with ``lower``/``upper``), ``max_violation``,
+        ``sigma``, ``tube_rms`` (``sigma_u`` of the statistical closure, else ``None``)
+        and ``metrics``.
+    """
+
+    grid = grid or build_grid(study)
+    d = study.design_at(values)
+    dia = diaphragm_model(study.models["diaphragm"])
+    stat = statistical(study)
+    sigma, info = solve_stroke_rms(
+        d, study.payload, grid.response, flow=study.models["flow"],
+        amplitude_mode=study.models["amplitude_mode"], diaphragm=dia,
+        random_method="statistical" if stat else "equivalent_amplitude")
+    a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
+    if stat:
+        u = None
+    elif study.models["amplitude_mode"] == "self_consistent":
+        u = solve_velocity_amplitude(study.models["flow"], d, grid.omega, a).velocity
+    else:
+        u = kinematic_velocity(d, grid.omega, a)
+    mt = metrics(study, grid, d, u, sigma, diaphragm=dia,
+                 tube_rms=info.get("tube_velocity_rms_m_s"))
+    objs = {kind: OBJECTIVES[kind].value(mt, study, grid)
+            for kind in objectives or (study.objective["kind"],)}
+    cons = {}
+    worst = 0.0
+    for c in build_constraints(study, mt, grid.omega.size):
+        v = np.atleast_1d(np.asarray(c.expr, float))
+        viol = np.maximum(np.maximum(c.lo - v, v - c.hi), 0.0)
+        cons[c.name] = {"value": v, "lower": c.lo, "upper": c.hi,
+                        "violation": float(np.max(viol))}
+        worst = max(worst, float(np.max(viol)))
+    return {"objectives": objs, "constraints": cons, "max_violation": worst, "sigma": sigma,
+            "tube_rms": info.get("tube_velocity_rms_m_s"), "metrics": mt}

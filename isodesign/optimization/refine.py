@@ -1,0 +1,285 @@
+"""After the multi-start: peak refinement (exchange method), tie-break, branch choice.
+
+* The peak of |T| is a semi-infinite constraint (every frequency): after a solve
+  the continuous peak is measured and, if it lies above the bound between the
+  sampled frequencies, movable grid frequencies (NLP parameters) are placed around
+  it and the NLP is solved again (:func:`refine_peak`).
+* Flat directions: in the laminar limit L_c and D_c act only through
+  ``L_c / D_c^4`` (docs/optimization.md). :func:`tie_break` finds the range of D_c
+  over which the objective stays within a tolerance of the optimum and returns the
+  largest D_c in it (larger bores clog less and are easier to make to tolerance).
+* The refinement costs distinct local optima differently, so the winning start is
+  chosen after it: :func:`refine_branches` refines the best start of each distinct
+  branch and keeps the best refined one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from isodesign.errors import SolverError
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.problem import PEAK_ROUNDS
+from isodesign.response.isolator import transmissibility
+from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
+from isodesign.spring.capillary import statistical_resistance_function
+from isodesign.spring.equations import air_stiffness, spring_stiffness
+from isodesign.spring.stiffness import complex_stiffness
+
+__all__ = [
+    "BRANCH_TOLERANCE",
+    "FLAT_TOLERANCE_DB",
+    "FLAT_TOLERANCE_REL",
+    "PEAK_TOLERANCE_DB",
+    "TIE_BREAK_SLACK",
+    "Refined",
+    "continuous_peak_db",
+    "flat_tolerance",
+    "peak_slots",
+    "refine_branches",
+    "refine_peak",
+    "tie_break",
+]
+
+#: Tolerance of the continuous peak of |T| over its sampled value (exchange method).
+PEAK_TOLERANCE_DB = 0.01
+#: Objective tolerance of the flat-direction tie-break: designs whose objective is
+#: within this of the optimum (dB for dB objectives, relative otherwise) count as
+#: equivalent.
+FLAT_TOLERANCE_DB = 0.01
+FLAT_TOLERANCE_REL = 1e-3
+#: Slack on ``J <= J* + tolerance`` when accepting the tie-break point: IPOPT meets
+#: the bound to its constraint tolerance, not exactly.
+TIE_BREAK_SLACK = 1e-6
+#: Starts whose objectives J differ by no more than this reached the same branch
+#: (local optimum, or the same flat valley): only the first is refined.
+BRANCH_TOLERANCE = 1e-5
+_PEAK_SHIFTS = (0.99, 0.995, 1.0, 1.005, 1.01)
+
+
+def flat_tolerance(kind: str) -> float:
+    """The tie-break's objective tolerance for an objective (dB, or relative)."""
+    return FLAT_TOLERANCE_DB if OBJECTIVES[kind].db else FLAT_TOLERANCE_REL
+
+
+def continuous_peak_db(prob, values: dict, sigma: float,
+                       tube_rms: float | None = None) -> tuple[float, float]:
+    """Peak of |T| at the operating amplitude between the grid's frequencies (NumPy).
+
+    A dense log grid over the peak grid's span, then a parabola through the
+    largest sample and its neighbours in ln f. Returns (peak in dB, frequency in Hz).
+    """
+
+    st = prob.study
+    d = st.design_at(values)
+    pk = prob.grid.omega[prob.grid.peak_slice] / (2.0 * math.pi)
+    f = np.geomspace(pk.min(), pk.max(), 4001)
+    a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
+    w = 2.0 * math.pi * f
+
+    if tube_rms is not None:  # the statistical closure (docs/random-response.md)
+        c = statistical_resistance_function(st.models["flow"], d, w)(tube_rms)
+        k = spring_stiffness(air_stiffness(d, w, c), prob.dia.stiffness(w, a)).to_complex()
+    else:
+        k = complex_stiffness(d, f, a, flow=st.models["flow"],
+                              amplitude_mode=st.models["amplitude_mode"], diaphragm=prob.dia,
+                              pairwise=True, warn=False).k
+    t2 = np.abs(transmissibility(Cx.from_complex(k), st.payload.mass_per_isolator_kg,
+                                 w).to_complex()) ** 2
+    i = int(np.clip(np.argmax(t2), 1, f.size - 2))
+    x = np.log(f[i - 1: i + 2])
+    y = 10.0 * np.log10(t2[i - 1: i + 2])
+    c2, c1, c0 = np.polyfit(x - x[1], y, 2)
+    if c2 < 0:
+        xm = -c1 / (2.0 * c2)
+        return float(c0 - c1 * c1 / (4.0 * c2)), float(f[i] * math.exp(xm))
+    return float(y[1]), float(f[i])
+
+
+def peak_slots(prob, round_index: int, f_peak_hz: float) -> list[float]:
+    """Place five movable peak-grid frequencies within +-1 % of a peak (round k's slots)."""
+    new = [f_peak_hz * r for r in _PEAK_SHIFTS]
+    k = round_index * len(new)
+    slots = prob.slot_hz.copy()
+    slots[k: k + len(new)] = new
+    prob.set_slots(slots)
+    return new
+
+
+def _peak_refined(study, prob) -> bool:
+    """True when the peak grid is refined (a peak bound, or the peak objective)."""
+    return (study.constraints.get("max_peak_transmissibility_db") is not None
+            or prob.objective == "peak_transmissibility")
+
+
+def refine_peak(study, prob, final, best, flat):
+    """Exchange method for the semi-infinite peak constraint (and objective).
+
+    The NLP bounds |T| at the peak grid's frequencies only, so an optimum can hide
+    a sharper peak between them. After each solve, the continuous peak at the
+    operating amplitude is measured; if it exceeds the bound (or the sampled
+    objective) by more than :data:`PEAK_TOLERANCE_DB`, five of the grid's movable
+    frequencies (NLP parameters: no rebuild) are placed within +-1 % of it and the
+    NLP is solved again from the current design (then the tie-break again).
+
+    Returns
+    -------
+    (final, best, flat, info)
+        The tie-broken and the refined optimum, the flat-direction report and the
+        refinement's record (rounds, added frequencies, continuous peak).
+    """
+    bound = study.constraints.get("max_peak_transmissibility_db")
+    kind = prob.objective
+    info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None}
+    if not _peak_refined(study, prob):
+        return final, best, flat, info
+    for _ in range(PEAK_ROUNDS + 1):
+        vals = prob.values(final.x)
+        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(final.x),
+                                             prob.tube_rms(final.x))
+        info.update(peak_db=peak_db, peak_frequency_hz=f_pk)
+        sampled = OBJECTIVES[kind].to_natural(final.objective) \
+            if kind == "peak_transmissibility" else None
+        limit = min(v for v in (bound, sampled) if v is not None)
+        if peak_db <= limit + PEAK_TOLERANCE_DB or info["rounds"] >= PEAK_ROUNDS:
+            break
+        info["added_frequencies_hz"] += peak_slots(prob, info["rounds"], f_pk)
+        info["rounds"] += 1
+        sol = prob.solve(prob.initial_guess(vals))
+        if not sol.feasible:
+            raise SolverError(
+                f"peak refinement: the re-solve with frequencies added near {f_pk:.4g} Hz "
+                f"failed ({sol.status})"
+            )
+        best = sol
+        final = sol
+        if study.solver["tie_break"]:
+            flat, final = tie_break(prob, sol, flat_tolerance(kind))
+    return final, best, flat, info
+
+
+def tie_break(prob, best, tol_j: float):
+    """Range of D_c with the objective within tol of the optimum; pick the largest D_c.
+
+    In the laminar limit L_c and D_c act through L_c/D_c^4 only: the optimum is a
+    valley. Two more solves of the same NLP (parameters changed, warm-started at the
+    optimum) minimize and maximize ln D_c subject to ``J <= J* + tol``; the documented
+    tie-break returns the largest D_c (larger bores are easier to make to tolerance
+    and clog less).
+
+    Returns
+    -------
+    (info, chosen)
+        The flat-direction report (None when D_c is fixed) and the chosen solution.
+    """
+    if "capillary_diameter_m" not in prob.scaling.names:
+        return None, best
+    eps = [best.objective + tol_j] + [None] * (len(prob.objectives) - 1)
+    sols = {}
+    for name, wd in (("max", -1.0), ("min", 1.0)):
+        sol = prob.solve(best.x, prob.params(weights=[0.0] * len(prob.objectives),
+                                             diameter_weight=wd, eps=eps))
+        sols[name] = sol if sol.feasible else None
+    d_opt = best.values["capillary_diameter_m"]
+    rng = {k: (v.values if v is not None else None) for k, v in sols.items()}
+    d_lo = rng["min"]["capillary_diameter_m"] if rng["min"] else d_opt
+    d_hi = rng["max"]["capillary_diameter_m"] if rng["max"] else d_opt
+    info = {
+        "pair": "capillary_length_m / capillary_diameter_m^4",
+        "objective_tolerance": tol_j,
+        "capillary_diameter_range_m": (min(d_lo, d_opt), max(d_hi, d_opt)),
+        "capillary_length_range_m": (
+            (rng["min"] or best.values)["capillary_length_m"],
+            (rng["max"] or best.values)["capillary_length_m"],
+        ),
+        "capillary_diameter_at_optimum_m": d_opt,
+        "flat": bool(max(d_hi, d_opt) / min(d_lo, d_opt) > 1.01),
+        "tie_break": "largest capillary diameter with the objective within the tolerance",
+    }
+    chosen = best
+    if sols["max"] is not None:
+        # with zero objective weight the epigraph variables are slack: make them tight
+        # (the point stays feasible) and re-evaluate the objective and constraints
+        cand = prob.retighten(sols["max"])
+        if cand.feasible and cand.objective <= best.objective + tol_j + TIE_BREAK_SLACK:
+            chosen = cand
+    info["chosen_capillary_diameter_m"] = chosen.values["capillary_diameter_m"]
+    return info, chosen
+
+
+@dataclass(frozen=True, eq=False)
+class Refined:
+    """A start after the tie-break and the peak refinement.
+
+    ``start`` is the index of the start, ``best`` the refined optimum of its
+    branch, ``final`` the returned (tie-broken) point, ``slot_hz`` the movable
+    peak frequencies its refinement placed, ``branches`` the refined branches
+    ((start, refined objective J) each, the winner first).
+    """
+
+    start: int
+    best: object
+    final: object
+    flat: dict | None
+    peak: dict
+    slot_hz: np.ndarray
+    branches: tuple = ()
+
+
+def _refine_one(study, prob, i: int, sol, tol_j: float) -> Refined:
+    flat, final = None, sol
+    if study.solver["tie_break"]:
+        flat, final = tie_break(prob, sol, tol_j)
+    final, best, flat, peak = refine_peak(study, prob, final, sol, flat)
+    return Refined(i, best, final, flat, peak, prob.slot_hz.copy())
+
+
+def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
+    """Refine the feasible starts' branches and return the best refined one.
+
+    ``sols`` maps start index -> feasible :class:`~.solution.Solution`. The starts are
+    taken by their sampled objective (best first); starts within
+    :data:`BRANCH_TOLERANCE` of a refined one reached the same branch and are skipped.
+    Every other branch is refined, however far behind on the sampled grid: the
+    re-solve after a peak refinement is a new local solve and can move a branch a
+    long way (on the default study at 717 kg, a start at 4.74 dB refines to 5.22 dB), so the sampled
+    objective bounds nothing. The winner is the branch with the best refined
+    optimum (before its tie-break). Each branch starts from the study's peak grid;
+    the winner's movable frequencies are restored on ``prob`` (the re-check
+    evaluates on them).
+
+    Raises
+    ------
+    SolverError
+        When the refinement fails on every branch tried (the first failure).
+    """
+    slots0 = prob.slot_hz.copy()
+    order = sorted(sols, key=lambda i: sols[i].objective)
+    if not _peak_refined(study, prob):
+        order = order[:1]  # nothing to refine: the tie-break alone cannot change the winner
+    done: list[Refined] = []
+    tried: list[float] = []
+    error = None
+    for i in order:
+        j = sols[i].objective
+        if any(abs(j - t) <= BRANCH_TOLERANCE for t in tried):
+            continue
+        tried.append(j)
+        if not np.array_equal(prob.slot_hz, slots0):
+            prob.set_slots(slots0)
+        try:
+            done.append(_refine_one(study, prob, i, sols[i], tol_j))
+        except SolverError as exc:
+            error = error or exc
+    if not done:
+        raise error
+    win = min(done, key=lambda r: r.best.objective)
+    if not np.array_equal(prob.slot_hz, win.slot_hz):
+        prob.set_slots(win.slot_hz)
+    ranked = [win] + [r for r in done if r is not win]
+    return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz,
+                   tuple((r.start, r.best.objective) for r in ranked))

@@ -1,0 +1,77 @@
+"""One IPOPT solve of the NLP, typed: :class:`Solution` and the feasibility tolerance."""
+
+from __future__ import annotations
+
+import dataclasses
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["FEASIBILITY_TOLERANCE", "Solution"]
+
+#: A point is feasible when no constraint (implicit equations included) is violated by
+#: more than this, in the NLP's units (log of the quantity, or dB). The one tolerance
+#: the optimizer, the peak refinement, the tie-break and the Pareto sweep judge by.
+FEASIBILITY_TOLERANCE = 1e-6
+
+
+@dataclass(frozen=True, eq=False)
+class Solution:
+    """An NLP point returned by :meth:`isodesign.optimization.problem.Problem.solve`.
+
+    Attributes
+    ----------
+    x : ndarray
+        The NLP's variables (scaled design, ln sigma, ln U, partial sums, epigraphs).
+    values : dict
+        Design-variable values at ``x`` (SI; fixed ones from the study).
+    objective : float
+        Internal value J of the first objective (minimized).
+    objectives : ndarray
+        Internal values J of every objective of the NLP.
+    g : ndarray
+        Constraint values (implicit equations first).
+    violations : tuple of (str, float)
+        Worst violation of each constraint group (``implicit_equations`` first).
+    status : str
+        IPOPT's return status.
+    success : bool
+        IPOPT's success flag.
+    iterations : int
+    wall_s : float
+    """
+
+    x: np.ndarray
+    values: dict
+    objective: float
+    objectives: np.ndarray
+    g: np.ndarray
+    violations: tuple[tuple[str, float], ...]
+    status: str
+    success: bool
+    iterations: int
+    wall_s: float
+
+    @property
+    def max_violation(self) -> float:
+        """The largest constraint violation (0 when every constraint holds)."""
+        return float(max((v for _, v in self.violations), default=0.0))
+
+    @property
+    def feasible(self) -> bool:
+        """No violation above :data:`FEASIBILITY_TOLERANCE`."""
+        return self.max_violation <= FEASIBILITY_TOLERANCE
+
+    @property
+    def equation_residual(self) -> float:
+        """Residual of the implicit equations (tube velocities, stroke variance)."""
+        return dict(self.violations).get("implicit_equations", 0.0)
+
+    def violated(self) -> tuple[tuple[str, float], ...]:
+        """The violated constraint groups, most violated first."""
+        viol = sorted(self.violations, key=lambda t: -t[1])
+        return tuple((n, v) for n, v in viol if v > FEASIBILITY_TOLERANCE)
+
+    def replace(self, **changes) -> Solution:
+        """A copy with some fields changed."""
+        return dataclasses.replace(self, **changes)
