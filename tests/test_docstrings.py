@@ -19,48 +19,11 @@ import pytest
 import isodesign
 
 #: Functions without a complete Parameters section yet: (module, name) -> reason.
-_OPTIMIZER_SPLIT = "new module of the optimizer split; its Parameters sections are being written"
 _CLI_REWORK = "CLI output helpers being reworked (CLI robustness); documented there"
-_RECORD = "reads the optimizer's result dict; its signature changes with the optimizer split"
 KNOWN_GAPS = {
     ("isodesign.commands", "check_output_path"): _CLI_REWORK,
     ("isodesign.commands", "input_error"): _CLI_REWORK,
     ("isodesign.commands", "write_text"): _CLI_REWORK,
-    ("isodesign.io.record", "constraint_rows"): _RECORD,
-    ("isodesign.io.record", "dumps_toml"): _RECORD,
-    ("isodesign.io.record", "grid_notes"): _RECORD,
-    ("isodesign.io.record", "optimization_design"): _RECORD,
-    ("isodesign.io.record", "optimization_record"): _RECORD,
-    ("isodesign.io.record", "pareto_record"): _RECORD,
-    ("isodesign.io.record", "resolved_study_dict"): _RECORD,
-    ("isodesign.io.record", "variables_at_bounds"): _RECORD,
-    ("isodesign.io.record", "write_json"): _RECORD,
-    ("isodesign.optimization.constraints", "build_constraints"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.constraints", "constraint_reports"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.constraints", "flow_validity_constraints"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.driver", "solver_settings"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.grid", "build_grid"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.grid", "take"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.metrics", "combine"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.metrics", "design_quantities"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.metrics", "point_quantities"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.multistart", "run_starts"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.multistart", "start_points"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.objectives", "objective"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.objectives", "rms_rows"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.recheck", "evaluate_design"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.recheck", "recheck"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.refine", "continuous_peak_db"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.refine", "flat_tolerance"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.refine", "peak_slots"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.refine", "refine_branches"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.refine", "refine_peak"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.refine", "tie_break"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.variables", "log_scaling"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.pareto", "hypervolume_2d"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.pareto", "nondominated"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.study", "load_study"): _OPTIMIZER_SPLIT,
-    ("isodesign.optimization.study", "study_from_dict"): _OPTIMIZER_SPLIT,
 }
 
 
@@ -131,11 +94,10 @@ def test_known_gaps_are_public_names():
 
 
 def test_top_level_api_gaps_are_only_the_listed_ones():
-    """The names exported by ``isodesign`` itself are documented, but for one listed gap."""
+    """The names exported by ``isodesign`` itself are documented, every one."""
     gaps = set()
     for name in isodesign.__all__:
         obj = getattr(isodesign, name)
         if (inspect.isfunction(obj) or inspect.isclass(obj)) and _problems(obj):
             gaps.add((obj.__module__, name))
-    assert gaps <= set(KNOWN_GAPS)
-    assert gaps == {("isodesign.optimization.study", "load_study")}
+    assert gaps == set()

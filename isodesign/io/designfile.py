@@ -23,6 +23,10 @@ Schema (SI values; see ``docs/design-file.md``)::
     heat_capacity_ratio = 1.4
     viscosity_pa_s = 1.79e-5              # omitted: Sutherland's law
 
+    [diaphragm]                           # optional: the spring's diaphragm model
+    model = "viscoelastic"                # or "none", "table:PATH.csv", "fit:PATH.toml"
+    k0_n_per_m = 8400.0                   # any ViscoelasticDiaphragm parameter
+
 Every problem raises :class:`~isodesign.errors.InputError` whose message names
 the file (``source``) and the key.
 """
@@ -37,6 +41,11 @@ from typing import Any
 from isodesign.errors import InputError
 from isodesign.io.files import read_toml
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.diaphragm import (
+    VISCOELASTIC_PARAMETERS,
+    ViscoelasticDiaphragm,
+    diaphragm_from_dict,
+)
 from isodesign.spring.gas import G_STANDARD, Gas, pressure_from_load
 
 __all__ = [
@@ -45,7 +54,9 @@ __all__ = [
     "LOAD_KEYS",
     "design_from_dict",
     "design_to_toml",
+    "diaphragm_to_toml",
     "load_design",
+    "load_diaphragm",
     "reference_design_path",
     "save_design",
 ]
@@ -66,6 +77,8 @@ DESIGN_KEYS: dict[str, str] = {
     "roughness_m": "capillary wall roughness, m (>= 0; default 0)",
     "load": "table [load]: mass_kg, isolators (instead of pressure_pa)",
     "gas": "table [gas]: name, gas_constant_j_per_kg_k, heat_capacity_ratio, viscosity_pa_s",
+    "diaphragm": "table [diaphragm]: model (viscoelastic, none, table:PATH, fit:PATH) and the "
+    "viscoelastic parameters",
 }
 REQUIRED_KEYS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
 #: Keys of the ``[load]`` table.
@@ -84,7 +97,7 @@ GAS_KEYS: dict[str, str] = {
     "sutherland_s_k": "Sutherland constant S, K (> 0)",
 }
 
-_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas"))
+_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas", "diaphragm"))
 
 
 def reference_design_path() -> Path:
@@ -282,7 +295,47 @@ def load_design(path):
     """
 
     d = read_toml(path, what="design")
-    return design_from_dict(d, source=f"design file {path}")
+    design = design_from_dict(d, source=f"design file {path}")
+    if "diaphragm" in d:  # validate it now (the model is read by load_diaphragm)
+        diaphragm_from_dict(d["diaphragm"], str(path))
+    return design
+
+
+def load_diaphragm(path):
+    """The diaphragm model of a design file's ``[diaphragm]`` table, or ``None``.
+
+    ``model = "viscoelastic"`` (the default) with any of its parameters
+    (:data:`~isodesign.spring.diaphragm.VISCOELASTIC_PARAMETERS`), ``"none"``,
+    ``"table:PATH.csv"`` or ``"fit:PATH.toml"`` (a relative path is taken from the design
+    file's folder). ``--diaphragm DESIGN.toml`` reads the same table.
+
+    Parameters
+    ----------
+    path : str or Path
+        A design file.
+    """
+    d = read_toml(path, what="design")
+    if "diaphragm" not in d:
+        return None
+    return diaphragm_from_dict(d["diaphragm"], str(path))
+
+
+def diaphragm_to_toml(diaphragm) -> str:
+    """The ``[diaphragm]`` table of a :class:`ViscoelasticDiaphragm` (append to a design file).
+
+    Parameters
+    ----------
+    diaphragm : ViscoelasticDiaphragm
+        The model whose parameters are written.
+    """
+    if not isinstance(diaphragm, ViscoelasticDiaphragm):
+        raise InputError(
+            "diaphragm: only a viscoelastic diaphragm is written as parameters; refer to a fit "
+            "or table file with model = 'fit:PATH.toml' or 'table:PATH.csv'"
+        )
+    lines = ["[diaphragm]", 'model = "viscoelastic"']
+    lines += [f"{k} = {_toml_float(getattr(diaphragm, k))}" for k in VISCOELASTIC_PARAMETERS]
+    return "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------------------

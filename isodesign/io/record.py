@@ -56,7 +56,27 @@ def _toml_value(v: Any) -> str:
 
 
 def dumps_toml(d: dict, _prefix: str = "") -> str:
-    """Serialize nested dicts of scalars and lists as TOML (tables after keys)."""
+    """Serialize nested dicts of scalars and lists as TOML (tables after keys).
+
+    Parameters
+    ----------
+    d : dict
+        Keys (bare TOML keys, not quoted) to values: bool, int, float (``nan``
+        and ``inf`` as TOML's special floats), str, lists or tuples of these, or a
+        nested dict, written as a ``[table]`` (dotted name) after the keys. ``None``
+        values are left out.
+
+    Returns
+    -------
+    str
+        TOML text ending in a newline; a table whose entries are all tables gets no
+        header of its own (TOML defines it implicitly).
+
+    Raises
+    ------
+    TypeError
+        A value of another type (a dict inside a list, a NumPy array, ...).
+    """
     lines = []
     tables = []
     for k, v in d.items():
@@ -106,14 +126,31 @@ def _jsonable(v):
     if isinstance(v, np.ndarray):
         return _jsonable(v.tolist())
     if isinstance(v, np.generic):
-        return v.item()
+        v = v.item()  # a Python scalar: NaN or infinite NumPy floats become null below
     if isinstance(v, float) and not math.isfinite(v):
         return None
     return v
 
 
 def write_json(path, data: dict) -> Path:
-    """Write JSON (NumPy values converted, non-finite floats as null)."""
+    """Write JSON (NumPy values converted, non-finite floats as null).
+
+    Parameters
+    ----------
+    path : str or path-like
+        The file; missing parent directories are created; an existing file is
+        overwritten.
+    data : dict
+        Nested dicts, lists, tuples, NumPy arrays and scalars, Python scalars.
+        Keys become strings; arrays become lists; floats that are NaN or
+        infinite (Python floats and NumPy scalars alike) become ``null``, so the
+        file is strict JSON.
+
+    Returns
+    -------
+    Path
+        The path written (UTF-8, indented by 2, ending in a newline).
+    """
     p = Path(path)
     p.parent.mkdir(parents=True, exist_ok=True)
     p.write_text(json.dumps(_jsonable(data), indent=2) + "\n", encoding="utf-8")
@@ -139,26 +176,54 @@ def command_line(argv=None, prog: str = "isodesign") -> list[str]:
 def resolved_study_dict(study) -> dict:
     """The study's resolved dictionary (``study.raw``) ready to be written elsewhere.
 
-    A floor CSV named by a relative path is resolved against the study file's
-    directory (as :func:`isodesign.optimization.study.load_study` does) and a diaphragm table
-    (``models.diaphragm = "table:PATH"``) against the working directory (as the
-    optimizer reads it), so that the written study loads from any directory.
+    A floor CSV or survey record, a diaphragm table (``models.diaphragm = "table:PATH"`` or
+    ``"PATH.csv"``) and a diaphragm fit file (``fit:PATH``, also inside a
+    ``[models.diaphragm]`` table) named by relative paths are resolved against the study
+    file's directory (as :func:`isodesign.optimization.study.load_study` does), so that the
+    written study loads the same files from any directory.
+
+    Parameters
+    ----------
+    study : Study
+        Its ``raw`` dictionary and ``source`` (the study file's path, or
+        ``"<dict>"``, ``"<default>"`` or ``""``: then a relative path is taken
+        relative to the working directory).
+
+    Returns
+    -------
+    dict
+        A deep copy of ``study.raw`` with ``floor.csv`` and a diaphragm table path
+        made absolute; ``study.raw`` itself is not changed.
     """
     import copy
 
     raw = copy.deepcopy(study.raw)
-    fl = raw.get("floor", {})
-    if isinstance(fl, dict) and "csv" in fl:
-        p = Path(fl["csv"])
+
+    def absolute(path: str) -> str:
+        p = Path(path)
         if not p.is_absolute() and study.source not in ("<dict>", "<default>", ""):
             p = Path(study.source).parent / p
-        fl["csv"] = str(p.resolve())
-    # a diaphragm table is read relative to the working directory of the run
+        return str(p.resolve())
+
+    fl = raw.get("floor", {})
+    for key in ("csv", "record"):  # a spectrum or a survey record, relative to the study file
+        if isinstance(fl, dict) and key in fl:
+            fl[key] = absolute(fl[key])
     models = raw.get("models", {})
     dia = models.get("diaphragm") if isinstance(models, dict) else None
     if isinstance(dia, str) and (dia.startswith("table:") or dia.lower().endswith(".csv")):
         prefix = "table:" if dia.startswith("table:") else ""
-        models["diaphragm"] = prefix + str(Path(dia[len(prefix):]).resolve())
+        models["diaphragm"] = prefix + absolute(dia[len(prefix):])
+    # a fit file (or a fit/table named in a [models.diaphragm] table), likewise
+    spec = dia.get("model", "") if isinstance(dia, dict) else dia
+    if (isinstance(spec, str) and spec.startswith("fit:")) or (
+        isinstance(dia, dict) and isinstance(spec, str) and spec.startswith("table:")
+    ):
+        prefix = spec.split(":", 1)[0] + ":"
+        if isinstance(dia, dict):
+            dia["model"] = prefix + absolute(spec[len(prefix):])
+        else:
+            models["diaphragm"] = prefix + absolute(spec[len(prefix):])
     return raw
 
 
@@ -269,6 +334,19 @@ def constraint_rows(result) -> list[dict]:
     ``margin`` is the distance to the nearest bound in the constraint's own unit
     (positive: satisfied); ``margin_nlp`` is the optimizer's margin in its
     internal (log or dB) units; ``binding`` marks the active constraints.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        Its ``constraints``
+        (:class:`~isodesign.optimization.constraints.ConstraintReport` each).
+
+    Returns
+    -------
+    list of dict
+        One per constraint: ``name``, ``value``, ``lower``, ``upper`` (natural
+        units, ``None`` for an absent bound), ``unit``, ``margin``, ``margin_nlp``,
+        ``binding`` and ``description``.
     """
     return [_constraint_dict(c) for c in result.constraints]
 
@@ -279,6 +357,21 @@ def variables_at_bounds(result, rtol: float = 1e-4) -> dict:
     The lower bound of D_c is the larger of its ``lower`` and
     ``constraints.min_capillary_diameter_m`` (as in the NLP). Bounds are not
     constraints of the NLP, so they are not in ``result.constraints``.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        Its study (variables, bounds, ``min_capillary_diameter_m``) and final
+        ``values`` (SI).
+    rtol : float
+        A variable is on a bound when ``|ln(x / bound)| <= rtol``: a relative
+        tolerance (default 1e-4, i.e. 0.01 %).
+
+    Returns
+    -------
+    dict
+        Name -> ``"lower"`` or ``"upper"`` for each free variable on a bound (the
+        lower bound checked first); fixed variables are never listed.
     """
     st = result.study
     dmin = st.constraints.get("min_capillary_diameter_m")
@@ -300,26 +393,89 @@ PEAK_EXCESS_DB = 0.005
 
 
 def grid_notes(result, figures: dict) -> list[str]:
-    """Constraints the NLP meets on its grid but the finer band analysis does not.
+    """Notes on the peak of |T| between the frequencies the NLP samples.
 
-    The NLP enforces ``max_peak_transmissibility_db`` at ``models.peak_points``
-    log-spaced frequencies only; the band analysis locates the peak itself.
+    The NLP enforces ``max_peak_transmissibility_db`` at the ``models.peak_points``
+    log-spaced frequencies and at the frequencies the peak refinement (exchange
+    method, :func:`isodesign.optimization.refine.refine_peak`) adds near the
+    continuous peak, until that peak is within the refinement's tolerance of its
+    limit or the refinement's rounds run out; the band analysis locates the peak
+    itself.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        Gives the study's ``max_peak_transmissibility_db``, ``models.peak_points``
+        and the refinement's record ``result.peak`` (rounds, added frequencies,
+        continuous peak, its limit and ``met``).
+    figures : dict
+        The optimum's :func:`design_figures` with its analysis:
+        ``peak_transmissibility_db`` (the excited peak of |T|, dB) and
+        ``peak_frequency_hz``.
+
+    Returns
+    -------
+    list of str
+        A note when the refinement ended with the continuous peak above its limit
+        (the bound, or the sampled peak objective: the design, or the reported
+        objective, does not hold between the grid frequencies); otherwise a note
+        when the analysis's peak exceeds the bound by more than
+        :data:`PEAK_EXCESS_DB`; empty otherwise (no bound, no analysis, or within).
     """
     out = []
-    bound = result.study.constraints.get("max_peak_transmissibility_db")
+    st = result.study
+    bound = st.constraints.get("max_peak_transmissibility_db")
+    npk = st.models["peak_points"]
+    pk = result.peak or {}
+    added = len(pk.get("added_frequencies_hz") or ())
+    if pk.get("met") is False:
+        what = (f"constraints.max_peak_transmissibility_db = {pk['limit_db']:g} dB"
+                if pk.get("limit") == "bound" else
+                f"the optimized peak objective ({pk['limit_db']:.3f} dB on the grid)")
+        out.append(
+            f"the continuous peak |T| at A* is {pk['peak_db']:.3f} dB at "
+            f"{pk['peak_frequency_hz']:.3g} Hz, {pk['excess_db']:.3f} dB above {what}, after "
+            f"{pk['rounds']} round(s) of peak refinement (the most it makes, "
+            f"{added} frequencies added near the peak to the {npk} of models.peak_points): "
+            "the limit holds at the NLP's grid frequencies only (raise models.peak_points "
+            "for a finer base grid, or relax the bound)"
+        )
+        return out
     peak = figures.get("peak_transmissibility_db")
     if bound is not None and peak is not None and peak > bound + PEAK_EXCESS_DB:
+        where = (f"at the {npk} frequencies of models.peak_points and {added} placed by the "
+                 f"peak refinement, which met it to {pk['tolerance_db']:g} dB on its own "
+                 f"continuous peak ({pk['peak_db']:.3f} dB)" if pk.get("met") else
+                 f"at the {npk} frequencies of models.peak_points only (raise "
+                 "models.peak_points)")
         out.append(
-            f"peak |T| at A* is {peak:.2f} dB at {figures['peak_frequency_hz']:.3g} Hz in "
+            f"peak |T| at A* is {peak:.3f} dB at {figures['peak_frequency_hz']:.3g} Hz in "
             f"the analysis, above constraints.max_peak_transmissibility_db = {bound:g} dB, "
-            f"which the optimizer enforces at {result.study.models['peak_points']} grid "
-            "frequencies only (raise models.peak_points)"
+            f"which the optimizer enforces {where}"
         )
     return out
 
 
 def optimization_design(result) -> dict:
-    """The content of ``design.json``: variables, derived figures, objective, verdict."""
+    """The content of ``design.json``: variables, derived figures, objective, verdict.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        A feasible result; the figures include the band analysis when the run
+        made one (``optimize(..., analyze=True)``, the default).
+
+    Returns
+    -------
+    dict
+        ``study``, ``source``, ``feasible``, ``status``; ``objective`` (kind,
+        natural value and start value, unit, sense); ``variables`` (name -> value,
+        start, lower, upper as the study states them, fixed, ``at_bound``);
+        ``derived`` and ``start_derived`` (:func:`design_figures` of the optimum and
+        of the start design, SI); ``verdict``; ``notes`` (:func:`grid_notes`);
+        ``binding_constraints`` (names); ``variables_at_bounds``; ``constraints``
+        (:func:`constraint_rows`) and ``spring`` (the design's ``to_dict()``).
+    """
 
     st = result.study
     at = variables_at_bounds(result)
@@ -366,6 +522,28 @@ def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict
     the solver settings, every start (status, iterations, time, objective, start
     and final values), the final design, objective, constraints, flat direction,
     re-check and wall time.
+
+    Parameters
+    ----------
+    result : OptimizationResult
+        Feasible or not; the figures are added only for a feasible one.
+    argv : sequence of str, optional
+        The command line after the program name (:func:`command_line`); default
+        ``sys.argv[1:]``.
+    extra : dict, optional
+        Further top-level entries, added last (they replace entries of the same
+        name).
+
+    Returns
+    -------
+    dict
+        The record, ready for :func:`write_json`: ``kind``, ``command_line``,
+        versions and ``environment``, ``study`` (:func:`resolved_study_dict`),
+        ``solver_settings``, ``starts`` (one dict per start), ``n_reached_best``,
+        status, objective and start objective (natural units), ``design`` and
+        ``start_design`` (SI), ``constraints``, ``violations``, ``flat_direction``,
+        ``peak_refinement``, ``recheck_max_rel_diff``, ``wall_s`` and, if feasible,
+        ``figures``.
     """
 
     starts = []
@@ -408,7 +586,30 @@ def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict
 
 
 def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dict:
-    """The run record of :func:`isodesign.optimization.pareto.pareto_front` (``record.json``)."""
+    """The run record of :func:`isodesign.optimization.pareto.pareto_front` (``record.json``).
+
+    Parameters
+    ----------
+    result : ParetoResult
+        The front: objective values (natural units), designs, statuses,
+        non-dominated flags, hypervolume, reference and ideal points.
+    study : Study
+        The study the front was computed for (recorded resolved, for a replay).
+    argv : sequence of str, optional
+        The command line after the program name; default ``sys.argv[1:]``.
+    extra : dict, optional
+        Further top-level entries, added last.
+
+    Returns
+    -------
+    dict
+        ``kind``, ``command_line``, versions and ``environment``, ``study``,
+        ``study_source``, ``objectives``, ``settings``, ``points`` (per sweep point:
+        both objective values keyed by kind, ``design``, ``status``,
+        ``nondominated``), ``hypervolume`` (normalized space),
+        ``reference_point_minimized`` and ``ideal_point_minimized`` (the objectives
+        as minimized: maximized ones negated) and ``wall_s``.
+    """
 
     points = []
     for i, d in enumerate(result.designs):

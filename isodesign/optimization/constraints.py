@@ -50,7 +50,43 @@ class Constraint:
 
 
 def build_constraints(study, mt: dict, n_all: int) -> list[Constraint]:
-    """The study's constraints on the metrics ``mt`` (NumPy or CasADi)."""
+    """The study's constraints on the metrics ``mt`` (NumPy or CasADi).
+
+    One function for both paths: the NLP calls it on CasADi metrics, the re-check
+    (:func:`isodesign.optimization.recheck.evaluate_design`) on NumPy ones, so both
+    judge exactly the same expressions and bounds.
+
+    Parameters
+    ----------
+    study : Study
+        Its ``constraints`` table decides which constraints exist (``None``
+        switches one off) and gives their bounds; ``models["flow"]`` selects the
+        flow model's validity limits.
+    mt : dict
+        Metrics of one design, from :func:`isodesign.optimization.metrics.metrics`
+        (or :func:`~isodesign.optimization.metrics.combine`), on NumPy arrays or
+        CasADi expressions; the ``ln_*`` entries are natural logs.
+    n_all : int
+        Number of NLP grid frequencies (floor quadrature, peak grid and any point
+        of a one-frequency objective): the length of the per-frequency
+        constraints (Mach number, Reynolds number).
+
+    Returns
+    -------
+    list of Constraint
+        In the NLP's units: ``expr`` is the natural log of the constrained quantity
+        (volume, tilt margin, natural frequency, damping ratio, Mach, Reynolds and
+        Womersley numbers, acoustic compactness ``w l / c``) and the bounds are the
+        logs of the study's limits; the peak transmissibility is ``ln |T|^2`` at
+        every peak-grid frequency against ``T_max[dB] ln(10) / 10``.
+
+    Notes
+    -----
+    Working in logs makes every row well scaled whatever the quantity's size, and
+    turns ratios into differences. With ``constraints.model_validity`` on, the
+    validity limits (acoustically compact tube and chambers, the flow model's
+    checks) are tightened by :data:`VALIDITY_MARGIN`.
+    """
     c = study.constraints
     out: list[Constraint] = []
     inf = math.inf
@@ -107,7 +143,30 @@ _FLOW_CHECK_CONSTRAINTS = {
 
 
 def flow_validity_constraints(flow: str, mt: dict, n_all: int) -> list[Constraint]:
-    """The validity limits of a capillary flow model, from its registered checks."""
+    """The validity limits of a capillary flow model, from its registered checks.
+
+    Each check a flow model registers in :mod:`isodesign.spring.flow_models` that has
+    an NLP form here becomes a constraint: ``laminar`` bounds the tube's peak Reynolds
+    number ``rho U D_c / mu`` at every grid frequency by ``VALIDITY_MARGIN * 2300``;
+    ``quasi_steady_alpha`` bounds the Womersley number ``(D_c / 2) sqrt(w rho / mu)``
+    at the highest grid frequency by ``VALIDITY_MARGIN * 3.4``. Checks without an NLP
+    form are skipped.
+
+    Parameters
+    ----------
+    flow : str
+        Name of a registered flow model (``study.models["flow"]``).
+    mt : dict
+        Metrics with ``ln_re`` (per frequency) and ``ln_alpha_max`` (natural logs),
+        NumPy or CasADi.
+    n_all : int
+        Number of NLP grid frequencies (the length of ``ln_re``).
+
+    Returns
+    -------
+    list of Constraint
+        Upper bounds on the logs of the numbers (no lower bounds).
+    """
     return [_FLOW_CHECK_CONSTRAINTS[c.name](mt, n_all) for c in flow_model(flow).checks
             if c.name in _FLOW_CHECK_CONSTRAINTS]
 
@@ -146,8 +205,27 @@ class ConstraintReport:
 def constraint_reports(con_rows, g: np.ndarray) -> list[ConstraintReport]:
     """Constraints in natural units with margins; epigraph rows are skipped.
 
-    ``con_rows`` is :attr:`isodesign.optimization.problem.Problem.con_rows`:
-    (constraint, first row in g, number of rows)."""
+    Parameters
+    ----------
+    con_rows : sequence of (Constraint, int, int)
+        :attr:`isodesign.optimization.problem.Problem.con_rows`: each constraint,
+        its first row in ``g`` and its number of rows. Rows of the objectives'
+        epigraph constraints (``epigraph_*``) and epsilon bounds (``bound_*``) are
+        not reported.
+    g : ndarray
+        The NLP's constraint values at a point (``Solution.g``, implicit equations
+        first), in the NLP's (log or dB) units.
+
+    Returns
+    -------
+    list of ConstraintReport
+        One per reported constraint, at its worst row for a vector constraint
+        (the largest value against an upper bound, the smallest against a lower
+        one, the smallest distance to either bound when both are finite).
+        ``value``, ``lower`` and ``upper`` are converted to natural units (``exp``
+        of the log; ``ln |T|^2`` to dB); ``margin`` stays in NLP units and
+        ``active`` is ``margin < ACTIVE_MARGIN``.
+    """
     out = []
     for c, row, n in con_rows:
         if c.name.startswith(("epigraph_", "bound_")):

@@ -65,9 +65,48 @@ def build_grid(study, *, points_per_band: int | None = None,
                objectives: tuple = (), extra_peak_hz: tuple = (), slots: int = 0) -> Grid:
     """The NLP's frequency grid for a study (NumPy).
 
-    ``extra_peak_hz`` adds fixed peak-grid frequencies; ``slots`` appends that many
-    movable ones (the exchange method of :func:`isodesign.optimization.driver.optimize`;
-    initially copies of the first peak frequencies, which changes nothing)."""
+    Parameters
+    ----------
+    study : Study
+        Floor spectrum, target criterion and bands, payload, the start design,
+        ``models.points_per_band`` and ``models.peak_points``, the natural
+        frequency bounds and the objective.
+    points_per_band : int, optional
+        Quadrature points per one-third-octave band of the floor grid; default
+        ``study.models["points_per_band"]``.
+    objectives : tuple of str
+        Further objective kinds the NLP carries (a Pareto study's second one);
+        if any of them, or the study's own objective, is evaluated at one
+        frequency (``transmissibility_at``), that frequency is appended.
+    extra_peak_hz : tuple of float
+        Fixed frequencies (Hz) merged into the peak grid (sorted, duplicates
+        removed).
+    slots : int
+        Number of movable peak-grid frequencies appended after the fixed ones
+        (the exchange method of :func:`isodesign.optimization.driver.optimize`).
+        They start as copies of the lowest peak frequencies, which changes no
+        constraint value, until :meth:`Grid.with_slots` moves them.
+
+    Returns
+    -------
+    Grid
+        ``omega`` (rad/s) is the floor grid of
+        :func:`isodesign.response.linearization.response_grid`, then the peak grid
+        (slots last), then the one objective frequency if any
+        (``point_index``).
+
+    Notes
+    -----
+    The peak grid has ``models.peak_points`` log-spaced frequencies from
+    ``max(0.05 Hz, f_lo / 4)`` to ``6 f_hi``, with ``f_lo`` the smaller of the start
+    design's natural frequency (air spring alone, ``sqrt(k_s / (N + 1) / (m/n)) / 2 pi``)
+    and ``constraints.min_natural_frequency_hz``, and
+    ``f_hi`` the larger of that natural frequency and
+    ``constraints.max_natural_frequency_hz``: with both bounds set, every natural
+    frequency they allow lies well inside it (without them, the span rests on the
+    start design's natural frequency only). The one objective frequency is
+    ``objective.frequency_hz``, default :data:`DEFAULT_POINT_FREQUENCY_HZ`.
+    """
 
     ppb = points_per_band or study.models["points_per_band"]
     rg = response_grid(study.floor, study.bands, target=study.target, points_per_band=ppb)
@@ -97,5 +136,18 @@ def build_grid(study, *, points_per_band: int | None = None,
 
 
 def take(c: Cx, sl) -> Cx:
-    """The rows ``sl`` of a complex pair."""
+    """The rows ``sl`` of a complex pair.
+
+    Parameters
+    ----------
+    c : Cx
+        Complex pair (real and imaginary parts as NumPy arrays or CasADi columns).
+    sl : slice or index array
+        Rows to take (e.g. :attr:`Grid.floor_slice`, :attr:`Grid.peak_slice`).
+
+    Returns
+    -------
+    Cx
+        ``Cx(c.re[sl], c.im[sl])``, same backend as ``c``.
+    """
     return Cx(c.re[sl], c.im[sl])

@@ -46,6 +46,47 @@ def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
     ``docs/random-response.md``) its linear part plus the Gaussian-equivalent resistance
     ``c_nl`` of the nonlinear drop, and ``G2 = |U/X|^2`` (the tube velocity per stroke) is
     returned too; without, the harmonic describing function at the amplitude ``velocity``.
+    The NLP maps this function over its grid as one small CasADi Function; the
+    re-check calls it on NumPy arrays.
+
+    Parameters
+    ----------
+    study : Study
+        Gives the payload mass per isolator and ``models["flow"]``.
+    d : SpringDesign
+        The spring, possibly with CasADi symbols for the free variables.
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    velocity : float, ndarray or CasADi symbol
+        Capillary (tube) velocity amplitude at ``omega``, m/s (self-consistent or
+        kinematic, as the study's ``amplitude_mode`` says; ``sqrt(2) sigma_u`` with the
+        statistical closure, for the Mach and Reynolds checks).
+    sigma : float or CasADi symbol
+        RMS stroke of the spring under the random floor input, m.
+    dia : diaphragm model
+        From :func:`isodesign.spring.diaphragm.diaphragm_model`.
+    c_nl : float or CasADi symbol, optional
+        The statistical closure's Gaussian-equivalent resistance of the capillary's
+        nonlinear pressure drop, Pa s/kg
+        (:func:`~isodesign.spring.capillary.gaussian_equivalent_resistance`).
+
+    Returns
+    -------
+    dict
+        ``T`` and ``R`` (:class:`~isodesign.numerics.cplx.Cx`): absolute and relative
+        (``T - 1``) transmissibility with the complex stiffness at the equivalent
+        spring amplitude ``A* = 1.880 sigma``; ``ln_mach``, the log of the tube
+        Mach number ``U / c``; ``ln_re``, the log of the tube Reynolds number
+        ``rho U D_c / mu`` (peak values of the oscillating flow); with ``c_nl`` also
+        ``G2 = |U/X|^2``.
+
+    Notes
+    -----
+    The complex stiffness is Eq. 42 (:func:`isodesign.spring.equations.spring_stiffness`):
+    the air spring with the flow model's resistance at ``velocity`` plus the
+    diaphragm's stiffness at amplitude ``A*``. ``A* = 3 sqrt(pi/8) sigma`` is the
+    harmonic amplitude whose describing function equals the Gaussian average
+    (:data:`isodesign.response.linearization.EQUIVALENT_AMPLITUDE_FACTOR`).
     """
 
     m_i = study.payload.mass_per_isolator_kg
@@ -69,7 +110,36 @@ def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
 
 
 def design_quantities(study, grid, d, dia) -> dict:
-    """Design-level quantities (volume, stability, validity), any backend."""
+    """Design-level quantities (volume, stability, validity), any backend.
+
+    Parameters
+    ----------
+    study : Study
+        Gives the payload (mass per isolator, spacing and CG height).
+    grid : Grid
+        The NLP's grid; its highest frequency sets the validity quantities.
+    d : SpringDesign
+        The spring, possibly with CasADi symbols for the free variables.
+    dia : diaphragm model
+        Enters the static stiffness ``K0``.
+
+    Returns
+    -------
+    dict
+        Natural logs of: ``ln_total_volume`` (``V_t0 (1 + N)``, m^3); ``ln_tilt``
+        (tilt margin ``n K0 (s/2)^2 / (m g h)``, only when the payload has a spacing
+        and a CG height); ``ln_fn`` (undamped natural frequency
+        ``sqrt(K0 / (m/n)) / (2 pi)``, Hz); ``ln_zeta`` (Zener damping ratio);
+        ``ln_lumped``, a list of three: ``w_max L_c / c``, ``w_max V_t0^(1/3) / c``
+        and ``w_max V_b0^(1/3) / c`` (acoustic compactness of tube and chambers);
+        ``ln_alpha_max``, the Womersley number ``(D_c / 2) sqrt(w_max rho / mu)``.
+
+    Notes
+    -----
+    Logs keep the NLP's rows well scaled. The acoustic compactness is one quantity
+    per length (tube, each chamber) rather than their ``max``, which is not smooth.
+    ``w_max`` is the grid's highest angular frequency (rad/s), a NumPy number.
+    """
     m_i = study.payload.mass_per_isolator_kg
     k0 = static_stiffness(d, dia, m_i)
     out = {"ln_total_volume": bk.log(d.total_volume_m3)}
@@ -99,6 +169,38 @@ def combine(study, grid, pq: dict, dq: dict) -> dict:
     :func:`isodesign.response.linearization.stroke_variance` and
     :func:`~isodesign.response.linearization.band_mean_square`, the same functions the
     band response uses.
+
+    Parameters
+    ----------
+    study : Study
+        The study (not read; kept so the three metric functions share a signature).
+    grid : Grid
+        The NLP's grid: its floor part carries the quadrature weights, its peak
+        part the resonance frequencies.
+    pq : dict
+        :func:`point_quantities` at every grid frequency (vectors of length
+        ``grid.omega.size``).
+    dq : dict
+        :func:`design_quantities` of the same design (copied into the result).
+
+    Returns
+    -------
+    dict
+        ``dq`` plus: ``stroke_variance`` (``sigma^2 = sum_j w_j |R_j|^2``, m^2, over
+        the floor grid); ``ms_all`` (payload band mean-square velocity
+        ``sum_j W_bj |T_j|^2``, (m/s)^2, every band of the response grid) and
+        ``ln_ms_band`` (its log); ``ln_limit2`` (log of the target's squared band
+        limits, NumPy); ``ln_T2_peak`` (``ln |T|^2`` at every peak-grid frequency);
+        ``ln_mach`` and ``ln_re`` (passed through); ``ln_T2_point`` (``ln |T|^2`` at
+        the one objective frequency, when the grid has one).
+
+    Notes
+    -----
+    The band margin in dB is ``10 (ln_limit2 - ln_ms_band) / ln 10`` and the peak
+    ``|T|`` in dB is ``10 ln_T2_peak / ln 10``. ``stroke_variance`` is computed from
+    ``R`` at the given ``sigma``; the NLP imposes ``sigma^2`` = the same sum as
+    equality constraints (a chain of partial sums), the NumPy path solves it with
+    its own solver.
     """
 
     fl, pk = grid.floor_slice, grid.peak_slice

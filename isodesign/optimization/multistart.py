@@ -2,14 +2,34 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from isodesign.errors import SolverError
 
-__all__ = ["DEFAULT_WORKERS", "run_starts", "start_points"]
+__all__ = ["DEFAULT_WORKERS", "available_cores", "run_starts", "start_points"]
 
-#: Worker processes for the starts (capped by the machine's cores).
+#: Worker processes for the starts when none is asked for (capped by the cores
+#: available to the process, like any asked-for number).
 DEFAULT_WORKERS = 2
+
+
+def available_cores() -> int:
+    """Cores this process may run on: its CPU affinity, else ``os.cpu_count()``.
+
+    Returns
+    -------
+    int
+        At least 1; the size of ``os.sched_getaffinity(0)`` where the platform has
+        it (a container or ``taskset`` may allow fewer cores than the machine has),
+        else ``os.cpu_count()`` (1 when unknown).
+    """
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    return max(1, n)
 
 
 def start_points(study, scaling) -> list[dict]:
@@ -19,6 +39,24 @@ def start_points(study, scaling) -> list[dict]:
     and every stratum holds exactly one start, at a random place, the strata
     paired at random between variables (seeded by ``solver.seed``). Written with
     NumPy: importing ``scipy.stats`` for it cost a second of start-up.
+
+    Parameters
+    ----------
+    study : Study
+        Gives the variables' start values, ``solver.starts`` (total number of
+        starts, the study's own included) and ``solver.seed``.
+    scaling : LogScaling
+        The free variables' log scaling (:func:`.variables.log_scaling`); the
+        hypercube is drawn in its coordinates ``z``.
+
+    Returns
+    -------
+    list of dict
+        ``solver.starts`` dicts of design-variable values (SI), the study's start
+        first (only that one when no variable is free). Each further start sets
+        every free variable to ``exp(c + h * 0.98 z)`` with ``z`` in [-1, 1]:
+        uniform in ``ln x`` within each stratum, kept 2 % of the log half-range
+        inside the bounds; fixed variables keep their start values.
     """
     base = {v.name: v.start for v in study.variables}
     pts = [base]
@@ -55,19 +93,46 @@ def _indexed_start(item):
 
 
 def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=None) -> list:
-    """Solve every start; in forked worker processes when more than one core is free.
+    """Solve every start; in forked worker processes when more than one core is available.
 
     The workers inherit the built solver through ``fork`` (nothing is pickled but
     the start values and the results), so the NLP is built once. Results come
     back in start order: a :class:`~isodesign.optimization.solution.Solution`, or the
     error message of a start whose initial guess failed.
+
+    Parameters
+    ----------
+    prob : Problem
+        The built NLP (:class:`isodesign.optimization.problem.Problem`).
+    starts : list of dict
+        Design-variable values (SI) of each start, e.g. from :func:`start_points`.
+        Each start gets a consistent initial guess
+        (:meth:`~isodesign.optimization.problem.Problem.initial_guess`: sigma and
+        the tube velocities from the NumPy solvers) before IPOPT runs.
+    workers : int, optional
+        Number of worker processes asked for (a study passes ``solver.workers``);
+        default :data:`DEFAULT_WORKERS`. Capped by the cores available to the
+        process (:func:`available_cores`) and by the number of starts: more
+        processes than cores only compete for them. With 1 worker after the cap, a
+        single start or no ``fork`` start method, the starts run one after the
+        other in this process.
+    progress : callable, optional
+        ``progress(done, total, result)`` after each start finishes (in completion
+        order when parallel); ``result`` is a Solution or an error message.
+    params : ndarray, optional
+        The NLP's parameter vector (:meth:`~isodesign.optimization.problem.Problem.params`);
+        default: minimize the first objective, no epsilon bounds.
+
+    Returns
+    -------
+    list
+        One entry per start, in start order: a Solution, or a ``str`` with the
+        :class:`~isodesign.errors.SolverError` message of a failed initial guess.
     """
     global _POOL_PROBLEM, _POOL_PARAMS
-    import os
 
     n = len(starts)
-    if workers is None:
-        workers = min(DEFAULT_WORKERS, os.cpu_count() or 1)
+    workers = min(DEFAULT_WORKERS if workers is None else workers, available_cores())
     _POOL_PROBLEM = prob
     _POOL_PARAMS = params
     results: list = [None] * n

@@ -100,7 +100,25 @@ class Objective:
 
 
 def objective(name: str) -> Objective:
-    """The registered objective ``name`` (:class:`InputError` naming the valid ones)."""
+    """The registered objective ``name`` (:class:`InputError` naming the valid ones).
+
+    Parameters
+    ----------
+    name : str
+        An objective kind, a key of :data:`OBJECTIVES` (``worst_band_margin``,
+        ``rms_velocity``, ``peak_transmissibility``, ``transmissibility_at``,
+        ``total_volume``).
+
+    Returns
+    -------
+    Objective
+
+    Raises
+    ------
+    InputError
+        For an unknown name; the message names ``objective.kind`` and lists the
+        valid kinds.
+    """
     try:
         return OBJECTIVES[name]
     except KeyError:
@@ -109,7 +127,33 @@ def objective(name: str) -> Objective:
 
 
 def rms_rows(study, grid) -> list[int]:
-    """Rows of the response grid's bands inside the rms_velocity objective's range."""
+    """Rows of the response grid's bands inside the rms_velocity objective's range.
+
+    Parameters
+    ----------
+    study : Study
+        ``objective.band_min_hz`` and ``objective.band_max_hz`` (Hz) bound the
+        range; each defaults to the ``[target]`` table's value, else 1 and 80 Hz.
+    grid : Grid
+        The NLP's grid; its response grid's bands are the candidates.
+
+    Returns
+    -------
+    list of int
+        Indices of the bands whose nominal centre frequency lies in the range,
+        widened by 1 % at each end so that rounded nominal values at the edges
+        count.
+
+    Raises
+    ------
+    InputError
+        When no band lies in the range.
+
+    Notes
+    -----
+    The objective is ``sqrt(sum_b ms_b)`` over these rows, with ``ms_b`` the payload
+    band mean-square velocity: the RMS velocity over the band range.
+    """
     o = study.objective
     lo = o.get("band_min_hz", study.raw["target"].get("band_min_hz", 1.0))
     hi = o.get("band_max_hz", study.raw["target"].get("band_max_hz", 80.0))

@@ -26,7 +26,7 @@ from isodesign import plotting
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
-from isodesign.optimization.multistart import run_starts, start_points
+from isodesign.optimization.multistart import available_cores, run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS, Problem
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db, peak_slots
@@ -44,7 +44,21 @@ def _minimized(kind: str, v: np.ndarray) -> np.ndarray:
 
 
 def nondominated(points: np.ndarray) -> np.ndarray:
-    """Boolean mask of the non-dominated rows of an (n, 2) array (both minimized)."""
+    """Boolean mask of the non-dominated rows of an (n, 2) array (both minimized).
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        Objective values to minimize (maximized objectives negated first).
+        Rows with a non-finite value (failed sweep points, NaN) are never kept
+        and dominate nothing.
+
+    Returns
+    -------
+    ndarray of bool, shape (n,)
+        True where no finite row is at least as good in both objectives and
+        strictly better in one. Duplicate rows are all kept.
+    """
     p = np.asarray(points, float)
     keep = np.ones(len(p), dtype=bool)
     for i in range(len(p)):
@@ -62,6 +76,26 @@ def hypervolume_2d(points: np.ndarray, reference: np.ndarray) -> float:
     Exact sweep: sort the non-dominated points by the first objective and add
     the rectangles they dominate. Points not better than the reference in both
     objectives contribute nothing.
+
+    Parameters
+    ----------
+    points : array_like, shape (n, 2)
+        Objective values to minimize, in the same units as ``reference``
+        (:func:`pareto_front` passes normalized values: ideal point 0).
+    reference : array_like, shape (2,)
+        The reference point bounding the area (normalized: ``(1, 1)``).
+
+    Returns
+    -------
+    float
+        The dominated area, in the product of the two objectives' units
+        (dimensionless when normalized; 1 is the whole box from the ideal point).
+
+    Notes
+    -----
+    With the non-dominated points sorted by increasing first objective ``x_i``
+    (so decreasing second objective ``y_i``), the area is
+    ``sum_i (r_x - x_i) (y_{i-1} - y_i)`` with ``y_0 = r_y``.
     """
     p = np.asarray(points, float)
     r = np.asarray(reference, float)
@@ -149,7 +183,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     front starts at the reported single-objective optimum; anchor B is B
     minimized from there. The sweep minimizes A subject to ``B <= eps`` for
     ``points`` values of eps from B at A's optimum to B's optimum, in two chains
-    (one from each anchor, meeting in the middle, in two forked workers), each
+    (one from each anchor, meeting in the middle, in two forked workers when
+    ``solver.workers`` and the cores available to the process are both 2 or more), each
     point warm-started from the previous one of its chain, and refines each
     point's peak grid like ``optimize`` does.
 
@@ -269,12 +304,12 @@ def _chain_worker(args):
 
 
 def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
-    """Run the sweep chains, in forked workers when there are two cores."""
+    """Run the sweep chains, in forked workers when ``workers`` (default 2), capped by
+    the cores available to the process, is more than 1."""
     global _CHAIN_PROBLEM
     import multiprocessing as mp
-    import os
 
-    workers = min(2, os.cpu_count() or 1) if workers is None else workers
+    workers = min(2 if workers is None else workers, available_cores())
     sols: dict = {}
     ctx = None
     if workers > 1:

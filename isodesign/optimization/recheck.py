@@ -17,7 +17,8 @@ from isodesign.spring.equations import kinematic_velocity
 
 __all__ = ["RECHECK_RTOL", "evaluate_design", "recheck"]
 
-#: Relative agreement required between the NLP and the NumPy re-check.
+#: Agreement required between the NLP and the NumPy re-check: relative, and absolute
+#: (dB) for the objectives in dB.
 RECHECK_RTOL = 1e-6
 _METRIC_KEYS = ("stroke_variance", "tube_velocity_variance", "ln_ms_band", "ln_T2_peak",
                 "ln_total_volume", "ln_tilt", "ln_lumped", "ln_fn", "ln_zeta", "ln_mach", "ln_re",
@@ -31,7 +32,33 @@ def recheck(prob, sol, d) -> float:
     solvers (not the NLP's values) and evaluates :func:`.metrics.metrics` on them.
     Every constraint quantity must agree with the NLP's solution, and the objective
     IPOPT reports (epigraph variables included) with the analysis's, to
-    :data:`RECHECK_RTOL` relative (in natural units; dB values absolute below 1).
+    :data:`RECHECK_RTOL`: relative, except the objectives in dB, compared in dB
+    with :data:`RECHECK_RTOL` as an absolute tolerance (the unit from the
+    objective registry, :data:`~.objectives.OBJECTIVES`).
+
+    Parameters
+    ----------
+    prob : Problem
+        The NLP that produced ``sol``, with its movable peak frequencies where the
+        refinement left them (the re-check evaluates on the same grid).
+    sol : Solution
+        The NLP's optimum: its ``x`` gives the NLP's design, ``ln sigma`` and
+        ``ln sigma_u`` (statistical closure) or, self-consistent mode of the harmonic
+        closure, ``ln U`` at every grid frequency; its ``objectives`` the internal values J.
+    d : SpringDesign
+        The design at the optimum (``study.design_at(sol.values)``), on which the
+        NumPy path solves sigma and the velocities afresh.
+
+    Returns
+    -------
+    float
+        The largest relative difference found: ``|sigma_np / sigma_nlp - 1|`` (and the
+        same for ``sigma_u``); for
+        each metric ``|exp(a - b) - 1|`` on the ``ln_*`` quantities (a relative
+        difference of the quantity itself) and ``|a / b - 1|`` otherwise, worst over
+        the vector's rows; for each objective in natural units, ``|v_nlp - v_np|``
+        (dB) for an objective in dB and ``|v_nlp - v_np| / |v_np|`` for the others
+        (``rms_velocity`` in m/s, ``total_volume`` in m^3).
 
     Raises
     ------
@@ -73,7 +100,8 @@ def recheck(prob, sol, d) -> float:
         obj = OBJECTIVES[kind]
         v_nlp = obj.to_natural(float(sol.objectives[k]))
         v_np = obj.value(mt_np, st, prob.grid)
-        m = abs(v_nlp - v_np) / max(1.0, abs(v_np))
+        # absolute in dB; relative in any other unit (m/s, m^3: values far below 1)
+        m = abs(v_nlp - v_np) if obj.db else abs(v_nlp - v_np) / abs(v_np)
         names.append((f"objective {kind}", m))
         worst = max(worst, m)
     if not worst <= RECHECK_RTOL:
@@ -92,16 +120,48 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
     from the NumPy solvers. Used by the re-check, by the comparison with
     gradient-free optimizers (benchmarks) and by studies.
 
+    Parameters
+    ----------
+    study : Study
+    values : dict
+        Design-variable values (SI): ``volume_ratio`` (-), ``top_volume_m3``,
+        ``capillary_length_m``, ``capillary_diameter_m``; missing or fixed ones
+        take the study's start values.
+    grid : Grid, optional
+        The frequency grid; default :func:`.grid.build_grid` of the study and the
+        objectives asked for (fixed peak grid, no movable frequencies; the one
+        frequency of ``transmissibility_at`` appended when asked for, at the
+        study's ``objective.frequency_hz``, else
+        :data:`~.grid.DEFAULT_POINT_FREQUENCY_HZ`). A grid passed in must carry
+        that frequency itself.
+    objectives : tuple of str
+        Objective kinds to evaluate; default the study's own.
+
     Returns
     -------
     dict
-        ``objectives`` (kind -> natural value), ``constraints`` (name -> worst
-        value in the NLP's units, with ``lower``/``upper``), ``max_violation``,
-        ``sigma``, ``tube_rms`` (``sigma_u`` of the statistical closure, else ``None``)
-        and ``metrics``.
+        ``objectives`` (kind -> natural value: dB, m/s or m^3); ``constraints``
+        (name -> ``value``, the expression at every row as an array in the NLP's
+        log or dB units, ``lower``, ``upper`` and ``violation``, the worst row's
+        distance outside the bounds); ``max_violation`` (the largest violation, NLP
+        units); ``sigma`` (RMS stroke, m), ``tube_rms`` (``sigma_u`` of the statistical
+        closure, m/s, else ``None``) and ``metrics`` (the metrics dict).
+
+    Notes
+    -----
+    sigma solves ``sigma^2 = sum_j w_j |T_j - 1|^2``
+    (:func:`isodesign.response.random_input.solve_stroke_rms`). With the statistical
+    closure (``models.random_method``, the default) ``sigma_u`` is solved with it and the
+    capillary's nonlinear drop is its Gaussian-equivalent resistance there; with
+    ``equivalent_amplitude`` the stiffness is at ``A* = 1.880 sigma`` and the tube velocity
+    amplitudes at ``A*`` are self-consistent
+    (:func:`isodesign.spring.amplitude.solve_velocity_amplitude`) or kinematic, as
+    ``models.amplitude_mode`` says.
     """
 
-    grid = grid or build_grid(study)
+    kinds = tuple(objectives) or (study.objective["kind"],)
+    # the grid carries the one extra frequency of a one-frequency objective asked for
+    grid = grid or build_grid(study, objectives=kinds)
     d = study.design_at(values)
     dia = diaphragm_model(study.models["diaphragm"])
     stat = statistical(study)
@@ -119,7 +179,7 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
     mt = metrics(study, grid, d, u, sigma, diaphragm=dia,
                  tube_rms=info.get("tube_velocity_rms_m_s"))
     objs = {kind: OBJECTIVES[kind].value(mt, study, grid)
-            for kind in objectives or (study.objective["kind"],)}
+            for kind in kinds}
     cons = {}
     worst = 0.0
     for c in build_constraints(study, mt, grid.omega.size):

@@ -62,7 +62,21 @@ _PEAK_SHIFTS = (0.99, 0.995, 1.0, 1.005, 1.01)
 
 
 def flat_tolerance(kind: str) -> float:
-    """The tie-break's objective tolerance for an objective (dB, or relative)."""
+    """The tie-break's objective tolerance for an objective (dB, or relative).
+
+    Parameters
+    ----------
+    kind : str
+        A registered objective kind (:data:`~.objectives.OBJECTIVES`).
+
+    Returns
+    -------
+    float
+        :data:`FLAT_TOLERANCE_DB` for an objective whose internal value J is in dB
+        (an absolute tolerance of 0.01 dB), else :data:`FLAT_TOLERANCE_REL`: J is a
+        natural log there, so an absolute 1e-3 on J is a relative 0.1 % on the
+        natural value.
+    """
     return FLAT_TOLERANCE_DB if OBJECTIVES[kind].db else FLAT_TOLERANCE_REL
 
 
@@ -72,6 +86,36 @@ def continuous_peak_db(prob, values: dict, sigma: float,
 
     A dense log grid over the peak grid's span, then a parabola through the
     largest sample and its neighbours in ln f. Returns (peak in dB, frequency in Hz).
+
+    Parameters
+    ----------
+    prob : Problem
+        The NLP: its study (payload, flow model, amplitude mode), diaphragm model
+        and peak grid, whose lowest and highest frequencies bound the search.
+    values : dict
+        Design-variable values (SI) of the design.
+    sigma : float
+        RMS stroke of the spring at this design, m (e.g. ``prob.sigma(x)``); the
+        stiffness is evaluated at the equivalent amplitude ``A* = 1.880 sigma``.
+    tube_rms : float, optional
+        The statistical closure (``prob.tube_rms(x)``): the tube velocity's RMS, m/s; the
+        capillary's resistance is its linear part plus the Gaussian-equivalent resistance
+        at ``tube_rms`` (:func:`isodesign.spring.capillary.statistical_resistance_function`)
+        and the diaphragm is at ``A*``. ``None``: the harmonic describing function.
+
+    Returns
+    -------
+    (float, float)
+        ``20 log10 |T|`` at the peak, dB, and its frequency, Hz.
+
+    Notes
+    -----
+    ``|T|^2`` is evaluated at 4001 log-spaced frequencies with the full complex
+    stiffness (:func:`isodesign.spring.stiffness.complex_stiffness`, every frequency
+    at the same amplitude). Through the largest sample ``i`` and its two neighbours
+    the parabola ``y = c2 x^2 + c1 x + c0`` with ``x = ln(f / f_i)`` and ``y`` in dB
+    gives the peak ``c0 - c1^2 / (4 c2)`` at ``f_i exp(-c1 / (2 c2))``; if the
+    samples are not concave (``c2 >= 0``) the largest sample itself is returned.
     """
 
     st = prob.study
@@ -101,7 +145,27 @@ def continuous_peak_db(prob, values: dict, sigma: float,
 
 
 def peak_slots(prob, round_index: int, f_peak_hz: float) -> list[float]:
-    """Place five movable peak-grid frequencies within +-1 % of a peak (round k's slots)."""
+    """Place five movable peak-grid frequencies within +-1 % of a peak (round k's slots).
+
+    Parameters
+    ----------
+    prob : Problem
+        The NLP; its movable frequencies are changed in place
+        (:meth:`~isodesign.optimization.problem.Problem.set_slots`: NLP parameters,
+        no rebuild).
+    round_index : int
+        Refinement round k, from 0: slots ``5 k`` to ``5 k + 4`` are set, so earlier
+        rounds' frequencies stay (at most ``PEAK_ROUNDS`` rounds fit in
+        :data:`~.problem.PEAK_SLOTS`).
+    f_peak_hz : float
+        Frequency of the continuous peak, Hz (:func:`continuous_peak_db`).
+
+    Returns
+    -------
+    list of float
+        The five frequencies placed, Hz: ``f_peak_hz`` times 0.99, 0.995, 1, 1.005
+        and 1.01.
+    """
     new = [f_peak_hz * r for r in _PEAK_SHIFTS]
     k = round_index * len(new)
     slots = prob.slot_hz.copy()
@@ -126,26 +190,69 @@ def refine_peak(study, prob, final, best, flat):
     frequencies (NLP parameters: no rebuild) are placed within +-1 % of it and the
     NLP is solved again from the current design (then the tie-break again).
 
+    Parameters
+    ----------
+    study : Study
+        Gives ``constraints.max_peak_transmissibility_db`` (the bound, dB) and
+        ``solver.tie_break``. Without a peak bound and unless the objective is
+        ``peak_transmissibility``, nothing is refined.
+    prob : Problem
+        The NLP; its movable peak frequencies are moved in place.
+    final : Solution
+        The point to check: the (tie-broken) optimum of a start.
+    best : Solution
+        The optimum before its tie-break.
+    flat : dict or None
+        The flat-direction report of :func:`tie_break` for ``final``.
+
     Returns
     -------
     (final, best, flat, info)
         The tie-broken and the refined optimum, the flat-direction report and the
         refinement's record (rounds, added frequencies, continuous peak).
+        ``info`` holds ``rounds``, ``added_frequencies_hz``, ``peak_db`` and
+        ``peak_frequency_hz`` (the continuous peak of the returned point, last
+        measured), ``limit_db`` (the limit it was held to, dB), ``limit``
+        (``"bound"`` or ``"objective"``: which one set it), ``excess_db``
+        (``peak_db - limit_db``) and ``met`` (the peak is within
+        :data:`PEAK_TOLERANCE_DB` of the limit; False when it is still above after
+        the last round), all ``None`` when the peak is not checked (no bound, other
+        objective); ``max_rounds`` and ``tolerance_db`` (:data:`~.problem.PEAK_ROUNDS`
+        and :data:`PEAK_TOLERANCE_DB`).
+
+    Raises
+    ------
+    SolverError
+        When a re-solve after adding frequencies is infeasible.
+
+    Notes
+    -----
+    The limit is the bound, or for the ``peak_transmissibility`` objective the
+    smaller of the bound and the sampled peak J (the objective must not
+    understate the true peak). At most :data:`~.problem.PEAK_ROUNDS` rounds; a peak
+    still above the limit after the last round is not refined further: ``met`` is
+    False and :func:`isodesign.optimization.driver.optimize` reports the excess as a
+    violation of the returned design.
     """
     bound = study.constraints.get("max_peak_transmissibility_db")
     kind = prob.objective
-    info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None}
+    info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None,
+            "limit_db": None, "limit": None, "excess_db": None, "met": None,
+            "max_rounds": PEAK_ROUNDS, "tolerance_db": PEAK_TOLERANCE_DB}
     if not _peak_refined(study, prob):
         return final, best, flat, info
     for _ in range(PEAK_ROUNDS + 1):
         vals = prob.values(final.x)
         peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(final.x),
                                              prob.tube_rms(final.x))
-        info.update(peak_db=peak_db, peak_frequency_hz=f_pk)
         sampled = OBJECTIVES[kind].to_natural(final.objective) \
             if kind == "peak_transmissibility" else None
         limit = min(v for v in (bound, sampled) if v is not None)
-        if peak_db <= limit + PEAK_TOLERANCE_DB or info["rounds"] >= PEAK_ROUNDS:
+        met = peak_db <= limit + PEAK_TOLERANCE_DB
+        info.update(peak_db=peak_db, peak_frequency_hz=f_pk, limit_db=limit,
+                    limit="bound" if limit == bound else "objective",
+                    excess_db=peak_db - limit, met=bool(met))
+        if met or info["rounds"] >= PEAK_ROUNDS:
             break
         info["added_frequencies_hz"] += peak_slots(prob, info["rounds"], f_pk)
         info["rounds"] += 1
@@ -171,10 +278,28 @@ def tie_break(prob, best, tol_j: float):
     tie-break returns the largest D_c (larger bores are easier to make to tolerance
     and clog less).
 
+    Parameters
+    ----------
+    prob : Problem
+        The NLP; solved twice with objective weights 0, ``ln D_c`` weight -1 (max)
+        or +1 (min) and the epsilon bound ``J_1 <= J* + tol_j`` on the first
+        objective.
+    best : Solution
+        The optimum J* to tie-break.
+    tol_j : float
+        Tolerance on the internal objective J (:func:`flat_tolerance`: dB, or an
+        absolute tolerance on a log, i.e. relative).
+
     Returns
     -------
     (info, chosen)
         The flat-direction report (None when D_c is fixed) and the chosen solution.
+        The report gives ``capillary_diameter_range_m`` and
+        ``capillary_length_range_m`` (the valley's ends, m), the diameter at the
+        optimum and the chosen one, ``objective_tolerance`` and ``flat`` (the
+        diameter range exceeds 1 %). The chosen solution is the largest-D_c point
+        with its epigraph variables re-tightened, if it is feasible and its J is
+        within ``tol_j`` (plus :data:`TIE_BREAK_SLACK`) of J*; else ``best``.
     """
     if "capillary_diameter_m" not in prob.scaling.names:
         return None, best
@@ -251,6 +376,26 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     optimum (before its tie-break). Each branch starts from the study's peak grid;
     the winner's movable frequencies are restored on ``prob`` (the re-check
     evaluates on them).
+
+    Parameters
+    ----------
+    study : Study
+        Gives ``solver.tie_break`` and the peak bound.
+    prob : Problem
+        The NLP the starts were solved with; its movable peak frequencies are
+        reset before each branch and left at the winner's.
+    sols : dict
+        Start index -> feasible Solution.
+    tol_j : float
+        The tie-break's tolerance on J (:func:`flat_tolerance`).
+
+    Returns
+    -------
+    Refined
+        The winning branch (its start index, refined optimum, tie-broken final
+        point, flat-direction and peak-refinement reports, slot frequencies) with
+        ``branches``: (start index, refined J) of every branch refined, winner
+        first.
 
     Raises
     ------

@@ -46,7 +46,10 @@ class OptimizationResult:
     constraint; ``design`` is then the best point found (least violation),
     reported with ``violations`` and not to be used as a design. ``peak`` records
     the exchange method on the peak grid: rounds, added frequencies, and the
-    continuous peak of |T| at the optimum (dB, Hz). ``branches`` lists the starts
+    continuous peak of |T| at the optimum (dB, Hz), its limit and whether it was
+    met. A feasible result (every constraint met on the NLP's grid) whose
+    continuous peak stayed above its limit after the last refinement round has
+    that excess (dB) in ``violations``; it is not a :attr:`success`. ``branches`` lists the starts
     whose branches were refined before the winner was chosen, with their refined
     objective values (natural units), the winner first.
     """
@@ -75,8 +78,9 @@ class OptimizationResult:
 
     @property
     def success(self) -> bool:
-        """True for a feasible, re-checked optimum."""
-        return self.feasible and self.recheck_max_rel_diff is not None
+        """True for a feasible, re-checked optimum without a violation."""
+        return (self.feasible and self.recheck_max_rel_diff is not None
+                and not self.violations)
 
     def raise_for_status(self) -> None:
         """Raise :class:`SolverError` unless the run found a feasible optimum."""

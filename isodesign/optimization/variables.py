@@ -98,7 +98,27 @@ def effective_bounds(study) -> dict:
 
 
 def log_scaling(study) -> LogScaling:
-    """The log scaling of a study's free variables over their effective bounds."""
+    """The log scaling of a study's free variables over their effective bounds.
+
+    Parameters
+    ----------
+    study : Study
+        Its variables (fixed ones are left out) and, through
+        :func:`effective_bounds`, ``constraints.min_capillary_diameter_m``.
+
+    Returns
+    -------
+    LogScaling
+        ``names`` of the free variables in :data:`DESIGN_VARIABLES` order,
+        ``center`` ``c = (ln lo + ln hi) / 2`` and ``half`` ``h = (ln hi - ln lo) / 2``.
+
+    Notes
+    -----
+    The NLP's variable is ``z`` in [-1, 1] with ``x = exp(c + h z)``, so
+    ``z = -1`` and ``z = 1`` are the bounds ``lo`` and ``hi``: variables spanning
+    decades (L_c from 2 mm to 0.5 m) get the same unit range in ``z``, relative
+    changes of ``x`` are uniform steps in ``z``, and ``x`` stays positive.
+    """
     bnds = effective_bounds(study)
     free = [v for v in study.variables if v.free]
     return LogScaling(

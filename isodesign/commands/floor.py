@@ -1,0 +1,80 @@
+"""Floor spectrum from a site-survey time history (accelerometer or velocimeter record).
+
+Reads RECORD.csv (one to three axes; a time_s column or '# sample_rate_hz: ...' in the header;
+the unit in the header, '# unit: g', or --unit: g, mg, ug, m/s^2, mm/s^2, m/s, mm/s, um/s),
+removes the mean, estimates the PSD by Welch's method (Hann window, 50 % overlap, segments long
+enough for 10 frequency bins in the lowest band) and reports the band RMS velocity per
+one-third-octave band: the mean-square average over the segments, the maximum and a
+percentile. Writes DIR/bands.csv (one row per axis and band) and DIR/bands.png (the bands
+against the VC curves), and DIR/floor.csv, the floor spectrum of one axis and statistic in the
+format --floor reads. A record can also be given directly as --floor RECORD.csv to the other
+commands (mean-square average of the z axis, or of the only axis). Method: docs/criteria.md.
+"""
+
+from __future__ import annotations
+
+import argparse
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``isodesign floor``."""
+    parser.add_argument("record", metavar="RECORD.csv", help="time history (CSV)")
+    parser.add_argument(
+        "-o", "--output", metavar="DIR", required=True, help="output directory (created)"
+    )
+    parser.add_argument("--unit", help="unit of the record's values (overrides the header)")
+    parser.add_argument(
+        "--sample-rate", type=float, metavar="HZ", help="sample rate (without a time column)"
+    )
+    parser.add_argument(
+        "--fmin", type=float, default=1.0, metavar="HZ", help="lowest band, Hz (default 1)"
+    )
+    parser.add_argument(
+        "--fmax", type=float, default=80.0, metavar="HZ", help="highest band, Hz (default 80)"
+    )
+    parser.add_argument(
+        "--percentile",
+        type=float,
+        default=90.0,
+        help="percentile of the segments' band RMS reported (default %(default)s)",
+    )
+    parser.add_argument(
+        "--statistic",
+        choices=("mean", "max", "percentile"),
+        default="mean",
+        help="statistic of DIR/floor.csv (default %(default)s: the mean-square average)",
+    )
+    parser.add_argument("--axis", help="axis of DIR/floor.csv (default: z, or the only axis)")
+
+
+def run(args) -> int:
+    """Run ``isodesign floor``."""
+    from pathlib import Path
+
+    from isodesign.commands import input_error, write_text
+    from isodesign.floor.survey import analyze_record, read_record
+
+    out = Path(args.output)
+    if out.exists() and not out.is_dir():
+        raise input_error(f"--output: {out} exists and is not a directory")
+    if not out.parent.is_dir():
+        raise input_error(f"--output: directory {out.parent} does not exist")
+    rec = read_record(args.record, unit=args.unit, sample_rate_hz=args.sample_rate)
+    res = analyze_record(rec, f_min_hz=args.fmin, f_max_hz=args.fmax, percentile=args.percentile)
+    floor = res.floor(args.statistic, args.axis)
+    out.mkdir(exist_ok=True)
+    print(res.summary())
+    df = res.to_frame()
+    write_text(out / "bands.csv", df.to_csv(index=False))
+    print(f"wrote {out / 'bands.csv'} ({len(df)} rows)")
+    lines = [
+        f"# name: {floor.name}; quantity: velocity; kind: band_rms; unit: m/s",
+        "frequency_hz,value",
+    ]
+    v = res.statistic(args.statistic, args.axis)
+    lines += [f"{n:g},{x:.9g}" for n, x in zip(res.bands.nominal_hz, v, strict=True)]
+    write_text(out / "floor.csv", "\n".join(lines) + "\n")
+    print(f"wrote {out / 'floor.csv'} (use it as --floor)")
+    res.plot(out / "bands.png")
+    print(f"wrote {out / 'bands.png'}")
+    return 0
