@@ -83,6 +83,8 @@ _EXPORTS = {
     "SimulationResult": "simulation.harmonic_rig",
     # reports
     "report": "reporting.render",
+    "simulate_random_response": "simulation.monte_carlo",
+    "MonteCarloResult": "simulation.monte_carlo",
     # errors
     "InputError": "errors",
     "SolverError": "errors",

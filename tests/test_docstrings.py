@@ -19,15 +19,11 @@ import pytest
 import isodesign
 
 #: Functions without a complete Parameters section yet: (module, name) -> reason.
-_RANDOM_REWRITE = "module rewritten with the random-input closure; documented there"
 _CLI_REWORK = "CLI output helpers being reworked (CLI robustness); documented there"
 KNOWN_GAPS = {
     ("isodesign.commands", "check_output_path"): _CLI_REWORK,
     ("isodesign.commands", "input_error"): _CLI_REWORK,
     ("isodesign.commands", "write_text"): _CLI_REWORK,
-    ("isodesign.response.linearization", "band_margin_db"): _RANDOM_REWRITE,
-    ("isodesign.response.linearization", "equivalent_amplitude"): _RANDOM_REWRITE,
-    ("isodesign.response.random_input", "solve_stroke_rms"): _RANDOM_REWRITE,
 }
 
 

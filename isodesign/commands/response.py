@@ -103,8 +103,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--random-method",
         choices=RANDOM_METHODS,
-        help="spring amplitude of the random closure: A* = 1.88 sigma (default) or the "
-        "Rayleigh average",
+        help="closure of the random response: statistical linearization of the tube flow at "
+        "its RMS velocity (default), or the older harmonic closures on the stroke, A* = 1.88 "
+        "sigma or the Rayleigh average",
     )
     parser.add_argument(
         "--spacing-m", type=float, metavar="M", help="narrowest isolator spacing (tilt margin)"
@@ -126,6 +127,51 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="plot floor, payload and target in every band (judged ones shaded), and |T| in "
         "dB with its phase (PNG, PDF or SVG)",
     )
+    parser.add_argument(
+        "--verify-monte-carlo",
+        type=int,
+        metavar="SEEDS",
+        help="also simulate SEEDS random floor realizations in the time domain (nonlinear "
+        "lumped model) and print the closure's error per band (docs/simulation.md)",
+    )
+    parser.add_argument(
+        "--mc-duration-s",
+        type=float,
+        default=320.0,
+        metavar="S",
+        help="length of each Monte Carlo realization, s (default %(default)g)",
+    )
+
+
+def monte_carlo_table(res, mc) -> str:
+    """The closure against the Monte Carlo verifier, per band (um/s, dB), and the RMS values."""
+    import numpy as np
+
+    err = mc.error_db(res)
+    se = mc.standard_error_db()
+    lines = [
+        f"Monte Carlo: {len(mc.seeds)} seeds x {mc.duration_s:g} s, dt = "
+        f"{mc.time_step_s * 1e3:.3g} ms, flow={mc.flow}, diaphragm={mc.diaphragm} "
+        f"({mc.seconds_per_realization:.2g} s per realization)",
+        f"  {'band':>6}  {'closure':>9}  {'MC':>9}  {'MC s.e.':>7}  {'error':>7}",
+        f"  {'(Hz)':>6}  {'(um/s)':>9}  {'(um/s)':>9}  {'(dB)':>7}  {'(dB)':>7}",
+    ]
+    idx = [list(res.bands.index).index(b) for b in mc.bands.index]
+    for j, lab in enumerate(mc.bands.labels):
+        lines.append(
+            f"  {lab:>6}  {res.payload_velocity_rms_m_s[idx[j]] * 1e6:>9.4g}  "
+            f"{mc.payload_velocity_rms_m_s[j] * 1e6:>9.4g}  {se[j]:>7.3f}  {err[j]:>+7.2f}"
+        )
+    worst = int(np.argmax(np.abs(err)))
+    su = res.tube_velocity_rms_m_s
+    lines.append(
+        f"  worst band {mc.bands.labels[worst]} Hz: {err[worst]:+.2f} dB; stroke RMS "
+        f"{res.stroke_rms_m * 1e6:.4g} um vs {mc.stroke_rms_m * 1e6:.4g} um "
+        f"({100 * (res.stroke_rms_m / mc.stroke_rms_m - 1):+.1f} %); tube velocity RMS "
+        + (f"{su:.3g} m/s vs " if su is not None else "")
+        + f"{mc.tube_velocity_rms_m_s:.3g} m/s (kurtosis {mc.tube_velocity_kurtosis:.2f})"
+    )
+    return "\n".join(lines)
 
 
 #: Job when neither the input nor an option states it.
@@ -329,10 +375,12 @@ def run(args) -> int:
     import warnings
 
     from isodesign.commands import check_output_path, write_result
-    from isodesign.errors import ModelValidityWarning
+    from isodesign.errors import InputError, ModelValidityWarning
     from isodesign.response import band_response
 
     check_output_path(args.output, "--output")
+    if args.verify_monte_carlo is not None and args.verify_monte_carlo < 1:
+        raise InputError(f"--verify-monte-carlo: SEEDS must be >= 1, got {args.verify_monte_carlo}")
     check_output_path(args.plot, "--plot")
     job = resolve_job(args, extra_payload={"spacing_m": args.spacing_m,
                                            "cg_height_m": args.cg_height_m})
@@ -345,6 +393,18 @@ def run(args) -> int:
     for line in res.warnings:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"
+    mc = None
+    if args.verify_monte_carlo is not None:
+        from isodesign.simulation.monte_carlo import simulate_random_response
+
+        try:
+            mc = simulate_random_response(
+                job.design, job.payload, job.floor, bands=res.bands, seeds=args.verify_monte_carlo,
+                duration_s=args.mc_duration_s, flow=m["flow"], diaphragm=m["diaphragm"],
+                derive_pressure=not args.design_pressure,
+            )  # fmt: skip
+        except InputError as exc:
+            raise InputError(f"--verify-monte-carlo: {exc}") from None
     status = write_result(res, without_plot(args), "" if to_stdout else summary(
         res, job.label, not args.design_pressure, job.models_source))
     if args.plot:
@@ -361,4 +421,6 @@ def run(args) -> int:
         save_plot(shown.plot(judged=job.judged_hz, peak_limit_db=peak), args.plot)
         if not to_stdout:
             print(f"wrote {args.plot}")
+    if mc is not None and not to_stdout:
+        print(monte_carlo_table(res, mc))
     return status

@@ -152,7 +152,7 @@ def _infeasible_result(study, prob, start_vals, records, sols, t_all) -> Optimiz
 def _analyses(study, prob, d, start_vals):
     """Fine-grid band responses of the optimum and of the start design."""
     kw = {"flow": study.models["flow"], "amplitude_mode": study.models["amplitude_mode"],
-          "diaphragm": prob.dia}
+          "diaphragm": prob.dia, "random_method": study.models["random_method"]}
     analysis = band_response(d, study.payload, study.floor, study.target,
                              bands=study.bands, derive_pressure=False, warn=False, **kw)
     start_analysis = band_response(study.design_at(start_vals), study.payload, study.floor,

@@ -377,7 +377,7 @@ def _refine_point(prob: Problem, sol: Solution, eps) -> Solution:
         return sol
     for rnd in range(PEAK_ROUNDS):
         vals = sol.values
-        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(sol.x))
+        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(sol.x), prob.tube_rms(sol.x))
         limits = [bound] if bound is not None else []
         for k, kind in enumerate(kinds):
             if kind == "peak_transmissibility":

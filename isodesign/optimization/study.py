@@ -78,7 +78,7 @@ _DEFAULT = {
         "flow": "womersley",
         "amplitude_mode": "self_consistent",
         "diaphragm": "viscoelastic",
-        "random_method": "equivalent_amplitude",
+        "random_method": "statistical",
         "points_per_band": 6,
         "peak_points": 80,
     },
@@ -430,7 +430,7 @@ def _models(m: dict, where: str, source: str) -> dict:
     check_choice(f"{where}: models.amplitude_mode", m.get("amplitude_mode", "self_consistent"),
                  AMPLITUDE_MODES)
     check_choice(f"{where}: models.random_method",
-                 m.get("random_method", "equivalent_amplitude"), ("equivalent_amplitude",))
+                 m.get("random_method", "statistical"), ("statistical", "equivalent_amplitude"))
     dia = m.get("diaphragm", "viscoelastic")
     if isinstance(dia, dict):  # [models.diaphragm]: model + viscoelastic parameters
         dia = dict(dia)
@@ -459,7 +459,7 @@ def _models(m: dict, where: str, source: str) -> dict:
     ppb = _int_in(where, "models.points_per_band", m.get("points_per_band", 6), 3, 200)
     npk = _int_in(where, "models.peak_points", m.get("peak_points", 80), 10, 2000)
     return {"flow": flow, "amplitude_mode": m.get("amplitude_mode", "self_consistent"),
-            "diaphragm": dia, "random_method": m.get("random_method", "equivalent_amplitude"),
+            "diaphragm": dia, "random_method": m.get("random_method", "statistical"),
             "points_per_band": ppb, "peak_points": npk}
 
 

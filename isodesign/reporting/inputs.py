@@ -18,6 +18,7 @@ An input is one of
 
 from __future__ import annotations
 
+import inspect
 import json
 import math
 from dataclasses import dataclass, field
@@ -29,13 +30,16 @@ from isodesign.io.designfile import design_from_dict, load_design_models
 from isodesign.io.files import read_toml
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.study import Study, default_study, load_study
+from isodesign.response.random_input import band_response
 
 __all__ = ["MODEL_DEFAULTS", "Case", "best_pareto_point", "input_kind", "load_case"]
 
-#: Models of the response when neither a study, a run nor a design file states them
-#: (the defaults of :func:`isodesign.response.band_response`).
-MODEL_DEFAULTS = {"flow": "quasi_steady", "amplitude_mode": "self_consistent",
-                  "diaphragm": "viscoelastic", "random_method": "equivalent_amplitude"}
+#: Models of the response when neither a study, a run nor a design file states them:
+#: the defaults of :func:`isodesign.response.band_response`, read from its signature.
+MODEL_DEFAULTS = {
+    k: inspect.signature(band_response).parameters[k].default
+    for k in ("flow", "amplitude_mode", "diaphragm", "random_method")
+}
 _MODEL_NAMES = tuple(MODEL_DEFAULTS)
 
 

@@ -26,6 +26,10 @@ Fig. 8 directly; no values were published. Models, by name
 ``none`` (:class:`NoDiaphragm`)
     k_D* = 0 (the air alone).
 
+Also, as an object only: :class:`PronyDiaphragm`, a linear (amplitude-independent)
+generalized Maxwell element, the causal form the Monte Carlo verifier integrates in the
+time domain (:mod:`isodesign.simulation.monte_carlo`).
+
 A design file's ``[diaphragm]`` table (``model = "viscoelastic"`` with any of
 its parameters, ``"none"``, ``"table:PATH.csv"`` or ``"fit:PATH.toml"``) is read
 by :func:`diaphragm_from_dict`; ``diaphragm_model("PATH.toml")`` accepts a fit
@@ -55,6 +59,7 @@ __all__ = [
     "VISCOELASTIC_PARAMETERS",
     "FittedDiaphragm",
     "NoDiaphragm",
+    "PronyDiaphragm",
     "TableDiaphragm",
     "ViscoelasticDiaphragm",
     "bernstein_basis",
@@ -144,6 +149,56 @@ class ViscoelasticDiaphragm:
 
     def in_range(self, omega, amplitude_m) -> dict:
         """Validity checks (the parametric model has no data range)."""
+        return {}
+
+
+@dataclass(frozen=True)
+class PronyDiaphragm:
+    """Linear viscoelastic diaphragm: ``k_inf + sum k_i j w / (j w + r_i)`` (Prony series).
+
+    A spring ``k_inf`` in parallel with Maxwell branches (stiffness ``k_i``, relaxation rate
+    ``r_i = 1/tau_i``): passive and causal, independent of the amplitude, and realizable in
+    the time domain (each branch force ``q_i`` obeys ``dq_i/dt = k_i dz/dt - r_i q_i``).
+
+    Parameters
+    ----------
+    k_inf_n_per_m : float
+        Static stiffness (>= 0).
+    branch_stiffness_n_per_m, branch_rate_1_per_s : tuple of float
+        ``k_i >= 0`` and ``r_i > 0``, same length.
+    """
+
+    k_inf_n_per_m: float
+    branch_stiffness_n_per_m: tuple = ()
+    branch_rate_1_per_s: tuple = ()
+    name: str = field(default="prony", init=False)
+
+    def __post_init__(self):
+        check_range("diaphragm.k_inf_n_per_m", self.k_inf_n_per_m, 0.0, None)
+        k = tuple(float(v) for v in self.branch_stiffness_n_per_m)
+        r = tuple(float(v) for v in self.branch_rate_1_per_s)
+        if len(k) != len(r):
+            raise InputError("diaphragm: branch_stiffness_n_per_m and branch_rate_1_per_s "
+                             f"differ in length ({len(k)} and {len(r)})")  # fmt: skip
+        if any(not (v >= 0 and math.isfinite(v)) for v in k) or any(
+            not (v > 0 and math.isfinite(v)) for v in r
+        ):
+            raise InputError("diaphragm: branch stiffnesses must be >= 0 and rates > 0")
+        object.__setattr__(self, "branch_stiffness_n_per_m", k)
+        object.__setattr__(self, "branch_rate_1_per_s", r)
+
+    def stiffness(self, omega, amplitude_m) -> Cx:
+        """Complex stiffness in N/m (any backend; independent of the amplitude)."""
+        re = self.k_inf_n_per_m + 0.0 * omega * amplitude_m
+        im = 0.0 * re
+        for k, r in zip(self.branch_stiffness_n_per_m, self.branch_rate_1_per_s, strict=True):
+            den = omega * omega + r * r
+            re = re + k * omega * omega / den
+            im = im + k * omega * r / den
+        return Cx(re, im)
+
+    def in_range(self, omega, amplitude_m) -> dict:
+        """Validity checks (none apply)."""
         return {}
 
 
@@ -624,7 +679,7 @@ def _bilinear(gx, gy, v, x, y):
 
 def diaphragm_model(
     spec,
-) -> NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm | FittedDiaphragm:
+) -> NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm | FittedDiaphragm | PronyDiaphragm:
     """Resolve a diaphragm model from a name, a file or a model object.
 
     ``"viscoelastic"`` (default parameters), ``"none"``, ``"table:PATH"`` or a
@@ -638,7 +693,8 @@ def diaphragm_model(
     spec : str, Path, dict or model
         The specification (a model instance is returned as is).
     """
-    if isinstance(spec, NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm | FittedDiaphragm):
+    if isinstance(spec, NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm | FittedDiaphragm
+                  | PronyDiaphragm):
         return spec
     if isinstance(spec, dict):
         return diaphragm_from_dict(spec)
