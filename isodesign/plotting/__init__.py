@@ -11,7 +11,7 @@ Names are resolved on first use, so that the result classes can import
 
 from __future__ import annotations
 
-import importlib
+from isodesign._lazy import lazy_exports
 
 _EXPORTS = {
     "all_bands_response": "optimization",
@@ -35,14 +35,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    mod = _EXPORTS.get(name)
-    if mod is None:
-        raise AttributeError(f"module 'isodesign.plotting' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"isodesign.plotting.{mod}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
