@@ -24,6 +24,7 @@ from isodesign.optimization.study import default_study
 from isodesign.response.random_input import band_response
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "optimization.md"
+README = Path(__file__).resolve().parents[2] / "README.md"
 NUM = r"[+-]?\d+(?:\.\d+)?"
 
 #: (regular expression, with named groups of quoted numbers)
@@ -191,6 +192,38 @@ def quoted_values() -> dict:
     q["short_margin_db"] = an_s.worst_margin_db
     q["short_loss_db"] = an.worst_margin_db - an_s.worst_margin_db
     return q
+
+
+#: What README.md quotes about the default study.
+README_CHECKS = [
+    rf"The paper's spring misses VC-C by (?P<start_miss_db>{NUM}) dB; the\noptimum "
+    rf"\(N = (?P<opt_n>{NUM}), V_t0 = (?P<opt_vt_l>{NUM}) L, L_c = (?P<opt_lc_mm>{NUM}) mm, "
+    rf"D_c = (?P<opt_dc_mm>{NUM}) mm, (?P<opt_total_l>{NUM}) L in all\) meets it with\n"
+    rf"(?P<opt_margin_analysis_db>{NUM}) dB",
+]
+
+
+def readme_matches() -> list[dict]:
+    """The named groups of every README check (each must match exactly once)."""
+    text = " ".join(README.read_text(encoding="utf-8").split())
+    out = []
+    for pattern in README_CHECKS:
+        found = list(re.finditer(re.sub(r"\\n *", " ", pattern), text))
+        assert len(found) == 1, f"{len(found)} matches in README.md for: {pattern}"
+        out.append(found[0].groupdict())
+    return out
+
+
+def test_readme_checks_match_once():
+    assert sum(len(m) for m in readme_matches()) == 7
+
+
+@pytest.mark.slow
+def test_readme_numbers_match_the_default_run(quoted_values):
+    wrong = [f"{name}: README {text}, code {printed_as(quoted_values[name], text)}"
+             for groups in readme_matches() for name, text in groups.items()
+             if printed_as(quoted_values[name], text) != text]
+    assert not wrong, "README.md drifted: " + "; ".join(wrong)
 
 
 @pytest.mark.slow
