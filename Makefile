@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-fast lint bench docs clean venv
+.PHONY: demo test test-fast test-browser lint bench docs clean venv
 
 venv: $(STAMP)
 
@@ -20,6 +20,13 @@ demo: $(STAMP)
 test: $(STAMP)
 	$(BIN)/ruff check isodesign tests studies benchmarks
 	$(BIN)/python -m pytest -q
+
+# The browser tests of the HTML report (headless Chromium; installs Debian's chromium if missing).
+# `make test` runs them too whenever chromium is installed (they skip without it).
+SUDO := $(shell [ "$$(id -u)" = 0 ] || echo sudo)
+test-browser: $(STAMP)
+	@command -v chromium >/dev/null 2>&1 || { $(SUDO) apt-get update && $(SUDO) apt-get install -y chromium; }
+	$(BIN)/python -m pytest -q -m browser tests/reporting/test_browser.py
 
 test-fast: $(STAMP)
 	$(BIN)/python -m pytest -q -m "not slow"

@@ -20,7 +20,7 @@ module on first use (:data:`__all__` lists them).
 
 from __future__ import annotations
 
-import importlib
+from isodesign._lazy import lazy_exports
 
 __version__ = "0.1.0"
 
@@ -81,6 +81,10 @@ _EXPORTS = {
     "simulate_stiffness": "simulation.harmonic_rig",
     "simulate_grid": "simulation.harmonic_rig",
     "SimulationResult": "simulation.harmonic_rig",
+    "simulate_random_response": "simulation.monte_carlo",
+    "MonteCarloResult": "simulation.monte_carlo",
+    # reports
+    "report": "reporting.render",
     # errors
     "InputError": "errors",
     "SolverError": "errors",
@@ -90,14 +94,4 @@ _EXPORTS = {
 __all__ = sorted(_EXPORTS)
 
 
-def __getattr__(name: str):
-    mod = _EXPORTS.get(name)
-    if mod is None:
-        raise AttributeError(f"module 'isodesign' has no attribute {name!r}")
-    value = getattr(importlib.import_module(f"isodesign.{mod}"), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(_EXPORTS))
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -68,6 +68,18 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.pareto",
         "Pareto front of two objectives (default: worst-band margin vs total volume)",
     ),
+    "floor": (
+        "isodesign.commands.floor",
+        "floor spectrum from a survey record (time history): band RMS statistics vs VC",
+    ),
+    "fit": (
+        "isodesign.commands.fit",
+        "calibrate from rig data: the diaphragm (passive, cvxpy) or K, D_c, n (CasADi)",
+    ),
+    "report": (
+        "isodesign.commands.report",
+        "self-contained HTML report of a design, a run, or candidates side by side",
+    ),
     "demo": (
         "isodesign.commands.demo",
         "the product's main job on the default study, and the reference spring's stiffness",

@@ -100,44 +100,65 @@ def sweep_row(mass_kg: float, result) -> dict:
     return row
 
 
-def plot(df: pd.DataFrame, path: Path) -> Path:
-    """Optimal N, V_t0, L_c and D_c against payload (2 x 2); infeasible masses as x."""
-    from matplotlib.backends.backend_agg import FigureCanvasAgg
-    from matplotlib.figure import Figure
+#: Relative change of the optimal N between neighbouring masses taken as a branch change.
+BRANCH_JUMP = 0.3
 
-    fig = Figure(figsize=(9.0, 6.5), layout="constrained")
-    FigureCanvasAgg(fig)
+
+def plot(df: pd.DataFrame, path: Path) -> Path:
+    """Optimal N, V_t0, L_c and D_c against payload (2 x 2), in the package's visual language.
+
+    The optimum is the blue line of every isodesign figure; the line is broken at a mass
+    without a feasible design (its best point drawn as a red cross) and where the optimum
+    jumps to the other volume-ratio branch, so no design between two masses is implied.
+    """
+    from isodesign.plotting.style import OPTIMUM, new_figure, save_figure, with_breaks
+
+    fig = new_figure(9.5, 6.8)
     axes = fig.subplots(2, 2, sharex=True).ravel()
     ok = df["feasible"].to_numpy(bool)
-    for ax, (col, label) in zip(axes, (("N", "volume ratio N"), ("V_t0_l", "V_t0 (L)"),
-                                       ("L_c_mm", "L_c (mm)"), ("D_c_mm", "D_c (mm)")),
+    mass = df["mass_kg"].to_numpy(float)
+    n_opt = np.where(ok, df["N"].to_numpy(float), np.nan)
+    jump = np.zeros(len(df), bool)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        jump[1:] = np.abs(np.log(n_opt[1:] / n_opt[:-1])) > np.log1p(BRANCH_JUMP)
+    line = {k: v for k, v in OPTIMUM.items() if k != "marker"}
+    for ax, (col, label) in zip(axes, (("N", "volume ratio N = V_b0/V_t0 (-)"),
+                                       ("V_t0_l", "top chamber V_t0 per isolator (L)"),
+                                       ("L_c_mm", "capillary length L_c (mm)"),
+                                       ("D_c_mm", "capillary diameter D_c (mm)")),
                                 strict=True):
-        ax.plot(df["mass_kg"][ok], df[col][ok], "o-", color="C0", label="optimum")
+        y = np.where(ok, df[col].to_numpy(float), np.nan)
+        lx, ly = with_breaks(mass, y, jump)
+        ax.plot(lx, ly, **line, label="optimum (line broken at a branch change)")
+        ax.plot(mass[ok], y[ok], "o", color=OPTIMUM["color"], ms=5)
         if (~ok).any():
-            ax.plot(df["mass_kg"][~ok], df[col][~ok], "x", color="C3", ms=8,
+            ax.plot(mass[~ok], df[col].to_numpy(float)[~ok], "x", color="C3", ms=8, mew=1.6,
                     label="no feasible design (best point)")
         if col == "N" and df["other_branch_N"].notna().any():
-            ax.plot(df["mass_kg"], df["other_branch_N"], "s", mfc="none", color="0.5",
+            ax.plot(mass, df["other_branch_N"], "s", mfc="none", color="0.5",
                     label="other local optimum")
         ax.set_ylabel(label)
-        ax.grid(True, lw=0.3, alpha=0.6)
+        ax.grid(True, lw=0.4, alpha=0.6)
         ax.ticklabel_format(axis="y", useOffset=False)
-        y = df[col][ok].to_numpy(float)
-        if y.size and np.ptp(y) < 1e-3 * abs(np.mean(y)):
-            ax.set_ylim(0.9 * np.mean(y), 1.1 * np.mean(y))
+        yy = y[ok]
+        if yy.size and np.ptp(yy) < 1e-3 * abs(np.mean(yy)):
+            ax.set_ylim(0.9 * np.mean(yy), 1.1 * np.mean(yy))
             ax.text(0.5, 0.1, "the same at every payload (constraint-bound)",
                     transform=ax.transAxes, ha="center", fontsize=8, color="0.4")
         if col == "N":
             spec = default_study().variable("volume_ratio")
-            for bound in (spec.lower, spec.upper):
-                ax.axhline(bound, color="0.6", ls="--", lw=0.8)
+            ax.axhline(spec.lower, color="0.6", ls="--", lw=0.8, label="bounds of N")
+            ax.axhline(spec.upper, color="0.6", ls="--", lw=0.8)
     axes[0].legend(fontsize=8)
     for ax in axes[2:]:
         ax.set_xlabel("payload mass on 4 isolators (kg)")
-    fig.suptitle("Default study re-optimized against payload (VC-A floor, VC-C target, "
-                 "V <= 6 L)", fontsize=10)
-    fig.savefig(path, dpi=130)
-    return path
+    st = default_study()
+    fig.suptitle("Default study re-optimized against payload: floor "
+                 f"{st.raw['floor']['criterion']}, limit {st.raw['target']['criterion']} in "
+                 f"{st.raw['target']['band_min_hz']:g}-{st.raw['target']['band_max_hz']:g} Hz, "
+                 f"total volume <= {st.constraints['max_total_volume_m3'] * 1e3:g} L per isolator",
+                 fontsize=10)
+    return save_figure(fig, path, dpi=130)
 
 
 def main(argv=None) -> int:

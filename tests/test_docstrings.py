@@ -19,12 +19,7 @@ import pytest
 import isodesign
 
 #: Functions without a complete Parameters section yet: (module, name) -> reason.
-_RANDOM_REWRITE = "module rewritten with the random-input closure; documented there"
-KNOWN_GAPS = {
-    ("isodesign.response.linearization", "band_margin_db"): _RANDOM_REWRITE,
-    ("isodesign.response.linearization", "equivalent_amplitude"): _RANDOM_REWRITE,
-    ("isodesign.response.random_input", "solve_stroke_rms"): _RANDOM_REWRITE,
-}
+KNOWN_GAPS: dict[tuple[str, str], str] = {}
 
 
 def _public_objects():

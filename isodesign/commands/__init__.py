@@ -381,13 +381,13 @@ def check_output_path(path: str | Path | None, option: str, *, suffixes=None) ->
     if str(path).strip() == "":
         raise input_error(f"{option}: empty; give a file name")
     p = Path(path)
+    if p.is_dir():
+        raise input_error(f"{option}: {p} is a directory; give a file name")
     if suffixes is not None and p.suffix.lower() not in suffixes:
         raise input_error(
             f"{option}: unsupported file type {p.suffix or '(none)'!r}; "
             f"valid: {', '.join(suffixes)}"
         )
-    if p.is_dir():
-        raise input_error(f"{option}: {p} is a directory; give a file name")
     parent = p.parent
     if parent.exists() and not parent.is_dir():
         raise input_error(f"{option}: {parent} is a file, not a directory")

@@ -428,7 +428,12 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
     ``run.record`` (written as ``record.json`` when the run ends, with its status).
     """
     from isodesign.io.designfile import design_to_toml
-    from isodesign.io.record import optimization_design, optimization_record, study_toml
+    from isodesign.io.record import (
+        optimization_design,
+        optimization_record,
+        resolved_study_dict,
+        study_toml,
+    )
 
     written = []
     rec = optimization_record(result, argv=canonical_command(args, "optimize")[1:],
@@ -449,10 +454,12 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
         return written
     design = optimization_design(result)
     written.append(run.write_json(prefix + "design.json", design))
-    written.append(run.write_text(prefix + "design.toml", design_to_toml(result.design, header=(
-        f"Optimized spring of study {result.study.name!r} (isodesign optimize); p0 from the "
-        f"payload ({result.study.payload.mass_kg:g} kg on {result.study.payload.isolators} "
-        "isolators)."))))
+    models = resolved_study_dict(result.study).get("models")  # a diaphragm table: absolute
+    header = (f"Optimized spring of study {result.study.name!r} (isodesign optimize); p0 from "
+              f"the payload ({result.study.payload.mass_kg:g} kg on "
+              f"{result.study.payload.isolators} isolators).")
+    written.append(run.write_text(prefix + "design.toml",
+                                  design_to_toml(result.design, models=models, header=header)))
     written.append(run.write_csv(prefix + "bands.csv", bands_frame(result)))
     if plots:
         from isodesign.plotting import optimization_plot

@@ -256,6 +256,9 @@ def _execute(study, run, args, objectives) -> int:
         print(f"study {study_label(study)}: Pareto front of {a} ({_sense(a)}) against {b} "
               f"(epsilon-constraint, {args.points} points, {result.settings['starts']} starts "
               f"for the anchor); {result.wall_s:.1f} s")
+        from isodesign.commands.response import models_line
+
+        print(models_line(study.models, "the study"))
         print(front_table(result))
     print(f"{n_front} of {len(result.designs)} points non-dominated; hypervolume "
           f"{result.hypervolume:.4f} (normalized: ideal point -> 0, reference point -> 1)")

@@ -2,7 +2,10 @@
 
 A payload of --payload-kg (default 100 kg per isolator) on --isolators identical springs
 (DESIGN.toml, default: the paper's reference spring) stands on a floor given as a
-criterion name (VC-A: the floor exactly on the curve) or a CSV spectrum. The spring's
+criterion name (VC-A: the floor exactly on the curve) or a CSV spectrum. The input may
+instead be a study file or an optimize/pareto run directory: its payload, floor, target,
+judged bands and models are used (an option given on the command line still wins), and a
+design file's [models] table (written by optimize) sets the models. The spring's
 amplitude dependence is closed self-consistently on the RMS stroke (equivalent
 linearization). Prints one row per one-third-octave band (floor, payload, target, margin
 in dB) and a PASS/FAIL verdict with the worst band; -o writes the table as CSV, --plot a
@@ -31,6 +34,10 @@ RESPONSE_OPTION_NAMES = {"floor": "--floor", "target": "--target", "diaphragm": 
 #: Ranges of the counts a user gives: --isolators, --points-per-band.
 ISOLATORS_RANGE = (1, 1000)
 POINTS_PER_BAND_RANGE = (2, 2000)
+#: Range of --verify-monte-carlo (seeds, each a time-domain simulation) and the longest
+#: --mc-duration-s.
+MONTE_CARLO_SEEDS_RANGE = (1, 1000)
+MAX_MC_DURATION_S = 1e5
 
 
 def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
@@ -38,8 +45,10 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "design",
         nargs="?",
-        metavar="DESIGN.toml",
-        help="design file (docs/design-file.md); default: the paper's reference spring",
+        metavar="INPUT",
+        help="design file (docs/design-file.md), study file, or an optimize/pareto run "
+        "directory (its payload, floor, target, bands and models are used); default: the "
+        "paper's reference spring",
     )
     parser.add_argument(
         "--payload-kg",
@@ -51,9 +60,8 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--isolators",
         type=_int_option,
-        default=4,
         metavar="N",
-        help="number of isolators (1..1000; default 4)",
+        help="number of isolators (1..1000; default: the study's, else 4)",
     )
     parser.add_argument(
         "--design-pressure",
@@ -62,22 +70,20 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--flow",
-        default="quasi_steady",
         choices=FLOW_MODELS,
-        help="capillary flow model (default %(default)s)",
+        help="capillary flow model (default: the study's or design file's, else quasi_steady)",
     )
     parser.add_argument(
         "--amplitude-mode",
-        default="self_consistent",
         choices=AMPLITUDE_MODES,
-        help="tube velocity amplitude of the spring model (default %(default)s)",
+        help="tube velocity amplitude of the spring model (default: the study's or design "
+        "file's, else self_consistent)",
     )
     parser.add_argument(
         "--diaphragm",
-        default="viscoelastic",
         metavar="MODEL",
-        help=f"{', '.join(DIAPHRAGM_SPECS.values())} (default viscoelastic, illustrative "
-        "parameters)",
+        help=f"{', '.join(DIAPHRAGM_SPECS.values())} (illustrative parameters for "
+        "viscoelastic; default: the study's or design file's, else viscoelastic)",
     )
 
 
@@ -86,21 +92,20 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     add_payload_arguments(parser)
     parser.add_argument(
         "--floor",
-        default="VC-A",
         metavar="NAME|FILE.csv",
         help="floor: criterion name (the floor exactly on the curve) or a CSV spectrum "
-        "(docs/criteria.md, section 4); default %(default)s",
+        "(docs/criteria.md, section 4); default: the study's, else VC-A",
     )
     parser.add_argument(
         "--target",
-        default="VC-E",
         metavar="NAME|FILE.csv",
-        help="the instrument's criterion: name or CSV curve; default %(default)s",
+        help="the instrument's criterion: name or CSV curve; default: the study's, else VC-E",
     )
     parser.add_argument(
         "--bands",
         metavar="FMIN:FMAX",
-        help="band range, nominal centres in Hz (default: the target's bands within the floor)",
+        help="judged band range, nominal centres in Hz (default: the study's, else the "
+        "target's bands within the floor)",
     )
     parser.add_argument(
         "--points-per-band",
@@ -111,10 +116,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--random-method",
-        default="equivalent_amplitude",
         choices=RANDOM_METHODS,
-        help="spring amplitude of the random closure: A* = 1.88 sigma (default) or the "
-        "Rayleigh average",
+        help="closure of the random response: statistical linearization of the tube flow at "
+        "its RMS velocity (default), or the older harmonic closures on the stroke, A* = 1.88 "
+        "sigma or the Rayleigh average",
     )
     parser.add_argument(
         "--spacing-m", type=float, metavar="M", help="narrowest isolator spacing (tilt margin)"
@@ -132,8 +137,60 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="write the band table to this CSV file ('-' = standard output, no summary)",
     )
     parser.add_argument(
-        "--plot", metavar="OUT.png", help="plot floor, payload and target, and |T| (PNG)"
+        "--plot", metavar="OUT.png",
+        help="plot floor, payload and target in every band (judged ones shaded), and |T| in "
+        "dB with its phase (PNG, PDF or SVG)",
     )
+    parser.add_argument(
+        "--verify-monte-carlo",
+        type=_int_option,
+        metavar="SEEDS",
+        help="also simulate SEEDS random floor realizations in the time domain (nonlinear "
+        "lumped model) and print the closure's error per band (docs/simulation.md)",
+    )
+    parser.add_argument(
+        "--mc-duration-s",
+        type=float,
+        default=320.0,
+        metavar="S",
+        help="length of each Monte Carlo realization, s (default %(default)g)",
+    )
+
+
+def monte_carlo_table(res, mc) -> str:
+    """The closure against the Monte Carlo verifier, per band (um/s, dB), and the RMS values."""
+    import numpy as np
+
+    err = mc.error_db(res)
+    se = mc.standard_error_db()
+    lines = [
+        f"Monte Carlo: {len(mc.seeds)} seeds x {mc.duration_s:g} s, dt = "
+        f"{mc.time_step_s * 1e3:.3g} ms, flow={mc.flow}, diaphragm={mc.diaphragm} "
+        f"({mc.seconds_per_realization:.2g} s per realization)",
+        f"  {'band':>6}  {'closure':>9}  {'MC':>9}  {'MC s.e.':>7}  {'error':>7}",
+        f"  {'(Hz)':>6}  {'(um/s)':>9}  {'(um/s)':>9}  {'(dB)':>7}  {'(dB)':>7}",
+    ]
+    idx = [list(res.bands.index).index(b) for b in mc.bands.index]
+    for j, lab in enumerate(mc.bands.labels):
+        lines.append(
+            f"  {lab:>6}  {res.payload_velocity_rms_m_s[idx[j]] * 1e6:>9.4g}  "
+            f"{mc.payload_velocity_rms_m_s[j] * 1e6:>9.4g}  {se[j]:>7.3f}  {err[j]:>+7.2f}"
+        )
+    worst = int(np.argmax(np.abs(err)))
+    su = res.tube_velocity_rms_m_s
+    lines.append(
+        f"  worst band {mc.bands.labels[worst]} Hz: {err[worst]:+.2f} dB; stroke RMS "
+        f"{res.stroke_rms_m * 1e6:.4g} um vs {mc.stroke_rms_m * 1e6:.4g} um "
+        f"({100 * (res.stroke_rms_m / mc.stroke_rms_m - 1):+.1f} %); tube velocity RMS "
+        + (f"{su:.3g} m/s vs " if su is not None else "")
+        + f"{mc.tube_velocity_rms_m_s:.3g} m/s (kurtosis {mc.tube_velocity_kurtosis:.2f})"
+    )
+    return "\n".join(lines)
+
+
+#: Job when neither the input nor an option states it.
+DEFAULT_FLOOR = "VC-A"
+DEFAULT_TARGET = "VC-E"
 
 
 def load_design(path):
@@ -147,19 +204,30 @@ def load_design(path):
     return _load(path), str(path)
 
 
-def make_payload(args, **extra):
-    """The Payload of ``--payload-kg`` and ``--isolators`` (InputError naming the option)."""
+def make_payload(args, base=None, **extra):
+    """The Payload of ``--payload-kg`` and ``--isolators`` (InputError naming the option).
+
+    ``base`` (a study's payload) supplies what the options do not state.
+    """
     from isodesign.commands import check_count
     from isodesign.errors import InputError
     from isodesign.response.isolator import Payload
 
-    n = check_count(args.isolators, "--isolators", *ISOLATORS_RANGE)
-    mass = DEFAULT_KG_PER_ISOLATOR * n if args.payload_kg is None else args.payload_kg
+    n = args.isolators if args.isolators is not None else (base.isolators if base else 4)
+    n = check_count(n, "--isolators", *ISOLATORS_RANGE)
+    if args.payload_kg is not None:
+        mass = args.payload_kg
+    elif base is not None and args.isolators in (None, base.isolators):
+        mass = base.mass_kg
+    else:
+        mass = DEFAULT_KG_PER_ISOLATOR * n
     if not mass > 0 or mass == float("inf"):
         raise InputError(f"--payload-kg: must be finite and > 0 kg, got {args.payload_kg}")
     for opt, v in extra.items():
         if v is not None and not (0 < v < float("inf")):
             raise InputError(f"--{opt.replace('_', '-')}: must be finite and > 0 m, got {v}")
+    if base is not None:
+        extra = {k: (v if v is not None else getattr(base, k)) for k, v in extra.items()}
     return Payload(mass, n, **extra)
 
 
@@ -181,6 +249,75 @@ def check_payload_pressure(design, payload, derive: bool = True) -> None:
             f"--payload-kg: {payload.mass_kg:g} kg on {payload.isolators} isolators needs a "
             f"chamber pressure beyond floating point ({p0:g} Pa); give a physical payload"
         )
+
+
+def resolve_job(args, *, extra_payload: dict | None = None):
+    """Design, payload, floor, target, judged bands and models of the command's input.
+
+    A design file (or none) keeps the command's defaults, with the models of the file's
+    ``[models]`` table; a study file or a run directory supplies its whole job. Options
+    given on the command line override either.
+
+    Returns
+    -------
+    types.SimpleNamespace
+        ``design``, ``label``, ``payload``, ``floor``, ``target``, ``bands`` (Bands or a
+        (lo, hi) range or None), ``judged_hz`` (None: all bands judged), ``models`` and
+        ``models_source``.
+    """
+    from pathlib import Path
+    from types import SimpleNamespace
+
+    from isodesign.reporting.inputs import MODEL_DEFAULTS, input_kind, load_case
+
+    extra_payload = extra_payload or {}
+    models = dict(MODEL_DEFAULTS)
+    models_source = "defaults"
+    study = None
+    path = args.design
+    kind = None
+    if path is not None:
+        kind = input_kind(path)
+    if kind in ("study", "optimize", "pareto"):
+        case = load_case(path)
+        study = case.study
+        design = case.design
+        label = {"study": f"start design of study {study.name!r} ({path})",
+                 "optimize": f"optimum of study {study.name!r} ({path})",
+                 "pareto": f"best point of the Pareto run {path}"}[kind]
+        models.update(case.models)
+        models_source = case.models_source
+    else:
+        design, label = load_design(path)
+        if path is not None:
+            from isodesign.io.designfile import load_design_models
+
+            recorded = load_design_models(path)
+            if recorded:
+                models.update(recorded)
+                models_source = f"design file {Path(path).name} [models]"
+    given = {k: getattr(args, k, None) for k in MODEL_DEFAULTS}
+    overridden = [k for k, v in given.items() if v is not None]
+    models.update({k: v for k, v in given.items() if v is not None})
+    if overridden:
+        models_source += "; options " + ", ".join("--" + k.replace("_", "-") for k in overridden)
+    payload = make_payload(args, base=study.payload if study else None, **extra_payload)
+    floor = getattr(args, "floor", None)
+    target = getattr(args, "target", None)
+    bands = _bands(getattr(args, "bands", None))
+    judged_hz = bands
+    if study is not None:
+        floor = study.floor if floor is None else floor
+        target = study.target if target is None else target
+        if bands is None:
+            tg = study.raw["target"]
+            judged_hz = (float(tg["band_min_hz"]), float(tg["band_max_hz"]))
+            bands = study.bands
+    floor = DEFAULT_FLOOR if floor is None else floor
+    target = DEFAULT_TARGET if target is None else target
+    return SimpleNamespace(design=design, label=label, payload=payload, floor=floor,
+                           target=target, bands=bands, judged_hz=judged_hz, models=models,
+                           models_source=models_source, study=study)
 
 
 def _bands(spec):
@@ -217,17 +354,29 @@ def format_table(res) -> str:
     return "\n".join(lines)
 
 
-def summary(res, design_label: str, derived: bool) -> str:
+def models_line(models: dict, source: str) -> str:
+    """The models in force and where they come from (one summary line)."""
+    dia = str(models.get("diaphragm"))
+    note = " (illustrative parameters)" if dia == "viscoelastic" else ""
+    return (f"  models in force: flow={models.get('flow')}, "
+            f"amplitude_mode={models.get('amplitude_mode')}, diaphragm={dia}{note}"
+            + (f", random closure {models['random_method']}" if "random_method" in models
+               else "") + f" (from {source})")
+
+
+def summary(res, design_label: str, derived: bool, models_source: str = "options") -> str:
     """Header lines, the table and the verdict."""
     s = res.stability
     p = res.payload
+    models = {"flow": res.flow, "amplitude_mode": res.amplitude_mode,
+              "diaphragm": res.diaphragm, "random_method": res.random_method}
     lines = [
         f"band response: {design_label}; payload {p.mass_kg:g} kg on {p.isolators} isolators "
         f"({p.mass_per_isolator_kg:g} kg each), p0 = {s.pressure_pa / 1e5:.4g} bar "
         + ("(from the payload)" if derived else "(design's own)"),
-        f"  floor {res.floor_name}; target {res.target_name}; "
-        f"model flow={res.flow}, amplitude_mode={res.amplitude_mode}, "
-        f"diaphragm={res.diaphragm}; random closure {res.random_method}",
+        f"  floor {res.floor_name}; target {res.target_name}; bands "
+        f"{res.bands.labels[0]}-{res.bands.labels[-1]} Hz",
+        models_line(models, models_source),
         f"  natural frequency {s.natural_frequency_hz:.4g} Hz; peak |T| "
         f"{s.peak_transmissibility:.4g} at {s.peak_frequency_hz:.4g} Hz (linear), "
         f"{s.excited_peak_transmissibility:.4g} at {s.excited_peak_frequency_hz:.4g} Hz "
@@ -246,6 +395,22 @@ def summary(res, design_label: str, derived: bool) -> str:
     return "\n".join(lines)
 
 
+def save_plot(fig, path) -> None:
+    """Write a figure with the Agg canvas (the ``--plot`` of a command)."""
+    from isodesign.commands import write_figure
+    from isodesign.plotting.style import save_figure
+
+    with write_figure(path) as tmp:  # whole or not at all
+        save_figure(fig, tmp)
+
+
+def without_plot(args):
+    """``args`` with ``plot`` cleared (the command draws its figure itself)."""
+    import argparse
+
+    return argparse.Namespace(**{**vars(args), "plot": None})
+
+
 def run(args) -> int:
     """Run ``isodesign response``."""
     import warnings
@@ -257,32 +422,60 @@ def run(args) -> int:
         option_names,
         write_result,
     )
-    from isodesign.errors import ModelValidityWarning
+    from isodesign.errors import InputError, ModelValidityWarning
     from isodesign.response import band_response
 
     check_output_path(args.output, "--output")
+    if args.verify_monte_carlo is not None:
+        check_count(args.verify_monte_carlo, "--verify-monte-carlo", *MONTE_CARLO_SEEDS_RANGE)
+    if not 0 < args.mc_duration_s <= MAX_MC_DURATION_S:
+        raise InputError(f"--mc-duration-s: must be in (0, {MAX_MC_DURATION_S:g}] s, got "
+                         f"{args.mc_duration_s:g}")
     check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     check_count(args.points_per_band, "--points-per-band", *POINTS_PER_BAND_RANGE)
-    payload = make_payload(args, spacing_m=args.spacing_m, cg_height_m=args.cg_height_m)
-    design, label = load_design(args.design)
-    check_payload_pressure(design, payload, not args.design_pressure)
     with option_names(**RESPONSE_OPTION_NAMES):
-        res = band_response(
-            design,
-            payload,
-            args.floor,
-            args.target,
-            bands=_bands(args.bands),
-            points_per_band=args.points_per_band,
-            flow=args.flow,
-            amplitude_mode=args.amplitude_mode,
-            diaphragm=args.diaphragm,
-            random_method=args.random_method,
-            derive_pressure=not args.design_pressure,
-            warn=False,
-        )
+        job = resolve_job(args, extra_payload={"spacing_m": args.spacing_m,
+                                               "cg_height_m": args.cg_height_m})
+    check_payload_pressure(job.design, job.payload, not args.design_pressure)
+    m = job.models
+    kw = {"points_per_band": args.points_per_band, "flow": m["flow"],
+          "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
+          "random_method": m["random_method"], "derive_pressure": not args.design_pressure,
+          "warn": False}
+    with option_names(**RESPONSE_OPTION_NAMES):
+        res = band_response(job.design, job.payload, job.floor, job.target, bands=job.bands,
+                            **kw)
     for line in res.warnings:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"
-    return write_result(res, args, "" if to_stdout else summary(res, label,
-                                                                not args.design_pressure))
+    mc = None
+    if args.verify_monte_carlo is not None:
+        from isodesign.simulation.monte_carlo import simulate_random_response
+
+        try:
+            mc = simulate_random_response(
+                job.design, job.payload, job.floor, bands=res.bands, seeds=args.verify_monte_carlo,
+                duration_s=args.mc_duration_s, flow=m["flow"], diaphragm=m["diaphragm"],
+                derive_pressure=not args.design_pressure,
+            )  # fmt: skip
+        except InputError as exc:
+            raise InputError(f"--verify-monte-carlo: {exc}") from None
+    status = write_result(res, without_plot(args), "" if to_stdout else summary(
+        res, job.label, not args.design_pressure, job.models_source))
+    if args.plot:
+        # every band of the floor and the target, the judged ones shaded
+        shown = res
+        if job.judged_hz is not None:
+            try:
+                shown = band_response(job.design, job.payload, job.floor, job.target,
+                                      bands=None, **kw)
+            except ValueError:  # the judged bands are all the floor has
+                shown = res
+        peak = job.study.constraints.get("max_peak_transmissibility_db") if job.study else None
+        peak = peak if isinstance(peak, int | float) and not isinstance(peak, bool) else None
+        save_plot(shown.plot(judged=job.judged_hz, peak_limit_db=peak), args.plot)
+        if not to_stdout:
+            print(f"wrote {args.plot}")
+    if mc is not None and not to_stdout:
+        print(monte_carlo_table(res, mc))
+    return status

@@ -4,7 +4,9 @@ For every frequency (--freq) and floor displacement amplitude (--floor-amplitude
 spring's stroke X_s = |T(X_s) - 1| X_f is solved self-consistently; where several strokes
 exist (jump phenomenon near resonance) the --branch one is returned and the point is
 counted. Prints the peak |T| per floor amplitude; -o writes one CSV row per point, --plot
-a figure. The payload, design and model options are those of ``isodesign response``.
+a figure (|T| in dB with its phase, and the stroke). The input, payload and model options
+are those of ``isodesign response``: a study file or a run directory supplies the payload
+and the models, a design file its recorded [models].
 
 Value lists: comma list (1e-6,1e-5) or log-spaced range start:stop:count (0.5:50:200);
 amplitudes in metres, or with a unit suffix mm or um for the whole list (1,10um).
@@ -50,13 +52,16 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="write one row per (frequency, amplitude) to this CSV ('-' = standard output)",
     )
     parser.add_argument(
-        "--plot", metavar="OUT.png", help="plot |T| and the stroke ratio vs frequency (PNG)"
+        "--plot", metavar="OUT.png",
+        help="plot |T| in dB, its phase and the stroke vs frequency (PNG, PDF or SVG)",
     )
 
 
-def summary(res, design_label: str, derived: bool) -> str:
+def summary(res, design_label: str, derived: bool, models_source: str = "options") -> str:
     """Header, linear figures and the peak per floor amplitude."""
     import numpy as np
+
+    from isodesign.commands.response import models_line
 
     s = res.stability
     p = res.payload
@@ -65,8 +70,9 @@ def summary(res, design_label: str, derived: bool) -> str:
         f"transmissibility: {design_label}; payload {p.mass_kg:g} kg on {p.isolators} "
         f"isolators, p0 = {s.pressure_pa / 1e5:.4g} bar "
         + ("(from the payload)" if derived else "(design's own)"),
-        f"  model flow={s.flow}, amplitude_mode={s.amplitude_mode}, diaphragm={s.diaphragm};"
-        f" {f.size} frequencies {f.min():.4g}..{f.max():.4g} Hz; {res.branch} branch",
+        models_line({"flow": s.flow, "amplitude_mode": s.amplitude_mode,
+                     "diaphragm": s.diaphragm}, models_source),
+        f"  {f.size} frequencies {f.min():.4g}..{f.max():.4g} Hz; {res.branch} branch",
         f"  natural frequency {s.natural_frequency_hz:.4g} Hz; linear peak |T| "
         f"{s.peak_transmissibility:.4g} at {s.peak_frequency_hz:.4g} Hz",
         f"  {'floor ampl.':>11}  {'peak |T|':>8}  {'at (Hz)':>8}  {'max stroke':>10}  "
@@ -95,7 +101,12 @@ def run(args) -> int:
         parse_values,
         write_result,
     )
-    from isodesign.commands.response import check_payload_pressure, load_design, make_payload
+    from isodesign.commands.response import (
+        check_payload_pressure,
+        resolve_job,
+        save_plot,
+        without_plot,
+    )
     from isodesign.errors import ModelValidityWarning
     from isodesign.response import harmonic_response
 
@@ -104,18 +115,19 @@ def run(args) -> int:
     check_grid_size(len(freq), len(amp), "--freq", "--floor-amplitude")
     check_output_path(args.output, "--output")
     check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
-    payload = make_payload(args)
-    design, label = load_design(args.design)
-    check_payload_pressure(design, payload, not args.design_pressure)
+    with option_names(floor="--floor", target="--target", diaphragm="--diaphragm"):
+        job = resolve_job(args)
+    check_payload_pressure(job.design, job.payload, not args.design_pressure)
+    m = job.models
     with option_names(diaphragm="--diaphragm"):
         res = harmonic_response(
-            design,
-            payload,
+            job.design,
+            job.payload,
             freq,
             amp,
-            flow=args.flow,
-            amplitude_mode=args.amplitude_mode,
-            diaphragm=args.diaphragm,
+            flow=m["flow"],
+            amplitude_mode=m["amplitude_mode"],
+            diaphragm=m["diaphragm"],
             derive_pressure=not args.design_pressure,
             branch=args.branch,
             warn=False,
@@ -123,5 +135,12 @@ def run(args) -> int:
     for line in res.warnings:
         warnings.warn(line, ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"
-    return write_result(res, args, "" if to_stdout else summary(res, label,
-                                                                not args.design_pressure))
+    status = write_result(res, without_plot(args), "" if to_stdout else summary(
+        res, job.label, not args.design_pressure, job.models_source))
+    if args.plot:
+        peak = job.study.constraints.get("max_peak_transmissibility_db") if job.study else None
+        peak = peak if isinstance(peak, int | float) and not isinstance(peak, bool) else None
+        save_plot(res.plot(peak_limit_db=peak), args.plot)
+        if not to_stdout:
+            print(f"wrote {args.plot}")
+    return status

@@ -8,6 +8,8 @@ One concept a module:
 * :mod:`~isodesign.floor.curve_files`: criterion curves from CSV files.
 * :mod:`~isodesign.floor.spectrum`: :class:`FloorSpectrum`, the floor velocity PSD.
 * :mod:`~isodesign.floor.compliance`: band-by-band comparison with a criterion.
+* :mod:`~isodesign.floor.survey`: floor spectra from survey time histories (Welch, band
+  statistics).
 """
 
 from isodesign.floor.bands import RELATIVE_BANDWIDTH, Bands, third_octave_bands
@@ -21,6 +23,13 @@ from isodesign.floor.curves import (
     criterion_names,
 )
 from isodesign.floor.spectrum import FloorSpectrum
+from isodesign.floor.survey import (
+    SurveyRecord,
+    SurveyResult,
+    analyze_record,
+    floor_from_record,
+    read_record,
+)
 from isodesign.floor.units import (
     QUANTITIES,
     STANDARD_GRAVITY_M_S2,
@@ -40,6 +49,9 @@ __all__ = [
     "CriterionCurve",
     "CurveSegment",
     "FloorSpectrum",
+    "SurveyRecord",
+    "SurveyResult",
+    "analyze_record",
     "band_rms_to_psd",
     "compliance",
     "convert_band_rms",
@@ -48,7 +60,9 @@ __all__ = [
     "criterion",
     "criterion_from_csv",
     "criterion_names",
+    "floor_from_record",
     "psd_to_band_rms",
+    "read_record",
     "third_octave_bands",
     "unit_factor",
 ]

@@ -12,6 +12,7 @@ from isodesign.floor.bands import (
 )
 from isodesign.floor.curves import CriterionCurve, criterion
 from isodesign.floor.spectrum import _readonly
+from isodesign.results import ResultDisplay
 
 __all__ = [
     "Compliance",
@@ -19,8 +20,8 @@ __all__ = [
 ]
 
 
-@dataclass(frozen=True, eq=False)
-class Compliance:
+@dataclass(frozen=True, eq=False, repr=False)
+class Compliance(ResultDisplay):
     """Band-by-band comparison of band RMS velocities with a criterion curve.
 
     Attributes
@@ -55,6 +56,12 @@ class Compliance:
     def worst_band_hz(self) -> float:
         """Nominal centre of the band with the largest ratio (Hz)."""
         return float(self.bands.nominal_hz[int(np.argmax(self.ratio))])
+
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Verdict, worst band and ratio (for repr and notebooks)."""
+        return [("", "PASS" if self.passes else "FAIL"), ("criterion", self.criterion),
+                ("worst band", f"{self.worst_band_hz:g} Hz, ratio {self.worst_ratio:.3g}"),
+                ("bands", str(len(self.bands)))]
 
     def to_frame(self):
         """DataFrame: band columns, velocity, limit, ratio, pass."""

@@ -42,6 +42,7 @@ from isodesign.floor.units import (
     convert_psd,
     unit_factor,
 )
+from isodesign.results import ResultDisplay
 
 __all__ = [
     "FloorSpectrum",
@@ -54,8 +55,8 @@ def _readonly(a) -> np.ndarray:
     return a
 
 
-@dataclass(frozen=True, eq=False)
-class FloorSpectrum:
+@dataclass(frozen=True, eq=False, repr=False)
+class FloorSpectrum(ResultDisplay):
     """One-sided floor velocity PSD.
 
     Two representations:
@@ -502,6 +503,16 @@ class FloorSpectrum:
         return self.band_rms(bands, "velocity", points_per_band, power_transmissibility)
 
     # ---- output --------------------------------------------------------------------------------
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Name, kind, range and source (for repr and notebooks)."""
+        items = [("name", self.name or "(unnamed)"), ("kind", self.kind),
+                 ("range", f"{self.f_min_hz:.3g}-{self.f_max_hz:.3g} Hz"),
+                 ("points", str(len(self.frequency_hz)))]
+        if self.source:
+            items.append(("source", self.source if len(self.source) < 60
+                          else self.source[:57] + "..."))
+        return items
+
     def to_frame(self):
         """DataFrame of the spectrum.
 

@@ -17,11 +17,20 @@ Schema (SI values; see ``docs/design-file.md``)::
     mass_kg = 100.0
     isolators = 4
 
+    [models]                              # optional: the models the design was made with
+    flow = "womersley"                    # (isodesign optimize records them; response and
+    amplitude_mode = "self_consistent"    #  transmissibility use them unless told otherwise)
+    diaphragm = "viscoelastic"
+
     [gas]                                 # optional (air, Sutherland viscosity)
     name = "air"
     gas_constant_j_per_kg_k = 286.9
     heat_capacity_ratio = 1.4
     viscosity_pa_s = 1.79e-5              # omitted: Sutherland's law
+
+    [diaphragm]                           # optional: the spring's diaphragm model
+    model = "viscoelastic"                # or "none", "table:PATH.csv", "fit:PATH.toml"
+    k0_n_per_m = 8400.0                   # any ViscoelasticDiaphragm parameter
 
 Every problem raises :class:`~isodesign.errors.InputError` whose message names
 the file (``source``) and the key.
@@ -38,15 +47,24 @@ from isodesign.errors import InputError
 from isodesign.io.files import read_toml
 from isodesign.response.isolator import MAX_ISOLATORS
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.diaphragm import (
+    VISCOELASTIC_PARAMETERS,
+    ViscoelasticDiaphragm,
+    diaphragm_from_dict,
+)
 from isodesign.spring.gas import G_STANDARD, Gas, pressure_from_load
 
 __all__ = [
     "DESIGN_KEYS",
     "GAS_KEYS",
     "LOAD_KEYS",
+    "MODEL_KEYS",
     "design_from_dict",
     "design_to_toml",
+    "diaphragm_to_toml",
     "load_design",
+    "load_design_models",
+    "load_diaphragm",
     "reference_design_path",
     "save_design",
 ]
@@ -67,12 +85,23 @@ DESIGN_KEYS: dict[str, str] = {
     "roughness_m": "capillary wall roughness, m (>= 0; default 0)",
     "load": "table [load]: mass_kg, isolators (instead of pressure_pa)",
     "gas": "table [gas]: name, gas_constant_j_per_kg_k, heat_capacity_ratio, viscosity_pa_s",
+    "diaphragm": "table [diaphragm]: model (viscoelastic, none, table:PATH, fit:PATH) and the "
+    "viscoelastic parameters",
+    "models": "table [models]: flow, amplitude_mode, diaphragm, random_method (optional)",
 }
 REQUIRED_KEYS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
 #: Keys of the ``[load]`` table.
 LOAD_KEYS: dict[str, str] = {
     "mass_kg": "supported payload mass, kg (> 0)",
     "isolators": "number of identical isolators sharing the payload (integer, 1..1000)",
+}
+#: Keys of the ``[models]`` table: the spring models a design was made with (optional; not
+#: part of the spring itself, so :func:`design_from_dict` checks and then ignores them).
+MODEL_KEYS: dict[str, str] = {
+    "flow": "capillary flow model (isodesign.spring.capillary.FLOW_MODELS)",
+    "amplitude_mode": "tube velocity amplitude: self_consistent or kinematic",
+    "diaphragm": "diaphragm model: viscoelastic, none or table:PATH.csv",
+    "random_method": "random closure: equivalent_amplitude or rayleigh",
 }
 #: Keys of the ``[gas]`` table.
 GAS_KEYS: dict[str, str] = {
@@ -85,7 +114,7 @@ GAS_KEYS: dict[str, str] = {
     "sutherland_s_k": "Sutherland constant S, K (> 0)",
 }
 
-_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas"))
+_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas", "diaphragm", "models"))
 
 
 def reference_design_path() -> Path:
@@ -224,6 +253,8 @@ def design_from_dict(d: dict, source: str = "design"):
     for key in _SCALAR_KEYS:
         if key in d:
             _number(d, key, source)
+    if "models" in d:
+        _models(d["models"], source)
     kw: dict[str, Any] = {k: float(d[k]) for k in REQUIRED_KEYS}
     for key in ("temperature_k", "minor_loss", "polytropic_index", "roughness_m"):
         if key in d:
@@ -276,6 +307,55 @@ def design_from_dict(d: dict, source: str = "design"):
         raise _with_source(exc, source) from None
 
 
+def _models(d: Any, source: str) -> dict[str, str]:
+    """The ``[models]`` table, checked: known keys, string values."""
+    if not isinstance(d, dict):
+        raise InputError(f"{source}: models: expected a table [models], got {_toml_type(d)}")
+    _check_keys(d, MODEL_KEYS, " in [models]", source)
+    for k, v in d.items():
+        if not isinstance(v, str) or not v:
+            raise InputError(f"{source}: models.{k}: expected a non-empty string "
+                             f"({MODEL_KEYS[k]}), got {_toml_type(v)} {v!r}")
+    return dict(d)
+
+
+def load_design_models(path) -> dict[str, str]:
+    """The models a design file records (empty when it records none).
+
+    The ``[models]`` table names the models; a ``[diaphragm]`` table (the diaphragm with its
+    parameters) stands for ``diaphragm = PATH`` (the file itself, read by
+    :func:`load_diaphragm`). A file may state its diaphragm one way only.
+
+    Parameters
+    ----------
+    path : str or Path
+        A TOML design file.
+
+    Returns
+    -------
+    dict of str to str
+        ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method`` (those recorded).
+
+    Raises
+    ------
+    InputError
+        A malformed ``[models]`` table, or a diaphragm given both as ``models.diaphragm`` and
+        as a ``[diaphragm]`` table.
+    """
+    d = read_toml(path, what="design")
+    if not isinstance(d, dict):
+        return {}
+    models = _models(d["models"], f"design file {path}") if "models" in d else {}
+    if "diaphragm" in d:
+        if "diaphragm" in models:
+            raise InputError(
+                f"design file {path}: the diaphragm is given twice, as models.diaphragm and as "
+                "a [diaphragm] table: keep one"
+            )
+        models["diaphragm"] = str(path)
+    return models
+
+
 def load_design(path):
     """Read a design file.
 
@@ -296,7 +376,48 @@ def load_design(path):
     """
 
     d = read_toml(path, what="design")
-    return design_from_dict(d, source=f"design file {path}")
+    design = design_from_dict(d, source=f"design file {path}")
+    if "diaphragm" in d:  # validate it now (the model is read by load_diaphragm)
+        diaphragm_from_dict(d["diaphragm"], str(path))
+    load_design_models(path)  # the models too (a diaphragm given twice is refused)
+    return design
+
+
+def load_diaphragm(path):
+    """The diaphragm model of a design file's ``[diaphragm]`` table, or ``None``.
+
+    ``model = "viscoelastic"`` (the default) with any of its parameters
+    (:data:`~isodesign.spring.diaphragm.VISCOELASTIC_PARAMETERS`), ``"none"``,
+    ``"table:PATH.csv"`` or ``"fit:PATH.toml"`` (a relative path is taken from the design
+    file's folder). ``--diaphragm DESIGN.toml`` reads the same table.
+
+    Parameters
+    ----------
+    path : str or Path
+        A design file.
+    """
+    d = read_toml(path, what="design")
+    if "diaphragm" not in d:
+        return None
+    return diaphragm_from_dict(d["diaphragm"], str(path))
+
+
+def diaphragm_to_toml(diaphragm) -> str:
+    """The ``[diaphragm]`` table of a :class:`ViscoelasticDiaphragm` (append to a design file).
+
+    Parameters
+    ----------
+    diaphragm : ViscoelasticDiaphragm
+        The model whose parameters are written.
+    """
+    if not isinstance(diaphragm, ViscoelasticDiaphragm):
+        raise InputError(
+            "diaphragm: only a viscoelastic diaphragm is written as parameters; refer to a fit "
+            "or table file with model = 'fit:PATH.toml' or 'table:PATH.csv'"
+        )
+    lines = ["[diaphragm]", 'model = "viscoelastic"']
+    lines += [f"{k} = {_toml_float(getattr(diaphragm, k))}" for k in VISCOELASTIC_PARAMETERS]
+    return "\n".join(lines) + "\n"
 
 
 # ---------------------------------------------------------------------------
@@ -332,7 +453,7 @@ def _toml_string(s: str) -> str:
     return "".join(out)
 
 
-def design_to_toml(design, *, header: str | None = None) -> str:
+def design_to_toml(design, *, header: str | None = None, models: dict | None = None) -> str:
     """A design file (TOML text) for ``design``; :func:`load_design` reads it back exactly.
 
     Floats are written with their shortest round-trip representation; the
@@ -346,6 +467,9 @@ def design_to_toml(design, *, header: str | None = None) -> str:
         A numeric design (not CasADi symbols).
     header : str, optional
         Comment lines placed at the top (without the ``#``).
+    models : dict, optional
+        The models the design was made with: its keys of :data:`MODEL_KEYS` are written
+        as a ``[models]`` table (read back by :func:`load_design_models`).
     """
 
     lines: list[str] = []
@@ -362,6 +486,10 @@ def design_to_toml(design, *, header: str | None = None) -> str:
                     f"  # carries A_p (p0 - p_atm) = {load:.5g} N ({load / G_STANDARD:.4g} kg) "
                     "per spring"
                 )
+    if models:
+        kept = {k: str(models[k]) for k in MODEL_KEYS if models.get(k) is not None}
+        if kept:
+            lines += ["", "[models]"] + [f"{k} = {_toml_string(v)}" for k, v in kept.items()]
     lines += ["", "[gas]", f"name = {_toml_string(gas['name'])}"]
     for key in ("gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"):
         if key in gas:
@@ -375,7 +503,8 @@ def design_to_toml(design, *, header: str | None = None) -> str:
     return "\n".join(lines) + "\n"
 
 
-def save_design(design, path, *, header: str | None = None) -> Path:
+def save_design(design, path, *, header: str | None = None,
+                models: dict | None = None) -> Path:
     """Write :func:`design_to_toml` to ``path``; return the path.
 
     Parameters
@@ -386,7 +515,9 @@ def save_design(design, path, *, header: str | None = None) -> Path:
         Output file.
     header : str, optional
         Comment lines written first.
+    models : dict, optional
+        The models the design was made with (a ``[models]`` table).
     """
     p = Path(path)
-    p.write_text(design_to_toml(design, header=header), encoding="utf-8")
+    p.write_text(design_to_toml(design, header=header, models=models), encoding="utf-8")
     return p

@@ -132,7 +132,7 @@ def _jsonable(v):
     if isinstance(v, np.ndarray):
         return _jsonable(v.tolist())
     if isinstance(v, np.generic):
-        return v.item()
+        v = v.item()  # a Python scalar: NaN or infinite NumPy floats become null below
     if isinstance(v, float) and not math.isfinite(v):
         return None
     return v
@@ -148,8 +148,9 @@ def write_json(path, data: dict) -> Path:
         replaced whole (written to a temporary file, then renamed).
     data : dict
         Nested dicts, lists, tuples, NumPy arrays and scalars, Python scalars.
-        Keys become strings; arrays become lists; Python floats that are NaN or
-        infinite become ``null``.
+        Keys become strings; arrays become lists; floats that are NaN or
+        infinite (Python floats and NumPy scalars alike) become ``null``, so the
+        file is strict JSON.
 
     Returns
     -------
@@ -180,16 +181,17 @@ def command_line(argv=None, prog: str = "isodesign") -> list[str]:
 def resolved_study_dict(study) -> dict:
     """The study's resolved dictionary (``study.raw``) ready to be written elsewhere.
 
-    A floor CSV named by a relative path is resolved against the study file's
-    directory (as :func:`isodesign.optimization.study.load_study` does) and a diaphragm table
-    (``models.diaphragm = "table:PATH"``) against the working directory (as the
-    optimizer reads it), so that the written study loads from any directory.
+    A floor CSV or survey record, a diaphragm table (``models.diaphragm = "table:PATH"`` or
+    ``"PATH.csv"``) and a diaphragm fit file (``fit:PATH``, also inside a
+    ``[models.diaphragm]`` table) named by relative paths are resolved against the study
+    file's directory (as :func:`isodesign.optimization.study.load_study` does), so that the
+    written study loads the same files from any directory.
 
     Parameters
     ----------
     study : Study
         Its ``raw`` dictionary and ``source`` (the study file's path, or
-        ``"<dict>"``, ``"<default>"`` or ``""``: then a relative CSV path is taken
+        ``"<dict>"``, ``"<default>"`` or ``""``: then a relative path is taken
         relative to the working directory).
 
     Returns
@@ -201,18 +203,32 @@ def resolved_study_dict(study) -> dict:
     import copy
 
     raw = copy.deepcopy(study.raw)
-    fl = raw.get("floor", {})
-    if isinstance(fl, dict) and "csv" in fl:
-        p = Path(fl["csv"])
+
+    def absolute(path: str) -> str:
+        p = Path(path)
         if not p.is_absolute() and study.source not in ("<dict>", "<default>", ""):
             p = Path(study.source).parent / p
-        fl["csv"] = str(p.resolve())
-    # a diaphragm table is read relative to the working directory of the run
+        return str(p.resolve())
+
+    fl = raw.get("floor", {})
+    for key in ("csv", "record"):  # a spectrum or a survey record, relative to the study file
+        if isinstance(fl, dict) and key in fl:
+            fl[key] = absolute(fl[key])
     models = raw.get("models", {})
     dia = models.get("diaphragm") if isinstance(models, dict) else None
     if isinstance(dia, str) and (dia.startswith("table:") or dia.lower().endswith(".csv")):
         prefix = "table:" if dia.startswith("table:") else ""
-        models["diaphragm"] = prefix + str(Path(dia[len(prefix):]).resolve())
+        models["diaphragm"] = prefix + absolute(dia[len(prefix):])
+    # a fit file (or a fit/table named in a [models.diaphragm] table), likewise
+    spec = dia.get("model", "") if isinstance(dia, dict) else dia
+    if (isinstance(spec, str) and spec.startswith("fit:")) or (
+        isinstance(dia, dict) and isinstance(spec, str) and spec.startswith("table:")
+    ):
+        prefix = spec.split(":", 1)[0] + ":"
+        if isinstance(dia, dict):
+            dia["model"] = prefix + absolute(spec[len(prefix):])
+        else:
+            models["diaphragm"] = prefix + absolute(spec[len(prefix):])
     return raw
 
 
@@ -382,16 +398,21 @@ PEAK_EXCESS_DB = 0.005
 
 
 def grid_notes(result, figures: dict) -> list[str]:
-    """Constraints the NLP meets on its grid but the finer band analysis does not.
+    """Notes on the peak of |T| between the frequencies the NLP samples.
 
-    The NLP enforces ``max_peak_transmissibility_db`` at ``models.peak_points``
-    log-spaced frequencies only; the band analysis locates the peak itself.
+    The NLP enforces ``max_peak_transmissibility_db`` at the ``models.peak_points``
+    log-spaced frequencies and at the frequencies the peak refinement (exchange
+    method, :func:`isodesign.optimization.refine.refine_peak`) adds near the
+    continuous peak, until that peak is within the refinement's tolerance of its
+    limit or the refinement's rounds run out; the band analysis locates the peak
+    itself.
 
     Parameters
     ----------
     result : OptimizationResult
-        Gives the study's ``max_peak_transmissibility_db`` and
-        ``models.peak_points``.
+        Gives the study's ``max_peak_transmissibility_db``, ``models.peak_points``
+        and the refinement's record ``result.peak`` (rounds, added frequencies,
+        continuous peak, its limit and ``met``).
     figures : dict
         The optimum's :func:`design_figures` with its analysis:
         ``peak_transmissibility_db`` (the excited peak of |T|, dB) and
@@ -400,18 +421,42 @@ def grid_notes(result, figures: dict) -> list[str]:
     Returns
     -------
     list of str
-        A note when the analysis's peak exceeds the bound by more than
+        A note when the refinement ended with the continuous peak above its limit
+        (the bound, or the sampled peak objective: the design, or the reported
+        objective, does not hold between the grid frequencies); otherwise a note
+        when the analysis's peak exceeds the bound by more than
         :data:`PEAK_EXCESS_DB`; empty otherwise (no bound, no analysis, or within).
     """
     out = []
-    bound = result.study.constraints.get("max_peak_transmissibility_db")
+    st = result.study
+    bound = st.constraints.get("max_peak_transmissibility_db")
+    npk = st.models["peak_points"]
+    pk = result.peak or {}
+    added = len(pk.get("added_frequencies_hz") or ())
+    if pk.get("met") is False:
+        what = (f"constraints.max_peak_transmissibility_db = {pk['limit_db']:g} dB"
+                if pk.get("limit") == "bound" else
+                f"the optimized peak objective ({pk['limit_db']:.3f} dB on the grid)")
+        out.append(
+            f"the continuous peak |T| at A* is {pk['peak_db']:.3f} dB at "
+            f"{pk['peak_frequency_hz']:.3g} Hz, {pk['excess_db']:.3f} dB above {what}, after "
+            f"{pk['rounds']} round(s) of peak refinement (the most it makes, "
+            f"{added} frequencies added near the peak to the {npk} of models.peak_points): "
+            "the limit holds at the NLP's grid frequencies only (raise models.peak_points "
+            "for a finer base grid, or relax the bound)"
+        )
+        return out
     peak = figures.get("peak_transmissibility_db")
     if bound is not None and peak is not None and peak > bound + PEAK_EXCESS_DB:
+        where = (f"at the {npk} frequencies of models.peak_points and {added} placed by the "
+                 f"peak refinement, which met it to {pk['tolerance_db']:g} dB on its own "
+                 f"continuous peak ({pk['peak_db']:.3f} dB)" if pk.get("met") else
+                 f"at the {npk} frequencies of models.peak_points only (raise "
+                 "models.peak_points)")
         out.append(
-            f"peak |T| at A* is {peak:.2f} dB at {figures['peak_frequency_hz']:.3g} Hz in "
+            f"peak |T| at A* is {peak:.3f} dB at {figures['peak_frequency_hz']:.3g} Hz in "
             f"the analysis, above constraints.max_peak_transmissibility_db = {bound:g} dB, "
-            f"which the optimizer enforces at {result.study.models['peak_points']} grid "
-            "frequencies only (raise models.peak_points)"
+            f"which the optimizer enforces {where}"
         )
     return out
 

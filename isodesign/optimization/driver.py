@@ -8,7 +8,8 @@ Trust
   best start of each distinct branch (:func:`.refine.refine_branches`).
 * Re-check: the optimum is re-evaluated with the NumPy analysis path (its own
   solvers for U and sigma); objective and constraints must agree to 1e-6
-  relative, else :class:`~isodesign.errors.SolverError` (:mod:`.recheck`).
+  relative (an objective in dB to 1e-6 dB), else
+  :class:`~isodesign.errors.SolverError` (:mod:`.recheck`).
 * Failure is explicit: infeasible, iteration limit and restoration failure are
   reported with IPOPT's status, the most violated constraints and the best
   point found.
@@ -36,7 +37,11 @@ from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.study import Study
 from isodesign.response.random_input import band_response
 
-__all__ = ["optimize", "solver_settings"]
+__all__ = ["PEAK_VIOLATION", "optimize", "solver_settings"]
+
+#: Name of the violation a feasible result carries when the peak refinement ended with
+#: the continuous peak of |T| above its limit (amount: the excess, dB).
+PEAK_VIOLATION = "continuous_peak_transmissibility"
 
 
 def optimize(study, *, progress=None, problem: Problem | None = None,
@@ -57,7 +62,10 @@ def optimize(study, *, progress=None, problem: Problem | None = None,
     Returns
     -------
     OptimizationResult
-        Check ``.feasible`` (or call ``.raise_for_status()``). Raises
+        Check ``.feasible`` (or call ``.raise_for_status()``). A feasible result
+        whose continuous peak of |T| is still above its limit after the last
+        refinement round carries the excess (dB) in ``violations``
+        (:data:`PEAK_VIOLATION`) and is not a ``success``. Raises
         :class:`SolverError` when the NLP's optimum and the NumPy analysis
         disagree (a bug, never a silently wrong design).
     """
@@ -88,12 +96,17 @@ def optimize(study, *, progress=None, problem: Problem | None = None,
         j0 = obj.to_natural(float(prob.objective_values(x00)[0]))
     except SolverError:
         pass
+    # a continuous peak still above its limit after the last refinement round: the
+    # design meets the bound on the NLP's grid only, which the result must say
+    violations = ()
+    if win.peak.get("met") is False:
+        violations = ((PEAK_VIOLATION, win.peak["excess_db"]),)
     return OptimizationResult(
         study=study, objective=prob.objective, feasible=True, status=final.status, design=d,
         values=final.values, objective_value=obj.to_natural(final.objective),
         start_values=starts[0], start_objective=j0,
         constraints=tuple(constraint_reports(prob.con_rows, final.g)), starts=tuple(records),
-        n_reached_best=n_best, violations=(), flat_direction=win.flat,
+        n_reached_best=n_best, violations=violations, flat_direction=win.flat,
         recheck_max_rel_diff=diff, analysis=analysis, start_analysis=start_analysis,
         peak=win.peak, wall_s=time.perf_counter() - t_all, settings=solver_settings(study),
         branches=tuple((i, obj.to_natural(j)) for i, j in win.branches),
@@ -143,7 +156,7 @@ def _infeasible_result(study, prob, start_vals, records, sols, t_all) -> Optimiz
 def _analyses(study, prob, d, start_vals):
     """Fine-grid band responses of the optimum and of the start design."""
     kw = {"flow": study.models["flow"], "amplitude_mode": study.models["amplitude_mode"],
-          "diaphragm": prob.dia}
+          "diaphragm": prob.dia, "random_method": study.models["random_method"]}
     analysis = band_response(d, study.payload, study.floor, study.target,
                              bands=study.bands, derive_pressure=False, warn=False, **kw)
     start_analysis = band_response(study.design_at(start_vals), study.payload, study.floor,
@@ -166,9 +179,10 @@ def solver_settings(study) -> dict:
     dict
         ``solver`` (a description), ``options`` (IPOPT's ``max_iter``, ``tol``,
         ``constr_viol_tol`` and the fixed :data:`~.problem.IPOPT_OPTIONS`, without
-        the ``ipopt.`` prefix), ``starts``, ``seed``, ``recheck_rtol`` (relative
-        agreement required of the NumPy re-check) and ``flat_tolerance_db`` /
-        ``flat_tolerance_rel`` (the tie-break's objective tolerances). Written to
+        the ``ipopt.`` prefix), ``starts``, ``seed``, ``recheck_rtol`` (agreement
+        required of the NumPy re-check: relative, absolute in dB for a dB
+        objective) and ``flat_tolerance_db`` / ``flat_tolerance_rel`` (the
+        tie-break's objective tolerances). Written to
         ``record.json`` so that a run can be replayed.
     """
     return {

@@ -27,17 +27,25 @@ from isodesign.response.linearization import (
     EQUIVALENT_AMPLITUDE_FACTOR,
     band_mean_square,
     stroke_variance,
+    stroke_weighted_sum,
 )
+from isodesign.spring.capillary import gaussian_equivalent_resistance, linear_resistance
 from isodesign.spring.diaphragm import diaphragm_model
-from isodesign.spring.equations import air_stiffness, spring_stiffness
+from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.spring.flow_models import resistance_function
 
-__all__ = ["combine", "design_quantities", "metrics", "point_quantities"]
+__all__ = ["combine", "design_quantities", "metrics", "point_quantities", "statistical"]
 
 
-def point_quantities(study, d, omega, velocity, sigma, dia) -> dict:
+def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
     """Per-frequency quantities (elementwise in ``omega``), any backend.
 
+    ``T`` and ``R`` (absolute and relative transmissibility), ``ln_mach`` and ``ln_re`` of
+    the tube flow at the velocity amplitude ``velocity``. The diaphragm is at the stroke
+    amplitude ``A* = 1.880 sigma``. The capillary: with ``c_nl`` (the statistical closure,
+    ``docs/random-response.md``) its linear part plus the Gaussian-equivalent resistance
+    ``c_nl`` of the nonlinear drop, and ``G2 = |U/X|^2`` (the tube velocity per stroke) is
+    returned too; without, the harmonic describing function at the amplitude ``velocity``.
     The NLP maps this function over its grid as one small CasADi Function; the
     re-check calls it on NumPy arrays.
 
@@ -51,11 +59,16 @@ def point_quantities(study, d, omega, velocity, sigma, dia) -> dict:
         Angular frequency, rad/s.
     velocity : float, ndarray or CasADi symbol
         Capillary (tube) velocity amplitude at ``omega``, m/s (self-consistent or
-        kinematic, as the study's ``amplitude_mode`` says).
+        kinematic, as the study's ``amplitude_mode`` says; ``sqrt(2) sigma_u`` with the
+        statistical closure, for the Mach and Reynolds checks).
     sigma : float or CasADi symbol
         RMS stroke of the spring under the random floor input, m.
     dia : diaphragm model
         From :func:`isodesign.spring.diaphragm.diaphragm_model`.
+    c_nl : float or CasADi symbol, optional
+        The statistical closure's Gaussian-equivalent resistance of the capillary's
+        nonlinear pressure drop, Pa s/kg
+        (:func:`~isodesign.spring.capillary.gaussian_equivalent_resistance`).
 
     Returns
     -------
@@ -64,7 +77,8 @@ def point_quantities(study, d, omega, velocity, sigma, dia) -> dict:
         (``T - 1``) transmissibility with the complex stiffness at the equivalent
         spring amplitude ``A* = 1.880 sigma``; ``ln_mach``, the log of the tube
         Mach number ``U / c``; ``ln_re``, the log of the tube Reynolds number
-        ``rho U D_c / mu`` (peak values of the oscillating flow).
+        ``rho U D_c / mu`` (peak values of the oscillating flow); with ``c_nl`` also
+        ``G2 = |U/X|^2``.
 
     Notes
     -----
@@ -77,14 +91,22 @@ def point_quantities(study, d, omega, velocity, sigma, dia) -> dict:
 
     m_i = study.payload.mass_per_isolator_kg
     a_star = EQUIVALENT_AMPLITUDE_FACTOR * sigma
-    c = resistance_function(study.models["flow"], d, omega)(velocity)
+    flow = study.models["flow"]
+    if c_nl is None:
+        c = resistance_function(flow, d, omega)(velocity)
+    else:
+        lin = linear_resistance(flow, d, omega)
+        c = Cx(lin.re + c_nl, lin.im)
     k = spring_stiffness(air_stiffness(d, omega, c), dia.stiffness(omega, a_star))
-    return {
+    out = {
         "T": transmissibility(k, m_i, omega),
         "R": relative_transmissibility(k, m_i, omega),
         "ln_mach": bk.log(velocity / d.speed_of_sound_m_s),
         "ln_re": bk.log(d.density_kg_m3 * velocity * d.capillary_diameter_m / d.viscosity_pa_s),
     }
+    if c_nl is not None:
+        out["G2"] = tube_velocity_gain2(d, omega, c)
+    return out
 
 
 def design_quantities(study, grid, d, dia) -> dict:
@@ -182,9 +204,13 @@ def combine(study, grid, pq: dict, dq: dict) -> dict:
     """
 
     fl, pk = grid.floor_slice, grid.peak_slice
-    var = stroke_variance(take(pq["R"], fl), grid.response)
+    r_fl = take(pq["R"], fl)
+    var = stroke_variance(r_fl, grid.response)
     ms = band_mean_square(take(pq["T"], fl), grid.response)
     out = dict(dq)
+    if "G2" in pq:  # the statistical closure: sigma_u^2 = integral |T-1|^2 |U/X|^2 S_x df
+        out["tube_velocity_variance"] = stroke_weighted_sum(r_fl.abs2() * pq["G2"][fl],
+                                                            grid.response)
     out.update({
         "stroke_variance": var,
         "ms_all": ms,
@@ -200,7 +226,22 @@ def combine(study, grid, pq: dict, dq: dict) -> dict:
     return out
 
 
-def metrics(study, grid, d, velocity, sigma, *, diaphragm=None) -> dict:
+def statistical(study) -> bool:
+    """True when the study's random closure is the statistical linearization.
+
+    Parameters
+    ----------
+    study : Study
+        Its ``models.random_method`` is read.
+
+    Returns
+    -------
+    bool
+    """
+    return study.models.get("random_method") == "statistical"
+
+
+def metrics(study, grid, d, velocity, sigma, *, diaphragm=None, tube_rms=None) -> dict:
     """Objective and constraint quantities of a design (NumPy or CasADi).
 
     :func:`point_quantities` on every grid frequency, :func:`design_quantities`
@@ -214,9 +255,14 @@ def metrics(study, grid, d, velocity, sigma, *, diaphragm=None) -> dict:
     d : SpringDesign
         Design, possibly with CasADi symbols for the free variables.
     velocity : array or symbol vector
-        Tube velocity amplitude at every grid frequency, m/s.
+        Tube velocity amplitude at every grid frequency, m/s (harmonic closure; ignored
+        with ``tube_rms``).
     sigma : float or symbol
         RMS stroke of the spring, m.
+    tube_rms : float or symbol, optional
+        The statistical closure: the tube velocity's RMS ``sigma_u`` (m/s); the capillary's
+        nonlinear drop is its Gaussian-equivalent resistance there, the velocity of the Mach
+        and Reynolds checks ``sqrt(2) sigma_u``.
     diaphragm : diaphragm model, optional
         Default: the study's.
 
@@ -229,5 +275,9 @@ def metrics(study, grid, d, velocity, sigma, *, diaphragm=None) -> dict:
         ``ln_alpha_max`` and ``ln_T2_point`` (for an objective at one frequency).
     """
     dia = diaphragm or diaphragm_model(study.models["diaphragm"])
-    pq = point_quantities(study, d, grid.omega, velocity, sigma, dia)
+    c_nl = None
+    if tube_rms is not None:
+        c_nl = gaussian_equivalent_resistance(study.models["flow"], d, tube_rms)
+        velocity = math.sqrt(2.0) * tube_rms + 0.0 * grid.omega
+    pq = point_quantities(study, d, grid.omega, velocity, sigma, dia, c_nl)
     return combine(study, grid, pq, design_quantities(study, grid, d, dia))

@@ -2,14 +2,34 @@
 
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from isodesign.errors import SolverError
 
-__all__ = ["DEFAULT_WORKERS", "run_starts", "start_points"]
+__all__ = ["DEFAULT_WORKERS", "available_cores", "run_starts", "start_points"]
 
-#: Worker processes for the starts (capped by the machine's cores).
+#: Worker processes for the starts when none is asked for (capped by the cores
+#: available to the process, like any asked-for number).
 DEFAULT_WORKERS = 2
+
+
+def available_cores() -> int:
+    """Cores this process may run on: its CPU affinity, else ``os.cpu_count()``.
+
+    Returns
+    -------
+    int
+        At least 1; the size of ``os.sched_getaffinity(0)`` where the platform has
+        it (a container or ``taskset`` may allow fewer cores than the machine has),
+        else ``os.cpu_count()`` (1 when unknown).
+    """
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    return max(1, n)
 
 
 def start_points(study, scaling) -> list[dict]:
@@ -73,7 +93,7 @@ def _indexed_start(item):
 
 
 def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=None) -> list:
-    """Solve every start; in forked worker processes when more than one core is free.
+    """Solve every start; in forked worker processes when more than one core is available.
 
     The workers inherit the built solver through ``fork`` (nothing is pickled but
     the start values and the results), so the NLP is built once. Results come
@@ -90,9 +110,12 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
         (:meth:`~isodesign.optimization.problem.Problem.initial_guess`: sigma and
         the tube velocities from the NumPy solvers) before IPOPT runs.
     workers : int, optional
-        Number of worker processes; default ``min(DEFAULT_WORKERS, cores)``.
-        With 1 worker, a single start or no ``fork`` start method, the starts run
-        one after the other in this process.
+        Number of worker processes asked for (a study passes ``solver.workers``);
+        default :data:`DEFAULT_WORKERS`. Capped by the cores available to the
+        process (:func:`available_cores`) and by the number of starts: more
+        processes than cores only compete for them. With 1 worker after the cap, a
+        single start or no ``fork`` start method, the starts run one after the
+        other in this process.
     progress : callable, optional
         ``progress(done, total, result)`` after each start finishes (in completion
         order when parallel); ``result`` is a Solution or an error message.
@@ -107,11 +130,9 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
         :class:`~isodesign.errors.SolverError` message of a failed initial guess.
     """
     global _POOL_PROBLEM, _POOL_PARAMS
-    import os
 
     n = len(starts)
-    if workers is None:
-        workers = min(DEFAULT_WORKERS, os.cpu_count() or 1)
+    workers = min(DEFAULT_WORKERS if workers is None else workers, available_cores())
     _POOL_PROBLEM = prob
     _POOL_PARAMS = params
     results: list = [None] * n

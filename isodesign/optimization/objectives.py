@@ -277,5 +277,6 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
               unit="m^3", sense="min", db=False, nlp=_nlp_total_volume,
               value=_value_total_volume, to_natural=math.exp,
               from_natural=_positive_log("total_volume"), epigraph=None, display_scale=1e3,
-              display_unit="L", label="total volume V_t0 (1 + N)", display_format=".4g"),
+              display_unit="L", label="total volume per isolator, V_t0 (1 + N)",
+              display_format=".4g"),
 )}

@@ -22,16 +22,17 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from isodesign import plotting
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
-from isodesign.optimization.multistart import run_starts, start_points
+from isodesign.optimization.multistart import available_cores, run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS, Problem
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db, peak_slots
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.study import Study
+from isodesign.plotting.optimization import pareto_figure
+from isodesign.results import ResultDisplay
 
 __all__ = ["DEFAULT_OBJECTIVES", "ParetoResult", "hypervolume_2d", "nondominated", "pareto_front"]
 
@@ -113,8 +114,8 @@ def hypervolume_2d(points: np.ndarray, reference: np.ndarray) -> float:
     return float(hv)
 
 
-@dataclass(frozen=True, eq=False)
-class ParetoResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class ParetoResult(ResultDisplay):
     """A Pareto front.
 
     ``values`` has one row per point (natural units: dB, m^3, ...), ``designs``
@@ -157,10 +158,33 @@ class ParetoResult:
         df.attrs["hypervolume"] = self.hypervolume
         return df
 
-    def plot(self, path) -> None:
-        """PNG of the front with the designs annotated."""
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Objectives, points, front size and hypervolume (for repr and notebooks)."""
+        ok = np.isfinite(self.values).all(axis=1)
+        return [
+            ("objectives", f"{self.objectives[0]} (optimized) vs {self.objectives[1]} (swept)"),
+            ("points", f"{len(self.designs)} ({int(ok.sum())} solved)"),
+            ("non-dominated", str(int(np.sum(self.front)))),
+            ("hypervolume", f"{self.hypervolume:.4f} (normalized)"),
+            ("wall time", f"{self.wall_s:.1f} s"),
+        ]
 
-        plotting.pareto_plot(self, path)
+    def plot(self, ax=None, *, annotate: int = 5):
+        """The front, the pass/fail line, a few designs listed.
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Drawn into; default a new figure.
+        annotate : int
+            Number of designs listed.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Made with an Agg canvas; the global Matplotlib backend is not touched.
+        """
+        return pareto_figure(self, annotate=annotate, ax=ax)
 
 
 def _check_objectives(objectives) -> tuple[str, str]:
@@ -183,7 +207,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     front starts at the reported single-objective optimum; anchor B is B
     minimized from there. The sweep minimizes A subject to ``B <= eps`` for
     ``points`` values of eps from B at A's optimum to B's optimum, in two chains
-    (one from each anchor, meeting in the middle, in two forked workers), each
+    (one from each anchor, meeting in the middle, in two forked workers when
+    ``solver.workers`` and the cores available to the process are both 2 or more), each
     point warm-started from the previous one of its chain, and refines each
     point's peak grid like ``optimize`` does.
 
@@ -308,12 +333,12 @@ def _chain_worker(args):
 
 
 def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
-    """Run the sweep chains, in forked workers when there are two cores."""
+    """Run the sweep chains, in forked workers when ``workers`` (default 2), capped by
+    the cores available to the process, is more than 1."""
     global _CHAIN_PROBLEM
     import multiprocessing as mp
-    import os
 
-    workers = min(2, os.cpu_count() or 1) if workers is None else workers
+    workers = min(2 if workers is None else workers, available_cores())
     sols: dict = {}
     ctx = None
     if workers > 1:
@@ -357,7 +382,7 @@ def _refine_point(prob: Problem, sol: Solution, eps) -> Solution:
         return sol
     for rnd in range(PEAK_ROUNDS):
         vals = sol.values
-        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(sol.x))
+        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(sol.x), prob.tube_rms(sol.x))
         limits = [bound] if bound is not None else []
         for k, kind in enumerate(kinds):
             if kind == "peak_transmissibility":

@@ -4,11 +4,17 @@ Decision variables, scaled to [-1, 1] in log space (:mod:`.variables`): volume
 ratio N, top-chamber volume V_t0, capillary length L_c and diameter D_c (fixed ones
 are constants). Implicit unknowns, solved inside the NLP as equality constraints:
 
-* ``y_j = ln U_j``: the self-consistent tube velocity amplitude at every grid
-  frequency (:func:`isodesign.spring.equations.amplitude_residual` = 0);
 * ``s = ln sigma``: the RMS stroke of the spring under the random floor input,
-  ``sigma^2 = integral |T - 1|^2 S_x df`` with the spring's amplitude taken as
-  ``A* = 1.880 sigma`` (:mod:`isodesign.response`), written as a chain of partial sums.
+  ``sigma^2 = integral |T - 1|^2 S_x df``, written as a chain of partial sums; the
+  diaphragm at ``A* = 1.880 sigma``;
+* with the statistical closure (``random_method = "statistical"``, the default;
+  ``docs/random-response.md``): ``y = ln sigma_u``, the RMS of the tube velocity,
+  ``sigma_u^2 = integral |T - 1|^2 |U/X|^2 S_x df`` (a second chain of partial sums), at
+  which the capillary's nonlinear drop is replaced by its Gaussian-equivalent resistance
+  (one expression per design, passed to every grid point);
+* with the harmonic closure (``equivalent_amplitude``): ``y_j = ln U_j``, the
+  self-consistent tube velocity amplitude at every grid frequency for the stroke amplitude
+  ``A* = 1.880 sigma`` (:func:`isodesign.spring.equations.amplitude_residual` = 0).
 
 Every objective and constraint is computed by :mod:`.metrics`, the same
 backend-agnostic functions that evaluate them on NumPy arrays for the re-check.
@@ -28,13 +34,19 @@ from isodesign.errors import SolverError
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization.constraints import Constraint, build_constraints
 from isodesign.optimization.grid import build_grid, take
-from isodesign.optimization.metrics import combine, design_quantities, point_quantities
+from isodesign.optimization.metrics import (
+    combine,
+    design_quantities,
+    point_quantities,
+    statistical,
+)
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.variables import DESIGN_VARIABLES, log_scaling
 from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
 from isodesign.response.random_input import solve_stroke_rms
 from isodesign.spring.amplitude import solve_velocity_amplitude
+from isodesign.spring.capillary import gaussian_equivalent_resistance
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import amplitude_residual, kinematic_velocity
 
@@ -69,7 +81,7 @@ SIGMA_BOUNDS_M = (1e-13, 1e-1)
 VELOCITY_BOUNDS_M_S = (1e-12, 1e3)
 EPIGRAPH_BOUND = 300.0  # dB, or ln(m/s) for rms_velocity
 #: Refinement rounds of the peak grid (five movable frequencies each).
-PEAK_ROUNDS = 2
+PEAK_ROUNDS = 4
 #: Movable peak-grid frequencies reserved in every NLP (parameters, no rebuild).
 PEAK_SLOTS = 5 * PEAK_ROUNDS
 _NO_BOUND = 1e20  # an epsilon bound that never binds
@@ -115,7 +127,9 @@ class Problem:
         self.slot_hz = self.grid.omega[self.grid.slot_slice] / (2.0 * math.pi)
         self.dia = diaphragm_model(study.models["diaphragm"])
         self.scaling = log_scaling(study)
-        self.self_consistent = study.models["amplitude_mode"] == "self_consistent"
+        self.statistical = statistical(study)
+        self.self_consistent = (study.models["amplitude_mode"] == "self_consistent"
+                                and not self.statistical)
         # SX throughout: with MX the Jacobian's colouring needed one sweep per grid point
         # (measured 50-70 ms per Jacobian against ~1 ms for the expanded SX graph)
         nlp = SimpleNamespace(ca=ca, X=ca.SX)
@@ -128,13 +142,26 @@ class Problem:
 
     # -- construction steps ------------------------------------------------------
     def _point_function(self, ca):
-        """The per-frequency physics as one SX Function ``(design, s, y, w)``."""
+        """The per-frequency physics as one SX Function ``(design, s, y, c_nl, w)``.
+
+        ``y`` is ``ln U`` at that frequency (harmonic closure) or ``ln sigma_u`` (statistical,
+        the same at every point, like ``s``); ``c_nl`` the Gaussian-equivalent resistance
+        (statistical closure; unused otherwise). Outputs: amplitude residual, T, R,
+        ln Mach, ln Re and ``|U/X|^2``.
+        """
         study = self.study
         dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
         d_sx = study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
         s_sx, y_sx, w_sx = ca.SX.sym("s"), ca.SX.sym("y"), ca.SX.sym("w")
+        cnl_sx = ca.SX.sym("c_nl")
         sig_sx = ca.exp(s_sx)
         a_sx = EQUIVALENT_AMPLITUDE_FACTOR * sig_sx
+        if self.statistical:
+            pq = point_quantities(study, d_sx, w_sx, math.sqrt(2.0) * ca.exp(y_sx), sig_sx,
+                                  self.dia, cnl_sx)
+            return ca.Function("point", [dv, s_sx, y_sx, cnl_sx, w_sx],
+                               [ca.SX(0), pq["T"].re, pq["T"].im, pq["R"].re, pq["R"].im,
+                                pq["ln_mach"], pq["ln_re"], pq["G2"]])
         if self.self_consistent:
             u_sx = ca.exp(y_sx)
             res_sx = amplitude_residual(study.models["flow"], d_sx, w_sx, a_sx, y_sx)
@@ -142,9 +169,9 @@ class Problem:
             u_sx = kinematic_velocity(d_sx, w_sx, a_sx)
             res_sx = ca.SX(0)
         pq = point_quantities(study, d_sx, w_sx, u_sx, sig_sx, self.dia)
-        return ca.Function("point", [dv, s_sx, y_sx, w_sx],
+        return ca.Function("point", [dv, s_sx, y_sx, cnl_sx, w_sx],
                            [res_sx, pq["T"].re, pq["T"].im, pq["R"].re, pq["R"].im,
-                            pq["ln_mach"], pq["ln_re"]])
+                            pq["ln_mach"], pq["ln_re"], ca.SX(0)])
 
     def _decision_variables(self, nlp) -> None:
         """Scaled design z, ln sigma s, ln U y, the design values and the slot parameters."""
@@ -152,7 +179,7 @@ class Problem:
         nlp.n_all = self.grid.omega.size
         nlp.z = X.sym("z", len(self.scaling.names))
         nlp.s = X.sym("s")
-        nlp.y = X.sym("y", nlp.n_all if self.self_consistent else 0)
+        nlp.y = X.sym("y", nlp.n_all if self.self_consistent else int(self.statistical))
         vals = []
         for n in DESIGN_VARIABLES:
             if n in self.scaling.names:
@@ -171,14 +198,24 @@ class Problem:
         w = self.grid.omega
         mapped = point.map(nlp.n_all, "unroll")
         v = ca.vertcat(*nlp.vals)
-        y_row = nlp.y.T if self.self_consistent else X.zeros(1, nlp.n_all)
+        nlp.d = self.study.design_at({n: nlp.vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        if self.self_consistent:
+            y_row = nlp.y.T
+        elif self.statistical:
+            y_row = nlp.y  # ln sigma_u: broadcast like s
+        else:
+            y_row = X.zeros(1, nlp.n_all)
+        c_nl = (gaussian_equivalent_resistance(self.study.models["flow"], nlp.d,
+                                               ca.exp(nlp.y[0]))
+                if self.statistical else X(0))  # fmt: skip
         sl = self.grid.slot_slice
         w_sym = ca.vertcat(ca.DM(w[: sl.start]), nlp.p_slot, ca.DM(w[sl.stop:]))
-        # v and s keep their shape: map broadcasts them (and sums their derivatives)
-        outs = mapped(v, nlp.s, y_row, w_sym.T)
-        res_u, t_re, t_im, r_re, r_im, ln_mach, ln_re = (o.T for o in outs)
+        # v, s and c_nl keep their shape: map broadcasts them (and sums their derivatives)
+        outs = mapped(v, nlp.s, y_row, c_nl, w_sym.T)
+        res_u, t_re, t_im, r_re, r_im, ln_mach, ln_re, g2 = (o.T for o in outs)
         nlp.pq = {"T": Cx(t_re, t_im), "R": Cx(r_re, r_im), "ln_mach": ln_mach, "ln_re": ln_re}
-        nlp.d = self.study.design_at({n: nlp.vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        if self.statistical:
+            nlp.pq["G2"] = g2
         nlp.mt = combine(self.study, self.grid, nlp.pq,
                          design_quantities(self.study, self.grid, nlp.d, self.dia))
         nlp.res_u = res_u if self.self_consistent else X(0, 1)
@@ -191,15 +228,26 @@ class Problem:
         points: a dense row would make the Jacobian's colouring need one sweep per point.
         """
         ca, X = nlp.ca, nlp.X
-        self.sigma_ref = self._reference_sigma()
+        self.sigma_ref, self.tube_rms_ref = self._reference_sigma()
         sw = np.asarray(self.grid.response.stroke_weight, float)
-        nlp.inc = sw / self.sigma_ref**2 * take(nlp.pq["R"], self.grid.floor_slice).abs2()
+        fl = self.grid.floor_slice
+        r2 = take(nlp.pq["R"], fl).abs2()
+        nlp.inc = sw / self.sigma_ref**2 * r2
         nf = self.grid.n_floor
         nlp.c = X.sym("stroke_partial_sums", nf)
         res_chain = nlp.c - ca.vertcat(X(0), nlp.c[: nf - 1]) - nlp.inc
         nlp.res_s = ca.vertcat(res_chain, ca.exp(2.0 * nlp.s) / self.sigma_ref**2 - nlp.c[nf - 1])
         self._chain_weights = sw / self.sigma_ref**2
         self.nc = nf
+        if self.statistical:  # sigma_u^2 = sum_j stroke_weight_j |R_j|^2 |U/X|_j^2, likewise
+            inc_u = sw / self.tube_rms_ref**2 * r2 * nlp.pq["G2"][fl]
+            cu = X.sym("tube_partial_sums", nf)
+            res_u = cu - ca.vertcat(X(0), cu[: nf - 1]) - inc_u
+            nlp.res_u = ca.vertcat(res_u, ca.exp(2.0 * nlp.y[0]) / self.tube_rms_ref**2
+                                   - cu[nf - 1])  # fmt: skip
+            nlp.c = ca.vertcat(nlp.c, cu)
+            nlp.inc = ca.vertcat(nlp.inc, inc_u)
+            self.nc = 2 * nf
 
     def _objectives_and_constraints(self, nlp) -> None:
         """The study's constraints, each objective's form, epsilon bounds and weights."""
@@ -274,7 +322,10 @@ class Problem:
         self.eval_fn = ca.Function("eval", [nlp.x, nlp.p], [nlp.j_total, nlp.g])
         self._j_fn_p = ca.Function("objectives", [nlp.x, nlp.p_slot], [ca.vertcat(*nlp.js)])
         x_core = ca.vertcat(nlp.z, nlp.s, nlp.y)
-        self._chain_fn_p = ca.Function("chain", [x_core, nlp.p_slot], [ca.cumsum(nlp.inc)])
+        nf = self.grid.n_floor
+        chain = (ca.vertcat(ca.cumsum(nlp.inc[:nf]), ca.cumsum(nlp.inc[nf:]))
+                 if self.statistical else ca.cumsum(nlp.inc))  # fmt: skip
+        self._chain_fn_p = ca.Function("chain", [x_core, nlp.p_slot], [chain])
         self._aux_fn_p = ca.Function("aux_quantities", [x_core, nlp.p_slot],
                                      [mt["ln_ms_band"] - mt["ln_limit2"], mt["ln_T2_peak"],
                                       mt["ms_all"]])
@@ -330,27 +381,31 @@ class Problem:
     def _chain_fn(self, x_core):
         return self._chain_fn_p(x_core, self._slot_omega())
 
-    def _reference_sigma(self) -> float:
+    def closure(self, d) -> tuple[float, float | None]:
+        """``(sigma, sigma_u)`` of a design from the NumPy closure (``sigma_u``: ``None``
+        for the harmonic closure)."""
         st = self.study
-        sigma, _ = solve_stroke_rms(st.start_design(), st.payload, self.grid.response,
-                                    flow=st.models["flow"],
-                                    amplitude_mode=st.models["amplitude_mode"],
-                                    diaphragm=self.dia)
-        return sigma
+        sigma, info = solve_stroke_rms(
+            d, st.payload, self.grid.response, flow=st.models["flow"],
+            amplitude_mode=st.models["amplitude_mode"], diaphragm=self.dia,
+            random_method="statistical" if self.statistical else "equivalent_amplitude")
+        return sigma, info.get("tube_velocity_rms_m_s")
+
+    def _reference_sigma(self) -> tuple[float, float | None]:
+        return self.closure(self.study.start_design())
 
     # -- starting points -------------------------------------------------------------
     def initial_guess(self, values: dict) -> np.ndarray:
         """A consistent x0 at a design: implicit unknowns from the NumPy solvers."""
-        st = self.study
-        d = st.design_at(values)
-        sigma, _ = solve_stroke_rms(d, st.payload, self.grid.response, flow=st.models["flow"],
-                                    amplitude_mode=st.models["amplitude_mode"],
-                                    diaphragm=self.dia)
+        d = self.study.design_at(values)
+        sigma, sigma_u = self.closure(d)
         x0 = np.zeros(self.nx)
         x0[: self.nz] = np.clip(self.scaling.to_z(values), -1.0, 1.0)
         x0[self.nz] = math.log(sigma)
-        u = self.velocity(d, sigma)
-        if self.self_consistent:
+        if self.statistical:
+            x0[self.nz + 1] = math.log(sigma_u)
+        elif self.self_consistent:
+            u = self.velocity(d, sigma)
             x0[self.nz + 1: self.nz + 1 + self.ny] = np.log(u)
         self.fill_dependent(x0)
         return x0
@@ -441,3 +496,7 @@ class Problem:
     def sigma(self, x: np.ndarray) -> float:
         """RMS stroke sigma at x (m)."""
         return math.exp(x[self.nz])
+
+    def tube_rms(self, x: np.ndarray) -> float | None:
+        """RMS tube velocity sigma_u at x (m/s; statistical closure), else ``None``."""
+        return math.exp(x[self.nz + 1]) if self.statistical else None

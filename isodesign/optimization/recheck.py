@@ -7,7 +7,7 @@ import numpy as np
 from isodesign.errors import SolverError
 from isodesign.optimization.constraints import build_constraints
 from isodesign.optimization.grid import build_grid
-from isodesign.optimization.metrics import metrics
+from isodesign.optimization.metrics import metrics, statistical
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
 from isodesign.response.random_input import solve_stroke_rms
@@ -17,10 +17,12 @@ from isodesign.spring.equations import kinematic_velocity
 
 __all__ = ["RECHECK_RTOL", "evaluate_design", "recheck"]
 
-#: Relative agreement required between the NLP and the NumPy re-check.
+#: Agreement required between the NLP and the NumPy re-check: relative, and absolute
+#: (dB) for the objectives in dB.
 RECHECK_RTOL = 1e-6
-_METRIC_KEYS = ("stroke_variance", "ln_ms_band", "ln_T2_peak", "ln_total_volume", "ln_tilt",
-                "ln_lumped", "ln_fn", "ln_zeta", "ln_mach", "ln_re", "ln_T2_point")
+_METRIC_KEYS = ("stroke_variance", "tube_velocity_variance", "ln_ms_band", "ln_T2_peak",
+                "ln_total_volume", "ln_tilt", "ln_lumped", "ln_fn", "ln_zeta", "ln_mach", "ln_re",
+                "ln_T2_point")
 
 
 def recheck(prob, sol, d) -> float:
@@ -30,8 +32,9 @@ def recheck(prob, sol, d) -> float:
     solvers (not the NLP's values) and evaluates :func:`.metrics.metrics` on them.
     Every constraint quantity must agree with the NLP's solution, and the objective
     IPOPT reports (epigraph variables included) with the analysis's, to
-    :data:`RECHECK_RTOL` relative (the objectives in natural units, and absolute
-    where their magnitude is below 1, whatever the unit).
+    :data:`RECHECK_RTOL`: relative, except the objectives in dB, compared in dB
+    with :data:`RECHECK_RTOL` as an absolute tolerance (the unit from the
+    objective registry, :data:`~.objectives.OBJECTIVES`).
 
     Parameters
     ----------
@@ -39,9 +42,9 @@ def recheck(prob, sol, d) -> float:
         The NLP that produced ``sol``, with its movable peak frequencies where the
         refinement left them (the re-check evaluates on the same grid).
     sol : Solution
-        The NLP's optimum: its ``x`` gives the NLP's design, ``ln sigma`` and (self-
-        consistent mode) ``ln U`` at every grid frequency; its ``objectives`` the
-        internal values J.
+        The NLP's optimum: its ``x`` gives the NLP's design, ``ln sigma`` and
+        ``ln sigma_u`` (statistical closure) or, self-consistent mode of the harmonic
+        closure, ``ln U`` at every grid frequency; its ``objectives`` the internal values J.
     d : SpringDesign
         The design at the optimum (``study.design_at(sol.values)``), on which the
         NumPy path solves sigma and the velocities afresh.
@@ -49,11 +52,13 @@ def recheck(prob, sol, d) -> float:
     Returns
     -------
     float
-        The largest relative difference found: ``|sigma_np / sigma_nlp - 1|``; for
+        The largest relative difference found: ``|sigma_np / sigma_nlp - 1|`` (and the
+        same for ``sigma_u``); for
         each metric ``|exp(a - b) - 1|`` on the ``ln_*`` quantities (a relative
         difference of the quantity itself) and ``|a / b - 1|`` otherwise, worst over
-        the vector's rows; for each objective ``|v_nlp - v_np| / max(1, |v_np|)``
-        in natural units.
+        the vector's rows; for each objective in natural units, ``|v_nlp - v_np|``
+        (dB) for an objective in dB and ``|v_nlp - v_np| / |v_np|`` for the others
+        (``rms_velocity`` in m/s, ``total_volume`` in m^3).
 
     Raises
     ------
@@ -62,20 +67,24 @@ def recheck(prob, sol, d) -> float:
     """
 
     st = prob.study
-    sigma, _ = solve_stroke_rms(d, st.payload, prob.grid.response, flow=st.models["flow"],
-                                amplitude_mode=st.models["amplitude_mode"], diaphragm=prob.dia)
-    u = prob.velocity(d, sigma)
-    mt_np = metrics(st, prob.grid, d, u, sigma, diaphragm=prob.dia)
+    sigma, sigma_u = prob.closure(d)
+    u = None if prob.statistical else prob.velocity(d, sigma)
+    mt_np = metrics(st, prob.grid, d, u, sigma, diaphragm=prob.dia, tube_rms=sigma_u)
     # the same quantities from the NLP's solution
     x = sol.x
     d_nlp = st.design_at(prob.values(x))
     sig_nlp = prob.sigma(x)
-    if prob.self_consistent:
+    if prob.statistical:
+        u_nlp = None
+    elif prob.self_consistent:
         u_nlp = np.exp(x[prob.nz + 1: prob.nz + 1 + prob.ny])
     else:
         u_nlp = prob.velocity(d_nlp, sig_nlp)
-    mt_nlp = metrics(st, prob.grid, d_nlp, u_nlp, sig_nlp, diaphragm=prob.dia)
+    mt_nlp = metrics(st, prob.grid, d_nlp, u_nlp, sig_nlp, diaphragm=prob.dia,
+                     tube_rms=prob.tube_rms(x))
     worst = abs(sigma / sig_nlp - 1.0)
+    if prob.statistical:
+        worst = max(worst, abs(sigma_u / prob.tube_rms(x) - 1.0))
     names = []
     for key in _METRIC_KEYS:
         if key not in mt_np:
@@ -91,7 +100,8 @@ def recheck(prob, sol, d) -> float:
         obj = OBJECTIVES[kind]
         v_nlp = obj.to_natural(float(sol.objectives[k]))
         v_np = obj.value(mt_np, st, prob.grid)
-        m = abs(v_nlp - v_np) / max(1.0, abs(v_np))
+        # absolute in dB; relative in any other unit (m/s, m^3: values far below 1)
+        m = abs(v_nlp - v_np) if obj.db else abs(v_nlp - v_np) / abs(v_np)
         names.append((f"objective {kind}", m))
         worst = max(worst, m)
     if not worst <= RECHECK_RTOL:
@@ -118,8 +128,12 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
         ``capillary_length_m``, ``capillary_diameter_m``; missing or fixed ones
         take the study's start values.
     grid : Grid, optional
-        The frequency grid; default :func:`.grid.build_grid` of the study (fixed
-        peak grid, no movable frequencies).
+        The frequency grid; default :func:`.grid.build_grid` of the study and the
+        objectives asked for (fixed peak grid, no movable frequencies; the one
+        frequency of ``transmissibility_at`` appended when asked for, at the
+        study's ``objective.frequency_hz``, else
+        :data:`~.grid.DEFAULT_POINT_FREQUENCY_HZ`). A grid passed in must carry
+        that frequency itself.
     objectives : tuple of str
         Objective kinds to evaluate; default the study's own.
 
@@ -130,30 +144,42 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
         (name -> ``value``, the expression at every row as an array in the NLP's
         log or dB units, ``lower``, ``upper`` and ``violation``, the worst row's
         distance outside the bounds); ``max_violation`` (the largest violation, NLP
-        units); ``sigma`` (RMS stroke, m) and ``metrics`` (the metrics dict).
+        units); ``sigma`` (RMS stroke, m), ``tube_rms`` (``sigma_u`` of the statistical
+        closure, m/s, else ``None``) and ``metrics`` (the metrics dict).
 
     Notes
     -----
-    sigma solves ``sigma^2 = sum_j w_j |T_j - 1|^2`` with the stiffness at
-    ``A* = 1.880 sigma`` (:func:`isodesign.response.random_input.solve_stroke_rms`);
-    the tube velocity amplitudes at ``A*`` are self-consistent
+    sigma solves ``sigma^2 = sum_j w_j |T_j - 1|^2``
+    (:func:`isodesign.response.random_input.solve_stroke_rms`). With the statistical
+    closure (``models.random_method``, the default) ``sigma_u`` is solved with it and the
+    capillary's nonlinear drop is its Gaussian-equivalent resistance there; with
+    ``equivalent_amplitude`` the stiffness is at ``A* = 1.880 sigma`` and the tube velocity
+    amplitudes at ``A*`` are self-consistent
     (:func:`isodesign.spring.amplitude.solve_velocity_amplitude`) or kinematic, as
     ``models.amplitude_mode`` says.
     """
 
-    grid = grid or build_grid(study)
+    kinds = tuple(objectives) or (study.objective["kind"],)
+    # the grid carries the one extra frequency of a one-frequency objective asked for
+    grid = grid or build_grid(study, objectives=kinds)
     d = study.design_at(values)
     dia = diaphragm_model(study.models["diaphragm"])
-    sigma, _ = solve_stroke_rms(d, study.payload, grid.response, flow=study.models["flow"],
-                                amplitude_mode=study.models["amplitude_mode"], diaphragm=dia)
+    stat = statistical(study)
+    sigma, info = solve_stroke_rms(
+        d, study.payload, grid.response, flow=study.models["flow"],
+        amplitude_mode=study.models["amplitude_mode"], diaphragm=dia,
+        random_method="statistical" if stat else "equivalent_amplitude")
     a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
-    if study.models["amplitude_mode"] == "self_consistent":
+    if stat:
+        u = None
+    elif study.models["amplitude_mode"] == "self_consistent":
         u = solve_velocity_amplitude(study.models["flow"], d, grid.omega, a).velocity
     else:
         u = kinematic_velocity(d, grid.omega, a)
-    mt = metrics(study, grid, d, u, sigma, diaphragm=dia)
+    mt = metrics(study, grid, d, u, sigma, diaphragm=dia,
+                 tube_rms=info.get("tube_velocity_rms_m_s"))
     objs = {kind: OBJECTIVES[kind].value(mt, study, grid)
-            for kind in objectives or (study.objective["kind"],)}
+            for kind in kinds}
     cons = {}
     worst = 0.0
     for c in build_constraints(study, mt, grid.omega.size):
@@ -163,4 +189,4 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
                         "violation": float(np.max(viol))}
         worst = max(worst, float(np.max(viol)))
     return {"objectives": objs, "constraints": cons, "max_violation": worst, "sigma": sigma,
-            "metrics": mt}
+            "tube_rms": info.get("tube_velocity_rms_m_s"), "metrics": mt}

@@ -26,6 +26,8 @@ from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS
 from isodesign.response.isolator import transmissibility
 from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
+from isodesign.spring.capillary import statistical_resistance_function
+from isodesign.spring.equations import air_stiffness, spring_stiffness
 from isodesign.spring.stiffness import complex_stiffness
 
 __all__ = [
@@ -78,7 +80,8 @@ def flat_tolerance(kind: str) -> float:
     return FLAT_TOLERANCE_DB if OBJECTIVES[kind].db else FLAT_TOLERANCE_REL
 
 
-def continuous_peak_db(prob, values: dict, sigma: float) -> tuple[float, float]:
+def continuous_peak_db(prob, values: dict, sigma: float,
+                       tube_rms: float | None = None) -> tuple[float, float]:
     """Peak of |T| at the operating amplitude between the grid's frequencies (NumPy).
 
     A dense log grid over the peak grid's span, then a parabola through the
@@ -94,6 +97,11 @@ def continuous_peak_db(prob, values: dict, sigma: float) -> tuple[float, float]:
     sigma : float
         RMS stroke of the spring at this design, m (e.g. ``prob.sigma(x)``); the
         stiffness is evaluated at the equivalent amplitude ``A* = 1.880 sigma``.
+    tube_rms : float, optional
+        The statistical closure (``prob.tube_rms(x)``): the tube velocity's RMS, m/s; the
+        capillary's resistance is its linear part plus the Gaussian-equivalent resistance
+        at ``tube_rms`` (:func:`isodesign.spring.capillary.statistical_resistance_function`)
+        and the diaphragm is at ``A*``. ``None``: the harmonic describing function.
 
     Returns
     -------
@@ -117,9 +125,13 @@ def continuous_peak_db(prob, values: dict, sigma: float) -> tuple[float, float]:
     a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
     w = 2.0 * math.pi * f
 
-    k = complex_stiffness(d, f, a, flow=st.models["flow"],
-                          amplitude_mode=st.models["amplitude_mode"], diaphragm=prob.dia,
-                          pairwise=True, warn=False).k
+    if tube_rms is not None:  # the statistical closure (docs/random-response.md)
+        c = statistical_resistance_function(st.models["flow"], d, w)(tube_rms)
+        k = spring_stiffness(air_stiffness(d, w, c), prob.dia.stiffness(w, a)).to_complex()
+    else:
+        k = complex_stiffness(d, f, a, flow=st.models["flow"],
+                              amplitude_mode=st.models["amplitude_mode"], diaphragm=prob.dia,
+                              pairwise=True, warn=False).k
     t2 = np.abs(transmissibility(Cx.from_complex(k), st.payload.mass_per_isolator_kg,
                                  w).to_complex()) ** 2
     i = int(np.clip(np.argmax(t2), 1, f.size - 2))
@@ -200,7 +212,13 @@ def refine_peak(study, prob, final, best, flat):
         refinement's record (rounds, added frequencies, continuous peak).
         ``info`` holds ``rounds``, ``added_frequencies_hz``, ``peak_db`` and
         ``peak_frequency_hz`` (the continuous peak of the returned point, last
-        measured; ``None`` when the peak is not checked: no bound, other objective).
+        measured), ``limit_db`` (the limit it was held to, dB), ``limit``
+        (``"bound"`` or ``"objective"``: which one set it), ``excess_db``
+        (``peak_db - limit_db``) and ``met`` (the peak is within
+        :data:`PEAK_TOLERANCE_DB` of the limit; False when it is still above after
+        the last round), all ``None`` when the peak is not checked (no bound, other
+        objective); ``max_rounds`` and ``tolerance_db`` (:data:`~.problem.PEAK_ROUNDS`
+        and :data:`PEAK_TOLERANCE_DB`).
 
     Raises
     ------
@@ -212,22 +230,29 @@ def refine_peak(study, prob, final, best, flat):
     The limit is the bound, or for the ``peak_transmissibility`` objective the
     smaller of the bound and the sampled peak J (the objective must not
     understate the true peak). At most :data:`~.problem.PEAK_ROUNDS` rounds; a peak
-    still above the limit after the last round is recorded in ``peak_db`` but not
-    refined further.
+    still above the limit after the last round is not refined further: ``met`` is
+    False and :func:`isodesign.optimization.driver.optimize` reports the excess as a
+    violation of the returned design.
     """
     bound = study.constraints.get("max_peak_transmissibility_db")
     kind = prob.objective
-    info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None}
+    info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None,
+            "limit_db": None, "limit": None, "excess_db": None, "met": None,
+            "max_rounds": PEAK_ROUNDS, "tolerance_db": PEAK_TOLERANCE_DB}
     if not _peak_refined(study, prob):
         return final, best, flat, info
     for _ in range(PEAK_ROUNDS + 1):
         vals = prob.values(final.x)
-        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(final.x))
-        info.update(peak_db=peak_db, peak_frequency_hz=f_pk)
+        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(final.x),
+                                             prob.tube_rms(final.x))
         sampled = OBJECTIVES[kind].to_natural(final.objective) \
             if kind == "peak_transmissibility" else None
         limit = min(v for v in (bound, sampled) if v is not None)
-        if peak_db <= limit + PEAK_TOLERANCE_DB or info["rounds"] >= PEAK_ROUNDS:
+        met = peak_db <= limit + PEAK_TOLERANCE_DB
+        info.update(peak_db=peak_db, peak_frequency_hz=f_pk, limit_db=limit,
+                    limit="bound" if limit == bound else "objective",
+                    excess_db=peak_db - limit, met=bool(met))
+        if met or info["rounds"] >= PEAK_ROUNDS:
             break
         info["added_frequencies_hz"] += peak_slots(prob, info["rounds"], f_pk)
         info["rounds"] += 1

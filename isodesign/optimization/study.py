@@ -11,9 +11,12 @@ Tables and keys
 ``[hardware]``     piston_area_m2 (or diaphragm_r1_m + diaphragm_r2_m), temperature_k,
                    minor_loss, polytropic_index, roughness_m, ``[hardware.gas]``
 ``[floor]``        criterion = "VC-A" | csv = "path" (+ quantity, kind, unit)
+                   | record = "survey.csv" (+ statistic, percentile, axis, unit,
+                   sample_rate_hz): a survey time history (docs/criteria.md, section 5)
 ``[target]``       criterion, band_min_hz, band_max_hz
 ``[models]``       flow, amplitude_mode, diaphragm, random_method, points_per_band,
-                   peak_points
+                   peak_points; ``diaphragm`` a name (``fit:PATH.toml`` too) or a
+                   ``[models.diaphragm]`` table (model + viscoelastic parameters)
 ``[variables.<name>]`` for volume_ratio, top_volume_m3, capillary_length_m,
                    capillary_diameter_m: start, lower, upper, fixed
 ``[constraints]``  max_total_volume_m3, min_capillary_diameter_m, min_tilt_margin,
@@ -22,7 +25,9 @@ Tables and keys
                    model_validity (each numeric one may be ``false`` to switch it off)
 ``[objective]``    kind, frequency_hz (for ``transmissibility_at``), band_min_hz,
                    band_max_hz (for ``rms_velocity``)
-``[solver]``       starts, seed, max_iter, tol, tie_break
+``[solver]``       starts, seed, max_iter, tol, tie_break, workers (forked processes
+                   for the starts and the Pareto sweep; capped by the cores available
+                   to the process and by the number of starts)
 """
 
 from __future__ import annotations
@@ -35,6 +40,7 @@ from typing import Any
 
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
+from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
 from isodesign.io.files import read_toml
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
@@ -72,7 +78,7 @@ _DEFAULT = {
         "flow": "womersley",
         "amplitude_mode": "self_consistent",
         "diaphragm": "viscoelastic",
-        "random_method": "equivalent_amplitude",
+        "random_method": "statistical",
         "points_per_band": 6,
         "peak_points": 80,
     },
@@ -106,7 +112,8 @@ _KEYS = {
     "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
                  "minor_loss", "polytropic_index", "roughness_m", "gas"},
     "hardware.gas": {"name", "gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"},
-    "floor": {"criterion", "csv", "quantity", "kind", "unit"},
+    "floor": {"criterion", "csv", "quantity", "kind", "unit", "record", "statistic",
+              "percentile", "axis", "sample_rate_hz"},
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points"},
@@ -333,15 +340,45 @@ def _hardware(h: dict, where: str) -> dict:
     return hw
 
 
+_RECORD_KEYS = {"record", "statistic", "percentile", "axis", "unit", "sample_rate_hz"}
+
+
 def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
-    """``[floor]``: a criterion or a CSV spectrum (relative to the study file)."""
-    if ("criterion" in fl) == ("csv" in fl):
-        raise InputError(f"{where}: [floor] needs exactly one of criterion = \"VC-A\" or "
-                         "csv = \"file.csv\"")
+    """``[floor]``: a criterion, a CSV spectrum or a survey record (paths relative to the study
+    file)."""
+    if sum(k in fl for k in ("criterion", "csv", "record")) != 1:
+        raise InputError(f"{where}: [floor] needs exactly one of criterion = \"VC-A\", "
+                         "csv = \"file.csv\" or record = \"survey.csv\"")
+    if "record" in fl:
+        extra = set(fl) - _RECORD_KEYS
+        if extra:
+            raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} do not apply to "
+                             f"a record; valid: {', '.join(sorted(_RECORD_KEYS))}")
+        stat = fl.get("statistic", "mean")
+        check_choice(f"{where}: floor.statistic", stat, SURVEY_STATISTICS)
+        kw = {}
+        if "percentile" in fl:
+            kw["percentile"] = _num(where, "floor.percentile", fl["percentile"], 0, 100)
+        if "sample_rate_hz" in fl:
+            kw["sample_rate_hz"] = _num(where, "floor.sample_rate_hz", fl["sample_rate_hz"], 0,
+                                        None, True, "Hz")
+        for key in ("axis", "unit"):
+            if key in fl and not isinstance(fl[key], str):
+                raise InputError(f"{where}: floor.{key} must be a string")
+        if "unit" in fl:
+            kw["unit"] = fl["unit"]
+        path = Path(fl["record"])
+        if not path.is_absolute() and source not in ("<dict>", "<default>"):
+            path = Path(source).parent / path
+        try:
+            return floor_from_record(path, statistic=stat, axis=fl.get("axis"), **kw)
+        except InputError as exc:
+            raise InputError(f"{where}: floor.{exc}") from None
     if "criterion" in fl:
         extra = set(fl) - {"criterion"}
         if extra:
-            raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} only apply to csv")
+            raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} only apply to csv "
+                             "or record")
         try:
             return FloorSpectrum.from_criterion(fl["criterion"])
         except InputError as exc:
@@ -401,12 +438,24 @@ def _models(m: dict, where: str, source: str) -> dict:
     check_choice(f"{where}: models.amplitude_mode", m.get("amplitude_mode", "self_consistent"),
                  AMPLITUDE_MODES)
     check_choice(f"{where}: models.random_method",
-                 m.get("random_method", "equivalent_amplitude"), ("equivalent_amplitude",))
+                 m.get("random_method", "statistical"), ("statistical", "equivalent_amplitude"))
     dia = m.get("diaphragm", "viscoelastic")
-    if not isinstance(dia, str):
-        raise InputError(f"{where}: models.diaphragm must be a string")
-    if source not in ("<dict>", "<default>") and (dia.startswith("table:")
-                                                  or dia.lower().endswith(".csv")):
+    if isinstance(dia, dict):  # [models.diaphragm]: model + viscoelastic parameters
+        dia = dict(dia)
+        m_name = dia.get("model", "viscoelastic")
+        if isinstance(m_name, str) and m_name.startswith(("table:", "fit:")) and source not in (
+                "<dict>", "<default>"):
+            pre = m_name.split(":", 1)[0] + ":"
+            if not Path(m_name[len(pre):]).is_absolute():
+                dia["model"] = pre + str(Path(source).parent / m_name[len(pre):])
+    elif not isinstance(dia, str):
+        raise InputError(f"{where}: models.diaphragm must be a string or a table")
+    elif source not in ("<dict>", "<default>") and dia.startswith("fit:"):
+        # a fit file is relative to the study file, like a table or the floor's CSV
+        if not Path(dia[len("fit:"):]).is_absolute():
+            dia = f"fit:{Path(source).parent / dia[len('fit:'):]}"
+    elif source not in ("<dict>", "<default>") and (dia.startswith("table:")
+                                                    or dia.lower().endswith(".csv")):
         # a table path is relative to the study file, like the floor's CSV
         rel = dia[len("table:"):] if dia.startswith("table:") else dia
         if not Path(rel).is_absolute():
@@ -418,7 +467,7 @@ def _models(m: dict, where: str, source: str) -> dict:
     ppb = _int_in(where, "models.points_per_band", m.get("points_per_band", 6), 3, 200)
     npk = _int_in(where, "models.peak_points", m.get("peak_points", 80), 10, 2000)
     return {"flow": flow, "amplitude_mode": m.get("amplitude_mode", "self_consistent"),
-            "diaphragm": dia, "random_method": m.get("random_method", "equivalent_amplitude"),
+            "diaphragm": dia, "random_method": m.get("random_method", "statistical"),
             "points_per_band": ppb, "peak_points": npk}
 
 

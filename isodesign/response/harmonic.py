@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -20,6 +19,12 @@ from isodesign.errors import (
     check_positive,
 )
 from isodesign.numerics.cplx import Cx
+from isodesign.plotting.response import (
+    draw_transmissibility,
+    finish_transmissibility,
+    harmonic_figure,
+)
+from isodesign.plotting.style import candidate_style
 from isodesign.response.isolator import (
     Payload,
     relative_transmissibility,
@@ -32,6 +37,7 @@ from isodesign.response.model import (
     spring_model,
 )
 from isodesign.response.stability import StabilityFigures, stability_of_model
+from isodesign.results import ResultDisplay
 
 __all__ = [
     "BRANCHES",
@@ -158,8 +164,8 @@ def _harmonic_closure(model: SpringModel, f: np.ndarray, xf: np.ndarray, branch:
     )
 
 
-@dataclass(frozen=True, eq=False)
-class HarmonicResponse:
+@dataclass(frozen=True, eq=False, repr=False)
+class HarmonicResponse(ResultDisplay):
     """Payload response to harmonic floor motion, with the stroke closed self-consistently.
 
     Arrays have shape ``(n_frequencies, n_floor_amplitudes)``.
@@ -283,37 +289,54 @@ class HarmonicResponse:
         )
         return df
 
-    def plot(self, path) -> Path:
-        """|T| and the stroke ratio vs frequency for each floor amplitude (PNG etc.)."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
-
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Grid, peak |T| per floor amplitude and models (for repr and notebooks)."""
         f = self.frequency_hz
-        ax1.loglog(f, np.abs(self.transmissibility_linear), "k--", lw=1,
-                   label=f"linear ({LINEAR_REFERENCE_AMPLITUDE_M * 1e6:g} um)")  # fmt: skip
-        for j, xf in enumerate(self.floor_amplitude_m):
-            ax1.loglog(f, self.magnitude[:, j], label=f"X_f = {xf * 1e6:.3g} um")
-            ax2.loglog(f, self.stroke_m[:, j] / xf, label=f"X_f = {xf * 1e6:.3g} um")
-            multi = self.multiple_roots[:, j]
-            if multi.any():
-                ax1.plot(f[multi], self.magnitude[multi, j], "rx", ms=4)
-        ax1.set_xlabel("frequency (Hz)")
-        ax1.set_ylabel("|T| (payload / floor)")
-        ax1.grid(True, which="both", alpha=0.3)
-        ax1.legend(fontsize=8)
-        ax2.set_xlabel("frequency (Hz)")
-        ax2.set_ylabel("stroke / floor amplitude, |T - 1|")
-        ax2.grid(True, which="both", alpha=0.3)
-        fig.suptitle(f"harmonic floor input, {self.branch} branch "
-                     f"({self.stability.flow}, {self.stability.diaphragm})")  # fmt: skip
-        fig.tight_layout()
-        p = Path(path)
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        return p
+        peaks = ", ".join(
+            f"{xf * 1e6:.3g} um: {20 * np.log10(p):+.1f} dB at {fp:.3g} Hz"
+            for xf, p, fp in zip(self.floor_amplitude_m, self.peak_transmissibility,
+                                 self.peak_frequency_hz, strict=True))
+        s = self.stability
+        return [
+            ("frequencies", f"{f.size} ({f.min():.3g}-{f.max():.3g} Hz)"),
+            ("floor amplitudes", str(self.floor_amplitude_m.size)),
+            ("peak |T|", peaks),
+            ("branch", self.branch),
+            ("models", f"{s.flow} flow, {s.amplitude_mode}, {s.diaphragm} diaphragm"),
+            ("validity flags", str(len(self.warnings))),
+        ]
+
+    def plot(self, ax=None, *, title=None, peak_limit_db=None):
+        """|T| in dB and its phase, and the stroke, per floor amplitude.
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Draw |T| (dB) only, into this axes. Default: a new figure with |T| (dB), the
+            phase and the stroke; the linear regime on top, the 0 dB line, points with
+            several strokes and points outside the model's validity marked.
+        title : str, optional
+        peak_limit_db : float, optional
+            A peak-|T| limit line.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Made with an Agg canvas; the global Matplotlib backend is not touched.
+        """
+        if ax is None:
+            return harmonic_figure(self, title=title, peak_limit_db=peak_limit_db)
+        valid = np.asarray(self.spring.valid, bool).reshape(self.stroke_m.shape)
+        curves = [(f"floor amplitude {xf * 1e6:.3g} um", self.frequency_hz,
+                   self.transmissibility[:, j], candidate_style(j), valid[:, j])
+                  for j, xf in enumerate(self.floor_amplitude_m)]
+        for k, (label, f, t, style, v) in enumerate(curves):
+            draw_transmissibility(ax, None, f, t, style=style, label=label, valid=v,
+                                  flagged_label=k == 0)
+        finish_transmissibility(ax, None, self.frequency_hz, peak_limit_db)
+        if title:
+            ax.set_title(title, fontsize=10)
+        return ax.figure
 
 
 def harmonic_response(

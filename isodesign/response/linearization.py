@@ -45,6 +45,7 @@ from isodesign.floor import FloorSpectrum
 from isodesign.floor.bands import Bands, third_octave_bands
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx, as_cx
+from isodesign.spring.equations import tube_velocity_gain2
 
 __all__ = [
     "EQUIVALENT_AMPLITUDE_FACTOR",
@@ -58,6 +59,8 @@ __all__ = [
     "rayleigh_rule",
     "response_grid",
     "stroke_variance",
+    "stroke_weighted_sum",
+    "tube_velocity_variance",
 ]
 
 #: ``A* / sigma = 3 sqrt(pi/8) = 1.8800``: the harmonic amplitude whose describing function
@@ -83,7 +86,18 @@ _QUANTITY_POWER = {"displacement": -2, "velocity": 0, "acceleration": 2}
 # equivalent amplitude and the Rayleigh average
 # ---------------------------------------------------------------------------
 def equivalent_amplitude(sigma):
-    """Equivalent harmonic amplitude ``A* = EQUIVALENT_AMPLITUDE_FACTOR * sigma`` (any backend)."""
+    """Equivalent harmonic amplitude ``A* = EQUIVALENT_AMPLITUDE_FACTOR * sigma`` (any backend).
+
+    Parameters
+    ----------
+    sigma : float, array or CasADi symbol
+        RMS stroke, m.
+
+    Returns
+    -------
+    float, array or CasADi symbol
+        ``A*`` in m.
+    """
     return EQUIVALENT_AMPLITUDE_FACTOR * sigma
 
 
@@ -449,6 +463,49 @@ def stroke_variance(relative_transmissibility: Cx, grid: ResponseGrid):
     return _weighted_sum(grid.stroke_weight, as_cx(relative_transmissibility).abs2())
 
 
+def tube_velocity_variance(relative_transmissibility: Cx, resistance: Cx, design,
+                           grid: ResponseGrid):
+    """Variance of the capillary's mean velocity, ``sigma_u^2`` ((m/s)^2), any backend.
+
+    ``sigma_u^2 = sum_j stroke_weight[j] |T_j - 1|^2 |U/X|_j^2``: the stroke's spectrum
+    times the linear tube-velocity gain :func:`~isodesign.spring.equations.tube_velocity_gain2`
+    for the resistance ``C`` at the grid's frequencies (the random-input linearization's
+    ``C(w; sigma_u)``), i.e. ``integral |H_u(f)|^2 S_v(f) df`` with ``H_u`` the tube velocity
+    per floor velocity.
+
+    Parameters
+    ----------
+    relative_transmissibility : Cx
+        ``T - 1`` at ``grid.frequency_hz``.
+    resistance : Cx
+        ``C`` at ``grid.frequency_hz`` (Pa s/kg).
+    design : SpringDesign
+        The loaded design (fields may be CasADi symbols).
+    grid : ResponseGrid
+    """
+    rel = as_cx(relative_transmissibility)
+    return stroke_weighted_sum(
+        rel.abs2() * tube_velocity_gain2(design, grid.omega, resistance), grid
+    )
+
+
+def stroke_weighted_sum(values, grid: ResponseGrid):
+    """``sum_j stroke_weight[j] values[j]`` (any backend): the variance of a response whose
+    squared gain per unit floor displacement is ``values`` (e.g. ``|T - 1|^2 |U/X|^2``).
+
+    Parameters
+    ----------
+    values : array or CasADi column
+        Squared gains at ``grid.frequency_hz``.
+    grid : ResponseGrid
+
+    Returns
+    -------
+    float or CasADi scalar
+    """
+    return _weighted_sum(grid.stroke_weight, values)
+
+
 def band_mean_square(transmissibility: Cx, grid: ResponseGrid, quantity: str = "velocity"):
     """Payload band mean squares ``sum_j band_weight[b, j] |T_j|^2`` per band.
 
@@ -473,6 +530,18 @@ def band_margin_db(band_mean_square_value, grid: ResponseGrid):
     """Margin per band in dB, ``10 log10(limit^2 / mean square)`` (any backend).
 
     Positive: below the limit. Needs a grid built with a target.
+
+    Parameters
+    ----------
+    band_mean_square_value : array or CasADi column
+        Payload band mean-square velocities ((m/s)^2), one per band of ``grid``.
+    grid : ResponseGrid
+        Built with a target (its ``limit_velocity_m_s``).
+
+    Returns
+    -------
+    array or CasADi column
+        Margins in dB.
     """
     if grid.limit_velocity_m_s is None:
         raise InputError("grid: built without a target; no limits to compare with")

@@ -43,6 +43,7 @@ from isodesign.floor import (
     criterion_from_csv,
     criterion_names,
 )
+from isodesign.floor.survey import floor_from_record, is_record_csv
 from isodesign.numerics.cplx import Cx
 from isodesign.response.isolator import (
     Payload,
@@ -126,6 +127,8 @@ def resolve_floor(floor):
         return floor
     try:
         if _looks_like_file(floor):
+            if is_record_csv(floor):  # a survey time history: mean-square average, z axis
+                return floor_from_record(floor)
             return FloorSpectrum.from_csv(floor)
         if isinstance(floor, CriterionCurve):
             return FloorSpectrum.from_criterion(floor)

@@ -1,8 +1,10 @@
 """Response to random floor vibration: the band response and its closures.
 
-Random floor motion is given by a velocity PSD (:func:`band_response`). The spring's
-amplitude dependence is closed by equivalent linearization iterated to convergence on the
-stroke RMS ``sigma`` (one scalar; secant in ``ln sigma``). The quadratures are the
+Random floor motion is given by a velocity PSD (:func:`band_response`). By default the
+tube's nonlinear pressure drop is replaced by its Gaussian-equivalent resistance at the
+tube velocity's RMS ``sigma_u`` and the diaphragm is evaluated at ``A* = 1.880 sigma`` of
+the stroke, both RMS values solved self-consistently (``docs/random-response.md``); the
+older harmonic closures on the stroke RMS ``sigma`` alone are kept by name. The quadratures are the
 backend-agnostic functions of :mod:`isodesign.response.linearization`, the same ones the
 optimizer evaluates on CasADi symbols. See ``docs/response.md``.
 """
@@ -12,7 +14,6 @@ from __future__ import annotations
 import math
 import warnings
 from dataclasses import dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
@@ -25,6 +26,8 @@ from isodesign.errors import (
     check_positive,
 )
 from isodesign.numerics.cplx import Cx
+from isodesign.plotting.response import band_response_figure, draw_bands, judged_mask
+from isodesign.plotting.style import OPTIMUM
 from isodesign.response.isolator import (
     Payload,
     relative_transmissibility,
@@ -38,9 +41,11 @@ from isodesign.response.linearization import (
     rayleigh_rule,
     response_grid,
     stroke_variance,
+    tube_velocity_variance,
 )
 from isodesign.response.model import (
     LINEAR_REFERENCE_AMPLITUDE_M,
+    TWO_PI,
     SpringModel,
     emit_flags,
     resolve_floor,
@@ -48,6 +53,12 @@ from isodesign.response.model import (
     spring_model,
 )
 from isodesign.response.stability import StabilityFigures, stability_of_model
+from isodesign.results import ResultDisplay
+from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
+from isodesign.spring.diagnostics import evaluate_diagnostics
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import air_stiffness, spring_stiffness
+from isodesign.spring.stiffness import StiffnessResult
 
 __all__ = [
     "RANDOM_METHODS",
@@ -56,8 +67,12 @@ __all__ = [
     "solve_stroke_rms",
 ]
 
-#: Spring amplitude for the random closure: ``A* = 1.880 sigma`` or the Rayleigh average.
-RANDOM_METHODS = ("equivalent_amplitude", "rayleigh")
+#: Closures of the random response: ``statistical`` (the default: Gaussian statistical
+#: linearization of the tube's nonlinear pressure drop at the tube velocity's RMS, the
+#: diaphragm at ``A* = 1.880 sigma``), and the harmonic closures on the stroke kept for
+#: comparison: the spring's describing function at ``A* = 1.880 sigma``
+#: (``equivalent_amplitude``) or its Rayleigh average (``rayleigh``).
+RANDOM_METHODS = ("statistical", "equivalent_amplitude", "rayleigh")
 
 # ---------------------------------------------------------------------------
 # random floor input: band response
@@ -89,6 +104,75 @@ def _random_evaluator(model: SpringModel, grid: ResponseGrid, method: str, nodes
         return _Eval(x, 0.5 * math.log(s2), k, res)
 
     return evaluate
+
+
+class _Statistical:
+    """The statistical linearization on a response grid (NumPy; the NLP uses the same parts).
+
+    ``C(w; sigma_u)`` = linear part (frequency dependent) + Gaussian-equivalent resistance
+    of the nonlinear drop at ``sigma_u``; the diaphragm at ``A* = 1.880 sigma`` of the
+    stroke. :meth:`evaluate` maps ``(ln sigma, ln sigma_u)`` to the variances they produce.
+    """
+
+    def __init__(self, model: SpringModel, grid: ResponseGrid):
+        self.model = model
+        self.grid = grid
+        self.dia = diaphragm_model(model.diaphragm)
+        self.c_of = statistical_resistance_function(model.flow, model.design, grid.omega)
+
+    def stiffness(self, omega, sigma, sigma_u, c_of=None):
+        """``(k, k_air, k_dia, C)`` as Cx at ``omega`` for the two RMS values."""
+        d = self.model.design
+        c = (c_of or statistical_resistance_function(self.model.flow, d, omega))(sigma_u)
+        k_air = air_stiffness(d, omega, c)
+        k_d = self.dia.stiffness(omega, equivalent_amplitude(sigma))
+        return spring_stiffness(k_air, k_d), k_air, k_d, c
+
+    def variances(self, sigma, sigma_u, k_dia=None):
+        """``(sigma^2, sigma_u^2, k)`` produced by the linearization at ``(sigma, sigma_u)``."""
+        d, w = self.model.design, self.grid.omega
+        c = self.c_of(sigma_u)
+        if k_dia is None:
+            k_dia = self.dia.stiffness(w, equivalent_amplitude(sigma))
+        k = spring_stiffness(air_stiffness(d, w, c), k_dia)
+        rel = relative_transmissibility(k, self.model.mass, w)
+        s2 = float(stroke_variance(rel, self.grid))
+        su2 = float(tube_velocity_variance(rel, c, d, self.grid))
+        return s2, su2, k
+
+    def tube_closure(self, sigma, y0: float, rtol: float, max_iter: int):
+        """Solve ``sigma_u`` at a fixed stroke RMS: ``(ln sigma_u, s2, k, n)``."""
+        k_dia = self.dia.stiffness(self.grid.omega, equivalent_amplitude(sigma))
+        cache = {}
+
+        def ev(y):
+            s2, su2, k = self.variances(sigma, math.exp(y), k_dia)
+            cache[y] = (s2, k)
+            return _Eval(y, 0.5 * math.log(su2), k, None)
+
+        e, n, _ = _random_closure(ev, y0, rtol, max_iter)
+        s2, k = cache[e.log_sigma_in]
+        return e.log_sigma_in, s2, k, n
+
+
+def _statistical_closure(st: _Statistical, x0: float, y0: float, rtol: float, max_iter: int):
+    """Nested closure: the stroke RMS outside (secant), the tube velocity RMS inside.
+
+    Returns ``(ln sigma, ln sigma_u, k, evaluations, slope)``.
+    """
+    state = {"y": y0, "n": 0}
+    memo: dict[float, tuple] = {}
+
+    def evaluate(x):
+        y, s2, k, n = st.tube_closure(math.exp(x), state["y"], 0.1 * rtol, max_iter)
+        state["y"] = y
+        state["n"] += n
+        memo[x] = (y, k)
+        return _Eval(x, 0.5 * math.log(s2), k, None)
+
+    ev, _, slope = _random_closure(evaluate, x0, rtol, max_iter)
+    y, k = memo[ev.log_sigma_in]
+    return ev.log_sigma_in, y, k, state["n"], slope
 
 
 def _random_closure(evaluate, x0: float, rtol: float, max_iter: int):
@@ -165,23 +249,59 @@ def solve_stroke_rms(
     derive_pressure: bool = False,
     rtol: float = 1e-12,
     max_iter: int = 50,
+    random_method: str = "equivalent_amplitude",
 ) -> tuple[float, dict]:
     """RMS stroke sigma of the random-input closure on a given response grid (NumPy).
 
-    The same closure as :func:`band_response` (equivalent amplitude
-    ``A* = 1.880 sigma``, secant in ``ln sigma`` from the linear-regime value), on a
-    prebuilt :class:`~isodesign.response.linearization.ResponseGrid`; the optimizer uses it
-    to initialize and to re-check its NLP.
+    The same closures as :func:`band_response`, on a prebuilt
+    :class:`~isodesign.response.linearization.ResponseGrid`; the optimizer uses it to
+    initialize and to re-check its NLP. ``random_method``: ``equivalent_amplitude`` (the
+    spring at ``A* = 1.880 sigma``, secant in ``ln sigma`` from the linear-regime value) or
+    ``statistical`` (the tube's Gaussian-equivalent resistance at ``sigma_u``, both RMS
+    values solved together; ``docs/random-response.md``).
+
+    Parameters
+    ----------
+    design : SpringDesign
+    payload : Payload
+    grid : ResponseGrid
+        The frequencies and quadrature weights (:func:`response_grid`).
+    flow, amplitude_mode, diaphragm : str
+        Spring models, as in :func:`band_response`.
+    derive_pressure : bool
+        Derive p0 from the payload (default ``False``: the design's own).
+    rtol : float
+        Tolerance on ``|ln(sigma_new / sigma)|``.
+    max_iter : int
+        Secant iterations before the Brent fallback.
+    random_method : {'equivalent_amplitude', 'statistical'}
+        The closure.
 
     Returns
     -------
     sigma : float
         RMS stroke, m.
     info : dict
-        ``iterations`` and ``closure_slope``.
+        ``iterations`` and ``closure_slope``; for ``statistical`` also
+        ``tube_velocity_rms_m_s`` (``sigma_u``).
     """
+    check_choice("random_method", random_method, ("equivalent_amplitude", "statistical"))
     model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
     f, w = grid.frequency_hz, grid.omega
+    if random_method == "statistical":
+        if flow not in STATISTICAL_FLOW_MODELS:
+            raise InputError(f"flow: {flow!r} has no time-domain law to linearize "
+                             f"statistically; valid: {', '.join(STATISTICAL_FLOW_MODELS)}")
+        st = _Statistical(model, grid)
+        s2_lin, su2_lin, _ = st.variances(
+            LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR, 1e-9)
+        if not s2_lin > 0:
+            raise InputError("floor: the spectrum carries no motion (PSD zero)")
+        x, y, _, n_it, slope = _statistical_closure(
+            st, 0.5 * math.log(s2_lin), 0.5 * math.log(max(su2_lin, 1e-300)), rtol,
+            int(max_iter))  # fmt: skip
+        return math.exp(x), {"iterations": n_it, "closure_slope": slope,
+                             "tube_velocity_rms_m_s": math.exp(y)}  # fmt: skip
     k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
     s2_lin = float(
         stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w), grid)
@@ -193,8 +313,8 @@ def solve_stroke_rms(
     return math.exp(ev.log_sigma_in), {"iterations": n_it, "closure_slope": slope}
 
 
-@dataclass(frozen=True, eq=False)
-class BandResponse:
+@dataclass(frozen=True, eq=False, repr=False)
+class BandResponse(ResultDisplay):
     """Payload band response to a random floor, with the compliance verdict.
 
     Attributes
@@ -220,7 +340,9 @@ class BandResponse:
         The spring at the final linearization (shape (n_points,), or (n_points, nodes) for
         ``random_method='rayleigh'``); ``.warnings`` lists validity flags.
     iterations : int
-        Evaluations of the closure (one spring evaluation each, the linear start excluded).
+        Evaluations of the closure, the linear start excluded: one spring evaluation each
+        for the harmonic closures; for ``statistical`` the evaluations of the inner (tube
+        velocity) iteration, one vectorized expression on the grid each.
     converged : bool
     closure_slope : float or None
         ``d ln sigma_new / d ln sigma`` at the solution (< 1: a stable, locally unique fixed
@@ -228,6 +350,9 @@ class BandResponse:
     random_method, flow, amplitude_mode, diaphragm, floor_name, target_name : str
     design : SpringDesign
     payload : Payload
+    tube_velocity_rms_m_s : float or None
+        RMS ``sigma_u`` of the capillary's mean velocity at the final linearization
+        (``random_method='statistical'``; ``None`` for the harmonic closures).
     """
 
     grid: ResponseGrid
@@ -253,6 +378,7 @@ class BandResponse:
     target_name: str = ""
     design: Any = field(repr=False, default=None)
     payload: Payload | None = None
+    tube_velocity_rms_m_s: float | None = None
 
     @property
     def bands(self):
@@ -345,47 +471,49 @@ class BandResponse:
             }
         )
 
-    def plot(self, path) -> Path:
-        """Floor, payload and target band RMS velocity, and |T| vs frequency (PNG etc.)."""
-        import matplotlib
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Verdict, worst band, operating amplitude and models (for repr and notebooks)."""
+        return [
+            ("", "PASS" if self.passes else "FAIL"),
+            ("worst band", f"{self.worst_band_label} Hz {self.worst_margin_db:+.2f} dB"),
+            ("bands", f"{len(self.bands)} ({self.bands.labels[0]}-{self.bands.labels[-1]} Hz)"),
+            ("floor", self.floor_name),
+            ("limit", self.target_name),
+            ("stroke A*", f"{self.equivalent_amplitude_m * 1e6:.4g} um"),
+            ("natural frequency", f"{self.stability.natural_frequency_hz:.4g} Hz"),
+            ("models", f"{self.flow} flow, {self.amplitude_mode}, {self.diaphragm} diaphragm"),
+            ("validity flags", str(len(self.warnings))),
+        ]
 
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+    def plot(self, ax=None, *, judged=None, title=None, peak_limit_db=None):
+        """Floor, payload and limit per band; |T| in dB and its phase.
 
-        fig, (ax1, ax2) = plt.subplots(1, 2, figsize=(11, 4.5))
-        c = self.bands.centre_hz
-        um = 1e6
-        ax1.loglog(c, self.floor_velocity_rms_m_s * um, "o-", ms=3,
-                   label=f"floor ({self.floor_name})")  # fmt: skip
-        ax1.loglog(c, self.payload_velocity_rms_m_s * um, "s-", ms=3, label="payload")
-        ax1.loglog(c, self.limit_velocity_rms_m_s * um, "k--", label=f"target {self.target_name}")
-        bad = ~self.band_passes
-        if bad.any():
-            ax1.plot(c[bad], self.payload_velocity_rms_m_s[bad] * um, "rx", ms=8,
-                     label="exceeds")  # fmt: skip
-        ax1.set_xlabel("one-third-octave band centre (Hz)")
-        ax1.set_ylabel("band RMS velocity (um/s)")
-        ax1.set_title(self.verdict(), fontsize=9)
-        ax1.grid(True, which="both", alpha=0.3)
-        ax1.legend(fontsize=8)
-        f = self.grid.frequency_hz
-        ax2.loglog(
-            f,
-            np.abs(self.transmissibility),
-            label=f"A* = {self.equivalent_amplitude_m * 1e6:.3g} um ({self.random_method})",
-        )
-        ax2.loglog(f, np.abs(self.transmissibility_linear), "k--", lw=1,
-                   label=f"linear ({LINEAR_REFERENCE_AMPLITUDE_M * 1e6:g} um)")  # fmt: skip
-        ax2.axhline(1.0, color="0.6", lw=0.8)
-        ax2.set_xlabel("frequency (Hz)")
-        ax2.set_ylabel("|T| (payload / floor)")
-        ax2.grid(True, which="both", alpha=0.3)
-        ax2.legend(fontsize=8)
-        fig.tight_layout()
-        p = Path(path)
-        fig.savefig(p, dpi=120)
-        plt.close(fig)
-        return p
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+            Draw the band panel only, into this axes. Default: a new figure with the
+            band panel and the transmissibility (dB and phase) at the operating
+            amplitude and in the linear regime.
+        judged : ndarray of bool or (lo, hi), optional
+            Judged bands (shaded; failing ones circled); default all.
+        title : str, optional
+        peak_limit_db : float, optional
+            A peak-|T| limit line.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Made with an Agg canvas; the global Matplotlib backend is not touched.
+        """
+        if ax is not None:
+            mask = judged if judged is None or not isinstance(judged, tuple) \
+                else judged_mask(self.bands, judged)
+            draw_bands(ax, [("payload", self, OPTIMUM)], judged=mask)
+            if title:
+                ax.set_title(title, fontsize=10)
+            return ax.figure
+        return band_response_figure(self, judged=judged, title=title,
+                                    peak_limit_db=peak_limit_db)
 
 
 def band_response(
@@ -399,7 +527,7 @@ def band_response(
     flow: str = "quasi_steady",
     amplitude_mode: str = "self_consistent",
     diaphragm="viscoelastic",
-    random_method: str = "equivalent_amplitude",
+    random_method: str = "statistical",
     rayleigh_nodes: int = RAYLEIGH_NODES,
     stroke_amplitude_m: float | None = None,
     rtol: float = 1e-10,
@@ -436,16 +564,27 @@ def band_response(
     flow, amplitude_mode, diaphragm : str
         Spring models (:func:`~isodesign.spring.stiffness.complex_stiffness`;
         ``amplitude_mode`` is the tube-flow amplitude of the spring model).
-    random_method : {'equivalent_amplitude', 'rayleigh'}
-        ``equivalent_amplitude`` (default): the spring at ``A* = 1.880 sigma``
-        (:data:`EQUIVALENT_AMPLITUDE_FACTOR`), exact for quadratic damping, one spring
-        evaluation per iteration. ``rayleigh``: the Rayleigh average of ``k*`` over the
-        amplitude distribution of a narrow-band Gaussian stroke (:func:`rayleigh_rule`,
-        ``rayleigh_nodes`` evaluations per frequency and iteration).
+    random_method : {'statistical', 'equivalent_amplitude', 'rayleigh'}
+        ``statistical`` (default): Gaussian statistical linearization where the
+        nonlinearity lives. The tube's nonlinear pressure drop (minor loss, turbulent part
+        of the friction) becomes one frequency-independent equivalent resistance at the
+        tube velocity's RMS ``sigma_u``
+        (:func:`~isodesign.spring.capillary.gaussian_equivalent_resistance`), the linear
+        parts (Poiseuille or Womersley resistance, inertance) stay frequency dependent, and
+        ``sigma_u`` is solved self-consistently with the stroke RMS ``sigma`` (nested
+        secant iterations); the diaphragm is evaluated at ``A* = 1.880 sigma``.
+        ``amplitude_mode`` does not enter (the tube velocity is the linearized system's
+        own). Needs ``flow`` in ``quasi_steady``, ``womersley``, ``poiseuille``. See
+        ``docs/random-response.md``. The harmonic closures on the stroke, kept for
+        comparison: ``equivalent_amplitude``, the spring's describing function at
+        ``A* = 1.880 sigma`` (:data:`EQUIVALENT_AMPLITUDE_FACTOR`) at every frequency;
+        ``rayleigh``, its Rayleigh average over the amplitude distribution of a
+        narrow-band Gaussian stroke (:func:`rayleigh_rule`).
     rayleigh_nodes : int
         Nodes of the Rayleigh rule.
     stroke_amplitude_m : float, optional
-        Skip the closure: evaluate the spring at this fixed amplitude.
+        Skip the closure: evaluate the spring's describing function at this fixed
+        amplitude (the result reports ``random_method='equivalent_amplitude'``).
     rtol : float
         Tolerance on ``|ln(sigma_new / sigma)|``.
     max_iter : int
@@ -473,54 +612,102 @@ def band_response(
     check_choice("random_method", random_method, RANDOM_METHODS)
     model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
     rtol = check_positive("rtol", rtol)
+    if stroke_amplitude_m is not None and random_method == "statistical":
+        random_method = "equivalent_amplitude"  # a fixed harmonic amplitude: no closure
+    if random_method == "statistical" and flow not in STATISTICAL_FLOW_MODELS:
+        raise InputError(
+            f"flow: {flow!r} has no time-domain law to linearize statistically; valid with "
+            f"random_method='statistical': {', '.join(STATISTICAL_FLOW_MODELS)} (or use "
+            "random_method='equivalent_amplitude')"
+        )
     fl = resolve_floor(floor)
     tg = resolve_target(target)
     grid = response_grid(fl, bands, target=tg, points_per_band=points_per_band)
     f, w = grid.frequency_hz, grid.omega
     k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
     t_lin = model.transmissibility(k_lin, f)
-    evaluate = _random_evaluator(model, grid, random_method, rayleigh_nodes)
-    converged, slope = True, None
-    if stroke_amplitude_m is not None:
-        amp = check_positive("stroke_amplitude_m", stroke_amplitude_m, unit="m")
-        ev = evaluate(math.log(amp / EQUIVALENT_AMPLITUDE_FACTOR))
-        n_it = 1
-    else:
-        s2_lin = float(
-            stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w), grid)
-        )
+    converged, slope, sigma_u = True, None, None
+    if random_method == "statistical":
+        st = _Statistical(model, grid)
+        # start: the linear regime (laminar tube, diaphragm at the reference amplitude)
+        sigma_lin = LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR
+        s2_lin, su2_lin, _ = st.variances(sigma_lin, 1e-9)
         if not s2_lin > 0:
             raise InputError(f"floor: the spectrum {fl.name!r} carries no motion (PSD zero)")
+        x0, y0 = 0.5 * math.log(s2_lin), 0.5 * math.log(max(su2_lin, 1e-300))
         try:
-            ev, n_it, slope = _random_closure(evaluate, 0.5 * math.log(s2_lin), rtol,
-                                              int(max_iter))  # fmt: skip
+            x, y, _, n_it, slope = _statistical_closure(st, x0, y0, rtol, int(max_iter))
         except SolverError as exc:
             if strict:
                 raise
             warnings.warn(f"band_response: {exc}", ModelValidityWarning, stacklevel=2)
-            converged = False
-            ev = evaluate(0.5 * math.log(s2_lin))
-            n_it = int(max_iter)
-    k = ev.k
+            converged, x, y, n_it = False, x0, y0, int(max_iter)
+        sigma_in, sigma_u_in = math.exp(x), math.exp(y)
+        kc, k_air_c, k_d_c, c = st.stiffness(w, sigma_in, sigma_u_in, st.c_of)
+        k = kc.to_complex()
+        rel = relative_transmissibility(kc, model.mass, w)
+        sigma_u = math.sqrt(float(tube_velocity_variance(rel, c, model.design, grid)))
+        amp = equivalent_amplitude(sigma_in)
+        diag = evaluate_diagnostics(
+            flow, model.design, w, np.full(f.shape, amp),
+            np.full(f.shape, math.sqrt(2.0) * sigma_u), c, k_air_c.to_complex(), k,
+            st.dia, "self_consistent",
+        )  # fmt: skip
+        spring_res = StiffnessResult(
+            frequency_hz=f, amplitude_m=np.full(f.shape, amp), k=k,
+            k_air=k_air_c.to_complex(), k_diaphragm=np.broadcast_to(k_d_c.to_complex(), f.shape),
+            diagnostics=diag, flow=flow, amplitude_mode="statistical", diaphragm=st.dia.name,
+            design=model.design,
+        )  # fmt: skip
+
+        def t_exc(ff):
+            kk = st.stiffness(TWO_PI * np.asarray(ff), sigma_in, sigma_u_in)[0]
+            return model.transmissibility(kk.to_complex(), ff)
+
+    else:
+        evaluate = _random_evaluator(model, grid, random_method, rayleigh_nodes)
+        if stroke_amplitude_m is not None:
+            amp = check_positive("stroke_amplitude_m", stroke_amplitude_m, unit="m")
+            ev = evaluate(math.log(amp / EQUIVALENT_AMPLITUDE_FACTOR))
+            n_it = 1
+        else:
+            s2_lin = float(
+                stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w),
+                                grid)
+            )  # fmt: skip
+            if not s2_lin > 0:
+                raise InputError(f"floor: the spectrum {fl.name!r} carries no motion (PSD zero)")
+            try:
+                ev, n_it, slope = _random_closure(evaluate, 0.5 * math.log(s2_lin), rtol,
+                                                  int(max_iter))  # fmt: skip
+            except SolverError as exc:
+                if strict:
+                    raise
+                warnings.warn(f"band_response: {exc}", ModelValidityWarning, stacklevel=2)
+                converged = False
+                ev = evaluate(0.5 * math.log(s2_lin))
+                n_it = int(max_iter)
+        k = ev.k
+        spring_res = ev.result
+        sigma_in = math.exp(ev.log_sigma_in)
+        if random_method == "equivalent_amplitude":
+
+            def t_exc(ff):
+                return model.transmissibility(model.k(ff, equivalent_amplitude(sigma_in)), ff)
+
+        else:
+            a, wq = rayleigh_rule(rayleigh_nodes)
+
+            def t_exc(ff):
+                return model.transmissibility(model.k(ff, sigma_in * a, pairwise=False) @ wq, ff)
+
     t = model.transmissibility(k, f)
     tc = Cx.from_complex(t)
     rel = relative_transmissibility(Cx.from_complex(k), model.mass, w)
     sigma = math.sqrt(float(stroke_variance(rel, grid)))
-    sigma_in = math.exp(ev.log_sigma_in)
     ms_v = np.asarray(band_mean_square(tc, grid, "velocity"))
     ms_x = np.asarray(band_mean_square(tc, grid, "displacement"))
     ms_a = np.asarray(band_mean_square(tc, grid, "acceleration"))
-    if random_method == "equivalent_amplitude":
-
-        def t_exc(ff):
-            return model.transmissibility(model.k(ff, equivalent_amplitude(sigma_in)), ff)
-
-    else:
-        a, wq = rayleigh_rule(rayleigh_nodes)
-
-        def t_exc(ff):
-            return model.transmissibility(model.k(ff, sigma_in * a, pairwise=False) @ wq, ff)
-
     stab = stability_of_model(
         model,
         payload,
@@ -539,7 +726,7 @@ def band_response(
         stroke_rms_m=sigma,
         equivalent_amplitude_m=equivalent_amplitude(sigma_in),
         stability=stab,
-        spring_diagnostics=ev.result,
+        spring_diagnostics=spring_res,
         iterations=n_it,
         converged=converged,
         closure_slope=slope,
@@ -551,6 +738,7 @@ def band_response(
         target_name=tg.name,
         design=model.design,
         payload=payload,
+        tube_velocity_rms_m_s=sigma_u,
     )
     lines = list(res.warnings)
     if slope is not None and slope >= 1.0:

@@ -22,6 +22,7 @@ from isodesign.response.model import (
     peak_of,
     spring_model,
 )
+from isodesign.results import ResultDisplay
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.flow_models import flow_model
 
@@ -34,8 +35,8 @@ __all__ = [
 # ---------------------------------------------------------------------------
 # stability figures
 # ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class StabilityFigures:
+@dataclass(frozen=True, repr=False)
+class StabilityFigures(ResultDisplay):
     """Natural frequency, damping, resonance peak and tilt margin of a loaded isolator.
 
     Attributes
@@ -97,6 +98,25 @@ class StabilityFigures:
     def tilt_stable(self) -> bool | None:
         """``tilt_margin > 1`` (None when not computed)."""
         return None if self.tilt_margin is None else bool(self.tilt_margin > 1.0)
+
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Natural frequency, damping, peak |T|, tilt margin (for repr and notebooks)."""
+        import math
+
+        items = [
+            ("f_n", f"{self.natural_frequency_hz:.4g} Hz"),
+            ("K0", f"{self.static_stiffness_n_per_m / 1e3:.4g} kN/m per isolator"),
+            ("Zener damping ratio", f"{self.zener_damping_ratio:.3g} "
+                                    f"(optimum {self.zener_optimal_damping_ratio:.3g})"),
+            ("peak |T| linear", f"{20 * math.log10(self.peak_transmissibility):+.2f} dB at "
+                                f"{self.peak_frequency_hz:.3g} Hz"),
+        ]
+        if self.excited_peak_transmissibility is not None:
+            items.append(("peak |T| at A*",
+                          f"{20 * math.log10(self.excited_peak_transmissibility):+.2f} dB"))
+        if self.tilt_margin is not None:
+            items.append(("tilt margin", f"{self.tilt_margin:.3g}"))
+        return items
 
     def to_frame(self):
         """One row per figure: ``figure``, ``value``, ``unit``, ``definition``."""

@@ -3,6 +3,8 @@
 * :mod:`~isodesign.simulation.harmonic_rig`: the spring alone on a test rig, driven by a sine
   piston motion; integrates the nonlinear lumped equations and returns the first-harmonic
   complex stiffness (checks :func:`isodesign.complex_stiffness`).
+* :mod:`~isodesign.simulation.monte_carlo`: the payload on its springs under a random floor
+  (Monte Carlo, one-third-octave band analysis; checks :func:`isodesign.response.band_response`).
 """
 
 from isodesign.simulation.harmonic_rig import (
@@ -12,11 +14,19 @@ from isodesign.simulation.harmonic_rig import (
     simulate_grid,
     simulate_stiffness,
 )
+from isodesign.simulation.monte_carlo import (
+    MONTE_CARLO_FLOW_MODELS,
+    MonteCarloResult,
+    simulate_random_response,
+)
 
 __all__ = [
+    "MONTE_CARLO_FLOW_MODELS",
+    "MonteCarloResult",
     "SimulationGridResult",
     "SimulationResult",
     "agreement_table",
     "simulate_grid",
+    "simulate_random_response",
     "simulate_stiffness",
 ]

@@ -61,6 +61,7 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError, SolverError, check_positive, check_range
+from isodesign.results import ResultDisplay
 from isodesign.spring.amplitude import solve_velocity_amplitude
 from isodesign.spring.capillary import (
     QUASI_STEADY_INERTANCE_COEFFICIENT,
@@ -96,8 +97,8 @@ _HEATING_ALLOWANCE = 2.0
 # ---------------------------------------------------------------------------
 # results
 # ---------------------------------------------------------------------------
-@dataclass(frozen=True)
-class SimulationResult:
+@dataclass(frozen=True, repr=False)
+class SimulationResult(ResultDisplay):
     """Complex stiffness from the time-domain simulation at one (X, w).
 
     Attributes
@@ -151,6 +152,13 @@ class SimulationResult:
         """Loss factor ``Im k / Re k`` of the total stiffness."""
         return self.k.imag / self.k.real
 
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Point, stiffness, loss factor and convergence (for repr and notebooks)."""
+        return [("f", f"{self.frequency_hz:.4g} Hz"), ("X", f"{self.amplitude_m * 1e3:.4g} mm"),
+                ("Re k", f"{self.k.real / 1e3:.5g} kN/m"),
+                ("loss factor", f"{self.loss_factor:.4g}"),
+                ("cycles", str(self.cycles)), ("converged", str(self.converged))]
+
     def _row(self) -> dict:
         return {
             "frequency_hz": self.frequency_hz,
@@ -179,8 +187,8 @@ class SimulationResult:
         return df
 
 
-@dataclass(frozen=True, eq=False)
-class SimulationGridResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class SimulationGridResult(ResultDisplay):
     """Time-domain stiffness on a frequency x amplitude grid.
 
     Attributes
@@ -240,6 +248,16 @@ class SimulationGridResult:
     def periodic_change(self) -> np.ndarray:
         """Relative change of the first harmonic over the last cycle, shape (nf, na)."""
         return self._field("periodic_change", float)
+
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Grid size, range and convergence (for repr and notebooks)."""
+        conv = np.array([[r.converged for r in row] for row in self.results], bool)
+        return [("grid", f"{self.shape[0]} frequencies x {self.shape[1]} amplitudes"),
+                ("range", f"{np.min(self.frequency_hz):.3g}-{np.max(self.frequency_hz):.3g} Hz, "
+                          f"{np.min(self.amplitude_m) * 1e3:.3g}-"
+                          f"{np.max(self.amplitude_m) * 1e3:.3g} mm"),
+                ("converged", f"{int(conv.sum())} of {conv.size}"),
+                ("models", f"{self.flow} flow, {self.diaphragm} diaphragm")]
 
     def to_frame(self):
         """One row per case (frequency outer, amplitude inner)."""

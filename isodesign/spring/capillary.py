@@ -8,6 +8,19 @@ velocity, the Churchill, Poiseuille and Zhao friction laws, the Womersley
 impedance). The models themselves (name, resistance ``C(U, w)``, validity checks,
 whether they may enter the NLP) are registered in :mod:`isodesign.spring.flow_models`.
 
+The Gaussian-equivalent resistance (random input)
+-------------------------------------------------
+Under a random floor the tube velocity ``u(t)`` is one Gaussian process of RMS
+``sigma_u``. :func:`statistical_resistance_function` splits the pressure drop into
+its linear part (Poiseuille friction or the Womersley impedance, and the
+inertance: frequency dependent, :func:`linear_resistance`) and its nonlinear part
+``dp_nl(u)`` (the minor loss ``K rho |u| u / 2`` and, for ``quasi_steady``, the
+excess of Churchill's friction over the laminar law), replaced by the
+frequency-independent resistance ``E[u dp_nl(u)] / sigma_u^2``
+(:func:`gaussian_equivalent_resistance`): ``K rho sqrt(8/pi) sigma_u / 2`` in
+closed form for the minor loss, and :func:`gaussian_friction_excess` (a fixed
+quadrature in ``ln Re``) for the friction. Derivation: ``docs/random-response.md``.
+
 The describing function used by ``quasi_steady``
 ------------------------------------------------
 Eq. 22 replaces ``|u| u`` by ``(8 U / 3 pi) u`` for ``u = U sin wt``. For a
@@ -43,14 +56,19 @@ __all__ = [
     "LAMINAR_REYNOLDS_LIMIT",
     "QUASI_STEADY_INERTANCE_COEFFICIENT",
     "QUASI_STEADY_WOMERSLEY_LIMIT",
+    "STATISTICAL_FLOW_MODELS",
     "TURBULENT_REYNOLDS_LIMIT",
     "ZHAO_RANGES",
     "churchill_friction_factor",
     "churchill_friction_re_product",
     "describing_velocity",
     "flow_regime",
+    "gaussian_equivalent_resistance",
+    "gaussian_friction_excess",
     "kinetic_reynolds",
+    "linear_resistance",
     "poiseuille_resistance",
+    "statistical_resistance_function",
     "womersley_number",
     "womersley_zeta",
     "zhao_friction",
@@ -337,3 +355,208 @@ def womersley_zeta(alpha) -> Cx:
         t = bk.log(alpha)
         return Cx(bk.exp(s_r(t)), s_i(t) * alpha * alpha)
     return Cx.from_complex(_womersley_zeta_exact(alpha))
+
+
+# ---------------------------------------------------------------------------
+# Gaussian (random-input) equivalent resistance
+# ---------------------------------------------------------------------------
+#: Flow models with a time-domain law whose nonlinear part the random-input (statistical)
+#: linearization replaces: the smooth models.
+STATISTICAL_FLOW_MODELS = ("quasi_steady", "womersley", "poiseuille")
+#: ``E|x|^3 = sqrt(8/pi)`` for a standard Gaussian ``x``: the Gaussian-equivalent gain of
+#: ``|u| u`` is ``sqrt(8/pi) sigma_u`` (against ``8 U/(3 pi)`` for a sine of amplitude U).
+GAUSSIAN_QUADRATIC_FACTOR = math.sqrt(8.0 / math.pi)
+#: Range in Re of the friction quadrature: Churchill's Phi equals 64 below the lower end
+#: (to 1e-13), and a Gaussian of ``Re_sigma <= 1e6`` has no mass above the upper end.
+_GAUSS_RE_RANGE = (1.0e3, 1.0e7)
+#: Panel width in ln Re and Gauss-Legendre nodes per panel of that quadrature.
+_GAUSS_PANEL, _GAUSS_NODES = 0.2, 8
+
+
+@lru_cache(maxsize=1)
+def _gaussian_friction_rule() -> tuple[np.ndarray, np.ndarray]:
+    """Nodes ``Re_j`` and weights (in ``ln Re``) of the friction-excess quadrature."""
+    lo, hi = (math.log(v) for v in _GAUSS_RE_RANGE)
+    n_panels = math.ceil((hi - lo) / _GAUSS_PANEL - 1e-9)
+    edges = lo + _GAUSS_PANEL * np.arange(n_panels + 1)
+    t, w = np.polynomial.legendre.leggauss(_GAUSS_NODES)
+    h = 0.5 * _GAUSS_PANEL
+    ln_re = (0.5 * (edges[:-1, None] + edges[1:, None]) + h * t).ravel()
+    weights = np.tile(h * w, n_panels)
+    re = np.exp(ln_re)
+    re.flags.writeable = False
+    weights.flags.writeable = False
+    return re, weights
+
+
+@lru_cache(maxsize=1)
+def _smooth_excess() -> np.ndarray:
+    """``Phi(Re_j) - 64`` on the quadrature nodes for a smooth tube (built once)."""
+    re, _ = _gaussian_friction_rule()
+    out = churchill_friction_re_product(re) - 64.0
+    out.flags.writeable = False
+    return out
+
+
+def gaussian_friction_excess(reynolds_rms, relative_roughness=0.0):
+    """``E[x^2 (Phi(Re_sigma |x|) - 64)]`` for a standard Gaussian ``x`` (any backend).
+
+    The Gaussian-equivalent gain of the turbulent part of Churchill's friction
+    (:func:`churchill_friction_re_product`), ``Phi = f Re``: for a tube velocity of RMS
+    ``sigma_u`` and ``Re_sigma = rho sigma_u D_c / mu`` the friction drop
+    ``L mu Phi(Re) u / (2 D^2)`` has the equivalent linear gain
+    ``L mu (64 + gaussian_friction_excess(Re_sigma)) / (2 D^2)``.
+
+    With ``r = Re_sigma x`` the expectation is ``2 integral (Phi(r) - 64) x^3 phi(x) d ln r``
+    (``phi`` the standard normal density, ``x = r / Re_sigma``), evaluated by a composite
+    8-point Gauss-Legendre rule on panels of 0.2 in ``ln r`` from ``Re = 10^3`` (below it
+    ``Phi - 64 < 1e-13``) to ``10^7``: the nodes do not move with ``sigma_u``, so the sharp
+    laminar-turbulent transition of the law is resolved once (relative error below 1e-9
+    of ``64 + excess`` for ``Re_sigma <= 10^6``; a 64-node Gauss-Hermite rule in ``x`` errs
+    by 0.6 % there). Smooth in ``Re_sigma``; zero (to 1e-13) for ``Re_sigma < 1000/9``.
+
+    Parameters
+    ----------
+    reynolds_rms : float, array or CasADi scalar
+        ``Re_sigma`` (> 0). NumPy arrays broadcast over a new trailing axis.
+    relative_roughness : float or CasADi scalar
+        ``eps / D_c``.
+    """
+    re, w = _gaussian_friction_rule()
+    if bk.is_casadi(reynolds_rms, relative_roughness):
+        import casadi as ca
+
+        if isinstance(relative_roughness, int | float) and relative_roughness == 0.0:
+            g = ca.DM(_smooth_excess())
+        else:
+            g = _churchill(ca.DM(re), relative_roughness, False)[0] - 64.0
+        x = ca.DM(re) / reynolds_rms
+        return ca.sum1(ca.DM(w) * g * x * x * x * ca.exp(-0.5 * x * x)) * (2.0 / _SQRT_2PI)
+    if np.ndim(relative_roughness) == 0 and float(relative_roughness) == 0.0:
+        g = _smooth_excess()
+    else:
+        g = churchill_friction_re_product(re, float(relative_roughness)) - 64.0
+    x = re / np.asarray(reynolds_rms, dtype=float)[..., None]
+    return (2.0 / _SQRT_2PI) * np.sum(w * g * x**3 * np.exp(-0.5 * x * x), axis=-1)
+
+
+_SQRT_2PI = math.sqrt(2.0 * math.pi)
+
+
+def gaussian_equivalent_resistance(flow: str, design, velocity_rms):
+    """Gaussian-equivalent resistance of the tube's nonlinear pressure drop, Pa s/kg.
+
+    ``C_nl = E[u dp_nl(u)] / (rho A_c sigma_u^2)`` for a Gaussian tube velocity of RMS
+    ``sigma_u`` (statistical linearization; ``docs/random-response.md``), with ``dp_nl``
+    the part of the pressure drop that is not linear in ``u``:
+
+    * the minor loss ``K rho |u| u / 2`` (every model but ``poiseuille``):
+      ``K sqrt(8/pi) sigma_u / (2 A_c)`` (closed form);
+    * ``quasi_steady`` also the excess of Churchill's all-regime friction over the laminar
+      law: ``L mu E[u^2 (Phi - 64)] / (2 D^2 rho A_c sigma_u^2)``
+      (:func:`gaussian_friction_excess`).
+
+    Frequency independent: one number for the whole spectrum. Any backend.
+
+    Parameters
+    ----------
+    flow : {'quasi_steady', 'womersley', 'poiseuille'}
+        The flow model (``poiseuille`` has no nonlinear part: 0).
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    velocity_rms : float, array or CasADi scalar
+        ``sigma_u``, RMS of the tube's mean velocity, m/s (> 0).
+
+    Returns
+    -------
+    float, array or CasADi scalar
+        ``C_nl`` in Pa s/kg.
+    """
+    d = design
+    area = d.capillary_area_m2
+    if flow == "poiseuille":
+        return 0.0 * velocity_rms
+    if flow == "womersley":
+        return d.minor_loss * GAUSSIAN_QUADRATIC_FACTOR * velocity_rms / (2.0 * area)
+    if flow == "quasi_steady":
+        rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
+        friction_scale = d.capillary_length_m * mu / (rho * dc * dc)
+        excess = gaussian_friction_excess(rho * velocity_rms * dc / mu, d.roughness_m / dc)
+        return (
+            friction_scale * excess + d.minor_loss * GAUSSIAN_QUADRATIC_FACTOR * velocity_rms
+        ) / (2.0 * area)
+    raise InputError(
+        f"flow: the random-input (statistical) linearization needs a flow law with a "
+        f"time-domain form; valid: {', '.join(STATISTICAL_FLOW_MODELS)}; got {flow!r}"
+    )
+
+
+def linear_resistance(flow: str, design, omega) -> Cx:
+    """The part of ``C`` linear in the tube velocity, frequency dependent (any backend).
+
+    ``quasi_steady``: Poiseuille's ``C_u`` plus the inertance ``j w (4/3) L / A_c``;
+    ``womersley``: ``C_u zeta(alpha)`` (exact laminar oscillating flow); ``poiseuille``:
+    ``C_u``. The limit of :func:`resistance` as the velocity amplitude goes to zero.
+
+    Parameters
+    ----------
+    flow : {'quasi_steady', 'womersley', 'poiseuille'}
+        The flow model.
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : array or CasADi symbol
+        Angular frequency, rad/s.
+
+    Returns
+    -------
+    Cx
+        Resistance (real) and ``w`` times the inertance (imaginary), Pa s/kg.
+    """
+    d = design
+    c_u = poiseuille_resistance(d)
+    if flow == "quasi_steady":
+        c_i = (QUASI_STEADY_INERTANCE_COEFFICIENT * omega * d.capillary_length_m
+               / d.capillary_area_m2)
+        return Cx(c_u + 0.0 * c_i, c_i)
+    if flow == "womersley":
+        alpha = womersley_number(d, omega)
+        zeta = womersley_zeta(alpha)
+        return Cx(c_u * zeta.re, c_u * zeta.im)
+    if flow == "poiseuille":
+        z = 0.0 * omega
+        return Cx(c_u + z, z)
+    raise InputError(
+        f"flow: the random-input (statistical) linearization needs a flow law with a "
+        f"time-domain form; valid: {', '.join(STATISTICAL_FLOW_MODELS)}; got {flow!r}"
+    )
+
+
+def statistical_resistance_function(flow: str, design, omega):
+    """Return ``sigma_u -> C(w; sigma_u)``: linear part plus Gaussian-equivalent part.
+
+    ``C = linear_resistance(w) + gaussian_equivalent_resistance(sigma_u)``: the
+    frequency-dependent linear parts are computed once; each call adds the one
+    frequency-independent equivalent resistance of the nonlinear drop at the tube
+    velocity's RMS ``sigma_u`` (m/s). Any backend.
+
+    Parameters
+    ----------
+    flow : {'quasi_steady', 'womersley', 'poiseuille'}
+        The flow model.
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : array or CasADi symbol
+        Angular frequency, rad/s.
+
+    Returns
+    -------
+    callable
+        ``sigma_u -> Cx``.
+    """
+    lin = linear_resistance(flow, design, omega)
+
+    def c_statistical(velocity_rms):
+        c_nl = gaussian_equivalent_resistance(flow, design, velocity_rms)
+        return Cx(lin.re + c_nl, lin.im)
+
+    return c_statistical

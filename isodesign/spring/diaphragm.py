@@ -16,15 +16,33 @@ Fig. 8 directly; no values were published. Models, by name
 ``table`` (:class:`TableDiaphragm`)
     Measured or extracted values on a grid of frequency x amplitude, read from
     CSV, interpolated bilinearly in (log f, log X) as the paper uses its Fig. 8.
+``fit`` (:class:`FittedDiaphragm`)
+    Identified from rig data by :mod:`isodesign.calibration` (``isodesign fit
+    diaphragm``): a generalized Maxwell (Prony) series with non-negative weights,
+    a non-negative static term and a constant-loss term, whose coefficients vary
+    with ln X as Bernstein polynomials with non-negative coefficients; passive at
+    every frequency and amplitude by construction, smooth in (w, X). Read with
+    ``fit:PATH.toml``.
 ``none`` (:class:`NoDiaphragm`)
     k_D* = 0 (the air alone).
+
+Also, as an object only: :class:`PronyDiaphragm`, a linear (amplitude-independent)
+generalized Maxwell element, the causal form the Monte Carlo verifier integrates in the
+time domain (:mod:`isodesign.simulation.monte_carlo`).
+
+A design file's ``[diaphragm]`` table (``model = "viscoelastic"`` with any of
+its parameters, ``"none"``, ``"table:PATH.csv"`` or ``"fit:PATH.toml"``) is read
+by :func:`diaphragm_from_dict`; ``diaphragm_model("PATH.toml")`` accepts a fit
+file or a design file with such a table.
 
 The total stiffness is the parallel sum k*_{d+D} = k_d* + k_D* (Eq. 42).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
+import tomllib
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -38,9 +56,14 @@ from isodesign.numerics.cplx import Cx
 __all__ = [
     "DIAPHRAGM_MODELS",
     "DIAPHRAGM_SPECS",
+    "VISCOELASTIC_PARAMETERS",
+    "FittedDiaphragm",
     "NoDiaphragm",
+    "PronyDiaphragm",
     "TableDiaphragm",
     "ViscoelasticDiaphragm",
+    "bernstein_basis",
+    "diaphragm_from_dict",
     "diaphragm_model",
 ]
 
@@ -49,6 +72,7 @@ DIAPHRAGM_SPECS = {
     "viscoelastic": "viscoelastic",
     "none": "none",
     "table": "table:PATH.csv",
+    "fit": "fit:PATH.toml",
 }
 #: Names of the diaphragm models.
 DIAPHRAGM_MODELS = tuple(DIAPHRAGM_SPECS)
@@ -125,6 +149,56 @@ class ViscoelasticDiaphragm:
 
     def in_range(self, omega, amplitude_m) -> dict:
         """Validity checks (the parametric model has no data range)."""
+        return {}
+
+
+@dataclass(frozen=True)
+class PronyDiaphragm:
+    """Linear viscoelastic diaphragm: ``k_inf + sum k_i j w / (j w + r_i)`` (Prony series).
+
+    A spring ``k_inf`` in parallel with Maxwell branches (stiffness ``k_i``, relaxation rate
+    ``r_i = 1/tau_i``): passive and causal, independent of the amplitude, and realizable in
+    the time domain (each branch force ``q_i`` obeys ``dq_i/dt = k_i dz/dt - r_i q_i``).
+
+    Parameters
+    ----------
+    k_inf_n_per_m : float
+        Static stiffness (>= 0).
+    branch_stiffness_n_per_m, branch_rate_1_per_s : tuple of float
+        ``k_i >= 0`` and ``r_i > 0``, same length.
+    """
+
+    k_inf_n_per_m: float
+    branch_stiffness_n_per_m: tuple = ()
+    branch_rate_1_per_s: tuple = ()
+    name: str = field(default="prony", init=False)
+
+    def __post_init__(self):
+        check_range("diaphragm.k_inf_n_per_m", self.k_inf_n_per_m, 0.0, None)
+        k = tuple(float(v) for v in self.branch_stiffness_n_per_m)
+        r = tuple(float(v) for v in self.branch_rate_1_per_s)
+        if len(k) != len(r):
+            raise InputError("diaphragm: branch_stiffness_n_per_m and branch_rate_1_per_s "
+                             f"differ in length ({len(k)} and {len(r)})")  # fmt: skip
+        if any(not (v >= 0 and math.isfinite(v)) for v in k) or any(
+            not (v > 0 and math.isfinite(v)) for v in r
+        ):
+            raise InputError("diaphragm: branch stiffnesses must be >= 0 and rates > 0")
+        object.__setattr__(self, "branch_stiffness_n_per_m", k)
+        object.__setattr__(self, "branch_rate_1_per_s", r)
+
+    def stiffness(self, omega, amplitude_m) -> Cx:
+        """Complex stiffness in N/m (any backend; independent of the amplitude)."""
+        re = self.k_inf_n_per_m + 0.0 * omega * amplitude_m
+        im = 0.0 * re
+        for k, r in zip(self.branch_stiffness_n_per_m, self.branch_rate_1_per_s, strict=True):
+            den = omega * omega + r * r
+            re = re + k * omega * omega / den
+            im = im + k * omega * r / den
+        return Cx(re, im)
+
+    def in_range(self, omega, amplitude_m) -> dict:
+        """Validity checks (none apply)."""
         return {}
 
 
@@ -292,6 +366,301 @@ class TableDiaphragm:
         return {"diaphragm_table_range": ok}
 
 
+def bernstein_basis(t, degree: int) -> list:
+    """Bernstein polynomials ``B_m(t) = C(M, m) t^m (1-t)^(M-m)``, m = 0..M (any backend).
+
+    Non-negative on [0, 1] and summing to 1 there.
+
+    Parameters
+    ----------
+    t : float, array or CasADi symbol
+        The argument, in [0, 1].
+    degree : int
+        The degree M (>= 0).
+
+    Returns
+    -------
+    list
+        ``[B_0(t), ..., B_M(t)]``.
+    """
+    if degree == 0:
+        return [1.0 + 0.0 * t]
+    u = 1.0 - t
+    return [
+        math.comb(degree, m) * bk.ipow(t, m) * bk.ipow(u, degree - m) for m in range(degree + 1)
+    ]
+
+
+@dataclass(frozen=True, eq=False)
+class FittedDiaphragm:
+    """Diaphragm identified from measurements: passive, smooth, amplitude-softening.
+
+    With ``t = (ln X - ln X_lo) / (ln X_hi - ln X_lo)`` clamped to [0, 1] and the
+    Bernstein polynomials ``B_m(t)`` of degree ``M``::
+
+        k_D*(w, X) = k_st(t) + sum_i g_i(t) j w tau_i / (1 + j w tau_i) + j h(t)
+        k_st(t) = sum_m B_m(t) static[m],  g_i(t) = sum_m B_m(t) weights[m, i],
+        h(t)    = sum_m B_m(t) hysteretic[m]
+
+    a generalized Maxwell (Prony) series on fixed relaxation times ``tau_i``
+    plus a static and a constant-loss (hysteretic) term. Every coefficient is
+    >= 0, so ``Im k_D* >= 0`` at every frequency and amplitude (passive) and the
+    storage part is >= 0; the fit (:func:`isodesign.calibration.fit_diaphragm`)
+    also makes the storage stiffness non-increasing in X. Smooth in w and X
+    inside the measured amplitude range (a polynomial in ln X); outside it the
+    edge value is taken and the point is flagged ``diaphragm_fit_range``.
+
+    Parameters
+    ----------
+    relaxation_times_s : array, shape (n,)
+    static_n_per_m : array, shape (M+1,)
+    weights_n_per_m : array, shape (M+1, n)
+    hysteretic_n_per_m : array, shape (M+1,)
+    amplitude_range_m : (float, float)
+        Measured amplitude range ``(X_lo, X_hi)``; equal for a single amplitude (M = 0).
+    frequency_range_hz : (float, float)
+        Measured frequency range (validity).
+    source : str
+    """
+
+    relaxation_times_s: np.ndarray
+    static_n_per_m: np.ndarray
+    weights_n_per_m: np.ndarray
+    hysteretic_n_per_m: np.ndarray
+    amplitude_range_m: tuple[float, float]
+    frequency_range_hz: tuple[float, float]
+    source: str = ""
+    name: str = field(default="fit", init=False)
+
+    def __post_init__(self):
+        where = f" ({self.source})" if self.source else ""
+        tau = np.asarray(self.relaxation_times_s, dtype=float).reshape(-1)
+        st = np.asarray(self.static_n_per_m, dtype=float).reshape(-1)
+        w = np.asarray(self.weights_n_per_m, dtype=float)
+        h = np.asarray(self.hysteretic_n_per_m, dtype=float).reshape(-1)
+        m1 = st.size
+        if w.ndim != 2 or w.shape != (m1, tau.size) or h.size != m1 or m1 < 1:
+            raise InputError(
+                f"fitted diaphragm{where}: weights_n_per_m must have shape (degree+1, n_tau) = "
+                f"({m1}, {tau.size}) and hysteretic_n_per_m {m1} values; got {w.shape} and "
+                f"{h.size}"
+            )
+        for nm, v in (("relaxation_times_s", tau), ("static_n_per_m", st),
+                      ("weights_n_per_m", w), ("hysteretic_n_per_m", h)):  # fmt: skip
+            if not np.all(np.isfinite(v)):
+                raise InputError(f"fitted diaphragm{where}: {nm} has NaN or infinite values")
+            if np.any(v < 0):
+                raise InputError(
+                    f"fitted diaphragm{where}: {nm} must be >= 0 (a passive diaphragm)"
+                )
+        if np.any(tau <= 0):
+            raise InputError(f"fitted diaphragm{where}: relaxation_times_s must be > 0")
+        lo, hi = (float(v) for v in self.amplitude_range_m)
+        flo, fhi = (float(v) for v in self.frequency_range_hz)
+        if not (0 < lo <= hi and 0 < flo <= fhi):
+            raise InputError(
+                f"fitted diaphragm{where}: amplitude_range_m and frequency_range_hz must be "
+                "positive (lo, hi) pairs with lo <= hi"
+            )
+        if m1 > 1 and hi <= lo:
+            raise InputError(
+                f"fitted diaphragm{where}: a degree {m1 - 1} fit needs amplitude_range_m with "
+                "hi > lo"
+            )
+        for nm, v in (("relaxation_times_s", tau), ("static_n_per_m", st),
+                      ("weights_n_per_m", w), ("hysteretic_n_per_m", h)):  # fmt: skip
+            v = v.copy()
+            v.flags.writeable = False
+            object.__setattr__(self, nm, v)
+        object.__setattr__(self, "amplitude_range_m", (lo, hi))
+        object.__setattr__(self, "frequency_range_hz", (flo, fhi))
+
+    @property
+    def degree(self) -> int:
+        """Degree M of the Bernstein polynomials in ln X."""
+        return self.static_n_per_m.size - 1
+
+    def _t(self, amplitude_m):
+        lo, hi = self.amplitude_range_m
+        if self.degree == 0:
+            return 0.0 * amplitude_m
+        t = (bk.log(amplitude_m) - math.log(lo)) / (math.log(hi) - math.log(lo))
+        if bk.is_casadi(t):
+            import casadi as ca
+
+            return ca.fmin(ca.fmax(t, 0.0), 1.0)
+        return np.clip(t, 0.0, 1.0)
+
+    def coefficients(self, amplitude_m):
+        """``(k_st, g_i (list), h)`` at amplitude X (any backend)."""
+        b = bernstein_basis(self._t(amplitude_m), self.degree)
+        k_st = sum(bm * float(c) for bm, c in zip(b, self.static_n_per_m, strict=True))
+        h = sum(bm * float(c) for bm, c in zip(b, self.hysteretic_n_per_m, strict=True))
+        g = [
+            sum(bm * float(c) for bm, c in zip(b, self.weights_n_per_m[:, i], strict=True))
+            for i in range(self.relaxation_times_s.size)
+        ]
+        return k_st, g, h
+
+    def stiffness(self, omega, amplitude_m) -> Cx:
+        """Complex stiffness k_D*(X, w) in N/m (any backend)."""
+        k_st, g, h = self.coefficients(amplitude_m)
+        re = k_st + 0.0 * omega
+        im = h + 0.0 * omega
+        for gi, tau in zip(g, self.relaxation_times_s, strict=True):
+            wt = omega * float(tau)
+            d = 1.0 + wt * wt
+            re = re + gi * (wt * wt) / d
+            im = im + gi * wt / d
+        return Cx(re, im)
+
+    def in_range(self, omega, amplitude_m) -> dict:
+        """``diaphragm_fit_range``: inside the measured frequency and amplitude range."""
+        f = np.asarray(omega, float) / (2.0 * math.pi)
+        a = np.asarray(amplitude_m, float)
+        tol = 1e-9
+        (lo, hi), (flo, fhi) = self.amplitude_range_m, self.frequency_range_hz
+        ok = (
+            (f >= flo * (1 - tol)) & (f <= fhi * (1 + tol))
+            & (a >= lo * (1 - tol)) & (a <= hi * (1 + tol))
+        )  # fmt: skip
+        return {"diaphragm_fit_range": ok}
+
+    # -- IO -------------------------------------------------------------------
+    def to_toml(self, *, header: str = "", extra: dict | None = None) -> str:
+        """The ``[fitted_diaphragm]`` TOML document (read back by :meth:`from_toml`).
+
+        ``extra`` (a flat dict of numbers and strings) is written as a
+        ``[fit_report]`` table for the record; it is not read back.
+        """
+
+        def arr(v) -> str:
+            return "[" + ", ".join(repr(float(x)) for x in np.ravel(v)) + "]"
+
+        lines = [f"# {h}".rstrip() for h in header.splitlines()] if header else []
+        lines += [
+            "[fitted_diaphragm]",
+            'model = "prony_bernstein"',
+            f"relaxation_times_s = {arr(self.relaxation_times_s)}",
+            f"amplitude_range_m = {arr(self.amplitude_range_m)}",
+            f"frequency_range_hz = {arr(self.frequency_range_hz)}",
+            f"static_n_per_m = {arr(self.static_n_per_m)}",
+            f"hysteretic_n_per_m = {arr(self.hysteretic_n_per_m)}",
+            "weights_n_per_m = [",
+            *(f"    {arr(row)}," for row in self.weights_n_per_m),
+            "]",
+        ]
+        if extra:
+            lines += ["", "[fit_report]"]
+            for k, v in extra.items():
+                if isinstance(v, str):
+                    lines.append(f"{k} = {_toml_str(v)}")
+                elif isinstance(v, bool):
+                    lines.append(f"{k} = {'true' if v else 'false'}")
+                else:
+                    lines.append(f"{k} = {float(v)!r}")
+        return "\n".join(lines) + "\n"
+
+    @classmethod
+    def from_toml(cls, path) -> FittedDiaphragm:
+        """Read a fit file written by :meth:`to_toml` (``isodesign fit diaphragm -o``)."""
+        p = Path(path)
+        data = _read_toml(p, "fitted diaphragm")
+        t = data.get("fitted_diaphragm")
+        if not isinstance(t, dict):
+            raise InputError(
+                f"fitted diaphragm ({p}): no [fitted_diaphragm] table (write one with "
+                "'isodesign fit diaphragm MEASURED.csv -o FILE.toml')"
+            )
+        keys = ("relaxation_times_s", "amplitude_range_m", "frequency_range_hz",
+                "static_n_per_m", "hysteretic_n_per_m", "weights_n_per_m")  # fmt: skip
+        missing = [k for k in keys if k not in t]
+        if missing:
+            raise InputError(f"fitted diaphragm ({p}): missing key(s) {', '.join(missing)}")
+        try:
+            vals = {k: np.asarray(t[k], dtype=float) for k in keys}
+        except (TypeError, ValueError):
+            raise InputError(f"fitted diaphragm ({p}): values must be numbers") from None
+        return cls(
+            relaxation_times_s=vals["relaxation_times_s"],
+            static_n_per_m=vals["static_n_per_m"],
+            weights_n_per_m=np.atleast_2d(vals["weights_n_per_m"]),
+            hysteretic_n_per_m=vals["hysteretic_n_per_m"],
+            amplitude_range_m=tuple(vals["amplitude_range_m"].tolist()),
+            frequency_range_hz=tuple(vals["frequency_range_hz"].tolist()),
+            source=str(p),
+        )
+
+
+def _toml_str(s: str) -> str:
+    return '"' + s.replace("\\", "\\\\").replace('"', '\\"').replace("\n", " ") + '"'
+
+
+def _read_toml(p: Path, what: str) -> dict:
+    try:
+        with p.open("rb") as fh:
+            return tomllib.load(fh)
+    except FileNotFoundError:
+        raise InputError(f"{what}: file {p} not found") from None
+    except (OSError, tomllib.TOMLDecodeError) as exc:
+        raise InputError(f"{what}: cannot read {p}: {exc}") from None
+
+
+#: Parameters of :class:`ViscoelasticDiaphragm` settable in a design file's ``[diaphragm]``.
+VISCOELASTIC_PARAMETERS = tuple(f.name for f in dataclasses.fields(ViscoelasticDiaphragm) if f.init)
+
+
+def diaphragm_from_dict(d: dict, source: str = "diaphragm"):
+    """A diaphragm model from a design file's ``[diaphragm]`` table.
+
+    ``model = "viscoelastic"`` (default) with any of
+    :data:`VISCOELASTIC_PARAMETERS`; ``"none"``; ``"table:PATH.csv"`` or
+    ``"fit:PATH.toml"`` (paths relative to the design file's folder when
+    ``source`` is a file path).
+
+    Parameters
+    ----------
+    d : dict
+        The table.
+    source : str
+        Where it came from (a design file path makes relative paths relative to it).
+    """
+    if not isinstance(d, dict):
+        raise InputError(f"{source}: [diaphragm] must be a table")
+    model = d.get("model", "viscoelastic")
+    if not isinstance(model, str):
+        raise InputError(f"{source}: diaphragm.model: expected a string, got {model!r}")
+    params = {k: v for k, v in d.items() if k != "model"}
+    if model == "viscoelastic":
+        bad = [k for k in params if k not in VISCOELASTIC_PARAMETERS]
+        if bad:
+            raise InputError(
+                f"{source}: unknown key(s) {', '.join('diaphragm.' + k for k in bad)}; "
+                f"valid: model, {', '.join(VISCOELASTIC_PARAMETERS)}"
+            )
+        kw = {}
+        for k, v in params.items():
+            if isinstance(v, bool) or not isinstance(v, int | float):
+                raise InputError(f"{source}: diaphragm.{k}: expected a number, got {v!r}")
+            kw[k] = float(v)
+        try:
+            return ViscoelasticDiaphragm(**kw)
+        except InputError as exc:
+            raise InputError(f"{source}: {exc}") from None
+    if params:
+        raise InputError(
+            f"{source}: diaphragm model {model!r} takes no parameters (got "
+            f"{', '.join(params)}); parameters apply to model = 'viscoelastic'"
+        )
+    base = Path(source).parent if Path(source).suffix == ".toml" else None
+    for prefix in ("table:", "fit:"):
+        if model.startswith(prefix) and base is not None:
+            path = Path(model[len(prefix) :])
+            if not path.is_absolute():
+                model = prefix + str(base / path)
+    return diaphragm_model(model)
+
+
 def _bilinear(gx, gy, v, x, y):
     """Bilinear interpolation on a rectangular grid, clamped at the edges."""
     x = np.clip(x, gx[0], gx[-1])
@@ -308,20 +677,27 @@ def _bilinear(gx, gy, v, x, y):
     )
 
 
-def diaphragm_model(spec) -> NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm:
-    """Resolve a diaphragm model from a name, a CSV path or a model object.
+def diaphragm_model(
+    spec,
+) -> NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm | FittedDiaphragm | PronyDiaphragm:
+    """Resolve a diaphragm model from a name, a file or a model object.
 
     ``"viscoelastic"`` (default parameters), ``"none"``, ``"table:PATH"`` or a
-    path ending in ``.csv`` (a :class:`TableDiaphragm`), or an instance.
+    path ending in ``.csv`` (a :class:`TableDiaphragm`), ``"fit:PATH"`` (a
+    :class:`FittedDiaphragm` written by ``isodesign fit diaphragm``), a path
+    ending in ``.toml`` (a fit file, or a design file with a ``[diaphragm]``
+    table), a ``[diaphragm]`` table as a dict, or an instance.
 
     Parameters
     ----------
-    spec : str, Path or model
-        ``"viscoelastic"``, ``"none"`` (or None), ``"table:PATH"``, a ``.csv`` path, or
-        a model instance (returned as is).
+    spec : str, Path, dict or model
+        The specification (a model instance is returned as is).
     """
-    if isinstance(spec, NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm):
+    if isinstance(spec, NoDiaphragm | ViscoelasticDiaphragm | TableDiaphragm | FittedDiaphragm
+                  | PronyDiaphragm):
         return spec
+    if isinstance(spec, dict):
+        return diaphragm_from_dict(spec)
     if spec is None or spec == "none":
         return NoDiaphragm()
     if spec == "viscoelastic":
@@ -330,10 +706,24 @@ def diaphragm_model(spec) -> NoDiaphragm | ViscoelasticDiaphragm | TableDiaphrag
         s = str(spec)
         if s.startswith("table:"):
             return TableDiaphragm.from_csv(s[len("table:") :])
+        if s.startswith("fit:"):
+            return FittedDiaphragm.from_toml(s[len("fit:") :])
         if s.lower().endswith(".csv"):
             return TableDiaphragm.from_csv(s)
+        if s.lower().endswith(".toml"):
+            data = _read_toml(Path(s), "diaphragm")
+            if "fitted_diaphragm" in data:
+                return FittedDiaphragm.from_toml(s)
+            if "diaphragm" in data:
+                return diaphragm_from_dict(data["diaphragm"], s)
+            raise InputError(
+                f"diaphragm: {s} has neither a [fitted_diaphragm] nor a [diaphragm] table"
+            )
         if s == "table":
             raise InputError("diaphragm: 'table' needs a CSV file: use 'table:PATH' or 'PATH.csv'")
+        if s == "fit":
+            raise InputError("diaphragm: 'fit' needs a fit file: use 'fit:PATH.toml'")
     raise InputError(
-        f"diaphragm: unknown model {spec!r}; valid: {', '.join(DIAPHRAGM_SPECS.values())}"
+        f"diaphragm: unknown model {spec!r}; valid: {', '.join(DIAPHRAGM_SPECS.values())}, "
+        "DESIGN.toml with a [diaphragm] table"
     )

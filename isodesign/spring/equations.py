@@ -23,6 +23,7 @@ __all__ = [
     "driven_velocity",
     "kinematic_velocity",
     "spring_stiffness",
+    "tube_velocity_gain2",
 ]
 
 
@@ -89,6 +90,32 @@ def driven_velocity(design, omega, amplitude_m, c: Cx):
     """
     d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
     return design.volume_ratio * kinematic_velocity(design, omega, amplitude_m) / d.abs()
+
+
+def tube_velocity_gain2(design, omega, c: Cx):
+    """``|U / X|^2``: tube velocity per stroke, squared, for the linearized chambers.
+
+    ``U/X = (A_p/A_c) j w N / (1 + N + j w s C)`` (the linear relation behind
+    :func:`driven_velocity`), so ``|U/X|^2 = (N (A_p/A_c) w)^2 / |1 + N + j w s C|^2``.
+    With the stroke's spectrum it gives the tube velocity's variance (random input).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : array or CasADi symbol
+        Angular frequency, rad/s.
+    c : Cx
+        Flow resistance ``C`` at ``omega``, Pa s/kg.
+
+    Returns
+    -------
+    array or CasADi symbol
+        ``|U/X|^2`` in 1/s^2.
+    """
+    d = 1.0 + design.volume_ratio + _jw_tau(design, omega, c)
+    g = design.volume_ratio * design.area_ratio * omega
+    return g * g / d.abs2()
 
 
 def amplitude_residual(flow: str, design, omega, amplitude_m, log_velocity):

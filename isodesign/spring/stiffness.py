@@ -47,6 +47,8 @@ from isodesign.errors import (
     check_choice,
     check_positive,
 )
+from isodesign.plotting.stiffness import stiffness_figure
+from isodesign.results import ResultDisplay
 from isodesign.spring.amplitude import solve_velocity_amplitude
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diagnostics import Diagnostics, evaluate_diagnostics
@@ -78,8 +80,8 @@ AMPLITUDE_MODES = ("self_consistent", "kinematic")
 # ---------------------------------------------------------------------------
 # result and public API
 # ---------------------------------------------------------------------------
-@dataclass(frozen=True, eq=False)
-class StiffnessResult:
+@dataclass(frozen=True, eq=False, repr=False)
+class StiffnessResult(ResultDisplay):
     """Complex stiffness over frequency x amplitude, with diagnostics.
 
     Attributes
@@ -136,6 +138,36 @@ class StiffnessResult:
     def shape(self) -> tuple[int, ...]:
         """Shape of the evaluated grid."""
         return self.k.shape
+
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Grid, stiffness range, models and validity (for repr and notebooks)."""
+        f = np.asarray(self.frequency_hz, float)
+        x = np.asarray(self.amplitude_m, float)
+        kr = np.asarray(self.k.real, float) / 1e3
+        return [
+            ("points", f"{self.k.size} ({f.min():.3g}-{f.max():.3g} Hz, "
+                       f"{x.min() * 1e3:.3g}-{x.max() * 1e3:.3g} mm)"),
+            ("Re k*", f"{kr.min():.4g}-{kr.max():.4g} kN/m"),
+            ("loss factor", f"{np.nanmin(self.loss_factor):.3g}-{np.nanmax(self.loss_factor):.3g}"),
+            ("models", f"{self.flow} flow, {self.amplitude_mode}, {self.diaphragm} diaphragm"),
+            ("outside validity", f"{int(np.sum(~np.asarray(self.valid, bool)))} points"),
+        ]
+
+    def plot(self, ax=None, *, title=None):
+        """Real part of k* and loss factor against frequency, one curve per amplitude.
+
+        Parameters
+        ----------
+        ax : pair of matplotlib Axes, optional
+            (real part, loss factor) to draw into; default a new figure.
+        title : str, optional
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+            Made with an Agg canvas; the global Matplotlib backend is not touched.
+        """
+        return stiffness_figure([self], title=title, axes=ax)
 
     def to_frame(self):
         """One row per point: stiffness, loss factor and every diagnostic."""

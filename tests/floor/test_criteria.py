@@ -178,20 +178,50 @@ def test_legacy_vc_constant_acceleration_4_to_8_hz(name, ug, um_s):
         c.velocity_rms_m_s(third_octave_bands(3, 8))
 
 
-@pytest.mark.parametrize(
-    ("name", "um_s"),
-    [("ISO-workshop", 800), ("ISO-office", 400), ("ISO-residential-day", 200),
-     ("ISO-operating-theatre", 100)],
-)  # fmt: skip
-def test_iso_curves(name, um_s):
-    c = criterion(name)
+ISO_LEVELS = [("workshop", 8, 800), ("office", 4, 400), ("residential-day", 2, 200),
+              ("residential-night", 1.4, 140), ("operating-theatre", 1, 100)]  # fmt: skip
+
+
+@pytest.mark.parametrize(("label", "factor", "um_s"), ISO_LEVELS)
+def test_iso_curves_follow_the_z_axis_base_curve(label, factor, um_s):
+    """Default ISO curves: ISO 2631-2:1989 z-axis shape, 0.01 f^-1/2, 0.005 m/s^2, velocity."""
+    c = criterion(f"ISO-{label}")
+    b = third_octave_bands(1, 80)
+    f = b.centre_hz
+    v = c.velocity_rms_m_s(b)
+    a = c.acceleration_rms_m_s2(b)
+    np.testing.assert_allclose(v[9:] / UM, um_s, rtol=1e-12)  # 8 ... 80 Hz
+    np.testing.assert_allclose(a[:6], factor * 0.01 * f[:6] ** -0.5, rtol=1e-12)  # 1 ... 3.15
+    np.testing.assert_allclose(a[6:9], factor * 0.005, rtol=1e-12)  # 4 ... 6.3 Hz (4: smaller)
+    assert a[0] == pytest.approx(factor * 0.01, rel=1e-12)  # 1 Hz: twice the 4-8 Hz plateau
+    assert "ISO 2631-2" in c.source and "withdrawn" in c.note
+
+
+@pytest.mark.parametrize(("label", "factor", "um_s"), ISO_LEVELS)
+def test_iso_horizontal_curves(label, factor, um_s):
+    c = criterion(f"ISO-{label}-xy")
+    b = third_octave_bands(1, 80)
+    a = c.acceleration_rms_m_s2(b)
+    v = c.velocity_rms_m_s(b)
+    np.testing.assert_allclose(a[:3], factor * 0.0036, rtol=1e-12)  # 1 ... 1.6 Hz
+    np.testing.assert_allclose(v[3:], factor * 0.0036 / (2 * math.pi * 2), rtol=1e-12)
+    assert v[-1] / UM == pytest.approx(286.5 * factor, rel=1e-3)
+    assert "x-y" in c.source
+
+
+@pytest.mark.parametrize(("label", "factor", "um_s"), ISO_LEVELS)
+def test_iso_const_accel_variant_keeps_the_earlier_shape(label, factor, um_s):
+    c = criterion(f"ISO-{label}-const-accel")
     b = third_octave_bands(1, 80)
     v = c.velocity_rms_m_s(b)
-    np.testing.assert_allclose(v[9:] / UM, um_s, rtol=1e-12)  # 8 ... 80 Hz
+    np.testing.assert_allclose(v[9:] / UM, um_s, rtol=1e-12)
     np.testing.assert_allclose(v[9:] / UIN, um_s * 40, rtol=0.017)  # 32000 ... uin/s
     a = c.acceleration_rms_m_s2(b)[:9]  # 1 ... 6.3 Hz: constant acceleration
     np.testing.assert_allclose(a, 2 * math.pi * 8 * um_s * UM, rtol=1e-12)
-    assert "ISO 2631-2" in c.source
+    # twice as strict at 1 Hz as the z-axis base-curve shape
+    assert criterion(f"ISO-{label}").acceleration_rms_m_s2(b)[0] / a[0] == pytest.approx(
+        1.989, abs=1e-3
+    )
 
 
 def test_nist_a_published_values():
@@ -215,7 +245,7 @@ def test_registry_case_insensitive(name):
 
 def test_registry_names_and_passthrough():
     names = criterion_names()
-    assert len(names) == 14 and names[0] == "VC-A" and "NIST-A" in names
+    assert len(names) == 25 and names[0] == "VC-A" and "NIST-A" in names
     c = criterion("VC-C")
     assert criterion(c) is c
     for n in names:
@@ -237,13 +267,13 @@ def test_curves_are_immutable():
 
 def test_criteria_table_long_and_wide():
     long = criteria_table()
-    # 12 curves over 20 bands, legacy curves over 4 ... 80 Hz (14 bands)
-    assert len(long) == 12 * 20 + 2 * 14
+    # 23 curves over 20 bands (7 VC, 15 ISO-derived, NIST-A), legacy curves over 4 ... 80 Hz
+    assert len(long) == 23 * 20 + 2 * 14
     row = long[(long.criterion == "VC-A") & (long.label == "31.5")].iloc[0]
     assert row.velocity_rms_m_s == pytest.approx(50e-6)
     assert row.velocity_rms_um_s == pytest.approx(50)
     wide = criteria_table(1, 80, layout="wide", velocity_unit="um/s")
-    assert wide.shape == (20, 3 + 14)
+    assert wide.shape == (20, 3 + 25)
     assert wide["VC-B"].iloc[0] == pytest.approx(25)
     assert np.isnan(wide["VC-A-legacy"].iloc[0])
     assert wide.attrs["velocity_unit"] == "um/s"
@@ -263,6 +293,8 @@ def test_segment_validation():
         CurveSegment(8, 1, "velocity", 1.0)
     with pytest.raises(InputError, match="segments"):
         CriterionCurve("x", "d", "s")
+    with pytest.raises(InputError, match="exponent"):
+        CurveSegment(1, 4, "acceleration", 0.01, float("nan"))
 
 
 # --------------------------------------------------------------------------------------------

@@ -283,3 +283,21 @@ def test_load_design_errors_name_the_file(tmp_path):
     p.write_text("volume_ratio = 2.0\nbogus = 1\n")
     with pytest.raises(InputError, match=r"spring\.toml: unknown key 'bogus'"):
         load_design(p)
+
+
+def test_design_file_diaphragm_table_is_the_recorded_diaphragm(tmp_path):
+    """A [diaphragm] table is the diaphragm the commands use; given twice it is refused."""
+    from isodesign.io.designfile import load_design_models, load_diaphragm
+
+    base = reference_design_path().read_text()
+    p = tmp_path / "d.toml"
+    p.write_text(base + '\n[diaphragm]\nmodel = "none"\n')
+    models = load_design_models(p)
+    assert models["diaphragm"] == str(p)
+    assert load_diaphragm(p) is not None
+    both = tmp_path / "both.toml"
+    both.write_text(base + '\n[models]\ndiaphragm = "none"\n\n[diaphragm]\nmodel = "none"\n')
+    with pytest.raises(InputError, match="given twice"):
+        load_design_models(both)
+    with pytest.raises(InputError, match="given twice"):
+        load_design(both)

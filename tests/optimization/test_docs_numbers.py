@@ -24,6 +24,7 @@ from isodesign.optimization.study import default_study
 from isodesign.response.random_input import band_response
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "optimization.md"
+README = Path(__file__).resolve().parents[2] / "README.md"
 NUM = r"[+-]?\d+(?:\.\d+)?"
 
 #: (regular expression, with named groups of quoted numbers)
@@ -53,7 +54,7 @@ CHECKS = [
     # section 4
     rf"the large-N branch \(N = (?P<large_n>{NUM}),\nV_t0 = (?P<large_vt_l>{NUM}) L, "
     rf"(?P<large_margin_db>{NUM}) dB on the sampled peak grid, reached by (?P<large_count>\d+) of "
-    rf"(?P<n_starts>\d+) starts, not by the study's own start\) and a\nsmall-N branch "
+    rf"(?P<n_starts>\d+) starts, the study's own start among them\) and a\nsmall-N branch "
     rf"\(N = (?P<small_n>{NUM}), V_t0 = (?P<small_vt_l>{NUM}) L, (?P<small_margin_db>{NUM}) dB, "
     rf"(?P<small_count>\d+) of (?P<n_starts__2>\d+)\)",
     # section 5
@@ -173,12 +174,12 @@ def quoted_values() -> dict:
         q[f"{name}_vt_l"] = best.final["top_volume_m3"] * 1e3
         q[f"{name}_margin_db"] = best.objective
         q[f"{name}_count"] = len(group)
-    assert large[0].index != 0
+    assert large[0].index == 0  # the document says the study's own start is among them
     q["refine_cost_db"] = q["large_margin_db"] - res.objective_value
     # the continuous peak at the sampled optimum, before the refinement
     best = max(large, key=lambda s: s.objective)
-    sigma = evaluate_design(st, best.final, grid=prob.grid)["sigma"]
-    q["first_peak_db"] = continuous_peak_db(prob, best.final, sigma)[0]
+    ev = evaluate_design(st, best.final, grid=prob.grid)
+    q["first_peak_db"] = continuous_peak_db(prob, best.final, ev["sigma"], ev["tube_rms"])[0]
     # the same laminar resistance L_c / D_c^4 in a 12 mm tube
     short = dict(v, capillary_length_m=0.012,
                  capillary_diameter_m=v["capillary_diameter_m"]
@@ -191,6 +192,38 @@ def quoted_values() -> dict:
     q["short_margin_db"] = an_s.worst_margin_db
     q["short_loss_db"] = an.worst_margin_db - an_s.worst_margin_db
     return q
+
+
+#: What README.md quotes about the default study.
+README_CHECKS = [
+    rf"The paper's spring misses VC-C by (?P<start_miss_db>{NUM}) dB; the\noptimum "
+    rf"\(N = (?P<opt_n>{NUM}), V_t0 = (?P<opt_vt_l>{NUM}) L, L_c = (?P<opt_lc_mm>{NUM}) mm, "
+    rf"D_c = (?P<opt_dc_mm>{NUM}) mm, (?P<opt_total_l>{NUM}) L in all\) meets it with\n"
+    rf"(?P<opt_margin_analysis_db>{NUM}) dB",
+]
+
+
+def readme_matches() -> list[dict]:
+    """The named groups of every README check (each must match exactly once)."""
+    text = " ".join(README.read_text(encoding="utf-8").split())
+    out = []
+    for pattern in README_CHECKS:
+        found = list(re.finditer(re.sub(r"\\n *", " ", pattern), text))
+        assert len(found) == 1, f"{len(found)} matches in README.md for: {pattern}"
+        out.append(found[0].groupdict())
+    return out
+
+
+def test_readme_checks_match_once():
+    assert sum(len(m) for m in readme_matches()) == 7
+
+
+@pytest.mark.slow
+def test_readme_numbers_match_the_default_run(quoted_values):
+    wrong = [f"{name}: README {text}, code {printed_as(quoted_values[name], text)}"
+             for groups in readme_matches() for name, text in groups.items()
+             if printed_as(quoted_values[name], text) != text]
+    assert not wrong, "README.md drifted: " + "; ".join(wrong)
 
 
 @pytest.mark.slow

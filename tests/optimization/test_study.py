@@ -241,7 +241,7 @@ def test_zhao_flow_refused_with_the_reason(flow):
     [
         ("flow", "darcy", {"quasi_steady", "womersley", "poiseuille"}),
         ("amplitude_mode", "linear", {"self_consistent", "kinematic"}),
-        ("random_method", "monte_carlo", {"equivalent_amplitude"}),
+        ("random_method", "monte_carlo", {"statistical", "equivalent_amplitude"}),
     ],
 )
 def test_unknown_model_choice(key, value, valid):

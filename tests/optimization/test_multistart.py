@@ -1,0 +1,58 @@
+"""Worker processes of the multi-start and of the Pareto sweep: capped by the cores."""
+
+from __future__ import annotations
+
+import os
+
+import pytest
+
+from isodesign.optimization import multistart, pareto
+
+
+class PidProblem:
+    """A stand-in NLP whose 'solve' returns the id of the process that ran it."""
+
+    def initial_guess(self, vals):
+        return vals
+
+    def solve(self, x0, params=None):
+        return os.getpid()
+
+
+@pytest.fixture
+def one_core(monkeypatch):
+    """The process may run on one core only (affinity), of a machine with 8."""
+    monkeypatch.setattr(os, "cpu_count", lambda: 8)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0}, raising=False)
+
+
+def test_available_cores_follows_the_affinity(one_core):
+    assert multistart.available_cores() == 1
+
+
+def test_available_cores_without_affinity(monkeypatch):
+    monkeypatch.delattr(os, "sched_getaffinity", raising=False)
+    monkeypatch.setattr(os, "cpu_count", lambda: None)
+    assert multistart.available_cores() == 1
+    monkeypatch.setattr(os, "cpu_count", lambda: 3)
+    assert multistart.available_cores() == 3
+
+
+@pytest.mark.parametrize("workers", [2, 8, None])
+def test_run_starts_caps_the_workers_at_the_cores(one_core, workers):
+    """solver.workers (default 2) above the cores: the starts run in this process."""
+    out = multistart.run_starts(PidProblem(), [{"i": i} for i in range(4)], workers=workers)
+    assert out == [os.getpid()] * 4
+
+
+def test_pareto_chains_cap_the_workers_at_the_cores(one_core, monkeypatch):
+    monkeypatch.setattr(pareto, "_chain",
+                        lambda prob, anchor, idx, eps, anchor_b: {k: os.getpid() for k in idx})
+    out = pareto._run_chains(None, [(None, [0, 1]), (None, [3, 2])], None, None, 2)
+    assert out == {k: os.getpid() for k in range(4)}
+
+
+@pytest.mark.skipif(multistart.available_cores() < 2, reason="needs two cores")
+def test_run_starts_forks_when_the_cores_are_there():
+    out = multistart.run_starts(PidProblem(), [{"i": i} for i in range(4)], workers=2)
+    assert len(out) == 4 and os.getpid() not in out

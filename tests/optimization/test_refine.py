@@ -1,0 +1,58 @@
+"""The peak refinement (exchange method) when it cannot meet the peak limit."""
+
+from __future__ import annotations
+
+import pytest
+
+from isodesign.io.record import grid_notes, optimization_design, optimization_record
+from isodesign.optimization import refine
+from isodesign.optimization.driver import optimize
+from isodesign.optimization.study import default_study
+
+#: A coarse base peak grid (10 points over ~0.2-18 Hz, 1.6x apart): the sampled |T|
+#: misses the resonance peak, which the default study's 15 dB bound makes binding.
+COARSE = {"points_per_band": 3, "peak_points": 10}
+
+
+@pytest.fixture(scope="module")
+def unmet_run():
+    """The refinement allowed no round: the continuous peak stays above the bound."""
+    st = default_study().with_changes(models=COARSE, solver={"starts": 2})
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(refine, "PEAK_ROUNDS", 0)
+        res = optimize(st)
+    return st, res
+
+
+def test_a_peak_above_the_bound_after_the_last_round_is_flagged(unmet_run):
+    st, res = unmet_run
+    bound = st.constraints["max_peak_transmissibility_db"]
+    pk = res.peak
+    assert pk["rounds"] == 0 and pk["met"] is False
+    assert pk["limit_db"] == bound
+    assert pk["peak_db"] > bound + refine.PEAK_TOLERANCE_DB
+    assert pk["excess_db"] == pytest.approx(pk["peak_db"] - bound, rel=1e-12)
+    # the result does not claim a clean optimum: a violation entry, success False
+    assert dict(res.violations) == {"continuous_peak_transmissibility": pk["excess_db"]}
+    assert res.success is False
+    rec = optimization_record(res, argv=[])
+    assert rec["violations"] == [{"name": "continuous_peak_transmissibility",
+                                  "amount": pk["excess_db"]}]
+    # the note (the CLI's warning line) names the refinement, not only the base grid
+    notes = optimization_design(res)["notes"]
+    assert len(notes) == 1
+    assert "refinement" in notes[0] and "0 round" in notes[0]
+    assert f"{pk['peak_db']:.3f} dB" in notes[0]
+
+
+def test_a_met_refinement_has_no_violation_and_an_accurate_note():
+    """With the refinement's rounds the same study meets the bound; a grid note, if any,
+    says the bound is enforced on the peak grid plus the refinement's frequencies."""
+    st = default_study().with_changes(models=COARSE, solver={"starts": 2})
+    res = optimize(st)
+    assert res.peak["met"] is True and res.peak["rounds"] >= 1
+    assert res.violations == () and res.success
+    bound = st.constraints["max_peak_transmissibility_db"]
+    fig = {"peak_transmissibility_db": bound + 0.008, "peak_frequency_hz": 1.3}
+    (note,) = grid_notes(res, fig)
+    assert "refinement" in note and f"{len(res.peak['added_frequencies_hz'])}" in note
