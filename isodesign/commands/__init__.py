@@ -32,6 +32,10 @@ import os
 import sys
 from pathlib import Path
 
+from isodesign.errors import InputError
+from isodesign.io.files import atomic_path, atomic_write_text
+from isodesign.io.rundir import RunDirectory
+
 __all__ = [
     "MAX_GRID_POINTS",
     "MAX_LIST_VALUES",
@@ -128,7 +132,6 @@ def option_names(**names: str):
     **names : str
         Library parameter name -> the option that sets it.
     """
-    from isodesign.errors import InputError
 
     try:
         yield
@@ -210,7 +213,6 @@ def run_directory(args, command: str, *, known_outputs=(), option: str = "--outp
     -------
     RunDirectory
     """
-    from isodesign.io.rundir import RunDirectory
 
     return RunDirectory(args.output, command=command,
                         overwrite=bool(getattr(args, "overwrite", False)), option=option,
@@ -230,7 +232,6 @@ def input_error(message: str) -> Exception:
     InputError
         To be raised by the caller.
     """
-    from isodesign.errors import InputError
 
     return InputError(message)
 
@@ -416,7 +417,6 @@ def write_text(path: str | Path, text: str) -> Path:
     if str(path) == "-":
         sys.stdout.write(text)
         return Path("-")
-    from isodesign.io.files import atomic_write_text
 
     return atomic_write_text(path, text)
 
@@ -452,7 +452,6 @@ def write_figure(path: str | Path):
     path : str or Path
         The figure file (its suffix, kept by the temporary name, sets the format).
     """
-    from isodesign.io.files import atomic_path
 
     with atomic_path(path) as tmp:
         yield tmp

@@ -14,6 +14,10 @@ from __future__ import annotations
 import argparse
 import math
 
+from isodesign.commands import check_output_path, option_names, write_text
+from isodesign.errors import InputError, check_positive
+from isodesign.floor import criteria_table
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign criteria``."""
@@ -80,9 +84,6 @@ def format_table(df) -> str:
 
 def run(args) -> int:
     """Run ``isodesign criteria``."""
-    from isodesign.commands import check_output_path, option_names, write_text
-    from isodesign.errors import InputError, check_positive
-    from isodesign.floor import criteria_table
 
     check_positive("--fmin", args.fmin, unit="Hz")
     check_positive("--fmax", args.fmax, unit="Hz")

@@ -21,6 +21,18 @@ from __future__ import annotations
 
 import argparse
 
+from isodesign.commands import add_output_dir_arguments, run_directory
+from isodesign.commands.optimize import execute
+from isodesign.commands.stiffness import (
+    DEFAULT_AMPLITUDES_M,
+    TABLE2_FREQUENCIES_HZ,
+    compute,
+    load,
+    summary,
+)
+from isodesign.optimization.study import default_study
+from isodesign.plotting import plot_stiffness
+
 MODELS = (
     ("stiffness.csv", "default model", "quasi_steady", "self_consistent"),
     ("stiffness_paper_model.csv", "paper's model", "zhao", "kinematic"),
@@ -29,7 +41,6 @@ MODELS = (
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign demo``."""
-    from isodesign.commands import add_output_dir_arguments
 
     add_output_dir_arguments(parser, required=False, default="out/demo")
     parser.add_argument(
@@ -43,14 +54,6 @@ OUTPUT_FILES = ("optimize", "stiffness", "record.json")
 
 def stiffness_comparison(run, prefix: str = "stiffness/") -> None:
     """The reference spring's complex stiffness, default model vs the paper's, into ``run``."""
-    from isodesign.commands.stiffness import (
-        DEFAULT_AMPLITUDES_M,
-        TABLE2_FREQUENCIES_HZ,
-        compute,
-        load,
-        summary,
-    )
-    from isodesign.plotting import plot_stiffness
 
     design, label = load(None)
     results = []
@@ -81,9 +84,6 @@ def run(args) -> int:
     """Run ``isodesign demo``."""
     from pathlib import Path
 
-    from isodesign.commands import run_directory
-    from isodesign.commands.optimize import execute
-    from isodesign.optimization.study import default_study
 
     study = default_study()
     rundir = run_directory(args, "demo", known_outputs=OUTPUT_FILES)

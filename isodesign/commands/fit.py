@@ -17,6 +17,17 @@ from __future__ import annotations
 
 import argparse
 
+from isodesign.calibration import fit_diaphragm, read_measured_csv
+from isodesign.calibration.air_fit import fit_air_side
+from isodesign.commands import (
+    PLOT_SUFFIXES,
+    check_output_path,
+    input_error,
+    write_figure,
+    write_text,
+)
+from isodesign.commands.stiffness import load
+
 #: Calibratable air-side parameters (short name -> design field); kept here, not imported, so
 #: that ``--help`` does not load NumPy (tests check it matches calibration.air_fit).
 AIR_PARAMETER_NAMES = {"K": "minor_loss", "D_c": "capillary_diameter_m", "n": "polytropic_index"}
@@ -71,16 +82,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     """Run ``isodesign fit``."""
-    from isodesign.calibration import fit_diaphragm, read_measured_csv
-    from isodesign.calibration.air_fit import fit_air_side
-    from isodesign.commands import (
-        PLOT_SUFFIXES,
-        check_output_path,
-        input_error,
-        write_figure,
-        write_text,
-    )
-    from isodesign.commands.stiffness import load
 
     check_output_path(args.output, "--output")
     check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)

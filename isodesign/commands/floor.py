@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import argparse
 
+from isodesign.commands import add_output_dir_arguments, input_error, run_directory
+from isodesign.floor.survey import analyze_record, read_record
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign floor``."""
     parser.add_argument("record", metavar="RECORD.csv", help="time history (CSV)")
-    from isodesign.commands import add_output_dir_arguments
 
     add_output_dir_arguments(parser)
     parser.add_argument("--unit", help="unit of the record's values (overrides the header)")
@@ -49,8 +51,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     """Run ``isodesign floor``."""
-    from isodesign.commands import input_error, run_directory
-    from isodesign.floor.survey import analyze_record, read_record
 
     if not 0 < args.percentile <= 100:
         raise input_error(f"--percentile: must be in (0, 100], got {args.percentile:g}")

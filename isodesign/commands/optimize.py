@@ -20,7 +20,24 @@ from __future__ import annotations
 import argparse
 import sys
 
+from isodesign.commands import add_output_dir_arguments, run_directory
 from isodesign.commands import int_option as _int_option
+from isodesign.errors import InputError, ModelValidityWarning
+from isodesign.io.designfile import design_to_toml
+from isodesign.io.record import (
+    command_line,
+    constraint_rows,
+    environment,
+    optimization_design,
+    optimization_record,
+    resolved_study_dict,
+    study_toml,
+)
+from isodesign.optimization.driver import optimize
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.solution import Solution
+from isodesign.optimization.study import default_study, load_study
+from isodesign.plotting import optimization_plot
 
 #: Files written by ``isodesign optimize`` (feasible run, plots on).
 OUTPUT_FILES = (
@@ -71,7 +88,6 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign optimize``."""
-    from isodesign.commands import add_output_dir_arguments
 
     add_study_arguments(parser)
     add_output_dir_arguments(parser)
@@ -86,8 +102,6 @@ def load_study_from_args(args):
     The overrides are folded into the study, so ``study.raw`` (written as
     ``study_resolved.toml``) replays the run without the options.
     """
-    from isodesign.errors import InputError
-    from isodesign.optimization.study import default_study, load_study
 
     changes = {}
     for opt, key, lo, hi in (("--starts", "starts", 1, 256), ("--workers", "workers", 1, 64),
@@ -110,7 +124,6 @@ SEED_MAX = 2**32 - 1
 
 def open_run(args, command: str = "optimize", known_outputs=OUTPUT_FILES):
     """The run directory of ``args.output`` (checked now: before any computation)."""
-    from isodesign.commands import run_directory
 
     return run_directory(args, command, known_outputs=known_outputs)
 
@@ -186,8 +199,6 @@ class StartProgress:
     def __call__(self, done: int, total: int, out=None) -> None:
         if self._progress is None:
             return
-        from isodesign.optimization.objectives import OBJECTIVES
-        from isodesign.optimization.solution import Solution
 
         if isinstance(out, Solution) and out.feasible:
             obj = OBJECTIVES[self.objective]
@@ -211,7 +222,6 @@ class StartProgress:
 
 def format_objective(kind: str, value) -> str:
     """An objective value in display units (dB, L, um/s)."""
-    from isodesign.optimization.objectives import OBJECTIVES
 
     if value is None:
         return "n/a"
@@ -314,7 +324,6 @@ def flat_text(result) -> str:
         return "flat direction: not examined (D_c is fixed)"
     d0, d1 = fd["capillary_diameter_range_m"]
     l0, l1 = fd["capillary_length_range_m"]
-    from isodesign.optimization.objectives import OBJECTIVES
 
     tol = format_objective(result.objective, fd["objective_tolerance"]) \
         if OBJECTIVES[result.objective].db \
@@ -375,7 +384,6 @@ def summary(result, design: dict) -> str:
 
 def failure_report(result) -> str:
     """Report of a run without a feasible design: status, violations, best point."""
-    from isodesign.io.record import constraint_rows
 
     cons = {c["name"]: c for c in constraint_rows(result)}
     lines = [
@@ -427,13 +435,6 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
     inside it (``"optimize/"`` for ``isodesign demo``). The run record's fields go into
     ``run.record`` (written as ``record.json`` when the run ends, with its status).
     """
-    from isodesign.io.designfile import design_to_toml
-    from isodesign.io.record import (
-        optimization_design,
-        optimization_record,
-        resolved_study_dict,
-        study_toml,
-    )
 
     written = []
     rec = optimization_record(result, argv=canonical_command(args, "optimize")[1:],
@@ -462,7 +463,6 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
                                   design_to_toml(result.design, models=models, header=header)))
     written.append(run.write_csv(prefix + "bands.csv", bands_frame(result)))
     if plots:
-        from isodesign.plotting import optimization_plot
 
         with run.writing(prefix + "response.png") as tmp:
             optimization_plot(result, tmp)
@@ -472,7 +472,6 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
 
 def run_optimization(study, args):
     """``optimize(study)`` with the progress bar of ``args``."""
-    from isodesign.optimization.driver import optimize
 
     with StartProgress(progress_enabled(args), study.solver["starts"],
                        study.objective["kind"]) as bar:
@@ -487,8 +486,6 @@ def execute(study, run, args, *, prefix: str = "") -> int:
     """
     import warnings
 
-    from isodesign.errors import ModelValidityWarning
-    from isodesign.io.record import command_line, environment, resolved_study_dict
 
     # what is known before the solve: recorded even if the run fails or is interrupted
     base = {"kind": "isodesign optimize",
@@ -510,7 +507,6 @@ def execute(study, run, args, *, prefix: str = "") -> int:
               f"{worst}; wrote {run.final_path('record.json')} (run_status infeasible)",
               file=sys.stderr)
         return 1
-    from isodesign.io.record import optimization_design
 
     design = optimization_design(result)
     if args.quiet:

@@ -17,7 +17,32 @@ from __future__ import annotations
 import argparse
 import sys
 
-from isodesign.commands.optimize import add_study_arguments
+from isodesign.commands import add_output_dir_arguments, check_count, input_error
+from isodesign.commands import int_option as _int_option
+from isodesign.commands.optimize import OUTPUT_FILES as OPTIMIZE_FILES
+from isodesign.commands.optimize import (
+    StartProgress,
+    add_study_arguments,
+    canonical_command,
+    format_objective,
+    load_study_from_args,
+    open_run,
+    progress_enabled,
+    study_label,
+    table,
+)
+from isodesign.commands.response import models_line
+from isodesign.errors import SolverError
+from isodesign.io.record import (
+    command_line,
+    environment,
+    pareto_record,
+    resolved_study_dict,
+    study_toml,
+)
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.pareto import pareto_front
+from isodesign.plotting import pareto_plot
 
 #: Default objectives (must equal optimization.pareto.DEFAULT_OBJECTIVES; a test checks it).
 #: Kept here so that --help does not load NumPy.
@@ -48,8 +73,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         help="objective A (optimized) and B (swept as a constraint); default %(default)s; "
         f"names: {', '.join(OBJECTIVE_CHOICES)}",
     )
-    from isodesign.commands import add_output_dir_arguments
-    from isodesign.commands import int_option as _int_option
 
     parser.add_argument(
         "--points",
@@ -64,7 +87,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def parse_objectives(text: str) -> tuple[str, str]:
     """``A,B`` -> (A, B); InputError naming --objectives otherwise."""
-    from isodesign.commands import input_error
 
     if len(text) > 200:
         raise input_error(f"--objectives: give two names A,B, got {text[:40]!r}...")
@@ -83,7 +105,6 @@ def parse_objectives(text: str) -> tuple[str, str]:
 
 def _natural_points(result) -> dict:
     """Reference and ideal points back in each objective's natural sense and unit."""
-    from isodesign.optimization.objectives import OBJECTIVES
 
     out = {}
     for name, pt in (("reference_point", result.reference_point),
@@ -95,7 +116,6 @@ def _natural_points(result) -> dict:
 
 def pareto_json(result) -> dict:
     """The content of ``pareto.json``."""
-    from isodesign.optimization.objectives import OBJECTIVES
 
     nat = _natural_points(result)
     return {
@@ -121,7 +141,6 @@ def front_table(result) -> str:
     """Every point, sorted by objective B; dominated ones marked, failed ones kept."""
     import math
 
-    from isodesign.commands.optimize import format_objective, table
 
     a, b = result.objectives
     order = sorted(range(len(result.designs)),
@@ -146,7 +165,6 @@ class _SweepProgress:
     """Progress bar of the anchors and the epsilon sweep (no-op when disabled)."""
 
     def __init__(self, enabled: bool, total: int, objective: str):
-        from isodesign.commands.optimize import StartProgress
 
         self.bar = StartProgress(enabled, total, objective, what="anchors (multi-start)")
 
@@ -162,7 +180,6 @@ class _SweepProgress:
 
 
 def _sense(name: str) -> str:
-    from isodesign.optimization.objectives import OBJECTIVES
 
     return "maximizing" if OBJECTIVES[name].maximized else "minimizing"
 
@@ -188,14 +205,6 @@ def _infeasible(run, args, objectives, exc) -> int:
 
 def run(args) -> int:
     """Run ``isodesign pareto``."""
-    from isodesign.commands import check_count
-    from isodesign.commands.optimize import (
-        OUTPUT_FILES as OPTIMIZE_FILES,
-    )
-    from isodesign.commands.optimize import (
-        load_study_from_args,
-        open_run,
-    )
 
     objectives = parse_objectives(args.objectives)
     check_count(args.points, "--points", *POINTS_RANGE)
@@ -206,16 +215,6 @@ def run(args) -> int:
 
 
 def _execute(study, run, args, objectives) -> int:
-    from isodesign.commands.optimize import canonical_command, progress_enabled, study_label
-    from isodesign.errors import SolverError
-    from isodesign.io.record import (
-        command_line,
-        environment,
-        pareto_record,
-        resolved_study_dict,
-        study_toml,
-    )
-    from isodesign.optimization.pareto import pareto_front
 
     out = run.target
     run.record.update({"command_line": command_line(canonical_command(args, "pareto")[1:]),
@@ -240,13 +239,11 @@ def _execute(study, run, args, objectives) -> int:
     written.append(run.final_path("record.json"))
     written.append(run.final_path(name))
     if not args.no_plots:
-        from isodesign.plotting import pareto_plot
 
         with run.writing("pareto.png") as tmp:
             pareto_plot(result, tmp)
         written.append(run.final_path("pareto.png"))
     nat = _natural_points(result)
-    from isodesign.commands.optimize import format_objective
 
     a, b = objectives
     ref = ", ".join(f"{k} {format_objective(k, v)}" for k, v in nat["reference_point"].items())
@@ -256,7 +253,6 @@ def _execute(study, run, args, objectives) -> int:
         print(f"study {study_label(study)}: Pareto front of {a} ({_sense(a)}) against {b} "
               f"(epsilon-constraint, {args.points} points, {result.settings['starts']} starts "
               f"for the anchor); {result.wall_s:.1f} s")
-        from isodesign.commands.response import models_line
 
         print(models_line(study.models, "the study"))
         print(front_table(result))

@@ -14,6 +14,10 @@ from __future__ import annotations
 
 import argparse
 
+from isodesign.commands import check_output_path, input_error
+from isodesign.io.files import atomic_path
+from isodesign.reporting.render import timed_report
+
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign report``."""
@@ -47,13 +51,11 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     """Run ``isodesign report``."""
-    from isodesign.commands import check_output_path, input_error
 
     check_output_path(args.output, "--output", suffixes=(".html", ".htm"))
     if args.label is not None and len(args.label) != len(args.inputs):
         raise input_error(f"--label: give one per input ({len(args.inputs)}), "
                           f"got {len(args.label)}")
-    from isodesign.reporting.render import timed_report
 
     command = ["isodesign", "report", *map(str, args.inputs), "-o", str(args.output)]
     if args.study:
@@ -64,7 +66,6 @@ def run(args) -> int:
         command += ["--title", args.title]
     from pathlib import Path
 
-    from isodesign.io.files import atomic_path
 
     with atomic_path(args.output) as tmp:  # the report appears whole or not at all
         _, wall = timed_report(args.inputs, tmp, study=args.study, labels=args.label,

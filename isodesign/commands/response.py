@@ -17,13 +17,31 @@ from __future__ import annotations
 
 import argparse
 
+from isodesign.commands import (
+    PLOT_SUFFIXES,
+    check_count,
+    check_output_path,
+    option_names,
+    write_figure,
+    write_result,
+)
 from isodesign.commands import int_option as _int_option
+from isodesign.errors import InputError, ModelValidityWarning
+from isodesign.io.designfile import load_design as _load
+from isodesign.io.designfile import load_design_models
+from isodesign.plotting.style import save_figure
+from isodesign.reporting.inputs import MODEL_DEFAULTS, input_kind, load_case
+from isodesign.response import band_response
+from isodesign.response.isolator import Payload
 
 # The model choices come from the library's registries (declared once there). Loading them
 # loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
 from isodesign.response.random_input import RANDOM_METHODS
+from isodesign.simulation.monte_carlo import simulate_random_response
+from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
 from isodesign.spring.flow_models import FLOW_MODELS
+from isodesign.spring.gas import P_ATM
 from isodesign.spring.stiffness import AMPLITUDE_MODES
 
 #: Default load per isolator (kg) when --payload-kg is not given.
@@ -195,11 +213,9 @@ DEFAULT_TARGET = "VC-E"
 
 def load_design(path):
     """The design of ``path`` (or the reference spring) and its label."""
-    from isodesign.spring.design import SpringDesign
 
     if path is None:
         return SpringDesign.reference(), "reference spring (paper Table 1)"
-    from isodesign.io.designfile import load_design as _load
 
     return _load(path), str(path)
 
@@ -209,9 +225,6 @@ def make_payload(args, base=None, **extra):
 
     ``base`` (a study's payload) supplies what the options do not state.
     """
-    from isodesign.commands import check_count
-    from isodesign.errors import InputError
-    from isodesign.response.isolator import Payload
 
     n = args.isolators if args.isolators is not None else (base.isolators if base else 4)
     n = check_count(n, "--isolators", *ISOLATORS_RANGE)
@@ -238,8 +251,6 @@ def check_payload_pressure(design, payload, derive: bool = True) -> None:
     """
     import math
 
-    from isodesign.errors import InputError
-    from isodesign.spring.gas import P_ATM
 
     if not derive:
         return
@@ -268,7 +279,6 @@ def resolve_job(args, *, extra_payload: dict | None = None):
     from pathlib import Path
     from types import SimpleNamespace
 
-    from isodesign.reporting.inputs import MODEL_DEFAULTS, input_kind, load_case
 
     extra_payload = extra_payload or {}
     models = dict(MODEL_DEFAULTS)
@@ -290,7 +300,6 @@ def resolve_job(args, *, extra_payload: dict | None = None):
     else:
         design, label = load_design(path)
         if path is not None:
-            from isodesign.io.designfile import load_design_models
 
             recorded = load_design_models(path)
             if recorded:
@@ -321,7 +330,6 @@ def resolve_job(args, *, extra_payload: dict | None = None):
 
 
 def _bands(spec):
-    from isodesign.errors import InputError
 
     if spec is None:
         return None
@@ -397,8 +405,6 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
 
 def save_plot(fig, path) -> None:
     """Write a figure with the Agg canvas (the ``--plot`` of a command)."""
-    from isodesign.commands import write_figure
-    from isodesign.plotting.style import save_figure
 
     with write_figure(path) as tmp:  # whole or not at all
         save_figure(fig, tmp)
@@ -415,15 +421,6 @@ def run(args) -> int:
     """Run ``isodesign response``."""
     import warnings
 
-    from isodesign.commands import (
-        PLOT_SUFFIXES,
-        check_count,
-        check_output_path,
-        option_names,
-        write_result,
-    )
-    from isodesign.errors import InputError, ModelValidityWarning
-    from isodesign.response import band_response
 
     check_output_path(args.output, "--output")
     if args.verify_monte_carlo is not None:
@@ -450,7 +447,6 @@ def run(args) -> int:
     to_stdout = args.output == "-"
     mc = None
     if args.verify_monte_carlo is not None:
-        from isodesign.simulation.monte_carlo import simulate_random_response
 
         try:
             mc = simulate_random_response(

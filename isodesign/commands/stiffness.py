@@ -22,14 +22,21 @@ from isodesign.commands import (
     check_grid_size,
     check_output_path,
     input_error,
+    option_names,
     parse_values,
+    write_figure,
+    write_frame,
 )
+from isodesign.errors import ModelValidityWarning
+from isodesign.io.designfile import load_design
+from isodesign.plotting import plot_stiffness
+from isodesign.spring.design import SpringDesign
 
 # The model choices come from the library's registries (declared once there). Loading them
 # loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
 from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
 from isodesign.spring.flow_models import FLOW_MODELS
-from isodesign.spring.stiffness import AMPLITUDE_MODES
+from isodesign.spring.stiffness import AMPLITUDE_MODES, complex_stiffness
 
 #: Frequencies of the paper's Table 2 (Hz), the default.
 TABLE2_FREQUENCIES_HZ = (
@@ -118,11 +125,9 @@ def grid_from_args(args) -> tuple[list[float], list[float]]:
 
 def load(path):
     """The design of ``path``, or the reference spring for ``None``; and its label."""
-    from isodesign.spring.design import SpringDesign
 
     if path is None:
         return SpringDesign.reference(), "reference spring (paper Table 1)"
-    from isodesign.io.designfile import load_design
 
     return load_design(path), str(path)
 
@@ -141,9 +146,6 @@ def compute(design, freq, amp, *, flow, amplitude_mode, diaphragm, label=None):
     """
     import warnings
 
-    from isodesign.commands import option_names
-    from isodesign.errors import ModelValidityWarning
-    from isodesign.spring.stiffness import complex_stiffness
 
     with option_names(diaphragm="--diaphragm"):
         res = complex_stiffness(design, freq, amp, flow=flow, amplitude_mode=amplitude_mode,
@@ -223,7 +225,6 @@ def summary(res, *, title: str | None = None) -> str:
 
 def write_csv(res, path) -> int:
     """Write ``res.to_frame()`` as CSV (full precision) to ``path`` ('-' = stdout)."""
-    from isodesign.commands import write_frame
 
     return write_frame(res.to_frame(), path)
 
@@ -255,8 +256,6 @@ def run(args) -> int:
         if not to_stdout:
             print(f"wrote {args.output} ({n} rows)")
     if args.plot:
-        from isodesign.commands import write_figure
-        from isodesign.plotting import plot_stiffness
 
         with write_figure(args.plot) as tmp:
             plot_stiffness(tmp, [res], title=label)

@@ -16,7 +16,26 @@ from __future__ import annotations
 
 import argparse
 
-from isodesign.commands.response import add_payload_arguments
+from isodesign.commands import (
+    FREQUENCY_UNITS,
+    LENGTH_UNITS,
+    PLOT_SUFFIXES,
+    check_grid_size,
+    check_output_path,
+    option_names,
+    parse_values,
+    write_result,
+)
+from isodesign.commands.response import (
+    add_payload_arguments,
+    check_payload_pressure,
+    models_line,
+    resolve_job,
+    save_plot,
+    without_plot,
+)
+from isodesign.errors import ModelValidityWarning
+from isodesign.response import harmonic_response
 from isodesign.response.harmonic import BRANCHES
 
 #: Default floor amplitudes (m) and frequency range.
@@ -61,7 +80,6 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
     """Header, linear figures and the peak per floor amplitude."""
     import numpy as np
 
-    from isodesign.commands.response import models_line
 
     s = res.stability
     p = res.payload
@@ -91,24 +109,6 @@ def run(args) -> int:
     """Run ``isodesign transmissibility``."""
     import warnings
 
-    from isodesign.commands import (
-        FREQUENCY_UNITS,
-        LENGTH_UNITS,
-        PLOT_SUFFIXES,
-        check_grid_size,
-        check_output_path,
-        option_names,
-        parse_values,
-        write_result,
-    )
-    from isodesign.commands.response import (
-        check_payload_pressure,
-        resolve_job,
-        save_plot,
-        without_plot,
-    )
-    from isodesign.errors import ModelValidityWarning
-    from isodesign.response import harmonic_response
 
     freq = parse_values(args.freq, "--freq", units=FREQUENCY_UNITS, unit_name="Hz")
     amp = parse_values(args.floor_amplitude, "--floor-amplitude", units=LENGTH_UNITS, unit_name="m")

@@ -29,7 +29,7 @@ from isodesign.errors import InputError
 from isodesign.io.designfile import design_from_dict, load_design_models
 from isodesign.io.files import read_toml
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.study import Study, default_study, load_study
+from isodesign.optimization.study import Study, default_study, load_study, study_from_dict
 from isodesign.response.random_input import band_response
 
 __all__ = ["MODEL_DEFAULTS", "Case", "best_pareto_point", "input_kind", "load_case"]
@@ -188,7 +188,6 @@ def _optimize_case(p: Path, label: str | None) -> Case:
 
 
 def _study_from_record(rec: dict, p: Path) -> Study:
-    from isodesign.optimization.study import study_from_dict
 
     if "study" not in rec:
         raise InputError(f"{p}: record.json holds no study and study_resolved.toml is missing")

@@ -13,6 +13,7 @@ import html
 import time
 from pathlib import Path
 
+from isodesign.errors import InputError
 from isodesign.reporting.analysis import analyse
 from isodesign.reporting.inputs import Case, load_case
 from isodesign.reporting.sections import build_context
@@ -78,7 +79,6 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
         inputs = [inputs]
     inputs = list(inputs)
     if not inputs:
-        from isodesign.errors import InputError
 
         raise InputError("inputs: give at least one design file, study file or run directory")
     labels = list(labels) if labels is not None else [None] * len(inputs)

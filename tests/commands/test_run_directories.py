@@ -143,13 +143,12 @@ def test_pareto_on_an_infeasible_study_writes_its_record(capsys, studies, feasib
 
 
 def test_a_solver_failure_is_recorded_as_failed(capsys, studies, tmp_path, monkeypatch):
-    import isodesign.optimization.driver as optimizer
     from isodesign.errors import SolverError
 
     def boom(*a, **k):
         raise SolverError("IPOPT exploded")
 
-    monkeypatch.setattr(optimizer, "optimize", boom)
+    monkeypatch.setattr("isodesign.commands.optimize.optimize", boom)
     target = tmp_path / "run"
     status, _, err = run(capsys, "optimize", studies / "fast.toml", "-o", target)
     assert status == 1 and "IPOPT exploded" in err
@@ -160,10 +159,8 @@ def test_a_solver_failure_is_recorded_as_failed(capsys, studies, tmp_path, monke
 
 def test_an_unwritable_output_fails_before_the_computation(capsys, studies, tmp_path,
                                                           monkeypatch):
-    import isodesign.optimization.driver as optimizer
-
     calls = []
-    monkeypatch.setattr(optimizer, "optimize", lambda *a, **k: calls.append(1))
+    monkeypatch.setattr("isodesign.commands.optimize.optimize", lambda *a, **k: calls.append(1))
     blocker = tmp_path / "file"
     blocker.write_text("x")
     status, _, err = run(capsys, "optimize", studies / "fast.toml", "-o", blocker / "run")
