@@ -31,6 +31,7 @@ import numpy as np
 
 from isodesign.errors import InputError
 from isodesign.floor.curve_files import _read_csv
+from isodesign.io.files import names_for_message
 
 __all__ = [
     "CONFIGURATIONS",
@@ -161,10 +162,10 @@ def read_measured_csv(path, *, configuration: str | None = None) -> MeasuredStif
     def col(names: dict[str, float], what: str) -> tuple[int, float]:
         found = [c for c in cols if c in names]
         if len(found) != 1:
-            got = "none" if not found else ", ".join(found)
+            got = "none" if not found else names_for_message(found)
             raise InputError(
                 f"path: {where} needs exactly one {what} column of {', '.join(names)} "
-                f"(found {got}; columns: {', '.join(cols)})"
+                f"(found {got}; columns: {names_for_message(cols)})"
             )
         return cols.index(found[0]), names[found[0]]
 

@@ -31,6 +31,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "discard_pending_writes",
+    "names_for_message",
     "read_csv_columns",
     "read_csv_header_comments",
     "read_toml",
@@ -165,6 +166,25 @@ def read_csv_header_comments(path) -> dict[str, str]:
     return out
 
 
+def names_for_message(names) -> str:
+    """Comma-separated names for an error message, on one line.
+
+    A name with a line break or another unprintable character (a quoted CSV field may hold
+    one) is shown as its Python repr, so the message stays one readable line.
+
+    Parameters
+    ----------
+    names : iterable of str
+        Column or key names as read from a file.
+
+    Returns
+    -------
+    str
+        The names joined by ``", "``.
+    """
+    return ", ".join(n if n.isprintable() else repr(n) for n in names)
+
+
 def read_csv_columns(path, required, *, optional=(), what="CSV") -> dict[str, np.ndarray]:
     """Read named numeric columns from a CSV file with a header row.
 
@@ -212,7 +232,7 @@ def read_csv_columns(path, required, *, optional=(), what="CSV") -> dict[str, np
     if missing:
         raise InputError(
             f"{what} file {p}: missing column(s) {', '.join(missing)}; "
-            f"found {', '.join(header) or 'none'}"
+            f"found {names_for_message(header) or 'none'}"
         )
     if len(rows) < 2:
         raise InputError(f"{what} file {p}: no data rows")

@@ -65,6 +65,7 @@ __all__ = [
     "bernstein_basis",
     "diaphragm_from_dict",
     "diaphragm_model",
+    "maxwell_series",
 ]
 
 #: Diaphragm models: name -> how a user writes it (``diaphragm=...``, ``--diaphragm``).
@@ -152,6 +153,39 @@ class ViscoelasticDiaphragm:
         return {}
 
 
+def maxwell_series(omega, static_n_per_m, hysteretic_n_per_m, branch_n_per_m, times_s) -> Cx:
+    """Generalized Maxwell (Prony) series: the one formula of every Prony diaphragm model.
+
+    ``k*(w) = k_st + j h + sum_i g_i j w tau_i / (1 + j w tau_i)``: a spring ``k_st`` in
+    parallel with Maxwell branches (stiffness ``g_i``, relaxation time ``tau_i``) and a
+    constant-loss term ``h``. Passive when every coefficient is >= 0.
+
+    Parameters
+    ----------
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+    static_n_per_m, hysteretic_n_per_m : float, ndarray or CasADi symbol
+        ``k_st`` and ``h``, N/m (broadcast against ``omega``).
+    branch_n_per_m : sequence
+        Branch stiffnesses ``g_i``, N/m (numbers, arrays or symbols).
+    times_s : sequence of float
+        Relaxation times ``tau_i``, s (same length as ``branch_n_per_m``).
+
+    Returns
+    -------
+    Cx
+        The complex stiffness, N/m.
+    """
+    re = static_n_per_m + 0.0 * omega
+    im = hysteretic_n_per_m + 0.0 * omega
+    for g, tau in zip(branch_n_per_m, times_s, strict=True):
+        wt = omega * tau
+        d = 1.0 + wt * wt
+        re = re + g * (wt * wt) / d
+        im = im + g * wt / d
+    return Cx(re, im)
+
+
 @dataclass(frozen=True)
 class PronyDiaphragm:
     """Linear viscoelastic diaphragm: ``k_inf + sum k_i j w / (j w + r_i)`` (Prony series).
@@ -189,13 +223,10 @@ class PronyDiaphragm:
 
     def stiffness(self, omega, amplitude_m) -> Cx:
         """Complex stiffness in N/m (any backend; independent of the amplitude)."""
-        re = self.k_inf_n_per_m + 0.0 * omega * amplitude_m
-        im = 0.0 * re
-        for k, r in zip(self.branch_stiffness_n_per_m, self.branch_rate_1_per_s, strict=True):
-            den = omega * omega + r * r
-            re = re + k * omega * omega / den
-            im = im + k * omega * r / den
-        return Cx(re, im)
+        return maxwell_series(
+            omega, self.k_inf_n_per_m + 0.0 * amplitude_m, 0.0,
+            self.branch_stiffness_n_per_m, [1.0 / r for r in self.branch_rate_1_per_s],
+        )
 
     def in_range(self, omega, amplitude_m) -> dict:
         """Validity checks (none apply)."""
@@ -505,14 +536,7 @@ class FittedDiaphragm:
     def stiffness(self, omega, amplitude_m) -> Cx:
         """Complex stiffness k_D*(X, w) in N/m (any backend)."""
         k_st, g, h = self.coefficients(amplitude_m)
-        re = k_st + 0.0 * omega
-        im = h + 0.0 * omega
-        for gi, tau in zip(g, self.relaxation_times_s, strict=True):
-            wt = omega * float(tau)
-            d = 1.0 + wt * wt
-            re = re + gi * (wt * wt) / d
-            im = im + gi * wt / d
-        return Cx(re, im)
+        return maxwell_series(omega, k_st, h, g, [float(t) for t in self.relaxation_times_s])
 
     def in_range(self, omega, amplitude_m) -> dict:
         """``diaphragm_fit_range``: inside the measured frequency and amplitude range."""
