@@ -41,20 +41,11 @@ from isodesign.io.record import (
     study_toml,
 )
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.pareto import pareto_front
+from isodesign.optimization.pareto import DEFAULT_OBJECTIVES, pareto_front
 from isodesign.plotting import pareto_plot
 
-#: Default objectives (must equal optimization.pareto.DEFAULT_OBJECTIVES; a test checks it).
-#: Kept here so that --help does not load NumPy.
-DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
-#: Objective names (must equal the keys of optimization.objectives.OBJECTIVES; a test checks it).
-OBJECTIVE_CHOICES = (
-    "worst_band_margin",
-    "rms_velocity",
-    "peak_transmissibility",
-    "transmissibility_at",
-    "total_volume",
-)
+#: Objective names: the objective registry's.
+OBJECTIVE_CHOICES = tuple(OBJECTIVES)
 DEFAULT_POINTS = 20
 #: Range of --points (each point is an IPOPT solve of a few tenths of a second).
 POINTS_RANGE = (2, 500)
