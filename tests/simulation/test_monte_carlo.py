@@ -110,12 +110,17 @@ def test_step_halving_converges(ref):
     assert runs[2].stroke_rms_m == pytest.approx(runs[1].stroke_rms_m, rel=1e-5)
 
 
+#: Cases whose stroke RMS misses its tolerance (3 %, the last field of CASES), with the
+#: measured size of the miss (a known limit, asserted to stay as it is: the test fails if
+#: the miss grows or disappears).
+#: ref-4xVC-A: a Gaussian linearization of a strongly quadratic damper; the tube velocity is
+#: far from Gaussian (kurtosis 2.2), and the closure over-damps the resonance: -3.4 % stroke.
+KNOWN_STROKE_MISSES = {"ref-4xVC-A": (0.03, 0.04)}
+
 # the verified cases: (id, design, kg per isolator, floor, flow, diaphragm, stroke tol)
 CASES = [
     ("ref-VC-A", None, 100.0, VCA, "quasi_steady", "none", 0.03),
-    # Gaussian linearization of a strongly quadratic damper: the tube velocity is far from
-    # Gaussian (kurtosis 2.2), the closure over-damps the resonance slightly: -3.4 % stroke
-    ("ref-4xVC-A", None, 100.0, VCA4, "quasi_steady", "none", 0.036),
+    ("ref-4xVC-A", None, 100.0, VCA4, "quasi_steady", "none", 0.03),
     ("long-VC-A", "long", 150.0, VCA, "quasi_steady", "none", 0.03),
     ("long-4xVC-A", "long", 150.0, VCA4, "quasi_steady", "none", 0.03),
     # end to end with the default diaphragm, frozen in the simulation as a Prony series at
@@ -132,7 +137,7 @@ CASES = [
 @pytest.mark.slow
 @pytest.mark.parametrize("case", CASES, ids=[c[0] for c in CASES])
 def test_statistical_closure_against_monte_carlo(ref, case):
-    _, which, kg, floor, flow, dia, stroke_tol = case
+    case_id, which, kg, floor, flow, dia, stroke_tol = case
     d = _long(ref) if which == "long" else ref
     p = Payload(4 * kg, 4)
     if dia == "prony":
@@ -145,11 +150,17 @@ def test_statistical_closure_against_monte_carlo(ref, case):
     new = _closure(d, p, floor, flow=flow, diaphragm=dia)
     err = mc.error_db(new)
     assert np.max(np.abs(err)) < 0.3, err
-    assert new.stroke_rms_m == pytest.approx(mc.stroke_rms_m, rel=stroke_tol)
     assert new.tube_velocity_rms_m_s == pytest.approx(mc.tube_velocity_rms_m_s, rel=0.04)
     # the harmonic closure on the stroke errs by 0.7 to 2.7 dB in these cases
     old = _closure(d, p, floor, flow=flow, diaphragm=dia, random_method="equivalent_amplitude")
     assert np.max(np.abs(mc.error_db(old))) > 0.6
+    stroke_err = abs(new.stroke_rms_m / mc.stroke_rms_m - 1.0)
+    if case_id in KNOWN_STROKE_MISSES:
+        lo, hi = KNOWN_STROKE_MISSES[case_id]
+        assert lo < stroke_err < hi, f"known stroke miss changed: {stroke_err:.4f}"
+        pytest.xfail(f"stroke RMS off by {stroke_err:.1%} (> {stroke_tol:.0%}): non-Gaussian "
+                     "tube velocity, a limit of the Gaussian closure (docs/random-response.md)")
+    assert stroke_err < stroke_tol
 
 
 def test_result_api(ref):
