@@ -1,8 +1,9 @@
 """Optimizer speed and quality (targets): one default `optimize` (all starts) in
 under 10 s, a 20-point Pareto front in under 60 s, the CasADi front against pymoo's NSGA-II
 (10,000 evaluations of the NumPy analysis path: hypervolume at least NSGA-II's in at most a
-tenth of its wall time), and scipy's SLSQP with finite differences on the single-objective
-case. The NSGA-II run dominates: the whole file takes about 8 to 12 minutes.
+tenth of its wall time; informative: NSGA-II given the CasADi front's wall time), and
+scipy's SLSQP with finite differences on the single-objective case. The NSGA-II runs
+dominate: the whole file takes about 3 to 12 minutes.
 
 Run alone with ``python benchmarks/bench_optimize.py`` (prints the rows and the details) or
 through ``python benchmarks/run.py optimize``. Timings here are NOT :func:`run.median_time`
@@ -408,8 +409,9 @@ def _nsga() -> dict:
 
     from isodesign.optimization.grid import build_grid
     from isodesign.optimization.pareto import hypervolume_2d, nondominated
+    from isodesign.optimization.problem import Problem
     from isodesign.optimization.recheck import evaluate_design
-    from isodesign.optimization.refine import continuous_peak_db
+    from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db
     from isodesign.optimization.study import default_study
 
     Config.warnings["not_compiled"] = False
@@ -451,6 +453,25 @@ def _nsga() -> dict:
     ok = CV <= 0.0
     F, X = F[ok], X[ok]
     nat_n = np.column_stack([-F[:, 0], F[:, 1]]) if len(F) else np.zeros((0, 2))
+    # the peak-|T| bound holds between the peak grid's frequencies too: pareto_front refines
+    # every point with the exchange method (continuous peak <= bound + PEAK_TOLERANCE_DB);
+    # NSGA-II's evaluations see only the 80 grid frequencies, so its points are judged
+    # afterwards with the same continuous peak (and the same closure: tube_rms)
+    prob_pk = Problem(
+        study.with_changes(objective={"kind": PARETO_OBJECTIVES[0]}), objectives=PARETO_OBJECTIVES
+    )
+    bound = study.constraints.get("max_peak_transmissibility_db")
+
+    def peak_of(vals):
+        ev = evaluate_design(study, vals, grid=grid, objectives=PARETO_OBJECTIVES)
+        return continuous_peak_db(prob_pk, vals, ev["sigma"], ev["tube_rms"])[0]
+
+    def peak_ok(vals):
+        return bound is None or peak_of(vals) <= bound + PEAK_TOLERANCE_DB
+
+    nat_n_grid = nat_n
+    keep_n = np.array([peak_ok(space.values(x)) for x in X], dtype=bool)
+    nat_n, X = nat_n[keep_n], X[keep_n]
     # the whole archive (every feasible evaluated point): NSGA-II's best possible claim
     fa = np.array(archive["f"], float)
     za = np.array(archive["z"], float)
@@ -458,6 +479,19 @@ def _nsga() -> dict:
     feas = va <= FEAS_TOL
     nat_a = np.column_stack([-fa[feas, 0], fa[feas, 1]])
     za_f = za[feas]
+    # the archive's non-dominated points, dropping those above the continuous peak bound
+    # until every remaining non-dominated point holds it (checks only the candidates)
+    alive = np.ones(len(nat_a), dtype=bool)
+    checked: dict = {}
+    while True:
+        idx = np.flatnonzero(alive)
+        nd = idx[nondominated(np.column_stack([-nat_a[idx, 0], nat_a[idx, 1]]))]
+        bad = [i for i in nd if not checked.setdefault(i, peak_ok(space.values(za_f[i])))]
+        if not bad:
+            break
+        alive[bad] = False
+    n_archive_dropped = int((~alive).sum())
+    nat_a, za_f = nat_a[alive], za_f[alive]
 
     # CasADi front (natural units), re-evaluated with the NumPy path
     vc = pr.values[pr.front]
@@ -475,6 +509,8 @@ def _nsga() -> dict:
     # (a) hypervolumes with the CasADi ParetoResult's normalization
     hv_c = pr.hypervolume_of(vc)
     hv_n = pr.hypervolume_of(nat_n) if len(nat_n) else 0.0
+    hv_n_grid = pr.hypervolume_of(nat_n_grid) if len(nat_n_grid) else 0.0
+    hv_best_c = _best_subset_hv(pr.normalized(nat_n), len(vc))
     hv_a = pr.hypervolume_of(nat_a) if len(nat_a) else 0.0
 
     # (b) common reference: ideal = the better of both ideals, nadir = the worse of both
@@ -520,29 +556,18 @@ def _nsga() -> dict:
     # largest gains and every dominating one (at most 3 + 3 solves)
     cand = [int(i) for i in np.argsort(-gain)[:3] if math.isfinite(gain[i])]
     cand += [i for i, _ in dom[:3] if i not in cand]
-    from isodesign.optimization.problem import Problem
-
-    prob = Problem(
-        study.with_changes(objective={"kind": PARETO_OBJECTIVES[0]}), objectives=PARETO_OBJECTIVES
-    )
+    prob = prob_pk
     checks = _nlp_check(prob, space, [(za_f[i], nat_a[i]) for i in cand], lv, mv)
-    # the peak |T| between the peak grid's frequencies (both fronts are judged on the NLP's
-    # 80-point peak grid; optimize() refines it with the exchange method, pareto_front not)
+    # the peak |T| between the peak grid's frequencies, with each design's own closure
     peak_c = peak_n = None
-    bound = study.constraints.get("max_peak_transmissibility_db")
-    cpk = continuous_peak_db
-    if cpk is not None and bound is not None:
-        peak_c = np.array([cpk(prob, d, r["sigma"])[0] for d, r in zip(dc, recheck, strict=True)])
-        peak_n = np.array(
+    if bound is not None:
+        peak_c = np.array(
             [
-                cpk(
-                    prob,
-                    space.values(x),
-                    evaluate_design(study, space.values(x), grid=grid)["sigma"],
-                )[0]
-                for x in X
+                continuous_peak_db(prob, d, r["sigma"], r["tube_rms"])[0]
+                for d, r in zip(dc, recheck, strict=True)
             ]
         )
+        peak_n = np.array([peak_of(space.values(x)) for x in np.atleast_2d(res.opt.get("X"))[ok]])
     out = {
         "peak_bound": bound,
         "peak_c": peak_c,
@@ -564,6 +589,11 @@ def _nsga() -> dict:
         "hv_c": hv_c,
         "hv_n": hv_n,
         "hv_a": hv_a,
+        "hv_n_grid": hv_n_grid,
+        "hv_best_c": hv_best_c,
+        "n_front_nsga_grid": len(nat_n_grid),
+        "n_archive_dropped": n_archive_dropped,
+        "peak_ok": peak_ok,
         "hvc_c": hvc_c,
         "hvc_n": hvc_n,
         "ideal": ideal,
@@ -594,6 +624,31 @@ def _nsga() -> dict:
     }
     _CACHE["nsga"] = out
     return out
+
+
+def _best_subset_hv(norm: np.ndarray, k: int) -> float:
+    """The largest hypervolume (reference (1, 1)) of any k points of a normalized 2-D set.
+
+    Dynamic programming over the points sorted by the first objective: the best
+    staircase of j points ending at point i. O(k n^2); n is about 100 here.
+    """
+    from isodesign.optimization.pareto import nondominated
+
+    p = np.asarray(norm, float)
+    p = p[np.all(p < 1.0, axis=1)]
+    if not len(p):
+        return 0.0
+    p = p[nondominated(p)]
+    p = p[np.argsort(p[:, 0])]
+    n = len(p)
+    k = min(k, n)
+    best = np.full((k + 1, n), -np.inf)
+    best[1] = (1.0 - p[:, 0]) * (1.0 - p[:, 1])
+    for j in range(2, k + 1):
+        for i in range(1, n):
+            prev = best[j - 1, :i] + (1.0 - p[i, 0]) * (p[:i, 1] - p[i, 1])
+            best[j, i] = prev.max()
+    return float(best[1:].max())
 
 
 def _nlp_check(prob, space, points, lv, mv) -> list[dict]:
@@ -656,8 +711,9 @@ def bench_nsga() -> dict:
             f"(log scaling of optimization.variables.effective_bounds), {len(r['names'])} "
             f"constraint groups G_k = worst "
             f"signed violation - 1e-6 <= 0; {r['n_feasible_evals']} feasible evaluations, "
-            f"{r['failures']} failed analyses; final front {r['n_front_nsga']} feasible "
-            f"non-dominated points, margin {r['nsga_margin_range'][0]:.3f} to "
+            f"{r['failures']} failed analyses; final front {r['n_front_nsga_grid']} feasible "
+            f"non-dominated points ({r['n_front_nsga']} of them also below the peak-|T| bound "
+            f"between the grid frequencies), margin {r['nsga_margin_range'][0]:.3f} to "
             f"{r['nsga_margin_range'][1]:.3f} dB, volume {r['nsga_volume_range'][0] * 1e3:.4f} "
             f"to {r['nsga_volume_range'][1] * 1e3:.4f} L"
         ),
@@ -680,8 +736,18 @@ def bench_hv_ratio() -> dict:
             f"ParetoResult.hypervolume_of: minimized (-margin dB, V m^3), ideal "
             f"({r['pr_ideal'][0]:.4f}, {r['pr_ideal'][1]:.4e}) -> 0, reference "
             f"({r['pr_ref'][0]:.4f}, {r['pr_ref'][1]:.4e}) (CasADi nadir + 10 % of its range) "
-            f"-> 1: HV_casadi {r['hv_c']:.4f}, HV_nsga {r['hv_n']:.4f} (final front), every "
-            f"feasible NSGA-II evaluation together {r['hv_a']:.4f}. Common reference (ideal = "
+            f"-> 1: HV_casadi {r['hv_c']:.4f}, HV_nsga {r['hv_n']:.4f} (final front, the "
+            f"{r['n_front_nsga']}/{r['n_front_nsga_grid']} points whose continuous peak |T| "
+            f"holds the bound + 0.01 dB like every CasADi point; all {r['n_front_nsga_grid']}, "
+            f"judged on the 80 grid frequencies only: {r['hv_n_grid']:.4f}, ratio "
+            f"{r['hv_c'] / r['hv_n_grid'] if r['hv_n_grid'] > 0 else math.inf:.4f}), every "
+            f"feasible NSGA-II evaluation together {r['hv_a']:.4f} ({r['n_archive_dropped']} "
+            f"non-dominated ones above the continuous peak bound dropped). Equal cardinality: "
+            f"the best {int(np.sum(_CACHE['pareto']['result'].front))} of NSGA-II's final front "
+            f"(largest-HV subset) {r['hv_best_c']:.4f}, ratio "
+            f"{r['hv_c'] / r['hv_best_c'] if r['hv_best_c'] > 0 else math.inf:.4f} (a "
+            f"20-point staircase loses area between its points that 100 points fill). Common "
+            f"reference (ideal = "
             f"better of both ideals ({r['ideal'][0]:.4f}, {r['ideal'][1]:.4e}), nadir = worse "
             f"of both nadirs ({r['nadir'][0]:.4f}, {r['nadir'][1]:.4e}), reference = nadir + "
             f"10 % of (nadir - ideal) = ({r['ref'][0]:.4f}, {r['ref'][1]:.4e})): HV_casadi "
@@ -714,10 +780,60 @@ def _peak_note(r: dict) -> str:
         )
 
     return (
-        f"Continuous peak |T| (optimization.refine.continuous_peak_db, between the 80 peak-grid "
-        f"frequencies both fronts are judged on): CasADi front {count(r['peak_c'])}, NSGA-II "
-        f"front {count(r['peak_n'])}. "
+        f"Continuous peak |T| (optimization.refine.continuous_peak_db with each design's "
+        f"statistical closure, between the 80 peak-grid frequencies NSGA-II sees): CasADi "
+        f"front {count(r['peak_c'])}, NSGA-II front (all, before the peak filter) "
+        f"{count(r['peak_n'])}. "
     )
+
+
+def bench_nsga_equal_time() -> dict:
+    """Informative: NSGA-II given the CasADi front's wall time; HV_casadi / HV_nsga."""
+    from pymoo.algorithms.moo.nsga2 import NSGA2
+    from pymoo.optimize import minimize
+    from pymoo.termination.max_time import TimeBasedTermination
+
+    from isodesign.optimization.grid import build_grid
+    from isodesign.optimization.study import default_study
+
+    r = _nsga()
+    pr = _CACHE["pareto"]["result"]
+    study = default_study()
+    space = Space(study)
+    grid = build_grid(study, objectives=PARETO_OBJECTIVES)
+    archive = {"z": [], "f": [], "viol": [], "failures": 0, "last_error": ""}
+    problem, _ = _nsga_problem(study, space, grid, archive)
+    load0 = _load()
+    t0 = time.perf_counter()
+    res = minimize(
+        problem, NSGA2(pop_size=NSGA_POP), TimeBasedTermination(r["t_casadi"]), seed=NSGA_SEED,
+        verbose=False,
+    )
+    t = time.perf_counter() - t0
+    F = np.atleast_2d(res.opt.get("F"))
+    X = np.atleast_2d(res.opt.get("X"))
+    ok = np.atleast_1d(res.opt.get("CV")).ravel() <= 0.0
+    nat = np.column_stack([-F[ok, 0], F[ok, 1]]) if ok.any() else np.zeros((0, 2))
+    keep = np.array([r["peak_ok"](space.values(x)) for x in X[ok]], dtype=bool)
+    hv = pr.hypervolume_of(nat[keep]) if keep.any() else 0.0
+    hv_grid = pr.hypervolume_of(nat) if len(nat) else 0.0
+    hv_c = r["hv_c"]
+    ratio = hv_c / hv if hv > 0 else math.inf
+    return {
+        "name": "informative: HV_casadi / HV_nsga with NSGA-II given the CasADi front's wall time",
+        "target": "",
+        "unit": "ratio",
+        "median": ratio,
+        "repeats": 1,
+        "notes": (
+            f"NSGA-II pop {NSGA_POP}, seed {NSGA_SEED}, stopped after {r['t_casadi']:.1f} s (the "
+            f"CasADi front's median; ran {t:.1f} s, {int(res.algorithm.evaluator.n_eval)} "
+            f"evaluations, {load0} before, {_load()} after): final front {int(keep.sum())}/"
+            f"{int(ok.sum())} points holding the continuous peak bound, HV_nsga {hv:.4f} "
+            f"(all {int(ok.sum())} on the grid only: {hv_grid:.4f}, ratio "
+            f"{hv_c / hv_grid if hv_grid > 0 else math.inf:.4f}); HV_casadi {hv_c:.4f}"
+        ),
+    }
 
 
 def bench_time_ratio() -> dict:
@@ -733,8 +849,8 @@ def bench_time_ratio() -> dict:
         "ratio": ratio / TARGET_TIME_RATIO,
         "passed": ratio <= TARGET_TIME_RATIO,
         "notes": (
-            f"CasADi pareto_front median {r['t_casadi']:.2f} s (its 8 anchor starts use 2 forked "
-            f"workers, the sweep 1 process) / NSGA-II {t_n:.1f} s"
+            f"CasADi pareto_front median {r['t_casadi']:.2f} s (its 8 anchor starts and its two "
+            f"sweep chains use 2 forked workers) / NSGA-II {t_n:.1f} s"
             + (" (extrapolated to 10,000 evaluations)" if r["budget"] < 10000 else "")
             + f" (1 process); if NSGA-II's evaluations were spread ideally over both cores: "
             f"{r['t_casadi'] / (t_n / 2):.3f}"
@@ -840,6 +956,7 @@ def run() -> list[dict]:
             bench_nsga(),
             bench_hv_ratio(),
             bench_time_ratio(),
+            bench_nsga_equal_time(),
             bench_slsqp(),
         ]
     return rows
