@@ -878,33 +878,3 @@ def agreement_table(grid: SimulationGridResult, design, *, modes=("self_consiste
 #: The grid of ``docs/simulation.md`` (reference spring, Table 1).
 REFERENCE_FREQUENCIES_HZ = (0.2, 0.5, 1.0, 2.0, 3.0, 5.0, 10.0, 24.0)
 REFERENCE_AMPLITUDES_M = (0.05e-3, 0.15e-3, 0.5e-3)
-
-
-def _main() -> None:  # pragma: no cover - documentation helper
-    """Print the agreement table of ``docs/simulation.md``."""
-    import time
-
-    import pandas as pd
-
-    design = SpringDesign.reference()
-    t0 = time.perf_counter()
-    grid = simulate_grid(design, REFERENCE_FREQUENCIES_HZ, REFERENCE_AMPLITUDES_M, diaphragm="none")
-    elapsed = time.perf_counter() - t0
-    df = agreement_table(grid, design)
-    sim = grid.to_frame()
-    df["cycles"] = sim["cycles"]
-    df["periodic_change"] = sim["periodic_change"]
-    df["force_distortion"] = sim["force_distortion"]
-    with pd.option_context("display.width", 250, "display.max_columns", 40):
-        print(df.to_string(float_format=lambda v: f"{v:.4g}"))
-    for mode in ("self_consistent", "kinematic"):
-        worst = {
-            c: float(np.max(np.abs(df[f"{mode}_{c}"])))
-            for c in ("abs_err", "re_err", "im_err", "complex_err", "loss_factor_diff")
-        }
-        print(mode, "worst:", ", ".join(f"{k} {v:.3g}" for k, v in worst.items()))
-    print(f"simulate_grid: {elapsed:.1f} s for {df.shape[0]} cases")
-
-
-if __name__ == "__main__":  # pragma: no cover
-    _main()

@@ -1,7 +1,7 @@
 """Tests of isodesign.simulation.harmonic_rig: the time-domain check of the frequency-domain model.
 
 The measured numbers behind every tolerance are in docs/simulation.md (reproduce them with
-``python -m isodesign.simulation.harmonic_rig``).
+``python studies/rig_agreement.py``).
 """
 
 from __future__ import annotations
