@@ -54,7 +54,7 @@ def _independent(table, loads, kz, kh, omega):
     gravity moment come from scipy's rotation matrices by central differences."""
     cg = table.cg_m
     rv = np.column_stack([table.isolators_m - cg[:2], np.full(table.n_isolators, -cg[2])])
-    rh = rv + [0.0, 0.0, table.horizontal.elastic_centre_height_m]
+    rh = rv + np.array([0.0, 0.0, table.horizontal.elastic_centre_height_m])
 
     def disp(q, r):
         return q[:3] + Rotation.from_rotvec(q[3:]).apply(r) - r

@@ -76,7 +76,7 @@ def test_floor_per_axis():
     g = table_grid(fl, (4, 80), target="VC-C", points_per_band=6)
     assert np.all(g.stroke_weight[1] == 0) and np.all(g.band_weight[1] == 0)
     assert np.all(g.floor_velocity_rms_m_s[0] < g.floor_velocity_rms_m_s[2])
-    with pytest.raises(InputError, match="^floor.x: "):
+    with pytest.raises(InputError, match=r"^floor.x: "):
         table_floor("VC-A", x="VC-Q")
-    with pytest.raises(InputError, match="^floor: no axis"):
+    with pytest.raises(InputError, match=r"^floor: no axis"):
         table_floor(x=False, y=False, z=False)

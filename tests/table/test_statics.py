@@ -98,9 +98,9 @@ def test_bad_layout_names_the_key(kw, key):
 
 
 def test_horizontal_element_needs_some_stiffness():
-    with pytest.raises(InputError, match="^horizontal: "):
+    with pytest.raises(InputError, match=r"^horizontal: "):
         HorizontalElement(pendulum_length_m=None, lateral_stiffness_n_per_m=0.0)
-    with pytest.raises(InputError, match="^pendulum_length_m: "):
+    with pytest.raises(InputError, match=r"^pendulum_length_m: "):
         HorizontalElement(pendulum_length_m=-0.1)
 
 
