@@ -77,10 +77,15 @@ class TableProblem:
         With ``table`` and ``floor_axes``.
     objectives : tuple of str, optional
         ``worst_band_margin`` (default) and/or ``total_volume``.
+    hessian : {'limited-memory', 'exact'}
+        IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way).
     """
 
-    def __init__(self, study, objectives: tuple | None = None):
+    def __init__(self, study, objectives: tuple | None = None, *,
+                 hessian: str = "limited-memory"):
         import casadi as ca
+
+        self.hessian = hessian
 
         if study.table is None:
             raise InputError("study: has no [table]; use isodesign.optimization.Problem")
@@ -127,34 +132,50 @@ class TableProblem:
         return base, kv, g2
 
     def _point_function(self, ca):
-        n, k = self.n, self.k
+        """One frequency's physics and its quadrature contributions (an SX Function).
+
+        Inputs: design, ``s``, ``y``, ``w``, the horizontal stiffnesses, and this point's
+        stroke weights ``sw`` (3) and band weights ``bw`` (3 x n_bands). Outputs: the
+        contributions to ``sigma_i^2``, ``sigma_u,i^2`` and every band mean square (summed
+        over the grid by the map), and ``|T_p,aa|^2`` (per point, for the peak).
+        """
+        n, k, nb = self.n, self.k, self.grid.n_bands
         dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
         s, y, w = ca.SX.sym("s", n), ca.SX.sym("y", n), ca.SX.sym("w")
         khr, khi = ca.SX.sym("khr", n), ca.SX.sym("khi", n)
+        sw, bw = ca.SX.sym("sw", 3), ca.SX.sym("bw", 3 * nb)
         _, kv, g2 = self._springs(ca, dv, s, y, w)
         kh = [Cx(khr[i], khi[i]) for i in range(n)]
         d, b = dynamic_stiffness(self.geo, kv, kh, w)
         q = solve_complex(d, b)
         qr = [[q.re[0, r * 3 + a] for a in range(3)] for r in range(6)]
         qi = [[q.im[0, r * 3 + a] for a in range(3)] for r in range(6)]
-        outs = []
+        ms, diag = [], []
         for p in range(k):
             gp = self.geo.points[p]
             for bb in range(3):
+                acc = 0
                 for a in range(3):
                     re = sum(gp[bb, r] * qr[r][a] for r in range(6) if gp[bb, r] != 0)
                     im = sum(gp[bb, r] * qi[r][a] for r in range(6) if gp[bb, r] != 0)
-                    outs.append(re * re + im * im)
-        s2 = []
+                    t2 = re * re + im * im
+                    acc = acc + t2 * bw[a * nb: (a + 1) * nb]
+                    if a == bb:
+                        diag.append(t2)
+                ms.append(acc)
+        s2, u2 = [], []
         for i in range(n):
             gz = self.geo.gz[i]
+            si, ui = 0, 0
             for a in range(3):
                 re = sum(gz[r] * qr[r][a] for r in range(6) if gz[r] != 0) - (a == 2)
                 im = sum(gz[r] * qi[r][a] for r in range(6) if gz[r] != 0)
-                s2.append(re * re + im * im)
-        outs += s2
-        outs += [s2[3 * i + a] * g2[i] for i in range(n) for a in range(3)]
-        return ca.Function("table_point", [dv, s, y, w, khr, khi], [ca.vertcat(*outs)])
+                si = si + sw[a] * (re * re + im * im)
+                ui = ui + sw[a] * (re * re + im * im) * g2[i]
+            s2.append(si)
+            u2.append(ui)
+        return ca.Function("table_point", [dv, s, y, w, khr, khi, sw, bw],
+                           [ca.vertcat(*s2, *u2, *ms), ca.vertcat(*diag)])
 
     def _stiffness_function(self, ca):
         """``(design, s, y, w) -> (K' flat, K'' flat)``: the isolators' 6x6 stiffness."""
@@ -188,26 +209,20 @@ class TableProblem:
                 vals.append(X(st.variable(name).start))
         v = ca.vertcat(*vals)
         point = self._point_function(ca)
-        out = point.map(nf)(v, s, y, ca.DM(g.omega).T, ca.DM(self.kh_re),
-                                      ca.DM(self.kh_im))  # (n_out x nf)
+        nb = g.n_bands
+        bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)  # (3 nb, nf)
+        red, diag = point.map("table_map", "serial", nf, [0, 1, 2], [0])(
+            v, s, y, ca.DM(g.omega).T, ca.DM(self.kh_re), ca.DM(self.kh_im),
+            ca.DM(g.stroke_weight), ca.DM(bw))  # red: summed over the grid
         self._n_t = 9 * k
         self.sigma_ref, self.tube_ref = self._reference()
         rows_eq = []
         for i in range(n):
-            s2 = sum(ca.mtimes(out[9 * k + 3 * i + a, :], ca.DM(g.stroke_weight[a]))
-                     for a in range(3))
-            u2 = sum(ca.mtimes(out[9 * k + 3 * n + 3 * i + a, :], ca.DM(g.stroke_weight[a]))
-                     for a in range(3))
-            rows_eq.append((ca.exp(2 * s[i]) - s2) / self.sigma_ref[i] ** 2)
-            rows_eq.append((ca.exp(2 * y[i]) - u2) / self.tube_ref[i] ** 2)
-        margins = []
-        lim2 = np.asarray(g.limit_velocity_m_s, float) ** 2
-        for p in range(k):
-            for b in range(3):
-                ms = sum(ca.mtimes(out[9 * p + 3 * b + a, :], ca.DM(g.band_weight[a].T))
-                         for a in range(3))
-                margins.append((10.0 / _LN10) * (ca.log(ca.DM(lim2).T) - ca.log(ms)))
-        margins = ca.horzcat(*margins).T  # (3k nb) x 1
+            rows_eq.append((ca.exp(2 * s[i]) - red[i]) / self.sigma_ref[i] ** 2)
+            rows_eq.append((ca.exp(2 * y[i]) - red[n + i]) / self.tube_ref[i] ** 2)
+        lim2 = np.tile(np.asarray(g.limit_velocity_m_s, float) ** 2, 3 * k)
+        margins = (10.0 / _LN10) * (ca.log(ca.DM(lim2)) - ca.log(red[2 * n: 2 * n + 3 * k * nb]))
+        out = diag  # (3k x nf): |T_p,aa|^2
         self.n_margins = int(margins.numel())
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
         cons = self._constraints(ca, d, v, s, y, out)
@@ -278,9 +293,8 @@ class TableProblem:
                          0.0, np.inf))
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
-            diag = [out[9 * p + 4 * a, :].T for p in range(self.k) for a in range(3)]
             cons.append(("max_peak_transmissibility_db",
-                         ca.log(ca.vertcat(*diag)) - pk * _LN10 / 10.0, -np.inf, 0.0))
+                         ca.log(ca.vec(out.T)) - pk * _LN10 / 10.0, -np.inf, 0.0))
         return cons
 
     def _damping(self, ca, v, s, y, p_modes) -> list:
@@ -337,6 +351,7 @@ class TableProblem:
                 "ipopt.max_iter": self.study.solver["max_iter"],
                 "ipopt.tol": self.study.solver["tol"],
                 "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL, **IPOPT_OPTIONS,
+                "ipopt.hessian_approximation": self.hessian,
                 "error_on_fail": False}  # fmt: skip
 
     def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:
@@ -369,11 +384,23 @@ class TableProblem:
         modes : TableModes
         """
         p = np.tile(np.r_[0.0, 2 * math.pi, np.zeros(12)], self.n_modes)
+        zmin = self.study.constraints.get("min_damping_ratio") or 0.0
+        kz = self.geo.g[: self.n]  # vertical element vectors
         for j in range(6):
             f = modes.frequency_hz[j]
             if not np.isfinite(f) or f >= DAMPED_MODE_LIMIT_HZ:
                 continue
             phi = modes.shapes[:, j]
+            if np.max(np.abs(kz @ phi)) <= 1e-9 * np.max(np.abs(phi)):
+                # no vertical spring moves: the horizontal element alone damps this mode
+                if modes.damping_ratio[j] < zmin:
+                    raise InputError(
+                        f"constraints.min_damping_ratio: mode {j + 1} ({modes.names[j]}, "
+                        f"{f:.3g} Hz) moves no vertical spring; its damping ratio "
+                        f"{modes.damping_ratio[j]:.3g} comes from the horizontal element alone "
+                        "and no design variable changes it: raise "
+                        "table.horizontal.lateral_loss_factor or lower min_damping_ratio")
+                continue
             phi = phi / np.sqrt(np.real(np.vdot(phi, self.geo.mass @ phi)))
             p[14 * j: 14 * (j + 1)] = np.concatenate([[1.0, 2 * math.pi * f], phi.real,
                                                       phi.imag])
