@@ -333,13 +333,22 @@ def _parameters(design, flow: str, mass: float, k_inf: float, rate_hz: float):
     return p, np.ascontiguousarray(gain), np.ascontiguousarray(rate)
 
 
-def _floor_spectrum(fl, duration_s: float, rng, amplitudes: str, band_bins: Bands | None):
-    """Bin frequencies and complex amplitudes ``A_k e^{j phi_k}`` of the floor velocity."""
+def _floor_spectrum(fl, duration_s: float, rng, amplitudes: str, band_bins: Bands | None,
+                    stride: int = 1, offset: int = 0):
+    """Bin frequencies and complex amplitudes ``A_k e^{j phi_k}`` of the floor velocity.
+
+    Only the bins ``k = offset (mod stride)`` carry power (``stride = 3``: three interleaved
+    floors, one per axis, orthogonal over the period).
+    """
     df = 1.0 / duration_s
     k_lo = max(1, math.ceil(fl.f_min_hz / df))
     k_hi = math.floor(fl.f_max_hz / df)
     k = np.arange(k_lo, k_hi + 1)
     f = k * df
+    if stride > 1:
+        keep = k % stride == offset
+        k, f = k[keep], f[keep]
+        df = stride / duration_s  # each bin kept stands for `stride` bins of the period
     s = np.asarray(fl.psd_velocity(f), dtype=float)
     a2 = 2.0 * s * df  # A_k^2 = 2 S df
     if band_bins is not None:  # every band exactly its mean square
@@ -401,15 +410,16 @@ def _diaphragm_branches(dia, dia_amp: float | None, f_fit):
             np.array(pd.branch_rate_1_per_s, dtype=float), fit_err)  # fmt: skip
 
 
-def _floor_half_steps(fl, ctx, rng):
+def _floor_half_steps(fl, ctx, rng, stride: int = 1, offset: int = 0):
     """Floor acceleration at the half steps (warm-up, then one period) and the velocity record.
 
     The warm-up repeats the same periodic input, so the record is one period of the
-    periodic response (``docs/simulation.md``, section 7).
+    periodic response (``docs/simulation.md``, section 7). ``stride``, ``offset``: the bins
+    used (:func:`_floor_spectrum`).
     """
     n, n_skip = ctx["n"], ctx["n_skip"]
     kb, coef = _floor_spectrum(fl, ctx["duration"], rng, ctx["amplitudes"],
-                               ctx["norm_bands"])  # fmt: skip
+                               ctx["norm_bands"], stride, offset)  # fmt: skip
     w0 = 2.0 * math.pi / ctx["duration"]
     acc = _time_series(kb, coef * w0, 2 * n, True)  # dv/dt, 2n samples (half steps)
     vel = _time_series(kb, coef, n, False)
