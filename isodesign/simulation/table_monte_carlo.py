@@ -62,10 +62,13 @@ __all__ = [
     "lateral_prony",
     "point_jacobian",
     "simulate_table_response",
+    "table_rig",
 ]
 
 #: Axes of the floor and of the instrument points' velocities.
 AXES = ("x", "y", "z")
+#: Largest ``rate x step`` of a Prony branch: RK4's stability limit on a real decay (2.785).
+_MAX_RATE_STEP = 2.78
 
 
 # ---------------------------------------------------------------------------
@@ -515,6 +518,13 @@ def _run(ctx, seed: int, dia_amp):
     k_dia = [_diaphragm_branches(ctx["dia"], None if dia_amp is None else dia_amp[i],
                                  ctx["f_fit"]) for i in range(rig.isolators)]  # fmt: skip
     pk = _pack(rig, ctx["flow"], k_dia, 1.0 / ctx["dt"])
+    fastest = float(max(np.max(pk["br_rate"]), np.max(pk["hrate"])))
+    if fastest * ctx["dt"] > _MAX_RATE_STEP:
+        raise InputError(
+            f"time_step_s: {ctx['dt']:.4g} s is too long for the fastest relaxation rate of "
+            f"the Prony elements, {fastest:.4g} 1/s (RK4 needs rate x step <= "
+            f"{_MAX_RATE_STEP:g}); use at most {_MAX_RATE_STEP / fastest:.3g} s"
+        )
     rng = np.random.default_rng(seed)
     halves, vels = [], []
     for ia, fl in enumerate(ctx["floors"]):  # x, y, z: interleaved bins, one stream
@@ -553,6 +563,7 @@ def _run(ctx, seed: int, dia_amp):
 
 
 def simulate_table_response(
+    design,
     table,
     floor,
     *,
@@ -571,9 +582,12 @@ def simulate_table_response(
 
     Parameters
     ----------
-    table : TableRig
-        The table (a :class:`TableRig`; see :func:`table_rig` for building one from the
-        table model).
+    design : SpringDesign or None
+        The isolators' spring (each gets its own p0 from the leveling); ``None`` when
+        ``table`` is a :class:`TableRig` (which carries its designs).
+    table : Table or TableRig
+        The table model (:class:`~isodesign.table.Table`, realized by :func:`table_rig`) or
+        a realization.
     floor : FloorSpectrum, str, path, or mapping/sequence of three
         One floor for x, y and z (independent realizations), or one per axis (``{"x": ...,
         "y": ..., "z": ...}`` or ``(fx, fy, fz)``).
@@ -601,15 +615,19 @@ def simulate_table_response(
     """
     check_choice("flow", flow, MONTE_CARLO_FLOW_MODELS)
     check_choice("amplitudes", amplitudes, _AMPLITUDES)
-    if not isinstance(table, TableRig):
-        table = table_rig(table)
-    rig = table
+    rig = table if isinstance(table, TableRig) else table_rig(design, table)
     seed_list = _check_seeds(seeds)
     floors = _floors(floor)
     tg = None if target is None else resolve_target(target)
     b = default_bands(floors[2], tg) if bands is None else bands
     duration, warm, n, dt = _timing(duration_s, warmup_s, time_step_s, b,
                                     max(f.f_max_hz for f in floors), flow)  # fmt: skip
+    if duration * float(np.min(b.upper_hz - b.lower_hz)) < 12.0:
+        raise InputError(
+            f"duration_s: {duration:g} s leaves fewer than 4 frequency bins per axis in the "
+            f"narrowest band ({b.labels[0]} Hz; the three axes take every third bin); use a "
+            "longer record"
+        )
     dia = diaphragm_model(diaphragm)
     ctx = {
         "rig": rig, "flow": flow, "floors": floors, "duration": duration,
@@ -667,6 +685,50 @@ def simulate_table_response(
     )
 
 
-def table_rig(table, **kwargs) -> TableRig:
-    """A :class:`TableRig` from the table model (placeholder until the model lands)."""
-    raise InputError(f"table: expected a TableRig, got {type(table).__name__}")
+def table_rig(design, table, *, frequency_hz=None) -> TableRig:
+    """The :class:`TableRig` of a :class:`~isodesign.table.Table` on ``design``'s isolators.
+
+    Leveling (:func:`isodesign.table.statics.level`) gives each isolator its load and p0;
+    the horizontal element's pendulum is ``W_i / L_p``; its lateral stiffness is taken as it
+    is when it is a :class:`PronyDiaphragm`, otherwise fitted as one over ``frequency_hz``
+    (:func:`lateral_prony`; the fit error is kept in ``lateral_fit_error``).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The (identical) isolators' spring; its p0 is replaced by each isolator's.
+    table : Table
+    frequency_hz : array_like, optional
+        Frequencies of the lateral fit; default 60 points from 0.89 to 89.1 Hz (the
+        one-third-octave bands 1-80 Hz).
+
+    Returns
+    -------
+    TableRig
+    """
+    from isodesign.table.layout import Table
+    from isodesign.table.statics import level
+
+    if not isinstance(table, Table):
+        raise InputError(f"table: expected an isodesign Table or a TableRig, got "
+                         f"{type(table).__name__}")  # fmt: skip
+    lev = level(table, design.piston_area_m2)
+    hz = table.horizontal
+    f_fit = np.geomspace(0.89, 89.1, 60) if frequency_hz is None else frequency_hz
+    lateral = hz.lateral_model if hz.lateral_model is not None else (
+        hz.lateral_stiffness_n_per_m, hz.lateral_loss_factor)
+    lat, err = lateral_prony(lateral, f_fit)
+    n = table.n_isolators
+    return TableRig(
+        mass_kg=table.mass_kg,
+        inertia_kg_m2=table.inertia_kg_m2,
+        designs=lev.designs(design),
+        loads_n=lev.load_n,
+        r_vertical_m=table.vertical_points_m,
+        r_horizontal_m=table.horizontal_points_m,
+        pendulum_n_per_m=np.broadcast_to(hz.pendulum_stiffness(lev.load_n), (n,)),
+        lateral=(lat,) * n,
+        points_m=table.instrument_points_from_cg_m,
+        point_names=table.point_names,
+        lateral_fit_error=err,
+    )
