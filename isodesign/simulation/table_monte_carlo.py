@@ -16,11 +16,12 @@ frequency-domain closure (``docs/table-monte-carlo.md``).
 Kinematics (linearized, small rotations ``theta``): a point ``r`` of the body (relative to
 the CG) moves by ``t + theta x r``. The vertical force of isolator ``i`` acts at its
 vertical-force point ``r_v,i``, its horizontal force at its elastic centre ``r_h,i``; their
-generalized forces are ``J(r)^T F`` with ``J(r) = [I, -[r]x]``. The static loads ``W_i``
-stay vertical while their points rotate with the body: the gravity (overturning) term
-``-K_g q`` with ``K_g = sum W_i d/dtheta[(theta x r_v,i) x e_z]`` (``-W h`` on the rocking
-diagonal). The equations are written relative to the floor: ``M r'' = Q(r, states) - K_g r
-- M e a_floor``.
+generalized forces are ``J(r)^T F`` with ``J(r) = [I, -[r]x]``
+(:func:`isodesign.table.assembly.point_matrix`). The static loads ``W_i`` stay vertical
+while their points turn with the body: the gravity (overturning) term ``-K_g q``, the same
+matrix as the frequency-domain model's (:func:`isodesign.table.assembly.gravity_stiffness`,
+``-W h`` on the rocking diagonal at equilibrium). The equations are written relative to the
+floor: ``M r'' = Q(r, states) - K_g r - M e a_floor``.
 """
 
 from __future__ import annotations
@@ -53,14 +54,13 @@ from isodesign.simulation.monte_carlo import (
     fit_prony,
 )
 from isodesign.spring.diaphragm import NoDiaphragm, PronyDiaphragm, diaphragm_model
+from isodesign.table.assembly import gravity_stiffness, point_matrix
 
 __all__ = [
     "AXES",
     "TableMonteCarloResult",
     "TableRig",
-    "gravity_stiffness",
     "lateral_prony",
-    "point_jacobian",
     "simulate_table_response",
     "table_rig",
 ]
@@ -72,58 +72,8 @@ _MAX_RATE_STEP = 2.78
 
 
 # ---------------------------------------------------------------------------
-# kinematics, gravity term, lateral element
+# the lateral element, realized causally
 # ---------------------------------------------------------------------------
-def point_jacobian(r) -> np.ndarray:
-    """``J(r)`` (3 x 6): displacement of the body point ``r`` per ``q = (t, theta)``.
-
-    ``d = t + theta x r = [I, -[r]x] q`` for small rotations; its transpose maps a force at
-    ``r`` to the generalized force (force, moment about the CG).
-
-    Parameters
-    ----------
-    r : array_like (3,)
-        The point relative to the CG, m.
-
-    Returns
-    -------
-    ndarray (3, 6)
-    """
-    x, y, z = (float(v) for v in np.asarray(r, dtype=float).reshape(3))
-    return np.array([[1.0, 0.0, 0.0, 0.0, z, -y],
-                     [0.0, 1.0, 0.0, -z, 0.0, x],
-                     [0.0, 0.0, 1.0, y, -x, 0.0]])  # fmt: skip
-
-
-def gravity_stiffness(loads_n, r_vertical) -> np.ndarray:
-    """The gravity (overturning) stiffness ``K_g`` (6 x 6) of static vertical loads.
-
-    A static load ``W_i`` stays vertical while its point ``r_i`` (relative to the CG) turns
-    with the body; its moment about the CG grows by ``W_i (theta x r_i) x e_z``, so the
-    generalized force is ``-K_g q`` with ``K_g[3, 3] = K_g[4, 4] = sum W_i z_i`` (``= -W h``
-    for loads ``h`` below the CG), ``K_g[3, 5] = -sum W_i x_i``, ``K_g[4, 5] = -sum W_i
-    y_i`` (zero at equilibrium about the CG), all other entries zero.
-
-    Parameters
-    ----------
-    loads_n : array_like (n,)
-        Static vertical loads of the isolators, N.
-    r_vertical : array_like (n, 3)
-        Their points of action relative to the CG, m.
-
-    Returns
-    -------
-    ndarray (6, 6)
-    """
-    w = np.asarray(loads_n, dtype=float)
-    r = np.asarray(r_vertical, dtype=float).reshape(-1, 3)
-    kg = np.zeros((6, 6))
-    kg[3, 3] = kg[4, 4] = float(w @ r[:, 2])
-    kg[3, 5] = -float(w @ r[:, 0])
-    kg[4, 5] = -float(w @ r[:, 1])
-    return kg
-
-
 def lateral_prony(lateral, frequency_hz) -> tuple[PronyDiaphragm, float]:
     """The lateral (horizontal) stiffness as a causal Prony series, and its fit error.
 
@@ -193,9 +143,10 @@ class TableRig:
         Lateral stiffness of each isolator (the same in x and y), causal.
     points_m : array_like (n_points, 3)
         Instrument points relative to the CG.
+    gravity_n_per_m : array_like (6, 6)
+        The gravity (overturning) stiffness ``K_g``
+        (:func:`isodesign.table.assembly.gravity_stiffness`).
     point_names : tuple of str
-    gravity_n_per_m : array_like (6, 6), optional
-        The gravity term; default :func:`gravity_stiffness` of the loads.
     lateral_fit_error : float
         Largest relative error of the lateral elements' Prony fits (reported).
     """
@@ -209,8 +160,8 @@ class TableRig:
     pendulum_n_per_m: Any
     lateral: tuple
     points_m: Any
+    gravity_n_per_m: Any
     point_names: tuple = ()
-    gravity_n_per_m: Any = None
     lateral_fit_error: float = 0.0
 
     def __post_init__(self):
@@ -237,9 +188,8 @@ class TableRig:
         if len(names) != len(pts):
             raise InputError("table.point_names: one name per instrument point")
         object.__setattr__(self, "point_names", names)
-        kg = gravity_stiffness(self.loads_n, self.r_vertical_m) if self.gravity_n_per_m is None \
-            else np.array(self.gravity_n_per_m, dtype=float)  # fmt: skip
-        if kg.shape != (6, 6):
+        kg = np.array(self.gravity_n_per_m, dtype=float)
+        if kg.shape != (6, 6) or not np.all(np.isfinite(kg)):
             raise InputError("table.gravity_n_per_m: expected a 6 x 6 matrix")
         object.__setattr__(self, "gravity_n_per_m", kg)
         if not float(self.mass_kg) > 0:
@@ -552,12 +502,12 @@ def _run(ctx, seed: int, dia_amp):
     bands, dur = ctx["bands"], ctx["duration"]
     ms = np.empty((len(rig.points_m), 3, len(bands)))
     for ip, r in enumerate(rig.points_m):
-        v_rel = rec_qd @ point_jacobian(r).T  # (n, 3)
+        v_rel = rec_qd @ point_matrix(r).T  # (n, 3)
         for ia in range(3):
             ms[ip, ia] = _band_mean_square(v_rel[:, ia] + vels[ia], dur, bands)
     ms_floor = np.array([_band_mean_square(v, dur, bands) for v in vels])
-    strokes = np.array([rec_q @ point_jacobian(r)[2] for r in rig.r_vertical_m])  # (n_iso, n)
-    horiz = np.array([rec_q @ point_jacobian(r)[:2].T for r in rig.r_horizontal_m])
+    strokes = np.array([rec_q @ point_matrix(r)[2] for r in rig.r_vertical_m])  # (n_iso, n)
+    horiz = np.array([rec_q @ point_matrix(r)[:2].T for r in rig.r_horizontal_m])
     fit_err = max([k[3] for k in k_dia] + [0.0])
     return ms, ms_floor, strokes, rec_u.T.copy(), horiz, time.perf_counter() - t0, fit_err
 
@@ -729,6 +679,7 @@ def table_rig(design, table, *, frequency_hz=None) -> TableRig:
         pendulum_n_per_m=np.broadcast_to(hz.pendulum_stiffness(lev.load_n), (n,)),
         lateral=(lat,) * n,
         points_m=table.instrument_points_from_cg_m,
+        gravity_n_per_m=gravity_stiffness(table, lev.load_n),
         point_names=table.point_names,
         lateral_fit_error=err,
     )

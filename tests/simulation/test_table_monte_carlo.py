@@ -56,8 +56,8 @@ def _rig(ref, *, lateral=(3.0e4, 0.15)):
         mass_kg=mass, inertia_kg_m2=np.diag([60.0, 110.0, 150.0]),
         designs=tuple(ref.with_load(wi / G, 1) for wi in w), loads_n=w, r_vertical_m=rv,
         r_horizontal_m=rh, pendulum_n_per_m=w / 0.25, lateral=(lat,) * 4,
-        points_m=[[0.3, 0.2, 0.4], [-0.5, -0.3, 0.1]], point_names=("top", "edge"),
-        gravity_n_per_m=kg,
+        points_m=[[0.3, 0.2, 0.4], [-0.5, -0.3, 0.1]], gravity_n_per_m=kg,
+        point_names=("top", "edge"),
     )  # fmt: skip
 
 
@@ -233,3 +233,59 @@ def test_rig_validation(ref):
         dataclasses.replace(rig, lateral=(rig.lateral[0],))
     with pytest.raises(InputError, match=r"^table:"):
         simulate_table_response(ref, "a table", "VC-A", seeds=1, duration_s=60.0)
+
+
+def _asymmetric_table(lateral_model=None):
+    """An asymmetric 4-isolator table (the verification case of the closure tests)."""
+    from isodesign.table import HorizontalElement, Table
+
+    hz = HorizontalElement(pendulum_length_m=0.2, lateral_stiffness_n_per_m=2.0e4,
+                           lateral_loss_factor=0.15, lateral_model=lateral_model,
+                           elastic_centre_height_m=0.05)  # fmt: skip
+    return Table(mass_kg=600.0, isolators_m=[[0.0, 0.0], [1.2, 0.0], [1.25, 0.85], [-0.05, 0.8]],
+                 cg_m=[0.68, 0.37, 0.35], inertia_kg_m2=[[45.0, 3.0, 0.0], [3.0, 80.0, 0.0],
+                                                          [0.0, 0.0, 110.0]],
+                 instrument_points_m=[[0.6, 0.4, 0.5], [1.1, 0.75, 0.45]],
+                 point_names=("centre", "corner"), horizontal=hz)  # fmt: skip
+
+
+def test_rig_of_a_table_is_the_frequency_domain_model(ref):
+    """table_rig: leveling loads and p0, the pendulum, the gravity term by hand; and the
+    compiled right-hand side's stiffness equals the 6x6 assembly's static stiffness."""
+    from isodesign.simulation import _table_kernel as kern
+    from isodesign.simulation.table_monte_carlo import _pack, table_rig
+    from isodesign.table import geometry
+    from isodesign.table.assembly import static_stiffness_matrix
+
+    table = _asymmetric_table()
+    rig = table_rig(ref, table)
+    w = rig.loads_n
+    xy = table.isolators_m - table.cg_m[:2]
+    np.testing.assert_allclose(w, _loads(xy, (0, 0, 1, 2), 600.0), rtol=1e-12)
+    np.testing.assert_allclose([d.pressure_pa for d in rig.designs],
+                               101325.0 + w / ref.piston_area_m2, rtol=1e-12)  # fmt: skip
+    np.testing.assert_allclose(rig.pendulum_n_per_m, w / 0.2, rtol=1e-12)
+    kg = np.zeros((6, 6))
+    kg[3, 3] = kg[4, 4] = -600.0 * G * 0.35
+    np.testing.assert_allclose(rig.gravity_n_per_m, kg, atol=1e-9)
+    assert 0.05 < rig.lateral_fit_error < 0.15
+    # the kernel's generalized force at a small displacement, internal states at rest and a
+    # vertical diaphragm k_d: K_kernel = -M dq''/dq, against sum k g g^T + K_g
+    k_d = np.array([1.1e4, 1.3e4, 0.9e4, 1.2e4])
+    k_dia = [(k, np.zeros(0), np.zeros(0), 0.0) for k in k_d]
+    pk = _pack(rig, "quasi_steady", k_dia, 2048.0)
+    minv = np.linalg.inv(rig.mass_matrix)
+    k_kernel = np.zeros((6, 6))
+    for j in range(6):
+        y = np.zeros(pk["n_states"])
+        y[j] = 1e-9
+        out = np.zeros_like(y)
+        kern._table_rhs(y, out, 0.0, 0.0, 0.0, minv, rig.gravity_n_per_m, pk["P"], 0,
+                        pk["n_modes"], pk["mode_gain"], pk["mode_rate"], pk["n_branch"],
+                        pk["br_k"], pk["br_rate"], rig.r_vertical_m, rig.r_horizontal_m,
+                        pk["kh0"], pk["n_hb"], pk["hk"], pk["hrate"], pk["off"], pk["hoff"],
+                        np.zeros(4), np.zeros(6))  # fmt: skip
+        k_kernel[:, j] = -(rig.mass_matrix @ out[6:12]) / 1e-9
+    geo = geometry(table, w)
+    expect = static_stiffness_matrix(geo, k_d, pk["kh0"])
+    np.testing.assert_allclose(k_kernel, expect, rtol=1e-6, atol=1e-6 * np.abs(expect).max())
