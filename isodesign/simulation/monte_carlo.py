@@ -214,8 +214,8 @@ def _band_positions(outer: Bands, inner: Bands) -> np.ndarray:
 # ---------------------------------------------------------------------------
 # diaphragm: Prony series
 # ---------------------------------------------------------------------------
-def fit_prony(omega, k_target, *, per_decade: int = 3) -> tuple[float, np.ndarray, np.ndarray,
-                                                                  float]:
+def fit_prony(omega, k_target, *, per_decade: int = 3,
+              weighting: str = "complex") -> tuple[float, np.ndarray, np.ndarray, float]:
     """Fit ``k_inf + sum k_i j w tau_i / (1 + j w tau_i)`` (all ``>= 0``) to ``k_target(w)``.
 
     Relaxation times log-spaced ``per_decade`` per decade from a decade below to a decade
@@ -230,6 +230,12 @@ def fit_prony(omega, k_target, *, per_decade: int = 3) -> tuple[float, np.ndarra
         The complex stiffness to fit at ``omega``, N/m.
     per_decade : int
         Relaxation times per decade.
+    weighting : {'complex', 'parts'}
+        ``complex``: residuals relative to ``|k_target|`` (default; the storage part
+        dominates when the loss factor is small). ``parts``: the real part relative to
+        ``Re k_target`` and the imaginary part relative to ``Im k_target``, so that the loss
+        stiffness is fitted as closely as the storage (for an element whose damping
+        matters, such as the table's lateral stiffness).
 
     Returns
     -------
@@ -250,9 +256,17 @@ def fit_prony(omega, k_target, *, per_decade: int = 3) -> tuple[float, np.ndarra
     rates = 10.0 ** np.arange(lo, hi + 1e-9, 1.0 / per_decade)
     jw = 1j * w[:, None]
     basis = np.concatenate([np.ones((w.size, 1)), jw / (jw + rates)], axis=1)
-    scale = np.abs(kt)[:, None]
-    a = np.concatenate([(basis / scale).real, (basis / scale).imag])
-    b = np.concatenate([(kt / scale[:, 0]).real, (kt / scale[:, 0]).imag])
+    check_choice("weighting", weighting, ("complex", "parts"))
+    if weighting == "parts":
+        if not (np.all(kt.real > 0) and np.all(kt.imag > 0)):
+            raise InputError("k_target: weighting='parts' needs positive real and imaginary "
+                             "parts")
+        a = np.concatenate([basis.real / kt.real[:, None], basis.imag / kt.imag[:, None]])
+        b = np.ones(2 * w.size)
+    else:
+        scale = np.abs(kt)[:, None]
+        a = np.concatenate([(basis / scale).real, (basis / scale).imag])
+        b = np.concatenate([(kt / scale[:, 0]).real, (kt / scale[:, 0]).imag])
     coef, _ = nnls(a, b, maxiter=50 * a.shape[1])
     fit = basis @ coef
     err = float(np.max(np.abs(fit - kt) / np.abs(kt)))

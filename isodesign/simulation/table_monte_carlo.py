@@ -79,8 +79,11 @@ def lateral_prony(lateral, frequency_hz) -> tuple[PronyDiaphragm, float]:
 
     A loss-factor stiffness ``k (1 + j eta)`` is not causal (no time-domain element has a
     frequency-independent loss factor), so it is fitted over ``frequency_hz`` with
-    :func:`~isodesign.simulation.monte_carlo.fit_prony`; the closure to compare with must be
-    evaluated with the returned element.
+    :func:`~isodesign.simulation.monte_carlo.fit_prony`, the storage and the loss stiffness
+    each relative to itself (``weighting='parts'``: the loss stiffness sets the damping of
+    the horizontal and rocking modes; for ``eta = 0.15`` over 0.9-89 Hz the storage is
+    within about 18 % and the loss within about 10 %, the compromise Kramers-Kronig allows).
+    The closure to compare with must be evaluated with the returned element.
 
     Parameters
     ----------
@@ -115,7 +118,8 @@ def lateral_prony(lateral, frequency_hz) -> tuple[PronyDiaphragm, float]:
         if not (value.real >= 0 and value.imag >= 0 and abs(value) > 0):
             raise InputError(f"lateral: the stiffness must be passive (Re, Im >= 0), got {value}")
         kt = np.full(w.shape, value)
-    k_inf, k_i, rate_i, err = fit_prony(w, kt)
+    parts = bool(np.all(kt.real > 0) and np.all(kt.imag > 0))
+    k_inf, k_i, rate_i, err = fit_prony(w, kt, weighting="parts" if parts else "complex")
     return PronyDiaphragm(k_inf, tuple(k_i.tolist()), tuple(rate_i.tolist())), err
 
 

@@ -18,7 +18,7 @@ import pytest
 from isodesign.errors import InputError
 from isodesign.floor import FloorSpectrum
 from isodesign.floor.bands import third_octave_bands
-from isodesign.simulation.monte_carlo import _floor_spectrum, _norm_bands
+from isodesign.simulation.monte_carlo import _floor_spectrum, _norm_bands, fit_prony
 from isodesign.simulation.table_monte_carlo import (
     TableMonteCarloResult,
     TableRig,
@@ -144,14 +144,24 @@ def test_lateral_prony():
     assert lateral_prony(pd, F_FIT) == (pd, 0.0)
     fit, err = lateral_prony((3.0e4, 0.15), F_FIT)
     k = fit.stiffness(2 * math.pi * F_FIT, 1e-6)
-    # a causal element cannot hold a constant loss factor: about 11 % at eta = 0.15
-    assert err < 0.15
-    np.testing.assert_allclose(np.asarray(k.re), 3.0e4, rtol=0.1)
-    assert np.all(np.asarray(k.im) > 0)
+    # a causal element cannot hold a constant loss factor over a constant storage stiffness
+    # (Kramers-Kronig); fitted part by part: storage within 18.5 %, loss within 10.5 %
+    storage, loss = np.asarray(k.re) / 3.0e4 - 1.0, np.asarray(k.im) / 4.5e3 - 1.0
+    assert np.max(np.abs(storage)) < 0.185 and np.max(np.abs(loss)) < 0.105
+    assert 0.15 < err < 0.2
+    # the default complex weighting (the diaphragm's) would miss the loss stiffness by 60 %
+    k_inf, k_i, r_i, _ = fit_prony(2 * math.pi * F_FIT, np.full(F_FIT.size, 3.0e4 * (1 + 0.15j)))
+    im = PronyDiaphragm(k_inf, tuple(k_i), tuple(r_i)).stiffness(2 * math.pi * F_FIT, 1e-6).im
+    assert np.max(np.abs(np.asarray(im) / 4.5e3 - 1.0)) > 0.5
+    # no loss: the complex weighting
+    elastic, err0 = lateral_prony((3.0e4, 0.0), F_FIT)
+    assert err0 < 1e-6 and elastic.k_inf_n_per_m == pytest.approx(3.0e4, rel=1e-6)
     fit2, err2 = lateral_prony(complex(3.0e4, 4.5e3), F_FIT)
     assert err2 == pytest.approx(err) and fit2.k_inf_n_per_m == pytest.approx(fit.k_inf_n_per_m)
     _, err3 = lateral_prony(pd, F_FIT)
     assert err3 == 0.0
+    with pytest.raises(InputError, match=r"^weighting:"):
+        fit_prony(2 * math.pi * F_FIT, np.full(F_FIT.size, 3.0e4 + 0j), weighting="real")
     for bad in ("soft", complex(-1.0, 0.0)):
         with pytest.raises(InputError, match=r"^lateral:"):
             lateral_prony(bad, F_FIT)
@@ -268,7 +278,7 @@ def test_rig_of_a_table_is_the_frequency_domain_model(ref):
     kg = np.zeros((6, 6))
     kg[3, 3] = kg[4, 4] = -600.0 * G * 0.35
     np.testing.assert_allclose(rig.gravity_n_per_m, kg, atol=1e-9)
-    assert 0.05 < rig.lateral_fit_error < 0.15
+    assert 0.15 < rig.lateral_fit_error < 0.2
     # the kernel's generalized force at a small displacement, internal states at rest and a
     # vertical diaphragm k_d: K_kernel = -M dq''/dq, against sum k g g^T + K_g
     k_d = np.array([1.1e4, 1.3e4, 0.9e4, 1.2e4])
