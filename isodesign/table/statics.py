@@ -132,7 +132,8 @@ def level(table: Table, piston_area_m2: float, *, p_atm_pa: float = P_ATM) -> Le
     rhs = np.array([w, w * cx, w * cy])
     scale = float(np.ptp(xy, axis=0).max())
     cent = np.array([xy[list(g)].mean(axis=0) for g in groups])
-    area2 = np.cross(cent[1] - cent[0], cent[2] - cent[0])
+    u, v = cent[1] - cent[0], cent[2] - cent[0]
+    area2 = u[0] * v[1] - u[1] * v[0]
     if abs(area2) < 1e-9 * scale * scale:
         raise InputError(
             "leveling_groups: the three groups' centroids are collinear, so the group "
