@@ -67,6 +67,11 @@ __all__ = [
 
 #: Axes of the floor and of the instrument points' velocities.
 AXES = ("x", "y", "z")
+#: Default warm-up: at least this long (s), and this many times the slowest decay time of
+#: the linearized table, at most this many record lengths.
+_MIN_WARMUP_S = 20.0
+_WARMUP_DECAYS = 14.0
+_MAX_WARMUP_PERIODS = 5.0
 #: Largest ``rate x step`` of a Prony branch: RK4's stability limit on a real decay (2.785).
 _MAX_RATE_STEP = 2.78
 
@@ -237,6 +242,9 @@ class TableMonteCarloResult(ResultDisplay):
     stroke_kurtosis, tube_velocity_kurtosis : ndarray (n_isolators,)
     seeds : tuple of int
     duration_s, warmup_s, time_step_s : float
+    transient_left : float
+        ``exp(-lambda_min warmup_s)``: what is left of the start-up transient of the slowest
+        mode of the linearized table when the record starts.
     flow, diaphragm, amplitudes : str
     floor_names : tuple of str
         Per axis.
@@ -264,6 +272,7 @@ class TableMonteCarloResult(ResultDisplay):
     seeds: tuple
     duration_s: float
     warmup_s: float
+    transient_left: float
     time_step_s: float
     flow: str
     diaphragm: str
@@ -404,19 +413,28 @@ class TableMonteCarloResult(ResultDisplay):
 # the simulation
 # ---------------------------------------------------------------------------
 def _floors(floor) -> tuple:
-    """Three :class:`FloorSpectrum` (x, y, z) from one floor or a per-axis mapping/sequence."""
-    if isinstance(floor, dict):
+    """Three floors (x, y, z; ``None``: no motion) from one floor, a mapping or a sequence.
+
+    A :class:`~isodesign.table.floor.TableFloor` gives its own three spectra.
+    """
+    if hasattr(floor, "spectra") and hasattr(floor, "names"):  # a TableFloor
+        out = tuple(floor.spectra)
+    elif isinstance(floor, dict):
         missing = [a for a in AXES if a not in floor]
         if missing:
             raise InputError(f"floor: the axes {', '.join(missing)} are missing "
                              "(give x, y and z)")  # fmt: skip
-        return tuple(resolve_floor(floor[a]) for a in AXES)
-    if isinstance(floor, tuple | list):
+        out = tuple(None if floor[a] is None else resolve_floor(floor[a]) for a in AXES)
+    elif isinstance(floor, tuple | list):
         if len(floor) != 3:
             raise InputError(f"floor: expected 3 floors (x, y, z), got {len(floor)}")
-        return tuple(resolve_floor(f) for f in floor)
-    f = resolve_floor(floor)
-    return (f, f, f)
+        out = tuple(None if f is None else resolve_floor(f) for f in floor)
+    else:
+        f = resolve_floor(floor)
+        out = (f, f, f)
+    if all(f is None for f in out):
+        raise InputError("floor: no axis has a floor spectrum")
+    return out
 
 
 def _pack(rig: TableRig, flow: str, k_dia: list, rate_hz: float):
@@ -463,15 +481,65 @@ def _pack(rig: TableRig, flow: str, k_dia: list, rate_hz: float):
     }  # fmt: skip
 
 
+def _packed(ctx, dia_amp):
+    """The kernel's arrays for one diaphragm amplitude per isolator (and the fit errors)."""
+    rig = ctx["rig"]
+    k_dia = [_diaphragm_branches(ctx["dia"], None if dia_amp is None else dia_amp[i],
+                                 ctx["f_fit"]) for i in range(rig.isolators)]  # fmt: skip
+    return _pack(rig, ctx["flow"], k_dia, 1.0 / ctx["dt"]), k_dia
+
+
+def _slowest_decay_rate(ctx, dia_amp) -> float:
+    """Slowest decay rate (1/s) of the table's linearized equations about the static state.
+
+    The Jacobian of the compiled right-hand side by central differences (steps sized per
+    kind of state), its eigenvalues ``lambda``; the slowest ``-Re lambda`` over the modes
+    with ``|lambda| > 1e-3 1/s`` (the gas's neutral energy mode excluded). A mode with
+    ``Re lambda > 0`` means the table is unstable (``SolverError``).
+    """
+    from isodesign.simulation import _table_kernel as kern
+
+    rig = ctx["rig"]
+    pk, _ = _packed(ctx, dia_amp)
+    n = pk["n_states"]
+    step = np.full(n, 1e-9)  # body (m, rad, m/s, rad/s), tube velocities, Womersley modes
+    for i in range(rig.isolators):
+        o = int(pk["off"][i])
+        step[o:o + 2] = 1e-3  # chamber pressures, Pa
+        step[o + 2] = 1e-12  # top chamber's gas mass, kg
+        n_tube = {"quasi_steady": 1, "poiseuille": 0}.get(ctx["flow"], int(pk["n_modes"][i]))
+        step[o + 3 + n_tube:int(pk["hoff"][i])] = 1e-6  # diaphragm branch forces, N
+        step[int(pk["hoff"][i]):int(pk["hoff"][i]) + 2 * int(pk["n_hb"][i])] = 1e-6
+    jac = np.empty((n, n))
+    args = (np.linalg.inv(rig.mass_matrix), np.ascontiguousarray(rig.gravity_n_per_m),
+            pk["P"], _FLOW_CODE[ctx["flow"]], pk["n_modes"], pk["mode_gain"], pk["mode_rate"],
+            pk["n_branch"], pk["br_k"], pk["br_rate"], np.ascontiguousarray(rig.r_vertical_m),
+            np.ascontiguousarray(rig.r_horizontal_m), pk["kh0"], pk["n_hb"], pk["hk"],
+            pk["hrate"], pk["off"], pk["hoff"], np.zeros(rig.isolators), np.zeros(6))
+    for j in range(n):
+        yp, ym, fp, fm = np.zeros(n), np.zeros(n), np.zeros(n), np.zeros(n)
+        yp[j], ym[j] = step[j], -step[j]
+        kern._table_rhs(yp, fp, 0.0, 0.0, 0.0, *args)
+        kern._table_rhs(ym, fm, 0.0, 0.0, 0.0, *args)
+        jac[:, j] = (fp - fm) / (2.0 * step[j])
+    lam = np.linalg.eigvals(jac)
+    lam = lam[np.abs(lam) > 1e-3]
+    if np.any(lam.real > 1e-6 * np.abs(lam)):
+        worst = lam[int(np.argmax(lam.real))]
+        raise SolverError(
+            f"Monte Carlo: the linearized table is unstable (eigenvalue {worst:.4g} 1/s): "
+            "check the rocking stability with the gravity term (isodesign modes)"
+        )
+    return float(np.min(-lam.real))
+
+
 def _run(ctx, seed: int, dia_amp):
     """One realization: band mean squares (points, axes, bands), floor ms, records, seconds."""
     from isodesign.simulation import _table_kernel as kern
 
     t0 = time.perf_counter()
     rig, n, n_skip = ctx["rig"], ctx["n"], ctx["n_skip"]
-    k_dia = [_diaphragm_branches(ctx["dia"], None if dia_amp is None else dia_amp[i],
-                                 ctx["f_fit"]) for i in range(rig.isolators)]  # fmt: skip
-    pk = _pack(rig, ctx["flow"], k_dia, 1.0 / ctx["dt"])
+    pk, k_dia = _packed(ctx, dia_amp)
     fastest = float(max(np.max(pk["br_rate"]), np.max(pk["hrate"])))
     if fastest * ctx["dt"] > _MAX_RATE_STEP:
         raise InputError(
@@ -482,6 +550,10 @@ def _run(ctx, seed: int, dia_amp):
     rng = np.random.default_rng(seed)
     halves, vels = [], []
     for ia, fl in enumerate(ctx["floors"]):  # x, y, z: interleaved bins, one stream
+        if fl is None:  # no motion in this axis
+            halves.append(np.zeros(2 * (n_skip + n - 1) + 1))
+            vels.append(np.zeros(n))
+            continue
         a_half, vel = _floor_half_steps(fl, {**ctx, "norm_bands": _norm_bands(
             fl, ctx["amplitudes"])}, rng, 3, ia)  # fmt: skip
         halves.append(a_half)
@@ -525,7 +597,7 @@ def simulate_table_response(
     bands=None,
     seeds=4,
     duration_s: float = 320.0,
-    warmup_s: float = 20.0,
+    warmup_s: float | None = None,
     time_step_s: float | None = None,
     flow: str = "quasi_steady",
     diaphragm="viscoelastic",
@@ -542,16 +614,25 @@ def simulate_table_response(
     table : Table or TableRig
         The table model (:class:`~isodesign.table.Table`, realized by :func:`table_rig`) or
         a realization.
-    floor : FloorSpectrum, str, path, or mapping/sequence of three
-        One floor for x, y and z (independent realizations), or one per axis (``{"x": ...,
-        "y": ..., "z": ...}`` or ``(fx, fy, fz)``).
+    floor : FloorSpectrum, str, path, TableFloor, or mapping/sequence of three
+        One floor for x, y and z (independent realizations), or one per axis (a
+        :class:`~isodesign.table.floor.TableFloor`, ``{"x": ..., "y": ..., "z": ...}`` or
+        ``(fx, fy, fz)``; ``None`` for an axis without motion).
     target : str or CriterionCurve, optional
         Only to choose the default bands.
     bands : Bands, optional
         Default: the target's bands inside the vertical floor's range.
     seeds : int or sequence of int
-    duration_s, warmup_s : float
-        Analysed period and warm-up of each realization, s.
+    duration_s : float
+        Analysed period of each realization, s.
+    warmup_s : float, optional
+        Simulated time before the record, s. Default: ``max(20 s, 14 / lambda_min)`` with
+        ``lambda_min`` the slowest decay rate of the linearized table (eigenvalues of its
+        Jacobian about the static state), at most ``5 duration_s``: the start-up transient
+        of a lightly damped horizontal, yaw or rocking mode must have decayed to ``e^-14`` before
+        the record, or its leakage spreads over every band (it would dominate bands where
+        the response is 80-90 dB below the floor). The transient left, ``exp(-lambda_min
+        warmup)``, is reported.
     time_step_s : float, optional
         RK4 step; default ``1/2048`` s (``1/8192`` s for ``womersley``).
     flow : {'quasi_steady', 'poiseuille', 'womersley'}
@@ -572,10 +653,12 @@ def simulate_table_response(
     rig = table if isinstance(table, TableRig) else table_rig(design, table)
     seed_list = _check_seeds(seeds)
     floors = _floors(floor)
+    given = [f for f in floors if f is not None]
     tg = None if target is None else resolve_target(target)
-    b = default_bands(floors[2], tg) if bands is None else bands
-    duration, warm, n, dt = _timing(duration_s, warmup_s, time_step_s, b,
-                                    max(f.f_max_hz for f in floors), flow)  # fmt: skip
+    b = default_bands(floors[2] or given[0], tg) if bands is None else bands
+    duration, warm, n, dt = _timing(duration_s, 0.0 if warmup_s is None else warmup_s,
+                                    time_step_s, b, max(f.f_max_hz for f in given),
+                                    flow)  # fmt: skip
     if duration * float(np.min(b.upper_hz - b.lower_hz)) < 12.0:
         raise InputError(
             f"duration_s: {duration:g} s leaves fewer than 4 frequency bins per axis in the "
@@ -587,11 +670,17 @@ def simulate_table_response(
         "rig": rig, "flow": flow, "floors": floors, "duration": duration,
         "amplitudes": amplitudes, "bands": b, "n": n, "n_skip": round(warm / dt), "dt": dt,
         "dia": dia,
-        "f_fit": np.geomspace(min(f.f_min_hz for f in floors),
-                              max(f.f_max_hz for f in floors), 60),
+        "f_fit": np.geomspace(min(f.f_min_hz for f in given),
+                              max(f.f_max_hz for f in given), 60),
     }  # fmt: skip
+    lin_amp = None if isinstance(dia, NoDiaphragm | PronyDiaphragm) else np.full(
+        rig.isolators, LINEAR_REFERENCE_AMPLITUDE_M)  # fmt: skip
+    decay = _slowest_decay_rate(ctx, lin_amp)
+    if warmup_s is None:
+        warm = min(max(_MIN_WARMUP_S, _WARMUP_DECAYS / decay), _MAX_WARMUP_PERIODS * duration)
+        ctx["n_skip"] = round(warm / dt)
     dia_amp = None
-    if not isinstance(dia, NoDiaphragm | PronyDiaphragm):
+    if lin_amp is not None:
         if diaphragm_amplitude_m is not None:
             a = np.broadcast_to(np.asarray(diaphragm_amplitude_m, dtype=float),
                                 (rig.isolators,))  # fmt: skip
@@ -599,7 +688,7 @@ def simulate_table_response(
                 raise InputError("diaphragm_amplitude_m: must be > 0 m")
             dia_amp = a.copy()
         else:  # pilot run of the first seed at the linear-regime amplitude
-            pilot = _run(ctx, seed_list[0], np.full(rig.isolators, LINEAR_REFERENCE_AMPLITUDE_M))
+            pilot = _run(ctx, seed_list[0], lin_amp)
             dia_amp = EQUIVALENT_AMPLITUDE_FACTOR * np.sqrt(np.mean(pilot[2] ** 2, axis=1))
     runs = [_run(ctx, s, dia_amp) for s in seed_list]
     ms = np.array([r[0] for r in runs])
@@ -625,11 +714,12 @@ def simulate_table_response(
         seeds=seed_list,
         duration_s=duration,
         warmup_s=warm,
+        transient_left=float(math.exp(-decay * warm)),
         time_step_s=dt,
         flow=flow,
         diaphragm=dia.name,
         amplitudes=amplitudes,
-        floor_names=tuple(f.name for f in floors),
+        floor_names=tuple("none" if f is None else f.name for f in floors),
         diaphragm_amplitude_m=dia_amp,
         diaphragm_fit_error=float(max(r[6] for r in runs)),
         lateral_fit_error=float(rig.lateral_fit_error),
