@@ -37,7 +37,8 @@ from isodesign.table.assembly import AXES
 from isodesign.table.floor import TableGrid, table_floor, table_grid
 from isodesign.table.model import TableModel, TableOutputs, table_model
 
-__all__ = ["RIGID_FLOOR_NOTE", "TableBandResponse", "solve_table_closure", "table_band_response"]
+__all__ = ["RIGID_FLOOR_NOTE", "TableBandResponse", "TableStatistical", "solve_table_closure",
+           "table_band_response"]
 
 #: What every table result says about its floor model.
 RIGID_FLOOR_NOTE = ("rigid floor: the same x, y, z translation under every isolator, axes "
