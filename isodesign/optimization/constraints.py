@@ -20,6 +20,7 @@ from isodesign.spring.flow_models import flow_model
 
 __all__ = [
     "ACTIVE_MARGIN",
+    "BINDING_TOL",
     "VALIDITY_MARGIN",
     "Constraint",
     "ConstraintReport",
@@ -33,8 +34,12 @@ _LN10 = math.log(10.0)
 #: acoustic compactness, Womersley number): the constraints hold at the NLP's grid
 #: points, and the margin keeps the finer analysis grid inside the limits too.
 VALIDITY_MARGIN = 0.98
-#: A constraint whose margin (NLP units) is below this is reported as binding.
-ACTIVE_MARGIN = 1e-4
+#: A constraint whose margin (NLP units) is below this is reported as binding: within
+#: 0.5 % of its bound for the constraints on a log scale (every one but the peak
+#: transmissibility), within 0.022 dB (0.005 in ln |T|^2) for the peak transmissibility.
+BINDING_TOL = 5e-3
+#: Former name of :data:`BINDING_TOL`.
+ACTIVE_MARGIN = BINDING_TOL
 
 
 @dataclass(frozen=True)
@@ -189,7 +194,8 @@ class ConstraintReport:
 
     ``value``, ``lower`` and ``upper`` are in natural units (``unit``);
     ``margin`` is the NLP's margin in its internal units (the log of the ratio
-    to the bound, or dB), which is what ``active`` (margin < 1e-4) is judged on;
+    to the bound, or ``ln |T|^2``), which is what ``active`` (binding: margin <
+    :data:`BINDING_TOL`, i.e. within 0.5 % of the bound) is judged on;
     :attr:`margin_natural` is the distance to the nearest bound in ``unit``.
     """
 
@@ -232,7 +238,7 @@ def constraint_reports(con_rows, g: np.ndarray) -> list[ConstraintReport]:
         one, the smallest distance to either bound when both are finite).
         ``value``, ``lower`` and ``upper`` are converted to natural units (``exp``
         of the log; ``ln |T|^2`` to dB); ``margin`` stays in NLP units and
-        ``active`` is ``margin < ACTIVE_MARGIN``.
+        ``active`` (binding) is ``margin < BINDING_TOL``.
     """
     out = []
     for c, row, n in con_rows:
@@ -254,7 +260,7 @@ def constraint_reports(con_rows, g: np.ndarray) -> list[ConstraintReport]:
         out.append(ConstraintReport(
             name=c.name, value=conv(v), lower=conv(lo) if math.isfinite(lo) else None,
             upper=conv(hi) if math.isfinite(hi) else None, unit=unit,
-            margin=margin, active=margin < ACTIVE_MARGIN, description=c.describe,
+            margin=margin, active=margin < BINDING_TOL, description=c.describe,
         ))
     return out
 

@@ -28,6 +28,7 @@ from isodesign.errors import (
 from isodesign.numerics.cplx import Cx
 from isodesign.plotting.response import band_response_figure, draw_bands, judged_mask
 from isodesign.plotting.style import OPTIMUM
+from isodesign.response.scope import response_scope
 from isodesign.response.isolator import (
     Payload,
     relative_transmissibility,
@@ -483,7 +484,15 @@ class BandResponse(ResultDisplay):
             ("natural frequency", f"{self.stability.natural_frequency_hz:.4g} Hz"),
             ("models", f"{self.flow} flow, {self.amplitude_mode}, {self.diaphragm} diaphragm"),
             ("validity flags", str(len(self.warnings))),
+            ("scope", self.scope.short()),
         ]
+
+    @property
+    def scope(self):
+        """What this answer covers and leaves out (:class:`~isodesign.response.scope.Scope`)."""
+        s = self.stability
+        return response_scope(self.payload, self.diaphragm, s.static_stiffness_n_per_m,
+                              s.air_static_stiffness_n_per_m)
 
     def plot(self, ax=None, *, judged=None, title=None, peak_limit_db=None):
         """Floor, payload and limit per band; |T| in dB and its phase.
