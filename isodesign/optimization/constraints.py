@@ -24,6 +24,7 @@ __all__ = [
     "VALIDITY_MARGIN",
     "Constraint",
     "ConstraintReport",
+    "DISPLAY_UNITS",
     "build_constraints",
     "constraint_reports",
     "flow_validity_constraints",
@@ -38,6 +39,8 @@ VALIDITY_MARGIN = 0.98
 #: 0.5 % of its bound for the constraints on a log scale (every one but the peak
 #: transmissibility), within 0.022 dB (0.005 in ln |T|^2) for the peak transmissibility.
 BINDING_TOL = 5e-3
+#: SI unit of a constraint -> (factor, unit) it is shown in (the command line's L and mm).
+DISPLAY_UNITS = {"m^3": (1e3, "L"), "m": (1e3, "mm")}
 #: Former name of :data:`BINDING_TOL`.
 ACTIVE_MARGIN = BINDING_TOL
 
@@ -207,6 +210,26 @@ class ConstraintReport:
     margin: float
     active: bool
     description: str
+
+    def display(self) -> dict:
+        """The constraint in the units the command line shows (L, mm; :data:`DISPLAY_UNITS`).
+
+        Returns
+        -------
+        dict
+            ``name``, ``value``, ``lower``, ``upper``, ``margin`` (distance to the nearest
+            bound, >= 0 when met), ``unit`` (``-`` for a ratio), ``binding`` (within
+            :data:`BINDING_TOL` of a bound) and ``description``.
+        """
+        scale, unit = DISPLAY_UNITS.get(self.unit, (1.0, self.unit))
+
+        def sc(x):
+            return None if x is None else x * scale
+
+        m = self.margin_natural
+        return {"name": self.name, "value": sc(self.value), "lower": sc(self.lower),
+                "upper": sc(self.upper), "margin": None if math.isinf(m) else m * scale,
+                "unit": unit, "binding": bool(self.active), "description": self.description}
 
     @property
     def margin_natural(self) -> float:

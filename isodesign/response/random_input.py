@@ -492,7 +492,7 @@ class BandResponse(ResultDisplay):
         """What this answer covers and leaves out (:class:`~isodesign.response.scope.Scope`)."""
         s = self.stability
         return response_scope(self.payload, self.diaphragm, s.static_stiffness_n_per_m,
-                              s.air_static_stiffness_n_per_m)
+                              s.air_static_stiffness_n_per_m, self.floor_name)
 
     def plot(self, ax=None, *, judged=None, title=None, peak_limit_db=None):
         """Floor, payload and limit per band; |T| in dB and its phase.

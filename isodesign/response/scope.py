@@ -18,7 +18,10 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["ILLUSTRATIVE_DIAPHRAGMS", "Scope", "response_scope"]
+__all__ = ["ILLUSTRATIVE_DIAPHRAGMS", "SHORT_VERTICAL", "Scope", "response_scope"]
+
+#: The short scope of the vertical model (``repr`` of results, table cells).
+SHORT_VERTICAL = "vertical only, equal loads, no rocking/horizontal modes"
 
 #: Diaphragm models whose parameters are illustrative, not measured.
 ILLUSTRATIVE_DIAPHRAGMS = frozenset({"viscoelastic"})
@@ -39,12 +42,15 @@ class Scope:
         illustrative; ``None`` when no illustrative parameter is used.
     illustrative_what : str
         Which parameters are illustrative (empty when none).
+    headline : str
+        The scope in a few words (:meth:`short`), e.g. :data:`SHORT_VERTICAL`.
     """
 
     covers: str
     leaves_out: tuple[str, ...]
     illustrative_share: float | None = None
     illustrative_what: str = ""
+    headline: str = SHORT_VERTICAL
 
     def lines(self) -> list[str]:
         """The scope as short lines of text (for the CLI and ``str`` of results).
@@ -69,7 +75,7 @@ class Scope:
         -------
         str
         """
-        s = "vertical only, equal loads, no rocking/horizontal modes"
+        s = self.headline
         if self.illustrative_share is not None:
             s += f"; {100.0 * self.illustrative_share:.0f} % of K0 illustrative"
         return s
@@ -81,13 +87,13 @@ class Scope:
         -------
         dict
         """
-        return {"covers": self.covers, "leaves_out": list(self.leaves_out),
+        return {"headline": self.headline, "covers": self.covers, "leaves_out": list(self.leaves_out),
                 "illustrative_share_of_static_stiffness": self.illustrative_share,
                 "illustrative": self.illustrative_what or None}
 
 
 def response_scope(payload, diaphragm: str, static_stiffness_n_per_m: float | None,
-                   air_static_stiffness_n_per_m: float | None) -> Scope:
+                   air_static_stiffness_n_per_m: float | None, floor_name: str = "") -> Scope:
     """The scope of a vertical band response or optimization of ``payload``.
 
     Parameters
@@ -100,6 +106,8 @@ def response_scope(payload, diaphragm: str, static_stiffness_n_per_m: float | No
         ``K0`` of one isolator (air plus diaphragm), N/m.
     air_static_stiffness_n_per_m : float or None
         The air spring's static stiffness ``k_s / (N + 1)``, N/m.
+    floor_name : str
+        The floor spectrum's name (a survey's names the axis used); named in ``covers``.
 
     Returns
     -------
@@ -108,7 +116,8 @@ def response_scope(payload, diaphragm: str, static_stiffness_n_per_m: float | No
     n = payload.isolators
     covers = (f"vertical motion of a {payload.mass_kg:g} kg point-mass payload on {n} "
               f"identical isolator{'s' if n != 1 else ''} sharing its weight equally; "
-              "vertical floor input, the same under every isolator (rigid floor)")
+              "vertical floor input, the same under every isolator (rigid floor)"
+              + (f": {floor_name}" if floor_name else ""))
     leaves_out = ("horizontal and rocking modes (the tilt margin is a static check only)",
                   "unequal isolator loads (CG off the isolators' centroid)",
                   "horizontal floor motion, floor rotation and differential floor motion",
