@@ -40,7 +40,7 @@ VALIDITY_MARGIN = 0.98
 #: transmissibility), within 0.022 dB (0.005 in ln |T|^2) for the peak transmissibility.
 BINDING_TOL = 5e-3
 #: SI unit of a constraint -> (factor, unit) it is shown in (the command line's L and mm).
-DISPLAY_UNITS = {"m^3": (1e3, "L"), "m": (1e3, "mm")}
+DISPLAY_UNITS = {"m^3": (1e3, "L"), "m": (1e3, "mm"), "Pa": (1e-5, "bar")}
 #: Former name of :data:`BINDING_TOL`.
 ACTIVE_MARGIN = BINDING_TOL
 

@@ -76,7 +76,7 @@ STUDY_KEYS = {
     "peak_transmissibility": "constraints.max_peak_transmissibility_db",
     "damping_ratio": "constraints.min_damping_ratio",
     "mach": "constraints.max_mach",
-    "pressure": "constraints.max_pressure_pa",
+    "chamber_pressure": "constraints.max_pressure_pa",
 }
 
 

@@ -46,6 +46,7 @@ from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS
 from isodesign.spring.gas import Gas
@@ -97,7 +98,7 @@ _DEFAULT = {
         "max_peak_transmissibility_db": 15.0,
         "min_damping_ratio": 0.05,
         "max_mach": 0.3,
-        "max_pressure_pa": False,
+        "max_pressure_pa": MAX_STATIC_PRESSURE_PA,
         "model_validity": True,
     },
     "objective": {"kind": "worst_band_margin"},
@@ -587,8 +588,11 @@ def _check_start_design(st: Study, where: str) -> None:
         # p0 = p_atm + m g / (n A_p) depends on the payload and the piston area only: no
         # design variable can meet the bound, so the study is refused, not optimized
         p = st.payload
+        what = (" (the model's validity bound, the default: ideal gas and rolling diaphragm, "
+                "docs/spring-model.md section 10; false runs it anyway, with a FAIL verdict)"
+                if pmax == MAX_STATIC_PRESSURE_PA else "")
         raise InputError(
-            f"{where}: constraints.max_pressure_pa = {pmax:g} Pa, but the payload "
+            f"{where}: constraints.max_pressure_pa = {pmax:g} Pa{what}, but the payload "
             f"({p.mass_kg:g} kg on {p.isolators} isolators of A_p = "
             f"{d.piston_area_m2:g} m^2) needs p0 = {d.pressure_pa:.4g} Pa; no design "
             "variable changes p0: more isolators, a larger piston_area_m2 or a lighter "

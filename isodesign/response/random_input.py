@@ -29,6 +29,7 @@ from isodesign.numerics.cplx import Cx
 from isodesign.plotting.response import band_response_figure, draw_bands, judged_mask
 from isodesign.plotting.style import OPTIMUM
 from isodesign.response.scope import response_scope
+from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 from isodesign.response.isolator import (
     Payload,
     relative_transmissibility,
@@ -399,8 +400,25 @@ class BandResponse(ResultDisplay):
 
     @property
     def passes(self) -> bool:
-        """True when every band meets the target."""
-        return bool(np.all(self.band_passes))
+        """True when every band meets the target and the design is inside the model's
+        hard validity limits (:attr:`outside_validity` empty)."""
+        return bool(np.all(self.band_passes)) and not self.outside_validity
+
+    @property
+    def outside_validity(self) -> tuple[str, ...]:
+        """Why the answer cannot be trusted at all, whatever the bands say (empty: none).
+
+        Today the static chamber pressure: a payload that needs p0 above
+        :data:`~isodesign.spring.diagnostics.MAX_STATIC_PRESSURE_PA` is outside the ideal
+        gas and rolling-diaphragm assumptions, so its verdict is FAIL, not a PASS with a
+        warning.
+        """
+        p0 = self.stability.pressure_pa
+        if p0 is not None and p0 > MAX_STATIC_PRESSURE_PA:
+            return (f"p0 = {p0 / 1e5:.4g} bar abs exceeds the model's validity limit "
+                    f"{MAX_STATIC_PRESSURE_PA / 1e5:g} bar (static_pressure: ideal gas and "
+                    "rolling diaphragm); more isolators or a larger piston area lower it",)
+        return ()
 
     @property
     def worst_band_hz(self) -> float:
@@ -427,13 +445,15 @@ class BandResponse(ResultDisplay):
         n = len(self.bands)
         nfail = int(np.sum(~self.band_passes))
         head = (
-            f"PASS: {self.target_name} met in all {n} bands"
-            if self.passes
-            else f"FAIL: {self.target_name} exceeded in {nfail} of {n} bands"
+            f"{self.target_name} met in all {n} bands"
+            if nfail == 0
+            else f"{self.target_name} exceeded in {nfail} of {n} bands"
         )
-        return (
-            f"{head}; worst band {self.worst_band_label} Hz, margin {self.worst_margin_db:+.2f} dB"
-        )
+        tail = f"; worst band {self.worst_band_label} Hz, margin {self.worst_margin_db:+.2f} dB"
+        if self.outside_validity:
+            return ("FAIL: outside the model's validity: " + "; ".join(self.outside_validity)
+                    + f" (bands, not to be trusted: {head}{tail})")
+        return ("PASS: " if nfail == 0 else "FAIL: ") + head + tail
 
     def to_frame(self):
         """One row per band: floor, payload (v, x, a), target, margin and pass."""
