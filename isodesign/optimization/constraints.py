@@ -125,7 +125,11 @@ def build_constraints(study, mt: dict, n_all: int) -> list[Constraint]:
         # design variables: a constant row (the study refuses a payload beyond the bound),
         # reported with its margin like every constraint
         ln_p0 = math.log(study.start_design().pressure_pa)
-        out.append(Constraint("chamber_pressure", ln_p0 + 0.0 * mt["ln_total_volume"], -inf,
+        # a symbol the row can hang on (the total volume is a number when V_t0 and N are
+        # fixed): any symbolic scalar of the model
+        sym = next((v for v in (mt["ln_total_volume"], mt["ln_fn"], mt["ln_zeta"])
+                    if bk.is_casadi(v)), mt["ln_fn"])
+        out.append(Constraint("chamber_pressure", ln_p0 + 0.0 * sym, -inf,
                               math.log(c["max_pressure_pa"]), 1,
                               "static chamber pressure p0 <= max (set by the payload)"))
     if c["model_validity"]:

@@ -36,6 +36,7 @@ ALL_OFF = {
     "min_natural_frequency_hz": False,
     "max_natural_frequency_hz": False,
     "max_peak_transmissibility_db": False,
+    "max_pressure_pa": False,  # on by default (the model's validity bound) since issue 14
     "min_damping_ratio": False,
     "max_mach": False,
     "model_validity": False,
