@@ -202,7 +202,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     """Print a warning as one line on stderr (replaces :func:`warnings.showwarning`)."""
     text = _one_line(str(message))
-    if category.__name__ != "ModelValidityWarning":
+    if category.__name__ not in ("ModelValidityWarning", "UnitWarning"):
         text = f"{category.__name__}: {text}"
     print(f"{PROG}: warning: {text}", file=sys.stderr)
 

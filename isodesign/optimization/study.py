@@ -42,6 +42,7 @@ from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
 from isodesign.io.files import read_toml
+from isodesign.io.plausible import warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
@@ -178,7 +179,9 @@ class Study:
         ``study.with_changes(objective={"kind": "total_volume"})``.
         """
         raw = _merge(self.raw, tables)  # nested tables merge like a study file's
-        return study_from_dict(raw, source=self.source, fill_defaults=False)
+        st = study_from_dict(raw, source=self.source, fill_defaults=False)
+        warn_unit_slips(tables, self.source)
+        return st
 
 
 def _check_keys(d: dict, table: str, where: str):
@@ -264,6 +267,8 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source)
     _check_start_design(st, where)
+    if fill_defaults:  # the user's own values (with_changes warns on its changes)
+        warn_unit_slips(d, where)
     return st
 
 
