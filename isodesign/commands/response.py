@@ -449,9 +449,15 @@ def run(args) -> int:
           "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
           "random_method": m["random_method"], "derive_pressure": not args.design_pressure,
           "warn": False}
-    with option_names(**RESPONSE_OPTION_NAMES):
-        res = band_response(job.design, job.payload, job.floor, job.target, bands=job.bands,
-                            **kw)
+    try:
+        with option_names(**RESPONSE_OPTION_NAMES):
+            res = band_response(job.design, job.payload, job.floor, job.target,
+                                bands=job.bands, **kw)
+    except InputError as exc:  # name the user's input with the option
+        msg = str(exc)
+        if args.bands and msg.startswith("--bands: "):
+            raise InputError(f"--bands {args.bands}: {msg[len('--bands: '):]}") from None
+        raise
     for line in res.warnings:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"

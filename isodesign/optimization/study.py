@@ -34,6 +34,8 @@ from __future__ import annotations
 
 import copy
 import math
+
+import numpy as np
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -255,6 +257,7 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     hw = _hardware(raw["hardware"], where)
     floor = _floor(raw["floor"], where, source)
     target, bands, band_hz = _target(raw["target"], where)
+    _check_bands_covered(floor, target, bands, band_hz, where)
     models = _models(raw["models"], where, source)
     variables = _variables(raw["variables"], where)
     cons = _constraints(raw["constraints"], where, variables, payload)
@@ -414,6 +417,33 @@ def _target(tg: dict, where: str):
         raise InputError(f"{where}: [target] no one-third octave band between {bmin:g} and "
                          f"{bmax:g} Hz")
     return target, bands, {"band_min_hz": bmin, "band_max_hz": bmax}
+
+
+def _check_bands_covered(floor, target, bands, band_hz: dict, where: str) -> None:
+    """The judged bands must lie inside the floor's data and the target's curve; the error
+    names ``target.band_min_hz``/``band_max_hz``, the values given and the usable range."""
+    bad = []
+    for what, check in (("floor", floor._resolve_bands), ("target", target.velocity_rms_m_s)):
+        try:
+            check(bands)
+        except InputError as exc:
+            bad.append(str(exc).removeprefix("bands: "))
+    if not bad:
+        return
+    lab = np.asarray(bands.labels)
+    ok = np.ones(len(lab), bool)
+    lo_f, hi_f = floor.f_min_hz * (1 - 1e-9), floor.f_max_hz * (1 + 1e-9)
+    ok &= (np.asarray(bands.lower_hz) >= lo_f) & (np.asarray(bands.upper_hz) <= hi_f)
+    ok &= np.asarray(target.covers(bands), bool)
+    keys = []
+    if not ok[0]:
+        keys.append(f"target.band_min_hz = {band_hz['band_min_hz']:g}")
+    if not ok[-1]:
+        keys.append(f"target.band_max_hz = {band_hz['band_max_hz']:g}")
+    usable = (f"; the bands inside both run from {lab[ok][0]} to {lab[ok][-1]} Hz (nominal "
+              "centres)" if ok.any() else "")
+    raise InputError(f"{where}: {' and '.join(keys) or 'target bands'} Hz: judged "
+                     f"{'; '.join(bad)}{usable}")
 
 
 def _int_in(where: str, key: str, value, lo: int, hi: int | None) -> int:
