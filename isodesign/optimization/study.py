@@ -48,6 +48,7 @@ from isodesign.io.plausible import warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
+from isodesign.results import ResultDisplay
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
 from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 from isodesign.spring.diaphragm import diaphragm_model
@@ -132,12 +133,14 @@ _KEYS = {
 }
 
 
-@dataclass(frozen=True, eq=False)
-class Study:
+@dataclass(frozen=True, eq=False, repr=False)
+class Study(ResultDisplay):
     """A validated design study. Build with :func:`load_study` or :func:`default_study`.
 
     ``raw`` holds the resolved dictionary (defaults filled in), which is what a
-    run records so that the study can be replayed.
+    run records so that the study can be replayed. ``repr`` is one short line,
+    ``str`` and ``_repr_html_`` (notebooks) give the job, the models, the free
+    variables, the constraints in force and the objective.
     """
 
     name: str
@@ -154,6 +157,36 @@ class Study:
     solver: dict
     source: str = ""
     notes: tuple[str, ...] = field(default_factory=tuple)
+
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Name, job, models, variables, constraints, objective (for repr and notebooks)."""
+        p = self.payload
+        tg = self.raw.get("target", {})
+        free = [v.name for v in self.variables if not v.fixed]
+        on = [f"{k} = {self.constraints[k]:g}" for k in _DEFAULT["constraints"]
+              if k != "model_validity" and self.constraints.get(k) is not None]
+        src = "built-in" if self.source == "<default>" else self.source
+        items = [
+            ("", repr(self.name)),
+            ("payload", f"{p.mass_kg:g} kg on {p.isolators} isolators"),
+            ("floor", getattr(self.floor, "name", "") or str(self.raw.get("floor"))),
+            ("target", f"{self.target.name} {tg.get('band_min_hz', '?'):g}-"
+                       f"{tg.get('band_max_hz', '?'):g} Hz"),
+            ("objective", self.objective["kind"]),
+            ("free", ", ".join(free) or "none"),
+            ("constraints", ", ".join(on) + (" + model validity"
+                                             if self.constraints.get("model_validity")
+                                             else "")),
+            ("models", f"{self.models['flow']} flow, {self.models['diaphragm']} diaphragm"),
+            ("solver", f"{self.solver['starts']} starts, seed {self.solver['seed']}"),
+            ("source", src),
+        ]
+        return items
+
+    def __repr__(self) -> str:
+        items = dict(self._summary_items())
+        return (f"<Study {self.name!r}: {items['payload']}, {items['floor']} -> "
+                f"{items['target']}, {items['objective']}, source {items['source']}>")
 
     def variable(self, name: str) -> VariableSpec:
         """The spec of one design variable."""
@@ -179,7 +212,31 @@ class Study:
         """A copy with some tables replaced or updated (validated again).
 
         ``study.with_changes(objective={"kind": "total_volume"})``.
+
+        A changed study is another study, so it does not keep the old name and description
+        silently: unless ``name`` (and ``description``) are given, a change of any table
+        but ``[solver]`` names the copy ``"<name> (changed)"`` and appends to its
+        description which tables changed. Solver settings (starts, seed, workers, ...)
+        change how the study is solved, not the study: they keep the name.
+
+        Parameters
+        ----------
+        **tables
+            Tables of the study schema (``payload={"mass_kg": 900.0}``), and optionally
+            ``name`` and ``description`` (strings).
+
+        Returns
+        -------
+        Study
         """
+        changed = sorted(k for k in tables if k not in ("solver", "name", "description"))
+        if changed and "name" not in tables:
+            base = self.name.removesuffix(" (changed)")
+            tables["name"] = f"{base} (changed)"
+        if changed and "description" not in tables:
+            old = str(self.raw.get("description", "")).strip()
+            note = f"Changed from study {self.name!r}: [{'], ['.join(changed)}]."
+            tables["description"] = f"{old} {note}".strip()
         raw = _merge(self.raw, tables)  # nested tables merge like a study file's
         st = study_from_dict(raw, source=self.source, fill_defaults=False)
         warn_unit_slips(tables, self.source)
