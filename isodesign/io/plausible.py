@@ -31,11 +31,11 @@ _BAR_PA = ("bar", 1e5, "Pa")
 
 #: Key (last part, as in a study or design file) -> (low, high, slip below, slip above).
 PLAUSIBLE = {
-    "max_total_volume_m3": (1e-6, 0.1, None, _L_M3),
-    "top_volume_m3": (1e-7, 0.05, None, _L_M3),
-    "capillary_length_m": (1e-4, 5.0, None, _MM_M),
-    "capillary_diameter_m": (1e-5, 0.05, None, _MM_M),
-    "min_capillary_diameter_m": (1e-5, 0.05, None, _MM_M),
+    "max_total_volume_m3": (1e-7, 1.0, None, _L_M3),
+    "top_volume_m3": (1e-7, 1.0, None, _L_M3),
+    "capillary_length_m": (1e-5, 20.0, None, _MM_M),
+    "capillary_diameter_m": (1e-6, 0.5, None, _MM_M),
+    "min_capillary_diameter_m": (1e-6, 0.5, None, _MM_M),
     "spacing_m": (0.01, 50.0, None, _MM_M),
     "cg_height_m": (1e-3, 20.0, None, _MM_M),
     "diaphragm_r1_m": (1e-3, 1.0, None, _MM_M),

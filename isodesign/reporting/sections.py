@@ -81,6 +81,8 @@ def _verdict(a: CaseAnalysis) -> dict:
         "bands": len(r.bands),
         "target": r.target_name,
         "outside": _outside_note(a),
+        "scope": r.scope.short(),
+        "invalid": "; ".join(r.outside_validity),
     }
 
 
