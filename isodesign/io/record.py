@@ -579,7 +579,7 @@ def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dic
         ``kind``, ``command_line``, versions and ``environment``, ``study``,
         ``study_source``, ``objectives``, ``settings``, ``points`` (per sweep point:
         both objective values keyed by kind, ``design``, ``status``,
-        ``nondominated``), ``hypervolume`` (normalized space),
+        ``nondominated``, ``binding``: the constraints binding there), ``hypervolume`` (normalized space),
         ``reference_point_minimized`` and ``ideal_point_minimized`` (the objectives
         as minimized: maximized ones negated) and ``wall_s``.
     """
@@ -592,6 +592,7 @@ def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dic
             "design": dict(d),
             "status": result.statuses[i],
             "nondominated": bool(result.front[i]),
+            "binding": list(result.binding[i]) if i < len(result.binding) else [],
         })
     rec = {
         "kind": "isodesign pareto",

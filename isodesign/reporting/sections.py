@@ -356,7 +356,9 @@ def _pareto(a: CaseAnalysis) -> dict | None:
     res = SimpleNamespace(objectives=(oa, ob), values=vals,
                           designs=tuple(p["design"] for p in pts),
                           front=np.array([bool(p.get("nondominated")) for p in pts]),
-                          hypervolume=float(rec.get("hypervolume") or float("nan")))
+                          hypervolume=float(rec.get("hypervolume") or float("nan")),
+                          binding=tuple(tuple(p.get("binding") or ()) for p in pts),
+                          settings=rec.get("settings") or {})
     fig = pareto_figure(res)
     sa, ua, na, _ = objective_display(oa)
     sb, ub, nb, _ = objective_display(ob)
