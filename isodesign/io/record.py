@@ -444,8 +444,8 @@ def optimization_design(result) -> dict:
         of the start design, SI); ``verdict``; ``notes`` (:func:`grid_notes`);
         ``binding_constraints`` (names); ``limited_by`` (sentences:
         :func:`~isodesign.optimization.explain.limiting_factors`); ``scope``
-        (:class:`~isodesign.response.scope.Scope` as a dict); ``variables_at_bounds``; ``constraints``
-        (:func:`constraint_rows`) and ``spring`` (the design's ``to_dict()``).
+        (:class:`~isodesign.response.scope.Scope` as a dict); ``variables_at_bounds``;
+        ``constraints`` (:func:`constraint_rows`) and ``spring`` (the design's ``to_dict()``).
     """
 
     st = result.study
@@ -579,7 +579,8 @@ def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dic
         ``kind``, ``command_line``, versions and ``environment``, ``study``,
         ``study_source``, ``objectives``, ``settings``, ``points`` (per sweep point:
         both objective values keyed by kind, ``design``, ``status``,
-        ``nondominated``, ``binding``: the constraints binding there), ``hypervolume`` (normalized space),
+        ``nondominated``, ``binding``: the constraints binding there), ``hypervolume``
+        (normalized space),
         ``reference_point_minimized`` and ``ideal_point_minimized`` (the objectives
         as minimized: maximized ones negated) and ``wall_s``.
     """

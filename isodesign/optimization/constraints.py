@@ -21,10 +21,10 @@ from isodesign.spring.flow_models import flow_model
 __all__ = [
     "ACTIVE_MARGIN",
     "BINDING_TOL",
+    "DISPLAY_UNITS",
     "VALIDITY_MARGIN",
     "Constraint",
     "ConstraintReport",
-    "DISPLAY_UNITS",
     "build_constraints",
     "constraint_reports",
     "flow_validity_constraints",

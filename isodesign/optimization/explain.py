@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import math
 
-__all__ = ["BINDING_NOTE", "MODEL_VALIDITY_CONSTRAINTS", "STUDY_KEYS", "constraint_table_rows", "limiting_factors", "limiting_summary",
-           "variables_at_bounds"]
+__all__ = ["BINDING_NOTE", "MODEL_VALIDITY_CONSTRAINTS", "STUDY_KEYS", "constraint_table_rows",
+           "limiting_factors", "limiting_summary", "variables_at_bounds"]
 
 #: Constraints that keep the design inside a model's validity, not user requirements.
 MODEL_VALIDITY_CONSTRAINTS = frozenset({

@@ -184,7 +184,7 @@ class OptimizationResult(ResultDisplay):
             lines += ["", limiting_summary(self) + ":"]
             lines += [f"  - {t}" for t in self.limited_by]
         if self.scope is not None:
-            lines += [""] + self.scope.lines()
+            lines += ["", *self.scope.lines()]
         return lines
 
     def __str__(self) -> str:

@@ -34,11 +34,11 @@ from __future__ import annotations
 
 import copy
 import math
-
-import numpy as np
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
+
+import numpy as np
 
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
@@ -480,7 +480,7 @@ def _check_bands_covered(floor, target, bands, band_hz: dict, where: str) -> Non
     """The judged bands must lie inside the floor's data and the target's curve; the error
     names ``target.band_min_hz``/``band_max_hz``, the values given and the usable range."""
     bad = []
-    for what, check in (("floor", floor._resolve_bands), ("target", target.velocity_rms_m_s)):
+    for check in (floor._resolve_bands, target.velocity_rms_m_s):
         try:
             check(bands)
         except InputError as exc:

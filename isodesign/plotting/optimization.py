@@ -202,7 +202,11 @@ def _explain_breaks(ax, result, order, xs, ys, breaks) -> list[str]:
         if prev is not None:
             j = order[prev]
             why = []
-            skipped = [order[m] for m in range(prev + 1, k)]
+            # sweep points (numbered in the order of the epsilon sweep) between the two
+            # that were not solved: their objectives are unknown, so the line stops
+            lo_i, hi_i = sorted((int(i), int(j)))
+            skipped = [m for m in range(lo_i + 1, hi_i)
+                       if not np.isfinite(np.asarray(result.values[m], float)).all()]
             if skipped:
                 why.append("point " + ", ".join(f"#{m}" for m in skipped) + " not solved")
             n0, n1 = result.designs[j]["volume_ratio"], result.designs[i]["volume_ratio"]
@@ -216,7 +220,8 @@ def _explain_breaks(ax, result, order, xs, ys, breaks) -> list[str]:
                     why.append(", ".join(parts))
             if why:
                 letter = chr(ord("a") + len(notes)) if len(notes) < 26 else "*"
-                xm = (xs[prev] * xs[k]) ** 0.5 if ax.get_xscale() == "log" and                     xs[prev] > 0 and xs[k] > 0 else 0.5 * (xs[prev] + xs[k])
+                log = ax.get_xscale() == "log" and xs[prev] > 0 and xs[k] > 0
+                xm = (xs[prev] * xs[k]) ** 0.5 if log else 0.5 * (xs[prev] + xs[k])
                 ym = 0.5 * (ys[prev] + ys[k])
                 ax.annotate(f"({letter})", (xm, ym), xytext=(-14, 4), textcoords="offset points",
                             fontsize=7, color="C3", ha="right")

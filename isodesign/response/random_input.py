@@ -28,8 +28,6 @@ from isodesign.errors import (
 from isodesign.numerics.cplx import Cx
 from isodesign.plotting.response import band_response_figure, draw_bands, judged_mask
 from isodesign.plotting.style import OPTIMUM
-from isodesign.response.scope import response_scope
-from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 from isodesign.response.isolator import (
     Payload,
     relative_transmissibility,
@@ -54,10 +52,11 @@ from isodesign.response.model import (
     resolve_target,
     spring_model,
 )
+from isodesign.response.scope import response_scope
 from isodesign.response.stability import StabilityFigures, stability_of_model
 from isodesign.results import ResultDisplay
 from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
-from isodesign.spring.diagnostics import evaluate_diagnostics
+from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA, evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness
 from isodesign.spring.stiffness import StiffnessResult

@@ -87,7 +87,8 @@ class Scope:
         -------
         dict
         """
-        return {"headline": self.headline, "covers": self.covers, "leaves_out": list(self.leaves_out),
+        return {"headline": self.headline, "covers": self.covers,
+                "leaves_out": list(self.leaves_out),
                 "illustrative_share_of_static_stiffness": self.illustrative_share,
                 "illustrative": self.illustrative_what or None}
 
