@@ -130,3 +130,37 @@ def test_the_matcher_skips_only_where_the_document_says_so():
     assert missing_lines(["a 1", "c"], actual) == ["c"]  # no "..." between: b is not skipped
     assert missing_lines(["a 1", "b 1 s", "c", "d", "e 2"], actual) == ["e 2"]
     assert missing_lines(["a ..."], ["a 1 and more"]) == []
+
+
+def test_readme_models_table_gives_the_springs_and_the_studys_defaults():
+    import inspect
+
+    from isodesign.optimization.study import default_study
+    from isodesign.response import band_response
+    from isodesign.spring.stiffness import complex_stiffness
+
+    readme = (DOCS.parent / "README.md").read_text(encoding="utf-8")
+    rows = {}
+    for ln in readme.splitlines():
+        m = re.match(r"\| `(\w+)`[^|]*\| `(\w+)` \| `(\w+)` \|", ln)
+        if m:
+            rows[m.group(1)] = (m.group(2), m.group(3))
+    assert set(rows) == {"flow", "amplitude_mode", "diaphragm", "random_method"}, rows
+    spring = inspect.signature(complex_stiffness).parameters
+    response = inspect.signature(band_response).parameters
+    study = default_study().models
+    for key, (lib, st) in rows.items():
+        sig = spring if key in spring else response
+        assert sig[key].default == lib, (key, sig[key].default, lib)
+        assert response[key].default == lib, key
+        assert study[key] == st, (key, study[key], st)
+
+
+def test_no_file_cites_a_document_outside_the_repository():
+    root = DOCS.parent
+    files = [*root.glob("isodesign/**/*.py"), *root.glob("docs/**/*.md"), root / "README.md",
+             *root.glob("studies/**/*.py"), *root.glob("isodesign/data/*")]
+    bad = [str(p.relative_to(root)) for p in files
+           if p.is_file() and re.search(r"physics[ -]notes", p.read_text(encoding="utf-8",
+                                                                         errors="replace"), re.I)]
+    assert not bad, bad
