@@ -68,6 +68,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.pareto",
         "Pareto front of two objectives (default: worst-band margin vs total volume)",
     ),
+    "modes": (
+        "isodesign.commands.modes",
+        "modes and rocking stability of a table in six degrees of freedom (docs/table.md)",
+    ),
     "floor": (
         "isodesign.commands.floor",
         "floor spectrum from a survey record (time history): band RMS statistics vs VC",
