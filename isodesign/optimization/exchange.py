@@ -69,6 +69,7 @@ def scenario_check(study, values: dict, theta, *, grid=None, reference=None) -> 
     -------
     dict
         ``objective`` (natural value), ``j`` (internal J), ``gap`` (``j - reference``),
+        ``criterion_margin_db`` (the worst target band's margin, dB),
         ``violations`` (constraint -> signed worst-row excess over its bound, NLP units:
         negative when met), ``max_violation`` (the largest, clipped at 0),
         ``peak_db`` and ``peak_excess_db`` (continuous peak of |T| and its excess over the
@@ -98,7 +99,11 @@ def scenario_check(study, values: dict, theta, *, grid=None, reference=None) -> 
         shim = SimpleNamespace(study=sc, dia=diaphragm_model(sc.models["diaphragm"]), grid=grid)
         peak, _ = continuous_peak_db(shim, values, ev["sigma"], ev["tube_rms"])
         excess = peak - bound
-    return {"objective": val, "j": j, "gap": None if reference is None else j - reference,
+    mt = ev["metrics"]
+    rows = grid.target_band_rows
+    crit = float(np.min(10.0 / math.log(10.0) * (np.asarray(mt["ln_limit2"])[rows]
+                                                  - np.asarray(mt["ln_ms_band"])[rows])))
+    return {"objective": val, "j": j, "criterion_margin_db": crit, "gap": None if reference is None else j - reference,
             "violations": signed, "max_violation": max(0.0, max(signed.values(), default=0)),
             "peak_db": peak, "peak_excess_db": excess, "sigma": ev["sigma"],
             "tube_rms": ev["tube_rms"]}
