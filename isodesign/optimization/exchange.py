@@ -282,7 +282,8 @@ def robust_optimize(study, *, nominal=None, progress=None):
             break
         if r == settings["max_rounds"]:
             break
-        if last["score"] > 1.0:
+        if last["score"] > 1.0 and not any(
+                np.allclose(last["theta"], t, rtol=1e-9, atol=1e-12) for t in thetas):
             thetas.append(np.asarray(last["theta"], float))
             slots.append(block.slot_hz.copy())
             slot_rounds.append(0)

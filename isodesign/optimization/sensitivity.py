@@ -42,8 +42,8 @@ class Sensitivity:
 
     ``quantity`` is ``"objective"`` or a constraint's name, ``unit`` its unit (dB for
     the objective in dB and the peak of |T|, else the quantity's own unit), ``per_unit``
-    the derivative per unit of the parameter's coordinate (``parameter_unit``: kg, Pa,
-    K, m, or ``-`` for a relative deviation, so per 100 %), ``effect`` the change over
+    the derivative per unit of the parameter (``parameter_unit``: kg, Pa, K, m, or ``%``
+    for a relative deviation), ``effect`` the change over
     the parameter's half-width (``per_unit * half_width``), ``binding`` whether the
     constraint is binding at the design in that scenario.
     """
@@ -111,8 +111,10 @@ def design_sensitivities(block, x: np.ndarray, theta, slot_hz=None) -> list[Sens
     du = -np.linalg.solve(a, b)  # d u / d theta
     total_g = gp[:, th] + gx[:, u] @ du  # every row, aux held
     out: list[Sensitivity] = []
-    half = np.array([pr.half_width for pr in space.parameters])
-    units = [pr.unit for pr in space.parameters]
+    # a relative deviation is reported per percent
+    pct = np.array([0.01 if pr.mode == "relative" else 1.0 for pr in space.parameters])
+    half = np.array([pr.half_width for pr in space.parameters]) / pct
+    units = ["%" if pr.mode == "relative" else pr.unit for pr in space.parameters]
     # the objective
     kind = block.objective
     obj = OBJECTIVES[kind]
@@ -125,7 +127,7 @@ def design_sensitivities(block, x: np.ndarray, theta, slot_hz=None) -> list[Sens
         dj = dj + jx[0, aux][0] * dt
     sign = obj.to_natural(1.0) - obj.to_natural(0.0) if obj.db else None
     jval = float(np.asarray(js).ravel()[0])
-    dnat = dj * sign if obj.db else dj * obj.to_natural(jval)
+    dnat = (dj * sign if obj.db else dj * obj.to_natural(jval)) * pct
     for k, name in enumerate(space.names):
         out.append(Sensitivity("objective", name, float(dnat[k]), obj.unit, units[k],
                                float(dnat[k] * half[k]), True))
@@ -141,7 +143,7 @@ def design_sensitivities(block, x: np.ndarray, theta, slot_hz=None) -> list[Sens
         conv, unit = _NATURAL.get(c.name, (math.exp, ""))
         val = g[i]
         d = total_g[i]
-        d_nat = _DB * d if c.name in _DB_ROWS else conv(val) * d
+        d_nat = (_DB * d if c.name in _DB_ROWS else conv(val) * d) * pct
         binding = float(np.min(marg)) < ACTIVE_MARGIN
         for k, name in enumerate(space.names):
             out.append(Sensitivity(c.name, name, float(d_nat[k]), unit, units[k],
