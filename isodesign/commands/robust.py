@@ -28,6 +28,22 @@ def _sens_frame(rows: dict):
     return pd.DataFrame(out)
 
 
+def active_sensitivities(res) -> list:
+    """Sensitivities where they shape the robust design: the objective in the worst
+    scenario and each binding constraint in the scenario where it binds (design held)."""
+    import dataclasses
+
+    out = []
+    for r in res.active_scenarios():
+        k = r["index"]
+        for s in res.sensitivities(scenario=k):
+            keep = (s.quantity == "objective" and r["worst"]) or (
+                s.quantity != "objective" and s.binding)
+            if keep:
+                out.append(dataclasses.replace(s, quantity=f"{s.quantity} (scenario {k})"))
+    return out
+
+
 def robust_summary(res, sens, yields) -> str:
     """Text summary of a robust run."""
     from isodesign.optimization.objectives import OBJECTIVES
@@ -74,6 +90,13 @@ def robust_summary(res, sens, yields) -> str:
     for s in top:
         lines.append(f"  {s.parameter:24s} {s.per_unit:+.4g} {s.unit}/{s.parameter_unit}"
                      f"   {s.effect:+.3f} {s.unit} over the half-width")
+    act = [s for s in sens["active"] if s.unit == "dB"]
+    if act:
+        lines.append("in the active scenarios (objective where it is worst, constraints where "
+                     "they bind):")
+        for s in sorted(act, key=lambda s: -abs(s.effect)):
+            lines.append(f"  {s.quantity:38s} {s.parameter:22s} {s.per_unit:+.4g} "
+                         f"{s.unit}/{s.parameter_unit}   {s.effect:+.3f} {s.unit}")
     for y in yields:
         lo, hi = y.interval
         lines.append(f"yield of the {y.label}: {100 * y.fraction:.1f} % ({y.passed}/{y.samples}; "
@@ -120,6 +143,7 @@ def execute_robust(study, run, args) -> int:
     from isodesign.optimization.sensitivity import design_sensitivities
 
     sens["nominal"] = design_sensitivities(b, b.initial_guess(nominal.values), th)
+    sens["active"] = active_sensitivities(res)
     yields = []
     if n:
         seed = study.scenarios.settings["seed"]
@@ -146,7 +170,7 @@ def execute_robust(study, run, args) -> int:
         f"from the nominal payload ({study.payload.mass_kg:g} kg).")))
     if not args.no_plots:
         with run.writing("robustness.png") as tmp:
-            robustness_plot(res, tmp, sens=sens["robust"], yields=yields)
+            robustness_plot(res, tmp, sens=sens["active"] or sens["robust"], yields=yields)
     if args.quiet:
         print(f"{study.name}: robust worst case {res.objective_value:+.3f}; "
               f"{len(res.rounds)} rounds, {len(res.scenarios)} scenarios")

@@ -287,7 +287,7 @@ def robust_optimize(study, *, nominal=None, progress=None):
             thetas.append(np.asarray(last["theta"], float))
             slots.append(block.slot_hz.copy())
             slot_rounds.append(0)
-    rows = scenario_rows(study, prob, sol, grid)
+    rows = scenario_rows(study, prob, sol, grid, nominal.values)
     return RobustResult(
         study=study, nominal=nominal, values=values, design=study.design_at(values),
         objective=kind, objective_value=OBJECTIVES[kind].to_natural(sol.objective),

@@ -14,7 +14,7 @@ from isodesign.results import ResultDisplay
 __all__ = ["RobustResult", "scenario_rows"]
 
 
-def scenario_rows(study, prob, sol, grid) -> list[dict]:
+def scenario_rows(study, prob, sol, grid, nominal_values=None) -> list[dict]:
     """One row per scenario of the final set: its values, objective, binding constraints.
 
     Parameters
@@ -23,6 +23,9 @@ def scenario_rows(study, prob, sol, grid) -> list[dict]:
     prob : RobustProblem
     sol : RobustSolution
     grid : Grid
+    nominal_values : dict, optional
+        The nominal optimum; its objective in each scenario is added
+        (``nominal_objective``).
 
     Returns
     -------
@@ -39,11 +42,17 @@ def scenario_rows(study, prob, sol, grid) -> list[dict]:
     for k, th in enumerate(prob.thetas):
         reps = constraint_reports(prob.block.con_rows, prob.block_g(sol, k))
         binding = [c.name for c in reps if c.active]
-        j = float(sol.scenario_objectives[k])
+        # the epigraph variable of a scenario that does not set the worst case is slack in
+        # the stacked NLP: its objective is evaluated afresh (NumPy analysis)
+        from isodesign.optimization.exchange import scenario_check
+
+        j = obj.from_natural(scenario_check(study, sol.values, th, grid=grid)["objective"])
         worst = j >= sol.objective - tol
+        nom = None if nominal_values is None else scenario_check(
+            study, nominal_values, th, grid=grid)["objective"]
         rows.append({"index": k, "theta": space.as_dict(th), "description": space.describe(th),
-                     "objective": obj.to_natural(j), "worst": bool(worst),
-                     "binding": binding, "active": bool(worst or binding)})
+                     "objective": obj.to_natural(j), "nominal_objective": nom,
+                     "worst": bool(worst), "binding": binding, "active": bool(worst or binding)})
     return rows
 
 

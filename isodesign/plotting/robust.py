@@ -25,35 +25,34 @@ def scenario_bars(result, ax=None):
 
     Parameters
     ----------
-    result : RobustResult
+    result : RobustResult or dict
+        A result, or its :meth:`~isodesign.optimization.robust_result.RobustResult.record`
+        (``robust.json``).
     ax : matplotlib Axes, optional
 
     Returns
     -------
     matplotlib.figure.Figure
     """
-    from isodesign.optimization.exchange import scenario_check
     from isodesign.optimization.objectives import OBJECTIVES
 
+    rec = result if isinstance(result, dict) else result.record()
     fig = ax.figure if ax is not None else new_figure(7.0, 3.6)
     ax = ax or fig.add_subplot(1, 1, 1)
-    st = result.study
-    obj = OBJECTIVES[result.objective]
-    rows = list(result.scenarios)
+    obj = OBJECTIVES[rec["objective"]]
+    rows = list(rec["scenarios"])
     x = np.arange(len(rows))
-    rob = [r["objective"] for r in rows]
-    nom = [scenario_check(st, result.nominal.values, np.array(list(r["theta"].values())))[
-        "objective"] for r in rows]
     s = obj.display_scale
-    ax.bar(x - 0.2, np.asarray(nom) * s, 0.4, color=START["color"], alpha=0.75,
-           label="nominal optimum")
-    ax.bar(x + 0.2, np.asarray(rob) * s, 0.4, color=OPTIMUM["color"], label="robust optimum")
+    rob = np.array([r["objective"] for r in rows], float) * s
+    nom = np.array([np.nan if r.get("nominal_objective") is None else r["nominal_objective"]
+                    for r in rows], float) * s
+    ax.bar(x - 0.2, nom, 0.4, color=START["color"], alpha=0.75, label="nominal optimum")
+    ax.bar(x + 0.2, rob, 0.4, color=OPTIMUM["color"], label="robust optimum")
     for i, r in enumerate(rows):
         if r["active"]:
-            ax.annotate("active", (x[i] + 0.2, rob[i] * s), ha="center", va="bottom",
-                        fontsize=7)
-    ax.axhline(result.objective_value * s, **{**LIMIT, "lw": 1.2},
-               label=f"stated worst case {obj.format(result.objective_value)}")
+            ax.annotate("active", (x[i] + 0.2, rob[i]), ha="center", va="bottom", fontsize=7)
+    w = rec["worst_case_objective"]
+    ax.axhline(w * s, **{**LIMIT, "lw": 1.2}, label=f"stated worst case {obj.format(w)}")
     ax.set_xticks(x, [_short(r["description"]) for r in rows], fontsize=6.5)
     ax.set_ylabel(f"{obj.label} ({obj.display_unit})")
     ax.set_title("objective in each scenario of the final set", fontsize=9)
@@ -79,8 +78,9 @@ def sensitivity_bars(sens, ax=None, *, quantities=None):
     fig = ax.figure if ax is not None else new_figure(7.0, 3.4)
     ax = ax or fig.add_subplot(1, 1, 1)
     if quantities is None:
-        quantities = ["objective"] + sorted({s.quantity for s in sens if s.binding
-                                              and s.unit == "dB" and s.quantity != "objective"})
+        quantities = list(dict.fromkeys(
+            s.quantity for s in sens if s.quantity.startswith("objective")
+            or (s.binding and s.unit == "dB")))
     params = list(dict.fromkeys(s.parameter for s in sens))
     y = np.arange(len(params))
     h = 0.8 / max(1, len(quantities))
