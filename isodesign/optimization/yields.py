@@ -86,7 +86,7 @@ def _judge(theta) -> dict:
         c = scenario_check(study, values, theta, grid=grid)
     except InputError as exc:  # a draw that is not a valid spring fails
         return {"passes": False, "reason": f"invalid: {exc}", "margin_db": math.nan,
-                "max_violation": math.inf}
+                "max_violation": math.inf, "objective": math.nan, "peak_excess_db": math.nan}
     mt_margin = c["criterion_margin_db"]
     reasons = [n for n, v in c["violations"].items() if v > FEASIBILITY_TOLERANCE]
     if c["peak_excess_db"] is not None and c["peak_excess_db"] > PEAK_TOLERANCE_DB:
@@ -94,7 +94,8 @@ def _judge(theta) -> dict:
     if mt_margin < 0:
         reasons.insert(0, "criterion")
     return {"passes": not reasons, "reason": ", ".join(reasons), "margin_db": mt_margin,
-            "max_violation": c["max_violation"]}
+            "max_violation": c["max_violation"], "objective": c["objective"],
+            "peak_excess_db": c["peak_excess_db"]}
 
 
 def _judge_chunk(chunk):
@@ -153,12 +154,20 @@ class YieldResult(ResultDisplay):
         """The smallest criterion margin over the draws, dB."""
         return float(np.nanmin([v["margin_db"] for v in self.verdicts]))
 
+    def worst(self, key: str, sense: str = "max") -> float:
+        """The largest (``sense="max"``) or smallest value of a verdict field over the draws
+        (``objective``, ``max_violation``, ``peak_excess_db``, ``margin_db``)."""
+        v = np.array([np.nan if d[key] is None else d[key] for d in self.verdicts], float)
+        return float(np.nanmax(v) if sense == "max" else np.nanmin(v))
+
     def to_frame(self):
         """One row per draw: parameters, margin, verdict."""
         import pandas as pd
 
         df = pd.DataFrame(self.draws, columns=list(self.study.scenarios.names))
         df["margin_db"] = [v["margin_db"] for v in self.verdicts]
+        df["objective"] = [v["objective"] for v in self.verdicts]
+        df["peak_excess_db"] = [v["peak_excess_db"] for v in self.verdicts]
         df["max_violation"] = [v["max_violation"] for v in self.verdicts]
         df["passes"] = [v["passes"] for v in self.verdicts]
         df["reason"] = [v["reason"] for v in self.verdicts]
