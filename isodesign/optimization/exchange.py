@@ -103,7 +103,8 @@ def scenario_check(study, values: dict, theta, *, grid=None, reference=None) -> 
     rows = grid.target_band_rows
     crit = float(np.min(10.0 / math.log(10.0) * (np.asarray(mt["ln_limit2"])[rows]
                                                   - np.asarray(mt["ln_ms_band"])[rows])))
-    return {"objective": val, "j": j, "criterion_margin_db": crit, "gap": None if reference is None else j - reference,
+    return {"objective": val, "j": j, "criterion_margin_db": crit,
+            "gap": None if reference is None else j - reference,
             "violations": signed, "max_violation": max(0.0, max(signed.values(), default=0)),
             "peak_db": peak, "peak_excess_db": excess, "sigma": ev["sigma"],
             "tube_rms": ev["tube_rms"]}
@@ -177,7 +178,7 @@ def worst_case(study, values: dict, reference: float, *, grid=None, samples: int
     cont = np.array([not p.discrete for p in space.parameters])
     width = np.where(hi > lo, hi - lo, 1.0)
     seen = []
-    for s0, which, th0, _ in scored[: max(refine * 3, refine)]:
+    for _s0, which, th0, _ in scored[: max(refine * 3, refine)]:
         if len(seen) >= refine or not cont.any():
             break
         key = (which, tuple(np.round((th0 - lo) / width, 2)))

@@ -31,7 +31,6 @@ from isodesign.errors import InputError
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization.variables import DESIGN_VARIABLES
-from isodesign.response.isolator import Payload
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.gas import P_ATM

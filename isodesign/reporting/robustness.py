@@ -38,8 +38,10 @@ def robustness_section(case) -> dict | None:
 
     def yld(label):
         y = ys.get(label)
-        return "n/a" if y is None else (f"{100 * y['fraction']:.1f} % (CI {100 * y['clopper_pearson'][0]:.1f}"
-                                        f"-{100 * y['clopper_pearson'][1]:.1f} %)")
+        if y is None:
+            return "n/a"
+        lo, hi = y["clopper_pearson"]
+        return f"{100 * y['fraction']:.1f} % (CI {100 * lo:.1f}-{100 * hi:.1f} %)"
 
     price = nom["objective"] - rob["robust_at_nominal_scenario"]
     comparison = [

@@ -125,7 +125,7 @@ def test_infeasible_scenario_exits_1_naming_it(tmp_path, capsys):
     st = tmp_path / "inf.toml"
     st.write_text(ROBUST_STUDY.replace("payload_mass_kg = {min = 540.0, max = 660.0}",
                                        "payload_mass_kg = {values = [600.0, 40.0]}"))
-    status, out, err = run(capsys, "optimize", str(st), "-o", str(tmp_path / "o"),
+    status, _out, err = run(capsys, "optimize", str(st), "-o", str(tmp_path / "o"),
                            "--yield-samples", "0")
     assert status == 1
     assert "payload_mass_kg=40" in err and "natural_frequency" in err

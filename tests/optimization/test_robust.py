@@ -186,7 +186,7 @@ def test_reoptimized_sensitivity_is_the_derivative_of_the_optimal_value(block):
     assert d["payload_mass_kg"] == pytest.approx(fd, rel=2e-3)
 
 
-# -- the exchange method ---------------------------------------------------------------------------
+# -- the exchange method ------------------------------------------------------------
 def test_exchange_on_a_small_study_holds_in_the_whole_box():
     st = _study({"payload_mass_kg": {"min": 540.0, "max": 660.0},
                  "capillary_diameter_m": {"relative": 0.03}})
@@ -194,7 +194,7 @@ def test_exchange_on_a_small_study_holds_in_the_whole_box():
     assert res.feasible and res.converged, res.rounds
     assert res.active_scenarios()
     # the stated worst case is the NumPy analysis's value at the worst scenario
-    worst = [r for r in res.scenarios if r["worst"]][0]
+    worst = next(r for r in res.scenarios if r["worst"])
     chk = scenario_check(st, res.values, np.array(list(worst["theta"].values())))
     assert chk["objective"] == pytest.approx(res.objective_value, abs=1e-6)
     # a grid of the box: nothing below the stated worst case, nothing violated
@@ -246,7 +246,7 @@ def test_default_robust_optimum_holds_at_1000_draws():
     assert yn.fraction < 0.5
 
 
-# -- yield -------------------------------------------------------------------------------------------
+# -- yield --------------------------------------------------------------------------------
 def test_intervals():
     lo, hi = clopper_pearson(10, 10, 0.95)
     assert hi == 1.0 and lo == pytest.approx(0.025 ** (1 / 10))
