@@ -196,8 +196,14 @@ class UncertaintySpace:
 
 
 def _number(where: str, key: str, value) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value):
-        raise InputError(f"{where}: scenarios.{key} must be a finite number, got {value!r:.40}")
+    try:
+        ok = not isinstance(value, bool) and isinstance(value, int | float) \
+            and math.isfinite(float(value))
+    except OverflowError:
+        ok = False
+    if not ok:
+        shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:36] + "..."
+        raise InputError(f"{where}: scenarios.{key} must be a finite number, got {shown}")
     return float(value)
 
 
