@@ -122,11 +122,7 @@ _DEFAULT = {
 
 _KEYS = {
     "": {"name", "description", "payload", "hardware", "floor", "target", "models",
-<<<<<<< HEAD
-         "variables", "constraints", "objective", "solver", "scenarios"},
-=======
-         "variables", "constraints", "objective", "solver", "table"},
->>>>>>> main
+         "variables", "constraints", "objective", "solver", "table", "scenarios"},
     "payload": {"mass_kg", "isolators", "spacing_m", "cg_height_m"},
     "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
                  "minor_loss", "polytropic_index", "roughness_m", "gas"},
