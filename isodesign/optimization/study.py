@@ -167,12 +167,10 @@ class Study(ResultDisplay):
     solver: dict
     source: str = ""
     notes: tuple[str, ...] = field(default_factory=tuple)
-<<<<<<< HEAD
-    #: The ``[scenarios]`` table (:class:`~.uncertainty.UncertaintySpace`), None: nominal only.
-    scenarios: Any = None
-=======
     table: Any = None
     floor_axes: Any = None
+    #: The ``[scenarios]`` table (:class:`~.uncertainty.UncertaintySpace`), None: nominal only.
+    scenarios: Any = None
 
     def _summary_items(self) -> list[tuple[str, str]]:
         """Name, job, models, variables, constraints, objective (for repr and notebooks)."""
@@ -203,7 +201,6 @@ class Study(ResultDisplay):
         items = dict(self._summary_items())
         return (f"<Study {self.name!r}: {items['payload']}, {items['floor']} -> "
                 f"{items['target']}, {items['objective']}, source {items['source']}>")
->>>>>>> main
 
     def variable(self, name: str) -> VariableSpec:
         """The spec of one design variable."""
@@ -346,15 +343,12 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
                objective=obj, solver=solver, source=source, table=table,
                floor_axes=floor_axes)
     _check_start_design(st, where)
-<<<<<<< HEAD
+    if fill_defaults:  # the user's own values (with_changes warns on its changes)
+        warn_unit_slips(d, where)
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
 
         st = dataclasses.replace(st, scenarios=parse_scenarios(raw["scenarios"], where, st))
-=======
-    if fill_defaults:  # the user's own values (with_changes warns on its changes)
-        warn_unit_slips(d, where)
->>>>>>> main
     return st
 
 
