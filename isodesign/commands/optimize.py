@@ -91,6 +91,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign optimize``."""
 
     add_study_arguments(parser)
+    parser.add_argument(
+        "--yield-samples",
+        type=_int_option,
+        metavar="N",
+        help="a study with [scenarios]: draws of the yield estimate of the nominal and the "
+        "robust optimum (0..1000000; default 500; 0: none)",
+    )
     add_output_dir_arguments(parser)
 
 
@@ -535,5 +542,13 @@ def execute(study, run, args, *, prefix: str = "") -> int:
 def run(args) -> int:
     """Run ``isodesign optimize``."""
     study = load_study_from_args(args)
+    n = getattr(args, "yield_samples", None)
+    if n is not None and not 0 <= n <= 10**6:
+        raise InputError(f"--yield-samples: must be an integer in [0, 1000000], got {n}")
+    if study.scenarios is not None:  # robust design (docs/robust.md)
+        from isodesign.commands.robust import ROBUST_FILES, execute_robust
+
+        with open_run(args, known_outputs=OUTPUT_FILES + ROBUST_FILES) as rundir:
+            return execute_robust(study, rundir, args)
     with open_run(args) as rundir:  # the target is checked here, before the computation
         return execute(study, rundir, args)
