@@ -34,6 +34,7 @@ from isodesign.io.record import (
     study_toml,
 )
 from isodesign.optimization.driver import optimize
+from isodesign.optimization.explain import BINDING_NOTE, constraint_table_rows, limiting_summary
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.study import default_study, load_study
@@ -96,6 +97,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign optimize``."""
 
     add_study_arguments(parser)
+    parser.add_argument(
+        "--yield-samples",
+        type=_int_option,
+        metavar="N",
+        help="a study with [scenarios]: draws of the yield estimate of the nominal and the "
+        "robust optimum (0..1000000; default 500; 0: none)",
+    )
     add_output_dir_arguments(parser)
 
 
@@ -382,8 +390,12 @@ def summary(result, design: dict) -> str:
         "",
         bounds_text(design),
         "",
-        "constraints at the optimum (* binding; margin in the constraint's unit):",
-        constraint_table(design["constraints"]),
+        "constraints at the optimum (" + BINDING_NOTE + "):",
+        table(constraint_table_rows(result), ["", "constraint", "value", "bound", "margin",
+                                              "unit"], align="<<><><"),
+        "",
+        limiting_summary(result) + ":",
+        *[f"  - {t}" for t in design["limited_by"]],
         "",
         flat_text(result),
         f"re-check: the NumPy analysis agrees with the NLP to "
@@ -391,6 +403,8 @@ def summary(result, design: dict) -> str:
         f"(required {result.settings['recheck_rtol']:g})",
         f"start:   {design['start_derived'].get('verdict')}",
         f"optimum: {design['verdict']}",
+        "",
+        *result.scope.lines(),
     ]
     return "\n".join(lines)
 
@@ -541,6 +555,14 @@ def execute(study, run, args, *, prefix: str = "") -> int:
 def run(args) -> int:
     """Run ``isodesign optimize``."""
     study = load_study_from_args(args)
+    n = getattr(args, "yield_samples", None)
+    if n is not None and not 0 <= n <= 10**6:
+        raise InputError(f"--yield-samples: must be an integer in [0, 1000000], got {n}")
+    if study.scenarios is not None:  # robust design (docs/robust.md)
+        from isodesign.commands.robust import ROBUST_FILES, execute_robust
+
+        with open_run(args, known_outputs=OUTPUT_FILES + ROBUST_FILES) as rundir:
+            return execute_robust(study, rundir, args)
     if study.table is not None:  # six degrees of freedom (docs/table.md)
         from isodesign.commands.table_optimize import TABLE_OUTPUT_FILES, execute_table
 
