@@ -180,7 +180,7 @@ def _peak_refined(study, prob) -> bool:
             or prob.objective == "peak_transmissibility")
 
 
-def refine_peak(study, prob, final, best, flat):
+def refine_peak(study, prob, final, best, flat, *, known=()):
     """Exchange method for the semi-infinite peak constraint (and objective).
 
     The NLP bounds |T| at the peak grid's frequencies only, so an optimum can hide
@@ -204,6 +204,11 @@ def refine_peak(study, prob, final, best, flat):
         The optimum before its tie-break.
     flat : dict or None
         The flat-direction report of :func:`tie_break` for ``final``.
+    known : sequence of float
+        Objectives J (before their refinement) of branches already refined. A re-solve
+        that lands within :data:`BRANCH_TOLERANCE` of one of them has joined that branch
+        (on a grid with at least that branch's refinement frequencies): the refinement
+        stops there and ``info["merged_with"]`` gives the index of that J in ``known``.
 
     Returns
     -------
@@ -264,6 +269,10 @@ def refine_peak(study, prob, final, best, flat):
             )
         best = sol
         final = sol
+        joined = [k for k, j in enumerate(known) if abs(sol.objective - j) <= BRANCH_TOLERANCE]
+        if joined:
+            info["merged_with"] = joined[0]
+            break
         if study.solver["tie_break"]:
             flat, final = tie_break(prob, sol, flat_tolerance(kind))
     return final, best, flat, info
@@ -355,11 +364,11 @@ class Refined:
     branches: tuple = ()
 
 
-def _refine_one(study, prob, i: int, sol, tol_j: float) -> Refined:
+def _refine_one(study, prob, i: int, sol, tol_j: float, known=()) -> Refined:
     flat, final = None, sol
     if study.solver["tie_break"]:
         flat, final = tie_break(prob, sol, tol_j)
-    final, best, flat, peak = refine_peak(study, prob, final, sol, flat)
+    final, best, flat, peak = refine_peak(study, prob, final, sol, flat, known=known)
     return Refined(i, best, final, flat, peak, prob.slot_hz.copy())
 
 
@@ -369,6 +378,8 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     ``sols`` maps start index -> feasible :class:`~.solution.Solution`. The starts are
     taken by their sampled objective (best first); starts within
     :data:`BRANCH_TOLERANCE` of a refined one reached the same branch and are skipped.
+    A branch whose refinement re-solve lands on an earlier branch's optimum (within
+    :data:`BRANCH_TOLERANCE`) has joined it and is not refined a second time.
     Every other branch is refined, however far behind on the sampled grid: the
     re-solve after a peak refinement is a new local solve and can move a branch a
     long way (on the default study at 717 kg, a start at 4.74 dB refines to 5.22 dB), so the sampled
@@ -395,7 +406,7 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
         The winning branch (its start index, refined optimum, tie-broken final
         point, flat-direction and peak-refinement reports, slot frequencies) with
         ``branches``: (start index, refined J) of every branch refined, winner
-        first.
+        first (a branch that joined another one carries that one's refined J).
 
     Raises
     ------
@@ -408,23 +419,37 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
         order = order[:1]  # nothing to refine: the tie-break alone cannot change the winner
     done: list[Refined] = []
     tried: list[float] = []
+    merged: list[tuple[int, Refined]] = []  # (start, the refined branch it joined)
     error = None
     for i in order:
         j = sols[i].objective
         if any(abs(j - t) <= BRANCH_TOLERANCE for t in tried):
             continue
-        tried.append(j)
         if not np.array_equal(prob.slot_hz, slots0):
             prob.set_slots(slots0)
+        known = [sols[r.start].objective for r in done]
         try:
-            done.append(_refine_one(study, prob, i, sols[i], tol_j))
+            r = _refine_one(study, prob, i, sols[i], tol_j, known=known)
         except SolverError as exc:
             error = error or exc
+            tried.append(j)
+            continue
+        tried.append(j)
+        k = r.peak.get("merged_with")
+        if k is None:
+            done.append(r)
+        else:
+            # a re-solve joined a branch refined before it: from there it would repeat that
+            # branch's refinement on a grid with more frequencies (more constraints), so it
+            # cannot end better; it is listed with that branch's refined optimum
+            merged.append((i, done[k]))
     if not done:
         raise error
     win = min(done, key=lambda r: r.best.objective)
     if not np.array_equal(prob.slot_hz, win.slot_hz):
         prob.set_slots(win.slot_hz)
     ranked = [win] + [r for r in done if r is not win]
+    rows = [(r.start, r.best.objective) for r in ranked]
+    rows += [(i, r.best.objective) for i, r in merged]
     return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz,
-                   tuple((r.start, r.best.objective) for r in ranked))
+                   tuple(rows))
