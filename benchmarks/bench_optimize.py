@@ -1,7 +1,8 @@
 """Optimizer speed and quality (targets): one default `optimize` (all starts) in
 under 10 s, a 20-point Pareto front in under 60 s, the CasADi front against pymoo's NSGA-II
-(10,000 evaluations of the NumPy analysis path: hypervolume at least NSGA-II's in at most a
-tenth of its wall time; informative: NSGA-II given the CasADi front's wall time), and
+(10,000 evaluations of the NumPy analysis path: hypervolume at least NSGA-II's; the front's
+wall time at most a tenth of the time NSGA-II needs to reach the front's hypervolume, both
+fronts judged alike; informative: NSGA-II given the CasADi front's wall time), and
 scipy's SLSQP with finite differences on the single-objective case. The NSGA-II runs
 dominate: the whole file takes about 3 to 12 minutes.
 
@@ -41,6 +42,10 @@ PARETO_POINTS = 20
 #: NSGA-II budget: pop_size x generations = evaluations.
 NSGA_POP = 100
 NSGA_GENERATIONS = 100
+#: The same run goes on to this many generations to find when NSGA-II's front reaches the
+#: CasADi front's hypervolume (time to equal hypervolume); rows about "the final front"
+#: use generation NSGA_GENERATIONS of it.
+NSGA_RACE_GENERATIONS = 150
 NSGA_SEED = 1
 #: Above this projected NSGA-II wall time the budget is cut (and labelled so).
 NSGA_MAX_WALL_S = 15 * 60.0
@@ -403,6 +408,7 @@ def _nsga() -> dict:
     """Run NSGA-II once (cached): fronts, hypervolumes, dominance check."""
     if "nsga" in _CACHE:
         return _CACHE["nsga"]
+    from hv_race import first_reaching, recorder
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.config import Config
     from pymoo.optimize import minimize
@@ -438,18 +444,21 @@ def _nsga() -> dict:
     archive = {"z": [], "f": [], "viol": [], "failures": 0, "last_error": ""}
     problem, names = _nsga_problem(study, space, grid, archive)
     algo = NSGA2(pop_size=NSGA_POP)
+    n_gen_race = NSGA_RACE_GENERATIONS if n_gen == NSGA_GENERATIONS else n_gen
+    cb = recorder()
     load0 = _load()
     t0 = time.perf_counter()
-    res = minimize(problem, algo, ("n_gen", n_gen), seed=NSGA_SEED, verbose=False)
-    t_nsga = time.perf_counter() - t0
+    minimize(problem, algo, ("n_gen", n_gen_race), seed=NSGA_SEED, callback=cb, verbose=False)
+    t_race = time.perf_counter() - t0
     load1 = _load()
-    n_eval = int(res.algorithm.evaluator.n_eval)
+    # the front after n_gen generations (10,000 evaluations): res.opt at that generation
+    t_nsga, n_eval, F, X, CV = cb.records[n_gen - 1]
+    for key in ("z", "f", "viol"):
+        archive[key] = archive[key][:n_eval]
 
     # NSGA-II's front: the final population's non-dominated feasible points (res.opt),
     # re-checked: evaluate_design max_violation <= FEAS_TOL
-    F = np.atleast_2d(res.opt.get("F"))
-    X = np.atleast_2d(res.opt.get("X"))
-    CV = np.atleast_1d(res.opt.get("CV")).ravel()
+    X_all = X
     ok = CV <= 0.0
     F, X = F[ok], X[ok]
     nat_n = np.column_stack([-F[:, 0], F[:, 1]]) if len(F) else np.zeros((0, 2))
@@ -469,8 +478,16 @@ def _nsga() -> dict:
     def peak_ok(vals):
         return bound is None or peak_of(vals) <= bound + PEAK_TOLERANCE_DB
 
+    peak_cache: dict = {}
+
+    def keep_z(z):  # the peak filter on z, cached (fronts repeat between generations)
+        k = np.asarray(z, float).tobytes()
+        if k not in peak_cache:
+            peak_cache[k] = peak_ok(space.values(z))
+        return peak_cache[k]
+
     nat_n_grid = nat_n
-    keep_n = np.array([peak_ok(space.values(x)) for x in X], dtype=bool)
+    keep_n = np.array([keep_z(x) for x in X], dtype=bool)
     nat_n, X = nat_n[keep_n], X[keep_n]
     # the whole archive (every feasible evaluated point): NSGA-II's best possible claim
     fa = np.array(archive["f"], float)
@@ -508,6 +525,8 @@ def _nsga() -> dict:
 
     # (a) hypervolumes with the CasADi ParetoResult's normalization
     hv_c = pr.hypervolume_of(vc)
+    # time to equal hypervolume: the first generation whose front, judged alike, reaches it
+    race = first_reaching(cb.records, hv_c, pr.hypervolume_of, keep_z)
     hv_n = pr.hypervolume_of(nat_n) if len(nat_n) else 0.0
     hv_n_grid = pr.hypervolume_of(nat_n_grid) if len(nat_n_grid) else 0.0
     hv_best_c = _best_subset_hv(pr.normalized(nat_n), len(vc))
@@ -567,8 +586,11 @@ def _nsga() -> dict:
                 for d, r in zip(dc, recheck, strict=True)
             ]
         )
-        peak_n = np.array([peak_of(space.values(x)) for x in np.atleast_2d(res.opt.get("X"))[ok]])
+        peak_n = np.array([peak_of(space.values(x)) for x in X_all[ok]])
     out = {
+        "race": race,
+        "t_race_run": t_race,
+        "n_gen_race": n_gen_race,
         "peak_bound": bound,
         "peak_c": peak_c,
         "peak_n": peak_n,
@@ -837,23 +859,39 @@ def bench_nsga_equal_time() -> dict:
 
 
 def bench_time_ratio() -> dict:
-    """CasADi Pareto wall time / NSGA-II wall time."""
+    """CasADi Pareto wall time / the time NSGA-II needs to reach the same hypervolume."""
     r = _nsga()
-    t_n = r["t_nsga_projected"]
-    ratio = r["t_casadi"] / t_n
+    race = r["race"]
+    t_c = r["t_casadi"]
+    t_n = race["seconds"]
+    ratio = t_c / t_n
+    # not reached within the run: NSGA-II needs more than t_n, so t_c / t_n bounds the ratio
+    state = (
+        f"reached at generation {race['generation']} ({race['evaluations']} evaluations, "
+        f"{t_n:.1f} s; judged HV {race['hv']:.4f})"
+        if race["reached"]
+        else f"NOT reached in {race['generations']} generations ({race['evaluations']} "
+        f"evaluations, {t_n:.1f} s; best judged HV {race['hv_best']:.4f}): the ratio is at "
+        f"most the value shown"
+    )
     return {
-        "name": "wall time ratio: CasADi 20-point front / NSGA-II 10,000 evaluations",
+        "name": "time to equal hypervolume: CasADi 20-point front / NSGA-II",
         "target": f"<= {TARGET_TIME_RATIO:g}",
         "unit": "ratio",
         "median": ratio,
         "ratio": ratio / TARGET_TIME_RATIO,
         "passed": ratio <= TARGET_TIME_RATIO,
         "notes": (
-            f"CasADi pareto_front median {r['t_casadi']:.2f} s (its 8 anchor starts and its two "
-            f"sweep chains use 2 forked workers) / NSGA-II {t_n:.1f} s"
-            + (" (extrapolated to 10,000 evaluations)" if r["budget"] < 10000 else "")
-            + f" (1 process); if NSGA-II's evaluations were spread ideally over both cores: "
-            f"{r['t_casadi'] / (t_n / 2):.3f}"
+            f"CasADi pareto_front median {t_c:.2f} s (its 8 anchor starts and its two sweep "
+            f"chains use 2 forked workers; normalized HV {r['hv_c']:.4f}) / the wall time "
+            f"NSGA-II (pop {NSGA_POP}, seed {NSGA_SEED}, 1 process) needs until its front, "
+            f"judged like the CasADi front (feasible points whose continuous peak |T| holds "
+            f"the bound + 0.01 dB, the CasADi front's normalization), first has at least that "
+            f"hypervolume: {state}; measured on one NSGA-II run of {r['n_gen_race']} "
+            f"generations ({r['t_race_run']:.1f} s, every generation's front recorded, the "
+            f"recording's time taken out), the same run as the rows above. Against NSGA-II's "
+            f"10,000 evaluations ({r['t_nsga']:.1f} s): {t_c / r['t_nsga']:.3f}; if NSGA-II's "
+            f"evaluations were spread ideally over both cores: {t_c / (t_n / 2):.3f}"
         ),
     }
 
