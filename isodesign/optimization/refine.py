@@ -180,7 +180,7 @@ def _peak_refined(study, prob) -> bool:
             or prob.objective == "peak_transmissibility")
 
 
-def refine_peak(study, prob, final, best, flat, *, known=(), tie_break_pending=False):
+def refine_peak(study, prob, final, best, flat, *, known=()):
     """Exchange method for the semi-infinite peak constraint (and objective).
 
     The NLP bounds |T| at the peak grid's frequencies only, so an optimum can hide
@@ -209,10 +209,6 @@ def refine_peak(study, prob, final, best, flat, *, known=(), tie_break_pending=F
         that lands within :data:`BRANCH_TOLERANCE` of one of them has joined that branch
         (on a grid with at least that branch's refinement frequencies): the refinement
         stops there and ``info["merged_with"]`` gives the index of that J in ``known``.
-    tie_break_pending : bool
-        ``final`` is not tie-broken yet (it is ``best``): the tie-break runs only once the
-        peak holds at the optimum, then the peak is checked again at the tie-broken point.
-        A point that is re-solved anyway costs no tie-break (two IPOPT solves).
 
     Returns
     -------
@@ -250,28 +246,17 @@ def refine_peak(study, prob, final, best, flat, *, known=(), tie_break_pending=F
             "max_rounds": PEAK_ROUNDS, "tolerance_db": PEAK_TOLERANCE_DB}
     if not _peak_refined(study, prob):
         return final, best, flat, info
-    tie = study.solver["tie_break"]
-    pending = tie_break_pending and tie
-
-    def measure(point):
-        vals = prob.values(point.x)
-        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(point.x),
-                                             prob.tube_rms(point.x))
-        sampled = OBJECTIVES[kind].to_natural(point.objective) \
+    for _ in range(PEAK_ROUNDS + 1):
+        vals = prob.values(final.x)
+        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(final.x),
+                                             prob.tube_rms(final.x))
+        sampled = OBJECTIVES[kind].to_natural(final.objective) \
             if kind == "peak_transmissibility" else None
         limit = min(v for v in (bound, sampled) if v is not None)
         met = peak_db <= limit + PEAK_TOLERANCE_DB
         info.update(peak_db=peak_db, peak_frequency_hz=f_pk, limit_db=limit,
                     limit="bound" if limit == bound else "objective",
                     excess_db=peak_db - limit, met=bool(met))
-        return vals, f_pk, met
-
-    while True:
-        vals, f_pk, met = measure(final)
-        if met and pending:  # the peak holds at the optimum: tie-break, check again
-            flat, final = tie_break(prob, best, flat_tolerance(kind))
-            pending = False
-            continue
         if met or info["rounds"] >= PEAK_ROUNDS:
             break
         info["added_frequencies_hz"] += peak_slots(prob, info["rounds"], f_pk)
@@ -288,13 +273,8 @@ def refine_peak(study, prob, final, best, flat, *, known=(), tie_break_pending=F
         if joined:
             info["merged_with"] = joined[0]
             break
-        if tie_break_pending and tie:
-            pending = True
-        elif tie:
+        if study.solver["tie_break"]:
             flat, final = tie_break(prob, sol, flat_tolerance(kind))
-    if pending and "merged_with" not in info:  # rounds used up: the tie-break still runs
-        flat, final = tie_break(prob, best, flat_tolerance(kind))
-        measure(final)
     return final, best, flat, info
 
 
@@ -386,13 +366,9 @@ class Refined:
 
 def _refine_one(study, prob, i: int, sol, tol_j: float, known=()) -> Refined:
     flat, final = None, sol
-    if not _peak_refined(study, prob):
-        if study.solver["tie_break"]:
-            flat, final = tie_break(prob, sol, tol_j)
-        final, best, flat, peak = refine_peak(study, prob, final, sol, flat)
-    else:  # the tie-break after the peak holds: a re-solved point needs none
-        final, best, flat, peak = refine_peak(study, prob, sol, sol, None, known=known,
-                                              tie_break_pending=True)
+    if study.solver["tie_break"]:
+        flat, final = tie_break(prob, sol, tol_j)
+    final, best, flat, peak = refine_peak(study, prob, final, sol, flat, known=known)
     return Refined(i, best, final, flat, peak, prob.slot_hz.copy())
 
 
