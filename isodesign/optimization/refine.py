@@ -22,6 +22,7 @@ import numpy as np
 
 from isodesign.errors import SolverError
 from isodesign.numerics.cplx import Cx
+from isodesign.optimization.multistart import map_in_workers
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS
 from isodesign.response.isolator import transmissibility
@@ -384,7 +385,10 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     re-solve after a peak refinement is a new local solve and can move a branch a
     long way (on the default study at 717 kg, a start at 4.74 dB refines to 5.22 dB), so the sampled
     objective bounds nothing. The winner is the branch with the best refined
-    optimum (before its tie-break). Each branch starts from the study's peak grid;
+    optimum (before its tie-break). The branches are refined in forked worker
+    processes when ``solver.workers`` and the cores allow
+    (:func:`~isodesign.optimization.multistart.map_in_workers`; the result is the same
+    as one after the other). Each branch starts from the study's peak grid;
     the winner's movable frequencies are restored on ``prob`` (the re-check
     evaluates on them).
 
@@ -417,32 +421,50 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     order = sorted(sols, key=lambda i: sols[i].objective)
     if not _peak_refined(study, prob):
         order = order[:1]  # nothing to refine: the tie-break alone cannot change the winner
-    done: list[Refined] = []
-    tried: list[float] = []
-    merged: list[tuple[int, Refined]] = []  # (start, the refined branch it joined)
-    error = None
+    branches: list[int] = []  # the first start of each distinct branch, best first
     for i in order:
-        j = sols[i].objective
-        if any(abs(j - t) <= BRANCH_TOLERANCE for t in tried):
-            continue
+        if not any(abs(sols[i].objective - sols[b].objective) <= BRANCH_TOLERANCE
+                   for b in branches):
+            branches.append(i)
+
+    def refine(k: int, known=None):
+        # each branch from the study's peak grid; a branch stops when it joins a better one
         if not np.array_equal(prob.slot_hz, slots0):
             prob.set_slots(slots0)
-        known = [sols[r.start].objective for r in done]
+        i = branches[k]
+        if known is None:
+            known = [sols[b].objective for b in branches[:k]]
         try:
-            r = _refine_one(study, prob, i, sols[i], tol_j, known=known)
+            return _refine_one(study, prob, i, sols[i], tol_j, known=known)
         except SolverError as exc:
-            error = error or exc
-            tried.append(j)
-            continue
-        tried.append(j)
-        k = r.peak.get("merged_with")
-        if k is None:
-            done.append(r)
+            return exc
+
+    # the branches are independent: refined in the start workers' processes when the
+    # cores allow (each worker's copy of the NLP moves its own peak frequencies)
+    results = map_in_workers(refine, range(len(branches)),
+                             workers=study.solver.get("workers"))
+    done: list[Refined] = []
+    merged: list[tuple[int, Refined]] = []  # (start, the refined branch it joined)
+    error = None
+    for k, r in enumerate(results):
+        if isinstance(r, Refined) and r.peak.get("merged_with") is not None:
+            into = branches[r.peak["merged_with"]]
+            target = next((d for d in done if d.start == into), None)
+            if target is not None:
+                # a re-solve joined a better branch already refined: from there it would
+                # repeat that branch's refinement on a grid with more frequencies (more
+                # constraints), so it cannot end better; listed with that branch's optimum
+                merged.append((r.start, target))
+                continue
+            # it joined a branch that failed or joined another: refine it in full here
+            r = refine(k, known=[sols[d.start].objective for d in done])
+            if isinstance(r, Refined) and r.peak.get("merged_with") is not None:
+                merged.append((r.start, done[r.peak["merged_with"]]))
+                continue
+        if isinstance(r, SolverError):
+            error = error or r
         else:
-            # a re-solve joined a branch refined before it: from there it would repeat that
-            # branch's refinement on a grid with more frequencies (more constraints), so it
-            # cannot end better; it is listed with that branch's refined optimum
-            merged.append((i, done[k]))
+            done.append(r)
     if not done:
         raise error
     win = min(done, key=lambda r: r.best.objective)
