@@ -25,7 +25,7 @@ import numpy as np
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
-from isodesign.optimization.multistart import available_cores, run_starts, start_points
+from isodesign.optimization.multistart import map_in_workers, run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS, Problem
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db, peak_slots
@@ -329,9 +329,6 @@ def _minimize_b(prob: Problem, anchor_a: Solution) -> Solution:
     return prob.solve(anchor_a.x, prob.params(weights=[0.0, 1.0]))
 
 
-_CHAIN_PROBLEM: Problem | None = None  # inherited by the forked chain workers
-
-
 def _chain(prob: Problem, anchor: Solution, indices: list[int], eps,
            anchor_b: Solution) -> dict:
     """Solve a chain of sweep points, each warm-started from the previous one.
@@ -372,37 +369,15 @@ def _chain(prob: Problem, anchor: Solution, indices: list[int], eps,
     return out
 
 
-def _chain_worker(args):
-    anchor, indices, eps, anchor_b = args
-    return _chain(_CHAIN_PROBLEM, anchor, indices, eps, anchor_b)
-
-
 def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
     """Run the sweep chains, in forked workers when ``workers`` (default 2), capped by
-    the cores available to the process, is more than 1."""
-    global _CHAIN_PROBLEM
-    import multiprocessing as mp
-
-    workers = min(2 if workers is None else workers, available_cores())
+    the cores available to the process, is more than 1
+    (:func:`~isodesign.optimization.multistart.map_in_workers`)."""
+    parts = map_in_workers(lambda c: _chain(prob, c[0], c[1], eps, anchor_b), chains,
+                           workers=workers)
     sols: dict = {}
-    ctx = None
-    if workers > 1:
-        try:
-            ctx = mp.get_context("fork")
-        except ValueError:
-            ctx = None
-    if ctx is None:
-        for anchor, idx in chains:
-            sols.update(_chain(prob, anchor, idx, eps, anchor_b))
-        return sols
-    _CHAIN_PROBLEM = prob
-    try:
-        with ctx.Pool(processes=len(chains)) as pool:
-            for part in pool.map(_chain_worker,
-                                 [(anchor, idx, eps, anchor_b) for anchor, idx in chains]):
-                sols.update(part)
-    finally:
-        _CHAIN_PROBLEM = None
+    for part in parts:
+        sols.update(part)
     return sols
 
 
