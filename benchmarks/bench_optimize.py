@@ -32,6 +32,10 @@ from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 
 #: Targets.
 TARGET_OPTIMIZE_S = 10.0
+#: The default `isodesign optimize` in a fresh process (interpreter start, imports, NLP
+#: build, starts, refinement, re-check, analysis, output files and the plot).
+TARGET_CLI_S = 3.0
+CLI_REPEATS = 3
 TARGET_PARETO_S = 60.0
 TARGET_TIME_RATIO = 0.1  # CasADi front wall time / NSGA-II wall time
 TARGET_HV_RATIO = 1.0  # HV_casadi / HV_nsga
@@ -272,9 +276,9 @@ def bench_optimize_breakdown() -> dict:
             f"{load0}: Problem(study) build {t_build:.2f} s; 8 starts in 2 forked workers "
             f"{t_starts:.2f} s (sum of the solves' walls {walls_par:.2f} s; the same 8 serially "
             f"in 1 process: {t_serial:.2f} s, solves {walls_ser:.2f} s, speed-up "
-            f"{t_serial / t_starts:.2f}{blas_note}); tie-break (2 serial IPOPT solves) "
-            f"{t_tie:.2f} s; {peak_note}re-check {t_re:.2f} s; 2 band responses (optimum and "
-            f"start) {t_an:.2f} s"
+            f"{t_serial / t_starts:.2f}{blas_note}); tie-break and peak refinement of the "
+            f"distinct branches (in the workers) {t_tie:.2f} s; {peak_note}re-check "
+            f"{t_re:.2f} s; 2 band responses (optimum and start) {t_an:.2f} s"
         ),
     }
 
@@ -292,8 +296,8 @@ def bench_cli_optimize() -> dict:
         )
     )
     row = {
-        "name": "`isodesign optimize -o tmpdir --quiet` (subprocess, once)",
-        "target": f"< {TARGET_OPTIMIZE_S:g} s",
+        "name": "`isodesign optimize -o tmpdir --quiet` (whole process)",
+        "target": f"< {TARGET_CLI_S:g} s",
         "unit": "s",
     }
     probe = subprocess.run(
@@ -307,14 +311,20 @@ def bench_cli_optimize() -> dict:
             "notes": f"skipped: `isodesign optimize --help` exits "
             f"with status {probe.returncode} ({msg}); the command is not written yet",
         }
-    with tempfile.TemporaryDirectory(prefix="bench_optimize_") as tmp:
-        load0 = _load()
-        t0 = time.perf_counter()
-        p = subprocess.run(
-            [*cmd0, "optimize", "-o", tmp, "--quiet"], capture_output=True, text=True, timeout=600
-        )
-        wall = time.perf_counter() - t0
-        files = sorted(x.name for x in Path(tmp).iterdir())
+    walls = []
+    load0 = _load()
+    for _ in range(CLI_REPEATS):
+        with tempfile.TemporaryDirectory(prefix="bench_optimize_") as tmp:
+            t0 = time.perf_counter()
+            p = subprocess.run(
+                [*cmd0, "optimize", "-o", tmp, "--quiet"], capture_output=True, text=True,
+                timeout=600,
+            )
+            walls.append(time.perf_counter() - t0)
+            files = sorted(x.name for x in Path(tmp).iterdir())
+        if p.returncode != 0:
+            break
+    wall = statistics.median(walls)
     state = (
         f"exit status 0, wrote {', '.join(files) or 'nothing'}"
         if p.returncode == 0
@@ -323,10 +333,14 @@ def bench_cli_optimize() -> dict:
     return {
         **row,
         "median": wall,
-        "repeats": 1,
-        "ratio": wall / TARGET_OPTIMIZE_S,
-        "passed": p.returncode == 0 and wall < TARGET_OPTIMIZE_S,
-        "notes": f"one run (includes interpreter start and imports), {load0}; {state}",
+        "min": min(walls),
+        "max": max(walls),
+        "repeats": len(walls),
+        "ratio": wall / TARGET_CLI_S,
+        "passed": p.returncode == 0 and wall < TARGET_CLI_S,
+        "notes": f"median of {len(walls)} fresh processes (interpreter start, imports, NLP "
+        f"build, 8 starts, refinement, re-check, analysis, every output file and the plot), "
+        f"{load0} before, {_load()} after; {state}",
     }
 
 
