@@ -1,0 +1,58 @@
+"""The command line with a table: isodesign modes, and response on a study with a [table]."""
+
+from __future__ import annotations
+
+import shutil
+from importlib import resources
+
+import pandas as pd
+import pytest
+
+from isodesign.cli import main
+
+
+def test_modes_command_writes_its_files(tmp_path, capsys):
+    out = tmp_path / "m"
+    assert main(["modes", "--builtin", "table", "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "rocking stability with gravity" in text and "x+ry" in text
+    for name in ("modes.csv", "stability.csv", "leveling.csv", "layout.png", "record.json"):
+        assert (out / name).is_file(), name
+    modes = pd.read_csv(out / "modes.csv")
+    assert len(modes) == 6 and modes["frequency_hz"].is_monotonic_increasing
+    assert set(modes["name"]) >= {"z", "rz", "x+ry", "y+rx"}
+    assert (pd.read_csv(out / "leveling.csv")["group"].tolist() == [1, 1, 2, 3])
+
+
+def test_response_on_a_table_study_has_point_and_axis_columns(tmp_path, capsys):
+    study = tmp_path / "table.toml"
+    src = resources.files("isodesign") / "data" / "table_study.toml"
+    with resources.as_file(src) as p:
+        shutil.copy(p, study)
+    csv = tmp_path / "bands.csv"
+    assert main(["response", str(study), "--points-per-band", "6", "-o", str(csv)]) == 0
+    text = capsys.readouterr().out
+    assert "the vertical floor 'VC-A floor' is applied to x and y" in text
+    df = pd.read_csv(csv)
+    assert list(df.columns[:2]) == ["point", "axis"]
+    assert set(df["axis"]) == {"x", "y", "z"} and set(df["point"]) == {"centre", "corner"}
+    assert len(df) == 2 * 3 * 14
+    assert text.strip().splitlines()[-2].startswith(("PASS", "FAIL"))
+
+
+@pytest.mark.slow
+def test_optimize_builtin_table_and_its_run_directory(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(["optimize", "--builtin", "table", "--starts", "1", "--workers", "1",
+                 "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "re-check: NumPy closure = NLP" in text and "optimum: " in text
+    for name in ("design.toml", "design.json", "bands.csv", "modes.csv", "starts.csv",
+                 "record.json", "study_resolved.toml", "response.png", "layout.png"):
+        assert (out / name).is_file(), name
+    df = pd.read_csv(out / "bands.csv")
+    assert {"point", "axis", "start_margin_db"} <= set(df.columns)
+    # the run directory is an input of modes and response (its optimum, its table)
+    assert main(["modes", str(out), "-o", str(tmp_path / "m")]) == 0
+    assert "optimum of" in capsys.readouterr().out
+    assert main(["response", str(out), "--points-per-band", "6"]) == 0
