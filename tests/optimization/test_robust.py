@@ -276,3 +276,12 @@ def test_yield_is_the_same_on_one_or_two_workers_and_counts_failures():
         estimate_yield(st, DESIGN, samples=0)
     with pytest.raises(InputError, match="scenarios"):
         estimate_yield(default_study(), DESIGN, samples=5)
+
+
+def test_scenarios_on_a_table_study_are_refused_by_name():
+    from isodesign.optimization.study import table_study
+
+    raw = dict(table_study().raw)
+    raw["scenarios"] = {"payload_mass_kg": {"min": 500.0, "max": 700.0}}
+    with pytest.raises(InputError, match=r"\[scenarios\] is not available with a \[table\]"):
+        study_from_dict(raw, source="t.toml", fill_defaults=False)
