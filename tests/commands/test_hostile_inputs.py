@@ -335,6 +335,9 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
      ["--builtin", "not both"]),
     ("modes", ["--builtin", "table", "-o", "{foreign}"], ["--output", "not empty"]),
     ("response", ["{study_table_cg_out.toml}"], ["table.cg_m"]),
+    ("optimize", ["{study_plain.toml}", "--builtin", "table", "-o", "{tmp}/o"],
+     ["--builtin", "not both"]),
+    ("pareto", ["--builtin", "table", "-o", "{tmp}/p"], ["[table]", "not available yet"]),
     # -- demo ---------------------------------------------------------------------------------
     ("demo", ["-o", "{earlier_run}"], ["--output", "already holds a run"]),
     ("demo", ["-o", "{not_a_dir}"], ["--output", "not a directory"]),
