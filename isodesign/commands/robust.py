@@ -139,7 +139,7 @@ def execute_robust(study, run, args) -> int:
     sens = {"robust": res.sensitivities()}
     b = res.problem.block
     th = study.scenarios.nominal()
-    b.select(th)
+    b.select(th, b.base_slot_hz)
     from isodesign.optimization.sensitivity import design_sensitivities
 
     sens["nominal"] = design_sensitivities(b, b.initial_guess(nominal.values), th)

@@ -67,6 +67,7 @@ class ScenarioBlock(Problem):
         self.nominal_study = study
         self.theta = self.space.nominal()
         super().__init__(ScenarioStudy(study, self.space, self.theta))
+        self.base_slot_hz = self.slot_hz.copy()  # the study's peak grid (no refinement)
 
     # -- selecting a scenario (NumPy side) -------------------------------------------
     def select(self, theta, slot_hz=None) -> None:

@@ -154,7 +154,7 @@ class RobustResult(ResultDisplay):
         b = self.problem.block
         if scenario is None:
             th = self.study.scenarios.nominal()
-            b.select(th)
+            b.select(th, b.base_slot_hz)
             x = b.initial_guess(self.values)
             return design_sensitivities(b, x, th)
         th = self.problem.thetas[scenario]

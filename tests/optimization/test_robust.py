@@ -242,8 +242,47 @@ def test_default_robust_optimum_holds_at_1000_draws():
         c = scenario_check(st, res.values, th)
         assert c["max_violation"] <= 1e-6 and c["objective"] >= res.objective_value - 1e-6
     # the nominal optimum does not hold
-    yn = estimate_yield(st, res.nominal.values, samples=200, seed=1, workers=2)
+    yn = estimate_yield(st, res.nominal.values, samples=1000, seed=1, workers=2)
     assert yn.fraction < 0.5
+    _check_worked_example(res, y, yn)
+
+
+def _check_worked_example(res, y, yn):
+    """docs/robust.md's worked example: every number as this run computes it."""
+    import re
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "robust.md").read_text()
+    num = r"([+-]?\d+(?:\.\d+)?)"
+    m = re.search(
+        rf"nominal optimum: N {num}, V_t0 {num} L, L_c {num} mm, D_c {num} mm\n"
+        rf"  worst_band_margin nominal {num} dB, worst case in the box {num} dB, .*?"
+        rf"yield {num} %\nrobust optimum:  N {num}, V_t0 {num} L, L_c {num} mm, D_c {num} mm\n"
+        rf"  worst case {num} dB \(480 kg, L_c \+5 %, D_c -5 %\), nominal {num} dB: .*?\n"
+        rf"  robustness is {num} dB of nominal margin; yield {num} % \(1000 draws, CI "
+        rf"{num}-100 %\)", doc, re.S)
+    assert m, "the worked example of docs/robust.md is not in the expected form"
+    nv, rv = res.nominal.values, res.values
+    at_nom = res.nominal_at_robust()
+    want = [nv["volume_ratio"], nv["top_volume_m3"] * 1e3, nv["capillary_length_m"] * 1e3,
+            nv["capillary_diameter_m"] * 1e3, res.nominal.objective_value,
+            res.nominal_worst_case(), 100 * yn.fraction,
+            rv["volume_ratio"], rv["top_volume_m3"] * 1e3, rv["capillary_length_m"] * 1e3,
+            rv["capillary_diameter_m"] * 1e3, res.objective_value, at_nom,
+            res.nominal.objective_value - at_nom, 100 * y.fraction, 100 * y.interval[0]]
+    for quoted, value in zip(m.groups(), want, strict=True):
+        digits = len(quoted.split(".")[1]) if "." in quoted else 0
+        half = 10 ** -digits / 2 + 1e-12
+        assert abs(float(quoted) - value) <= half, (quoted, value)
+    worst = next(r for r in res.scenarios if r["worst"])["theta"]
+    assert worst == pytest.approx({"payload_mass_kg": 480.0, "capillary_length_m": 0.05,
+                                   "capillary_diameter_m": -0.05})
+    binding = [r["theta"] for r in res.active_scenarios() if r["binding"]]
+    assert {"payload_mass_kg": 720.0, "capillary_length_m": -0.05,
+            "capillary_diameter_m": 0.05} in binding
+    assert f"takes {len(res.rounds)} rounds and {len(res.scenarios)} scenarios" in doc
+    assert f"shortens the tube ({rv['capillary_length_m'] * 1e3:.1f} mm" in doc
+    assert f"narrows the bore ({rv['capillary_diameter_m'] * 1e3:.2f} mm" in doc
 
 
 # -- yield --------------------------------------------------------------------------------
@@ -276,3 +315,12 @@ def test_yield_is_the_same_on_one_or_two_workers_and_counts_failures():
         estimate_yield(st, DESIGN, samples=0)
     with pytest.raises(InputError, match="scenarios"):
         estimate_yield(default_study(), DESIGN, samples=5)
+
+
+def test_scenarios_on_a_table_study_are_refused_by_name():
+    from isodesign.optimization.study import table_study
+
+    raw = dict(table_study().raw)
+    raw["scenarios"] = {"payload_mass_kg": {"min": 500.0, "max": 700.0}}
+    with pytest.raises(InputError, match=r"\[scenarios\] is not available with a \[table\]"):
+        study_from_dict(raw, source="t.toml", fill_defaults=False)
