@@ -337,7 +337,8 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
     ("response", ["{study_table_cg_out.toml}"], ["table.cg_m"]),
     ("optimize", ["{study_plain.toml}", "--builtin", "table", "-o", "{tmp}/o"],
      ["--builtin", "not both"]),
-    ("pareto", ["--builtin", "table", "-o", "{tmp}/p"], ["[table]", "not available yet"]),
+    ("pareto", ["--builtin", "table", "--objectives", "peak_transmissibility,total_volume",
+                "-o", "{tmp}/p"], ["--objectives", "worst_band_margin,total_volume"]),
     # -- demo ---------------------------------------------------------------------------------
     ("demo", ["-o", "{earlier_run}"], ["--output", "already holds a run"]),
     ("demo", ["-o", "{not_a_dir}"], ["--output", "not a directory"]),
