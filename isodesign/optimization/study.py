@@ -46,6 +46,7 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import DESIGN_DOMAIN
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
@@ -317,6 +318,12 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     """
 
     where = source
+    if not isinstance(source, str):
+        raise InputError(f"source: expected a string (a file name or '<dict>'), got "
+                         f"{type(source).__name__}")
+    if not isinstance(d, dict):
+        raise InputError(f"study_from_dict: d must be a dict of study tables (the TOML schema), "
+                         f"got {type(d).__name__} {d!r:.40}")
     _check_all_keys(d, where)
     raw = _resolve(d, fill_defaults)
     payload = _payload(raw["payload"], where)
@@ -402,7 +409,9 @@ def _hardware(h: dict, where: str) -> dict:
     else:
         hw["piston_area_m2"] = _num(where, "hardware.piston_area_m2", h.get("piston_area_m2"),
                                     0, None, True, "m^2")
-    for k, lo, hi in (("temperature_k", 0, 1000), ("minor_loss", 0, 100),
+        lo_a, hi_a, _ = DESIGN_DOMAIN["piston_area_m2"]
+        _num(where, "hardware.piston_area_m2", hw["piston_area_m2"], lo_a, hi_a, False, "m^2")
+    for k, lo, hi in (("temperature_k", 1.0, 1000), ("minor_loss", 0, 100),
                       ("roughness_m", 0, 1e-2)):
         if k in h:
             hw[k] = _num(where, f"hardware.{k}", h[k], lo, hi, k == "temperature_k")
@@ -648,6 +657,13 @@ def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
             if not lo <= start <= hi:
                 raise InputError(f"{w}.start ({start:g}) must lie in [lower, upper] = "
                                  f"[{lo:g}, {hi:g}]")
+        dlo, dhi, unit = DESIGN_DOMAIN[name]
+        for k, v in (("start", start), ("lower", lo), ("upper", hi)):
+            if k != "start" and fixed:
+                continue
+            if not dlo <= v <= dhi:
+                raise InputError(f"{where}: variables.{name}.{k} = {v:g} is outside the models' "
+                                 f"domain [{dlo:g}, {dhi:g}]{' ' + unit if unit else ''}")
         variables.append(VariableSpec(name, start, lo, hi, fixed))
     if all(v.fixed for v in variables):
         raise InputError(f"{where}: [variables] every design variable is fixed, so there is "

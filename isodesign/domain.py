@@ -1,0 +1,37 @@
+"""The models' numeric domain: values outside these ranges are refused, naming the input.
+
+Every input is checked for its type, finiteness and sign where it enters. Beyond that, a
+value can be finite and positive yet so far outside anything physical that the solvers
+cannot give an answer (a frequency of 1e-320 Hz, an amplitude of 1e300 m, a volume ratio of
+1e300): without a range they end in "did not converge" or an overflow. The ranges below are
+orders of magnitude wider than any air spring of an isolation table (so no real design is
+refused) and narrow enough that the numerics stay finite; an input outside one is an
+:class:`~isodesign.errors.InputError` naming the parameter (the CLI: the option or key) and
+the range. Implausible values inside them get a unit-slip warning instead
+(:mod:`isodesign.io.plausible`). Standard library only (the CLI imports it for ``--help``).
+"""
+
+from __future__ import annotations
+
+__all__ = ["AMPLITUDE_DOMAIN_M", "DESIGN_DOMAIN", "FREQUENCY_DOMAIN_HZ", "GAS_DOMAIN"]
+
+#: Frequencies of the spring and response models, Hz.
+FREQUENCY_DOMAIN_HZ = (1e-6, 1e6)
+#: Stroke and floor displacement amplitudes, m.
+AMPLITUDE_DOMAIN_M = (1e-12, 1.0)
+#: Fields of a spring design: (lowest, highest, unit); the pressure's lower bound is the
+#: atmosphere (open: a spring must carry load).
+DESIGN_DOMAIN = {
+    "volume_ratio": (1e-3, 1e3, ""),
+    "top_volume_m3": (1e-9, 10.0, "m^3"),
+    "capillary_length_m": (1e-7, 100.0, "m"),
+    "capillary_diameter_m": (1e-8, 1.0, "m"),
+    "piston_area_m2": (1e-8, 100.0, "m^2"),
+    "pressure_pa": (101325.0, 1e12, "Pa"),
+    "temperature_k": (1.0, 5000.0, "K"),
+}
+#: Fields of a gas: (lowest, highest, unit).
+GAS_DOMAIN = {
+    "gas_constant_j_per_kg_k": (1.0, 1e5, "J/(kg K)"),
+    "viscosity_pa_s": (1e-8, 1e-2, "Pa s"),
+}
