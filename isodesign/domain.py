@@ -13,7 +13,8 @@ the range. Implausible values inside them get a unit-slip warning instead
 
 from __future__ import annotations
 
-__all__ = ["AMPLITUDE_DOMAIN_M", "DESIGN_DOMAIN", "FREQUENCY_DOMAIN_HZ", "GAS_DOMAIN"]
+__all__ = ["AMPLITUDE_DOMAIN_M", "DESIGN_DOMAIN", "FREQUENCY_DOMAIN_HZ", "GAS_DOMAIN",
+           "LAYOUT_DOMAIN"]
 
 #: Frequencies of the spring and response models, Hz.
 FREQUENCY_DOMAIN_HZ = (1e-6, 1e6)
@@ -29,6 +30,11 @@ DESIGN_DOMAIN = {
     "piston_area_m2": (1e-8, 100.0, "m^2"),
     "pressure_pa": (101325.0, 1e12, "Pa"),
     "temperature_k": (1.0, 5000.0, "K"),
+}
+#: Layout of a payload: (lowest, highest, unit).
+LAYOUT_DOMAIN = {
+    "spacing_m": (1e-3, 1e3, "m"),
+    "cg_height_m": (1e-6, 1e3, "m"),
 }
 #: Fields of a gas: (lowest, highest, unit).
 GAS_DOMAIN = {

@@ -136,6 +136,11 @@ def pressure_from_load(
             f"mass_kg: {m:g} kg on {int(n_isolators)} isolators of {a:g} m^2 needs a chamber "
             "pressure beyond floating point; give a physical payload"
         )
+    if not p0 > pa:
+        raise InputError(
+            f"mass_kg: {m:g} kg on {int(n_isolators)} isolators of {a:g} m^2 adds nothing to "
+            f"the atmosphere's {pa:g} Pa in floating point; give a physical payload"
+        )
     p_hi = DESIGN_DOMAIN["pressure_pa"][1]
     if p0 > p_hi:
         raise InputError(
