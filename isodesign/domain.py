@@ -13,8 +13,8 @@ the range. Implausible values inside them get a unit-slip warning instead
 
 from __future__ import annotations
 
-__all__ = ["AMPLITUDE_DOMAIN_M", "DESIGN_DOMAIN", "FREQUENCY_DOMAIN_HZ", "GAS_DOMAIN",
-           "LAYOUT_DOMAIN"]
+__all__ = ["AMPLITUDE_DOMAIN_M", "CONSTRAINT_DOMAIN", "DESIGN_DOMAIN", "FREQUENCY_DOMAIN_HZ",
+           "GAS_DOMAIN", "LAYOUT_DOMAIN"]
 
 #: Frequencies of the spring and response models, Hz.
 FREQUENCY_DOMAIN_HZ = (1e-6, 1e6)
@@ -35,6 +35,18 @@ DESIGN_DOMAIN = {
 LAYOUT_DOMAIN = {
     "spacing_m": (1e-3, 1e3, "m"),
     "cg_height_m": (1e-6, 1e3, "m"),
+}
+#: A study's numeric constraints: (lowest, highest, unit); ``false`` switches one off.
+CONSTRAINT_DOMAIN = {
+    "max_total_volume_m3": (1e-9, 1e4, "m^3"),
+    "min_capillary_diameter_m": (1e-8, 1.0, "m"),
+    "min_tilt_margin": (1e-6, 1e6, ""),
+    "min_natural_frequency_hz": (1e-6, 1e6, "Hz"),
+    "max_natural_frequency_hz": (1e-6, 1e6, "Hz"),
+    "max_peak_transmissibility_db": (0.0, 200.0, "dB"),
+    "min_damping_ratio": (1e-6, 100.0, ""),
+    "max_mach": (1e-6, 10.0, ""),
+    "max_pressure_pa": (101325.0, 1e12, "Pa"),
 }
 #: Fields of a gas: (lowest, highest, unit).
 GAS_DOMAIN = {

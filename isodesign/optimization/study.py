@@ -46,12 +46,12 @@ from typing import Any
 
 import numpy as np
 
-from isodesign.domain import DESIGN_DOMAIN
+from isodesign.domain import CONSTRAINT_DOMAIN, DESIGN_DOMAIN, FREQUENCY_DOMAIN_HZ
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
 from isodesign.io.files import read_toml
-from isodesign.io.plausible import warn_unit_slips
+from isodesign.io.plausible import unit_slips, warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
@@ -325,6 +325,19 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         raise InputError(f"study_from_dict: d must be a dict of study tables (the TOML schema), "
                          f"got {type(d).__name__} {d!r:.40}")
     _check_all_keys(d, where)
+    try:
+        return _study(d, where, source, fill_defaults)
+    except InputError as exc:  # a value the schema refuses may be a unit slip: say so
+        msg = str(exc)
+        hints = [h.split("; a unit slip? ", 1)[1] for h in unit_slips(d)
+                 if "; a unit slip? " in h and h.split(" = ", 1)[0] in msg]
+        if hints:
+            raise InputError(f"{msg} (a unit slip? {hints[0]})") from None
+        raise
+
+
+def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
+    """The validation of :func:`study_from_dict` after the key check."""
     raw = _resolve(d, fill_defaults)
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
@@ -682,6 +695,8 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
             continue
         lo_open = k != "max_peak_transmissibility_db"  # 0 dB is a valid peak bound
         cons[k] = _num(where, f"constraints.{k}", v, 0.0, None, lo_open)
+        lo, hi, unit = CONSTRAINT_DOMAIN[k]  # the models' numeric domain
+        _num(where, f"constraints.{k}", v, lo, hi, False, unit)
     if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
         if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
             raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "
@@ -722,6 +737,7 @@ def _objective(o: dict, where: str, band_hz: dict) -> dict:
         default, unit = _OBJECTIVE_OPTIONS[key]
         value = o.get(key, band_hz[default] if default else None)
         obj[key] = _num(where, f"objective.{key}", value, 0, None, True, unit)
+        _num(where, f"objective.{key}", value, *FREQUENCY_DOMAIN_HZ, False, "Hz")
     return obj
 
 
