@@ -531,8 +531,13 @@ def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
     path = Path(fl["csv"])
     if not path.is_absolute() and source not in ("<dict>", "<default>"):
         path = Path(source).parent / path
-    return FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
-                                  unit=fl.get("unit"))
+    try:
+        return FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
+                                      unit=fl.get("unit"))
+    except InputError as exc:
+        msg = str(exc)
+        msg = msg.removeprefix("path: ")
+        raise InputError(msg if msg.startswith(where) else f"{where}: floor.csv: {msg}") from None
 
 
 def _target(tg: dict, where: str):
