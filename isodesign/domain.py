@@ -14,10 +14,12 @@ the range. Implausible values inside them get a unit-slip warning instead
 from __future__ import annotations
 
 __all__ = ["AMPLITUDE_DOMAIN_M", "CONSTRAINT_DOMAIN", "DESIGN_DOMAIN", "FREQUENCY_DOMAIN_HZ",
-           "GAS_DOMAIN", "LAYOUT_DOMAIN"]
+           "GAS_DOMAIN", "LAYOUT_DOMAIN", "SAMPLE_RATE_DOMAIN_HZ"]
 
 #: Frequencies of the spring and response models, Hz.
 FREQUENCY_DOMAIN_HZ = (1e-6, 1e6)
+#: Sample rates of a survey record, Hz.
+SAMPLE_RATE_DOMAIN_HZ = (1e-3, 1e7)
 #: Stroke and floor displacement amplitudes, m.
 AMPLITUDE_DOMAIN_M = (1e-12, 1.0)
 #: Fields of a spring design: (lowest, highest, unit); the pressure's lower bound is the
