@@ -352,7 +352,10 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     solver = _solver(raw["solver"], where)
     name = raw.get("name", "study")
     if not isinstance(name, str):
-        raise InputError(f"{where}: name must be a string")
+        raise InputError(f"{where}: name must be a string, got {type(name).__name__} {name!r:.40}")
+    if not isinstance(raw.get("description", ""), str):
+        raise InputError(f"{where}: description must be a string, got "
+                         f"{type(raw['description']).__name__} {raw['description']!r:.40}")
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source, table=table,
