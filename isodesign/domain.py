@@ -13,15 +13,27 @@ the range. Implausible values inside them get a unit-slip warning instead
 
 from __future__ import annotations
 
-__all__ = ["AMPLITUDE_DOMAIN_M", "CONSTRAINT_DOMAIN", "DESIGN_DOMAIN", "FREQUENCY_DOMAIN_HZ",
-           "GAS_DOMAIN", "LAYOUT_DOMAIN", "SAMPLE_RATE_DOMAIN_HZ"]
+__all__ = [
+           "AMPLITUDE_DOMAIN_M",
+           "CONSTRAINT_DOMAIN",
+           "DESIGN_DOMAIN",
+           "FREQUENCY_DOMAIN_HZ",
+           "GAS_DOMAIN",
+           "LAYOUT_DOMAIN",
+           "MODEL_AMPLITUDE_DOMAIN_M",
+           "SAMPLE_RATE_DOMAIN_HZ",
+]
 
 #: Frequencies of the spring and response models, Hz.
 FREQUENCY_DOMAIN_HZ = (1e-6, 1e6)
 #: Sample rates of a survey record, Hz.
 SAMPLE_RATE_DOMAIN_HZ = (1e-3, 1e7)
-#: Stroke and floor displacement amplitudes, m.
-AMPLITUDE_DOMAIN_M = (1e-12, 1.0)
+#: Stroke and floor displacement amplitudes a user gives (options, arguments), m.
+AMPLITUDE_DOMAIN_M = (1e-30, 10.0)
+#: Amplitudes the spring model accepts, m: wider than :data:`AMPLITUDE_DOMAIN_M`, for the
+#: strokes the closures reach from it (a 1e-30 m floor motion at 1e-6 Hz moves the
+#: spring by ~1e-43 m), still refusing what no float arithmetic can carry (1e-320).
+MODEL_AMPLITUDE_DOMAIN_M = (1e-200, 1e4)
 #: Fields of a spring design: (lowest, highest, unit); the pressure's lower bound is the
 #: atmosphere (open: a spring must carry load).
 DESIGN_DOMAIN = {

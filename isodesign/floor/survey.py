@@ -505,7 +505,8 @@ def analyze_record(
         raise InputError(
             f"record: {record.duration_s:.4g} s is too short for the {bands.labels[0]} Hz band: "
             f"one segment with {MIN_BINS_PER_BAND} frequency bins in that band takes "
-            f"{nper / fs:.4g} s ({nper} samples at {fs:g} Hz); raise --fmin (f_min_hz) or record longer"
+            f"{nper / fs:.4g} s ({nper} samples at {fs:g} Hz); raise --fmin (f_min_hz) or record "
+            "longer"
         )
     nover = int(nper * OVERLAP)
     x = record.data - record.data.mean(axis=0)

@@ -30,7 +30,7 @@ from typing import Any
 
 import numpy as np
 
-from isodesign.domain import AMPLITUDE_DOMAIN_M, FREQUENCY_DOMAIN_HZ
+from isodesign.domain import FREQUENCY_DOMAIN_HZ, MODEL_AMPLITUDE_DOMAIN_M
 from isodesign.errors import (
     InputError,
     ModelValidityWarning,
@@ -298,7 +298,7 @@ def linear_transmissibility(
     f = check_positive("frequency_hz", frequency_hz, unit="Hz", allow_array=True)
     x = check_positive("amplitude_m", amplitude_m, unit="m")
     check_domain("frequency_hz", f, FREQUENCY_DOMAIN_HZ, unit="Hz")
-    check_domain("amplitude_m", x, AMPLITUDE_DOMAIN_M, unit="m")
+    check_domain("amplitude_m", x, MODEL_AMPLITUDE_DOMAIN_M, unit="m")
     return m.transmissibility(m.k(f, x), f)
 
 

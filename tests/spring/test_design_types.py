@@ -88,12 +88,12 @@ def test_a_design_outside_the_models_domain_is_a_range_error(field, value):
 def test_the_corners_of_the_models_domain_give_finite_stiffness():
     import numpy as np
 
-    from isodesign.domain import AMPLITUDE_DOMAIN_M, FREQUENCY_DOMAIN_HZ
+    from isodesign.domain import FREQUENCY_DOMAIN_HZ, MODEL_AMPLITUDE_DOMAIN_M
     from isodesign.spring.stiffness import complex_stiffness
 
     for change in ({}, {"volume_ratio": 1e-3}, {"volume_ratio": 1e3}, {"pressure_pa": 1e12},
                    {"temperature_k": 1.0}, {"temperature_k": 5000.0}):
         d = SpringDesign.reference().replace(**change)
         res = complex_stiffness(d, [*FREQUENCY_DOMAIN_HZ, 1.0],
-                                [*AMPLITUDE_DOMAIN_M, 1e-3], warn=False)
+                                [*MODEL_AMPLITUDE_DOMAIN_M, 1e-3], warn=False)
         assert np.isfinite(res.k).all(), change
