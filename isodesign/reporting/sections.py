@@ -40,6 +40,7 @@ from isodesign.reporting.analysis import (
     model_caveats,
 )
 from isodesign.reporting.inputs import Case
+from isodesign.reporting.robustness import robustness_section
 from isodesign.response.random_input import band_response
 
 __all__ = ["SECTIONS", "build_context"]
@@ -509,6 +510,7 @@ def build_context(analyses: list[CaseAnalysis], *, command=None, title=None) -> 
         "harmonic_rows": _harmonic_rows(cases),
         "stability_rows": _stability_rows(cases),
         "optimizations": [o for o in (_optimization(a) for a in cases) if o],
+        "robustness": [r for r in (robustness_section(a.case) for a in cases) if r],
         "paretos": [p for p in (_pareto(a) for a in cases) if p],
         "flags": _flags(cases),
         "figures": _figures(cases),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from isodesign.plotting.style import LIMIT, band_axis, candidate_style, new_figure
+from isodesign.plotting.style import FAIL, FLOOR, LIMIT, band_axis, candidate_style, new_figure
 
 __all__ = ["layout_figure", "table_bands_figure"]
 
@@ -29,17 +29,21 @@ def table_bands_figure(res, *, axes=None):
         axes = fig.subplots(1, 3, sharey=True)
     fig = axes[0].figure
     bands = res.bands
-    x = np.arange(len(bands))
+    x = np.asarray(bands.centre_hz, float)
     for a, ax in enumerate(axes):
-        ax.plot(x, res.floor_velocity_rms_m_s[a] * 1e6, color="0.55", lw=1.2, ls="--",
-                label="floor")
+        band_axis(ax, bands)
+        ax.plot(x, res.floor_velocity_rms_m_s[a] * 1e6, **FLOOR,
+                label=f"floor: {res.grid.floor.names[a]}")
         ax.plot(x, res.limit_velocity_rms_m_s * 1e6, **LIMIT, label=res.target_name)
         for p, name in enumerate(res.point_names):
             st = candidate_style(p)
-            ax.plot(x, res.velocity_rms_m_s[p, a] * 1e6, marker="o", ms=3,
-                    color=st.get("color"), lw=1.4, label=name)
+            v = res.velocity_rms_m_s[p, a] * 1e6
+            ax.plot(x, v, **st, label=name)
+            bad = v > res.limit_velocity_rms_m_s * 1e6
+            if bad.any():
+                ax.plot(x[bad], v[bad], **FAIL)
         ax.set_yscale("log")
-        band_axis(ax, bands)
+        ax.grid(True, which="major", lw=0.4, alpha=0.6)
         ax.set_title(f"{_AXES[a]} axis (worst {res.margin_db[:, a].min():+.1f} dB)", fontsize=10)
     axes[0].set_ylabel("band RMS velocity (um/s)")
     axes[0].legend(fontsize=7, loc="lower left")
