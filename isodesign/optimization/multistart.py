@@ -7,6 +7,7 @@ import os
 import numpy as np
 
 from isodesign.errors import SolverError
+from isodesign.optimization.executor import executor_for
 
 __all__ = ["DEFAULT_WORKERS", "available_cores", "run_starts", "start_points"]
 
@@ -137,27 +138,12 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
     _POOL_PARAMS = params
     results: list = [None] * n
     try:
-        ctx = None
-        if workers > 1 and n > 1:
-            import multiprocessing as mp
-
-            try:
-                ctx = mp.get_context("fork")
-            except ValueError:
-                ctx = None
-        if ctx is None:
-            for i, vals in enumerate(starts):
-                results[i] = _solve_start(vals)
-                if progress:
-                    progress(i + 1, n, results[i])
-        else:
-            with ctx.Pool(processes=min(workers, n)) as pool:
-                done = 0
-                for i, out in pool.imap_unordered(_indexed_start, list(enumerate(starts))):
-                    results[i] = out
-                    done += 1
-                    if progress:
-                        progress(done, n, out)
+        executor = executor_for(workers, n)  # the local fork pool, or the one installed
+        for done, (i, out) in enumerate(executor.map_unordered(_indexed_start,
+                                                                list(enumerate(starts))), 1):
+            results[i] = out
+            if progress:
+                progress(done, n, out)
     finally:
         _POOL_PROBLEM = None
         _POOL_PARAMS = None

@@ -24,6 +24,7 @@ import numpy as np
 
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.driver import optimize
+from isodesign.optimization.executor import executor_for
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
 from isodesign.optimization.multistart import available_cores, run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
@@ -336,26 +337,15 @@ def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
     """Run the sweep chains, in forked workers when ``workers`` (default 2), capped by
     the cores available to the process, is more than 1."""
     global _CHAIN_PROBLEM
-    import multiprocessing as mp
 
     workers = min(2 if workers is None else workers, available_cores())
     sols: dict = {}
-    ctx = None
-    if workers > 1:
-        try:
-            ctx = mp.get_context("fork")
-        except ValueError:
-            ctx = None
-    if ctx is None:
-        for anchor, idx in chains:
-            sols.update(_chain(prob, anchor, idx, eps, anchor_b))
-        return sols
+    executor = executor_for(workers, len(chains))  # the local fork pool, or the one installed
     _CHAIN_PROBLEM = prob
     try:
-        with ctx.Pool(processes=len(chains)) as pool:
-            for part in pool.map(_chain_worker,
-                                 [(anchor, idx, eps, anchor_b) for anchor, idx in chains]):
-                sols.update(part)
+        for part in executor.map_unordered(
+                _chain_worker, [(anchor, idx, eps, anchor_b) for anchor, idx in chains]):
+            sols.update(part)
     finally:
         _CHAIN_PROBLEM = None
     return sols
