@@ -126,6 +126,9 @@ _KEYS = {
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
+#: The study schema's keys per table (``""``: top level; ``"variable"``: the keys of each
+#: ``[variables.<name>]`` table), for tools that address keys by name (``isodesign sweep``).
+SCHEMA_KEYS = _KEYS
 
 
 @dataclass(frozen=True, eq=False)
