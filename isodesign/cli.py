@@ -68,6 +68,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.pareto",
         "Pareto front of two objectives (default: worst-band margin vs total volume)",
     ),
+    "sweep": (
+        "isodesign.commands.sweep",
+        "sweep a study over study changes, one Dask task per point (laptop or cluster)",
+    ),
     "floor": (
         "isodesign.commands.floor",
         "floor spectrum from a survey record (time history): band RMS statistics vs VC",

@@ -122,9 +122,9 @@ def design_chart(df, keys, *, objective: str | None = None, title: str | None = 
     xk = _x_key(d, keys)
     others = [k for k in keys if k != xk and d[k].nunique() > 1]
     fig = new_figure(10.0, 10.5)
-    gs = fig.add_gridspec(4, 2, height_ratios=[1, 1, 1, 0.9])
-    axes = [fig.add_subplot(gs[i // 2, i % 2]) for i in range(6)]
-    strip = fig.add_subplot(gs[3, :])
+    top, bottom = fig.subfigures(2, 1, height_ratios=[3.2, 1.0])  # independent layouts
+    axes = list(top.subplots(3, 2, sharex=True).ravel())
+    strip = bottom.subplots(1, 1)
     if xk is None:
         xs_all = np.arange(len(d), dtype=float)
         xlabel = "point"
@@ -177,6 +177,7 @@ def design_chart(df, keys, *, objective: str | None = None, title: str | None = 
                         if ax is axes[0] and gi == 0 else None)
             ax.set_ylabel(label)
             ax.grid(True, lw=0.4, alpha=0.6)
+            ax.ticklabel_format(axis="y", useOffset=False)
         ys = []
         for i in idx:
             lab = labels_all[i] if feas[i] else ("failed" if status[i] == "failed"
@@ -194,8 +195,8 @@ def design_chart(df, keys, *, objective: str | None = None, title: str | None = 
     strip.set_yticks(range(len(cats)))
     strip.set_yticklabels([c if len(c) < 60 else c[:57] + "..." for c in cats], fontsize=8)
     strip.set_ylim(-0.6, max(len(cats) - 0.4, 0.6))
-    strip.set_title("binding constraints and variables at a bound (lines above break where "
-                    "this set or the N branch changes)", fontsize=9)
+    strip.set_title("binding constraints and variables at a bound (the lines above break "
+                    "where this set or the N branch changes)", fontsize=9, loc="right")
     strip.grid(True, axis="x", lw=0.4, alpha=0.6)
     for ax in (*axes[4:], strip):
         ax.set_xlabel(xlabel)

@@ -204,7 +204,7 @@ def _base_study(study) -> Study:
 
 def _tables(vary, mode, points) -> tuple[list[dict], list[str]]:
     if points is not None and vary:
-        raise InputError("--points: give a points file or --vary, not both")
+        raise InputError("--points-file: give a points file or --vary, not both")
     if points is not None:
         tables = read_points(points) if isinstance(points, str | Path) else \
             [dict(t) for t in points]
@@ -213,7 +213,7 @@ def _tables(vary, mode, points) -> tuple[list[dict], list[str]]:
             keys += [k for k in t if k not in keys]
         return tables, keys
     if not vary:
-        raise InputError("--vary: give at least one KEY=VALUES (or --points FILE)")
+        raise InputError("--vary: give at least one KEY=VALUES (or --points-file FILE)")
     items = vary.items() if isinstance(vary, dict) else [parse_vary(v) for v in vary]
     varies = []
     for k, v in items:
@@ -297,7 +297,8 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
                          f"valid: {', '.join(spec.options) or 'none'}")
     base = _base_study(study)
     tables, keys = _tables(vary, combine, points)
-    pts, dropped = build_points(base, tables, "--points" if points is not None else "--vary")
+    pts, dropped = build_points(base, tables,
+                                 "--points-file" if points is not None else "--vary")
     identity = _identity(task, options, base, keys)
     target = Path(output)
     mode = _check_dir(target, identity, overwrite, "--output")

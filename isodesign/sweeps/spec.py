@@ -240,7 +240,7 @@ def read_points(path) -> list[dict]:
         One change table (dotted key -> value) per point, in file order.
     """
     p = Path(path)
-    option = f"--points {p}"
+    option = f"--points-file {p}"
     if not p.is_file():
         raise InputError(f"{option}: no such file")
     if p.suffix.lower() == ".csv":
