@@ -387,6 +387,8 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
             mine = {p.study_hash for p in pts}
             if any(r.get("status") == "failed" for h, r in rows.items() if h in mine):
                 status = "failed"
+        if status != "interrupted":  # every task has ended: no worker writes any more
+            _clean_leftovers(points_dir)
         _finish(target, rec, rows, pts, status, where, keys,
                 charts and status != "interrupted", error)
     return SweepResult(directory=target, table=frame(rows.values(), keys), keys=tuple(keys),
