@@ -125,8 +125,11 @@ def connect(scheduler: str | None = None, workers: int | None = None, *,
     with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
                           "distributed.worker.daemon": True,
                           "distributed.admin.system-monitor.gil.enabled": False}):
+        # no dashboard; the scheduler's HTTP routes (health, metrics) on a free loopback port
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               host="127.0.0.1", dashboard_address=None,
+                               host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                               scheduler_kwargs={"dashboard": False},
+                               worker_dashboard_address=None,
                                silence_logs=logging.CRITICAL, scheduler_port=0)
     client = Client(cluster, set_as_default=False)
     return Connection(client, cluster, f"local cluster ({n} worker processes on 127.0.0.1)",

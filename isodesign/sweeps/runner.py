@@ -312,8 +312,6 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
 def _run(target, mode, base, pts, dropped, keys, identity, task, options, scheduler, workers,
          charts, progress, argv, t_all, mode_combine) -> SweepResult:
     points_dir = target / POINTS
-    points_dir.mkdir(exist_ok=True)
-    _clean_leftovers(points_dir)
     rows = collect_rows(points_dir)
     todo = [p for p in pts if rows.get(p.study_hash, {}).get("status") not in FINISHED]
     reused = len(pts) - len(todo)
@@ -322,6 +320,8 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
         from isodesign.sweeps.cluster import connect
 
         conn = connect(None if scheduler == "local" else scheduler, workers)
+    points_dir.mkdir(exist_ok=True)
+    _clean_leftovers(points_dir)
     rec = {"kind": KIND, "run_status": "running", "isodesign_version": __version__,
            "argv": list(sys.argv if argv is None else argv), "started_utc": _now(),
            "output_directory": str(target),

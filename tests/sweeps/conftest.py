@@ -18,17 +18,18 @@ from pathlib import Path
 
 import pytest
 
-#: A cheap optimize point: one start, a coarse grid (about 0.5 s).
+#: A cheap optimize point: one start, a coarse grid, no tie-break (about 0.3 s).
 CHEAP_STUDY = """\
 name = "cheap"
-description = "the default study on a coarse grid, one start (sweep tests)"
+description = "the default study on a coarse grid, one start, no tie-break (sweep tests)"
 
 [models]
 points_per_band = 3
-peak_points = 20
+peak_points = 10
 
 [solver]
 starts = 1
+tie_break = false
 """
 
 
