@@ -129,7 +129,8 @@ def summary(res) -> str:
     df = res.table
     counts = df["status"].value_counts().to_dict() if len(df) else {}
     walls = res.point_wall_s
-    lines = [f"sweep {res.directory}: task {res.task} over {', '.join(res.keys) or 'a points file'};"
+    over = ", ".join(res.keys) or "a points file"
+    lines = [f"sweep {res.directory}: task {res.task} over {over};"
              f" {len(df)} points in the table ({res.ran} run now, {res.reused} already "
              f"finished, {res.failed} failed now); {res.wall_s:.1f} s on {res.where}",
              "  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))]

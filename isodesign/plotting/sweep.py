@@ -1,4 +1,4 @@
-"""Design charts of a sweep: the optimum's variables, margin and binding constraint vs the swept keys.
+"""Design charts of a sweep: optimum variables, margin and binding constraint vs the swept keys.
 
 One figure per objective (:func:`design_chart`). The x axis is the first swept key with
 numeric values; every combination of the other swept keys is one series (the candidate
@@ -188,8 +188,8 @@ def design_chart(df, keys, *, objective: str | None = None, title: str | None = 
                    color=sty["color"])
     if objective == "worst_band_margin" or second[0] == margin_col:
         for ax, (col, _, _) in zip(axes[:2], panels[:2], strict=True):
-            if col in ("objective_value", margin_col) and objective in (None,
-                                                                        "worst_band_margin") \
+            if (col in ("objective_value", margin_col) and objective in (None,
+                                                                        "worst_band_margin")) \
                     or col == margin_col:
                 ax.axhline(0.0, color="black", ls=(0, (6, 3)), lw=1.2)
     strip.set_yticks(range(len(cats)))
@@ -200,7 +200,7 @@ def design_chart(df, keys, *, objective: str | None = None, title: str | None = 
     strip.grid(True, axis="x", lw=0.4, alpha=0.6)
     for ax in (*axes[4:], strip):
         ax.set_xlabel(xlabel)
-    handles, labs = axes[0].get_legend_handles_labels()
+    handles, _labs = axes[0].get_legend_handles_labels()
     if handles:
         axes[0].legend(fontsize=8)
     task = str(d["task"].iloc[0]) if "task" in d and len(d) else "sweep"

@@ -446,10 +446,9 @@ def _finish(target, rec, rows, pts, status, where, keys, charts, error=None) -> 
 
 
 def _write_charts(target: Path, df, keys) -> list[str]:
-    from isodesign.plotting.sweep import chart_objectives, design_chart
-
     from isodesign.io.files import atomic_path
     from isodesign.plotting.style import save_figure
+    from isodesign.plotting.sweep import chart_objectives, design_chart
 
     out = []
     (target / CHARTS).mkdir(exist_ok=True)

@@ -180,7 +180,7 @@ def test_a_failing_point_is_recorded_failed_with_its_error_and_retried_on_rerun(
 ])
 def test_bad_input_is_one_line_and_exit_2(tmp_path, args, words):
     out = tmp_path / "s"
-    status, stdout, stderr = run_cli("sweep", *args, "-o", out)
+    status, _stdout, stderr = run_cli("sweep", *args, "-o", out)
     assert status == 2, stderr
     lines = stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("isodesign: error: "), stderr
