@@ -433,6 +433,11 @@ def run(args) -> int:
     with option_names(**RESPONSE_OPTION_NAMES):
         job = resolve_job(args, extra_payload={"spacing_m": args.spacing_m,
                                                "cg_height_m": args.cg_height_m})
+    if job.study is not None and job.study.table is not None:  # six DOFs (docs/table.md)
+        from isodesign.commands.modes import run_table_response
+
+        with option_names(**RESPONSE_OPTION_NAMES):
+            return run_table_response(args, job)
     check_payload_pressure(job.design, job.payload, not args.design_pressure)
     m = job.models
     kw = {"points_per_band": args.points_per_band, "flow": m["flow"],

@@ -12,7 +12,13 @@ Tables and keys
                    minor_loss, polytropic_index, roughness_m, ``[hardware.gas]``
 ``[floor]``        criterion = "VC-A" | csv = "path" (+ quantity, kind, unit)
                    | record = "survey.csv" (+ statistic, percentile, axis, unit,
-                   sample_rate_hz): a survey time history (docs/criteria.md, section 5)
+                   sample_rate_hz): a survey time history (docs/criteria.md, section 5);
+                   with a ``[table]``: the vertical floor, also applied to x and y unless
+                   ``[floor.x]``/``[floor.y]`` (same keys) or ``x = false``/``y = false``
+                   say otherwise (a record gives its own x and y axes)
+``[table]``        a rigid table in six DOFs (docs/table.md): isolators_m, cg_m,
+                   inertia_kg_m2 | box_m, leveling_groups, instrument_points_m,
+                   point_names, supply_pressure_pa, ``[table.horizontal]``
 ``[target]``       criterion, band_min_hz, band_max_hz
 ``[models]``       flow, amplitude_mode, diaphragm, random_method, points_per_band,
                    peak_points; ``diaphragm`` a name (``fit:PATH.toml`` too) or a
@@ -56,6 +62,7 @@ __all__ = [
     "default_study",
     "load_study",
     "study_from_dict",
+    "table_study",
 ]
 
 _DEFAULT = {
@@ -107,13 +114,13 @@ _DEFAULT = {
 
 _KEYS = {
     "": {"name", "description", "payload", "hardware", "floor", "target", "models",
-         "variables", "constraints", "objective", "solver"},
+         "variables", "constraints", "objective", "solver", "table"},
     "payload": {"mass_kg", "isolators", "spacing_m", "cg_height_m"},
     "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
                  "minor_loss", "polytropic_index", "roughness_m", "gas"},
     "hardware.gas": {"name", "gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"},
     "floor": {"criterion", "csv", "quantity", "kind", "unit", "record", "statistic",
-              "percentile", "axis", "sample_rate_hz"},
+              "percentile", "axis", "sample_rate_hz", "x", "y"},
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points"},
@@ -153,6 +160,8 @@ class Study:
     solver: dict
     source: str = ""
     notes: tuple[str, ...] = field(default_factory=tuple)
+    table: Any = None
+    floor_axes: Any = None
 
     def variable(self, name: str) -> VariableSpec:
         """The spec of one design variable."""
@@ -252,7 +261,8 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     raw = _resolve(d, fill_defaults)
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
-    floor = _floor(raw["floor"], where, source)
+    table = _table(raw, payload, hw, where)
+    floor, floor_axes = _floor_axes(raw["floor"], where, source, table)
     target, bands, band_hz = _target(raw["target"], where)
     models = _models(raw["models"], where, source)
     variables = _variables(raw["variables"], where)
@@ -264,7 +274,8 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         raise InputError(f"{where}: name must be a string")
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
-               objective=obj, solver=solver, source=source)
+               objective=obj, solver=solver, source=source, table=table,
+               floor_axes=floor_axes)
     _check_start_design(st, where)
     return st
 
@@ -344,6 +355,52 @@ def _hardware(h: dict, where: str) -> dict:
 
 
 _RECORD_KEYS = {"record", "statistic", "percentile", "axis", "unit", "sample_rate_hz"}
+
+
+def _table(raw: dict, payload, hw: dict, where: str):
+    """``[table]`` (None without one), leveled; ``payload.isolators`` must match it."""
+    if "table" not in raw:
+        return None
+    from isodesign.table.statics import level
+    from isodesign.table.study import table_from_dict
+
+    t = table_from_dict(raw["table"], payload.mass_kg, payload.g_m_s2, where)
+    if payload.isolators != t.n_isolators:
+        raise InputError(f"{where}: payload.isolators = {payload.isolators} but "
+                         f"table.isolators_m lists {t.n_isolators} isolators")
+    try:
+        level(t, hw["piston_area_m2"])
+    except InputError as exc:
+        raise InputError(f"{where}: table.{exc}") from None
+    return t
+
+
+def _floor_axes(fl: dict, where: str, source: str, table):
+    """``[floor]`` and, with a table, its per-axis floors (a TableFloor)."""
+    if table is None:
+        for k in ("x", "y"):
+            if k in fl:
+                raise InputError(f"{where}: floor.{k} applies only to a study with a [table]")
+        return _floor(fl, where, source), None
+    from isodesign.table.floor import table_floor
+
+    base = {k: v for k, v in fl.items() if k not in ("x", "y")}
+    z = _floor(base, where, source)
+    axes = {}
+    for k in ("x", "y"):
+        v = fl.get(k)
+        if v is False:
+            axes[k] = False
+        elif isinstance(v, dict):
+            axes[k] = _floor(v, f"{where} [floor.{k}]", source)
+        elif v is not None:
+            raise InputError(f"{where}: floor.{k} must be a table or false")
+        elif "record" in base and "axis" not in base:
+            try:  # the survey's own horizontal axis, when the record has it
+                axes[k] = _floor({**base, "axis": k}, where, source)
+            except InputError:
+                pass
+    return z, table_floor(z, **axes)
 
 
 def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
@@ -625,3 +682,15 @@ def load_study(path) -> Study:
 def default_study() -> Study:
     """The built-in default study (see ``docs/optimization.md``)."""
     return study_from_dict({}, source="<default>")
+
+
+def table_study() -> Study:
+    """The built-in table study (``isodesign/data/table_study.toml``, docs/table.md).
+
+    A 600 kg table on four isolators 1.2 x 0.8 m apart, its CG 0.35 m above them, on a
+    VC-A floor in three axes, for an instrument that needs VC-C in every axis.
+    """
+    from importlib import resources
+
+    with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
+        return load_study(p)
