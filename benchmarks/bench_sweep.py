@@ -80,11 +80,15 @@ def run() -> list[dict]:
                 < 1e-9)
     speedup = t_serial / t_dask
     per_point = statistics.median(serial.point_wall_s)
+    busy_fraction = busy / (WORKERS * t_dask)
+    slowdown = busy / float(sum(serial.point_wall_s))
     notes = (f"{n} points (default study, {STARTS} start each, {VARY[0]} x {VARY[1]}); serial "
              f"{t_serial:.1f} s in one process (median point {per_point:.2f} s), local cluster "
              f"of {WORKERS} worker processes {t_dask:.1f} s (warm: started and warmed up "
-             f"before timing); results identical: {same}; load average {load0:.1f} -> "
-             f"{load1:.1f} (machine shared)")
+             f"before timing); results identical: {same}; the workers were busy "
+             f"{busy_fraction:.0%} of the time, and their points took {slowdown:.2f} x the "
+             "serial points' time (CPU shared with other processes: the speed-up is "
+             f"{WORKERS} x busy / slowdown); load average {load0:.1f} -> {load1:.1f}")
     return [
         {"name": f"sweep: {n} optimize points, local cluster ({WORKERS} workers) vs serial",
          "target": f">= {TARGET_SPEEDUP}", "median": speedup, "unit": "x",
