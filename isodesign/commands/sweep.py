@@ -47,6 +47,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="task pareto: objectives A (optimized) and B (swept)")
     parser.add_argument("--pareto-points", type=_int_option, metavar="K",
                         help="task pareto: epsilon values per front (2..500; default 10)")
+    parser.add_argument("--yield-samples", type=_int_option, metavar="N",
+                        help="task yield: draws per point (1..1000000; default 200)")
     parser.add_argument("--starts", type=_int_option, metavar="N",
                         help="starts per optimization (sets solver.starts of the base study)")
     parser.add_argument("--seed", type=_int_option, metavar="N",
@@ -174,6 +176,12 @@ def run(args) -> int:
                    if args.objectives else None, "points": args.pareto_points}
     elif args.objectives or args.pareto_points:
         raise InputError("--objectives/--pareto-points: only for --task pareto")
+    if args.task == "yield":
+        if args.yield_samples is not None:
+            check_count(args.yield_samples, "--yield-samples", 1, 1_000_000)
+        options = {"samples": args.yield_samples, "seed": args.seed}
+    elif args.yield_samples is not None:
+        raise InputError("--yield-samples: only for --task yield")
     if args.point_plots:
         options["plots"] = True
     if args.points_file is not None and args.vary:

@@ -296,6 +296,8 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
         raise InputError(f"--task {task}: option {sorted(unknown)[0]!r} does not apply; "
                          f"valid: {', '.join(spec.options) or 'none'}")
     base = _base_study(study)
+    if spec.check is not None:
+        spec.check(base)
     tables, keys = _tables(vary, combine, points)
     pts, dropped = build_points(base, tables,
                                  "--points-file" if points is not None else "--vary")

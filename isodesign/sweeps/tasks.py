@@ -72,6 +72,9 @@ class SweepTask:
         The options it reads from the sweep's task options.
     description : str
         One line for ``--help`` and the docs.
+    check : callable, optional
+        ``check(study)`` raises InputError when the base study cannot run this task
+        (called before anything runs).
     """
 
     name: str
@@ -79,13 +82,16 @@ class SweepTask:
     run: Callable
     options: tuple[str, ...] = field(default_factory=tuple)
     description: str = ""
+    check: Callable | None = None
 
 
 #: Registered tasks, by name.
 TASKS: dict[str, SweepTask] = {}
-#: Tasks another capability provides: name -> (module that registers it, what provides it).
+#: Tasks another capability provides: name -> (module it needs, what provides it). When
+#: the module imports, the task is registered (by the module itself, or from
+#: :data:`_OPTIONAL_BUILDERS` here).
 OPTIONAL_TASKS: dict[str, tuple[str, str]] = {
-    "yield": ("isodesign.robust.sweep_task", "robust design (yield under tolerances)"),
+    "yield": ("isodesign.optimization.yields", "robust design (yield under tolerances)"),
 }
 
 
@@ -128,6 +134,8 @@ def get_task(name: str, option: str = "--task") -> SweepTask:
                 f"{option}: {name!r} is not available in this isodesign: it comes with "
                 f"{what} ({module} is not installed); available: {', '.join(sorted(TASKS))}"
             ) from None
+        if name not in TASKS and name in _OPTIONAL_BUILDERS:
+            register_task(_OPTIONAL_BUILDERS[name]())
         if name in TASKS:
             return TASKS[name]
     raise InputError(f"{option}: unknown task {name!r}; available: "
@@ -249,6 +257,42 @@ def _pareto(study, run: RunDirectory, options: dict) -> dict:
             "objective_value": float(result.hypervolume), **_variables(result.designs[best]),
             "binding": "", "n_front": int(np.sum(result.front)),
             f"best_{a}": float(result.values[best, 0])}
+
+
+def _check_yield(study) -> None:
+    if getattr(study, "scenarios", None) is None:
+        raise InputError("--task yield: the study has no [scenarios] table (the tolerance laws "
+                         "the built tables are drawn from; docs/robust.md)")
+
+
+def _yield(study, run: RunDirectory, options: dict) -> dict:
+    from isodesign.io.record import resolved_study_dict, study_toml
+    from isodesign.optimization.yields import estimate_yield
+
+    values = {v.name: v.start for v in study.variables}
+    run.record.update({"study": resolved_study_dict(study), "study_source": study.source,
+                       "design": values})
+    run.write_text("study_resolved.toml", study_toml(study, header=(
+        "Resolved study of an isodesign sweep point (task yield: the yield of the study's\n"
+        "start design under its [scenarios])")))
+    res = estimate_yield(study, values, samples=int(options.get("samples") or 200),
+                         seed=int(options.get("seed") or 0), workers=1,
+                         label="the study's start design")
+    run.write_json("yield.json", res.record())
+    run.write_csv("yield.csv", res.to_frame())
+    lo, hi = res.record()["clopper_pearson"]
+    return {"feasible": bool(res.passed > 0), "objective": "yield",
+            "objective_value": float(res.fraction), **_variables(values), "binding": "",
+            "yield_low": float(lo), "yield_high": float(hi), "samples": int(res.samples),
+            "worst_band_margin_db": float(res.worst_margin_db())}
+
+
+#: Builders of the optional tasks whose code lives here (registered once their module is).
+_OPTIONAL_BUILDERS = {
+    "yield": lambda: SweepTask("yield", "yield", _yield, ("samples", "seed"),
+                               "yield of the study's start design under its [scenarios]",
+                               check=_check_yield),
+}
 
 
 register_task(SweepTask("optimize", "optimize", _optimize, ("plots",),

@@ -257,3 +257,22 @@ def test_the_local_cluster_runs_on_loopback_without_a_dashboard(tmp_path, monkey
                               output=tmp_path / "s", scheduler=info["address"], charts=False)
     assert res.status == "complete" and len(res.table) == 3
     assert all(w.startswith("tcp://127.0.0.1:") for w in res.table["worker"])
+
+
+def test_the_yield_task_when_robust_design_is_installed(tmp_path):
+    import importlib.util
+
+    if importlib.util.find_spec("isodesign.optimization.yields") is None:
+        pytest.skip("robust design (isodesign.optimization.yields) is not in this isodesign")
+    study = tmp_path / "robust.toml"
+    study.write_text("[scenarios]\npayload_mass_kg = {relative = 0.05}\n"
+                     "capillary_diameter_m = {relative = 0.05}\n", encoding="utf-8")
+    res = isodesign.sweep(study, ["payload.mass_kg=400,900"], task="yield",
+                          options={"samples": 20, "seed": 1}, output=tmp_path / "y",
+                          scheduler="serial", charts=False)
+    assert res.status == "complete" and list(res.table["objective"]) == ["yield", "yield"]
+    assert all(0 <= v <= 1 for v in res.table["objective_value"])
+    assert (res.table["yield_low"] <= res.table["objective_value"]).all()
+    with pytest.raises(InputError, match=r"--task yield: the study has no \[scenarios\]"):
+        isodesign.sweep(None, ["payload.mass_kg=400"], task="yield", output=tmp_path / "z",
+                        scheduler="serial")
