@@ -103,7 +103,7 @@ def test_the_task_registry_is_extensible_and_says_what_is_missing():
     assert {"optimize", "response", "pareto"} <= set(isodesign.sweeps.TASKS)
     import importlib.util
 
-    if importlib.util.find_spec("isodesign.robust") is None:  # robust design not here yet
+    if importlib.util.find_spec("isodesign.optimization.yields") is None:  # not here yet
         with pytest.raises(InputError, match=r"--task: 'yield' is not available.*robust"):
             get_task("yield")
     with pytest.raises(InputError, match=r"unknown task 'optimise'; available: .*optimize"):
