@@ -273,7 +273,8 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
     charts : bool
         Write the design charts when the sweep ends.
     progress : callable, optional
-        ``progress(done, total, row, running)`` after each point (``row`` None at start).
+        ``progress(done, total, row, running)`` after each point (``row`` None at start;
+        ``running``: the points being computed, at most one per worker).
     argv : list of str, optional
         The command line recorded.
 
@@ -358,7 +359,8 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
             walls.append(float(row["wall_s"]))
         write_table(frame(rows.values(), keys), table_path)
         if progress:
-            progress(reused + done, total, row, len(todo) - done)
+            slots = 1 if conn is None else max(conn.workers, 1)  # a point per worker
+            progress(reused + done, total, row, min(slots, len(todo) - done))
 
     error = None
     try:
