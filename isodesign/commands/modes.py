@@ -118,7 +118,6 @@ def run_table_response(args, job) -> int:
     from isodesign.table.summary import table_summary
 
     for opt, given in (("--design-pressure", args.design_pressure),
-                       ("--verify-monte-carlo", args.verify_monte_carlo is not None),
                        ("--payload-kg", args.payload_kg is not None),
                        ("--isolators", args.isolators is not None)):
         if given:
@@ -139,6 +138,11 @@ def run_table_response(args, job) -> int:
     model = table_model(job.design, st.table, flow=m["flow"],
                         amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
     to_stdout = args.output == "-"
+    mc = None
+    if args.verify_monte_carlo is not None:  # the 6-DOF time-domain check
+        from isodesign.commands.table_verify import verify_table
+
+        mc = verify_table(args, job, res, floor)
     if not to_stdout:
         print(table_summary(res, table_modes(model), rocking_stability(model), job.label))
     if args.output:
@@ -150,4 +154,8 @@ def run_table_response(args, job) -> int:
             save_figure(res.plot(), tmp)
         if not to_stdout:
             print(f"wrote {args.plot}")
+    if mc is not None and not to_stdout:
+        from isodesign.commands.table_verify import table_monte_carlo_table
+
+        print(table_monte_carlo_table(res, mc))
     return 0

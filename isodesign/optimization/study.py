@@ -44,14 +44,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
 from isodesign.io.files import read_toml
+from isodesign.io.plausible import warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
+from isodesign.results import ResultDisplay
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS
 from isodesign.spring.gas import Gas
@@ -104,7 +109,7 @@ _DEFAULT = {
         "max_peak_transmissibility_db": 15.0,
         "min_damping_ratio": 0.05,
         "max_mach": 0.3,
-        "max_pressure_pa": False,
+        "max_pressure_pa": MAX_STATIC_PRESSURE_PA,
         "model_validity": True,
     },
     "objective": {"kind": "worst_band_margin"},
@@ -138,12 +143,14 @@ _KEYS = {
 SCHEMA_KEYS = _KEYS
 
 
-@dataclass(frozen=True, eq=False)
-class Study:
+@dataclass(frozen=True, eq=False, repr=False)
+class Study(ResultDisplay):
     """A validated design study. Build with :func:`load_study` or :func:`default_study`.
 
     ``raw`` holds the resolved dictionary (defaults filled in), which is what a
-    run records so that the study can be replayed.
+    run records so that the study can be replayed. ``repr`` is one short line,
+    ``str`` and ``_repr_html_`` (notebooks) give the job, the models, the free
+    variables, the constraints in force and the objective.
     """
 
     name: str
@@ -162,6 +169,36 @@ class Study:
     notes: tuple[str, ...] = field(default_factory=tuple)
     table: Any = None
     floor_axes: Any = None
+
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Name, job, models, variables, constraints, objective (for repr and notebooks)."""
+        p = self.payload
+        tg = self.raw.get("target", {})
+        free = [v.name for v in self.variables if not v.fixed]
+        on = [f"{k} = {self.constraints[k]:g}" for k in _DEFAULT["constraints"]
+              if k != "model_validity" and self.constraints.get(k) is not None]
+        src = "built-in" if self.source == "<default>" else self.source
+        items = [
+            ("", repr(self.name)),
+            ("payload", f"{p.mass_kg:g} kg on {p.isolators} isolators"),
+            ("floor", getattr(self.floor, "name", "") or str(self.raw.get("floor"))),
+            ("target", f"{self.target.name} {tg.get('band_min_hz', '?'):g}-"
+                       f"{tg.get('band_max_hz', '?'):g} Hz"),
+            ("objective", self.objective["kind"]),
+            ("free", ", ".join(free) or "none"),
+            ("constraints", ", ".join(on) + (" + model validity"
+                                             if self.constraints.get("model_validity")
+                                             else "")),
+            ("models", f"{self.models['flow']} flow, {self.models['diaphragm']} diaphragm"),
+            ("solver", f"{self.solver['starts']} starts, seed {self.solver['seed']}"),
+            ("source", src),
+        ]
+        return items
+
+    def __repr__(self) -> str:
+        items = dict(self._summary_items())
+        return (f"<Study {self.name!r}: {items['payload']}, {items['floor']} -> "
+                f"{items['target']}, {items['objective']}, source {items['source']}>")
 
     def variable(self, name: str) -> VariableSpec:
         """The spec of one design variable."""
@@ -187,9 +224,35 @@ class Study:
         """A copy with some tables replaced or updated (validated again).
 
         ``study.with_changes(objective={"kind": "total_volume"})``.
+
+        A changed study is another study, so it does not keep the old name and description
+        silently: unless ``name`` (and ``description``) are given, a change of any table
+        but ``[solver]`` names the copy ``"<name> (changed)"`` and appends to its
+        description which tables changed. Solver settings (starts, seed, workers, ...)
+        change how the study is solved, not the study: they keep the name.
+
+        Parameters
+        ----------
+        **tables
+            Tables of the study schema (``payload={"mass_kg": 900.0}``), and optionally
+            ``name`` and ``description`` (strings).
+
+        Returns
+        -------
+        Study
         """
+        changed = sorted(k for k in tables if k not in ("solver", "name", "description"))
+        if changed and "name" not in tables:
+            base = self.name.removesuffix(" (changed)")
+            tables["name"] = f"{base} (changed)"
+        if changed and "description" not in tables:
+            old = str(self.raw.get("description", "")).strip()
+            note = f"Changed from study {self.name!r}: [{'], ['.join(changed)}]."
+            tables["description"] = f"{old} {note}".strip()
         raw = _merge(self.raw, tables)  # nested tables merge like a study file's
-        return study_from_dict(raw, source=self.source, fill_defaults=False)
+        st = study_from_dict(raw, source=self.source, fill_defaults=False)
+        warn_unit_slips(tables, self.source)
+        return st
 
 
 def _check_keys(d: dict, table: str, where: str):
@@ -264,6 +327,7 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     table = _table(raw, payload, hw, where)
     floor, floor_axes = _floor_axes(raw["floor"], where, source, table)
     target, bands, band_hz = _target(raw["target"], where)
+    _check_bands_covered(floor, target, bands, band_hz, where)
     models = _models(raw["models"], where, source)
     variables = _variables(raw["variables"], where)
     cons = _constraints(raw["constraints"], where, variables, payload)
@@ -277,6 +341,8 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
                objective=obj, solver=solver, source=source, table=table,
                floor_axes=floor_axes)
     _check_start_design(st, where)
+    if fill_defaults:  # the user's own values (with_changes warns on its changes)
+        warn_unit_slips(d, where)
     return st
 
 
@@ -470,6 +536,33 @@ def _target(tg: dict, where: str):
     return target, bands, {"band_min_hz": bmin, "band_max_hz": bmax}
 
 
+def _check_bands_covered(floor, target, bands, band_hz: dict, where: str) -> None:
+    """The judged bands must lie inside the floor's data and the target's curve; the error
+    names ``target.band_min_hz``/``band_max_hz``, the values given and the usable range."""
+    bad = []
+    for check in (floor._resolve_bands, target.velocity_rms_m_s):
+        try:
+            check(bands)
+        except InputError as exc:
+            bad.append(str(exc).removeprefix("bands: "))
+    if not bad:
+        return
+    lab = np.asarray(bands.labels)
+    ok = np.ones(len(lab), bool)
+    lo_f, hi_f = floor.f_min_hz * (1 - 1e-9), floor.f_max_hz * (1 + 1e-9)
+    ok &= (np.asarray(bands.lower_hz) >= lo_f) & (np.asarray(bands.upper_hz) <= hi_f)
+    ok &= np.asarray(target.covers(bands), bool)
+    keys = []
+    if not ok[0]:
+        keys.append(f"target.band_min_hz = {band_hz['band_min_hz']:g}")
+    if not ok[-1]:
+        keys.append(f"target.band_max_hz = {band_hz['band_max_hz']:g}")
+    usable = (f"; the bands inside both run from {lab[ok][0]} to {lab[ok][-1]} Hz (nominal "
+              "centres)" if ok.any() else "")
+    raise InputError(f"{where}: {' and '.join(keys) or 'target bands'} Hz: judged "
+                     f"{'; '.join(bad)}{usable}")
+
+
 def _int_in(where: str, key: str, value, lo: int, hi: int | None) -> int:
     """An integer in [lo, hi] (hi None: no upper limit), else the schema's message."""
     if isinstance(value, bool) or not isinstance(value, int) or value < lo \
@@ -647,8 +740,11 @@ def _check_start_design(st: Study, where: str) -> None:
         # p0 = p_atm + m g / (n A_p) depends on the payload and the piston area only: no
         # design variable can meet the bound, so the study is refused, not optimized
         p = st.payload
+        what = (" (the model's validity bound, the default: ideal gas and rolling diaphragm, "
+                "docs/spring-model.md section 10; false runs it anyway, with a FAIL verdict)"
+                if pmax == MAX_STATIC_PRESSURE_PA else "")
         raise InputError(
-            f"{where}: constraints.max_pressure_pa = {pmax:g} Pa, but the payload "
+            f"{where}: constraints.max_pressure_pa = {pmax:g} Pa{what}, but the payload "
             f"({p.mass_kg:g} kg on {p.isolators} isolators of A_p = "
             f"{d.piston_area_m2:g} m^2) needs p0 = {d.pressure_pa:.4g} Pa; no design "
             "variable changes p0: more isolators, a larger piston_area_m2 or a lighter "
