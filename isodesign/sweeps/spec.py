@@ -300,6 +300,9 @@ def nest(changes: dict) -> dict:
 def study_hash(study: Study) -> str:
     """SHA-256 of the resolved study (canonical JSON, integers as floats): a point's identity.
 
+    The study's ``name`` and ``description`` are labels, not part of it: they are left out
+    (:meth:`~isodesign.optimization.study.Study.with_changes` renames a changed study).
+
     Parameters
     ----------
     study : Study
@@ -318,8 +321,9 @@ def study_hash(study: Study) -> str:
             return float(v)
         return v
 
-    text = json.dumps(canon(resolved_study_dict(study)), sort_keys=True,
-                      separators=(",", ":"), default=str)
+    raw = {k: v for k, v in resolved_study_dict(study).items()
+           if k not in ("name", "description")}  # labels, not the study
+    text = json.dumps(canon(raw), sort_keys=True, separators=(",", ":"), default=str)
     return hashlib.sha256(text.encode("utf-8")).hexdigest()
 
 
