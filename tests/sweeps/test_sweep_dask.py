@@ -124,6 +124,7 @@ def test_a_rerun_does_no_work_and_an_extension_runs_only_the_new_points(killed_s
             for p in res.table["point"]} == stamps
 
 
+@pytest.mark.slow
 def test_sigint_keeps_the_finished_points_and_a_rerun_completes(dask_processes, cheap_study,
                                                                 tmp_path):
     out = tmp_path / "interrupted"
