@@ -351,10 +351,6 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
 
-        if st.table is not None:
-            raise InputError(f"{where}: [scenarios] is not available with a [table] study yet: "
-                             "robust design works on the vertical study (docs/robust.md, "
-                             "section 7); remove [scenarios] or [table]")
 
         st = dataclasses.replace(st, scenarios=parse_scenarios(raw["scenarios"], where, st))
     return st
