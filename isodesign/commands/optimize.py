@@ -497,12 +497,51 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
     return written
 
 
-def run_optimization(study, args):
-    """``optimize(study)`` with the progress bar of ``args``."""
+#: Modules the output writing needs, imported while CasADi builds the NLP.
+PREFETCHED_MODULES = ("pandas", "matplotlib.figure", "matplotlib.backends.backend_agg")
 
+
+def prefetch_imports(modules=PREFETCHED_MODULES):
+    """Import ``modules`` in a background thread; return the started thread (join it).
+
+    CasADi releases the GIL while it builds the NLP's derivatives (about half a second),
+    so the imports that writing the outputs needs (pandas, Matplotlib: a few tenths of a
+    second) run meanwhile on the other core. Join the thread before anything forks (the
+    starts' worker processes): a fork while a thread holds the import lock could leave a
+    child waiting on it for ever. An import that fails here is left to fail where it is
+    used.
+    """
+    import importlib
+    import threading
+
+    def work():
+        for name in modules:
+            try:
+                importlib.import_module(name)
+            except Exception:  # the real import reports it
+                return
+
+    thread = threading.Thread(target=work, name="isodesign-prefetch", daemon=True)
+    thread.start()
+    return thread
+
+
+def run_optimization(study, args):
+    """``optimize(study)`` with the progress bar of ``args``.
+
+    The NLP is built first, while :func:`prefetch_imports` imports the output writers'
+    dependencies; the thread is joined before the starts run.
+    """
+    from isodesign.optimization.problem import Problem
+
+    thread = prefetch_imports()
+    try:
+        problem = Problem(study)
+    finally:
+        thread.join()
     with StartProgress(progress_enabled(args), study.solver["starts"],
                        study.objective["kind"]) as bar:
-        return optimize(study, progress=bar)
+        return optimize(study, progress=bar, problem=problem)
 
 
 def execute(study, run, args, *, prefix: str = "") -> int:

@@ -142,6 +142,9 @@ _KEYS = {
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
+#: The study schema's keys per table (``""``: top level; ``"variable"``: the keys of each
+#: ``[variables.<name>]`` table), for tools that address keys by name (``isodesign sweep``).
+SCHEMA_KEYS = _KEYS
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -371,10 +374,6 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
 
-        if st.table is not None:
-            raise InputError(f"{where}: [scenarios] is not available with a [table] study yet: "
-                             "robust design works on the vertical study (docs/robust.md, "
-                             "section 7); remove [scenarios] or [table]")
 
         st = dataclasses.replace(st, scenarios=parse_scenarios(raw["scenarios"], where, st))
     return st

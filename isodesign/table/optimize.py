@@ -19,8 +19,8 @@ then:
 
 Derivatives: the gradient and the constraint Jacobian are exact (CasADi AD); the Hessian of
 the Lagrangian is IPOPT's limited-memory quasi-Newton approximation (:data:`HESSIAN`): the
-exact Hessian through the mapped 6x6 solve gave the same optimum at 4.8 times the cost
-(``benchmarks/bench_table.py``).
+exact Hessian through the mapped 6x6 solve gives the same optimum at several times the cost
+(``benchmarks/bench_table.py`` times both).
 """
 
 from __future__ import annotations
