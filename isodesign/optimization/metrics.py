@@ -97,7 +97,7 @@ def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
     else:
         lin = linear_resistance(flow, d, omega)
         c = Cx(lin.re + c_nl, lin.im)
-    k = spring_stiffness(air_stiffness(d, omega, c), dia.stiffness(omega, a_star))
+    k = spring_stiffness(air_stiffness(d, omega, c, flow), dia.stiffness(omega, a_star))
     out = {
         "T": transmissibility(k, m_i, omega),
         "R": relative_transmissibility(k, m_i, omega),
@@ -105,7 +105,7 @@ def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
         "ln_re": bk.log(d.density_kg_m3 * velocity * d.capillary_diameter_m / d.viscosity_pa_s),
     }
     if c_nl is not None:
-        out["G2"] = tube_velocity_gain2(d, omega, c)
+        out["G2"] = tube_velocity_gain2(d, omega, c, flow)
     return out
 
 

@@ -47,7 +47,7 @@ from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
 from isodesign.spring.diaphragm import diaphragm_model
-from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS
+from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS, model_design
 from isodesign.spring.gas import Gas
 from isodesign.spring.stiffness import AMPLITUDE_MODES
 
@@ -167,7 +167,8 @@ class Study:
 
         vals = {v.name: (v.start if v.fixed else values.get(v.name, v.start))
                 for v in self.variables}
-        d = SpringDesign(pressure_pa=2e5, **vals, **self.hardware)
+        d = model_design(self.models["flow"], SpringDesign(pressure_pa=2e5, **vals,
+                                                           **self.hardware))
         return d.with_load(self.payload.mass_kg, self.payload.isolators,
                            g_m_s2=self.payload.g_m_s2)
 
