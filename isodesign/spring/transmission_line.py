@@ -27,7 +27,11 @@ import math
 
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
-from isodesign.spring.capillary import womersley_number, womersley_zeta
+from isodesign.spring.capillary import (
+    tube_boundary_layer_functions,
+    womersley_number,
+    womersley_zeta,
+)
 
 __all__ = [
     "TRANSVERSE_MODE_FACTOR",
@@ -79,7 +83,7 @@ def tube_series_impedance(design, omega) -> Cx:
         Angular frequency, rad/s.
     """
     d = design
-    zeta = womersley_zeta(womersley_number(d, omega))
+    zeta, _ = tube_boundary_layer_functions(womersley_number(d, omega), d.gas.prandtl_number)
     scale = 128.0 * d.viscosity_pa_s / (math.pi * bk.ipow(d.capillary_diameter_m, 4))
     return Cx(scale * zeta.re, scale * zeta.im)
 
@@ -99,7 +103,7 @@ def tube_shunt_admittance(design, omega) -> Cx:
     """
     d = design
     kappa = d.gas.heat_capacity_ratio
-    g = thermal_function(womersley_number(d, omega) * math.sqrt(d.gas.prandtl_number))
+    _, g = tube_boundary_layer_functions(womersley_number(d, omega), d.gas.prandtl_number)
     scale = omega * d.capillary_area_m2 / (kappa * d.pressure_pa)
     # j scale (1 + (kappa-1) G)
     return Cx(-scale * (kappa - 1.0) * g.im, scale * (1.0 + (kappa - 1.0) * g.re))
