@@ -316,3 +316,21 @@ def test_network_is_passive_for_random_inputs():
         k = air_stiffness(d, w, c, "quasi_steady")
         assert np.all(np.isfinite(k.re)) and np.all(k.im >= -1e-9 * np.abs(k.re))
 
+
+
+def test_numbers_quoted_in_docs_acoustics(ref):
+    """docs/acoustics.md: h = 1.7 cm and n = 1.36, 1.38 (0.2, 1 Hz) for the reference top
+    chamber; 5e-6 low-frequency difference (tube volume); 0.7 % at 80 Hz."""
+    d = ref.replace(chamber_heat_exchange=True)
+    length, diam = chamber_dimensions(d, d.top_volume_m3)
+    h = d.top_volume_m3 / (math.pi * diam * (length + 0.5 * diam))
+    assert f"{100 * h:.1f}" == "1.7"
+    n = polytropic_index(d, d.top_volume_m3, 2 * math.pi * np.array([0.2, 1.0]))
+    assert [f"{v:.2f}" for v in n.re] == ["1.36", "1.38"]
+    tube = KAPPA * ref.capillary_area_m2 * ref.capillary_length_m / ref.total_volume_m3
+    assert f"{tube:.0e}" == "5e-06"
+    w = 2 * math.pi * np.array([80.0])
+    c = resistance_function("womersley", ref, w)(np.array([1.0]))
+    k = air_stiffness(ref, w, c, "womersley").to_complex()
+    kl = air_stiffness(ref.replace(acoustics="lumped"), w, c).to_complex()
+    assert f"{100 * abs(k[0] / kl[0] - 1):.1f}" == "0.7"
