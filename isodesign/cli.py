@@ -68,6 +68,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.pareto",
         "Pareto front of two objectives (default: worst-band margin vs total volume)",
     ),
+    "modes": (
+        "isodesign.commands.modes",
+        "modes and rocking stability of a table in six degrees of freedom (docs/table.md)",
+    ),
     "floor": (
         "isodesign.commands.floor",
         "floor spectrum from a survey record (time history): band RMS statistics vs VC",
@@ -128,7 +132,52 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message: str):
         hint = f" (see '{self.prog} --help')"
-        self.exit(EXIT_INPUT, f"{PROG}: error: {_one_line(message)}{hint}\n")
+        message = _one_line(message) + _did_you_mean(self, message)
+        self.exit(EXIT_INPUT, f"{PROG}: error: {message}{hint}\n")
+
+
+def _known_options(parser: argparse.ArgumentParser) -> set[str]:
+    """Every option string of ``parser`` and of its (loaded) subcommand parsers."""
+    out = {o for o in parser._option_string_actions if o.startswith("--")}
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                out |= _known_options(sub)
+    return out
+
+
+def _did_you_mean(parser: argparse.ArgumentParser, message: str) -> str:
+    """``"; did you mean --points?"`` for an unknown option or command close to a known one.
+
+    argparse (Python 3.11) suggests nothing for a mistyped option; :mod:`difflib` finds the
+    closest known option (``--point`` -> ``--points``, ``--ouput`` -> ``--output``), and
+    the closest command for an invalid choice of command (``optimise`` -> ``optimize``).
+    """
+    import difflib
+
+    m = re.match(r"unrecognized arguments: (.*)", message)
+    if m:
+        known = sorted(_known_options(parser))
+        tips = []
+        for word in m.group(1).split():
+            if not word.startswith("--"):
+                continue
+            name = word.split("=", 1)[0]
+            close = difflib.get_close_matches(name, known, n=1, cutoff=0.6)
+            if close:
+                tips.append((name, close[0]))
+        if len(tips) == 1:
+            return f"; did you mean {tips[0][1]}?"
+        if tips:
+            return "; did you mean " + ", ".join(f"{b} (for {a})" for a, b in tips) + "?"
+        return ""
+    m = re.match(r"argument (\S+): invalid choice: '([^']*)' \(choose from (.*)\)", message)
+    if m:
+        choices = [c.strip(" '") for c in m.group(3).split(",")]
+        close = difflib.get_close_matches(m.group(2), choices, n=1, cutoff=0.6)
+        if close:
+            return f"; did you mean {close[0]!r}?"
+    return ""
 
 
 def _one_line(text: str) -> str:
@@ -202,7 +251,7 @@ def build_parser(command: str | None = None) -> argparse.ArgumentParser:
 def _show_warning(message, category, filename, lineno, file=None, line=None):
     """Print a warning as one line on stderr (replaces :func:`warnings.showwarning`)."""
     text = _one_line(str(message))
-    if category.__name__ != "ModelValidityWarning":
+    if category.__name__ not in ("ModelValidityWarning", "UnitWarning"):
         text = f"{category.__name__}: {text}"
     print(f"{PROG}: warning: {text}", file=sys.stderr)
 

@@ -34,6 +34,7 @@ from isodesign.io.record import (
     study_toml,
 )
 from isodesign.optimization.driver import optimize
+from isodesign.optimization.explain import BINDING_NOTE, constraint_table_rows, limiting_summary
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.study import default_study, load_study
@@ -369,8 +370,12 @@ def summary(result, design: dict) -> str:
         "",
         bounds_text(design),
         "",
-        "constraints at the optimum (* binding; margin in the constraint's unit):",
-        constraint_table(design["constraints"]),
+        "constraints at the optimum (" + BINDING_NOTE + "):",
+        table(constraint_table_rows(result), ["", "constraint", "value", "bound", "margin",
+                                              "unit"], align="<<><><"),
+        "",
+        limiting_summary(result) + ":",
+        *[f"  - {t}" for t in design["limited_by"]],
         "",
         flat_text(result),
         f"re-check: the NumPy analysis agrees with the NLP to "
@@ -378,6 +383,8 @@ def summary(result, design: dict) -> str:
         f"(required {result.settings['recheck_rtol']:g})",
         f"start:   {design['start_derived'].get('verdict')}",
         f"optimum: {design['verdict']}",
+        "",
+        *result.scope.lines(),
     ]
     return "\n".join(lines)
 

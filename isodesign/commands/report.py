@@ -4,7 +4,8 @@ Each INPUT is a design file, a study file, or an ``isodesign optimize`` / ``isod
 pareto`` run directory; several inputs give a comparison report (the candidates side by
 side: one band plot, one transmissibility plot, one table). The report is one
 self-contained HTML file (figures as inline SVG, styles inline, no script, no network
-access when opened) that prints sensibly (A4 print style sheet). Contents in the order a
+access when opened) that prints sensibly (A4 print style sheet). Without -o, the report of
+one run directory RUN is written to RUN/report.html. Contents in the order a
 reviewer reads: verdict, the job, the design and its models, band table, transmissibility,
 complex stiffness, stability, optimization (constraints, start vs optimum, flat
 direction), Pareto front, validity flags, provenance. See docs/report.md.
@@ -31,8 +32,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "-o",
         "--output",
         metavar="REPORT.html",
-        required=True,
-        help="the HTML file to write",
+        help="the HTML file to write (default, for one run directory RUN: RUN/report.html; "
+        "required otherwise)",
     )
     parser.add_argument(
         "--study",
@@ -52,6 +53,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     """Run ``isodesign report``."""
 
+    if args.output is None:
+        from pathlib import Path
+
+        if len(args.inputs) == 1 and Path(args.inputs[0]).is_dir():
+            args.output = str(Path(args.inputs[0]) / "report.html")
+        else:
+            raise input_error("--output: required unless the only input is a run directory "
+                              "(then the report is RUN/report.html)")
     check_output_path(args.output, "--output", suffixes=(".html", ".htm"))
     if args.label is not None and len(args.label) != len(args.inputs):
         raise input_error(f"--label: give one per input ({len(args.inputs)}), "

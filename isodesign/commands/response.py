@@ -117,7 +117,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--target",
         metavar="NAME|FILE.csv",
-        help="the instrument's criterion: name or CSV curve; default: the study's, else VC-E",
+        help="the instrument's criterion: name or CSV curve; default: the study's, else the "
+        "built-in default study's (VC-C)",
     )
     parser.add_argument(
         "--bands",
@@ -206,9 +207,10 @@ def monte_carlo_table(res, mc) -> str:
     return "\n".join(lines)
 
 
-#: Job when neither the input nor an option states it.
+#: Job when neither the input nor an option states it: the built-in default study's floor
+#: and target (tests/commands/test_cli.py checks they agree with it).
 DEFAULT_FLOOR = "VC-A"
-DEFAULT_TARGET = "VC-E"
+DEFAULT_TARGET = "VC-C"
 
 
 def load_design(path):
@@ -386,9 +388,9 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
         f"{res.bands.labels[0]}-{res.bands.labels[-1]} Hz",
         models_line(models, models_source),
         f"  natural frequency {s.natural_frequency_hz:.4g} Hz; peak |T| "
-        f"{s.peak_transmissibility:.4g} at {s.peak_frequency_hz:.4g} Hz (linear), "
-        f"{s.excited_peak_transmissibility:.4g} at {s.excited_peak_frequency_hz:.4g} Hz "
-        "(at A*)",
+        f"{_db(s.excited_peak_transmissibility):.2f} dB at {s.excited_peak_frequency_hz:.4g} Hz "
+        f"(at A*), {_db(s.peak_transmissibility):.2f} dB at {s.peak_frequency_hz:.4g} Hz "
+        "(linear)",
         f"  stroke RMS {res.stroke_rms_m * 1e6:.4g} um, A* = {res.equivalent_amplitude_m * 1e6:.4g}"
         f" um ({res.iterations} closure iterations); Zener damping ratio "
         f"{s.zener_damping_ratio:.3g} (optimum {s.zener_optimal_damping_ratio:.3g})",
@@ -400,7 +402,15 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
         )
     lines.append(format_table(res))
     lines.append(res.verdict())
+    lines += res.scope.lines()
     return "\n".join(lines)
+
+
+def _db(ratio: float) -> float:
+    """A transmissibility ratio in dB (``20 log10``), as optimize and the report print it."""
+    import math
+
+    return 20.0 * math.log10(ratio) if ratio > 0 else -math.inf
 
 
 def save_plot(fig, path) -> None:
@@ -433,15 +443,26 @@ def run(args) -> int:
     with option_names(**RESPONSE_OPTION_NAMES):
         job = resolve_job(args, extra_payload={"spacing_m": args.spacing_m,
                                                "cg_height_m": args.cg_height_m})
+    if job.study is not None and job.study.table is not None:  # six DOFs (docs/table.md)
+        from isodesign.commands.modes import run_table_response
+
+        with option_names(**RESPONSE_OPTION_NAMES):
+            return run_table_response(args, job)
     check_payload_pressure(job.design, job.payload, not args.design_pressure)
     m = job.models
     kw = {"points_per_band": args.points_per_band, "flow": m["flow"],
           "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
           "random_method": m["random_method"], "derive_pressure": not args.design_pressure,
           "warn": False}
-    with option_names(**RESPONSE_OPTION_NAMES):
-        res = band_response(job.design, job.payload, job.floor, job.target, bands=job.bands,
-                            **kw)
+    try:
+        with option_names(**RESPONSE_OPTION_NAMES):
+            res = band_response(job.design, job.payload, job.floor, job.target,
+                                bands=job.bands, **kw)
+    except InputError as exc:  # name the user's input with the option
+        msg = str(exc)
+        if args.bands and msg.startswith("--bands: "):
+            raise InputError(f"--bands {args.bands}: {msg[len('--bands: '):]}") from None
+        raise
     for line in res.warnings:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"

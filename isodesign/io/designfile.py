@@ -45,6 +45,7 @@ from typing import Any
 
 from isodesign.errors import InputError
 from isodesign.io.files import read_toml
+from isodesign.io.plausible import warn_unit_slips
 from isodesign.response.isolator import MAX_ISOLATORS
 from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
 from isodesign.spring.diaphragm import (
@@ -302,9 +303,11 @@ def design_from_dict(d: dict, source: str = "design"):
             kw["pressure_pa"] = _pressure_from_load(d["load"], kw["piston_area_m2"], source)
         else:
             raise InputError(f"{source}: missing key pressure_pa (or a [load] table)")
-        return SpringDesign(**kw)
+        design = SpringDesign(**kw)
     except InputError as exc:
         raise _with_source(exc, source) from None
+    warn_unit_slips(d, source)  # valid but implausible: the likely unit slip, named
+    return design
 
 
 def _models(d: Any, source: str) -> dict[str, str]:

@@ -23,6 +23,7 @@ from typing import Any
 from isodesign import __version__
 from isodesign.io.files import atomic_write_text
 from isodesign.io.rundir import RUN_STATUSES
+from isodesign.optimization.explain import limiting_factors, variables_at_bounds
 from isodesign.optimization.objectives import OBJECTIVES
 
 __all__ = [
@@ -356,43 +357,6 @@ def constraint_rows(result) -> list[dict]:
     return [_constraint_dict(c) for c in result.constraints]
 
 
-def variables_at_bounds(result, rtol: float = 1e-4) -> dict:
-    """Free design variables that ended on a bound: name -> ``"lower"`` or ``"upper"``.
-
-    The lower bound of D_c is the larger of its ``lower`` and
-    ``constraints.min_capillary_diameter_m`` (as in the NLP). Bounds are not
-    constraints of the NLP, so they are not in ``result.constraints``.
-
-    Parameters
-    ----------
-    result : OptimizationResult
-        Its study (variables, bounds, ``min_capillary_diameter_m``) and final
-        ``values`` (SI).
-    rtol : float
-        A variable is on a bound when ``|ln(x / bound)| <= rtol``: a relative
-        tolerance (default 1e-4, i.e. 0.01 %).
-
-    Returns
-    -------
-    dict
-        Name -> ``"lower"`` or ``"upper"`` for each free variable on a bound (the
-        lower bound checked first); fixed variables are never listed.
-    """
-    st = result.study
-    dmin = st.constraints.get("min_capillary_diameter_m")
-    out = {}
-    for v in st.variables:
-        if v.fixed:
-            continue
-        lo = max(v.lower, dmin) if v.name == "capillary_diameter_m" and dmin else v.lower
-        x = float(result.values[v.name])
-        if abs(math.log(x / lo)) <= rtol:
-            out[v.name] = "lower"
-        elif abs(math.log(x / v.upper)) <= rtol:
-            out[v.name] = "upper"
-    return out
-
-
 #: Excess (dB) of the analysis's peak |T| over the optimizer's bound that is reported.
 PEAK_EXCESS_DB = 0.005
 
@@ -478,8 +442,10 @@ def optimization_design(result) -> dict:
         start, lower, upper as the study states them, fixed, ``at_bound``);
         ``derived`` and ``start_derived`` (:func:`design_figures` of the optimum and
         of the start design, SI); ``verdict``; ``notes`` (:func:`grid_notes`);
-        ``binding_constraints`` (names); ``variables_at_bounds``; ``constraints``
-        (:func:`constraint_rows`) and ``spring`` (the design's ``to_dict()``).
+        ``binding_constraints`` (names); ``limited_by`` (sentences:
+        :func:`~isodesign.optimization.explain.limiting_factors`); ``scope``
+        (:class:`~isodesign.response.scope.Scope` as a dict); ``variables_at_bounds``;
+        ``constraints`` (:func:`constraint_rows`) and ``spring`` (the design's ``to_dict()``).
     """
 
     st = result.study
@@ -514,6 +480,8 @@ def optimization_design(result) -> dict:
         "verdict": figures.get("verdict"),
         "notes": grid_notes(result, figures),
         "binding_constraints": [c.name for c in result.constraints if c.active],
+        "limited_by": limiting_factors(result),
+        "scope": result.analysis.scope.to_dict() if result.analysis is not None else None,
         "variables_at_bounds": at,
         "constraints": constraint_rows(result),
         "spring": result.design.to_dict(),
@@ -611,7 +579,8 @@ def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dic
         ``kind``, ``command_line``, versions and ``environment``, ``study``,
         ``study_source``, ``objectives``, ``settings``, ``points`` (per sweep point:
         both objective values keyed by kind, ``design``, ``status``,
-        ``nondominated``), ``hypervolume`` (normalized space),
+        ``nondominated``, ``binding``: the constraints binding there), ``hypervolume``
+        (normalized space),
         ``reference_point_minimized`` and ``ideal_point_minimized`` (the objectives
         as minimized: maximized ones negated) and ``wall_s``.
     """
@@ -624,6 +593,7 @@ def pareto_record(result, study, *, argv=None, extra: dict | None = None) -> dic
             "design": dict(d),
             "status": result.statuses[i],
             "nondominated": bool(result.front[i]),
+            "binding": list(result.binding[i]) if i < len(result.binding) else [],
         })
     rec = {
         "kind": "isodesign pareto",

@@ -20,6 +20,8 @@ from isodesign.spring.flow_models import flow_model
 
 __all__ = [
     "ACTIVE_MARGIN",
+    "BINDING_TOL",
+    "DISPLAY_UNITS",
     "VALIDITY_MARGIN",
     "Constraint",
     "ConstraintReport",
@@ -33,8 +35,14 @@ _LN10 = math.log(10.0)
 #: acoustic compactness, Womersley number): the constraints hold at the NLP's grid
 #: points, and the margin keeps the finer analysis grid inside the limits too.
 VALIDITY_MARGIN = 0.98
-#: A constraint whose margin (NLP units) is below this is reported as binding.
-ACTIVE_MARGIN = 1e-4
+#: A constraint whose margin (NLP units) is below this is reported as binding: within
+#: 0.5 % of its bound for the constraints on a log scale (every one but the peak
+#: transmissibility), within 0.022 dB (0.005 in ln |T|^2) for the peak transmissibility.
+BINDING_TOL = 5e-3
+#: SI unit of a constraint -> (factor, unit) it is shown in (the command line's L and mm).
+DISPLAY_UNITS = {"m^3": (1e3, "L"), "m": (1e3, "mm"), "Pa": (1e-5, "bar")}
+#: Former name of :data:`BINDING_TOL`.
+ACTIVE_MARGIN = BINDING_TOL
 
 
 @dataclass(frozen=True)
@@ -117,7 +125,11 @@ def build_constraints(study, mt: dict, n_all: int) -> list[Constraint]:
         # design variables: a constant row (the study refuses a payload beyond the bound),
         # reported with its margin like every constraint
         ln_p0 = math.log(study.start_design().pressure_pa)
-        out.append(Constraint("chamber_pressure", ln_p0 + 0.0 * mt["ln_total_volume"], -inf,
+        # a symbol the row can hang on (the total volume is a number when V_t0 and N are
+        # fixed): any symbolic scalar of the model
+        sym = next((v for v in (mt["ln_total_volume"], mt["ln_fn"], mt["ln_zeta"])
+                    if bk.is_casadi(v)), mt["ln_fn"])
+        out.append(Constraint("chamber_pressure", ln_p0 + 0.0 * sym, -inf,
                               math.log(c["max_pressure_pa"]), 1,
                               "static chamber pressure p0 <= max (set by the payload)"))
     if c["model_validity"]:
@@ -203,7 +215,8 @@ class ConstraintReport:
 
     ``value``, ``lower`` and ``upper`` are in natural units (``unit``);
     ``margin`` is the NLP's margin in its internal units (the log of the ratio
-    to the bound, or dB), which is what ``active`` (margin < 1e-4) is judged on;
+    to the bound, or ``ln |T|^2``), which is what ``active`` (binding: margin <
+    :data:`BINDING_TOL`, i.e. within 0.5 % of the bound) is judged on;
     :attr:`margin_natural` is the distance to the nearest bound in ``unit``.
     """
 
@@ -215,6 +228,26 @@ class ConstraintReport:
     margin: float
     active: bool
     description: str
+
+    def display(self) -> dict:
+        """The constraint in the units the command line shows (L, mm; :data:`DISPLAY_UNITS`).
+
+        Returns
+        -------
+        dict
+            ``name``, ``value``, ``lower``, ``upper``, ``margin`` (distance to the nearest
+            bound, >= 0 when met), ``unit`` (``-`` for a ratio), ``binding`` (within
+            :data:`BINDING_TOL` of a bound) and ``description``.
+        """
+        scale, unit = DISPLAY_UNITS.get(self.unit, (1.0, self.unit))
+
+        def sc(x):
+            return None if x is None else x * scale
+
+        m = self.margin_natural
+        return {"name": self.name, "value": sc(self.value), "lower": sc(self.lower),
+                "upper": sc(self.upper), "margin": None if math.isinf(m) else m * scale,
+                "unit": unit, "binding": bool(self.active), "description": self.description}
 
     @property
     def margin_natural(self) -> float:
@@ -246,7 +279,7 @@ def constraint_reports(con_rows, g: np.ndarray) -> list[ConstraintReport]:
         one, the smallest distance to either bound when both are finite).
         ``value``, ``lower`` and ``upper`` are converted to natural units (``exp``
         of the log; ``ln |T|^2`` to dB); ``margin`` stays in NLP units and
-        ``active`` is ``margin < ACTIVE_MARGIN``.
+        ``active`` (binding) is ``margin < BINDING_TOL``.
     """
     out = []
     for c, row, n in con_rows:
@@ -268,7 +301,7 @@ def constraint_reports(con_rows, g: np.ndarray) -> list[ConstraintReport]:
         out.append(ConstraintReport(
             name=c.name, value=conv(v), lower=conv(lo) if math.isfinite(lo) else None,
             upper=conv(hi) if math.isfinite(hi) else None, unit=unit,
-            margin=margin, active=margin < ACTIVE_MARGIN, description=c.describe,
+            margin=margin, active=margin < BINDING_TOL, description=c.describe,
         ))
     return out
 

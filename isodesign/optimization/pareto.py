@@ -23,6 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.constraints import constraint_reports
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
 from isodesign.optimization.multistart import available_cores, run_starts, start_points
@@ -119,7 +120,11 @@ class ParetoResult(ResultDisplay):
     """A Pareto front.
 
     ``values`` has one row per point (natural units: dB, m^3, ...), ``designs``
-    the design variables of each point; ``front`` marks the non-dominated ones.
+    the design variables of each point; ``front`` marks the non-dominated ones;
+    ``binding`` the constraints binding at each point (within
+    :data:`~isodesign.optimization.constraints.BINDING_TOL`; empty for a point not
+    solved, or for a result built without them): the plot explains the front's breaks
+    with them.
     """
 
     objectives: tuple[str, str]
@@ -132,6 +137,7 @@ class ParetoResult(ResultDisplay):
     hypervolume: float
     wall_s: float
     settings: dict = field(default_factory=dict)
+    binding: tuple[tuple[str, ...], ...] = ()
 
     def normalized(self, values: np.ndarray | None = None) -> np.ndarray:
         """Minimized objectives scaled so that ideal -> 0 and reference -> 1."""
@@ -272,7 +278,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     chains = [(anchor_a, list(range(half))),
               (anchor_b, list(range(points - 1, half - 1, -1)))]
     sols = _run_chains(prob, chains, eps, anchor_b, st.solver.get("workers"))
-    values, designs, statuses = [], [], []
+    values, designs, statuses, binding = [], [], [], []
     for k in range(points):
         sol = sols[k]
         if sol.feasible:
@@ -282,6 +288,8 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
             values.append((math.nan, math.nan))
         designs.append(sol.values)
         statuses.append(sol.status)
+        binding.append(tuple(c.name for c in constraint_reports(prob.con_rows, sol.g)
+                             if c.active) if sol.feasible else ())
     if progress:
         progress(total, total)
     v = np.array(values, float)
@@ -301,7 +309,9 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         settings={"method": "epsilon-constraint, one parametric IPOPT NLP, warm starts",
                   "points": points, "reference_margin": REFERENCE_MARGIN,
                   "units": (OBJECTIVES[a].unit, OBJECTIVES[b].unit),
-                  "starts": st.solver["starts"]},
+                  "starts": st.solver["starts"],
+                  "max_total_volume_m3": st.constraints.get("max_total_volume_m3")},
+        binding=tuple(binding),
     )
 
 

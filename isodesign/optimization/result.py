@@ -7,6 +7,12 @@ from typing import Any
 
 from isodesign.errors import SolverError
 from isodesign.optimization.constraints import ConstraintReport
+from isodesign.optimization.explain import (
+    BINDING_NOTE,
+    constraint_table_rows,
+    limiting_factors,
+    limiting_summary,
+)
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLE_UNITS, DESIGN_VARIABLES
 from isodesign.plotting.optimization import all_bands_response, optimization_figure
@@ -15,6 +21,14 @@ from isodesign.plotting.style import OPTIMUM, START
 from isodesign.results import ResultDisplay
 
 __all__ = ["OptimizationResult", "StartRecord"]
+
+#: Design variable -> (symbol, factor, unit) as the command line shows it.
+_DISPLAY = {
+    "volume_ratio": ("N = V_b0/V_t0", 1.0, "-"),
+    "top_volume_m3": ("V_t0", 1e3, "L"),
+    "capillary_length_m": ("L_c", 1e3, "mm"),
+    "capillary_diameter_m": ("D_c", 1e3, "mm"),
+}
 
 
 @dataclass(frozen=True)
@@ -92,8 +106,27 @@ class OptimizationResult(ResultDisplay):
             worst = ", ".join(f"{n} ({v:.3g})" for n, v in self.violations[:3])
             raise SolverError(f"no feasible design ({self.status}); most violated: {worst}")
 
+    @property
+    def scope(self):
+        """What the answer covers and leaves out (:class:`~isodesign.response.scope.Scope`).
+
+        None for a run without a feasible design (nothing was analysed).
+        """
+        return None if self.analysis is None else self.analysis.scope
+
+    @property
+    def limited_by(self) -> list[str]:
+        """Sentences saying which limits stopped the design
+        (:func:`~isodesign.optimization.explain.limiting_factors`)."""
+        return limiting_factors(self)
+
     def to_frame(self):
-        """Design variables and figures, start vs optimum (one row per quantity)."""
+        """Design variables and figures, start vs optimum (one row per quantity).
+
+        SI units (``unit`` column); a constraint's ``note`` gives its margin (distance to
+        the nearest bound) in the same unit, and ``BINDING`` when it is within 0.5 % of
+        its bound. Constraints have no start value (``start`` is None).
+        """
         import pandas as pd
 
         rows = []
@@ -107,7 +140,7 @@ class OptimizationResult(ResultDisplay):
         for c in self.constraints:
             rows.append({"quantity": f"constraint: {c.name}", "start": None, "optimum": c.value,
                          "unit": c.unit, "note": ("BINDING " if c.active else "")
-                         + f"margin {c.margin:.3g}"})
+                         + f"margin {c.margin_natural:.3g} {c.unit}"})
         return pd.DataFrame(rows)
 
     def starts_frame(self):
@@ -115,6 +148,64 @@ class OptimizationResult(ResultDisplay):
         import pandas as pd
 
         return pd.DataFrame([s.row() for s in self.starts])
+
+    def _display_frame(self):
+        """Start against optimum in the command line's units (L, mm); no constraints."""
+        import pandas as pd
+
+        rows = []
+        for n in DESIGN_VARIABLES:
+            sym, scale, unit = _DISPLAY[n]
+            fixed = self.study.variable(n).fixed
+            rows.append({"quantity": sym, "start": self.start_values[n] * scale,
+                         "optimum": self.values[n] * scale, "unit": unit,
+                         "note": "fixed" if fixed else ""})
+        tv0 = self.start_values["top_volume_m3"] * (1.0 + self.start_values["volume_ratio"])
+        tv1 = self.values["top_volume_m3"] * (1.0 + self.values["volume_ratio"])
+        rows.append({"quantity": "total volume", "start": tv0 * 1e3, "optimum": tv1 * 1e3,
+                     "unit": "L", "note": "per isolator"})
+        o = OBJECTIVES[self.objective]
+        sc = getattr(o, "display_scale", 1.0)
+        rows.append({"quantity": f"objective: {self.objective}",
+                     "start": None if self.start_objective is None else self.start_objective * sc,
+                     "optimum": self.objective_value * sc,
+                     "unit": getattr(o, "display_unit", o.unit), "note": "NLP grid"})
+        return pd.DataFrame(rows)
+
+    def _extra_lines(self) -> list[str]:
+        lines = ["", "constraints (" + BINDING_NOTE + "):"]
+        rows = constraint_table_rows(self)
+        head = ["", "constraint", "value", "bound", "margin", "unit"]
+        w = [max(len(r[i]) for r in [head, *rows]) for i in range(6)]
+        for r in [head, *rows]:
+            lines.append("  " + "  ".join(f"{r[i]:{'>' if i in (2, 4) else '<'}{w[i]}}"
+                                          for i in range(6)).rstrip())
+        if self.feasible:
+            lines += ["", limiting_summary(self) + ":"]
+            lines += [f"  - {t}" for t in self.limited_by]
+        if self.scope is not None:
+            lines += ["", *self.scope.lines()]
+        return lines
+
+    def __str__(self) -> str:
+        return super().__str__() + "\n" + "\n".join(self._extra_lines())
+
+    def _repr_html_(self) -> str:
+        import html
+
+        e = html.escape
+        base = super()._repr_html_()
+        head = ["", "constraint", "value", "bound", "margin", "unit"]
+        rows = "".join("<tr>" + "".join(f"<td>{e(x)}</td>" for x in r) + "</tr>"
+                       for r in constraint_table_rows(self))
+        extra = [f"<p><strong>constraints</strong> ({e(BINDING_NOTE)})</p><table><tr>"
+                 + "".join(f"<th>{e(h)}</th>" for h in head) + f"</tr>{rows}</table>"]
+        if self.feasible:
+            extra.append(f"<p>{e(limiting_summary(self))}:</p><ul>"
+                         + "".join(f"<li>{e(t)}</li>" for t in self.limited_by) + "</ul>")
+        if self.scope is not None:
+            extra.append("<p>" + "<br>".join(e(t) for t in self.scope.lines()) + "</p>")
+        return base[: -len("</div>")] + "".join(extra) + "</div>"
 
     def _summary_items(self) -> list[tuple[str, str]]:
         """Feasibility, objective, design and binding constraints (for repr and notebooks)."""

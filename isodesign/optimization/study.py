@@ -12,7 +12,13 @@ Tables and keys
                    minor_loss, polytropic_index, roughness_m, ``[hardware.gas]``
 ``[floor]``        criterion = "VC-A" | csv = "path" (+ quantity, kind, unit)
                    | record = "survey.csv" (+ statistic, percentile, axis, unit,
-                   sample_rate_hz): a survey time history (docs/criteria.md, section 5)
+                   sample_rate_hz): a survey time history (docs/criteria.md, section 5);
+                   with a ``[table]``: the vertical floor, also applied to x and y unless
+                   ``[floor.x]``/``[floor.y]`` (same keys) or ``x = false``/``y = false``
+                   say otherwise (a record gives its own x and y axes)
+``[table]``        a rigid table in six DOFs (docs/table.md): isolators_m, cg_m,
+                   inertia_kg_m2 | box_m, leveling_groups, instrument_points_m,
+                   point_names, supply_pressure_pa, ``[table.horizontal]``
 ``[target]``       criterion, band_min_hz, band_max_hz
 ``[models]``       flow, amplitude_mode, diaphragm, random_method, points_per_band,
                    peak_points; ``diaphragm`` a name (``fit:PATH.toml`` too) or a
@@ -38,14 +44,19 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+import numpy as np
+
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
 from isodesign.io.files import read_toml
+from isodesign.io.plausible import warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
+from isodesign.results import ResultDisplay
 from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS, model_design
 from isodesign.spring.gas import Gas
@@ -56,6 +67,7 @@ __all__ = [
     "default_study",
     "load_study",
     "study_from_dict",
+    "table_study",
 ]
 
 _DEFAULT = {
@@ -100,7 +112,7 @@ _DEFAULT = {
         "max_peak_transmissibility_db": 15.0,
         "min_damping_ratio": 0.05,
         "max_mach": 0.3,
-        "max_pressure_pa": False,
+        "max_pressure_pa": MAX_STATIC_PRESSURE_PA,
         "model_validity": True,
     },
     "objective": {"kind": "worst_band_margin"},
@@ -110,14 +122,14 @@ _DEFAULT = {
 
 _KEYS = {
     "": {"name", "description", "payload", "hardware", "floor", "target", "models",
-         "variables", "constraints", "objective", "solver"},
+         "variables", "constraints", "objective", "solver", "table"},
     "payload": {"mass_kg", "isolators", "spacing_m", "cg_height_m"},
     "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
                  "minor_loss", "polytropic_index", "roughness_m", "gas",
                  "chamber_aspect_ratio", "chamber_heat_exchange"},
     "hardware.gas": {"name", "gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"},
     "floor": {"criterion", "csv", "quantity", "kind", "unit", "record", "statistic",
-              "percentile", "axis", "sample_rate_hz"},
+              "percentile", "axis", "sample_rate_hz", "x", "y"},
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points", "acoustics"},
@@ -132,12 +144,14 @@ _KEYS = {
 }
 
 
-@dataclass(frozen=True, eq=False)
-class Study:
+@dataclass(frozen=True, eq=False, repr=False)
+class Study(ResultDisplay):
     """A validated design study. Build with :func:`load_study` or :func:`default_study`.
 
     ``raw`` holds the resolved dictionary (defaults filled in), which is what a
-    run records so that the study can be replayed.
+    run records so that the study can be replayed. ``repr`` is one short line,
+    ``str`` and ``_repr_html_`` (notebooks) give the job, the models, the free
+    variables, the constraints in force and the objective.
     """
 
     name: str
@@ -154,6 +168,38 @@ class Study:
     solver: dict
     source: str = ""
     notes: tuple[str, ...] = field(default_factory=tuple)
+    table: Any = None
+    floor_axes: Any = None
+
+    def _summary_items(self) -> list[tuple[str, str]]:
+        """Name, job, models, variables, constraints, objective (for repr and notebooks)."""
+        p = self.payload
+        tg = self.raw.get("target", {})
+        free = [v.name for v in self.variables if not v.fixed]
+        on = [f"{k} = {self.constraints[k]:g}" for k in _DEFAULT["constraints"]
+              if k != "model_validity" and self.constraints.get(k) is not None]
+        src = "built-in" if self.source == "<default>" else self.source
+        items = [
+            ("", repr(self.name)),
+            ("payload", f"{p.mass_kg:g} kg on {p.isolators} isolators"),
+            ("floor", getattr(self.floor, "name", "") or str(self.raw.get("floor"))),
+            ("target", f"{self.target.name} {tg.get('band_min_hz', '?'):g}-"
+                       f"{tg.get('band_max_hz', '?'):g} Hz"),
+            ("objective", self.objective["kind"]),
+            ("free", ", ".join(free) or "none"),
+            ("constraints", ", ".join(on) + (" + model validity"
+                                             if self.constraints.get("model_validity")
+                                             else "")),
+            ("models", f"{self.models['flow']} flow, {self.models['diaphragm']} diaphragm"),
+            ("solver", f"{self.solver['starts']} starts, seed {self.solver['seed']}"),
+            ("source", src),
+        ]
+        return items
+
+    def __repr__(self) -> str:
+        items = dict(self._summary_items())
+        return (f"<Study {self.name!r}: {items['payload']}, {items['floor']} -> "
+                f"{items['target']}, {items['objective']}, source {items['source']}>")
 
     def variable(self, name: str) -> VariableSpec:
         """The spec of one design variable."""
@@ -182,9 +228,35 @@ class Study:
         """A copy with some tables replaced or updated (validated again).
 
         ``study.with_changes(objective={"kind": "total_volume"})``.
+
+        A changed study is another study, so it does not keep the old name and description
+        silently: unless ``name`` (and ``description``) are given, a change of any table
+        but ``[solver]`` names the copy ``"<name> (changed)"`` and appends to its
+        description which tables changed. Solver settings (starts, seed, workers, ...)
+        change how the study is solved, not the study: they keep the name.
+
+        Parameters
+        ----------
+        **tables
+            Tables of the study schema (``payload={"mass_kg": 900.0}``), and optionally
+            ``name`` and ``description`` (strings).
+
+        Returns
+        -------
+        Study
         """
+        changed = sorted(k for k in tables if k not in ("solver", "name", "description"))
+        if changed and "name" not in tables:
+            base = self.name.removesuffix(" (changed)")
+            tables["name"] = f"{base} (changed)"
+        if changed and "description" not in tables:
+            old = str(self.raw.get("description", "")).strip()
+            note = f"Changed from study {self.name!r}: [{'], ['.join(changed)}]."
+            tables["description"] = f"{old} {note}".strip()
         raw = _merge(self.raw, tables)  # nested tables merge like a study file's
-        return study_from_dict(raw, source=self.source, fill_defaults=False)
+        st = study_from_dict(raw, source=self.source, fill_defaults=False)
+        warn_unit_slips(tables, self.source)
+        return st
 
 
 def _check_keys(d: dict, table: str, where: str):
@@ -256,8 +328,10 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     raw = _resolve(d, fill_defaults)
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
-    floor = _floor(raw["floor"], where, source)
+    table = _table(raw, payload, hw, where)
+    floor, floor_axes = _floor_axes(raw["floor"], where, source, table)
     target, bands, band_hz = _target(raw["target"], where)
+    _check_bands_covered(floor, target, bands, band_hz, where)
     models = _models(raw["models"], where, source)
     variables = _variables(raw["variables"], where)
     cons = _constraints(raw["constraints"], where, variables, payload)
@@ -268,8 +342,11 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         raise InputError(f"{where}: name must be a string")
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
-               objective=obj, solver=solver, source=source)
+               objective=obj, solver=solver, source=source, table=table,
+               floor_axes=floor_axes)
     _check_start_design(st, where)
+    if fill_defaults:  # the user's own values (with_changes warns on its changes)
+        warn_unit_slips(d, where)
     return st
 
 
@@ -360,6 +437,52 @@ def _hardware(h: dict, where: str) -> dict:
 _RECORD_KEYS = {"record", "statistic", "percentile", "axis", "unit", "sample_rate_hz"}
 
 
+def _table(raw: dict, payload, hw: dict, where: str):
+    """``[table]`` (None without one), leveled; ``payload.isolators`` must match it."""
+    if "table" not in raw:
+        return None
+    from isodesign.table.statics import level
+    from isodesign.table.study import table_from_dict
+
+    t = table_from_dict(raw["table"], payload.mass_kg, payload.g_m_s2, where)
+    if payload.isolators != t.n_isolators:
+        raise InputError(f"{where}: payload.isolators = {payload.isolators} but "
+                         f"table.isolators_m lists {t.n_isolators} isolators")
+    try:
+        level(t, hw["piston_area_m2"])
+    except InputError as exc:
+        raise InputError(f"{where}: table.{exc}") from None
+    return t
+
+
+def _floor_axes(fl: dict, where: str, source: str, table):
+    """``[floor]`` and, with a table, its per-axis floors (a TableFloor)."""
+    if table is None:
+        for k in ("x", "y"):
+            if k in fl:
+                raise InputError(f"{where}: floor.{k} applies only to a study with a [table]")
+        return _floor(fl, where, source), None
+    from isodesign.table.floor import table_floor
+
+    base = {k: v for k, v in fl.items() if k not in ("x", "y")}
+    z = _floor(base, where, source)
+    axes = {}
+    for k in ("x", "y"):
+        v = fl.get(k)
+        if v is False:
+            axes[k] = False
+        elif isinstance(v, dict):
+            axes[k] = _floor(v, f"{where} [floor.{k}]", source)
+        elif v is not None:
+            raise InputError(f"{where}: floor.{k} must be a table or false")
+        elif "record" in base and "axis" not in base:
+            try:  # the survey's own horizontal axis, when the record has it
+                axes[k] = _floor({**base, "axis": k}, where, source)
+            except InputError:
+                pass
+    return z, table_floor(z, **axes)
+
+
 def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
     """``[floor]``: a criterion, a CSV spectrum or a survey record (paths relative to the study
     file)."""
@@ -425,6 +548,33 @@ def _target(tg: dict, where: str):
         raise InputError(f"{where}: [target] no one-third octave band between {bmin:g} and "
                          f"{bmax:g} Hz")
     return target, bands, {"band_min_hz": bmin, "band_max_hz": bmax}
+
+
+def _check_bands_covered(floor, target, bands, band_hz: dict, where: str) -> None:
+    """The judged bands must lie inside the floor's data and the target's curve; the error
+    names ``target.band_min_hz``/``band_max_hz``, the values given and the usable range."""
+    bad = []
+    for check in (floor._resolve_bands, target.velocity_rms_m_s):
+        try:
+            check(bands)
+        except InputError as exc:
+            bad.append(str(exc).removeprefix("bands: "))
+    if not bad:
+        return
+    lab = np.asarray(bands.labels)
+    ok = np.ones(len(lab), bool)
+    lo_f, hi_f = floor.f_min_hz * (1 - 1e-9), floor.f_max_hz * (1 + 1e-9)
+    ok &= (np.asarray(bands.lower_hz) >= lo_f) & (np.asarray(bands.upper_hz) <= hi_f)
+    ok &= np.asarray(target.covers(bands), bool)
+    keys = []
+    if not ok[0]:
+        keys.append(f"target.band_min_hz = {band_hz['band_min_hz']:g}")
+    if not ok[-1]:
+        keys.append(f"target.band_max_hz = {band_hz['band_max_hz']:g}")
+    usable = (f"; the bands inside both run from {lab[ok][0]} to {lab[ok][-1]} Hz (nominal "
+              "centres)" if ok.any() else "")
+    raise InputError(f"{where}: {' and '.join(keys) or 'target bands'} Hz: judged "
+                     f"{'; '.join(bad)}{usable}")
 
 
 def _int_in(where: str, key: str, value, lo: int, hi: int | None) -> int:
@@ -607,8 +757,11 @@ def _check_start_design(st: Study, where: str) -> None:
         # p0 = p_atm + m g / (n A_p) depends on the payload and the piston area only: no
         # design variable can meet the bound, so the study is refused, not optimized
         p = st.payload
+        what = (" (the model's validity bound, the default: ideal gas and rolling diaphragm, "
+                "docs/spring-model.md section 10; false runs it anyway, with a FAIL verdict)"
+                if pmax == MAX_STATIC_PRESSURE_PA else "")
         raise InputError(
-            f"{where}: constraints.max_pressure_pa = {pmax:g} Pa, but the payload "
+            f"{where}: constraints.max_pressure_pa = {pmax:g} Pa{what}, but the payload "
             f"({p.mass_kg:g} kg on {p.isolators} isolators of A_p = "
             f"{d.piston_area_m2:g} m^2) needs p0 = {d.pressure_pa:.4g} Pa; no design "
             "variable changes p0: more isolators, a larger piston_area_m2 or a lighter "
@@ -642,3 +795,15 @@ def load_study(path) -> Study:
 def default_study() -> Study:
     """The built-in default study (see ``docs/optimization.md``)."""
     return study_from_dict({}, source="<default>")
+
+
+def table_study() -> Study:
+    """The built-in table study (``isodesign/data/table_study.toml``, docs/table.md).
+
+    A 600 kg table on four isolators 1.2 x 0.8 m apart, its CG 0.35 m above them, on a
+    VC-A floor in three axes, for an instrument that needs VC-C in every axis.
+    """
+    from importlib import resources
+
+    with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
+        return load_study(p)

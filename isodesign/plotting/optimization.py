@@ -173,15 +173,75 @@ def _branch_breaks(designs, order) -> np.ndarray:
     return br
 
 
+def _mark_envelope(ax, result, a: str, b: str, sa: float, sb: float) -> None:
+    """The study's total-volume envelope (``constraints.max_total_volume_m3``) as a line."""
+    env = (getattr(result, "settings", None) or {}).get("max_total_volume_m3")
+    if not env or "total_volume" not in (a, b):
+        return
+    label = f"envelope: max_total_volume_m3 = {env * 1e3:g} L"
+    if b == "total_volume":
+        ax.axvline(env * sb, color="0.35", lw=1.0, ls=":", label=label)
+    else:
+        ax.axhline(env * sa, color="0.35", lw=1.0, ls=":", label=label)
+
+
+def _explain_breaks(ax, result, order, xs, ys, breaks) -> list[str]:
+    """Letter each break of the front's line and each change of its binding constraints.
+
+    A break is a gap in the line (a point not solved, or a jump of N to another branch)
+    or a kink where the set of binding constraints changes (``result.binding``, when the
+    result carries it). Returns one line of text per letter.
+    """
+    binding = getattr(result, "binding", ()) or ()
+    have_binding = len(binding) == len(result.designs)
+    notes = []
+    prev = None  # index (in order) of the last solved front point
+    for k, i in enumerate(order):
+        if not np.isfinite(ys[k]):
+            continue
+        if prev is not None:
+            j = order[prev]
+            why = []
+            # sweep points (numbered in the order of the epsilon sweep) between the two
+            # that were not solved: their objectives are unknown, so the line stops
+            lo_i, hi_i = sorted((int(i), int(j)))
+            skipped = [m for m in range(lo_i + 1, hi_i)
+                       if not np.isfinite(np.asarray(result.values[m], float)).all()]
+            if skipped:
+                why.append("point " + ", ".join(f"#{m}" for m in skipped) + " not solved")
+            n0, n1 = result.designs[j]["volume_ratio"], result.designs[i]["volume_ratio"]
+            if breaks[k] and not skipped:
+                why.append(f"branch change: N {n0:.3g} -> {n1:.3g}")
+            if have_binding:
+                b0, b1 = set(binding[j]), set(binding[i])
+                if b0 != b1:
+                    parts = [f"{c} binds" for c in sorted(b1 - b0)]
+                    parts += [f"{c} released" for c in sorted(b0 - b1)]
+                    why.append(", ".join(parts))
+            if why:
+                letter = chr(ord("a") + len(notes)) if len(notes) < 26 else "*"
+                log = ax.get_xscale() == "log" and xs[prev] > 0 and xs[k] > 0
+                xm = (xs[prev] * xs[k]) ** 0.5 if log else 0.5 * (xs[prev] + xs[k])
+                ym = 0.5 * (ys[prev] + ys[k])
+                ax.annotate(f"({letter})", (xm, ym), xytext=(-14, 4), textcoords="offset points",
+                            fontsize=7, color="C3", ha="right")
+                notes.append(f"({letter}) #{j} to #{i}: " + "; ".join(why))
+        prev = k
+    return notes
+
+
 def pareto_figure(result, *, annotate: int = 5, ax=None):
     """The Pareto front of two objectives; the pass/fail line; a few designs listed.
 
     The swept objective (B) is on the x axis and the optimized one (A) on the y axis, in
     display units. Front points are joined in order of B, the line broken where a point
     failed (not solved) or where the design jumps to another branch (N changes by more
-    than :data:`BRANCH_JUMP`): no design between them was computed. Dominated points are
-    grey, failed points are listed as crosses at the x axis. For the worst-band margin the
-    pass/fail line (margin 0 dB) is drawn.
+    than :data:`BRANCH_JUMP`): no design between them was computed. Each break, and each
+    kink where the binding constraints change (``result.binding``), is lettered and
+    explained in a box; the study's total-volume envelope (``settings``'
+    ``max_total_volume_m3``) is drawn. Dominated points are grey, failed points are
+    listed as crosses at the x axis. For the worst-band margin the pass/fail line
+    (margin 0 dB) is drawn.
 
     Parameters
     ----------
@@ -217,6 +277,7 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
     breaks = _branch_breaks(result.designs, order) | ~np.isfinite(ys)
     lx, ly = with_breaks(xs, ys, breaks)
     ax.plot(lx, ly, color=OPTIMUM["color"], lw=1.6, label="non-dominated designs (computed)")
+    _mark_envelope(ax, result, a, b, sa, sb)
     ax.plot(x[front], y[front], "o", color=OPTIMUM["color"], ms=5)
     if dom.any():
         ax.plot(x[dom], y[dom], "o", color="0.65", ms=5, label="dominated designs")
@@ -244,6 +305,7 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
         ax.xaxis.set_major_formatter(FuncFormatter(lambda t, _pos: f"{t:g}"))
         ax.xaxis.set_minor_formatter(NullFormatter())
     ax.margins(x=0.08, y=0.1)
+    notes = _explain_breaks(ax, result, order, xs, ys, breaks)
     idx = np.flatnonzero(front)
     idx = idx[np.argsort(x[idx])]
     n = idx.size
@@ -264,6 +326,13 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
                 ha="right" if right else "left", va="bottom" if down else "top", fontsize=7,
                 family="monospace", multialignment="left",
                 bbox={"boxstyle": "round,pad=0.4", "fc": "white", "ec": "0.75", "alpha": 0.95})
+    if notes:  # in the corner the front leaves empty: the best of both objectives
+        left, up = not max_b, max_a
+        ax.text(0.015 if left else 0.985, 0.97 if up else 0.03,
+                "breaks in the line\n" + "\n".join(notes), transform=ax.transAxes,
+                ha="left" if left else "right", va="top" if up else "bottom", fontsize=7,
+                multialignment="left",
+                bbox={"boxstyle": "round,pad=0.4", "fc": "white", "ec": "0.75", "alpha": 0.95})
     better = {True: "higher is better", False: "lower is better"}
     ax.set_xlabel(f"{nb} ({ub}; {better[max_b]})")
     ax.set_ylabel(f"{na} ({ua}; {better[max_a]})")
@@ -271,7 +340,9 @@ def pareto_figure(result, *, annotate: int = 5, ax=None):
                  f"{len(v)} points; hypervolume {result.hypervolume:.3f} (normalized)",
                  fontsize=10)
     ax.grid(True, lw=0.4, alpha=0.6)
-    ax.legend(fontsize=8, loc="best", framealpha=0.9)
+    # the notes' box holds the ideal corner; the legend goes to the middle of the other side
+    loc = ("center right" if not max_b else "center left") if notes else "best"
+    ax.legend(fontsize=8, loc=loc, framealpha=0.9)
     return fig
 
 

@@ -130,7 +130,7 @@ def input_kind(path) -> str:
     if "volume_ratio" in d or "top_volume_m3" in d:
         return "design"
     if any(k in d for k in ("payload", "floor", "target", "variables", "objective", "models",
-                            "hardware", "constraints", "solver", "name")):
+                            "hardware", "constraints", "solver", "name", "table")):
         return "study"
     raise InputError(f"{p}: neither a design file (volume_ratio, ...) nor a study file "
                      "([payload], [floor], [target], ...)")

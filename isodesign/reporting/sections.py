@@ -16,6 +16,7 @@ import numpy as np
 
 from isodesign import __version__
 from isodesign.io.record import PEAK_EXCESS_DB, dumps_toml, environment, resolved_study_dict
+from isodesign.optimization.constraints import DISPLAY_UNITS
 from isodesign.plotting.optimization import (
     objective_display,
     optimization_figure,
@@ -80,6 +81,8 @@ def _verdict(a: CaseAnalysis) -> dict:
         "bands": len(r.bands),
         "target": r.target_name,
         "outside": _outside_note(a),
+        "scope": r.scope.short(),
+        "invalid": "; ".join(r.outside_validity),
     }
 
 
@@ -117,6 +120,13 @@ def _job(c: Case, a: CaseAnalysis) -> dict:
                          f"{len(a.all_bands.bands)} shown)"),
         ("job from", c.job_source),
     ]
+    sc = a.judged.scope
+    rows += [("scope", sc.covers), ("not modelled", "; ".join(sc.leaves_out))]
+    if sc.illustrative_share is not None:
+        rows.append(("illustrative parameters",
+                     f"{sc.illustrative_what} supplies {100 * sc.illustrative_share:.0f} % of "
+                     "the static stiffness K0; calibrate it from rig data "
+                     "(isodesign fit diaphragm)"))
     return {"label": c.label, "rows": rows}
 
 
@@ -252,14 +262,15 @@ def _optimization(a: CaseAnalysis) -> dict | None:
         return None
     cons = []
     for r in rec.get("constraints", []):
+        sc, unit = DISPLAY_UNITS.get(r.get("unit", ""), (1.0, r.get("unit", "")))
         bound = []
         if r.get("lower") is not None:
-            bound.append(f">= {r['lower']:.5g}")
+            bound.append(f">= {r['lower'] * sc:.5g}")
         if r.get("upper") is not None:
-            bound.append(f"<= {r['upper']:.5g}")
+            bound.append(f"<= {r['upper'] * sc:.5g}")
         cons.append({"binding": bool(r.get("binding")), "cells": [
-            "binding" if r.get("binding") else "", r["name"], _f(r.get("value"), ".5g"),
-            ", ".join(bound), _f(r.get("margin"), ".3g"), r.get("unit", ""),
+            "binding" if r.get("binding") else "", r["name"], _f(r.get("value"), ".5g", sc),
+            ", ".join(bound), _f(r.get("margin"), ".3g", sc), unit,
             r.get("description", "")]})
     names = (("volume_ratio", "N", 1.0, ""), ("top_volume_m3", "V_t0", 1e3, "L"),
              ("capillary_length_m", "L_c", 1e3, "mm"), ("capillary_diameter_m", "D_c", 1e3, "mm"))
@@ -314,6 +325,7 @@ def _optimization(a: CaseAnalysis) -> dict | None:
                   f"{_f(rec.get('wall_s'), '.1f')} s",
         "recheck": _f(rec.get("recheck_max_rel_diff"), ".2g"),
         "notes": dj.get("notes", []),
+        "limited_by": dj.get("limited_by", []),
     }
 
 
@@ -344,7 +356,9 @@ def _pareto(a: CaseAnalysis) -> dict | None:
     res = SimpleNamespace(objectives=(oa, ob), values=vals,
                           designs=tuple(p["design"] for p in pts),
                           front=np.array([bool(p.get("nondominated")) for p in pts]),
-                          hypervolume=float(rec.get("hypervolume") or float("nan")))
+                          hypervolume=float(rec.get("hypervolume") or float("nan")),
+                          binding=tuple(tuple(p.get("binding") or ()) for p in pts),
+                          settings=rec.get("settings") or {})
     fig = pareto_figure(res)
     sa, ua, na, _ = objective_display(oa)
     sb, ub, nb, _ = objective_display(ob)

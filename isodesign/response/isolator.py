@@ -13,8 +13,8 @@ Every formula here is written once for NumPy and CasADi (complex values as
 :class:`~isodesign.numerics.cplx.Cx` pairs); solvers that close the amplitude
 dependence live in :mod:`isodesign.response`.
 
-Physics notes used: section 5 (Zener form, classical optimum), section 8
-(rocking stability).
+Derivations: docs/physics.md, section 5 (Zener form, classical optimum) and
+section 8 (tilt stability).
 """
 
 from __future__ import annotations

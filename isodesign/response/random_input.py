@@ -52,10 +52,11 @@ from isodesign.response.model import (
     resolve_target,
     spring_model,
 )
+from isodesign.response.scope import response_scope
 from isodesign.response.stability import StabilityFigures, stability_of_model
 from isodesign.results import ResultDisplay
 from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
-from isodesign.spring.diagnostics import evaluate_diagnostics
+from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA, evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness
 from isodesign.spring.stiffness import StiffnessResult
@@ -398,8 +399,25 @@ class BandResponse(ResultDisplay):
 
     @property
     def passes(self) -> bool:
-        """True when every band meets the target."""
-        return bool(np.all(self.band_passes))
+        """True when every band meets the target and the design is inside the model's
+        hard validity limits (:attr:`outside_validity` empty)."""
+        return bool(np.all(self.band_passes)) and not self.outside_validity
+
+    @property
+    def outside_validity(self) -> tuple[str, ...]:
+        """Why the answer cannot be trusted at all, whatever the bands say (empty: none).
+
+        Today the static chamber pressure: a payload that needs p0 above
+        :data:`~isodesign.spring.diagnostics.MAX_STATIC_PRESSURE_PA` is outside the ideal
+        gas and rolling-diaphragm assumptions, so its verdict is FAIL, not a PASS with a
+        warning.
+        """
+        p0 = self.stability.pressure_pa
+        if p0 is not None and p0 > MAX_STATIC_PRESSURE_PA:
+            return (f"p0 = {p0 / 1e5:.4g} bar abs exceeds the model's validity limit "
+                    f"{MAX_STATIC_PRESSURE_PA / 1e5:g} bar (static_pressure: ideal gas and "
+                    "rolling diaphragm); more isolators or a larger piston area lower it",)
+        return ()
 
     @property
     def worst_band_hz(self) -> float:
@@ -426,13 +444,15 @@ class BandResponse(ResultDisplay):
         n = len(self.bands)
         nfail = int(np.sum(~self.band_passes))
         head = (
-            f"PASS: {self.target_name} met in all {n} bands"
-            if self.passes
-            else f"FAIL: {self.target_name} exceeded in {nfail} of {n} bands"
+            f"{self.target_name} met in all {n} bands"
+            if nfail == 0
+            else f"{self.target_name} exceeded in {nfail} of {n} bands"
         )
-        return (
-            f"{head}; worst band {self.worst_band_label} Hz, margin {self.worst_margin_db:+.2f} dB"
-        )
+        tail = f"; worst band {self.worst_band_label} Hz, margin {self.worst_margin_db:+.2f} dB"
+        if self.outside_validity:
+            return ("FAIL: outside the model's validity: " + "; ".join(self.outside_validity)
+                    + f" (bands, not to be trusted: {head}{tail})")
+        return ("PASS: " if nfail == 0 else "FAIL: ") + head + tail
 
     def to_frame(self):
         """One row per band: floor, payload (v, x, a), target, margin and pass."""
@@ -483,7 +503,15 @@ class BandResponse(ResultDisplay):
             ("natural frequency", f"{self.stability.natural_frequency_hz:.4g} Hz"),
             ("models", f"{self.flow} flow, {self.amplitude_mode}, {self.diaphragm} diaphragm"),
             ("validity flags", str(len(self.warnings))),
+            ("scope", self.scope.short()),
         ]
+
+    @property
+    def scope(self):
+        """What this answer covers and leaves out (:class:`~isodesign.response.scope.Scope`)."""
+        s = self.stability
+        return response_scope(self.payload, self.diaphragm, s.static_stiffness_n_per_m,
+                              s.air_static_stiffness_n_per_m, self.floor_name)
 
     def plot(self, ax=None, *, judged=None, title=None, peak_limit_db=None):
         """Floor, payload and limit per band; |T| in dB and its phase.

@@ -17,7 +17,7 @@ import math
 import numba
 import numpy as np
 
-__all__ = ["churchill_phi", "integrate"]
+__all__ = ["churchill_phi", "integrate", "spring_rhs"]
 
 _LN7 = math.log(7.0)
 _EIGHT12 = 8.0**12
@@ -59,13 +59,19 @@ N_PARAMS = 21
 
 
 @numba.njit(cache=True, fastmath=False)
-def _rhs(y, out, a_floor, p, flow, n_modes, mode_gain, mode_rate, n_branch, br_k, br_rate):
-    """``dy/dt``; states: z, z', dp_t, dp_b, dm_t, [u | u_1..u_M], q_1..q_B."""
-    z = y[0]
-    zd = y[1]
-    dpt = y[2]
-    dpb = y[3]
-    dmt = y[4]
+def spring_rhs(y, i0, out, z, zd, p, flow, n_modes, mode_gain, mode_rate, n_branch, br_k,
+               br_rate):
+    """One spring's internal derivatives; returns ``(force, u)``.
+
+    ``y[i0:]`` holds ``dp_t, dp_b, dm_t, [u | u_1..u_M], q_1..q_B`` (their derivatives go to
+    ``out[i0:]``); ``z``, ``zd`` are the stroke and its rate. ``force = A_p dp_t - F_D`` is the
+    spring's force on the payload (deviation from the static load); ``u`` the tube velocity.
+    Shared by the 1-DOF kernel (:func:`integrate`) and the rigid-table kernel
+    (``isodesign.simulation._table_kernel``).
+    """
+    dpt = y[i0]
+    dpb = y[i0 + 1]
+    dmt = y[i0 + 2]
     p0 = p[_P0]
     vt = p[_VT0] + p[_AP] * z
     dvt = p[_AP] * zd
@@ -77,16 +83,16 @@ def _rhs(y, out, a_floor, p, flow, n_modes, mode_gain, mode_rate, n_branch, br_k
     rho_t = mt / vt
     rho_b = mb / vb
     dp = dpt - dpb
-    i_dia = 5
+    i_dia = i0 + 3
     if flow == 0:  # quasi-steady plug flow with inertance
-        u = y[5]
+        u = y[i0 + 3]
         rho_up = rho_t if u >= 0.0 else rho_b
         re = rho_up * abs(u) * p[_DC] / p[_MU]
         phi = churchill_phi(re, p[_RELR])
         drop = p[_FSCALE] * phi * u + 0.5 * p[_KMIN] * rho_up * abs(u) * u
         rho_tube = 0.5 * (rho_t + rho_b)
-        out[5] = (dp - drop) / (rho_tube * p[_INERT])
-        i_dia = 6
+        out[i0 + 3] = (dp - drop) / (rho_tube * p[_INERT])
+        i_dia = i0 + 4
     elif flow == 1:  # Poiseuille, algebraic (Eq. 41)
         mdot0 = dp / p[_CU]
         rho_up = rho_t if mdot0 >= 0.0 else rho_b
@@ -94,7 +100,7 @@ def _rhs(y, out, a_floor, p, flow, n_modes, mode_gain, mode_rate, n_branch, br_k
     else:  # Womersley: laminar modes of the oscillating tube flow, plus the minor loss
         s_modes = 0.0
         for j in range(n_modes):
-            s_modes += y[5 + j]
+            s_modes += y[i0 + 3 + j]
         # u = s_modes + w_rem (dp - kappa |u| u): the fast modes held quasi-static
         kap = 0.5 * p[_KMIN] * p[_RHO0]
         wv = s_modes + p[_WREM] * dp
@@ -105,8 +111,8 @@ def _rhs(y, out, a_floor, p, flow, n_modes, mode_gain, mode_rate, n_branch, br_k
             u = wv
         g = (dp - kap * abs(u) * u) / p[_INERT]  # pressure gradient / rho0 (m/s^2)
         for j in range(n_modes):
-            out[5 + j] = mode_gain[j] * g - mode_rate[j] * y[5 + j]
-        i_dia = 5 + n_modes
+            out[i0 + 3 + j] = mode_gain[j] * g - mode_rate[j] * y[i0 + 3 + j]
+        i_dia = i0 + 3 + n_modes
         rho_up = rho_t if u >= 0.0 else rho_b
     mdot = rho_up * p[_AC] * u
     if p[_ADIAB] > 0.0:
@@ -127,11 +133,19 @@ def _rhs(y, out, a_floor, p, flow, n_modes, mode_gain, mode_rate, n_branch, br_k
         q = y[i_dia + j]
         f_dia += q
         out[i_dia + j] = br_k[j] * zd - br_rate[j] * q
-    out[0] = zd
-    out[1] = (p[_AP] * dpt - f_dia) / p[_MASS] - a_floor
-    out[2] = dpt_dt
-    out[3] = dpb_dt
-    out[4] = -mdot
+    out[i0] = dpt_dt
+    out[i0 + 1] = dpb_dt
+    out[i0 + 2] = -mdot
+    return p[_AP] * dpt - f_dia, u
+
+
+@numba.njit(cache=True, fastmath=False)
+def _rhs(y, out, a_floor, p, flow, n_modes, mode_gain, mode_rate, n_branch, br_k, br_rate):
+    """``dy/dt``; states: z, z', dp_t, dp_b, dm_t, [u | u_1..u_M], q_1..q_B."""
+    force, u = spring_rhs(y, 2, out, y[0], y[1], p, flow, n_modes, mode_gain, mode_rate,
+                          n_branch, br_k, br_rate)  # fmt: skip
+    out[0] = y[1]
+    out[1] = force / p[_MASS] - a_floor
     return u
 
 

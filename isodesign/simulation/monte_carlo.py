@@ -214,8 +214,8 @@ def _band_positions(outer: Bands, inner: Bands) -> np.ndarray:
 # ---------------------------------------------------------------------------
 # diaphragm: Prony series
 # ---------------------------------------------------------------------------
-def fit_prony(omega, k_target, *, per_decade: int = 3) -> tuple[float, np.ndarray, np.ndarray,
-                                                                  float]:
+def fit_prony(omega, k_target, *, per_decade: int = 3,
+              weighting: str = "complex") -> tuple[float, np.ndarray, np.ndarray, float]:
     """Fit ``k_inf + sum k_i j w tau_i / (1 + j w tau_i)`` (all ``>= 0``) to ``k_target(w)``.
 
     Relaxation times log-spaced ``per_decade`` per decade from a decade below to a decade
@@ -230,6 +230,12 @@ def fit_prony(omega, k_target, *, per_decade: int = 3) -> tuple[float, np.ndarra
         The complex stiffness to fit at ``omega``, N/m.
     per_decade : int
         Relaxation times per decade.
+    weighting : {'complex', 'parts'}
+        ``complex``: residuals relative to ``|k_target|`` (default; the storage part
+        dominates when the loss factor is small). ``parts``: the real part relative to
+        ``Re k_target`` and the imaginary part relative to ``Im k_target``, so that the loss
+        stiffness is fitted as closely as the storage (for an element whose damping
+        matters, such as the table's lateral stiffness).
 
     Returns
     -------
@@ -250,9 +256,17 @@ def fit_prony(omega, k_target, *, per_decade: int = 3) -> tuple[float, np.ndarra
     rates = 10.0 ** np.arange(lo, hi + 1e-9, 1.0 / per_decade)
     jw = 1j * w[:, None]
     basis = np.concatenate([np.ones((w.size, 1)), jw / (jw + rates)], axis=1)
-    scale = np.abs(kt)[:, None]
-    a = np.concatenate([(basis / scale).real, (basis / scale).imag])
-    b = np.concatenate([(kt / scale[:, 0]).real, (kt / scale[:, 0]).imag])
+    check_choice("weighting", weighting, ("complex", "parts"))
+    if weighting == "parts":
+        if not (np.all(kt.real > 0) and np.all(kt.imag > 0)):
+            raise InputError("k_target: weighting='parts' needs positive real and imaginary "
+                             "parts")
+        a = np.concatenate([basis.real / kt.real[:, None], basis.imag / kt.imag[:, None]])
+        b = np.ones(2 * w.size)
+    else:
+        scale = np.abs(kt)[:, None]
+        a = np.concatenate([(basis / scale).real, (basis / scale).imag])
+        b = np.concatenate([(kt / scale[:, 0]).real, (kt / scale[:, 0]).imag])
     coef, _ = nnls(a, b, maxiter=50 * a.shape[1])
     fit = basis @ coef
     err = float(np.max(np.abs(fit - kt) / np.abs(kt)))
@@ -333,13 +347,22 @@ def _parameters(design, flow: str, mass: float, k_inf: float, rate_hz: float):
     return p, np.ascontiguousarray(gain), np.ascontiguousarray(rate)
 
 
-def _floor_spectrum(fl, duration_s: float, rng, amplitudes: str, band_bins: Bands | None):
-    """Bin frequencies and complex amplitudes ``A_k e^{j phi_k}`` of the floor velocity."""
+def _floor_spectrum(fl, duration_s: float, rng, amplitudes: str, band_bins: Bands | None,
+                    stride: int = 1, offset: int = 0):
+    """Bin frequencies and complex amplitudes ``A_k e^{j phi_k}`` of the floor velocity.
+
+    Only the bins ``k = offset (mod stride)`` carry power (``stride = 3``: three interleaved
+    floors, one per axis, orthogonal over the period).
+    """
     df = 1.0 / duration_s
     k_lo = max(1, math.ceil(fl.f_min_hz / df))
     k_hi = math.floor(fl.f_max_hz / df)
     k = np.arange(k_lo, k_hi + 1)
     f = k * df
+    if stride > 1:
+        keep = k % stride == offset
+        k, f = k[keep], f[keep]
+        df = stride / duration_s  # each bin kept stands for `stride` bins of the period
     s = np.asarray(fl.psd_velocity(f), dtype=float)
     a2 = 2.0 * s * df  # A_k^2 = 2 S df
     if band_bins is not None:  # every band exactly its mean square
@@ -385,34 +408,50 @@ def _check_seeds(seeds) -> tuple[int, ...]:
     return out
 
 
+def _diaphragm_branches(dia, dia_amp: float | None, f_fit):
+    """``(k_inf, k_i, rate_i, fit_error)`` of the diaphragm as integrated in the time domain.
+
+    A :class:`PronyDiaphragm` as it is; no diaphragm (``dia_amp is None``) as zero; any other
+    model frozen at ``dia_amp`` and fitted on ``f_fit`` (:func:`prony_diaphragm`).
+    """
+    if isinstance(dia, PronyDiaphragm):  # linear and causal: integrated as it is
+        return (dia.k_inf_n_per_m, np.array(dia.branch_stiffness_n_per_m, dtype=float),
+                np.array(dia.branch_rate_1_per_s, dtype=float), 0.0)  # fmt: skip
+    if dia_amp is None:
+        return 0.0, np.zeros(0), np.zeros(0), 0.0
+    pd, fit_err = prony_diaphragm(dia, f_fit, dia_amp)
+    return (pd.k_inf_n_per_m, np.array(pd.branch_stiffness_n_per_m, dtype=float),
+            np.array(pd.branch_rate_1_per_s, dtype=float), fit_err)  # fmt: skip
+
+
+def _floor_half_steps(fl, ctx, rng, stride: int = 1, offset: int = 0):
+    """Floor acceleration at the half steps (warm-up, then one period) and the velocity record.
+
+    The warm-up repeats the same periodic input, so the record is one period of the
+    periodic response (``docs/simulation.md``, section 7). ``stride``, ``offset``: the bins
+    used (:func:`_floor_spectrum`).
+    """
+    n, n_skip = ctx["n"], ctx["n_skip"]
+    kb, coef = _floor_spectrum(fl, ctx["duration"], rng, ctx["amplitudes"],
+                               ctx["norm_bands"], stride, offset)  # fmt: skip
+    w0 = 2.0 * math.pi / ctx["duration"]
+    acc = _time_series(kb, coef * w0, 2 * n, True)  # dv/dt, 2n samples (half steps)
+    vel = _time_series(kb, coef, n, False)
+    n_steps = n_skip + n - 1
+    idx = (np.arange(2 * n_steps + 1) - 2 * n_skip) % (2 * n)
+    return np.ascontiguousarray(acc[idx]), vel
+
+
 def _run(ctx, seed: int, dia_amp: float | None):
     """One realization: (band mean squares, floor band ms, z record, u record, seconds)."""
     from isodesign.simulation import _mc_kernel as kern
 
     t0 = time.perf_counter()
     model, n, n_skip = ctx["model"], ctx["n"], ctx["n_skip"]
-    dia = ctx["dia"]
-    if isinstance(dia, PronyDiaphragm):  # linear and causal: integrated as it is
-        k_inf, fit_err = dia.k_inf_n_per_m, 0.0
-        br_k = np.array(dia.branch_stiffness_n_per_m, dtype=float)
-        br_rate = np.array(dia.branch_rate_1_per_s, dtype=float)
-    elif dia_amp is None:
-        k_inf, br_k, br_rate, fit_err = 0.0, np.zeros(0), np.zeros(0), 0.0
-    else:
-        pd, fit_err = prony_diaphragm(dia, ctx["f_fit"], dia_amp)
-        k_inf = pd.k_inf_n_per_m
-        br_k = np.array(pd.branch_stiffness_n_per_m, dtype=float)
-        br_rate = np.array(pd.branch_rate_1_per_s, dtype=float)
+    k_inf, br_k, br_rate, fit_err = _diaphragm_branches(ctx["dia"], dia_amp, ctx["f_fit"])
     p, gain, rate = _parameters(model.design, ctx["flow"], model.mass, k_inf, 1.0 / ctx["dt"])
     rng = np.random.default_rng(seed)
-    kb, coef = _floor_spectrum(ctx["floor"], ctx["duration"], rng, ctx["amplitudes"],
-                               ctx["norm_bands"])  # fmt: skip
-    w0 = 2.0 * math.pi / ctx["duration"]
-    acc = _time_series(kb, coef * w0, 2 * n, True)  # dv/dt, 2n samples (half steps)
-    vel = _time_series(kb, coef, n, False)
-    n_steps = n_skip + n - 1
-    idx = (np.arange(2 * n_steps + 1) - 2 * n_skip) % (2 * n)
-    a_half = np.ascontiguousarray(acc[idx])
+    a_half, vel = _floor_half_steps(ctx["floor"], ctx, rng)
     n_tube = {"quasi_steady": 1, "poiseuille": 0, "womersley": gain.size}[ctx["flow"]]
     y0 = np.zeros(5 + n_tube + br_k.size)
     rec_zd, rec_z, rec_u = np.empty(n), np.empty(n), np.empty(n)
@@ -450,6 +489,52 @@ def _kurtosis(x: np.ndarray) -> float:
     xc = x - x.mean()
     m2 = float(np.mean(xc * xc))
     return float(np.mean(xc**4) / m2**2) if m2 > 0 else float("nan")
+
+
+def _timing(duration_s, warmup_s, time_step_s, b, f_max_hz: float, flow: str):
+    """Validated ``(duration, warm-up, samples per period n, step dt)`` of a simulation."""
+    duration = check_positive("duration_s", duration_s, unit="s")
+    warm = float(warmup_s)
+    if not (math.isfinite(warm) and warm >= 0):
+        raise InputError(f"warmup_s: must be finite and >= 0 s, got {warmup_s!r}")
+    if not isinstance(b, Bands):
+        raise InputError(f"bands: expected Bands, got {type(b).__name__}")
+    if duration * float(np.min(b.upper_hz - b.lower_hz)) < 4.0:
+        raise InputError(
+            f"duration_s: {duration:g} s leaves fewer than 4 frequency bins in the narrowest "
+            f"band ({b.labels[0]} Hz); use a longer record"
+        )
+    rate = _DEFAULT_RATE_WOMERSLEY_HZ if flow == "womersley" else _DEFAULT_RATE_HZ
+    dt0 = 1.0 / rate if time_step_s is None else check_positive("time_step_s", time_step_s,
+                                                                 unit="s")  # fmt: skip
+    if dt0 > 0.1 / f_max_hz:
+        raise InputError(
+            f"time_step_s: {dt0:g} s is too coarse for the floor's highest frequency "
+            f"{f_max_hz:g} Hz; use at most {0.1 / f_max_hz:.3g} s"
+        )
+    n = round(duration / dt0)
+    n += n % 2
+    return duration, warm, n, duration / n
+
+
+def _norm_bands(fl, amplitudes: str):
+    """The bands whose mean squares a random-phase floor reproduces exactly (or None)."""
+    return fl.bands if (fl.bands is not None and amplitudes == "random_phase") else None
+
+
+def _rms_se(vals):
+    """Root of the mean over seeds (axis 0) of mean squares, and its standard error.
+
+    The standard error of the RMS is ``se(mean square) / (2 RMS)``; NaN with one seed.
+    """
+    vals = np.asarray(vals, dtype=float)
+    ns = vals.shape[0]
+    m = vals.mean(axis=0)
+    rms = np.sqrt(m)
+    if ns < 2:
+        return rms, np.full(np.shape(rms), np.nan)
+    se_ms = vals.std(axis=0, ddof=1) / math.sqrt(ns)
+    return rms, se_ms / (2.0 * rms)
 
 
 def simulate_random_response(
@@ -511,31 +596,10 @@ def simulate_random_response(
     check_choice("amplitudes", amplitudes, _AMPLITUDES)
     model = spring_model(design, payload, flow, "self_consistent", diaphragm, derive_pressure)
     seed_list = _check_seeds(seeds)
-    duration = check_positive("duration_s", duration_s, unit="s")
-    warm = float(warmup_s)
-    if not (math.isfinite(warm) and warm >= 0):
-        raise InputError(f"warmup_s: must be finite and >= 0 s, got {warmup_s!r}")
     fl = resolve_floor(floor)
     tg = None if target is None else resolve_target(target)
     b = default_bands(fl, tg) if bands is None else bands
-    if not isinstance(b, Bands):
-        raise InputError(f"bands: expected Bands, got {type(b).__name__}")
-    if duration * float(np.min(b.upper_hz - b.lower_hz)) < 4.0:
-        raise InputError(
-            f"duration_s: {duration:g} s leaves fewer than 4 frequency bins in the narrowest "
-            f"band ({b.labels[0]} Hz); use a longer record"
-        )
-    rate = _DEFAULT_RATE_WOMERSLEY_HZ if flow == "womersley" else _DEFAULT_RATE_HZ
-    dt0 = 1.0 / rate if time_step_s is None else check_positive("time_step_s", time_step_s,
-                                                                 unit="s")  # fmt: skip
-    if dt0 > 0.1 / fl.f_max_hz:
-        raise InputError(
-            f"time_step_s: {dt0:g} s is too coarse for the floor's highest frequency "
-            f"{fl.f_max_hz:g} Hz; use at most {0.1 / fl.f_max_hz:.3g} s"
-        )
-    n = round(duration / dt0)
-    n += n % 2
-    dt = duration / n
+    duration, warm, n, dt = _timing(duration_s, warmup_s, time_step_s, b, fl.f_max_hz, flow)
     dia = diaphragm_model(diaphragm)
     ctx = {
         "model": model,
@@ -543,8 +607,7 @@ def simulate_random_response(
         "floor": fl,
         "duration": duration,
         "amplitudes": amplitudes,
-        "norm_bands": (fl.bands if (fl.bands is not None and amplitudes == "random_phase")
-                       else None),
+        "norm_bands": _norm_bands(fl, amplitudes),
         "bands": b,
         "n": n,
         "n_skip": round(warm / dt),
@@ -564,20 +627,9 @@ def simulate_random_response(
     ms_floor = np.array([r[1] for r in runs])
     z = [r[2] for r in runs]
     u = [r[3] for r in runs]
-    ns = len(runs)
-
-    def rms_se(vals):  # vals: per-seed mean squares
-        vals = np.asarray(vals, dtype=float)
-        m = vals.mean(axis=0)
-        rms = np.sqrt(m)
-        if ns < 2:
-            return rms, np.full(np.shape(rms), np.nan)
-        se_ms = vals.std(axis=0, ddof=1) / math.sqrt(ns)
-        return rms, se_ms / (2.0 * rms)
-
-    v_rms, v_se = rms_se(ms)
-    z_rms, z_se = rms_se([np.mean(zz**2) for zz in z])
-    u_rms, u_se = rms_se([np.mean(uu**2) for uu in u])
+    v_rms, v_se = _rms_se(ms)
+    z_rms, z_se = _rms_se([np.mean(zz**2) for zz in z])
+    u_rms, u_se = _rms_se([np.mean(uu**2) for uu in u])
     return MonteCarloResult(
         bands=b,
         payload_velocity_rms_m_s=v_rms,

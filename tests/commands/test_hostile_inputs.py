@@ -66,6 +66,9 @@ FILES: dict[str, bytes] = {
     "study_huge_payload.toml": b"[payload]\nmass_kg = 1e308\n",
     "study_str_mass.toml": b"[payload]\nmass_kg = \"600\"\n",
     "study_unknown.toml": b"[payload]\nmass = 600\n",
+    "study_plain.toml": b"name = \"plain\"\n",
+    "study_table_cg_out.toml": (b"[table]\nisolators_m = [[0, 0], [1, 0], [1, 1], [0, 1]]\n"
+                                b"cg_m = [2.0, 0.5, 0.3]\nbox_m = [1, 1, 0.5]\n"),
     "study_starts.toml": b"[solver]\nstarts = 100000000\n",
     "study_workers.toml": b"[solver]\nworkers = 0\n",
     "study_ppb.toml": b"[models]\npoints_per_band = 100000000\n",
@@ -289,6 +292,17 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
     ("report", ["{study_all_fixed.toml}", "-o", "{tmp}/r.html"], ["study_all_fixed.toml"]),
     ("report", ["{latin1.toml}", "-o", "{tmp}/r.txt"], ["--output", ".html"]),
     ("report", ["{latin1.toml}", "-o", "{tmp}"], ["--output", "is a directory"]),
+    # -- modes (a table study) -----------------------------------------------------------------
+    ("modes", ["{tmp}/nope.toml", "-o", "{tmp}/m"], ["nope.toml"]),
+    ("modes", ["{study_unknown.toml}", "-o", "{tmp}/m"], ["study_unknown.toml", "mass"]),
+    ("modes", ["{study_plain.toml}", "-o", "{tmp}/m"], ["INPUT", "has no [table]"]),
+    ("modes", ["{study_table_cg_out.toml}", "-o", "{tmp}/m"],
+     ["study_table_cg_out.toml", "table.cg_m", "outside the support polygon"]),
+    ("modes", ["-o", "{tmp}/m"], ["INPUT", "--builtin table"]),
+    ("modes", ["{study_plain.toml}", "--builtin", "table", "-o", "{tmp}/m"],
+     ["--builtin", "not both"]),
+    ("modes", ["--builtin", "table", "-o", "{foreign}"], ["--output", "not empty"]),
+    ("response", ["{study_table_cg_out.toml}"], ["table.cg_m"]),
     # -- demo ---------------------------------------------------------------------------------
     ("demo", ["-o", "{earlier_run}"], ["--output", "already holds a run"]),
     ("demo", ["-o", "{not_a_dir}"], ["--output", "not a directory"]),

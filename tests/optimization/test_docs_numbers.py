@@ -213,6 +213,43 @@ README_CHECKS = [
 ]
 
 
+#: Other files that quote the default run: (path, check), each check as in CHECKS. The demo's
+#: figures in docs/cli.md sit between HTML comment markers.
+ROOT = Path(__file__).resolve().parents[2]
+OTHER_CHECKS = [
+    (ROOT / "isodesign" / "data" / "default_study.toml",
+     rf"it misses VC-C at 4 Hz by # (?P<start_miss_db>{NUM}) dB"),
+    (ROOT / "docs" / "cli.md",
+     rf"misses VC-C at 4 Hz by <!-- demo_start_miss_db -->(?P<start_miss_db>{NUM})"
+     rf"<!-- /demo_start_miss_db --> dB; the optimum meets it with "
+     rf"<!-- demo_opt_margin_db -->(?P<opt_margin_analysis_db>{NUM})<!-- /demo_opt_margin_db -->"
+     rf" dB"),
+]
+
+
+def other_matches() -> list[tuple[str, dict]]:
+    """(file name, named groups) of every check of :data:`OTHER_CHECKS` (each matches once)."""
+    out = []
+    for path, pattern in OTHER_CHECKS:
+        text = " ".join(path.read_text(encoding="utf-8").split())
+        found = list(re.finditer(pattern, text))
+        assert len(found) == 1, f"{len(found)} matches in {path.name} for: {pattern}"
+        out.append((path.name, found[0].groupdict()))
+    return out
+
+
+def test_other_checks_match_once():
+    assert sum(len(g) for _, g in other_matches()) == 3
+
+
+@pytest.mark.slow
+def test_other_files_quote_the_default_run(quoted_values):
+    wrong = [f"{name} {key}: file {text}, code {printed_as(quoted_values[key], text)}"
+             for name, groups in other_matches() for key, text in groups.items()
+             if printed_as(quoted_values[key], text) != text]
+    assert not wrong, "drifted: " + "; ".join(wrong)
+
+
 def readme_matches() -> list[dict]:
     """The named groups of every README check (each must match exactly once)."""
     text = " ".join(README.read_text(encoding="utf-8").split())

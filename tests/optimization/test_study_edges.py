@@ -54,9 +54,16 @@ def test_an_overflowing_payload_is_named_as_the_payload():
     assert "pressure_pa" not in str(ei.value)
 
 
-def test_max_pressure_pa_is_off_by_default_and_checked_when_on():
+def test_max_pressure_pa_defaults_to_the_validity_bound_and_is_checked():
+    # issue 14: a payload beyond the model's validity must not PASS; by default the study
+    # refuses it (the bound is the model's), false switches the bound off
     st = default_study()
-    assert st.constraints["max_pressure_pa"] is None
+    assert st.constraints["max_pressure_pa"] == MAX_STATIC_PRESSURE_PA
+    off = study_from_dict({"constraints": {"max_pressure_pa": False}})
+    assert off.constraints["max_pressure_pa"] is None
+    with pytest.raises(InputError, match=r"constraints.max_pressure_pa = 1e\+06 Pa \(the "
+                       r"model's validity bound.*needs p0 = 5\.652e\+06 Pa"):
+        study_from_dict({"payload": {"mass_kg": 12000.0}})
     p0 = st.start_design().pressure_pa
     ok = study_from_dict({"constraints": {"max_pressure_pa": MAX_STATIC_PRESSURE_PA}})
     assert ok.constraints["max_pressure_pa"] == MAX_STATIC_PRESSURE_PA

@@ -633,7 +633,9 @@ def test_cli_response(cli_main, tmp_path, capsys):
     out = tmp_path / "bands.csv"
     assert cli_main(["response", "-o", str(out), "--spacing-m", "0.8", "--cg-height-m", "0.3"]) == 0
     text = capsys.readouterr().out
-    assert "FAIL: VC-E exceeded" in text and "worst band 2 Hz" in text and "tilt margin" in text
+    # the default target is the built-in default study's (VC-C); peak |T| in dB (issue 14)
+    assert "FAIL: VC-C exceeded" in text and "worst band 2 Hz" in text and "tilt margin" in text
+    assert "peak |T| 12.14 dB at 1.866 Hz (at A*)" in text and "scope: vertical" in text
     import pandas as pd
 
     df = pd.read_csv(out)

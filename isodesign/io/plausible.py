@@ -1,0 +1,125 @@
+"""Values that are valid but implausible by orders of magnitude: the likely unit slip, named.
+
+A study or design file states SI values (m, m^2, m^3, kg, K, Pa). A value the schema
+accepts can still be off by a unit factor: ``max_total_volume_m3 = 8`` (litres typed into
+m^3: an 8 m^3 spring), ``capillary_length_m = 12`` (millimetres), ``temperature_k = 20``
+(degrees Celsius). :func:`unit_slips` finds them by the key's plausible range (two to three
+orders of magnitude wider than any air spring of an isolation table) and says what the value
+would be in the unit the user probably meant; :func:`warn_unit_slips` emits one
+:class:`UnitWarning` per key (the CLI prints ``isodesign: warning: ...``). A warning, not an
+error: an unusual but intended value still runs.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+__all__ = ["PLAUSIBLE", "UnitWarning", "unit_slips", "warn_unit_slips"]
+
+
+class UnitWarning(UserWarning):
+    """A value far outside its key's plausible range: probably typed in another unit."""
+
+
+# (lowest plausible, highest plausible, slip below, slip above): a slip is
+# (unit the user probably typed, factor from that unit to SI, SI unit); None: no guess.
+_L_M3 = ("L", 1e-3, "m^3")
+_MM_M = ("mm", 1e-3, "m")
+_CM2_M2 = ("cm^2", 1e-4, "m^2")
+_T_KG = ("t", 1e3, "kg")
+_BAR_PA = ("bar", 1e5, "Pa")
+
+#: Key (last part, as in a study or design file) -> (low, high, slip below, slip above).
+PLAUSIBLE = {
+    "max_total_volume_m3": (1e-7, 1.0, None, _L_M3),
+    "top_volume_m3": (1e-7, 1.0, None, _L_M3),
+    "capillary_length_m": (1e-5, 20.0, None, _MM_M),
+    "capillary_diameter_m": (1e-6, 0.5, None, _MM_M),
+    "min_capillary_diameter_m": (1e-6, 0.5, None, _MM_M),
+    "spacing_m": (0.01, 50.0, None, _MM_M),
+    "cg_height_m": (1e-3, 20.0, None, _MM_M),
+    "diaphragm_r1_m": (1e-3, 1.0, None, _MM_M),
+    "diaphragm_r2_m": (1e-3, 1.0, None, _MM_M),
+    "piston_area_m2": (1e-6, 1.0, None, _CM2_M2),
+    "mass_kg": (0.5, 1e7, _T_KG, None),
+    "temperature_k": (150.0, 1000.0, ("degC", None, "K"), None),
+    "max_pressure_pa": (2e4, 1e9, _BAR_PA, None),
+    "pressure_pa": (2e4, 1e9, _BAR_PA, None),
+}
+
+
+def _meant(value: float, slip) -> str:
+    unit, factor, si = slip
+    if factor is None:  # degrees Celsius
+        return f"{value:g} {unit} would be {value + 273.15:g} {si}"
+    return f"{value:g} {unit} would be {value * factor:g} {si}"
+
+
+def unit_slips(values: dict, where: str = "") -> list[str]:
+    """Messages for the values of ``values`` far outside their key's plausible range.
+
+    Parameters
+    ----------
+    values : dict
+        Key -> value; nested tables are walked (``{"constraints": {...}}``) and keys are
+        named with their table (``constraints.max_total_volume_m3``). Keys without a
+        plausible range (:data:`PLAUSIBLE`), booleans and non-numbers are skipped.
+    where : str
+        Prefix of each message (the file), e.g. ``"study.toml"``.
+
+    Returns
+    -------
+    list of str
+        One message per implausible value: the key as the user wrote it, the value, the
+        plausible range and the likely unit slip.
+    """
+    out = []
+
+    def walk(d, prefix):
+        for k, v in d.items():
+            name = f"{prefix}{k}"
+            if isinstance(v, dict):
+                walk(v, name + ".")
+                continue
+            leaf = str(k)
+            if leaf in ("start", "lower", "upper"):  # [variables.<name>]
+                leaf = prefix.rstrip(".").split(".")[-1]
+            rng = PLAUSIBLE.get(leaf)
+            if rng is None or isinstance(v, bool) or not isinstance(v, int | float):
+                continue
+            lo, hi, below, above = rng
+            if not (v == v and abs(v) != float("inf")) or v <= 0:
+                continue  # the schema's own checks name these
+            slip = below if v < lo else above if v > hi else None
+            if v < lo or v > hi:
+                head = f"{where}: " if where else ""
+                msg = (f"{head}{name} = {v:g} is outside the plausible range [{lo:g}, {hi:g}] "
+                       f"by orders of magnitude")
+                if slip is not None:
+                    msg += (f"; a unit slip? {leaf} is in {slip[2]}, and "
+                            f"{_meant(v, slip)}")
+                out.append(msg)
+
+    walk(values, "")
+    return out
+
+
+def warn_unit_slips(values: dict, where: str = "") -> list[str]:
+    """Emit one :class:`UnitWarning` per message of :func:`unit_slips`; return them.
+
+    Parameters
+    ----------
+    values : dict
+        As for :func:`unit_slips`.
+    where : str
+        As for :func:`unit_slips`.
+
+    Returns
+    -------
+    list of str
+        The messages warned.
+    """
+    msgs = unit_slips(values, where)
+    for m in msgs:
+        warnings.warn(m, UnitWarning, stacklevel=3)
+    return msgs

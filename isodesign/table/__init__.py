@@ -1,0 +1,29 @@
+"""The table as a rigid body in six degrees of freedom on n isolators.
+
+One concept a module:
+
+* :mod:`~isodesign.table.layout`: the table (mass, inertia, CG, isolators, leveling groups,
+  instrument points) and the isolators' horizontal element.
+* :mod:`~isodesign.table.statics`: three-valve leveling, each isolator's load and p0.
+* :mod:`~isodesign.table.assembly`: the 6x6 dynamic stiffness with the gravity term (NumPy
+  and CasADi alike).
+
+The vertical-only :class:`~isodesign.response.isolator.Payload` is the symmetric special
+case (docs/table.md).
+"""
+
+from isodesign.table.assembly import DOFS, dynamic_stiffness, geometry, gravity_stiffness
+from isodesign.table.layout import HorizontalElement, Table, box_inertia
+from isodesign.table.statics import Leveling, level
+
+__all__ = [
+    "DOFS",
+    "HorizontalElement",
+    "Leveling",
+    "Table",
+    "box_inertia",
+    "dynamic_stiffness",
+    "geometry",
+    "gravity_stiffness",
+    "level",
+]

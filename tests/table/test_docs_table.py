@@ -1,0 +1,62 @@
+"""The numbers quoted in docs/table.md's worked example."""
+
+from __future__ import annotations
+
+import re
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from isodesign.optimization.study import table_study
+from isodesign.table.floor import table_floor
+from isodesign.table.model import table_model
+from isodesign.table.modes import rocking_stability, table_modes
+from isodesign.table.response import table_band_response
+
+PAGE = (Path(__file__).parents[2] / "docs" / "table.md").read_text(encoding="utf-8")
+
+
+@pytest.fixture(scope="module")
+def job():
+    st = table_study()
+    m = st.models
+    model = table_model(st.start_design(), st.table, flow=m["flow"],
+                        amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
+    return st, model
+
+
+def test_modes_table_of_the_worked_example(job):
+    _, model = job
+    md = table_modes(model)
+    rows = re.findall(r"^\| (\d) \| ([\w+]+) \| ([\d.]+) \| ([\d.]+) \|$", PAGE, re.M)
+    assert len(rows) == 6
+    for (j, name, f, z) in rows:
+        k = int(j) - 1
+        assert md.names[k] == name
+        assert f"{md.frequency_hz[k]:.3f}" == f and f"{md.damping_ratio[k]:.3f}" == z
+    rs = rocking_stability(model)
+    assert f"{rs.margin[0]:.3g}" == "4.62" and f"{rs.margin[1]:.3g}" == "10.4"
+    assert "4.62 about x" in PAGE and "10.4 about y" in PAGE
+
+
+def test_band_figures_of_the_worked_example(job):
+    st, _ = job
+    d, m = st.start_design(), st.models
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r3 = table_band_response(d, st.table, st.floor_axes, st.target, bands=st.bands,
+                                 flow=m["flow"])
+        r1 = table_band_response(d, st.table, table_floor("VC-A", x=False, y=False), st.target,
+                                 bands=st.bands, flow=m["flow"])
+    assert r3.worst[:3] == ("corner", "z", "4") and f"{-r3.worst[3]:.2f}" == "8.36"
+    assert f"{-r3.margin_db[0, 2].min():.2f}" == "0.68"
+    assert f"{-r1.worst_margin_db:.2f}" == "0.24"
+    assert f"{r1.stroke_rms_m[0] * 1e6:.1f}" == "25.4" and f"{r3.stroke_rms_m[0] * 1e6:.1f}" \
+        == "39.8"
+    corner = np.hypot(*st.table.instrument_points_m[1, :2])
+    assert f"{corner:.2f}" == "0.58"
+    for s in ("8.36 dB in z at 4 Hz", "misses by 0.68 dB", "missed by 0.24 dB", "25.4 to 39.8 um",
+              "0.58 m from the CG"):
+        assert s in PAGE, s
