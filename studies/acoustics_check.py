@@ -114,6 +114,9 @@ def study_figures() -> None:
             res = optimize(s)
             v = res.values
             binding = [c.name for c in res.constraints if c.active]
+            validity = ", ".join(f"{c.name} {c.value:.4g} (bound {c.upper:.4g})"
+                                 for c in res.constraints
+                                 if c.name.startswith(("lumped_", "plane_wave_")))
             at_bound = [n for n, x in v.items()
                         if min(abs(x / b - 1) for b in (s.variable(n).lower,
                                                          s.variable(n).upper)) < 1e-6]
@@ -124,7 +127,7 @@ def study_figures() -> None:
                   f"{res.objective_value:+.3f} dB (NLP), {res.analysis.worst_margin_db:+.2f} dB "
                   f"(analysis, worst band {res.analysis.worst_band_hz:g} Hz); binding: "
                   f"{', '.join(binding) or '-'}; at a bound: {', '.join(at_bound) or '-'}; "
-                  f"success {res.success}")
+                  f"success {res.success}; validity: {validity}")
             if label == "default" and acoustics == "distributed":
                 d_hx = res.design.replace(chamber_heat_exchange=True)
                 an = band_response(d_hx, s.payload, s.floor, s.target, bands=s.bands,
