@@ -45,9 +45,10 @@ CHECKS = [
     rf"(?P<anchor_margin_db>{NUM}) dB, at the (?P<anchor_total_l>{NUM}) L envelope \(N = "
     rf"(?P<anchor_n>{NUM}),\nV_t0 = (?P<anchor_vt_l>{NUM}) L, L_c = (?P<anchor_lc_mm>{NUM}) mm, "
     rf"D_c = (?P<anchor_dc_mm>{NUM}) mm",
-    rf"With the lumped model the optimum stopped on the\nmodel's own edge: N = (?P<lumped_n>{NUM}), "
-    rf"V_t0 = (?P<lumped_vt_l>{NUM}) L, L_c = (?P<lumped_lc_mm>{NUM}) mm, D_c = "
-    rf"(?P<lumped_dc_mm>{NUM}) mm, (?P<lumped_margin_db>{NUM}) dB",
+    rf"With the lumped model the optimum stopped on the\nmodel's own edge: "
+    rf"N = (?P<lumped_n>{NUM}), V_t0 = (?P<lumped_vt_l>{NUM}) L, "
+    rf"L_c = (?P<lumped_lc_mm>{NUM}) mm, D_c = (?P<lumped_dc_mm>{NUM}) mm, "
+    rf"(?P<lumped_margin_db>{NUM}) dB",
     rf"which capped L_c at (?P<lumped_lc_mm__2>{NUM}) mm",
     rf"shortening the tube from (?P<opt_lc_mm__3>{NUM}) mm to 12 mm \(D_c "
     rf"(?P<opt_dc_mm__2>{NUM}) ->\n(?P<short_dc_mm>{NUM}) mm\) loses (?P<short_loss_db>{NUM}) dB "
@@ -88,9 +89,10 @@ CHECKS = [
     rf"within 0\.010 dB of the optimum, D_c spans (?P<flat_dc_lo_mm__2>{NUM})-"
     rf"(?P<flat_dc_hi_mm__2>{NUM}) mm and L_c (?P<flat_lc_lo_mm__2>{NUM})-"
     rf"(?P<flat_lc_hi_mm__2>{NUM}) mm",
-    # section 10: the anchor of the front is the optimum
-    rf" 0 +(?P<anchor_margin_db__2>{NUM}) dB +(?P<anchor_total_l__2>{NUM}) L +(?P<anchor_n__2>{NUM})"
-    rf" +(?P<anchor_vt_l__2>{NUM}) +(?P<anchor_lc_mm__2>{NUM}) +(?P<anchor_dc_mm__2>{NUM}) +yes",
+    # section 10: the anchor of the front is the optimum before the tie-break
+    rf" 0 +(?P<anchor_margin_db__2>{NUM}) dB +(?P<anchor_total_l__2>{NUM}) L "
+    rf"+(?P<anchor_n__2>{NUM}) +(?P<anchor_vt_l__2>{NUM}) +(?P<anchor_lc_mm__2>{NUM}) "
+    rf"+(?P<anchor_dc_mm__2>{NUM}) +yes",
     # section 11: the 600 kg row of the payload sweep
     rf"\| 600 \| (?P<opt_n__3>{NUM}) \| (?P<opt_vt_l__3>{NUM}) \| (?P<opt_lc_mm__5>{NUM}) \| "
     rf"(?P<opt_dc_mm__4>{NUM}) \| (?P<opt_margin_nlp_db__5>{NUM}) \| (?P<opt_fn_hz__2>{NUM}) \| "
