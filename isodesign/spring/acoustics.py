@@ -25,11 +25,13 @@ Every function evaluates on NumPy arrays and on CasADi symbols.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
+from functools import lru_cache
 from typing import Any
 
 import numpy as np
 
+from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
 from isodesign.spring.capillary import (
     STATISTICAL_FLOW_MODELS,
@@ -73,6 +75,7 @@ class AcousticNetwork:
     rho: Any
     piston_area: Any
     tube_area: Any
+    _cache: dict = field(default_factory=dict, repr=False)
 
     def take(self, idx) -> AcousticNetwork:
         """The network at a subset of flat NumPy points (``idx`` indexes every array)."""
@@ -88,6 +91,27 @@ class AcousticNetwork:
             c_womersley=t(self.c_womersley), rho=self.rho, piston_area=self.piston_area,
             tube_area=self.tube_area,
         )
+
+    def _numpy(self) -> tuple | None:
+        """The parts as NumPy complex arrays (built once), or None on CasADi symbols."""
+        got = self._cache.get("np")
+        if got is None:
+            parts = (*self.top, *self.tube, self.z_bottom, self.c_womersley)
+            if any(bk.is_casadi(p.re, p.im) for p in parts) or bk.is_casadi(self.omega):
+                return None
+            got = tuple(p.to_complex() for p in parts)
+            self._cache["np"] = got
+        return got
+
+    def _solve_numpy(self, parts, c: Cx):
+        """:meth:`_solve` with NumPy's complex arithmetic (one pass per operation)."""
+        ch_t, _, c_t, ch, b, cc, zb, c_lin = parts
+        re, im = np.asarray(c.re, float), np.asarray(c.im, float)
+        r = ((re - c_lin.real) + 1j * (im - c_lin.imag)) * (0.5 * self.rho)
+        z2 = zb + r
+        den2 = cc * z2 + ch
+        z3 = (ch * z2 + b) / den2 + r
+        return z3, c_t * z3 + ch_t, den2
 
     def _solve(self, c: Cx):
         """``(Z3, den1, den2)`` for the resistance ``c``."""
@@ -109,6 +133,11 @@ class AcousticNetwork:
         c : Cx
             The flow model's resistance ``C``, Pa s/kg.
         """
+        parts = self._numpy()
+        if parts is not None:
+            z3, den1, _ = self._solve_numpy(parts, c)
+            zp = (parts[0] * z3 + parts[1]) / den1
+            return Cx.from_complex(1j * (self.omega * self.piston_area**2) * zp)
         z3, den1, _ = self._solve(c)
         ch_t, b_t, _ = self.top
         zp = (ch_t * z3 + b_t) / den1
@@ -123,8 +152,14 @@ class AcousticNetwork:
         c : Cx
             The flow model's resistance ``C``, Pa s/kg.
         """
-        _, den1, den2 = self._solve(c)
         g = self.omega * self.piston_area / self.tube_area
+        parts = self._numpy()
+        if parts is not None:
+            _, den1, den2 = self._solve_numpy(parts, c)
+            a1 = den1.real * den1.real + den1.imag * den1.imag
+            a2 = den2.real * den2.real + den2.imag * den2.imag
+            return 0.5 * g * g * (1.0 + 1.0 / a2) / a1
+        _, den1, den2 = self._solve(c)
         return 0.5 * g * g * (1.0 + 1.0 / den2.abs2()) / den1.abs2()
 
 
@@ -155,6 +190,28 @@ def acoustic_network(design, omega, flow: str | None = None) -> AcousticNetwork:
     -------
     AcousticNetwork
     """
+    if not bk.is_casadi(omega) and isinstance(omega, np.ndarray) and omega.size > 1:
+        try:  # the closures evaluate the same design at the same frequencies many times
+            return _cached_network(design, flow, omega.shape, omega.tobytes())
+        except TypeError:  # a field that cannot be hashed (a symbol, an array): no cache
+            pass
+    return _network(design, omega, flow)
+
+
+@lru_cache(maxsize=16)
+def _cached_network(design, flow, shape, omega_bytes) -> AcousticNetwork:
+    """:func:`_network` memoized on NumPy frequencies (the arrays are read-only)."""
+    omega = np.frombuffer(omega_bytes, dtype=float).reshape(shape)
+    net = _network(design, omega, flow)
+    for part in (*net.top, *net.tube, net.z_bottom, net.c_womersley):
+        for a in (part.re, part.im):
+            if isinstance(a, np.ndarray):
+                a.flags.writeable = False
+    return net
+
+
+def _network(design, omega, flow) -> AcousticNetwork:
+    """The network's frequency-only parts (any backend), uncached."""
     d = design
     top = chamber_line(d, d.top_volume_m3, omega)
     ch_b, _, c_b = chamber_line(d, d.bottom_volume_m3, omega)

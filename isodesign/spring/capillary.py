@@ -362,10 +362,22 @@ def tube_boundary_layer_functions(alpha, prandtl: float = AIR_PRANDTL) -> tuple[
     if bk.is_casadi(alpha):
         out = _tube_spline(float(prandtl))(bk.log(alpha))
         return (Cx(bk.exp(out[0]), out[1] * alpha * alpha), Cx(out[2], out[3]))
-    zeta = _womersley_zeta_exact(alpha)
-    s = np.asarray(alpha, dtype=float) * math.sqrt(prandtl)
+    alpha = np.asarray(alpha, dtype=float)
+    if alpha.size > 64:  # many points share few frequencies: the Bessel functions once each
+        uniq, inv = np.unique(alpha, return_inverse=True)
+        if uniq.size < alpha.size:
+            zeta, g = _tube_functions_exact(uniq, prandtl)
+            return (Cx.from_complex(zeta[inv].reshape(alpha.shape)),
+                    Cx.from_complex(g[inv].reshape(alpha.shape)))
+    zeta, g = _tube_functions_exact(alpha, prandtl)
+    return Cx.from_complex(zeta), Cx.from_complex(g)
+
+
+def _tube_functions_exact(alpha: np.ndarray, prandtl: float):
+    """``(zeta(alpha), G(alpha sqrt(Pr)))`` as complex NumPy arrays (scipy's Bessel)."""
+    s = alpha * math.sqrt(prandtl)
     zt = _womersley_zeta_exact(s)
-    return Cx.from_complex(zeta), Cx.from_complex(1.0 - 1j * s * s / (8.0 * zt))
+    return _womersley_zeta_exact(alpha), 1.0 - 1j * s * s / (8.0 * zt)
 
 
 def womersley_zeta(alpha) -> Cx:
