@@ -334,3 +334,15 @@ def test_numbers_quoted_in_docs_acoustics(ref):
     k = air_stiffness(ref, w, c, "womersley").to_complex()
     kl = air_stiffness(ref.replace(acoustics="lumped"), w, c).to_complex()
     assert f"{100 * abs(k[0] / kl[0] - 1):.1f}" == "0.7"
+
+
+def test_lumped_chamber_limit_quoted_in_docs_acoustics():
+    """docs/acoustics.md: a chamber judged to the 80 Hz band's upper edge must stay below
+    5.85 L for the lumped model (w V^(1/3) / c <= 0.98 x 0.3 at 293.15 K)."""
+    from isodesign.floor.bands import third_octave_bands
+    from isodesign.spring.diagnostics import LUMPED_LIMIT
+
+    f_top = float(third_octave_bands(80.0, 80.0).upper_hz[-1])
+    c = SpringDesign.reference().replace(temperature_k=293.15).speed_of_sound_m_s
+    v_max = (0.98 * LUMPED_LIMIT * c / (2 * math.pi * f_top)) ** 3
+    assert f"{v_max * 1e3:.2f}" == "5.85"
