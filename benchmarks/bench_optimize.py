@@ -1,7 +1,8 @@
 """Optimizer speed and quality (targets): one default `optimize` (all starts) in
 under 10 s, a 20-point Pareto front in under 60 s, the CasADi front against pymoo's NSGA-II
-(10,000 evaluations of the NumPy analysis path: hypervolume at least NSGA-II's in at most a
-tenth of its wall time; informative: NSGA-II given the CasADi front's wall time), and
+(10,000 evaluations of the NumPy analysis path: hypervolume at least NSGA-II's; the front's
+wall time at most a tenth of the time NSGA-II needs to reach the front's hypervolume, both
+fronts judged alike; informative: NSGA-II given the CasADi front's wall time), and
 scipy's SLSQP with finite differences on the single-objective case. The NSGA-II runs
 dominate: the whole file takes about 3 to 12 minutes.
 
@@ -31,6 +32,10 @@ from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 
 #: Targets.
 TARGET_OPTIMIZE_S = 10.0
+#: The default `isodesign optimize` in a fresh process (interpreter start, imports, NLP
+#: build, starts, refinement, re-check, analysis, output files and the plot).
+TARGET_CLI_S = 3.0
+CLI_REPEATS = 3
 TARGET_PARETO_S = 60.0
 TARGET_TIME_RATIO = 0.1  # CasADi front wall time / NSGA-II wall time
 TARGET_HV_RATIO = 1.0  # HV_casadi / HV_nsga
@@ -41,6 +46,10 @@ PARETO_POINTS = 20
 #: NSGA-II budget: pop_size x generations = evaluations.
 NSGA_POP = 100
 NSGA_GENERATIONS = 100
+#: The same run goes on to this many generations to find when NSGA-II's front reaches the
+#: CasADi front's hypervolume (time to equal hypervolume); rows about "the final front"
+#: use generation NSGA_GENERATIONS of it.
+NSGA_RACE_GENERATIONS = 150
 NSGA_SEED = 1
 #: Above this projected NSGA-II wall time the budget is cut (and labelled so).
 NSGA_MAX_WALL_S = 15 * 60.0
@@ -267,9 +276,9 @@ def bench_optimize_breakdown() -> dict:
             f"{load0}: Problem(study) build {t_build:.2f} s; 8 starts in 2 forked workers "
             f"{t_starts:.2f} s (sum of the solves' walls {walls_par:.2f} s; the same 8 serially "
             f"in 1 process: {t_serial:.2f} s, solves {walls_ser:.2f} s, speed-up "
-            f"{t_serial / t_starts:.2f}{blas_note}); tie-break (2 serial IPOPT solves) "
-            f"{t_tie:.2f} s; {peak_note}re-check {t_re:.2f} s; 2 band responses (optimum and "
-            f"start) {t_an:.2f} s"
+            f"{t_serial / t_starts:.2f}{blas_note}); tie-break and peak refinement of the "
+            f"distinct branches (in the workers) {t_tie:.2f} s; {peak_note}re-check "
+            f"{t_re:.2f} s; 2 band responses (optimum and start) {t_an:.2f} s"
         ),
     }
 
@@ -287,8 +296,8 @@ def bench_cli_optimize() -> dict:
         )
     )
     row = {
-        "name": "`isodesign optimize -o tmpdir --quiet` (subprocess, once)",
-        "target": f"< {TARGET_OPTIMIZE_S:g} s",
+        "name": "`isodesign optimize -o tmpdir --quiet` (whole process)",
+        "target": f"< {TARGET_CLI_S:g} s",
         "unit": "s",
     }
     probe = subprocess.run(
@@ -302,14 +311,20 @@ def bench_cli_optimize() -> dict:
             "notes": f"skipped: `isodesign optimize --help` exits "
             f"with status {probe.returncode} ({msg}); the command is not written yet",
         }
-    with tempfile.TemporaryDirectory(prefix="bench_optimize_") as tmp:
-        load0 = _load()
-        t0 = time.perf_counter()
-        p = subprocess.run(
-            [*cmd0, "optimize", "-o", tmp, "--quiet"], capture_output=True, text=True, timeout=600
-        )
-        wall = time.perf_counter() - t0
-        files = sorted(x.name for x in Path(tmp).iterdir())
+    walls = []
+    load0 = _load()
+    for _ in range(CLI_REPEATS):
+        with tempfile.TemporaryDirectory(prefix="bench_optimize_") as tmp:
+            t0 = time.perf_counter()
+            p = subprocess.run(
+                [*cmd0, "optimize", "-o", tmp, "--quiet"], capture_output=True, text=True,
+                timeout=600,
+            )
+            walls.append(time.perf_counter() - t0)
+            files = sorted(x.name for x in Path(tmp).iterdir())
+        if p.returncode != 0:
+            break
+    wall = statistics.median(walls)
     state = (
         f"exit status 0, wrote {', '.join(files) or 'nothing'}"
         if p.returncode == 0
@@ -318,10 +333,14 @@ def bench_cli_optimize() -> dict:
     return {
         **row,
         "median": wall,
-        "repeats": 1,
-        "ratio": wall / TARGET_OPTIMIZE_S,
-        "passed": p.returncode == 0 and wall < TARGET_OPTIMIZE_S,
-        "notes": f"one run (includes interpreter start and imports), {load0}; {state}",
+        "min": min(walls),
+        "max": max(walls),
+        "repeats": len(walls),
+        "ratio": wall / TARGET_CLI_S,
+        "passed": p.returncode == 0 and wall < TARGET_CLI_S,
+        "notes": f"median of {len(walls)} fresh processes (interpreter start, imports, NLP "
+        f"build, 8 starts, refinement, re-check, analysis, every output file and the plot), "
+        f"{load0} before, {_load()} after; {state}",
     }
 
 
@@ -403,6 +422,7 @@ def _nsga() -> dict:
     """Run NSGA-II once (cached): fronts, hypervolumes, dominance check."""
     if "nsga" in _CACHE:
         return _CACHE["nsga"]
+    from hv_race import first_reaching, recorder
     from pymoo.algorithms.moo.nsga2 import NSGA2
     from pymoo.config import Config
     from pymoo.optimize import minimize
@@ -438,18 +458,21 @@ def _nsga() -> dict:
     archive = {"z": [], "f": [], "viol": [], "failures": 0, "last_error": ""}
     problem, names = _nsga_problem(study, space, grid, archive)
     algo = NSGA2(pop_size=NSGA_POP)
+    n_gen_race = NSGA_RACE_GENERATIONS if n_gen == NSGA_GENERATIONS else n_gen
+    cb = recorder()
     load0 = _load()
     t0 = time.perf_counter()
-    res = minimize(problem, algo, ("n_gen", n_gen), seed=NSGA_SEED, verbose=False)
-    t_nsga = time.perf_counter() - t0
+    minimize(problem, algo, ("n_gen", n_gen_race), seed=NSGA_SEED, callback=cb, verbose=False)
+    t_race = time.perf_counter() - t0
     load1 = _load()
-    n_eval = int(res.algorithm.evaluator.n_eval)
+    # the front after n_gen generations (10,000 evaluations): res.opt at that generation
+    t_nsga, n_eval, F, X, CV = cb.records[n_gen - 1]
+    for key in ("z", "f", "viol"):
+        archive[key] = archive[key][:n_eval]
 
     # NSGA-II's front: the final population's non-dominated feasible points (res.opt),
     # re-checked: evaluate_design max_violation <= FEAS_TOL
-    F = np.atleast_2d(res.opt.get("F"))
-    X = np.atleast_2d(res.opt.get("X"))
-    CV = np.atleast_1d(res.opt.get("CV")).ravel()
+    X_all = X
     ok = CV <= 0.0
     F, X = F[ok], X[ok]
     nat_n = np.column_stack([-F[:, 0], F[:, 1]]) if len(F) else np.zeros((0, 2))
@@ -469,8 +492,16 @@ def _nsga() -> dict:
     def peak_ok(vals):
         return bound is None or peak_of(vals) <= bound + PEAK_TOLERANCE_DB
 
+    peak_cache: dict = {}
+
+    def keep_z(z):  # the peak filter on z, cached (fronts repeat between generations)
+        k = np.asarray(z, float).tobytes()
+        if k not in peak_cache:
+            peak_cache[k] = peak_ok(space.values(z))
+        return peak_cache[k]
+
     nat_n_grid = nat_n
-    keep_n = np.array([peak_ok(space.values(x)) for x in X], dtype=bool)
+    keep_n = np.array([keep_z(x) for x in X], dtype=bool)
     nat_n, X = nat_n[keep_n], X[keep_n]
     # the whole archive (every feasible evaluated point): NSGA-II's best possible claim
     fa = np.array(archive["f"], float)
@@ -508,6 +539,8 @@ def _nsga() -> dict:
 
     # (a) hypervolumes with the CasADi ParetoResult's normalization
     hv_c = pr.hypervolume_of(vc)
+    # time to equal hypervolume: the first generation whose front, judged alike, reaches it
+    race = first_reaching(cb.records, hv_c, pr.hypervolume_of, keep_z)
     hv_n = pr.hypervolume_of(nat_n) if len(nat_n) else 0.0
     hv_n_grid = pr.hypervolume_of(nat_n_grid) if len(nat_n_grid) else 0.0
     hv_best_c = _best_subset_hv(pr.normalized(nat_n), len(vc))
@@ -567,8 +600,11 @@ def _nsga() -> dict:
                 for d, r in zip(dc, recheck, strict=True)
             ]
         )
-        peak_n = np.array([peak_of(space.values(x)) for x in np.atleast_2d(res.opt.get("X"))[ok]])
+        peak_n = np.array([peak_of(space.values(x)) for x in X_all[ok]])
     out = {
+        "race": race,
+        "t_race_run": t_race,
+        "n_gen_race": n_gen_race,
         "peak_bound": bound,
         "peak_c": peak_c,
         "peak_n": peak_n,
@@ -837,23 +873,39 @@ def bench_nsga_equal_time() -> dict:
 
 
 def bench_time_ratio() -> dict:
-    """CasADi Pareto wall time / NSGA-II wall time."""
+    """CasADi Pareto wall time / the time NSGA-II needs to reach the same hypervolume."""
     r = _nsga()
-    t_n = r["t_nsga_projected"]
-    ratio = r["t_casadi"] / t_n
+    race = r["race"]
+    t_c = r["t_casadi"]
+    t_n = race["seconds"]
+    ratio = t_c / t_n
+    # not reached within the run: NSGA-II needs more than t_n, so t_c / t_n bounds the ratio
+    state = (
+        f"reached at generation {race['generation']} ({race['evaluations']} evaluations, "
+        f"{t_n:.1f} s; judged HV {race['hv']:.4f})"
+        if race["reached"]
+        else f"NOT reached in {race['generations']} generations ({race['evaluations']} "
+        f"evaluations, {t_n:.1f} s; best judged HV {race['hv_best']:.4f}): the ratio is at "
+        f"most the value shown"
+    )
     return {
-        "name": "wall time ratio: CasADi 20-point front / NSGA-II 10,000 evaluations",
+        "name": "time to equal hypervolume: CasADi 20-point front / NSGA-II",
         "target": f"<= {TARGET_TIME_RATIO:g}",
         "unit": "ratio",
         "median": ratio,
         "ratio": ratio / TARGET_TIME_RATIO,
         "passed": ratio <= TARGET_TIME_RATIO,
         "notes": (
-            f"CasADi pareto_front median {r['t_casadi']:.2f} s (its 8 anchor starts and its two "
-            f"sweep chains use 2 forked workers) / NSGA-II {t_n:.1f} s"
-            + (" (extrapolated to 10,000 evaluations)" if r["budget"] < 10000 else "")
-            + f" (1 process); if NSGA-II's evaluations were spread ideally over both cores: "
-            f"{r['t_casadi'] / (t_n / 2):.3f}"
+            f"CasADi pareto_front median {t_c:.2f} s (its 8 anchor starts and its two sweep "
+            f"chains use 2 forked workers; normalized HV {r['hv_c']:.4f}) / the wall time "
+            f"NSGA-II (pop {NSGA_POP}, seed {NSGA_SEED}, 1 process) needs until its front, "
+            f"judged like the CasADi front (feasible points whose continuous peak |T| holds "
+            f"the bound + 0.01 dB, the CasADi front's normalization), first has at least that "
+            f"hypervolume: {state}; measured on one NSGA-II run of {r['n_gen_race']} "
+            f"generations ({r['t_race_run']:.1f} s, every generation's front recorded, the "
+            f"recording's time taken out), the same run as the rows above. Against NSGA-II's "
+            f"10,000 evaluations ({r['t_nsga']:.1f} s): {t_c / r['t_nsga']:.3f}; if NSGA-II's "
+            f"evaluations were spread ideally over both cores: {t_c / (t_n / 2):.3f}"
         ),
     }
 

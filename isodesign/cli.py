@@ -64,6 +64,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.optimize",
         "optimize a study: N, V_t0, L_c, D_c for a payload, floor and target (IPOPT)",
     ),
+    "yield": (
+        "isodesign.commands.yield_",
+        "yield of a design under a study's tolerances (sampling, confidence interval)",
+    ),
     "pareto": (
         "isodesign.commands.pareto",
         "Pareto front of two objectives (default: worst-band margin vs total volume)",

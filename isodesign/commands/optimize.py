@@ -61,6 +61,12 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
         help="study file (docs/optimization.md); default: the built-in default study",
     )
     parser.add_argument(
+        "--builtin",
+        choices=("table",),
+        help="a built-in study instead of STUDY.toml (table: the 600 kg table in six "
+        "degrees of freedom, docs/table.md)",
+    )
+    parser.add_argument(
         "--starts",
         type=_int_option,
         metavar="N",
@@ -91,6 +97,13 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign optimize``."""
 
     add_study_arguments(parser)
+    parser.add_argument(
+        "--yield-samples",
+        type=_int_option,
+        metavar="N",
+        help="a study with [scenarios]: draws of the yield estimate of the nominal and the "
+        "robust optimum (0..1000000; default 500; 0: none)",
+    )
     add_output_dir_arguments(parser)
 
 
@@ -113,7 +126,14 @@ def load_study_from_args(args):
         if v < lo or v > hi:
             raise InputError(f"{opt}: must be an integer in [{lo}, {hi}], got {v}")
         changes[key] = v
-    study = default_study() if args.study is None else load_study(args.study)
+    if getattr(args, "builtin", None) is not None:
+        if args.study is not None:
+            raise InputError("--builtin: give STUDY.toml or --builtin, not both")
+        from isodesign.optimization.study import table_study
+
+        study = table_study()
+    else:
+        study = default_study() if args.study is None else load_study(args.study)
     if changes:
         study = study.with_changes(solver=changes)
     return study
@@ -477,12 +497,51 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
     return written
 
 
-def run_optimization(study, args):
-    """``optimize(study)`` with the progress bar of ``args``."""
+#: Modules the output writing needs, imported while CasADi builds the NLP.
+PREFETCHED_MODULES = ("pandas", "matplotlib.figure", "matplotlib.backends.backend_agg")
 
+
+def prefetch_imports(modules=PREFETCHED_MODULES):
+    """Import ``modules`` in a background thread; return the started thread (join it).
+
+    CasADi releases the GIL while it builds the NLP's derivatives (about half a second),
+    so the imports that writing the outputs needs (pandas, Matplotlib: a few tenths of a
+    second) run meanwhile on the other core. Join the thread before anything forks (the
+    starts' worker processes): a fork while a thread holds the import lock could leave a
+    child waiting on it for ever. An import that fails here is left to fail where it is
+    used.
+    """
+    import importlib
+    import threading
+
+    def work():
+        for name in modules:
+            try:
+                importlib.import_module(name)
+            except Exception:  # the real import reports it
+                return
+
+    thread = threading.Thread(target=work, name="isodesign-prefetch", daemon=True)
+    thread.start()
+    return thread
+
+
+def run_optimization(study, args):
+    """``optimize(study)`` with the progress bar of ``args``.
+
+    The NLP is built first, while :func:`prefetch_imports` imports the output writers'
+    dependencies; the thread is joined before the starts run.
+    """
+    from isodesign.optimization.problem import Problem
+
+    thread = prefetch_imports()
+    try:
+        problem = Problem(study)
+    finally:
+        thread.join()
     with StartProgress(progress_enabled(args), study.solver["starts"],
                        study.objective["kind"]) as bar:
-        return optimize(study, progress=bar)
+        return optimize(study, progress=bar, problem=problem)
 
 
 def execute(study, run, args, *, prefix: str = "") -> int:
@@ -535,5 +594,18 @@ def execute(study, run, args, *, prefix: str = "") -> int:
 def run(args) -> int:
     """Run ``isodesign optimize``."""
     study = load_study_from_args(args)
+    n = getattr(args, "yield_samples", None)
+    if n is not None and not 0 <= n <= 10**6:
+        raise InputError(f"--yield-samples: must be an integer in [0, 1000000], got {n}")
+    if study.scenarios is not None:  # robust design (docs/robust.md)
+        from isodesign.commands.robust import ROBUST_FILES, execute_robust
+
+        with open_run(args, known_outputs=OUTPUT_FILES + ROBUST_FILES) as rundir:
+            return execute_robust(study, rundir, args)
+    if study.table is not None:  # six degrees of freedom (docs/table.md)
+        from isodesign.commands.table_optimize import TABLE_OUTPUT_FILES, execute_table
+
+        with open_run(args, known_outputs=TABLE_OUTPUT_FILES) as rundir:
+            return execute_table(study, rundir, args)
     with open_run(args) as rundir:  # the target is checked here, before the computation
         return execute(study, rundir, args)

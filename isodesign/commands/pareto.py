@@ -32,7 +32,7 @@ from isodesign.commands.optimize import (
     table,
 )
 from isodesign.commands.response import models_line
-from isodesign.errors import SolverError
+from isodesign.errors import InputError, SolverError
 from isodesign.io.record import (
     command_line,
     environment,
@@ -200,6 +200,9 @@ def run(args) -> int:
     objectives = parse_objectives(args.objectives)
     check_count(args.points, "--points", *POINTS_RANGE)
     study = load_study_from_args(args)
+    if study.table is not None:
+        raise InputError("STUDY.toml: a Pareto front of a study with a [table] is not "
+                         "available yet; isodesign optimize handles the table (docs/table.md)")
     rundir = open_run(args, "pareto", known_outputs=(*OUTPUT_FILES, *OPTIMIZE_FILES))
     with rundir:
         return _execute(study, rundir, args, objectives)

@@ -17,6 +17,12 @@ One file per concept:
 ``result``          :class:`OptimizationResult`
 ``driver``          :func:`optimize`
 ``pareto``          epsilon-constraint Pareto fronts
+``uncertainty``     the ``[scenarios]`` table: uncertain parameters, scenario studies
+``robust``          scenario blocks stacked in one NLP (worst case by epigraph)
+``exchange``        the exchange method: :func:`robust_optimize`, worst-case search
+``robust_result``   :class:`RobustResult`
+``sensitivity``     parametric sensitivities from the NLP (design held; ``lam_p``)
+``yields``          yield by sampling, Clopper-Pearson and Wilson intervals
 ==================  =====================================================================
 
 Public names resolve lazily (``from isodesign.optimization import optimize``), so that
@@ -47,6 +53,10 @@ _EXPORTS = {
     "optimize": "driver",
     "ParetoResult": "pareto",
     "pareto_front": "pareto",
+    "robust_optimize": "exchange",
+    "RobustResult": "robust_result",
+    "estimate_yield": "yields",
+    "YieldResult": "yields",
 }
 
 __all__ = sorted(_EXPORTS)

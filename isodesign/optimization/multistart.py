@@ -1,4 +1,5 @@
-"""Multi-start: space-filling starts and their IPOPT solves, in forked workers."""
+"""Multi-start: space-filling starts and their IPOPT solves, in forked workers
+(:func:`map_in_workers`, the optimizer's one process pool)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import numpy as np
 
 from isodesign.errors import SolverError
 
-__all__ = ["DEFAULT_WORKERS", "available_cores", "run_starts", "start_points"]
+__all__ = ["DEFAULT_WORKERS", "available_cores", "map_in_workers", "run_starts", "start_points"]
 
 #: Worker processes for the starts when none is asked for (capped by the cores
 #: available to the process, like any asked-for number).
@@ -73,32 +74,94 @@ def start_points(study, scaling) -> list[dict]:
     return pts
 
 
-_POOL_PROBLEM = None  # the Problem the forked start workers inherit
-_POOL_PARAMS = None  # the NLP parameters of the starts (None: minimize the first objective)
+_TASK = None  # the function the forked workers of map_in_workers inherit
 
 
-def _solve_start(vals: dict):
+def _run_indexed(item):
+    i, x = item
+    return i, _TASK(x)
+
+
+def map_in_workers(fn, items, *, workers=None, progress=None) -> list:
+    """``[fn(item) for item in items]``, in forked worker processes when the cores allow.
+
+    The one place where the optimizer fans work out over processes: the starts
+    (:func:`run_starts`) and the refinement of distinct branches
+    (:func:`isodesign.optimization.refine.refine_branches`) use it. ``fn`` need not be
+    picklable: the workers inherit it (and the built NLP it refers to) through ``fork``;
+    only the items and the results are pickled.
+
+    Parameters
+    ----------
+    fn : callable
+        Called with one item; its result must be picklable when workers are used.
+    items : iterable
+        The work items (picklable).
+    workers : int, optional
+        Worker processes asked for; default :data:`DEFAULT_WORKERS`. Capped by the cores
+        available to the process (:func:`available_cores`) and by the number of items.
+        With 1 worker after the cap, a single item or no ``fork`` start method, the items
+        run one after the other in this process.
+    progress : callable, optional
+        ``progress(done, total, result)`` after each item (in completion order when
+        parallel).
+
+    Returns
+    -------
+    list
+        The results in item order.
+    """
+    global _TASK
+
+    items = list(items)
+    n = len(items)
+    workers = min(DEFAULT_WORKERS if workers is None else workers, available_cores())
+    results: list = [None] * n
+    ctx = None
+    if workers > 1 and n > 1:
+        import multiprocessing as mp
+
+        try:
+            ctx = mp.get_context("fork")
+        except ValueError:
+            ctx = None
+    if ctx is None:
+        for i, item in enumerate(items):
+            results[i] = fn(item)
+            if progress:
+                progress(i + 1, n, results[i])
+        return results
+    _TASK = fn
+    try:
+        with ctx.Pool(processes=min(workers, n)) as pool:
+            done = 0
+            for i, out in pool.imap_unordered(_run_indexed, list(enumerate(items))):
+                results[i] = out
+                done += 1
+                if progress:
+                    progress(done, n, out)
+    finally:
+        _TASK = None
+    return results
+
+
+def _solve_start(prob, params, vals: dict):
     """Initial guess and IPOPT solve of one start (in a worker or in-process)."""
-    prob = _POOL_PROBLEM
     try:
         x0 = prob.initial_guess(vals)
     except SolverError as exc:
         return str(exc)
-    return prob.solve(x0, _POOL_PARAMS)
-
-
-def _indexed_start(item):
-    i, vals = item
-    return i, _solve_start(vals)
+    return prob.solve(x0, params)
 
 
 def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=None) -> list:
     """Solve every start; in forked worker processes when more than one core is available.
 
     The workers inherit the built solver through ``fork`` (nothing is pickled but
-    the start values and the results), so the NLP is built once. Results come
-    back in start order: a :class:`~isodesign.optimization.solution.Solution`, or the
-    error message of a start whose initial guess failed.
+    the start values and the results), so the NLP is built once
+    (:func:`map_in_workers`). Results come back in start order: a
+    :class:`~isodesign.optimization.solution.Solution`, or the error message of a start
+    whose initial guess failed.
 
     Parameters
     ----------
@@ -129,36 +192,5 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
         One entry per start, in start order: a Solution, or a ``str`` with the
         :class:`~isodesign.errors.SolverError` message of a failed initial guess.
     """
-    global _POOL_PROBLEM, _POOL_PARAMS
-
-    n = len(starts)
-    workers = min(DEFAULT_WORKERS if workers is None else workers, available_cores())
-    _POOL_PROBLEM = prob
-    _POOL_PARAMS = params
-    results: list = [None] * n
-    try:
-        ctx = None
-        if workers > 1 and n > 1:
-            import multiprocessing as mp
-
-            try:
-                ctx = mp.get_context("fork")
-            except ValueError:
-                ctx = None
-        if ctx is None:
-            for i, vals in enumerate(starts):
-                results[i] = _solve_start(vals)
-                if progress:
-                    progress(i + 1, n, results[i])
-        else:
-            with ctx.Pool(processes=min(workers, n)) as pool:
-                done = 0
-                for i, out in pool.imap_unordered(_indexed_start, list(enumerate(starts))):
-                    results[i] = out
-                    done += 1
-                    if progress:
-                        progress(done, n, out)
-    finally:
-        _POOL_PROBLEM = None
-        _POOL_PARAMS = None
-    return results
+    return map_in_workers(lambda vals: _solve_start(prob, params, vals), starts,
+                          workers=workers, progress=progress)

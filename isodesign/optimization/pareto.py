@@ -26,7 +26,7 @@ from isodesign.errors import InputError, SolverError
 from isodesign.optimization.constraints import constraint_reports
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
-from isodesign.optimization.multistart import available_cores, run_starts, start_points
+from isodesign.optimization.multistart import map_in_workers, run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS, Problem
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db, peak_slots
@@ -257,7 +257,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     anchor_a = prob.solve(prob.initial_guess(res_a.values))
     if not anchor_a.feasible:
         raise SolverError(f"pareto: re-solving the optimum of {a} failed ({anchor_a.status})")
-    anchor_b = prob.solve(anchor_a.x, prob.params(weights=[0.0, 1.0]))
+    anchor_b = _minimize_b(prob, anchor_a)
     if not anchor_b.feasible:
         # from A's optimum IPOPT can stall; minimize B from the study's starts instead
         outs = run_starts(prob, start_points(st, prob.scaling),
@@ -315,59 +315,79 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     )
 
 
-_CHAIN_PROBLEM: Problem | None = None  # inherited by the forked chain workers
+#: Band above A's value at its optimum to which A's epigraph is bounded while B alone is
+#: minimized (internal units: dB for a dB objective, else a natural log, i.e. a factor
+#: of e^4.6 = 100). With zero weight the epigraph variable is otherwise free up to its box
+#: (300): the barrier pulls it far from its constraints and IPOPT wandered (292 iterations
+#: on the default study, 52 with the band; benchmarks/bench_optimize.py).
+ANCHOR_B_BAND = {True: 40.0, False: math.log(100.0)}
+
+
+def _minimize_b(prob: Problem, anchor_a: Solution) -> Solution:
+    """B minimized alone from A's optimum, A's epigraph bounded to a band above its optimum.
+
+    The band must not bind: if A's true value (epigraph made tight) reaches its bound the
+    solve is repeated without it, so the anchor is B's minimum either way.
+    """
+    kind_a = prob.objectives[0]
+    bound = float(anchor_a.objectives[0]) + ANCHOR_B_BAND[OBJECTIVES[kind_a].db]
+    sol = prob.solve(anchor_a.x, prob.params(weights=[0.0, 1.0], eps=[bound, None]))
+    if sol.feasible:
+        tight = prob.retighten(sol)
+        if float(tight.objectives[0]) < bound - 1e-6 * max(1.0, abs(bound)):
+            return sol
+    return prob.solve(anchor_a.x, prob.params(weights=[0.0, 1.0]))
 
 
 def _chain(prob: Problem, anchor: Solution, indices: list[int], eps,
            anchor_b: Solution) -> dict:
-    """Solve a chain of sweep points, each warm-started from the previous one."""
+    """Solve a chain of sweep points, each warm-started from the previous one.
+
+    Where the peak of |T| is refined, round 0 of the movable peak frequencies is placed
+    before each point around the peak predicted from the chain so far (the last two
+    refined peaks extrapolated geometrically: the epsilon steps are equal; the anchor's
+    own peak first), so that the exchange method (:func:`_refine_point`, rounds 1, 2, ...)
+    seldom needs a re-solve.
+    """
     out = {}
     x = _consistent(prob, anchor)
+    peaks = [_peak_of(prob, anchor)[1]] if _peak_refined(prob) else []
+    zs: list = []
     for k in indices:
         e_k = eps[k] + 1e-9 * max(1.0, abs(eps[k]))
+        if len(zs) >= 2:
+            z_pred = np.clip(2.0 * zs[-1] - zs[-2], -1.0, 1.0)
+            x = x.copy()
+            x[: prob.nz] = z_pred
+        if peaks:
+            f_pred = peaks[-1] if len(peaks) < 2 else peaks[-1] ** 2 / peaks[-2]
+            peak_slots(prob, 0, f_pred)
+        if peaks or len(zs) >= 2:
+            x = prob.initial_guess(prob.values(x))  # consistent on the moved frequencies
         sol = prob.solve(x, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
         if not sol.feasible:
             # warm start failed: retry from B's anchor (feasible for every eps >= B's min)
             sol = prob.solve(_consistent(prob, anchor_b),
                              prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
         if sol.feasible:
-            sol = _refine_point(prob, sol, [None, e_k])
+            sol, f_pk = _refine_point(prob, sol, [None, e_k])
             x = sol.x
+            zs.append(sol.x[: prob.nz].copy())
+            if peaks and f_pk is not None:
+                peaks.append(f_pk)
         out[k] = sol
     return out
 
 
-def _chain_worker(args):
-    anchor, indices, eps, anchor_b = args
-    return _chain(_CHAIN_PROBLEM, anchor, indices, eps, anchor_b)
-
-
 def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
     """Run the sweep chains, in forked workers when ``workers`` (default 2), capped by
-    the cores available to the process, is more than 1."""
-    global _CHAIN_PROBLEM
-    import multiprocessing as mp
-
-    workers = min(2 if workers is None else workers, available_cores())
+    the cores available to the process, is more than 1
+    (:func:`~isodesign.optimization.multistart.map_in_workers`)."""
+    parts = map_in_workers(lambda c: _chain(prob, c[0], c[1], eps, anchor_b), chains,
+                           workers=workers)
     sols: dict = {}
-    ctx = None
-    if workers > 1:
-        try:
-            ctx = mp.get_context("fork")
-        except ValueError:
-            ctx = None
-    if ctx is None:
-        for anchor, idx in chains:
-            sols.update(_chain(prob, anchor, idx, eps, anchor_b))
-        return sols
-    _CHAIN_PROBLEM = prob
-    try:
-        with ctx.Pool(processes=len(chains)) as pool:
-            for part in pool.map(_chain_worker,
-                                 [(anchor, idx, eps, anchor_b) for anchor, idx in chains]):
-                sols.update(part)
-    finally:
-        _CHAIN_PROBLEM = None
+    for part in parts:
+        sols.update(part)
     return sols
 
 
@@ -377,34 +397,47 @@ def _consistent(prob: Problem, sol: Solution) -> np.ndarray:
     return prob.initial_guess(sol.values)
 
 
-def _refine_point(prob: Problem, sol: Solution, eps) -> Solution:
+def _peak_refined(prob: Problem) -> bool:
+    """True when the sweep refines the peak grid (a peak bound, or the peak objective)."""
+    return (prob.study.constraints.get("max_peak_transmissibility_db") is not None
+            or "peak_transmissibility" in prob.objectives)
+
+
+def _peak_of(prob: Problem, sol: Solution) -> tuple[float, float]:
+    """Continuous peak of |T| of a solution: (dB, Hz)."""
+    return continuous_peak_db(prob, sol.values, prob.sigma(sol.x), prob.tube_rms(sol.x))
+
+
+def _refine_point(prob: Problem, sol: Solution, eps) -> tuple[Solution, float | None]:
     """The exchange method of :func:`isodesign.optimization.driver.optimize` for one sweep point.
 
     If the continuous peak of |T| exceeds the study's bound (or the sampled peak
     objective) by more than PEAK_TOLERANCE_DB, move five of the NLP's movable
-    peak frequencies around it and solve again (at most PEAK_ROUNDS rounds). The
-    frequencies stay for the next point, whose peak is usually close.
+    peak frequencies around it and solve again (at most PEAK_ROUNDS rounds, using the
+    slot rounds 1, 2, ... and 0 last: round 0 holds the chain's predicted peak). The
+    frequencies stay for the next point, whose peak is usually close. Returns the point
+    and the frequency of its continuous peak last measured (None when not refined).
     """
-    st = prob.study
-    bound = st.constraints.get("max_peak_transmissibility_db")
+    bound = prob.study.constraints.get("max_peak_transmissibility_db")
     kinds = prob.objectives
-    if bound is None and "peak_transmissibility" not in kinds:
-        return sol
+    if not _peak_refined(prob):
+        return sol, None
+    f_pk = None
     for rnd in range(PEAK_ROUNDS):
         vals = sol.values
-        peak_db, f_pk = continuous_peak_db(prob, vals, prob.sigma(sol.x), prob.tube_rms(sol.x))
+        peak_db, f_pk = _peak_of(prob, sol)
         limits = [bound] if bound is not None else []
         for k, kind in enumerate(kinds):
             if kind == "peak_transmissibility":
                 limits.append(OBJECTIVES[kind].to_natural(sol.objectives[k]))
         if peak_db <= min(limits) + PEAK_TOLERANCE_DB:
             break
-        peak_slots(prob, rnd, f_pk)
+        peak_slots(prob, (rnd + 1) % PEAK_ROUNDS, f_pk)
         new = prob.solve(prob.initial_guess(vals), prob.params(weights=[1.0, 0.0], eps=eps))
         if not new.feasible:
             break
         sol = new
-    return sol
+    return sol, f_pk
 
 
 #: The hypervolume reference point is the front's nadir pushed out by this

@@ -22,6 +22,7 @@ import numpy as np
 
 from isodesign.errors import SolverError
 from isodesign.numerics.cplx import Cx
+from isodesign.optimization.multistart import map_in_workers
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS
 from isodesign.response.isolator import transmissibility
@@ -181,7 +182,7 @@ def _peak_refined(study, prob) -> bool:
             or prob.objective == "peak_transmissibility")
 
 
-def refine_peak(study, prob, final, best, flat):
+def refine_peak(study, prob, final, best, flat, *, known=()):
     """Exchange method for the semi-infinite peak constraint (and objective).
 
     The NLP bounds |T| at the peak grid's frequencies only, so an optimum can hide
@@ -205,6 +206,11 @@ def refine_peak(study, prob, final, best, flat):
         The optimum before its tie-break.
     flat : dict or None
         The flat-direction report of :func:`tie_break` for ``final``.
+    known : sequence of float
+        Objectives J (before their refinement) of branches already refined. A re-solve
+        that lands within :data:`BRANCH_TOLERANCE` of one of them has joined that branch
+        (on a grid with at least that branch's refinement frequencies): the refinement
+        stops there and ``info["merged_with"]`` gives the index of that J in ``known``.
 
     Returns
     -------
@@ -265,6 +271,10 @@ def refine_peak(study, prob, final, best, flat):
             )
         best = sol
         final = sol
+        joined = [k for k, j in enumerate(known) if abs(sol.objective - j) <= BRANCH_TOLERANCE]
+        if joined:
+            info["merged_with"] = joined[0]
+            break
         if study.solver["tie_break"]:
             flat, final = tie_break(prob, sol, flat_tolerance(kind))
     return final, best, flat, info
@@ -356,11 +366,11 @@ class Refined:
     branches: tuple = ()
 
 
-def _refine_one(study, prob, i: int, sol, tol_j: float) -> Refined:
+def _refine_one(study, prob, i: int, sol, tol_j: float, known=()) -> Refined:
     flat, final = None, sol
     if study.solver["tie_break"]:
         flat, final = tie_break(prob, sol, tol_j)
-    final, best, flat, peak = refine_peak(study, prob, final, sol, flat)
+    final, best, flat, peak = refine_peak(study, prob, final, sol, flat, known=known)
     return Refined(i, best, final, flat, peak, prob.slot_hz.copy())
 
 
@@ -370,11 +380,16 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     ``sols`` maps start index -> feasible :class:`~.solution.Solution`. The starts are
     taken by their sampled objective (best first); starts within
     :data:`BRANCH_TOLERANCE` of a refined one reached the same branch and are skipped.
+    A branch whose refinement re-solve lands on an earlier branch's optimum (within
+    :data:`BRANCH_TOLERANCE`) has joined it and is not refined a second time.
     Every other branch is refined, however far behind on the sampled grid: the
     re-solve after a peak refinement is a new local solve and can move a branch a
     long way (on the default study at 717 kg, a start at 4.74 dB refines to 5.22 dB), so the sampled
     objective bounds nothing. The winner is the branch with the best refined
-    optimum (before its tie-break). Each branch starts from the study's peak grid;
+    optimum (before its tie-break). The branches are refined in forked worker
+    processes when ``solver.workers`` and the cores allow
+    (:func:`~isodesign.optimization.multistart.map_in_workers`; the result is the same
+    as one after the other). Each branch starts from the study's peak grid;
     the winner's movable frequencies are restored on ``prob`` (the re-check
     evaluates on them).
 
@@ -396,7 +411,7 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
         The winning branch (its start index, refined optimum, tie-broken final
         point, flat-direction and peak-refinement reports, slot frequencies) with
         ``branches``: (start index, refined J) of every branch refined, winner
-        first.
+        first (a branch that joined another one carries that one's refined J).
 
     Raises
     ------
@@ -407,25 +422,57 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     order = sorted(sols, key=lambda i: sols[i].objective)
     if not _peak_refined(study, prob):
         order = order[:1]  # nothing to refine: the tie-break alone cannot change the winner
-    done: list[Refined] = []
-    tried: list[float] = []
-    error = None
+    branches: list[int] = []  # the first start of each distinct branch, best first
     for i in order:
-        j = sols[i].objective
-        if any(abs(j - t) <= BRANCH_TOLERANCE for t in tried):
-            continue
-        tried.append(j)
+        if not any(abs(sols[i].objective - sols[b].objective) <= BRANCH_TOLERANCE
+                   for b in branches):
+            branches.append(i)
+
+    def refine(k: int, known=None):
+        # each branch from the study's peak grid; a branch stops when it joins a better one
         if not np.array_equal(prob.slot_hz, slots0):
             prob.set_slots(slots0)
+        i = branches[k]
+        if known is None:
+            known = [sols[b].objective for b in branches[:k]]
         try:
-            done.append(_refine_one(study, prob, i, sols[i], tol_j))
+            return _refine_one(study, prob, i, sols[i], tol_j, known=known)
         except SolverError as exc:
-            error = error or exc
+            return exc
+
+    # the branches are independent: refined in the start workers' processes when the
+    # cores allow (each worker's copy of the NLP moves its own peak frequencies)
+    results = map_in_workers(refine, range(len(branches)),
+                             workers=study.solver.get("workers"))
+    done: list[Refined] = []
+    merged: list[tuple[int, Refined]] = []  # (start, the refined branch it joined)
+    error = None
+    for k, r in enumerate(results):
+        if isinstance(r, Refined) and r.peak.get("merged_with") is not None:
+            into = branches[r.peak["merged_with"]]
+            target = next((d for d in done if d.start == into), None)
+            if target is not None:
+                # a re-solve joined a better branch already refined: from there it would
+                # repeat that branch's refinement on a grid with more frequencies (more
+                # constraints), so it cannot end better; listed with that branch's optimum
+                merged.append((r.start, target))
+                continue
+            # it joined a branch that failed or joined another: refine it in full here
+            r = refine(k, known=[sols[d.start].objective for d in done])
+            if isinstance(r, Refined) and r.peak.get("merged_with") is not None:
+                merged.append((r.start, done[r.peak["merged_with"]]))
+                continue
+        if isinstance(r, SolverError):
+            error = error or r
+        else:
+            done.append(r)
     if not done:
         raise error
     win = min(done, key=lambda r: r.best.objective)
     if not np.array_equal(prob.slot_hz, win.slot_hz):
         prob.set_slots(win.slot_hz)
     ranked = [win] + [r for r in done if r is not win]
+    rows = [(r.start, r.best.objective) for r in ranked]
+    rows += [(i, r.best.objective) for i, r in merged]
     return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz,
-                   tuple((r.start, r.best.objective) for r in ranked))
+                   tuple(rows))

@@ -34,11 +34,14 @@ Tables and keys
 ``[solver]``       starts, seed, max_iter, tol, tie_break, workers (forked processes
                    for the starts and the Pareto sweep; capped by the cores available
                    to the process and by the number of starts)
+``[scenarios]``    uncertain parameters and tolerances for robust design (optional;
+                   :mod:`isodesign.optimization.uncertainty`, docs/robust.md)
 """
 
 from __future__ import annotations
 
 import copy
+import dataclasses
 import math
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -122,7 +125,7 @@ _DEFAULT = {
 
 _KEYS = {
     "": {"name", "description", "payload", "hardware", "floor", "target", "models",
-         "variables", "constraints", "objective", "solver", "table"},
+         "variables", "constraints", "objective", "solver", "table", "scenarios"},
     "payload": {"mass_kg", "isolators", "spacing_m", "cg_height_m"},
     "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
                  "minor_loss", "polytropic_index", "roughness_m", "gas",
@@ -170,6 +173,8 @@ class Study(ResultDisplay):
     notes: tuple[str, ...] = field(default_factory=tuple)
     table: Any = None
     floor_axes: Any = None
+    #: The ``[scenarios]`` table (:class:`~.uncertainty.UncertaintySpace`), None: nominal only.
+    scenarios: Any = None
 
     def _summary_items(self) -> list[tuple[str, str]]:
         """Name, job, models, variables, constraints, objective (for repr and notebooks)."""
@@ -347,6 +352,15 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
         warn_unit_slips(d, where)
+    if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
+        from isodesign.optimization.uncertainty import parse_scenarios
+
+        if st.table is not None:
+            raise InputError(f"{where}: [scenarios] is not available with a [table] study yet: "
+                             "robust design works on the vertical study (docs/robust.md, "
+                             "section 7); remove [scenarios] or [table]")
+
+        st = dataclasses.replace(st, scenarios=parse_scenarios(raw["scenarios"], where, st))
     return st
 
 

@@ -85,6 +85,8 @@ class Case:
     design_json: dict | None = None
     pareto: dict | None = None
     notes: tuple[str, ...] = field(default_factory=tuple)
+    #: ``robust.json`` of a robust optimize run (a study with ``[scenarios]``).
+    robust: dict | None = None
 
     @property
     def payload(self):
@@ -168,8 +170,24 @@ def _study_case(p: Path, label: str | None) -> Case:
                 notes=("the design is the study's start design (variables' start values)",))
 
 
+def _robust_case(p: Path, rec: dict, label: str | None) -> Case:
+    """A robust optimize run: its robust design, with robust.json."""
+    rob = _read_json(p / "robust.json")
+    st = load_study(p / "study_resolved.toml") if (p / "study_resolved.toml").is_file() \
+        else _study_from_record(rec, p)
+    if not rob.get("feasible"):
+        raise InputError(f"{p}: the robust optimize run found no robust design; nothing to "
+                         "report (see its robust.json)")
+    models = _study_models(st)
+    return Case("optimize", label or f"{st.name} robust optimum", str(p),
+                st.design_at(rob["values"]), st, models, "the run's resolved study",
+                f"the run's resolved study ({p / 'study_resolved.toml'})", robust=rob)
+
+
 def _optimize_case(p: Path, label: str | None) -> Case:
     rec = _read_json(p / "record.json")
+    if rec.get("robust") and (p / "robust.json").is_file():
+        return _robust_case(p, rec, label)
     st = load_study(p / "study_resolved.toml") if (p / "study_resolved.toml").is_file() \
         else _study_from_record(rec, p)
     if not rec.get("feasible", False) or not (p / "design.toml").is_file():

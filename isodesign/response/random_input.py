@@ -178,8 +178,6 @@ def _statistical_closure(st: _Statistical, x0: float, y0: float, rtol: float, ma
 
 def _random_closure(evaluate, x0: float, rtol: float, max_iter: int):
     """Secant (then Brent) on ``g(x) = ln sigma_new(e^x) - x``; returns (eval, n, slope)."""
-    from scipy.optimize import brentq
-
     hist: list[_Eval] = []
 
     def g(x):
@@ -219,6 +217,8 @@ def _random_closure(evaluate, x0: float, rtol: float, max_iter: int):
             raise SolverError("random closure: no bracket of the stroke RMS sigma found")
         a = max(pos, key=lambda p: p[0]) if pos[0][0] < neg[0][0] else min(pos, key=lambda p: p[0])
         b = min(neg, key=lambda p: abs(p[0] - a[0]))
+        from scipy.optimize import brentq  # the fallback only: the import costs 0.1 s
+
         try:
             x = brentq(g, a[0], b[0], xtol=1e-15, rtol=4.5e-16, maxiter=200)
         except (ValueError, RuntimeError) as exc:

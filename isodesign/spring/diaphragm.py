@@ -722,6 +722,8 @@ def diaphragm_model(
         return spec
     if isinstance(spec, dict):
         return diaphragm_from_dict(spec)
+    if callable(getattr(spec, "stiffness", None)) and callable(getattr(spec, "in_range", None)):
+        return spec  # any other model object (e.g. a scaled one of isodesign.optimization)
     if spec is None or spec == "none":
         return NoDiaphragm()
     if spec == "viscoelastic":

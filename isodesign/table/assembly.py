@@ -40,6 +40,7 @@ __all__ = [
     "floor_input",
     "geometry",
     "gravity_stiffness",
+    "ldlt_solve",
     "point_matrix",
     "solve_complex",
     "static_stiffness_matrix",
@@ -265,11 +266,84 @@ def solve_complex(d: Cx, b: Cx, n_rhs: int = 3):
 
 
 def _solve_casadi(d: Cx, b: Cx, n_rhs: int) -> Cx:
+    if d.re.shape[0] == 1:  # one frequency (the NLP's point function): inline LDL^T
+        import casadi as ca
 
+        dd = [[Cx(d.re[0, 6 * i + j], d.im[0, 6 * i + j]) for j in range(6)] for i in range(6)]
+        bb = [[Cx(b.re[0, n_rhs * i + a], b.im[0, n_rhs * i + a]) for a in range(n_rhs)]
+              for i in range(6)]
+        x = ldlt_solve(dd, bb)
+        return Cx(ca.horzcat(*[x[i][a].re for i in range(6) for a in range(n_rhs)]),
+                  ca.horzcat(*[x[i][a].im for i in range(6) for a in range(n_rhs)]))
     fn = _casadi_solver(n_rhs)
     nf = d.re.shape[0]
     out = fn.map(nf)(d.re.T, d.im.T, b.re.T, b.im.T)
     return Cx(out[0].T, out[1].T)
+
+
+def _is_zero(c: Cx) -> bool:
+    def z(v):
+        if isinstance(v, int | float):
+            return v == 0
+        try:
+            return bool(v.is_zero())
+        except AttributeError:
+            return False
+    return z(c.re) and z(c.im)
+
+
+def ldlt_solve(a, b):
+    """Solve ``A X = B`` for a complex *symmetric* ``A`` (``A = A^T``) by ``LDL^T``, any backend.
+
+    No pivoting: the pivots of the table's dynamic stiffness are its translational and
+    rotational diagonal terms and their Schur complements, complex with the isolators'
+    losses. Structural zeros (a symmetric layout's decoupled blocks) are skipped, so a
+    symbolic solve stays small.
+
+    Parameters
+    ----------
+    a : list of list of Cx
+        The ``m x m`` matrix (entries scalars or arrays of one shape, or CasADi scalars).
+    b : list of list of Cx
+        The ``m x r`` right-hand sides.
+
+    Returns
+    -------
+    list of list of Cx
+        ``X``, ``m x r``.
+    """
+    m = len(a)
+    lo = [[None] * m for _ in range(m)]
+    dg = [None] * m
+    for j in range(m):
+        s = a[j][j]
+        for k in range(j):
+            if lo[j][k] is not None:
+                s = s - lo[j][k] * lo[j][k] * dg[k]
+        dg[j] = s
+        for i in range(j + 1, m):
+            t = a[i][j]
+            for k in range(j):
+                if lo[i][k] is not None and lo[j][k] is not None:
+                    t = t - lo[i][k] * lo[j][k] * dg[k]
+            lo[i][j] = None if _is_zero(t) else t / dg[j]
+    r = len(b[0])
+    x = [[None] * r for _ in range(m)]
+    for c in range(r):
+        y = [None] * m
+        for i in range(m):
+            t = b[i][c]
+            for k in range(i):
+                if lo[i][k] is not None:
+                    t = t - lo[i][k] * y[k]
+            y[i] = t
+        for i in reversed(range(m)):
+            t = y[i] / dg[i]
+            for k in range(i + 1, m):
+                if lo[k][i] is not None:
+                    t = t - lo[k][i] * x[k][c]
+            x[i][c] = t
+    return x
 
 
 _SOLVERS: dict = {}

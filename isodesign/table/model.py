@@ -143,7 +143,8 @@ class TableModel:
         h = self.table.horizontal
         return [h.stiffness(w, float(load)) for load in self.leveling.load_n]
 
-    def outputs(self, k_vertical, omega, k_horizontal=None) -> TableOutputs:
+    def outputs(self, k_vertical, omega, k_horizontal=None, *,
+                strokes_only: bool = False) -> TableOutputs:
         """Transfer functions for given vertical (and horizontal) isolator stiffnesses.
 
         Parameters
@@ -154,6 +155,9 @@ class TableModel:
             Angular frequency, rad/s.
         k_horizontal : list of Cx, optional
             Default :meth:`horizontal_stiffness`.
+        strokes_only : bool
+            Compute the vertical strokes only (``points`` and ``horizontal_strokes`` are
+            ``None``): what the closure iterates on.
         """
         w = np.asarray(omega, dtype=float)
         kv = [k if isinstance(k, Cx) else Cx.from_complex(k) for k in k_vertical]
@@ -161,10 +165,13 @@ class TableModel:
         d, b = dynamic_stiffness(self.geometry, kv, kh, w)
         q = solve_complex(d, b)
         geo = self.geometry
-        pts = np.einsum("kij,fja->fkia", geo.points, q)
-        s = np.einsum("nj,fja->fna", geo.gz, q)
+        s = np.matmul(geo.gz, q)  # (f, n, 3)
         s[:, :, 2] -= 1.0
-        hs = np.einsum("cnj,fja->fcna", geo.gh, q)
+        if strokes_only:
+            return TableOutputs(body=q, points=None, strokes=s, horizontal_strokes=None)
+        pts = np.matmul(geo.points[None], q[:, None])  # (f, k, 3, 3)
+        n = self.n_isolators
+        hs = np.matmul(geo.gh.reshape(2 * n, 6), q).reshape(-1, 2, n, 3)
         hs[:, 0, :, 0] -= 1.0
         hs[:, 1, :, 1] -= 1.0
         return TableOutputs(body=q, points=pts, strokes=s, horizontal_strokes=hs)

@@ -56,3 +56,25 @@ def test_pareto_chains_cap_the_workers_at_the_cores(one_core, monkeypatch):
 def test_run_starts_forks_when_the_cores_are_there():
     out = multistart.run_starts(PidProblem(), [{"i": i} for i in range(4)], workers=2)
     assert len(out) == 4 and os.getpid() not in out
+
+
+def test_map_in_workers_keeps_the_item_order_and_runs_closures():
+    """The function is inherited through fork (a closure: not picklable); results come
+    back in item order whatever the completion order."""
+    offset = 10
+
+    def fn(x):
+        return x * x + offset, os.getpid()
+
+    out = multistart.map_in_workers(fn, range(6), workers=2)
+    assert [v for v, _ in out] == [x * x + 10 for x in range(6)]
+    if multistart.available_cores() >= 2:
+        assert all(pid != os.getpid() for _, pid in out)
+
+
+def test_map_in_workers_runs_here_on_one_core_and_reports_progress(one_core):
+    seen = []
+    out = multistart.map_in_workers(lambda x: os.getpid(), ["a", "b", "c"], workers=4,
+                                    progress=lambda done, total, r: seen.append((done, total)))
+    assert out == [os.getpid()] * 3
+    assert seen == [(1, 3), (2, 3), (3, 3)]

@@ -294,3 +294,26 @@ def test_front_not_dominated_by_independent_designs(front):
     # local check looks where a missed optimum would be
     gap = [min(m - sm for m, v in pf.values if v >= sv * (1 - 1e-9)) for sm, sv in loc]
     assert min(gap) < 0.1
+
+
+@pytest.mark.slow
+def test_anchor_b_is_the_minimum_of_b_with_or_without_the_band(monkeypatch):
+    """B minimized alone with A's epigraph bounded (pareto.ANCHOR_B_BAND) reaches the same
+    minimum as without the bound; a band so narrow that it binds falls back to the
+    unbounded solve."""
+    from isodesign.optimization import pareto
+    from isodesign.optimization.problem import Problem
+
+    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40})
+    st = st.with_changes(objective={"kind": "worst_band_margin"})
+    prob = Problem(st, objectives=("worst_band_margin", "total_volume"))
+    a = prob.solve(prob.initial_guess({v.name: v.start for v in st.variables}))
+    assert a.feasible
+    free = prob.solve(a.x, prob.params(weights=[0.0, 1.0]))
+    banded = pareto._minimize_b(prob, a)
+    assert free.feasible and banded.feasible
+    assert banded.objectives[1] == pytest.approx(free.objectives[1], abs=1e-6)
+    monkeypatch.setattr(pareto, "ANCHOR_B_BAND", {True: 1.0, False: 0.01})
+    narrow = pareto._minimize_b(prob, a)
+    assert narrow.feasible
+    assert narrow.objectives[1] == pytest.approx(free.objectives[1], abs=1e-6)

@@ -56,3 +56,30 @@ def test_a_met_refinement_has_no_violation_and_an_accurate_note():
     fig = {"peak_transmissibility_db": bound + 0.008, "peak_frequency_hz": 1.3}
     (note,) = grid_notes(res, fig)
     assert "refinement" in note and f"{len(res.peak['added_frequencies_hz'])}" in note
+
+
+@pytest.mark.slow
+def test_a_branch_that_joins_a_better_one_is_not_refined_twice():
+    """On the default study the N = 3.2 branch's first refinement re-solve lands on the
+    N = 8 branch's sampled optimum. It is listed with that branch's refined objective, and
+    refining it in full (as before the shortcut) indeed ends no better. The branches are
+    refined in worker processes: the result is the same as one after the other."""
+    from isodesign.optimization.multistart import run_starts, start_points
+    from isodesign.optimization.problem import Problem
+
+    st = default_study()
+    par = optimize(st, analyze=False)
+    ser = optimize(st.with_changes(solver={"workers": 1}), analyze=False)
+    assert par.objective_value == ser.objective_value and par.values == ser.values
+    assert par.branches == ser.branches
+    (win, j_win), (joined, j_joined) = par.branches
+    assert j_joined == j_win and joined != win
+    # the joined branch refined in full, from the study's peak grid
+    prob = Problem(st)
+    slots0 = prob.slot_hz.copy()
+    sols = run_starts(prob, start_points(st, prob.scaling), workers=1)
+    prob.set_slots(slots0)
+    full = refine._refine_one(st, prob, joined, sols[joined], refine.flat_tolerance(
+        prob.objective))
+    assert "merged_with" not in full.peak
+    assert -full.best.objective <= j_win + 1e-6

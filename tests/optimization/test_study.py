@@ -73,7 +73,7 @@ def test_default_study_file_loads(tmp_path):
     [
         ({"bogus": 1}, "bogus", "top level",
          {"name", "description", "payload", "hardware", "floor", "target", "models",
-          "variables", "constraints", "objective", "solver", "table"}),
+          "variables", "constraints", "objective", "solver", "table", "scenarios"}),
         ({"payload": {"mass": 600.0}}, "mass", "[payload]",
          {"mass_kg", "isolators", "spacing_m", "cg_height_m"}),
         ({"models": {"flow_model": "womersley"}}, "flow_model", "[models]",

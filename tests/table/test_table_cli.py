@@ -6,6 +6,7 @@ import shutil
 from importlib import resources
 
 import pandas as pd
+import pytest
 
 from isodesign.cli import main
 
@@ -37,3 +38,21 @@ def test_response_on_a_table_study_has_point_and_axis_columns(tmp_path, capsys):
     assert set(df["axis"]) == {"x", "y", "z"} and set(df["point"]) == {"centre", "corner"}
     assert len(df) == 2 * 3 * 14
     assert text.strip().splitlines()[-2].startswith(("PASS", "FAIL"))
+
+
+@pytest.mark.slow
+def test_optimize_builtin_table_and_its_run_directory(tmp_path, capsys):
+    out = tmp_path / "o"
+    assert main(["optimize", "--builtin", "table", "--starts", "1", "--workers", "1",
+                 "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "re-check: NumPy closure = NLP" in text and "optimum: " in text
+    for name in ("design.toml", "design.json", "bands.csv", "modes.csv", "starts.csv",
+                 "record.json", "study_resolved.toml", "response.png", "layout.png"):
+        assert (out / name).is_file(), name
+    df = pd.read_csv(out / "bands.csv")
+    assert {"point", "axis", "start_margin_db"} <= set(df.columns)
+    # the run directory is an input of modes and response (its optimum, its table)
+    assert main(["modes", str(out), "-o", str(tmp_path / "m")]) == 0
+    assert "optimum of" in capsys.readouterr().out
+    assert main(["response", str(out), "--points-per-band", "6"]) == 0

@@ -1,0 +1,181 @@
+"""``isodesign optimize`` of a study with ``[scenarios]``: the robust optimum (docs/robust.md).
+
+Runs the nominal optimization (its outputs in ``OUTDIR/nominal/``), then the exchange
+method; writes the robust design (``design.toml``), ``robust.json`` (worst case, rounds,
+scenarios, nominal against robust, yields), ``scenarios.csv``, ``rounds.csv``,
+``sensitivities.csv``, ``yield.csv`` and ``robustness.png``. Exit status 1 names the
+scenario that no design can meet.
+"""
+
+from __future__ import annotations
+
+import sys
+
+#: Files written by a robust ``isodesign optimize`` run (besides ``nominal/``).
+ROBUST_FILES = ("robust.json", "scenarios.csv", "rounds.csv", "sensitivities.csv",
+                "yield.csv", "robustness.png", "design.toml", "record.json",
+                "study_resolved.toml")
+#: Draws of the yield estimate of an optimize run (``--yield-samples``).
+DEFAULT_YIELD_SAMPLES = 500
+
+
+def _sens_frame(rows: dict):
+    import pandas as pd
+
+    out = []
+    for design, sens in rows.items():
+        out += [{"design": design, **s.row()} for s in sens]
+    return pd.DataFrame(out)
+
+
+def active_sensitivities(res) -> list:
+    """Sensitivities where they shape the robust design: the objective in the worst
+    scenario and each binding constraint in the scenario where it binds (design held)."""
+    import dataclasses
+
+    out = []
+    for r in res.active_scenarios():
+        k = r["index"]
+        for s in res.sensitivities(scenario=k):
+            keep = (s.quantity == "objective" and r["worst"]) or (
+                s.quantity != "objective" and s.binding)
+            if keep:
+                out.append(dataclasses.replace(s, quantity=f"{s.quantity} (scenario {k})"))
+    return out
+
+
+def robust_summary(res, sens, yields) -> str:
+    """Text summary of a robust run."""
+    from isodesign.optimization.objectives import OBJECTIVES
+
+    st = res.study
+    o = OBJECTIVES[res.objective]
+    sp = st.scenarios
+    nv, rv = res.nominal.values, res.values
+
+    def d(v):
+        return (f"N {v['volume_ratio']:.4g}, V_t0 {v['top_volume_m3'] * 1e3:.4g} L, "
+                f"L_c {v['capillary_length_m'] * 1e3:.4g} mm, D_c "
+                f"{v['capillary_diameter_m'] * 1e3:.4g} mm")
+
+    at_nom = res.nominal_at_robust()
+    lines = [
+        f"study {st.name!r}: robust {o.sense_word} {res.objective} over "
+        + "; ".join(p.label() for p in sp.parameters),
+        f"  exchange: {len(res.rounds)} rounds, {len(res.scenarios)} scenarios, "
+        f"{'converged' if res.converged else 'NOT converged (max_rounds reached)'}; "
+        f"{res.wall_s:.1f} s (nominal optimization included)",
+        "",
+        f"  nominal optimum: {d(nv)}",
+        f"    {res.objective} nominal {o.format(res.nominal.objective_value)}, worst case in "
+        f"the box {o.format(res.nominal_worst_case())} "
+        f"(worst for {res.first_search['which']} at {sp.describe(res.first_search['theta'])})",
+        f"  robust optimum:  {d(rv)}",
+        f"    {res.objective} worst case {o.format(res.objective_value)}, nominal "
+        f"{o.format(at_nom)} (price in nominal {o.label}: "
+        f"{o.format(res.nominal.objective_value - at_nom).lstrip('+')})",
+        "",
+        "active scenarios (they shape the robust design):",
+    ]
+    for r in res.active_scenarios():
+        why = ("worst objective" if r["worst"] else "") + (
+            ("; " if r["worst"] and r["binding"] else "") + "binding: " + ", ".join(r["binding"])
+            if r["binding"] else "")
+        lines.append(f"  {r['description']}: {o.format(r['objective'])} ({why})")
+    top = sorted((s for s in sens["robust"] if s.quantity == "objective"),
+                 key=lambda s: -abs(s.effect))
+    lines.append("")
+    lines.append("sensitivities of the robust design's objective (nominal parameters, design "
+                 "held; per unit and over the tolerance's half-width):")
+    for s in top:
+        lines.append(f"  {s.parameter:24s} {s.per_unit:+.4g} {s.unit}/{s.parameter_unit}"
+                     f"   {s.effect:+.3f} {s.unit} over the half-width")
+    act = [s for s in sens["active"] if s.unit == "dB"]
+    if act:
+        lines.append("in the active scenarios (objective where it is worst, constraints where "
+                     "they bind):")
+        for s in sorted(act, key=lambda s: -abs(s.effect)):
+            lines.append(f"  {s.quantity:38s} {s.parameter:22s} {s.per_unit:+.4g} "
+                         f"{s.unit}/{s.parameter_unit}   {s.effect:+.3f} {s.unit}")
+    for y in yields:
+        lo, hi = y.interval
+        lines.append(f"yield of the {y.label}: {100 * y.fraction:.1f} % ({y.passed}/{y.samples}; "
+                     f"{100 * y.confidence:g} % CI {100 * lo:.1f}-{100 * hi:.1f} %)")
+    return "\n".join(lines)
+
+
+def execute_robust(study, run, args) -> int:
+    """Optimize ``study`` robustly into the run directory ``run``; the exit status."""
+    from isodesign.commands.optimize import (
+        canonical_command,
+        run_optimization,
+        write_outputs,
+    )
+    from isodesign.io.designfile import design_to_toml
+    from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
+    from isodesign.optimization.exchange import robust_optimize
+    from isodesign.optimization.yields import estimate_yield
+    from isodesign.plotting.robust import robustness_plot
+
+    run.record.update({"kind": "isodesign optimize",
+                       "command_line": command_line(canonical_command(args, "optimize")[1:]),
+                       "environment": environment(), "study": resolved_study_dict(study),
+                       "study_source": study.source, "robust": True})
+    nominal = run_optimization(study, args)
+    write_outputs(nominal, run, args, plots=not args.no_plots, prefix="nominal/")
+    run.write_text("study_resolved.toml", study_toml(study, header=(
+        "Resolved study of a robust isodesign optimize run. Replay: isodesign optimize "
+        f"{run.final_path('study_resolved.toml')} -o NEWDIR")))
+    res = robust_optimize(study, nominal=nominal)
+    if not res.feasible:
+        run.status = "infeasible"
+        run.write_json("robust.json", res.record())
+        run.record["robust_result"] = res.record()
+        print(f"study {study.name!r}: NO ROBUST DESIGN")
+        print(f"isodesign: error: {res.failure_message()}", file=sys.stderr)
+        return 1
+    n = getattr(args, "yield_samples", None)
+    n = DEFAULT_YIELD_SAMPLES if n is None else n
+    sens = {"robust": res.sensitivities()}
+    b = res.problem.block
+    th = study.scenarios.nominal()
+    b.select(th, b.base_slot_hz)
+    from isodesign.optimization.sensitivity import design_sensitivities
+
+    sens["nominal"] = design_sensitivities(b, b.initial_guess(nominal.values), th)
+    sens["active"] = active_sensitivities(res)
+    yields = []
+    if n:
+        seed = study.scenarios.settings["seed"]
+        yields = [estimate_yield(study, nominal.values, samples=n, seed=seed,
+                                 label="nominal optimum"),
+                  estimate_yield(study, res.values, samples=n, seed=seed,
+                                 label="robust optimum")]
+    rec = res.record()
+    rec["yields"] = [y.record() for y in yields]
+    rec["sensitivities"] = {k: [s.row() for s in v] for k, v in sens.items()}
+    rec["reoptimized_sensitivities"] = {str(k): v for k, v in
+                                        res.reoptimized_sensitivities().items()}
+    run.write_json("robust.json", rec)
+    run.record["robust_result"] = {k: rec[k] for k in ("worst_case_objective", "values",
+                                                         "rounds", "converged")}
+    run.write_csv("scenarios.csv", res.to_frame())
+    run.write_csv("rounds.csv", res.rounds_frame())
+    run.write_csv("sensitivities.csv", _sens_frame(sens))
+    if yields:
+        run.write_csv("yield.csv", yields[1].to_frame())
+    models = resolved_study_dict(study).get("models")
+    run.write_text("design.toml", design_to_toml(res.design, models=models, header=(
+        f"Robust optimum of study {study.name!r} (isodesign optimize with [scenarios]); p0 "
+        f"from the nominal payload ({study.payload.mass_kg:g} kg).")))
+    if not args.no_plots:
+        with run.writing("robustness.png") as tmp:
+            robustness_plot(res, tmp, sens=sens["active"] or sens["robust"], yields=yields)
+    if args.quiet:
+        print(f"{study.name}: robust worst case {res.objective_value:+.3f}; "
+              f"{len(res.rounds)} rounds, {len(res.scenarios)} scenarios")
+    else:
+        print(robust_summary(res, sens, yields))
+        print(f"wrote robust.json, scenarios.csv, rounds.csv, sensitivities.csv, design.toml, "
+              f"robustness.png, nominal/ to {run.target}")
+    return 0

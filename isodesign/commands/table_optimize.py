@@ -1,0 +1,143 @@
+"""``isodesign optimize`` on a study with a ``[table]``: the three-axis optimizer's outputs.
+
+Not a command of its own: :mod:`isodesign.commands.optimize` calls :func:`execute_table`
+when the study has a table (docs/table.md, section 11). Writes design.toml, design.json,
+bands.csv (one row per point, axis and band, with the start's columns), modes.csv,
+starts.csv, study_resolved.toml, record.json and, unless --no-plots, response.png and
+layout.png.
+"""
+
+from __future__ import annotations
+
+import sys
+
+#: Files written by a table optimization (feasible run, plots on).
+TABLE_OUTPUT_FILES = ("design.json", "design.toml", "bands.csv", "modes.csv", "starts.csv",
+                      "record.json", "study_resolved.toml", "response.png", "layout.png")
+
+
+def _starts_frame(result):
+    import pandas as pd
+
+    return pd.DataFrame(list(result.starts), columns=["start", "status", "feasible",
+                                                      "iterations", "wall_s", "objective_nlp"])
+
+
+def _bands_frame(result):
+    df = result.analysis.to_frame()
+    s = result.start_analysis
+    df["start_velocity_rms_m_s"] = s.to_frame()["velocity_rms_m_s"].to_numpy()
+    df["start_margin_db"] = s.to_frame()["margin_db"].to_numpy()
+    return df
+
+
+def table_summary_text(result) -> str:
+    """Start against optimum, constraints, modes, rocking stability and verdicts.
+
+    Parameters
+    ----------
+    result : TableOptimizationResult
+    """
+    from isodesign.table.assembly import AXES
+    from isodesign.table.summary import modes_text, stability_text
+
+    st = result.study
+    v0 = {v.name: v.start for v in st.variables}
+    v1 = result.values
+    a0, a1 = result.start_analysis, result.analysis
+    lines = [
+        f"table study {st.name!r} ({st.source}): maximize the worst margin over "
+        f"{len(st.table.point_names)} point(s) x 3 axes x {len(st.bands)} bands",
+        f"  {len(result.starts)} starts: {sum(1 for s in result.starts if s[2])} feasible, "
+        f"{result.n_reached_best} reached the best design; {result.wall_s:.1f} s; Hessian "
+        f"{result.hessian} (exact gradients and Jacobian)",
+        f"  {'':<24}{'start':>10}{'optimum':>10}",
+        f"  {'N = V_b0/V_t0':<24}{v0['volume_ratio']:>10.4g}{v1['volume_ratio']:>10.4g}",
+        f"  {'V_t0 (L)':<24}{v0['top_volume_m3'] * 1e3:>10.4g}{v1['top_volume_m3'] * 1e3:>10.4g}",
+        f"  {'L_c (mm)':<24}{v0['capillary_length_m'] * 1e3:>10.4g}"
+        f"{v1['capillary_length_m'] * 1e3:>10.4g}",
+        f"  {'D_c (mm)':<24}{v0['capillary_diameter_m'] * 1e3:>10.4g}"
+        f"{v1['capillary_diameter_m'] * 1e3:>10.4g}",
+    ]
+    for i, ax in enumerate(AXES):
+        lines.append(f"  {'worst margin ' + ax + ' (dB)':<24}{a0.axis_margin_db()[i]:>+10.2f}"
+                     f"{a1.axis_margin_db()[i]:>+10.2f}")
+    lines.append("  constraints (worst violation, NLP units): " + ", ".join(
+        f"{n} {v:.2g}" for n, v in result.constraints))
+    lines.append(f"  re-check: NumPy closure = NLP to {result.recheck_sigma_rel:.2g} (sigma), "
+                 f"{result.recheck_margin_db:.2g} dB (worst margin); mode refreshes "
+                 f"{result.mode_rounds}")
+    lines.append("  modes of the optimum (springs at its closure):")
+    lines.append(modes_text(result.modes))
+    lines.append(stability_text(result.stability))
+    lines.append(f"start:   {a0.verdict()}")
+    lines.append(f"optimum: {a1.verdict()}")
+    lines += [f"  note: {n}" for n in a1.notes]
+    return "\n".join(lines)
+
+
+def execute_table(study, run, args) -> int:
+    """Optimize a table study into the run directory ``run``; print the report; the status.
+
+    Parameters
+    ----------
+    study : Study
+        With a ``[table]``.
+    run : RunDirectory
+    args : argparse.Namespace
+        The optimize command's options.
+    """
+    from isodesign.io.designfile import design_to_toml
+    from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
+    from isodesign.plotting.style import save_figure
+    from isodesign.table.optimize import optimize_table
+    from isodesign.table.plots import layout_figure
+
+    run.record.update({"kind": "isodesign optimize", "table": True,
+                       "command_line": command_line(), "environment": environment(),
+                       "study": resolved_study_dict(study), "study_source": study.source})
+    res = optimize_table(study)
+    run.record.update({"feasible": res.feasible, "status": res.status,
+                       "design": res.values, "objective": res.objective,
+                       "objective_value": res.objective_value, "wall_s": res.wall_s,
+                       "hessian": res.hessian, "mode_rounds": res.mode_rounds,
+                       "recheck_sigma_rel": res.recheck_sigma_rel,
+                       "recheck_margin_db": res.recheck_margin_db})
+    run.write_csv("starts.csv", _starts_frame(res))
+    run.write_text("study_resolved.toml", study_toml(study, header=(
+        "Resolved study of an isodesign optimize run (a table study).\n"
+        f"Replay: isodesign optimize {run.final_path('study_resolved.toml')} -o NEWDIR")))
+    if not res.feasible:
+        run.status = "infeasible"
+        print(f"isodesign: error: no feasible design ({res.status}); violations: "
+              + ", ".join(f"{n} ({v:.3g})" for n, v in res.constraints if v > 1e-6),
+              file=sys.stderr)
+        return 1
+    models = resolved_study_dict(study).get("models")
+    run.write_text("design.toml", design_to_toml(res.design, models=models, header=(
+        f"Optimized spring of the table study {study.name!r} (isodesign optimize); each "
+        "isolator's p0 comes from the table's leveling (docs/table.md).")))
+    run.write_json("design.json", {
+        "variables": res.values, "objective": {"kind": res.objective,
+                                               "value": res.objective_value},
+        "verdict": res.analysis.verdict(), "start_verdict": res.start_analysis.verdict(),
+        "worst_margin_per_axis_db": dict(zip("xyz", res.analysis.axis_margin_db().tolist(),
+                                             strict=True)),
+        "rocking_margin": res.stability.margin.tolist(),
+        "modes": res.modes.to_frame()[["mode", "name", "frequency_hz",
+                                       "damping_ratio"]].to_dict("records"),
+        "notes": list(res.analysis.notes)})
+    run.write_csv("bands.csv", _bands_frame(res))
+    run.write_csv("modes.csv", res.modes.to_frame())
+    if not args.no_plots:
+        with run.writing("response.png") as tmp:
+            save_figure(res.analysis.plot(), tmp)
+        with run.writing("layout.png") as tmp:
+            save_figure(layout_figure(study.table, res.analysis.model.leveling), tmp)
+    if args.quiet:
+        print(f"{study.name}: worst margin {res.objective_value:+.2f} dB (NLP grid); "
+              f"{res.analysis.verdict()}")
+    else:
+        print(table_summary_text(res))
+        print(f"wrote {run.target}")
+    return 0

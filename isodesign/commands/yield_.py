@@ -1,0 +1,114 @@
+"""Yield of a design under a study's tolerances: the fraction of built tables that pass.
+
+DESIGN_OR_RUN is a design file (TOML, docs/design-file.md) or an ``isodesign optimize``
+run directory (its robust design when the run was robust, else its optimum). The study
+(``--study``; default: the run's ``study_resolved.toml``) must have a ``[scenarios]``
+table: the laws the built tables are drawn from (docs/robust.md). Each draw is judged with
+the NumPy analysis: the criterion in every target band, every constraint, the continuous
+peak of |T|. Prints the pass fraction with its Clopper-Pearson and Wilson intervals and the
+failure reasons; writes yield.json, yield.csv (every draw), yield.png and record.json to
+OUTDIR. Exit status 0; 2 bad input.
+"""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+from isodesign.commands import add_output_dir_arguments, run_directory
+from isodesign.commands import int_option as _int_option
+
+OUTPUT_FILES = ("yield.json", "yield.csv", "yield.png", "record.json")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``isodesign yield``."""
+    parser.add_argument("design", metavar="DESIGN_OR_RUN",
+                        help="design file (TOML) or isodesign optimize run directory")
+    parser.add_argument("--study", metavar="STUDY.toml",
+                        help="study with a [scenarios] table (default: the run's "
+                        "study_resolved.toml)")
+    parser.add_argument("--samples", type=_int_option, default=1000, metavar="N",
+                        help="number of draws (1..1000000; default 1000)")
+    parser.add_argument("--seed", type=_int_option, default=0, metavar="N",
+                        help="seed of the draws (>= 0; default 0)")
+    parser.add_argument("--workers", type=_int_option, metavar="N",
+                        help="worker processes (1..64; default the study's solver.workers)")
+    parser.add_argument("--confidence", type=float, default=0.95, metavar="C",
+                        help="level of the intervals, in (0, 1) (default 0.95)")
+    parser.add_argument("--no-plots", action="store_true", help="write no PNG file")
+    add_output_dir_arguments(parser)
+
+
+def _design_values(path: Path) -> tuple[dict, str, Path | None]:
+    """(design-variable values, label, the run's resolved study or None)."""
+    import json
+
+    from isodesign.errors import InputError
+    from isodesign.io.designfile import load_design
+    from isodesign.optimization.variables import DESIGN_VARIABLES
+
+    if path.is_dir():
+        study = path / "study_resolved.toml"
+        rob = path / "robust.json"
+        if rob.is_file():
+            data = json.loads(rob.read_text())
+            if data.get("feasible"):
+                return dict(data["values"]), f"robust optimum of {path}", study
+        if (path / "design.toml").is_file():
+            path_d = path / "design.toml"
+            d = load_design(path_d)
+            return ({n: float(getattr(d, n)) for n in DESIGN_VARIABLES}, f"optimum of {path}",
+                    study if study.is_file() else None)
+        raise InputError(f"DESIGN_OR_RUN: {path} is neither a design file nor a run directory "
+                         "with design.toml")
+    if not path.is_file():
+        raise InputError(f"DESIGN_OR_RUN: no such file or directory: {path}")
+    d = load_design(path)
+    return {n: float(getattr(d, n)) for n in DESIGN_VARIABLES}, str(path), None
+
+
+def run(args) -> int:
+    """Run ``isodesign yield``."""
+    from isodesign.commands import check_count
+    from isodesign.errors import InputError
+    from isodesign.io.record import command_line, environment
+    from isodesign.optimization.study import load_study
+    from isodesign.optimization.yields import estimate_yield
+    from isodesign.plotting.robust import yield_histogram
+    from isodesign.plotting.style import save_figure
+
+    check_count(args.samples, "--samples", 1, 10**6)
+    check_count(args.seed, "--seed", 0, 2**32 - 1)
+    if args.workers is not None:
+        check_count(args.workers, "--workers", 1, 64)
+    if not 0 < args.confidence < 1:
+        raise InputError(f"--confidence: must be in (0, 1), got {args.confidence:g}")
+    values, label, run_study = _design_values(Path(args.design))
+    study_path = args.study or run_study
+    if study_path is None:
+        raise InputError("--study: a design file needs a study with a [scenarios] table "
+                         "(the tolerance laws)")
+    study = load_study(study_path)
+    if study.scenarios is None:
+        raise InputError(f"--study: {study_path} has no [scenarios] table (the laws the "
+                         "built tables are drawn from; docs/robust.md)")
+    with run_directory(args, "yield", known_outputs=OUTPUT_FILES) as rundir:
+        rundir.record.update({"kind": "isodesign yield", "environment": environment(),
+                              "command_line": command_line(["yield", str(args.design),
+                                                            "--study", str(study_path),
+                                                            "--samples", str(args.samples),
+                                                            "--seed", str(args.seed),
+                                                            "-o", str(args.output)])})
+        res = estimate_yield(study, values, samples=args.samples, seed=args.seed,
+                             confidence=args.confidence, workers=args.workers, label=label)
+        rundir.record["yield"] = res.record()
+        rundir.write_json("yield.json", res.record())
+        rundir.write_csv("yield.csv", res.to_frame())
+        if not args.no_plots:
+            with rundir.writing("yield.png") as tmp:
+                save_figure(yield_histogram(res), tmp)
+        print(res.summary())
+        print(f"wrote yield.json, yield.csv{'' if args.no_plots else ', yield.png'} to "
+              f"{rundir.target}")
+    return 0

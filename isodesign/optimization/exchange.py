@@ -1,0 +1,319 @@
+"""The exchange method of robust design: :func:`robust_optimize`.
+
+The scenario box is semi-infinite (every payload, every drill size in the tolerance):
+like the peak refinement (:mod:`.refine`), the robust NLP is solved on a finite set of
+scenarios and the box is searched for the scenario that hurts most at the new design:
+
+1. solve the stacked NLP (:class:`.robust.RobustProblem`) on the current scenarios,
+   warm-started at the previous design; place movable peak frequencies where a
+   scenario's continuous peak of |T| exceeds its bound (as :func:`.refine.refine_peak`);
+2. search the box with the NumPy analysis (:func:`.recheck.evaluate_design` on
+   :class:`.uncertainty.ScenarioStudy`): every corner (every value of a listed
+   parameter), ``search_samples`` uniform samples and the centre are scored, then the
+   three best are refined by a bounded local maximization (L-BFGS-B) of the quantity
+   that scored them: the objective's shortfall below the stated worst case, a
+   constraint's worst row or the continuous peak of |T|;
+3. add the worst scenario found; stop when nothing in the box exceeds the tolerances
+   (objective ``tolerance_db``, constraints :data:`CONSTRAINT_TOLERANCE` in the NLP's
+   log units, continuous peak :data:`.refine.PEAK_TOLERANCE_DB`) or after ``max_rounds``.
+
+The worst case of a tolerance box is not always a corner for this nonlinear model
+(the local maximization finds interior maxima), and a worst case for the objective is
+often not the worst case for a constraint: each is searched.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from types import SimpleNamespace
+
+import numpy as np
+
+from isodesign.errors import InputError
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.recheck import evaluate_design
+from isodesign.optimization.refine import (
+    FLAT_TOLERANCE_REL,
+    PEAK_TOLERANCE_DB,
+    continuous_peak_db,
+)
+from isodesign.optimization.uncertainty import ScenarioStudy
+
+__all__ = ["CONSTRAINT_TOLERANCE", "robust_optimize", "scenario_check", "worst_case"]
+
+#: A constraint may exceed its bound by this much (NLP units: the log of the quantity)
+#: anywhere in the box when the exchange stops.
+CONSTRAINT_TOLERANCE = 1e-6
+_LN10_DB = math.log(10.0) / 10.0
+
+
+def scenario_check(study, values: dict, theta, *, grid=None, reference=None) -> dict:
+    """One scenario at one drawn design, on the NumPy analysis path.
+
+    Parameters
+    ----------
+    study : Study
+        The nominal study, with ``scenarios``.
+    values : dict
+        The drawn design (SI).
+    theta : array
+        The scenario, in ``study.scenarios.names`` order.
+    grid : Grid, optional
+        Frequency grid (default: the nominal study's :func:`.grid.build_grid`).
+    reference : float, optional
+        The stated worst case J (internal units of the objective); the shortfall
+        ``J - reference`` is returned.
+
+    Returns
+    -------
+    dict
+        ``objective`` (natural value), ``j`` (internal J), ``gap`` (``j - reference``),
+        ``criterion_margin_db`` (the worst target band's margin, dB),
+        ``violations`` (constraint -> signed worst-row excess over its bound, NLP units:
+        negative when met), ``max_violation`` (the largest, clipped at 0),
+        ``peak_db`` and ``peak_excess_db`` (continuous peak of |T| and its excess over the
+        bound; None without a peak bound), ``sigma`` and ``tube_rms``.
+    """
+    from isodesign.optimization.grid import build_grid
+
+    space = study.scenarios
+    sc = ScenarioStudy(study, space, np.asarray(theta, float))
+    grid = grid or build_grid(study)
+    ev = evaluate_design(sc, values, grid=grid)
+    kind = study.objective["kind"]
+    obj = OBJECTIVES[kind]
+    val = ev["objectives"][kind]
+    j = obj.from_natural(val)
+    signed = {}
+    for name, c in ev["constraints"].items():
+        v = c["value"]
+        ex = max(float(np.max(c["lower"] - v)) if math.isfinite(c["lower"]) else -math.inf,
+                 float(np.max(v - c["upper"])) if math.isfinite(c["upper"]) else -math.inf)
+        signed[name] = ex
+    bound = study.constraints.get("max_peak_transmissibility_db")
+    peak = excess = None
+    if bound is not None:
+        from isodesign.spring.diaphragm import diaphragm_model
+
+        shim = SimpleNamespace(study=sc, dia=diaphragm_model(sc.models["diaphragm"]), grid=grid)
+        peak, _ = continuous_peak_db(shim, values, ev["sigma"], ev["tube_rms"])
+        excess = peak - bound
+    mt = ev["metrics"]
+    rows = grid.target_band_rows
+    crit = float(np.min(10.0 / math.log(10.0) * (np.asarray(mt["ln_limit2"])[rows]
+                                                  - np.asarray(mt["ln_ms_band"])[rows])))
+    return {"objective": val, "j": j, "criterion_margin_db": crit,
+            "gap": None if reference is None else j - reference,
+            "violations": signed, "max_violation": max(0.0, max(signed.values(), default=0)),
+            "peak_db": peak, "peak_excess_db": excess, "sigma": ev["sigma"],
+            "tube_rms": ev["tube_rms"]}
+
+
+def _score(chk: dict, tol_obj: float) -> tuple[float, str]:
+    """(largest excess over its tolerance, which quantity) of a scenario check."""
+    items = [(chk["gap"] / tol_obj, "objective")] if chk["gap"] is not None else []
+    items += [(v / CONSTRAINT_TOLERANCE, f"constraint:{n}") for n, v in chk["violations"].items()
+              if n != "peak_transmissibility" or chk["peak_excess_db"] is None]
+    if chk["peak_excess_db"] is not None:
+        items.append((chk["peak_excess_db"] / PEAK_TOLERANCE_DB, "peak"))
+    return max(items)
+
+
+def _quantity(chk: dict, which: str) -> float:
+    if which == "objective":
+        return chk["gap"]
+    if which == "peak":
+        return chk["peak_excess_db"]
+    return chk["violations"][which.split(":", 1)[1]]
+
+
+def worst_case(study, values: dict, reference: float, *, grid=None, samples: int = 16,
+               seed: int = 0, refine: int = 3) -> dict:
+    """Search the scenario box for the worst scenario at a drawn design.
+
+    Parameters
+    ----------
+    study : Study
+        With ``scenarios``.
+    values : dict
+        The drawn design (SI).
+    reference : float
+        The stated worst-case J (the objective's shortfall is measured from it).
+    grid : Grid, optional
+    samples : int
+        Uniform samples scored besides the corners and the centre.
+    seed : int
+    refine : int
+        How many of the best-scored candidates are refined by local maximization.
+
+    Returns
+    -------
+    dict
+        ``theta`` (the worst scenario), ``score`` (its largest excess over the
+        tolerance: above 1 means it must be added), ``which`` (the quantity),
+        ``check`` (:func:`scenario_check` there) and ``evaluations``.
+    """
+    from scipy.optimize import minimize
+
+    from isodesign.optimization.grid import build_grid
+
+    space = study.scenarios
+    grid = grid or build_grid(study)
+    kind = study.objective["kind"]
+    tol_obj = (space.settings["tolerance_db"] if OBJECTIVES[kind].db else FLAT_TOLERANCE_REL)
+    rng = np.random.default_rng(seed)
+    cands = np.vstack([space.corners(rng=rng), space.center()[None, :],
+                       space.box_samples(samples, rng)])
+    n_eval = 0
+    scored = []
+    for th in cands:
+        chk = scenario_check(study, values, th, grid=grid, reference=reference)
+        n_eval += 1
+        s, which = _score(chk, tol_obj)
+        scored.append((s, which, th, chk))
+    scored.sort(key=lambda r: -r[0])
+    best = scored[0]
+    lo, hi = space.lower(), space.upper()
+    cont = np.array([not p.discrete for p in space.parameters])
+    width = np.where(hi > lo, hi - lo, 1.0)
+    seen = []
+    for _s0, which, th0, _ in scored[: max(refine * 3, refine)]:
+        if len(seen) >= refine or not cont.any():
+            break
+        key = (which, tuple(np.round((th0 - lo) / width, 2)))
+        if key in seen:
+            continue
+        seen.append(key)
+
+        def f(u, which=which, th0=th0):
+            nonlocal n_eval
+            th = th0.copy()
+            th[cont] = lo[cont] + u * width[cont]
+            n_eval += 1
+            return -_quantity(scenario_check(study, values, th, grid=grid, reference=reference),
+                              which)
+
+        u0 = (th0[cont] - lo[cont]) / width[cont]
+        try:
+            r = minimize(f, u0, method="L-BFGS-B", bounds=[(0.0, 1.0)] * int(cont.sum()),
+                         options={"maxiter": 30, "eps": 1e-6})
+        except (InputError, FloatingPointError, ValueError):
+            continue
+        th = th0.copy()
+        th[cont] = lo[cont] + np.clip(r.x, 0.0, 1.0) * width[cont]
+        chk = scenario_check(study, values, th, grid=grid, reference=reference)
+        s, w2 = _score(chk, tol_obj)
+        if s > best[0]:
+            best = (s, w2, th, chk)
+    return {"theta": best[2], "score": best[0], "which": best[1], "check": best[3],
+            "evaluations": n_eval}
+
+
+def robust_optimize(study, *, nominal=None, progress=None):
+    """Robust optimum of a study with ``[scenarios]`` (see the module docstring).
+
+    Parameters
+    ----------
+    study : Study
+        A study with ``scenarios`` (:class:`~.uncertainty.UncertaintySpace`).
+    nominal : OptimizationResult, optional
+        The nominal optimum (run here by default: :func:`.driver.optimize` of the study
+        without scenarios); the exchange starts from it.
+    progress : callable, optional
+        ``progress(message)`` after each round.
+
+    Returns
+    -------
+    RobustResult
+    """
+    from isodesign.optimization.driver import optimize
+    from isodesign.optimization.grid import build_grid
+    from isodesign.optimization.robust import RobustProblem, ScenarioBlock
+    from isodesign.optimization.robust_result import RobustResult, scenario_rows
+
+    if study.scenarios is None:
+        raise InputError("robust_optimize: the study has no [scenarios] table")
+    t_all = time.perf_counter()
+    space = study.scenarios
+    settings = space.settings
+    if nominal is None:
+        nominal = optimize(study)
+    if not nominal.feasible:
+        return RobustResult.infeasible_nominal(study, nominal, time.perf_counter() - t_all)
+    block = ScenarioBlock(study)
+    grid = build_grid(study)
+    values = dict(nominal.values)
+    kind = block.objective
+    j_nom = OBJECTIVES[kind].from_natural(nominal.objective_value)
+    first = worst_case(study, values, j_nom, grid=grid, samples=settings["search_samples"],
+                       seed=settings["seed"])
+    thetas = [space.center()]
+    if first["score"] > 1.0 and not np.allclose(first["theta"], thetas[0]):
+        thetas.append(first["theta"])
+    slots: list = [block.slot_hz.copy() for _ in thetas]
+    slot_rounds = [0 for _ in thetas]
+    rounds = []
+    sol = prob = None
+    converged = False
+    last = first
+    for r in range(settings["max_rounds"] + 1):
+        t0 = time.perf_counter()
+        prob = RobustProblem(block, thetas)
+        prob.slots = [s.copy() for s in slots]
+        sol = prob.solve(prob.initial_guess(values))
+        if not sol.feasible:
+            k, cname, amount = sol.worst_scenario()
+            return RobustResult.infeasible(study, nominal, prob, sol, k, cname, amount, rounds,
+                                           time.perf_counter() - t_all)
+        values = dict(sol.values)
+        moved = _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds)
+        last = worst_case(study, values, sol.objective, grid=grid,
+                          samples=settings["search_samples"], seed=settings["seed"] + r + 1)
+        rounds.append({"round": r, "scenarios": len(thetas), "objective":
+                       OBJECTIVES[kind].to_natural(sol.objective), "iterations": sol.iterations,
+                       "solve_s": sol.wall_s, "worst_score": last["score"],
+                       "worst_quantity": last["which"], "peak_slots_moved": moved,
+                       "search_evaluations": last["evaluations"],
+                       "wall_s": time.perf_counter() - t0})
+        if progress:
+            progress(rounds[-1])
+        if last["score"] <= 1.0 and not moved:
+            converged = True
+            break
+        if r == settings["max_rounds"]:
+            break
+        if last["score"] > 1.0 and not any(
+                np.allclose(last["theta"], t, rtol=1e-9, atol=1e-12) for t in thetas):
+            thetas.append(np.asarray(last["theta"], float))
+            slots.append(block.slot_hz.copy())
+            slot_rounds.append(0)
+    rows = scenario_rows(study, prob, sol, grid, nominal.values)
+    return RobustResult(
+        study=study, nominal=nominal, values=values, design=study.design_at(values),
+        objective=kind, objective_value=OBJECTIVES[kind].to_natural(sol.objective),
+        feasible=True, converged=converged, status=sol.status, rounds=tuple(rounds),
+        scenarios=tuple(rows), first_search=first, last_search=last, problem=prob,
+        solution=sol, wall_s=time.perf_counter() - t_all)
+
+
+def _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds) -> bool:
+    """Peak refinement per scenario: movable frequencies near a continuous peak above
+    its bound (at most :data:`.problem.PEAK_ROUNDS` rounds per scenario)."""
+    from isodesign.optimization.problem import PEAK_ROUNDS
+    from isodesign.optimization.refine import peak_slots
+
+    bound = study.constraints.get("max_peak_transmissibility_db")
+    if bound is None:
+        return False
+    moved = False
+    for k, th in enumerate(prob.thetas):
+        block.select(th, slots[k])
+        xk = prob.block_x(sol, k)
+        peak, f_pk = continuous_peak_db(block, sol.values, block.sigma(xk), block.tube_rms(xk))
+        if peak > bound + PEAK_TOLERANCE_DB and slot_rounds[k] < PEAK_ROUNDS:
+            peak_slots(block, slot_rounds[k], f_pk)
+            slots[k] = block.slot_hz.copy()
+            slot_rounds[k] += 1
+            moved = True
+    return moved

@@ -1,0 +1,348 @@
+"""Robust design: several scenarios stacked in one CasADi NLP that shares the design.
+
+One scenario's NLP block (:class:`ScenarioBlock`) is the study's NLP
+(:class:`~.problem.Problem`, same physics, same constraints) with the uncertain
+parameters as CasADi *parameters* ``theta`` (:mod:`.uncertainty`): the payload mass,
+the ambient pressure, the temperature, the manufacturing deviations of the built
+spring. It is built once, as one SX Function; :class:`RobustProblem` stacks K copies
+that share the scaled design ``z``, each with its own implicit unknowns (RMS stroke,
+tube-velocity RMS, partial sums, epigraph variables), and minimizes the worst case::
+
+    minimize    w t + w_D ln D_c
+    subject to  J_k(z, x_k; theta_k) <= t           (every scenario k)
+                physics_k = 0, constraints_k        (every scenario k)
+                t <= eps
+
+The scenario values and each block's movable peak frequencies are parameters, so one
+compiled NLP serves changing scenario values; adding a scenario rebuilds it.
+:func:`.exchange.robust_optimize` runs the exchange method on it.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.metrics import combine, design_quantities, point_quantities
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.problem import (
+    _NO_BOUND,
+    CONSTRAINT_VIOLATION_TOL,
+    EPIGRAPH_BOUND,
+    IPOPT_OPTIONS,
+    Problem,
+)
+from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+from isodesign.optimization.uncertainty import ScenarioStudy
+from isodesign.optimization.variables import DESIGN_VARIABLES
+from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
+from isodesign.spring.capillary import gaussian_equivalent_resistance
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import amplitude_residual, kinematic_velocity
+
+__all__ = ["RobustProblem", "RobustSolution", "ScenarioBlock"]
+
+
+class ScenarioBlock(Problem):
+    """The study's NLP with the uncertain parameters ``theta`` as CasADi parameters.
+
+    Built like :class:`~.problem.Problem` (same steps, same physics through
+    :class:`~.uncertainty.ScenarioStudy`), but ends in one SX Function
+    ``block(z, w, p) -> (g, J)`` (``w``: the block's own unknowns, ``p``: the
+    problem's parameters followed by ``theta``) instead of an IPOPT solver. The
+    NumPy-side helpers (initial guess, closure, epigraph guesses) work on the scenario
+    selected with :meth:`select`.
+
+    Parameters
+    ----------
+    study : Study
+        The nominal study, with ``scenarios`` (its :class:`~.uncertainty.UncertaintySpace`).
+    """
+
+    def __init__(self, study):
+        self.space = study.scenarios
+        self.nominal_study = study
+        self.theta = self.space.nominal()
+        super().__init__(ScenarioStudy(study, self.space, self.theta))
+        self.base_slot_hz = self.slot_hz.copy()  # the study's peak grid (no refinement)
+
+    # -- selecting a scenario (NumPy side) -------------------------------------------
+    def select(self, theta, slot_hz=None) -> None:
+        """Make the NumPy helpers work on scenario ``theta`` (and its peak slots)."""
+        self.theta = np.asarray(theta, float)
+        self.study = ScenarioStudy(self.nominal_study, self.space, self.theta)
+        self.dia = diaphragm_model(self.study.models["diaphragm"])
+        if slot_hz is not None and not np.array_equal(slot_hz, self.slot_hz):
+            self.set_slots(slot_hz)
+
+    def _reference_sigma(self):
+        return self.closure(self.study.start_design())
+
+    # -- construction: theta enters the point function and the design ----------------
+    def _sym_study(self, theta):
+        return ScenarioStudy(self.nominal_study, self.space,
+                             [theta[i] for i in range(self.space.size)])
+
+    def _decision_variables(self, nlp) -> None:
+        super()._decision_variables(nlp)
+        nlp.p_theta = nlp.X.sym("theta", self.space.size)
+
+    def _point_function(self, ca):
+        """:meth:`Problem._point_function` with ``theta`` as a further input."""
+        th = ca.SX.sym("theta", self.space.size)
+        study = self._sym_study(th)
+        dia = diaphragm_model(study.models["diaphragm"])
+        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
+        d_sx = study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        s_sx, y_sx, w_sx = ca.SX.sym("s"), ca.SX.sym("y"), ca.SX.sym("w")
+        cnl_sx = ca.SX.sym("c_nl")
+        sig_sx = ca.exp(s_sx)
+        a_sx = EQUIVALENT_AMPLITUDE_FACTOR * sig_sx
+        ins = [dv, s_sx, y_sx, cnl_sx, w_sx, th]
+        if self.statistical:
+            pq = point_quantities(study, d_sx, w_sx, math.sqrt(2.0) * ca.exp(y_sx), sig_sx, dia,
+                                  cnl_sx)
+            return ca.Function("point", ins, [ca.SX(0), pq["T"].re, pq["T"].im, pq["R"].re,
+                                              pq["R"].im, pq["ln_mach"], pq["ln_re"], pq["G2"]])
+        if self.self_consistent:
+            u_sx = ca.exp(y_sx)
+            res_sx = amplitude_residual(study.models["flow"], d_sx, w_sx, a_sx, y_sx)
+        else:
+            u_sx = kinematic_velocity(d_sx, w_sx, a_sx)
+            res_sx = ca.SX(0)
+        pq = point_quantities(study, d_sx, w_sx, u_sx, sig_sx, dia)
+        return ca.Function("point", ins, [res_sx, pq["T"].re, pq["T"].im, pq["R"].re,
+                                          pq["R"].im, pq["ln_mach"], pq["ln_re"], ca.SX(0)])
+
+    def _physics(self, nlp, point) -> None:
+        """:meth:`Problem._physics` with the scenario's study (theta symbolic)."""
+        ca, X = nlp.ca, nlp.X
+        study = self._sym_study(nlp.p_theta)
+        dia = diaphragm_model(study.models["diaphragm"])
+        w = self.grid.omega
+        mapped = point.map(nlp.n_all, "unroll")
+        v = ca.vertcat(*nlp.vals)
+        nlp.d = study.design_at({n: nlp.vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        if self.self_consistent:
+            y_row = nlp.y.T
+        elif self.statistical:
+            y_row = nlp.y
+        else:
+            y_row = X.zeros(1, nlp.n_all)
+        c_nl = (gaussian_equivalent_resistance(study.models["flow"], nlp.d, ca.exp(nlp.y[0]))
+                if self.statistical else X(0))  # fmt: skip
+        sl = self.grid.slot_slice
+        w_sym = ca.vertcat(ca.DM(w[: sl.start]), nlp.p_slot, ca.DM(w[sl.stop:]))
+        outs = mapped(v, nlp.s, y_row, c_nl, w_sym.T, nlp.p_theta)
+        res_u, t_re, t_im, r_re, r_im, ln_mach, ln_re, g2 = (o.T for o in outs)
+        nlp.pq = {"T": Cx(t_re, t_im), "R": Cx(r_re, r_im), "ln_mach": ln_mach, "ln_re": ln_re}
+        if self.statistical:
+            nlp.pq["G2"] = g2
+        nlp.mt = combine(study, self.grid, nlp.pq, design_quantities(study, self.grid, nlp.d, dia))
+        nlp.res_u = res_u if self.self_consistent else X(0, 1)
+
+    def _assemble(self, nlp) -> None:
+        super()._assemble(nlp)
+        nlp.p = nlp.ca.vertcat(nlp.p, nlp.p_theta)
+        self.np = int(nlp.p.numel())
+
+    def _build_solver(self, nlp) -> None:
+        """The block Function and the NumPy-side helpers (no IPOPT solver)."""
+        ca = nlp.ca
+        mt = nlp.mt
+        th = nlp.p_theta
+        w_own = nlp.x[self.nz:]
+        self.block = ca.Function("block", [nlp.z, w_own, nlp.p], [nlp.g, ca.vertcat(*nlp.js)])
+        self._j_fn_t = ca.Function("objectives", [nlp.x, nlp.p_slot, th], [ca.vertcat(*nlp.js)])
+        x_core = ca.vertcat(nlp.z, nlp.s, nlp.y)
+        nf = self.grid.n_floor
+        chain = (ca.vertcat(ca.cumsum(nlp.inc[:nf]), ca.cumsum(nlp.inc[nf:]))
+                 if self.statistical else ca.cumsum(nlp.inc))  # fmt: skip
+        self._chain_fn_t = ca.Function("chain", [x_core, nlp.p_slot, th], [chain])
+        self._aux_fn_t = ca.Function("aux_quantities", [x_core, nlp.p_slot, th],
+                                     [mt["ln_ms_band"] - mt["ln_limit2"], mt["ln_T2_peak"],
+                                      mt["ms_all"]])
+        self.eval_fn = ca.Function("eval", [nlp.x, nlp.p], [nlp.j_total, nlp.g])
+        self.solver = None
+        self._sym = {"z": nlp.z, "w": w_own, "p": nlp.p, "theta": th, "g": nlp.g,
+                     "js": ca.vertcat(*nlp.js), "x": nlp.x}
+
+    def objective_values(self, x: np.ndarray) -> np.ndarray:
+        """J of every objective at x, for the selected scenario."""
+        return np.asarray(self._j_fn_t(x, self._slot_omega(), self.theta)).ravel()
+
+    def _aux_fn(self, x_core):
+        return self._aux_fn_t(x_core, self._slot_omega(), self.theta)
+
+    def _chain_fn(self, x_core):
+        return self._chain_fn_t(x_core, self._slot_omega(), self.theta)
+
+    def block_params(self, theta=None, slot_hz=None) -> np.ndarray:
+        """The block's parameter vector: first objective, no epsilon bound, slots, theta."""
+        slots = self.slot_hz if slot_hz is None else np.asarray(slot_hz, float)
+        nk = len(self.objectives)
+        th = self.theta if theta is None else np.asarray(theta, float)
+        return np.concatenate([np.eye(nk)[0], [0.0], np.full(nk, _NO_BOUND),
+                               2.0 * math.pi * slots, th])
+
+
+class RobustSolution:
+    """One solve of the stacked NLP: the shared design and every scenario's state.
+
+    Attributes: ``x``, ``values`` (the drawn design), ``objective`` (the worst-case J,
+    the epigraph ``t``), ``scenario_objectives`` (J of each scenario), ``violations``
+    (scenario index -> [(constraint, amount)]), ``status``, ``success``, ``iterations``,
+    ``wall_s``, ``lam_p`` (the objective's sensitivity to the parameters).
+    """
+
+    def __init__(self, **kw):
+        self.__dict__.update(kw)
+
+    @property
+    def max_violation(self) -> float:
+        """Largest violation over the scenarios."""
+        return max((v for vs in self.violations.values() for _, v in vs), default=0.0)
+
+    @property
+    def feasible(self) -> bool:
+        """Every scenario's constraints within :data:`.solution.FEASIBILITY_TOLERANCE`."""
+        return self.max_violation <= FEASIBILITY_TOLERANCE
+
+    def worst_scenario(self) -> tuple[int, str, float]:
+        """(scenario index, constraint, amount) of the largest violation."""
+        best = (0, "", 0.0)
+        for k, vs in self.violations.items():
+            for name, v in vs:
+                if v > best[2]:
+                    best = (k, name, v)
+        return best
+
+
+class RobustProblem:
+    """K scenario blocks sharing the design, worst-case objective by epigraph.
+
+    Parameters
+    ----------
+    block : ScenarioBlock
+        Built once for the study.
+    thetas : sequence of arrays
+        The scenarios (coordinates in ``block.space.names`` order).
+    """
+
+    def __init__(self, block: ScenarioBlock, thetas):
+        import casadi as ca
+
+        t0 = time.perf_counter()
+        self.block = block
+        self.thetas = [np.asarray(t, float) for t in thetas]
+        self.slots = [block.slot_hz.copy() for _ in self.thetas]
+        b = block
+        nw = b.nx - b.nz
+        self.nz, self.nw, self.K = b.nz, nw, len(self.thetas)
+        # MX over the block Function mapped K times: the block's derivatives are generated
+        # once, so adding a scenario costs a rebuild of about a second, not K inlined copies
+        z = ca.MX.sym("z", b.nz)
+        w_all = ca.MX.sym("w", nw, self.K)
+        p_all = ca.MX.sym("p", b.np, self.K)
+        t = ca.MX.sym("t")
+        pg = ca.MX.sym("global", 3)  # weight of t, weight of ln D_c, epsilon bound on t
+        g_all, j_all = b.block.map(self.K)(z, w_all, p_all)
+        j_vec = j_all[0, :].T
+        ln_d = 0
+        if "capillary_diameter_m" in b.scaling.names:
+            i = b.scaling.names.index("capillary_diameter_m")
+            ln_d = b.scaling.center[i] + b.scaling.half[i] * z[i]
+        f = pg[0] * t + pg[1] * ln_d
+        g = ca.vertcat(ca.vec(g_all), j_vec - t, t - pg[2])
+        x = ca.vertcat(z, ca.vec(w_all), t)
+        p = ca.vertcat(ca.vec(p_all), pg)
+        gs = [g_all[:, 0]]
+        self.ng_block = int(gs[0].numel())
+        self.lbg = np.concatenate([np.tile(b.lbg, self.K), np.full(self.K, -np.inf), [-np.inf]])
+        self.ubg = np.concatenate([np.tile(b.ubg, self.K), np.zeros(self.K), [0.0]])
+        self.lbx = np.concatenate([b.lbx[: b.nz], *[b.lbx[b.nz:]] * self.K, [-EPIGRAPH_BOUND]])
+        self.ubx = np.concatenate([b.ubx[: b.nz], *[b.ubx[b.nz:]] * self.K, [EPIGRAPH_BOUND]])
+        self.nx = int(x.numel())
+        self.j_fn = ca.Function("scenario_objectives", [x, p], [j_vec])
+        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
+                "ipopt.max_iter": b.study.solver["max_iter"], "ipopt.tol": b.study.solver["tol"],
+                "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL, **IPOPT_OPTIONS,
+                "error_on_fail": False}
+        self.solver = ca.nlpsol("isodesign_robust", "ipopt",
+                                {"x": x, "f": f, "g": g, "p": p}, opts)
+        self.build_s = time.perf_counter() - t0
+
+    # -- parameters -------------------------------------------------------------------
+    def params(self, weight: float = 1.0, diameter_weight: float = 0.0,
+               eps: float | None = None) -> np.ndarray:
+        """Every block's parameters (its scenario and slots), then the global ones."""
+        parts = [self.block.block_params(th, sl) for th, sl in
+                 zip(self.thetas, self.slots, strict=True)]
+        parts.append([weight, diameter_weight, _NO_BOUND if eps is None else eps])
+        return np.concatenate(parts)
+
+    def theta_slice(self, k: int) -> slice:
+        """Where scenario k's theta sits in the parameter vector."""
+        b = self.block
+        start = k * b.np + b.np - b.space.size
+        return slice(start, start + b.space.size)
+
+    # -- initial guess ------------------------------------------------------------------
+    def initial_guess(self, values: dict, previous: RobustSolution | None = None) -> np.ndarray:
+        """A consistent x0 at a drawn design: each block's unknowns from the NumPy closure."""
+        b = self.block
+        x0 = np.zeros(self.nx)
+        js = []
+        for k, th in enumerate(self.thetas):
+            b.select(th, self.slots[k])
+            xk = b.initial_guess(values)
+            x0[: b.nz] = xk[: b.nz]
+            x0[b.nz + k * self.nw: b.nz + (k + 1) * self.nw] = xk[b.nz:]
+            js.append(b.objective_values(xk)[0])
+        x0[-1] = max(js)
+        return x0
+
+    # -- solving --------------------------------------------------------------------------
+    def solve(self, x0: np.ndarray, p=None) -> RobustSolution:
+        """Run IPOPT on the stacked NLP from x0."""
+        t0 = time.perf_counter()
+        p = self.params() if p is None else np.asarray(p, float)
+        res = self.solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p)
+        stats = self.solver.stats()
+        x = np.asarray(res["x"]).ravel()
+        g = np.asarray(res["g"]).ravel()
+        b = self.block
+        viol = {}
+        for k in range(self.K):
+            gk = g[k * self.ng_block: (k + 1) * self.ng_block]
+            viol[k] = [(n, v) for n, v in b.violations(gk)
+                       if not n.startswith(("epigraph_", "bound_"))]
+        js = np.asarray(self.j_fn(x, p)).ravel()
+        return RobustSolution(
+            x=x, g=g, values=b.values(x[: b.nz]), objective=float(np.max(js)),
+            epigraph=float(x[-1]), scenario_objectives=js, violations=viol,
+            status=stats.get("return_status", "unknown"),
+            success=bool(stats.get("success", False)),
+            iterations=int(stats.get("iter_count", -1)), wall_s=time.perf_counter() - t0,
+            lam_p=np.asarray(res["lam_p"]).ravel(), lam_g=np.asarray(res["lam_g"]).ravel(),
+            params=p)
+
+    def block_x(self, sol: RobustSolution, k: int) -> np.ndarray:
+        """Scenario k's block variables ``[z, w_k]`` at a solution."""
+        return np.concatenate([sol.x[: self.nz],
+                               sol.x[self.nz + k * self.nw: self.nz + (k + 1) * self.nw]])
+
+    def block_g(self, sol: RobustSolution, k: int) -> np.ndarray:
+        """Scenario k's constraint rows at a solution."""
+        return sol.g[k * self.ng_block: (k + 1) * self.ng_block]
+
+    def objective_name(self) -> str:
+        """The study's objective kind."""
+        return self.block.objective
+
+    def natural(self, j: float) -> float:
+        """Internal J -> the objective's natural value."""
+        return OBJECTIVES[self.block.objective].to_natural(j)

@@ -1,0 +1,482 @@
+"""Uncertain parameters of a study: the ``[scenarios]`` table, scenario studies, sampling.
+
+A *scenario* is one value of every uncertain parameter: the payload mass, the ambient
+pressure and the gas temperature the table will meet, and the manufacturing deviations
+of the built spring (capillary bore and length, chamber volumes, diaphragm stiffness)
+from the drawn design. :class:`UncertaintySpace` is the validated ``[scenarios]`` table;
+:class:`ScenarioStudy` is a study seen under one scenario: ``design_at`` returns the
+*built* spring (tolerances applied) with its static pressure from the scenario's payload
+and ambient pressure, so the NumPy analysis (:func:`.recheck.evaluate_design`) and the
+NLP (:mod:`.robust`, where the parameters are CasADi symbols) evaluate the same physics.
+
+Parameter coordinates (``theta``): operating parameters in their SI unit
+(``payload_mass_kg`` kg, ``ambient_pressure_pa`` Pa, ``temperature_k`` K); a tolerance
+as its deviation: relative (the built value is ``x (1 + delta)``) or absolute (``x +
+delta``, SI); ``diaphragm_stiffness`` a relative deviation of the diaphragm's complex
+stiffness ``k_D* (1 + delta)``. See ``docs/robust.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import math
+from dataclasses import dataclass
+from types import SimpleNamespace
+from typing import Any
+
+import numpy as np
+
+from isodesign.errors import InputError
+from isodesign.numerics import backend as bk
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.variables import DESIGN_VARIABLES
+from isodesign.spring.design import SpringDesign
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.gas import P_ATM
+
+__all__ = [
+    "DISTRIBUTIONS",
+    "OPERATING_PARAMETERS",
+    "PARAMETER_UNITS",
+    "SCENARIO_SETTINGS",
+    "TOLERANCE_PARAMETERS",
+    "ScaledDiaphragm",
+    "ScenarioStudy",
+    "UncertainParameter",
+    "UncertaintySpace",
+    "parse_scenarios",
+]
+
+#: Operating parameters (physical values) and their units.
+OPERATING_PARAMETERS = {"payload_mass_kg": "kg", "ambient_pressure_pa": "Pa",
+                        "temperature_k": "K"}
+#: Manufacturing tolerances: the four design variables and the diaphragm's stiffness.
+TOLERANCE_PARAMETERS = (*DESIGN_VARIABLES, "diaphragm_stiffness")
+#: Unit of each parameter's coordinate (a relative deviation is "-").
+PARAMETER_UNITS = {**OPERATING_PARAMETERS, "volume_ratio": "-", "top_volume_m3": "m^3",
+                   "capillary_length_m": "m", "capillary_diameter_m": "m",
+                   "diaphragm_stiffness": "-"}
+DISTRIBUTIONS = ("uniform", "normal")
+#: Settings of the exchange method in ``[scenarios]`` (key -> default).
+SCENARIO_SETTINGS = {"tolerance_db": 0.01, "max_rounds": 8, "search_samples": 16, "seed": 0}
+#: A normal tolerance's half-width is this many standard deviations.
+NORMAL_SIGMAS = 3.0
+
+
+@dataclass(frozen=True)
+class UncertainParameter:
+    """One uncertain parameter: its box ``[lo, hi]`` (or discrete ``values``) and law.
+
+    ``mode`` is ``"value"`` (an operating parameter in its SI unit), ``"relative"`` or
+    ``"absolute"`` (a tolerance: the deviation ``delta``). ``nominal`` is the coordinate
+    of the study's own value (0 for a tolerance).
+    """
+
+    name: str
+    mode: str
+    lo: float
+    hi: float
+    nominal: float
+    distribution: str = "uniform"
+    values: tuple[float, ...] | None = None
+
+    @property
+    def discrete(self) -> bool:
+        """True for a list of values."""
+        return self.values is not None
+
+    @property
+    def unit(self) -> str:
+        """Unit of the coordinate (``"-"`` for a relative deviation)."""
+        return "-" if self.mode == "relative" else PARAMETER_UNITS[self.name]
+
+    @property
+    def half_width(self) -> float:
+        """Half the box's width."""
+        return 0.5 * (self.hi - self.lo)
+
+    def label(self) -> str:
+        """``'capillary_diameter_m +-5 %'``-style description."""
+        if self.discrete:
+            return f"{self.name} in {{{', '.join(f'{v:g}' for v in self.values)}}}"
+        if self.mode == "relative":
+            return f"{self.name} {100 * self.lo:+g} .. {100 * self.hi:+g} %"
+        return f"{self.name} {self.lo:g} .. {self.hi:g} {self.unit}"
+
+    def sample(self, rng, n: int) -> np.ndarray:
+        """``n`` draws from the parameter's distribution."""
+        if self.discrete:
+            return rng.choice(np.asarray(self.values, float), size=n)
+        if self.distribution == "normal":
+            mid = 0.5 * (self.lo + self.hi)
+            return rng.normal(mid, self.half_width / NORMAL_SIGMAS, size=n)
+        return rng.uniform(self.lo, self.hi, size=n)
+
+
+@dataclass(frozen=True)
+class UncertaintySpace:
+    """The validated ``[scenarios]`` table: parameters (in order) and exchange settings."""
+
+    parameters: tuple[UncertainParameter, ...]
+    settings: dict
+
+    @property
+    def names(self) -> tuple[str, ...]:
+        """Parameter names, in the order of a ``theta`` vector."""
+        return tuple(p.name for p in self.parameters)
+
+    @property
+    def size(self) -> int:
+        """Number of uncertain parameters."""
+        return len(self.parameters)
+
+    def parameter(self, name: str) -> UncertainParameter:
+        """The parameter ``name``."""
+        for p in self.parameters:
+            if p.name == name:
+                return p
+        raise KeyError(name)
+
+    def nominal(self) -> np.ndarray:
+        """The study's own values (tolerances 0)."""
+        return np.array([p.nominal for p in self.parameters])
+
+    def center(self) -> np.ndarray:
+        """The box's centre (a discrete parameter: its value nearest the centre)."""
+        out = []
+        for p in self.parameters:
+            c = 0.5 * (p.lo + p.hi)
+            out.append(min(p.values, key=lambda v, c=c: abs(v - c)) if p.discrete else c)
+        return np.array(out)
+
+    def lower(self) -> np.ndarray:
+        """Lower ends of the box."""
+        return np.array([p.lo for p in self.parameters])
+
+    def upper(self) -> np.ndarray:
+        """Upper ends of the box."""
+        return np.array([p.hi for p in self.parameters])
+
+    def corners(self, limit: int = 256, rng=None) -> np.ndarray:
+        """The box's corners (every value of a discrete parameter), at most ``limit``
+        (a random subset beyond it)."""
+        axes = [p.values if p.discrete else (p.lo, p.hi) for p in self.parameters]
+        n = math.prod(len(a) for a in axes)
+        if n <= limit:
+            return np.array(list(itertools.product(*axes)), float)
+        rng = rng or np.random.default_rng(0)
+        return np.array([[rng.choice(a) for a in axes] for _ in range(limit)], float)
+
+    def box_samples(self, n: int, rng) -> np.ndarray:
+        """``n`` points uniform in the box (discrete parameters: uniform over the list)."""
+        cols = []
+        for p in self.parameters:
+            if p.discrete:
+                cols.append(rng.choice(np.asarray(p.values, float), size=n))
+            else:
+                cols.append(rng.uniform(p.lo, p.hi, size=n))
+        return np.column_stack(cols) if cols else np.zeros((n, 0))
+
+    def draws(self, n: int, rng) -> np.ndarray:
+        """``n`` draws from the tolerance distributions (the yield's population)."""
+        return np.column_stack([p.sample(rng, n) for p in self.parameters])
+
+    def describe(self, theta) -> str:
+        """A scenario in words: ``payload_mass_kg=720, capillary_diameter_m=+5.0 %``."""
+        parts = []
+        for p, v in zip(self.parameters, np.asarray(theta, float), strict=True):
+            parts.append(f"{p.name}={100 * v:+.2f} %" if p.mode == "relative"
+                         else f"{p.name}={v:.6g}")
+        return ", ".join(parts)
+
+    def as_dict(self, theta) -> dict:
+        """``{name: value}`` of a scenario."""
+        return {n: float(v) for n, v in zip(self.names, np.asarray(theta, float), strict=True)}
+
+
+def _number(where: str, key: str, value) -> float:
+    try:
+        ok = not isinstance(value, bool) and isinstance(value, int | float) \
+            and math.isfinite(float(value))
+    except OverflowError:
+        ok = False
+    if not ok:
+        shown = repr(value) if len(repr(value)) <= 40 else repr(value)[:36] + "..."
+        raise InputError(f"{where}: scenarios.{key} must be a finite number, got {shown}")
+    return float(value)
+
+
+def _pair(where: str, key: str, value) -> tuple[float, float]:
+    """A symmetric number ``h`` (-> ``(-h, h)``) or an explicit ``[lo, hi]``."""
+    if isinstance(value, list):
+        if len(value) != 2:
+            raise InputError(f"{where}: scenarios.{key} must be a number or [lower, upper], "
+                             f"got a list of {len(value)}")
+        lo, hi = (_number(where, key, v) for v in value)
+    else:
+        h = _number(where, key, value)
+        if h <= 0:
+            raise InputError(f"{where}: scenarios.{key} must be > 0 (a +- tolerance), got {h:g}")
+        lo, hi = -h, h
+    return lo, hi
+
+
+def _check_box(where: str, key: str, lo: float, hi: float) -> None:
+    if lo > hi:
+        raise InputError(f"{where}: scenarios.{key}: inverted range, lower ({lo:g}) exceeds "
+                         f"upper ({hi:g})")
+    if lo == hi:
+        raise InputError(f"{where}: scenarios.{key}: empty range (lower = upper = {lo:g}); "
+                         "give a range or a list, or remove the key")
+
+
+def _nominal_operating(name: str, study) -> float:
+    if name == "payload_mass_kg":
+        return float(study.payload.mass_kg)
+    if name == "temperature_k":
+        return float(study.hardware.get("temperature_k", SpringDesign.__dataclass_fields__[
+            "temperature_k"].default))
+    return P_ATM
+
+
+def _parameter(where: str, name: str, spec, study) -> UncertainParameter:
+    key = name
+    if not isinstance(spec, dict):
+        raise InputError(f"{where}: scenarios.{key} must be a table, e.g. {{min = ..., max = "
+                         "...}}, {values = [...]}, {relative = 0.05} or {absolute = ...}")
+    operating = name in OPERATING_PARAMETERS
+    allowed = ({"min", "max", "values", "relative", "absolute", "distribution"} if operating
+               else {"relative", "absolute", "distribution"})
+    if name == "diaphragm_stiffness":
+        allowed = {"relative", "distribution"}
+    for k in spec:
+        if k not in allowed:
+            raise InputError(f"{where}: unknown key {k!r} in scenarios.{key}; valid: "
+                             f"{', '.join(sorted(allowed))}")
+    dist = spec.get("distribution", "uniform")
+    if dist not in DISTRIBUTIONS:
+        raise InputError(f"{where}: scenarios.{key}.distribution must be one of "
+                         f"{', '.join(DISTRIBUTIONS)}, got {dist!r:.40}")
+    forms = [k for k in ("min", "values", "relative", "absolute") if k in spec]
+    if "max" in spec and "min" not in spec:
+        forms.append("max")
+    if len(forms) != 1:
+        raise InputError(f"{where}: scenarios.{key} needs exactly one of "
+                         + ("min + max, values, relative, absolute" if operating
+                            else "relative, absolute") + f"; got {', '.join(forms) or 'none'}")
+    form = forms[0]
+    values = None
+    if form in ("min", "max"):
+        if "min" not in spec or "max" not in spec:
+            raise InputError(f"{where}: scenarios.{key} needs both min and max")
+        lo, hi = _number(where, f"{key}.min", spec["min"]), _number(where, f"{key}.max",
+                                                                     spec["max"])
+        _check_box(where, key, lo, hi)
+        mode = "value"
+    elif form == "values":
+        vals = spec["values"]
+        if not isinstance(vals, list) or not vals:
+            raise InputError(f"{where}: scenarios.{key}.values must be a non-empty list of "
+                             "numbers (an empty list gives no scenario)")
+        values = tuple(sorted({_number(where, f"{key}.values", v) for v in vals}))
+        if dist != "uniform":
+            raise InputError(f"{where}: scenarios.{key}: a list of values is drawn uniformly; "
+                             "distribution does not apply")
+        lo, hi, mode = values[0], values[-1], "value"
+    else:
+        lo, hi = _pair(where, f"{key}.{form}", spec[form])
+        _check_box(where, f"{key}.{form}", lo, hi)
+        mode = form
+        if operating:  # around the study's own value
+            nom = _nominal_operating(name, study)
+            lo, hi = (nom * (1 + lo), nom * (1 + hi)) if form == "relative" else (nom + lo,
+                                                                                  nom + hi)
+            mode = "value"
+    if dist == "normal" and values is None and mode == "value" and not operating:
+        pass
+    nominal = _nominal_operating(name, study) if operating else 0.0
+    p = UncertainParameter(name, mode, lo, hi, nominal, dist, values)
+    _check_positive(where, p, study)
+    return p
+
+
+def _check_positive(where: str, p: UncertainParameter, study) -> None:
+    """No value in the box (or within 4 sigma of a normal law) may be non-positive."""
+    lo = p.lo
+    if p.distribution == "normal" and not p.discrete:
+        lo = 0.5 * (p.lo + p.hi) - (4.0 / NORMAL_SIGMAS) * p.half_width
+    key = f"scenarios.{p.name}"
+    if p.mode == "value":
+        if lo <= 0:
+            raise InputError(f"{where}: {key}: the range reaches {lo:g} "
+                             f"{PARAMETER_UNITS[p.name]}; {p.name} must stay > 0")
+        return
+    if p.mode == "relative" and lo <= -1.0:
+        raise InputError(f"{where}: {key}.relative: a deviation of {100 * lo:g} % makes "
+                         f"{p.name} non-positive; it must stay above -100 %")
+    if p.mode == "absolute":
+        smallest = study.variable(p.name).lower if p.name in DESIGN_VARIABLES else math.inf
+        if smallest + lo <= 0:
+            raise InputError(f"{where}: {key}.absolute: a deviation of {lo:g} "
+                             f"{PARAMETER_UNITS[p.name]} makes {p.name} non-positive at its "
+                             f"lower bound {smallest:g}; use a smaller tolerance, a relative "
+                             "one, or raise variables." + p.name + ".lower")
+
+
+def parse_scenarios(table, where: str, study) -> UncertaintySpace | None:
+    """Validate a ``[scenarios]`` table (``None`` or empty: no scenarios).
+
+    Parameters
+    ----------
+    table : dict or None
+        The table as read from TOML (see ``docs/robust.md``): one entry per uncertain
+        parameter (``payload_mass_kg``, ``ambient_pressure_pa``, ``temperature_k``:
+        ``{min, max}``, ``{values = [...]}``, or ``{relative}`` / ``{absolute}`` around the
+        study's value; ``volume_ratio``, ``top_volume_m3``, ``capillary_length_m``,
+        ``capillary_diameter_m``: ``{relative}`` or ``{absolute}``; ``diaphragm_stiffness``:
+        ``{relative}``; each optionally ``distribution = "uniform" | "normal"``), plus the
+        exchange settings ``tolerance_db``, ``max_rounds``, ``search_samples``, ``seed``.
+    where : str
+        The study's source, to start error messages.
+    study : Study
+        The nominal study (its payload, temperature and variable bounds).
+
+    Returns
+    -------
+    UncertaintySpace or None
+
+    Raises
+    ------
+    InputError
+        An unknown key, an empty or inverted range, a tolerance that makes a quantity
+        non-positive, or a scenario whose spring is not valid; the message names the key.
+    """
+    if not table:
+        return None
+    if not isinstance(table, dict):
+        raise InputError(f"{where}: [scenarios] must be a table")
+    valid = set(OPERATING_PARAMETERS) | set(TOLERANCE_PARAMETERS) | set(SCENARIO_SETTINGS)
+    for k in table:
+        if k not in valid:
+            raise InputError(f"{where}: unknown key {k!r} in [scenarios]; valid: "
+                             f"{', '.join(sorted(valid))}")
+    params = tuple(_parameter(where, n, table[n], study)
+                   for n in (*OPERATING_PARAMETERS, *TOLERANCE_PARAMETERS) if n in table)
+    settings = dict(SCENARIO_SETTINGS)
+    for k, default in SCENARIO_SETTINGS.items():
+        if k not in table:
+            continue
+        v = table[k]
+        if isinstance(default, int):
+            hi = {"max_rounds": 50, "search_samples": 4096, "seed": 2**32 - 1}[k]
+            lo = 1 if k != "seed" else 0
+            if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
+                raise InputError(f"{where}: scenarios.{k} must be an integer in [{lo}, {hi}]")
+        else:
+            v = _number(where, k, v)
+            if not 0 < v <= 10:
+                raise InputError(f"{where}: scenarios.{k} must be in (0, 10] dB, got {v:g}")
+        settings[k] = v
+    if not params:
+        raise InputError(f"{where}: [scenarios] names no uncertain parameter; valid: "
+                         f"{', '.join((*OPERATING_PARAMETERS, *TOLERANCE_PARAMETERS))}")
+    space = UncertaintySpace(params, settings)
+    for theta in space.corners(limit=64):
+        try:
+            ScenarioStudy(study, space, theta).start_design()
+        except InputError as exc:
+            raise InputError(f"{where}: [scenarios] the scenario {space.describe(theta)} "
+                             f"gives no valid spring at the start design: {exc}") from None
+    return space
+
+
+class ScaledDiaphragm:
+    """A diaphragm model whose complex stiffness is scaled by ``1 + delta`` (any backend)."""
+
+    def __init__(self, base, delta):
+        self.base = base
+        self.delta = delta
+        self.name = getattr(base, "name", "diaphragm")
+
+    def stiffness(self, omega, amplitude_m) -> Cx:
+        """``(1 + delta) k_D*(X, w)``."""
+        k = self.base.stiffness(omega, amplitude_m)
+        f = 1.0 + self.delta
+        return Cx(k.re * f, k.im * f)
+
+    def in_range(self, omega, amplitude_m) -> dict:
+        """The base model's validity checks."""
+        return self.base.in_range(omega, amplitude_m)
+
+
+class ScenarioStudy:
+    """A study under one scenario (numbers, or CasADi symbols inside the NLP).
+
+    Every attribute of the nominal study is passed through, except ``payload`` (the
+    scenario's mass), ``hardware`` (its temperature), ``models["diaphragm"]`` (scaled
+    by the diaphragm spread) and :meth:`design_at`, which returns the built spring:
+    tolerances applied to the drawn design, ``p0 = p_amb + m g / (n A_p)``.
+
+    Parameters
+    ----------
+    study : Study
+        The nominal study.
+    space : UncertaintySpace
+    theta : sequence
+        The scenario's coordinates, in ``space.names`` order (numbers or symbols).
+    """
+
+    def __init__(self, study, space: UncertaintySpace, theta):
+        self.base = study
+        self.space = space
+        self.theta = {n: theta[i] for i, n in enumerate(space.names)}
+        self.symbolic = any(bk.is_casadi(v) for v in self.theta.values())
+        mass = self.theta.get("payload_mass_kg", study.payload.mass_kg)
+        p = study.payload
+        if bk.is_casadi(mass):
+            self.payload = SimpleNamespace(
+                mass_kg=mass, isolators=p.isolators, spacing_m=p.spacing_m,
+                cg_height_m=p.cg_height_m, g_m_s2=p.g_m_s2,
+                mass_per_isolator_kg=mass / p.isolators,
+                load_per_isolator_n=mass * p.g_m_s2 / p.isolators)
+        else:
+            self.payload = dataclasses.replace(p, mass_kg=float(mass)) if mass != p.mass_kg \
+                else p
+        self.hardware = dict(study.hardware)
+        if "temperature_k" in self.theta:
+            self.hardware["temperature_k"] = self.theta["temperature_k"]
+        self.models = dict(study.models)
+        if "diaphragm_stiffness" in self.theta:
+            self.models["diaphragm"] = ScaledDiaphragm(diaphragm_model(study.models["diaphragm"]),
+                                                       self.theta["diaphragm_stiffness"])
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self.base, name)
+
+    def built_values(self, values: dict) -> dict:
+        """The built design variables: the drawn ``values`` with the tolerances applied."""
+        vals = {v.name: (v.start if v.fixed else values.get(v.name, v.start))
+                for v in self.base.variables}
+        for n in DESIGN_VARIABLES:
+            if n in self.theta:
+                p = self.space.parameter(n)
+                delta = self.theta[n]
+                vals[n] = vals[n] * (1.0 + delta) if p.mode == "relative" else vals[n] + delta
+        return vals
+
+    def design_at(self, values: dict):
+        """The built spring of the drawn design ``values`` under this scenario."""
+        vals = self.built_values(values)
+        d = SpringDesign(pressure_pa=2e5, **vals, **self.hardware)
+        p_amb = self.theta.get("ambient_pressure_pa", P_ATM)
+        pl = self.payload
+        p0 = p_amb + pl.mass_kg * pl.g_m_s2 / (pl.isolators * d.piston_area_m2)
+        if not self.symbolic and not p0 > P_ATM:
+            raise InputError(f"scenario {self.space.describe(list(self.theta.values()))}: "
+                             f"static pressure {p0:.4g} Pa is not above atmospheric")
+        return dataclasses.replace(d, pressure_pa=p0)
+
+    def start_design(self):
+        """The built start design under this scenario."""
+        return self.design_at({v.name: v.start for v in self.base.variables})

@@ -1,0 +1,281 @@
+"""Yield: the fraction of built tables that pass, by sampling the tolerance distributions.
+
+Each draw is one built table: its payload, ambient pressure and temperature, and its
+spring's manufacturing deviations, drawn from the ``[scenarios]`` laws (uniform, or normal
+with the tolerance as three standard deviations; a list uniformly). Each is judged with
+the NumPy analysis (:func:`.exchange.scenario_check`): it *passes* when the instrument's
+criterion holds in every target band (worst band margin >= 0 dB on the analysis grid),
+every constraint holds (violation <= :data:`.solution.FEASIBILITY_TOLERANCE`) and the
+continuous peak of |T| is within :data:`.refine.PEAK_TOLERANCE_DB` of its bound.
+
+The pass fraction comes with an exact Clopper-Pearson interval (and the Wilson score
+interval); the draws run on a process pool (forked workers, the study inherited, only the
+draws and the verdicts cross).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from isodesign.errors import InputError
+from isodesign.optimization.multistart import available_cores
+from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+from isodesign.results import ResultDisplay
+
+__all__ = ["YieldResult", "clopper_pearson", "estimate_yield", "wilson"]
+
+_DB = 10.0 / math.log(10.0)
+_CTX = None  # (study, values, grid) inherited by forked workers
+
+
+def clopper_pearson(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Exact (Clopper-Pearson) binomial interval for ``k`` passes in ``n`` draws.
+
+    Parameters
+    ----------
+    k, n : int
+        Passes and draws (``0 <= k <= n``, ``n >= 1``).
+    confidence : float
+        Two-sided confidence level.
+
+    Returns
+    -------
+    (float, float)
+        Lower and upper bounds of the pass probability.
+    """
+    from scipy.stats import beta
+
+    a = 1.0 - confidence
+    lo = 0.0 if k == 0 else float(beta.ppf(a / 2, k, n - k + 1))
+    hi = 1.0 if k == n else float(beta.ppf(1 - a / 2, k + 1, n - k))
+    return lo, hi
+
+
+def wilson(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
+    """Wilson score interval for ``k`` passes in ``n`` draws.
+
+    Parameters
+    ----------
+    k, n : int
+    confidence : float
+
+    Returns
+    -------
+    (float, float)
+    """
+    from scipy.stats import norm
+
+    z = float(norm.ppf(0.5 + confidence / 2))
+    p = k / n
+    den = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / den
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / den
+    return max(0.0, c - h), min(1.0, c + h)
+
+
+def _judge(theta) -> dict:
+    from isodesign.optimization.exchange import scenario_check
+    from isodesign.optimization.refine import PEAK_TOLERANCE_DB
+
+    study, values, grid = _CTX
+    try:
+        c = scenario_check(study, values, theta, grid=grid)
+    except InputError as exc:  # a draw that is not a valid spring fails
+        return {"passes": False, "reason": f"invalid: {exc}", "margin_db": math.nan,
+                "max_violation": math.inf, "objective": math.nan, "peak_excess_db": math.nan}
+    mt_margin = c["criterion_margin_db"]
+    reasons = [n for n, v in c["violations"].items() if v > FEASIBILITY_TOLERANCE]
+    if c["peak_excess_db"] is not None and c["peak_excess_db"] > PEAK_TOLERANCE_DB:
+        reasons.append("continuous_peak_transmissibility")
+    if mt_margin < 0:
+        reasons.insert(0, "criterion")
+    return {"passes": not reasons, "reason": ", ".join(reasons), "margin_db": mt_margin,
+            "max_violation": c["max_violation"], "objective": c["objective"],
+            "peak_excess_db": c["peak_excess_db"]}
+
+
+def _judge_chunk(chunk):
+    return [_judge(th) for th in chunk]
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class YieldResult(ResultDisplay):
+    """Outcome of :func:`estimate_yield`: draws, verdicts, pass fraction with intervals."""
+
+    study: object
+    values: dict
+    draws: np.ndarray
+    verdicts: tuple
+    confidence: float
+    seed: int
+    wall_s: float = 0.0
+    workers: int = 1
+    label: str = ""
+    extra: dict = field(default_factory=dict)
+
+    @property
+    def samples(self) -> int:
+        """Number of draws."""
+        return len(self.verdicts)
+
+    @property
+    def passed(self) -> int:
+        """Draws that pass."""
+        return sum(1 for v in self.verdicts if v["passes"])
+
+    @property
+    def fraction(self) -> float:
+        """Pass fraction."""
+        return self.passed / self.samples
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        """Clopper-Pearson interval of the pass probability."""
+        return clopper_pearson(self.passed, self.samples, self.confidence)
+
+    @property
+    def wilson_interval(self) -> tuple[float, float]:
+        """Wilson score interval."""
+        return wilson(self.passed, self.samples, self.confidence)
+
+    def failure_counts(self) -> dict:
+        """Reason -> number of failing draws (a draw may fail for several)."""
+        out: dict = {}
+        for v in self.verdicts:
+            for r in filter(None, v["reason"].split(", ")):
+                out[r] = out.get(r, 0) + 1
+        return dict(sorted(out.items(), key=lambda kv: -kv[1]))
+
+    def worst_margin_db(self) -> float:
+        """The smallest criterion margin over the draws, dB."""
+        return float(np.nanmin([v["margin_db"] for v in self.verdicts]))
+
+    def worst(self, key: str, sense: str = "max") -> float:
+        """The largest (``sense="max"``) or smallest value of a verdict field over the draws
+        (``objective``, ``max_violation``, ``peak_excess_db``, ``margin_db``)."""
+        v = np.array([np.nan if d[key] is None else d[key] for d in self.verdicts], float)
+        return float(np.nanmax(v) if sense == "max" else np.nanmin(v))
+
+    def to_frame(self):
+        """One row per draw: parameters, margin, verdict."""
+        import pandas as pd
+
+        df = pd.DataFrame(self.draws, columns=list(self.study.scenarios.names))
+        df["margin_db"] = [v["margin_db"] for v in self.verdicts]
+        df["objective"] = [v["objective"] for v in self.verdicts]
+        df["peak_excess_db"] = [v["peak_excess_db"] for v in self.verdicts]
+        df["max_violation"] = [v["max_violation"] for v in self.verdicts]
+        df["passes"] = [v["passes"] for v in self.verdicts]
+        df["reason"] = [v["reason"] for v in self.verdicts]
+        return df
+
+    def _summary_items(self):
+        lo, hi = self.interval
+        return [("yield", f"{100 * self.fraction:.1f} % ({self.passed}/{self.samples})"),
+                (f"{100 * self.confidence:g} % CI", f"{100 * lo:.1f}-{100 * hi:.1f} %"),
+                ("worst margin", f"{self.worst_margin_db():+.2f} dB")]
+
+    def summary(self) -> str:
+        """Text summary."""
+        lo, hi = self.interval
+        wl, wh = self.wilson_interval
+        sp = self.study.scenarios
+        lines = [f"yield of {self.label or 'the design'} under study {self.study.name!r}: "
+                 f"{self.passed} of {self.samples} draws pass = {100 * self.fraction:.1f} %",
+                 f"  {100 * self.confidence:g} % interval: Clopper-Pearson {100 * lo:.2f}-"
+                 f"{100 * hi:.2f} %, Wilson {100 * wl:.2f}-{100 * wh:.2f} %",
+                 f"  worst criterion margin over the draws: {self.worst_margin_db():+.3f} dB",
+                 "  drawn from: " + "; ".join(
+                     f"{p.label()} ({'list' if p.discrete else p.distribution})"
+                     for p in sp.parameters),
+                 f"  {self.workers} worker(s), seed {self.seed}, {self.wall_s:.1f} s"]
+        fails = self.failure_counts()
+        if fails:
+            lines.append("  failures: " + ", ".join(f"{k} {v}" for k, v in fails.items()))
+        return "\n".join(lines)
+
+    def record(self) -> dict:
+        """JSON-ready summary (yield.json)."""
+        lo, hi = self.interval
+        wl, wh = self.wilson_interval
+        return {"samples": self.samples, "passed": self.passed, "fraction": self.fraction,
+                "confidence": self.confidence, "clopper_pearson": [lo, hi],
+                "wilson": [wl, wh], "worst_margin_db": self.worst_margin_db(),
+                "failures": self.failure_counts(), "values": self.values, "seed": self.seed,
+                "workers": self.workers, "wall_s": self.wall_s, "label": self.label,
+                "parameters": [p.label() for p in self.study.scenarios.parameters]}
+
+    def plot(self, ax=None):
+        """Histogram of the criterion margin over the draws (failures marked).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from isodesign.plotting.robust import yield_histogram
+
+        return yield_histogram(self, ax=ax)
+
+
+def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
+                   confidence: float = 0.95, workers: int | None = None,
+                   label: str = "") -> YieldResult:
+    """Sample the tolerance distributions and judge every draw with the NumPy analysis.
+
+    Parameters
+    ----------
+    study : Study
+        With ``[scenarios]`` (the laws to draw from).
+    values : dict
+        The drawn design (SI): any design, e.g. a nominal or robust optimum's ``values``
+        or a design file's variables.
+    samples : int
+        Number of draws (1..1,000,000).
+    seed : int
+    confidence : float
+        Level of the intervals, in (0, 1).
+    workers : int, optional
+        Worker processes (default ``study.solver["workers"]``), capped by the cores.
+    label : str
+        What the design is (for the summary).
+
+    Returns
+    -------
+    YieldResult
+    """
+    global _CTX
+    from isodesign.optimization.grid import build_grid
+
+    if study.scenarios is None:
+        raise InputError("yield: the study has no [scenarios] table (the laws to draw from)")
+    if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 10**6:
+        raise InputError(f"samples: must be an integer in [1, 1000000], got {samples!r:.30}")
+    if not 0 < confidence < 1:
+        raise InputError(f"confidence: must be in (0, 1), got {confidence!r}")
+    t0 = time.perf_counter()
+    rng = np.random.default_rng(seed)
+    draws = study.scenarios.draws(samples, rng)
+    workers = min(workers or study.solver.get("workers", 2), available_cores(), samples)
+    _CTX = (study, dict(values), build_grid(study))
+    try:
+        if workers > 1:
+            import multiprocessing as mp
+
+            chunks = np.array_split(draws, workers * 4)
+            with mp.get_context("fork").Pool(workers) as pool:
+                verdicts = [v for part in pool.map(_judge_chunk, chunks) for v in part]
+        else:
+            verdicts = _judge_chunk(draws)
+    finally:
+        _CTX = None
+    return YieldResult(study=study, values=dict(values), draws=draws, verdicts=tuple(verdicts),
+                       confidence=confidence, seed=seed, wall_s=time.perf_counter() - t0,
+                       workers=workers, label=label)

@@ -1,0 +1,503 @@
+"""The NLP of a table study in three axes (CasADi SX, IPOPT, exact derivatives).
+
+A sibling of :class:`isodesign.optimization.problem.Problem` with the same interface
+(``initial_guess``, ``solve``, ``params``, ``values``, ``violations``, ``scaling``,
+``objective``), so the multi-start machinery runs it unchanged. Decision variables: the
+scaled design ``z`` (N, V_t0, L_c, D_c; identical isolators), and per isolator
+``s_i = ln sigma_i`` and ``y_i = ln sigma_u,i`` of the statistical closure, solved inside
+the NLP as equality constraints::
+
+    exp(2 s_i) = sum_a sum_j sw_a[j] |S_ia(f_j)|^2
+    exp(2 y_i) = sum_a sum_j sw_a[j] |S_ia(f_j)|^2 |U/X|_i^2(f_j)
+
+with the strokes ``S_ia`` from the same 6x6 assembly and the same spring functions the
+NumPy analysis uses (:mod:`isodesign.table.assembly`, :mod:`isodesign.spring`). The
+per-frequency physics is one SX Function (spring of every isolator, assembly, the 12x12
+real solve, the squared outputs) mapped over the grid.
+
+Objective: the worst margin over every instrument point, axis and band (an epigraph
+``t <= margin``; ``J = -t``), or the total volume. Constraints (docs/table.md, section 11):
+
+* ``max_total_volume_m3`` on ``V_t0 (1 + N)``;
+* ``min_natural_frequency_hz``/``max_natural_frequency_hz`` on the vertical mode,
+  ``sqrt(sum K0_i / m)``;
+* ``min_tilt_margin`` on every rocking direction with the gravity term:
+  ``K_theta / (W h) - mu I`` positive semidefinite, written smoothly as its two diagonal
+  entries and its determinant ``>= 0`` (no eigenvalue, no ``min``);
+* ``max_peak_transmissibility_db`` on ``|T_p,aa|`` at every point and axis on the grid;
+* ``min_damping_ratio`` on every mode below 5 Hz: ``phi^H K'' phi >= 2 zeta_min phi^H K'
+  phi`` with the mode's shape ``phi`` and frequency frozen (NLP parameters) at the last
+  solution of the nonlinear eigenproblem: a Rayleigh quotient, stationary in the shape, so
+  smooth and first-order exact; the driver re-solves the modes at the optimum and repeats
+  while they move.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from isodesign.errors import InputError
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.problem import (
+    CONSTRAINT_VIOLATION_TOL,
+    EPIGRAPH_BOUND,
+    IPOPT_OPTIONS,
+    SIGMA_BOUNDS_M,
+    VELOCITY_BOUNDS_M_S,
+)
+from isodesign.optimization.solution import Solution
+from isodesign.optimization.variables import DESIGN_VARIABLES, log_scaling
+from isodesign.response.isolator import static_stiffness
+from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
+from isodesign.spring.capillary import statistical_resistance_function
+from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
+from isodesign.table.assembly import dynamic_stiffness, geometry, solve_complex
+from isodesign.table.floor import table_grid
+from isodesign.table.statics import level
+
+__all__ = ["DAMPED_MODE_LIMIT_HZ", "TABLE_OBJECTIVES", "TableProblem"]
+
+#: Modes below this frequency carry the damping constraint.
+DAMPED_MODE_LIMIT_HZ = 5.0
+#: Objectives of the table NLP.
+TABLE_OBJECTIVES = ("worst_band_margin", "total_volume")
+_LN10 = math.log(10.0)
+
+
+class TableProblem:
+    """The NLP of a study with a ``[table]``, built once and solved from many starts.
+
+    Parameters
+    ----------
+    study : Study
+        With ``table`` and ``floor_axes``.
+    objectives : tuple of str, optional
+        ``worst_band_margin`` (default) and/or ``total_volume``.
+    hessian : {'limited-memory', 'exact'}
+        IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way).
+    """
+
+    def __init__(self, study, objectives: tuple | None = None, *,
+                 hessian: str = "limited-memory"):
+        import casadi as ca
+
+        self.hessian = hessian
+
+        if study.table is None:
+            raise InputError("study: has no [table]; use isodesign.optimization.Problem")
+        self.study = study
+        self.objectives = tuple(objectives or (study.objective["kind"],))
+        for kind in self.objectives:
+            if kind not in TABLE_OBJECTIVES:
+                raise InputError(f"objective.kind: {kind!r} is not available for a table study; "
+                                 f"valid: {', '.join(TABLE_OBJECTIVES)}")
+        self.objective = self.objectives[0]
+        m = study.models
+        if m["random_method"] != "statistical":
+            raise InputError("models.random_method: a table study uses 'statistical'")
+        self.flow = m["flow"]
+        self.dia = diaphragm_model(m["diaphragm"])
+        self.scaling = log_scaling(study)
+        self.table = study.table
+        self.grid = table_grid(study.floor_axes, study.bands, target=study.target,
+                               points_per_band=m["points_per_band"])
+        self.leveling = level(self.table, study.hardware["piston_area_m2"])
+        self.geo = geometry(self.table, self.leveling.load_n)
+        self.n = self.table.n_isolators
+        self.k = self.table.instrument_points_m.shape[0]
+        w = self.grid.omega
+        kh = [self.table.horizontal.stiffness(w, float(ld)) for ld in self.leveling.load_n]
+        self.kh_re = np.stack([np.broadcast_to(np.asarray(c.re, float), w.shape) for c in kh])
+        self.kh_im = np.stack([np.broadcast_to(np.asarray(c.im, float), w.shape) for c in kh])
+        self.n_modes = 6
+        # per mode [active, w, phi_re(6), phi_im(6)]; an inactive mode keeps w = 2 pi rad/s
+        self.mode_params = np.tile(np.r_[0.0, 2 * math.pi, np.zeros(12)], self.n_modes)
+        self._build(ca)
+
+    # -- the per-frequency physics ------------------------------------------------
+    def _springs(self, ca, dv, s, y, w):
+        base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        kv, g2 = [], []
+        for i in range(self.n):
+            d = base.replace(pressure_pa=float(self.leveling.pressure_pa[i]))
+            c = statistical_resistance_function(self.flow, d, w)(ca.exp(y[i]))
+            k = spring_stiffness(air_stiffness(d, w, c),
+                                 self.dia.stiffness(w, EQUIVALENT_AMPLITUDE_FACTOR * ca.exp(s[i])))
+            kv.append(k)
+            g2.append(tube_velocity_gain2(d, w, c))
+        return base, kv, g2
+
+    def _point_function(self, ca):
+        """One frequency's physics and its quadrature contributions (an SX Function).
+
+        Inputs: design, ``s``, ``y``, ``w``, the horizontal stiffnesses, and this point's
+        stroke weights ``sw`` (3) and band weights ``bw`` (3 x n_bands). Outputs: the
+        contributions to ``sigma_i^2``, ``sigma_u,i^2`` and every band mean square (summed
+        over the grid by the map), and ``|T_p,aa|^2`` (per point, for the peak).
+        """
+        n, k, nb = self.n, self.k, self.grid.n_bands
+        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
+        s, y, w = ca.SX.sym("s", n), ca.SX.sym("y", n), ca.SX.sym("w")
+        khr, khi = ca.SX.sym("khr", n), ca.SX.sym("khi", n)
+        sw, bw = ca.SX.sym("sw", 3), ca.SX.sym("bw", 3 * nb)
+        _, kv, g2 = self._springs(ca, dv, s, y, w)
+        kh = [Cx(khr[i], khi[i]) for i in range(n)]
+        d, b = dynamic_stiffness(self.geo, kv, kh, w)
+        q = solve_complex(d, b)
+        qr = [[q.re[0, r * 3 + a] for a in range(3)] for r in range(6)]
+        qi = [[q.im[0, r * 3 + a] for a in range(3)] for r in range(6)]
+        ms, diag = [], []
+        for p in range(k):
+            gp = self.geo.points[p]
+            for bb in range(3):
+                acc = 0
+                for a in range(3):
+                    re = sum(gp[bb, r] * qr[r][a] for r in range(6) if gp[bb, r] != 0)
+                    im = sum(gp[bb, r] * qi[r][a] for r in range(6) if gp[bb, r] != 0)
+                    t2 = re * re + im * im
+                    acc = acc + t2 * bw[a * nb: (a + 1) * nb]
+                    if a == bb:
+                        diag.append(t2)
+                ms.append(acc)
+        s2, u2 = [], []
+        for i in range(n):
+            gz = self.geo.gz[i]
+            si, ui = 0, 0
+            for a in range(3):
+                re = sum(gz[r] * qr[r][a] for r in range(6) if gz[r] != 0) - (a == 2)
+                im = sum(gz[r] * qi[r][a] for r in range(6) if gz[r] != 0)
+                si = si + sw[a] * (re * re + im * im)
+                ui = ui + sw[a] * (re * re + im * im) * g2[i]
+            s2.append(si)
+            u2.append(ui)
+        return ca.Function("table_point", [dv, s, y, w, khr, khi, sw, bw],
+                           [ca.vertcat(*s2, *u2, *ms), ca.vertcat(*diag)])
+
+    def _stiffness_function(self, ca):
+        """``(design, s, y, w) -> (K' flat, K'' flat)``: the isolators' 6x6 stiffness."""
+        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
+        s, y, w = ca.SX.sym("s", self.n), ca.SX.sym("y", self.n), ca.SX.sym("w")
+        khr, khi = ca.SX.sym("khr", self.n), ca.SX.sym("khi", self.n)
+        _, kv, _ = self._springs(ca, dv, s, y, w)
+        kh = [Cx(khr[i], khi[i]) for i in range(self.n)]
+        d, _ = dynamic_stiffness(self.geo, kv, kh, w)
+        mass = ca.DM(self.geo.mass.reshape(1, 36))
+        return ca.Function("table_k", [dv, s, y, w, khr, khi],
+                           [(d.re + w * w * mass).T, d.im.T])
+
+    # -- the NLP ---------------------------------------------------------------------
+    def _build(self, ca) -> None:
+        st, n, k, g = self.study, self.n, self.k, self.grid
+        nf = g.n_points
+        # MX outside, the SX point function mapped inside: the derivatives are built on one
+        # point's graph (an unrolled SX map of ~100 copies took a minute to differentiate)
+        X = ca.MX
+        z = X.sym("z", len(self.scaling.names))
+        s, y = X.sym("s", n), X.sym("y", n)
+        t = X.sym("t", 1 if self.objective == "worst_band_margin" or
+                  "worst_band_margin" in self.objectives else 0)
+        vals = []
+        for name in DESIGN_VARIABLES:
+            if name in self.scaling.names:
+                i = self.scaling.names.index(name)
+                vals.append(ca.exp(self.scaling.center[i] + self.scaling.half[i] * z[i]))
+            else:
+                vals.append(X(st.variable(name).start))
+        v = ca.vertcat(*vals)
+        point = self._point_function(ca)
+        nb = g.n_bands
+        bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)  # (3 nb, nf)
+        red, diag = point.map("table_map", "serial", nf, [0, 1, 2], [0])(
+            v, s, y, ca.DM(g.omega).T, ca.DM(self.kh_re), ca.DM(self.kh_im),
+            ca.DM(g.stroke_weight), ca.DM(bw))  # red: summed over the grid
+        self._n_t = 9 * k
+        self.sigma_ref, self.tube_ref = self._reference()
+        rows_eq = []
+        for i in range(n):
+            rows_eq.append((ca.exp(2 * s[i]) - red[i]) / self.sigma_ref[i] ** 2)
+            rows_eq.append((ca.exp(2 * y[i]) - red[n + i]) / self.tube_ref[i] ** 2)
+        lim2 = np.tile(np.asarray(g.limit_velocity_m_s, float) ** 2, 3 * k)
+        margins = (10.0 / _LN10) * (ca.log(ca.DM(lim2)) - ca.log(red[2 * n: 2 * n + 3 * k * nb]))
+        out = diag  # (3k x nf): |T_p,aa|^2
+        self.n_margins = int(margins.numel())
+        d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
+        cons = self._constraints(ca, d, v, s, y, out)
+        j_parts = {"total_volume": ca.log(d.total_volume_m3)}
+        if t.numel():
+            j_parts["worst_band_margin"] = -t[0]
+            cons.insert(0, ("worst_band_margin_epigraph", t[0] - margins, -np.inf, 0.0))
+        p_w = X.sym("weights", len(self.objectives))
+        p_wd = X.sym("w_diameter")
+        p_eps = X.sym("eps", len(self.objectives))
+        p_modes = X.sym("modes", self.mode_params.size)
+        self._p_modes_sym = p_modes
+        cons += self._damping(ca, v, s, y, p_modes)
+        js = [j_parts[kind] for kind in self.objectives]
+        j_total = p_wd * ca.log(d.capillary_diameter_m)
+        for i, jk in enumerate(js):
+            j_total = j_total + p_w[i] * jk
+            cons.append((f"bound_{self.objectives[i]}", jk - p_eps[i], -np.inf, 0.0))
+        x = ca.vertcat(z, s, y, t)
+        pp = ca.vertcat(p_w, p_wd, p_eps, p_modes)
+        gg = ca.vertcat(*rows_eq, *[c[1] for c in cons])
+        self.n_eq = 2 * n
+        lbg, ubg, self.con_rows, row = [0.0] * (2 * n), [0.0] * (2 * n), [], 2 * n
+        for name, expr, lo, hi in cons:
+            m = int(expr.numel())
+            lbg += [lo] * m
+            ubg += [hi] * m
+            self.con_rows.append((name, row, m))
+            row += m
+        self.lbg, self.ubg = np.array(lbg), np.array(ubg)
+        self.nz, self.nx = int(z.numel()), int(x.numel())
+        self.lbx = np.concatenate([-np.ones(self.nz), np.full(n, math.log(SIGMA_BOUNDS_M[0])),
+                                   np.full(n, math.log(VELOCITY_BOUNDS_M_S[0])),
+                                   np.full(int(t.numel()), -EPIGRAPH_BOUND)])
+        self.ubx = np.concatenate([np.ones(self.nz), np.full(n, math.log(SIGMA_BOUNDS_M[1])),
+                                   np.full(n, math.log(VELOCITY_BOUNDS_M_S[1])),
+                                   np.full(int(t.numel()), EPIGRAPH_BOUND)])
+        self._margins_fn = ca.Function("margins", [x], [margins])
+        self._j_fn = ca.Function("objectives", [x], [ca.vertcat(*js)])
+        self.eval_fn = ca.Function("eval", [x, pp], [j_total, gg])
+        self.solver = ca.nlpsol("isodesign_table", "ipopt",
+                                {"x": x, "f": j_total, "g": gg, "p": pp}, self.ipopt_options())
+
+    def _constraints(self, ca, d, v, s, y, out) -> list:
+        st, c = self.study, self.study.constraints
+        table, lv = self.table, self.leveling
+        cons = []
+        if c.get("max_total_volume_m3"):
+            cons.append(("max_total_volume_m3", ca.log(d.total_volume_m3),
+                         -np.inf, math.log(c["max_total_volume_m3"])))
+        base = st.design_at({nm: v[i] for i, nm in enumerate(DESIGN_VARIABLES)})
+        k0 = [static_stiffness(base.replace(pressure_pa=float(p)), self.dia, float(mi))
+              for p, mi in zip(lv.pressure_pa, lv.mass_per_isolator_kg, strict=True)]
+        ktot = sum(k0)
+        lo, hi = c.get("min_natural_frequency_hz"), c.get("max_natural_frequency_hz")
+        if lo or hi:
+            ln_f2 = ca.log(ktot / table.mass_kg / (2.0 * math.pi) ** 2)
+            cons.append(("natural_frequency_hz", ln_f2, 2 * math.log(lo) if lo else -np.inf,
+                         2 * math.log(hi) if hi else np.inf))
+        mu = c.get("min_tilt_margin")
+        if mu and table.cg_height_m > 0:
+            r = table.vertical_points_m
+            wh = table.weight_n * table.cg_height_m
+            a11 = sum(ki * r[i, 1] ** 2 for i, ki in enumerate(k0)) / wh - mu
+            a22 = sum(ki * r[i, 0] ** 2 for i, ki in enumerate(k0)) / wh - mu
+            a12 = -sum(ki * r[i, 0] * r[i, 1] for i, ki in enumerate(k0)) / wh
+            cons.append(("min_tilt_margin", ca.vertcat(a11, a22, a11 * a22 - a12 * a12),
+                         0.0, np.inf))
+        pk = c.get("max_peak_transmissibility_db")
+        if pk is not None and pk is not False:
+            cons.append(("max_peak_transmissibility_db",
+                         ca.log(ca.vec(out.T)) - pk * _LN10 / 10.0, -np.inf, 0.0))
+        return cons
+
+    def _damping(self, ca, v, s, y, p_modes) -> list:
+        zmin = self.study.constraints.get("min_damping_ratio")
+        if not zmin:
+            return []
+        kfn = self._stiffness_function(ca)
+        h = self.table.horizontal
+        rows = []
+        for j in range(self.n_modes):
+            blk = p_modes[14 * j: 14 * (j + 1)]
+            act, w = blk[0], blk[1]
+            phr, phi = blk[2:8], blk[8:14]
+            # horizontal stiffness at the (parametric) mode frequency: pendulum + lateral
+            khr = ca.vertcat(*[float(h.pendulum_stiffness(ld)) + h.lateral_stiffness_n_per_m
+                               for ld in self.leveling.load_n])
+            khi = ca.DM([h.lateral_stiffness_n_per_m * h.lateral_loss_factor] * self.n)
+            if h.lateral_model is not None:
+                lat = h.lateral_stiffness(w)
+                khr = ca.vertcat(*[float(h.pendulum_stiffness(ld)) + lat.re
+                                   for ld in self.leveling.load_n])
+                khi = ca.vertcat(*[lat.im for _ in range(self.n)])
+            kr, ki = kfn(v, s, y, w, khr, khi)
+            kr, ki = ca.reshape(kr, 6, 6), ca.reshape(ki, 6, 6)
+            # phi^H K phi for a real symmetric K: phr^T K phr + phi^T K phi
+            q_r = ca.mtimes([phr.T, kr, phr]) + ca.mtimes([phi.T, kr, phi])
+            q_i = ca.mtimes([phr.T, ki, phr]) + ca.mtimes([phi.T, ki, phi])
+            rows.append(act * (q_i - 2.0 * zmin * q_r) / ca.fmax(q_r, 1e-30))
+        return [("min_damping_ratio", ca.vertcat(*rows), 0.0, np.inf)]
+
+    # -- references, starts, solving ---------------------------------------------------
+    def closure(self, d):
+        """NumPy closure of the design on the NLP's grid: ``(sigma (n,), sigma_u (n,))``.
+
+        Parameters
+        ----------
+        d : SpringDesign
+        """
+        from isodesign.table.model import table_model
+        from isodesign.table.response import TableStatistical, solve_table_closure
+
+        m = self.study.models
+        model = table_model(d, self.table, flow=self.flow, amplitude_mode=m["amplitude_mode"],
+                            diaphragm=self.dia)  # fmt: skip
+        sigma, sigma_u, _ = solve_table_closure(TableStatistical(model, self.grid))
+        return sigma, sigma_u
+
+    def _reference(self):
+        return self.closure(self.study.start_design())
+
+    def ipopt_options(self) -> dict:
+        """The options given to CasADi's nlpsol (those of the vertical NLP)."""
+        return {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
+                "ipopt.max_iter": self.study.solver["max_iter"],
+                "ipopt.tol": self.study.solver["tol"],
+                "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL, **IPOPT_OPTIONS,
+                "ipopt.hessian_approximation": self.hessian,
+                "error_on_fail": False}  # fmt: skip
+
+    def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:
+        """Parameter vector: weights, the weight of ln D_c, epsilon bounds, frozen modes.
+
+        Parameters
+        ----------
+        weights : sequence of float, optional
+            Objective weights (default: minimize the first objective).
+        diameter_weight : float
+            Weight of ``ln D_c`` (tie-break).
+        eps : sequence of float or None, optional
+            Epsilon bounds on the objectives (None: none).
+        """
+        nk = len(self.objectives)
+        w = np.zeros(nk)
+        if weights is None:
+            w[0] = 1.0
+        else:
+            w[:] = weights
+        e = np.full(nk, 1e20) if eps is None else np.asarray(
+            [1e20 if v is None else v for v in eps], float)
+        return np.concatenate([w, [diameter_weight], e, self.mode_params])
+
+    def set_modes(self, modes) -> None:
+        """Freeze the damping constraint on the modes below 5 Hz of a solution.
+
+        Parameters
+        ----------
+        modes : TableModes
+        """
+        p = np.tile(np.r_[0.0, 2 * math.pi, np.zeros(12)], self.n_modes)
+        zmin = self.study.constraints.get("min_damping_ratio") or 0.0
+        kz = self.geo.g[: self.n]  # vertical element vectors
+        for j in range(6):
+            f = modes.frequency_hz[j]
+            if not np.isfinite(f) or f >= DAMPED_MODE_LIMIT_HZ:
+                continue
+            phi = modes.shapes[:, j]
+            if np.max(np.abs(kz @ phi)) <= 1e-9 * np.max(np.abs(phi)):
+                # no vertical spring moves: the horizontal element alone damps this mode
+                if modes.damping_ratio[j] < zmin:
+                    raise InputError(
+                        f"constraints.min_damping_ratio: mode {j + 1} ({modes.names[j]}, "
+                        f"{f:.3g} Hz) moves no vertical spring; its damping ratio "
+                        f"{modes.damping_ratio[j]:.3g} comes from the horizontal element alone "
+                        "and no design variable changes it: raise "
+                        "table.horizontal.lateral_loss_factor or lower min_damping_ratio")
+                continue
+            phi = phi / np.sqrt(np.real(np.vdot(phi, self.geo.mass @ phi)))
+            p[14 * j: 14 * (j + 1)] = np.concatenate([[1.0, 2 * math.pi * f], phi.real,
+                                                      phi.imag])
+        self.mode_params = p
+
+    def initial_guess(self, values: dict) -> np.ndarray:
+        """A consistent x0: the closure from the NumPy solver, the epigraph tight.
+
+        Parameters
+        ----------
+        values : dict
+            Design-variable values (SI).
+        """
+        d = self.study.design_at(values)
+        sigma, sigma_u = self.closure(d)
+        x0 = np.zeros(self.nx)
+        x0[: self.nz] = np.clip(self.scaling.to_z(values), -1.0, 1.0)
+        x0[self.nz: self.nz + self.n] = np.log(sigma)
+        x0[self.nz + self.n: self.nz + 2 * self.n] = np.log(sigma_u)
+        if self.nx > self.nz + 2 * self.n:
+            x0[-1] = float(np.min(np.asarray(self._margins_fn(x0))))
+        return x0
+
+    def solve(self, x0: np.ndarray, p=None) -> Solution:
+        """Run IPOPT from ``x0``.
+
+        Parameters
+        ----------
+        x0 : ndarray
+            Initial point (:meth:`initial_guess`).
+        p : ndarray, optional
+            Parameters (:meth:`params`).
+        """
+        t0 = time.perf_counter()
+        p = self.params() if p is None else np.asarray(p, float)
+        res = self.solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p)
+        stats = self.solver.stats()
+        x = np.asarray(res["x"]).ravel()
+        g = np.asarray(res["g"]).ravel()
+        j_all = np.asarray(self._j_fn(x)).ravel()
+        return Solution(x=x, values=self.values(x), objective=float(j_all[0]), objectives=j_all,
+                        g=g, violations=tuple(self.violations(g)),
+                        status=stats.get("return_status", "unknown"),
+                        success=bool(stats.get("success", False)),
+                        iterations=int(stats.get("iter_count", -1)),
+                        wall_s=time.perf_counter() - t0)  # fmt: skip
+
+    def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
+        """Worst violation of each constraint group (equalities as ``implicit_equations``).
+
+        Parameters
+        ----------
+        g : ndarray
+            Constraint values.
+        """
+        out = [("implicit_equations", float(np.max(np.abs(g[: self.n_eq]))))]
+        for name, row, m in self.con_rows:
+            gi = g[row: row + m]
+            v = np.maximum(np.maximum(self.lbg[row: row + m] - gi, gi - self.ubg[row: row + m]),
+                           0.0)
+            out.append((name, float(np.max(v)) if v.size else 0.0))
+        return out
+
+    def values(self, x: np.ndarray) -> dict:
+        """Design-variable values at ``x`` (fixed ones from the study).
+
+        Parameters
+        ----------
+        x : ndarray
+        """
+        vals = {v.name: v.start for v in self.study.variables}
+        vals.update(self.scaling.to_values(np.clip(x[: self.nz], -1.0, 1.0)))
+        return vals
+
+    def worst_margin_db(self, x: np.ndarray) -> float:
+        """Worst margin over points, axes and bands at ``x`` (dB).
+
+        Parameters
+        ----------
+        x : ndarray
+        """
+        return float(np.min(np.asarray(self._margins_fn(x))))
+
+    def sigma(self, x: np.ndarray) -> np.ndarray:
+        """Stroke RMS per isolator at ``x``, m.
+
+        Parameters
+        ----------
+        x : ndarray
+        """
+        return np.exp(x[self.nz: self.nz + self.n])
+
+    def tube_rms(self, x: np.ndarray) -> np.ndarray:
+        """Tube-velocity RMS per isolator at ``x``, m/s.
+
+        Parameters
+        ----------
+        x : ndarray
+        """
+        return np.exp(x[self.nz + self.n: self.nz + 2 * self.n])

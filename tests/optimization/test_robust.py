@@ -1,0 +1,326 @@
+"""Robust design: the [scenarios] table, the stacked NLP, sensitivities, exchange, yield."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from isodesign.errors import InputError
+from isodesign.optimization.exchange import robust_optimize, scenario_check
+from isodesign.optimization.recheck import evaluate_design
+from isodesign.optimization.robust import RobustProblem, ScenarioBlock
+from isodesign.optimization.sensitivity import design_sensitivities
+from isodesign.optimization.study import default_study, study_from_dict
+from isodesign.optimization.uncertainty import ScenarioStudy
+from isodesign.optimization.yields import clopper_pearson, estimate_yield, wilson
+from isodesign.spring.gas import P_ATM
+
+FAST = {"models": {"points_per_band": 3, "peak_points": 30},
+        "solver": {"starts": 2, "workers": 1}}
+#: A design near the default study's optimum (inside every bound).
+DESIGN = {"volume_ratio": 7.5, "top_volume_m3": 0.65e-3, "capillary_length_m": 0.16,
+          "capillary_diameter_m": 2.0e-3}
+ALL = {"payload_mass_kg": {"min": 480.0, "max": 720.0},
+       "ambient_pressure_pa": {"min": 9.0e4, "max": 1.03e5},
+       "temperature_k": {"min": 283.0, "max": 303.0},
+       "volume_ratio": {"relative": 0.02},
+       "top_volume_m3": {"absolute": 1e-5},
+       "capillary_length_m": {"absolute": 1e-3},
+       "capillary_diameter_m": {"relative": 0.05, "distribution": "normal"},
+       "diaphragm_stiffness": {"relative": 0.2}}
+
+
+def _study(scen, **kw):
+    return default_study().with_changes(scenarios=scen, **{**FAST, **kw})
+
+
+# -- the [scenarios] table -----------------------------------------------------------------
+def test_scenarios_are_off_by_default():
+    st = default_study()
+    assert st.scenarios is None and "scenarios" not in st.raw
+
+
+def test_scenarios_table_parses_every_form():
+    st = study_from_dict({"scenarios": {
+        **ALL, "payload_mass_kg": {"values": [720.0, 480.0, 600.0]}, "max_rounds": 5}})
+    sp = st.scenarios
+    assert sp.names[0] == "payload_mass_kg" and sp.parameter("payload_mass_kg").values == (
+        480.0, 600.0, 720.0)
+    assert sp.settings["max_rounds"] == 5 and sp.settings["tolerance_db"] == 0.01
+    assert sp.parameter("capillary_diameter_m").distribution == "normal"
+    assert sp.parameter("temperature_k").nominal == 293.15
+    assert sp.parameter("ambient_pressure_pa").nominal == P_ATM
+    assert len(sp.corners(limit=1000)) == 3 * 2 ** 7
+    assert len(sp.corners()) == 256  # a random subset beyond the limit
+    # relative tolerance around an operating value
+    st2 = study_from_dict({"scenarios": {"payload_mass_kg": {"relative": 0.2}}})
+    p = st2.scenarios.parameter("payload_mass_kg")
+    assert (p.lo, p.hi) == pytest.approx((480.0, 720.0))
+
+
+@pytest.mark.parametrize("scen, words", [
+    ({"payload_mass_kg": {"min": 720.0, "max": 480.0}}, ["scenarios.payload_mass_kg",
+                                                         "inverted"]),
+    ({"payload_mass_kg": {"min": 600.0, "max": 600.0}}, ["scenarios.payload_mass_kg", "empty"]),
+    ({"payload_mass_kg": {"values": []}}, ["scenarios.payload_mass_kg.values", "non-empty"]),
+    ({"capillary_diameter_m": {"relative": [-1.0, 0.05]}},
+     ["scenarios.capillary_diameter_m.relative", "non-positive"]),
+    ({"capillary_diameter_m": {"absolute": 0.5e-3}},
+     ["scenarios.capillary_diameter_m.absolute", "non-positive", "0.0003"]),
+    ({"temperature_k": {"min": -5.0, "max": 300.0}}, ["scenarios.temperature_k", "> 0"]),
+    ({"capillary_diameter_m": {"relative": 0.05, "spread": 1}}, ["'spread'",
+                                                                 "scenarios.capillary_diameter_m"]),
+    ({"capillary_diameter_m": {"relative": 0.05, "distribution": "cauchy"}},
+     ["distribution"]),
+    ({"capillary_diameter_m": {"min": 1e-3, "max": 2e-3}}, ["'min'"]),
+    ({"drill": {"relative": 0.05}}, ["unknown key 'drill' in [scenarios]"]),
+    ({"max_rounds": 0}, ["scenarios.max_rounds"]),
+    ({"capillary_diameter_m": {"relative": 0.0}}, ["scenarios.capillary_diameter_m.relative"]),
+])
+def test_bad_scenarios_name_the_key(scen, words):
+    with pytest.raises(InputError) as e:
+        study_from_dict({"scenarios": scen}, source="s.toml")
+    msg = str(e.value)
+    assert msg.startswith("s.toml: ")
+    for w in words:
+        assert w in msg, msg
+
+
+def test_scenario_study_builds_the_spring_the_scenario_describes():
+    st = _study(ALL)
+    sp = st.scenarios
+    th = sp.upper()
+    sc = ScenarioStudy(st, sp, th)
+    d = sc.design_at(DESIGN)
+    assert d.capillary_diameter_m == pytest.approx(DESIGN["capillary_diameter_m"] * 1.05)
+    assert d.capillary_length_m == pytest.approx(DESIGN["capillary_length_m"] + 1e-3)
+    assert d.top_volume_m3 == pytest.approx(DESIGN["top_volume_m3"] + 1e-5)
+    assert d.temperature_k == 303.0
+    p0 = 1.03e5 + 720.0 * 9.80665 / (4 * d.piston_area_m2)
+    assert d.pressure_pa == pytest.approx(p0)
+    assert sc.payload.mass_kg == 720.0
+    k = sc.models["diaphragm"].stiffness(10.0, 1e-5)
+    k0 = ScenarioStudy(st, sp, sp.nominal()).models["diaphragm"].stiffness(10.0, 1e-5)
+    assert k.re == pytest.approx(1.2 * k0.re)
+    # at the nominal values the scenario study is the study
+    a = evaluate_design(ScenarioStudy(st, sp, sp.nominal()), DESIGN)
+    b = evaluate_design(st, DESIGN)
+    assert a["objectives"] == pytest.approx(b["objectives"], abs=1e-12)
+
+
+# -- the stacked NLP and its sensitivities -------------------------------------------------------
+@pytest.fixture(scope="module")
+def block():
+    return ScenarioBlock(_study(ALL))
+
+
+def test_one_scenario_at_nominal_values_is_the_nominal_nlp(block):
+    from isodesign.optimization.problem import Problem
+
+    st = block.nominal_study
+    prob = Problem(st)
+    ref = prob.solve(prob.initial_guess(DESIGN))
+    rp = RobustProblem(block, [block.space.nominal()])
+    sol = rp.solve(rp.initial_guess(DESIGN))
+    assert sol.feasible and ref.feasible
+    assert sol.objective == pytest.approx(ref.objective, abs=1e-6)
+    for n, v in ref.values.items():
+        assert sol.values[n] == pytest.approx(v, rel=1e-5)
+
+
+def test_design_sensitivities_match_finite_differences_of_the_numpy_analysis(block):
+    """Every parameter kind: CasADi (implicit function theorem) against central differences
+    of the independent NumPy analysis, for the objective and two constraints."""
+    st = block.nominal_study
+    sp = block.space
+    th = 0.5 * (sp.lower() + sp.upper()) + 0.1 * (sp.upper() - sp.lower())
+    block.select(th)
+    x = block.initial_guess(DESIGN)
+    sens = {(s.quantity, s.parameter): s for s in design_sensitivities(block, x, th)}
+    grid = block.grid
+    c0 = scenario_check(st, DESIGN, th, grid=grid)
+    assert c0["objective"] == pytest.approx(
+        block.objective_values(x)[0] * -1.0, abs=1e-9)
+    for k, p in enumerate(sp.parameters):
+        h = 1e-6 * max(1.0, abs(th[k])) if p.mode != "absolute" else 1e-9
+        tp, tm = th.copy(), th.copy()
+        tp[k] += h
+        tm[k] -= h
+        cp, cm = (scenario_check(st, DESIGN, t, grid=grid) for t in (tp, tm))
+        scale = 0.01 if p.mode == "relative" else 1.0  # per percent
+        fd = (cp["objective"] - cm["objective"]) / (2 * h) * scale
+        s = sens[("objective", p.name)]
+        assert s.per_unit == pytest.approx(fd, rel=1e-4, abs=1e-7), p.name
+        for cname in ("natural_frequency", "damping_ratio"):
+            s = sens[(cname, p.name)]
+            # lower-bound rows: signed excess = ln(lo) - ln(q), so q = lo exp(-excess)
+            lo = 0.8 if cname[0] == "n" else 0.05
+            qp = lo * math.exp(-cp["violations"][cname])
+            qm = lo * math.exp(-cm["violations"][cname])
+            assert s.per_unit == pytest.approx((qp - qm) / (2 * h) * scale, rel=1e-4,
+                                               abs=1e-9), (cname, p.name)
+
+
+def test_reoptimized_sensitivity_is_the_derivative_of_the_optimal_value(block):
+    """lam_p of the stacked NLP against a central difference of two re-solves."""
+    from isodesign.optimization.sensitivity import reoptimized_sensitivities
+
+    sp = block.space
+    th = sp.nominal()
+    rp = RobustProblem(block, [th])
+    sol = rp.solve(rp.initial_guess(DESIGN))
+    d = reoptimized_sensitivities(rp, sol)[0]
+    i = sp.names.index("payload_mass_kg")
+    h = 0.5
+    vals = []
+    for sgn in (1, -1):
+        t2 = th.copy()
+        t2[i] += sgn * h
+        rp.thetas = [t2]
+        s2 = rp.solve(sol.x)
+        assert s2.feasible
+        vals.append(rp.natural(s2.objective))
+    fd = (vals[0] - vals[1]) / (2 * h)
+    assert d["payload_mass_kg"] == pytest.approx(fd, rel=2e-3)
+
+
+# -- the exchange method ------------------------------------------------------------
+def test_exchange_on_a_small_study_holds_in_the_whole_box():
+    st = _study({"payload_mass_kg": {"min": 540.0, "max": 660.0},
+                 "capillary_diameter_m": {"relative": 0.03}})
+    res = robust_optimize(st)
+    assert res.feasible and res.converged, res.rounds
+    assert res.active_scenarios()
+    # the stated worst case is the NumPy analysis's value at the worst scenario
+    worst = next(r for r in res.scenarios if r["worst"])
+    chk = scenario_check(st, res.values, np.array(list(worst["theta"].values())))
+    assert chk["objective"] == pytest.approx(res.objective_value, abs=1e-6)
+    # a grid of the box: nothing below the stated worst case, nothing violated
+    g = np.linspace(0.0, 1.0, 5)
+    sp = st.scenarios
+    worst_seen = math.inf
+    for a in g:
+        for b in g:
+            th = sp.lower() + np.array([a, b]) * (sp.upper() - sp.lower())
+            c = scenario_check(st, res.values, th)
+            worst_seen = min(worst_seen, c["objective"])
+            assert c["max_violation"] <= 1e-6
+            assert c["peak_excess_db"] <= 0.01
+    assert worst_seen >= res.objective_value - 0.01
+    assert res.objective_value <= res.nominal.objective_value
+    rec = res.record()
+    assert rec["worst_case_objective"] == res.objective_value
+    assert res.to_frame().shape[0] == len(res.scenarios)
+
+
+def test_a_scenario_no_design_can_meet_is_named():
+    st = _study({"payload_mass_kg": {"values": [600.0, 40.0]}})
+    res = robust_optimize(st)
+    assert not res.feasible
+    msg = res.failure_message()
+    assert "payload_mass_kg=40" in msg and "natural_frequency" in msg
+
+
+@pytest.mark.slow
+def test_default_robust_optimum_holds_at_1000_draws():
+    """The issue's judgement: +-5 % D_c and L_c, 480-720 kg; 1000 draws, NumPy analysis."""
+    st = default_study().with_changes(scenarios={
+        "payload_mass_kg": {"min": 480.0, "max": 720.0},
+        "capillary_diameter_m": {"relative": 0.05},
+        "capillary_length_m": {"relative": 0.05}})
+    res = robust_optimize(st)
+    assert res.feasible and res.converged
+    y = estimate_yield(st, res.values, samples=1000, seed=1, workers=2)
+    assert y.worst("max_violation") <= 1e-6
+    assert y.worst("peak_excess_db") <= 0.01
+    assert y.fraction == 1.0
+    assert res.objective_value - y.worst("objective", "min") <= 0.05
+    # the corners too (the draws rarely reach them)
+    for th in st.scenarios.corners():
+        c = scenario_check(st, res.values, th)
+        assert c["max_violation"] <= 1e-6 and c["objective"] >= res.objective_value - 1e-6
+    # the nominal optimum does not hold
+    yn = estimate_yield(st, res.nominal.values, samples=1000, seed=1, workers=2)
+    assert yn.fraction < 0.5
+    _check_worked_example(res, y, yn)
+
+
+def _check_worked_example(res, y, yn):
+    """docs/robust.md's worked example: every number as this run computes it."""
+    import re
+    from pathlib import Path
+
+    doc = (Path(__file__).resolve().parents[2] / "docs" / "robust.md").read_text()
+    num = r"([+-]?\d+(?:\.\d+)?)"
+    m = re.search(
+        rf"nominal optimum: N {num}, V_t0 {num} L, L_c {num} mm, D_c {num} mm\n"
+        rf"  worst_band_margin nominal {num} dB, worst case in the box {num} dB, .*?"
+        rf"yield {num} %\nrobust optimum:  N {num}, V_t0 {num} L, L_c {num} mm, D_c {num} mm\n"
+        rf"  worst case {num} dB \(480 kg, L_c \+5 %, D_c -5 %\), nominal {num} dB: .*?\n"
+        rf"  robustness is {num} dB of nominal margin; yield {num} % \(1000 draws, CI "
+        rf"{num}-100 %\)", doc, re.S)
+    assert m, "the worked example of docs/robust.md is not in the expected form"
+    nv, rv = res.nominal.values, res.values
+    at_nom = res.nominal_at_robust()
+    want = [nv["volume_ratio"], nv["top_volume_m3"] * 1e3, nv["capillary_length_m"] * 1e3,
+            nv["capillary_diameter_m"] * 1e3, res.nominal.objective_value,
+            res.nominal_worst_case(), 100 * yn.fraction,
+            rv["volume_ratio"], rv["top_volume_m3"] * 1e3, rv["capillary_length_m"] * 1e3,
+            rv["capillary_diameter_m"] * 1e3, res.objective_value, at_nom,
+            res.nominal.objective_value - at_nom, 100 * y.fraction, 100 * y.interval[0]]
+    for quoted, value in zip(m.groups(), want, strict=True):
+        digits = len(quoted.split(".")[1]) if "." in quoted else 0
+        half = 10 ** -digits / 2 + 1e-12
+        assert abs(float(quoted) - value) <= half, (quoted, value)
+    worst = next(r for r in res.scenarios if r["worst"])["theta"]
+    assert worst == pytest.approx({"payload_mass_kg": 480.0, "capillary_length_m": 0.05,
+                                   "capillary_diameter_m": -0.05})
+    binding = [r["theta"] for r in res.active_scenarios() if r["binding"]]
+    assert {"payload_mass_kg": 720.0, "capillary_length_m": -0.05,
+            "capillary_diameter_m": 0.05} in binding
+    assert f"takes {len(res.rounds)} rounds and {len(res.scenarios)} scenarios" in doc
+    assert f"shortens the tube ({rv['capillary_length_m'] * 1e3:.1f} mm" in doc
+    assert f"narrows the bore ({rv['capillary_diameter_m'] * 1e3:.2f} mm" in doc
+
+
+# -- yield --------------------------------------------------------------------------------
+def test_intervals():
+    lo, hi = clopper_pearson(10, 10, 0.95)
+    assert hi == 1.0 and lo == pytest.approx(0.025 ** (1 / 10))
+    lo, hi = clopper_pearson(0, 20, 0.95)
+    assert lo == 0.0 and hi == pytest.approx(1 - 0.025 ** (1 / 20))
+    lo, hi = wilson(50, 100, 0.95)
+    assert (lo, hi) == pytest.approx((0.4038, 0.5962), abs=1e-4)
+    k, n = 37, 80
+    lo, hi = clopper_pearson(k, n)
+    assert lo < k / n < hi
+
+
+def test_yield_is_the_same_on_one_or_two_workers_and_counts_failures():
+    st = _study({"payload_mass_kg": {"min": 480.0, "max": 720.0},
+                 "capillary_diameter_m": {"relative": 0.1}})
+    a = estimate_yield(st, DESIGN, samples=24, seed=3, workers=1)
+    b = estimate_yield(st, DESIGN, samples=24, seed=3, workers=2)
+    assert [v["passes"] for v in a.verdicts] == [v["passes"] for v in b.verdicts]
+    assert a.samples == 24 and 0 <= a.passed <= 24
+    lo, hi = a.interval
+    assert lo <= a.fraction <= hi
+    fails = a.failure_counts()
+    assert sum(1 for v in a.verdicts if not v["passes"]) <= sum(fails.values())
+    df = a.to_frame()
+    assert list(df.columns[:2]) == ["payload_mass_kg", "capillary_diameter_m"]
+    with pytest.raises(InputError, match="samples"):
+        estimate_yield(st, DESIGN, samples=0)
+    with pytest.raises(InputError, match="scenarios"):
+        estimate_yield(default_study(), DESIGN, samples=5)
+
+
+def test_scenarios_on_a_table_study_are_refused_by_name():
+    from isodesign.optimization.study import table_study
+
+    raw = dict(table_study().raw)
+    raw["scenarios"] = {"payload_mass_kg": {"min": 500.0, "max": 700.0}}
+    with pytest.raises(InputError, match=r"\[scenarios\] is not available with a \[table\]"):
+        study_from_dict(raw, source="t.toml", fill_defaults=False)

@@ -1,0 +1,108 @@
+"""The three-axis NLP: one physics source with the NumPy analysis, exact derivatives, optimum."""
+
+from __future__ import annotations
+
+import warnings
+
+import numpy as np
+import pytest
+
+from isodesign.optimization.study import table_study
+from isodesign.table.modes import rocking_stability
+from isodesign.table.optimize import optimize_table
+from isodesign.table.problem import TableProblem
+from isodesign.table.response import TableStatistical, solve_table_closure
+
+
+@pytest.fixture(scope="module")
+def prob():
+    return TableProblem(table_study().with_changes(solver={"starts": 1}))
+
+
+def _numpy_margins(prob, values):
+    from isodesign.table.model import table_model
+
+    st = prob.study
+    d = st.design_at(values)
+    model = table_model(d, st.table, flow=prob.flow, diaphragm=prob.dia)
+    ts = TableStatistical(model, prob.grid)
+    sigma, sigma_u, _ = solve_table_closure(ts)
+    _, _, out, _, _ = ts.variances(sigma, sigma_u)
+    g = prob.grid
+    ms = np.einsum("anf,fpba->pbn", g.band_weight, np.abs(out.points) ** 2)
+    return 10 * np.log10(g.limit_velocity_m_s**2 / ms), sigma, model
+
+
+def test_nlp_margins_are_the_numpy_analysis(prob):
+    vals = {"volume_ratio": 4.0, "top_volume_m3": 1.0e-3, "capillary_length_m": 0.1,
+            "capillary_diameter_m": 1.5e-3}
+    x0 = prob.initial_guess(vals)
+    m_np, sigma, model = _numpy_margins(prob, vals)
+    m_nlp = np.asarray(prob._margins_fn(x0)).ravel()
+    np.testing.assert_allclose(m_nlp, m_np.ravel(), atol=1e-8)
+    np.testing.assert_allclose(prob.sigma(x0), sigma, rtol=1e-12)
+    _, g = prob.eval_fn(x0, prob.params())
+    assert np.max(np.abs(np.asarray(g).ravel()[: prob.n_eq])) < 1e-8  # closure = equations
+    # the smooth rocking condition: its diagonal entries are the margins minus the bound
+    name_rows = {n: (r, m) for n, r, m in prob.con_rows}
+    r, _ = name_rows["min_tilt_margin"]
+    rs = rocking_stability(model)
+    mu = prob.study.constraints["min_tilt_margin"]
+    gv = np.asarray(g).ravel()
+    assert gv[r] == pytest.approx(rs.margin[0] - mu, rel=1e-9)
+    assert gv[r + 1] == pytest.approx(rs.margin[1] - mu, rel=1e-9)
+
+
+def test_exact_jacobian_against_finite_differences(prob):
+    import casadi as ca
+
+    vals = {"volume_ratio": 3.0, "top_volume_m3": 1.2e-3, "capillary_length_m": 0.05,
+            "capillary_diameter_m": 1.2e-3}
+    x0 = prob.initial_guess(vals)
+    p = prob.params(eps=[0.0])  # a finite epsilon bound (1e20 would swamp the differences)
+    xs = ca.MX.sym("x", prob.nx)
+    _, g = prob.eval_fn(xs, p)
+    jac = ca.Function("j", [xs], [ca.jacobian(g, xs)])
+    j = np.asarray(jac(x0))
+    h = 1e-6
+    for col in range(prob.nx):
+        e = np.zeros(prob.nx)
+        e[col] = h
+        fd = (np.asarray(prob.eval_fn(x0 + e, p)[1]).ravel()
+              - np.asarray(prob.eval_fn(x0 - e, p)[1]).ravel()) / (2 * h)
+        np.testing.assert_allclose(j[:, col], fd, rtol=2e-4, atol=2e-6 * max(1, np.abs(fd).max()))
+
+
+def test_table_optimum_is_rechecked_and_better_than_the_start():
+    st = table_study().with_changes(solver={"starts": 2, "workers": 1})
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = optimize_table(st)
+    res.raise_for_status()
+    assert res.recheck_sigma_rel < 1e-6 and res.recheck_margin_db < 1e-6
+    assert res.objective_value > res.start_objective + 3.0  # dB
+    assert res.analysis.worst_margin_db > res.start_analysis.worst_margin_db + 3.0
+    assert np.all(res.stability.margin >= st.constraints["min_tilt_margin"] - 1e-6)
+    low = res.modes.frequency_hz < 5.0
+    assert np.all(res.modes.damping_ratio[low] >= st.constraints["min_damping_ratio"] - 1e-6)
+    total = res.values["top_volume_m3"] * (1 + res.values["volume_ratio"])
+    assert total <= st.constraints["max_total_volume_m3"] * (1 + 1e-6)
+    # the figures docs/table.md (section 11) quotes
+    from pathlib import Path
+
+    page = (Path(__file__).parents[2] / "docs" / "table.md").read_text(encoding="utf-8")
+    v = res.values
+    a0, a1 = res.start_analysis, res.analysis
+    quoted = {
+        f"N = {v['volume_ratio']:.1f}": "N = 8.0",
+        f"L_c = {v['capillary_length_m'] * 1e3:.0f} mm": "L_c = 500 mm",
+        f"V_t0 = {v['top_volume_m3'] * 1e3:.3f} L": "V_t0 = 0.667 L",
+        f"{v['capillary_diameter_m'] * 1e3:.2f} mm": "2.76 mm",
+        f"from {a0.worst_margin_db:.2f} dB to **{a1.worst_margin_db:.2f} dB**":
+            "from -8.25 dB to **-4.44 dB**",
+        f"{a1.axis_margin_db()[0]:+.2f} and {a1.axis_margin_db()[1]:+.2f} dB":
+            "+4.32 and +14.20 dB",
+    }
+    for got, text in quoted.items():
+        assert got == text and text in page, (got, text)
+    assert a1.worst[:3] == ("corner", "z", "4")
