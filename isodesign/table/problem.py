@@ -129,10 +129,10 @@ class TableProblem:
         for i in range(self.n):
             d = base.replace(pressure_pa=float(self.leveling.pressure_pa[i]))
             c = statistical_resistance_function(self.flow, d, w)(ca.exp(y[i]))
-            k = spring_stiffness(air_stiffness(d, w, c),
+            k = spring_stiffness(air_stiffness(d, w, c, self.flow),
                                  self.dia.stiffness(w, EQUIVALENT_AMPLITUDE_FACTOR * ca.exp(s[i])))
             kv.append(k)
-            g2.append(tube_velocity_gain2(d, w, c))
+            g2.append(tube_velocity_gain2(d, w, c, self.flow))
         return base, kv, g2
 
     def _point_function(self, ca):
