@@ -49,11 +49,12 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import CONSTRAINT_DOMAIN, DESIGN_DOMAIN, FREQUENCY_DOMAIN_HZ
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
 from isodesign.io.files import read_toml
-from isodesign.io.plausible import warn_unit_slips
+from isodesign.io.plausible import unit_slips, warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
@@ -141,6 +142,9 @@ _KEYS = {
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
+#: The study schema's keys per table (``""``: top level; ``"variable"``: the keys of each
+#: ``[variables.<name>]`` table), for tools that address keys by name (``isodesign sweep``).
+SCHEMA_KEYS = _KEYS
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -322,7 +326,26 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     """
 
     where = source
+    if not isinstance(source, str):
+        raise InputError(f"source: expected a string (a file name or '<dict>'), got "
+                         f"{type(source).__name__}")
+    if not isinstance(d, dict):
+        raise InputError(f"study_from_dict: d must be a dict of study tables (the TOML schema), "
+                         f"got {type(d).__name__} {d!r:.40}")
     _check_all_keys(d, where)
+    try:
+        return _study(d, where, source, fill_defaults)
+    except InputError as exc:  # a value the schema refuses may be a unit slip: say so
+        msg = str(exc)
+        hints = [h.split("; a unit slip? ", 1)[1] for h in unit_slips(d)
+                 if "; a unit slip? " in h and h.split(" = ", 1)[0] in msg]
+        if hints:
+            raise InputError(f"{msg} (a unit slip? {hints[0]})") from None
+        raise
+
+
+def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
+    """The validation of :func:`study_from_dict` after the key check."""
     raw = _resolve(d, fill_defaults)
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
@@ -337,7 +360,10 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     solver = _solver(raw["solver"], where)
     name = raw.get("name", "study")
     if not isinstance(name, str):
-        raise InputError(f"{where}: name must be a string")
+        raise InputError(f"{where}: name must be a string, got {type(name).__name__} {name!r:.40}")
+    if not isinstance(raw.get("description", ""), str):
+        raise InputError(f"{where}: description must be a string, got "
+                         f"{type(raw['description']).__name__} {raw['description']!r:.40}")
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source, table=table,
@@ -412,7 +438,9 @@ def _hardware(h: dict, where: str) -> dict:
     else:
         hw["piston_area_m2"] = _num(where, "hardware.piston_area_m2", h.get("piston_area_m2"),
                                     0, None, True, "m^2")
-    for k, lo, hi in (("temperature_k", 0, 1000), ("minor_loss", 0, 100),
+        lo_a, hi_a, _ = DESIGN_DOMAIN["piston_area_m2"]
+        _num(where, "hardware.piston_area_m2", hw["piston_area_m2"], lo_a, hi_a, False, "m^2")
+    for k, lo, hi in (("temperature_k", 1.0, 1000), ("minor_loss", 0, 100),
                       ("roughness_m", 0, 1e-2)):
         if k in h:
             hw[k] = _num(where, f"hardware.{k}", h[k], lo, hi, k == "temperature_k")
@@ -519,8 +547,13 @@ def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
     path = Path(fl["csv"])
     if not path.is_absolute() and source not in ("<dict>", "<default>"):
         path = Path(source).parent / path
-    return FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
-                                  unit=fl.get("unit"))
+    try:
+        return FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
+                                      unit=fl.get("unit"))
+    except InputError as exc:
+        msg = str(exc)
+        msg = msg.removeprefix("path: ")
+        raise InputError(msg if msg.startswith(where) else f"{where}: floor.csv: {msg}") from None
 
 
 def _target(tg: dict, where: str):
@@ -658,6 +691,13 @@ def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
             if not lo <= start <= hi:
                 raise InputError(f"{w}.start ({start:g}) must lie in [lower, upper] = "
                                  f"[{lo:g}, {hi:g}]")
+        dlo, dhi, unit = DESIGN_DOMAIN[name]
+        for k, v in (("start", start), ("lower", lo), ("upper", hi)):
+            if k != "start" and fixed:
+                continue
+            if not dlo <= v <= dhi:
+                raise InputError(f"{where}: variables.{name}.{k} = {v:g} is outside the models' "
+                                 f"domain [{dlo:g}, {dhi:g}]{' ' + unit if unit else ''}")
         variables.append(VariableSpec(name, start, lo, hi, fixed))
     if all(v.fixed for v in variables):
         raise InputError(f"{where}: [variables] every design variable is fixed, so there is "
@@ -676,6 +716,8 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
             continue
         lo_open = k != "max_peak_transmissibility_db"  # 0 dB is a valid peak bound
         cons[k] = _num(where, f"constraints.{k}", v, 0.0, None, lo_open)
+        lo, hi, unit = CONSTRAINT_DOMAIN[k]  # the models' numeric domain
+        _num(where, f"constraints.{k}", v, lo, hi, False, unit)
     if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
         if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
             raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "
@@ -716,6 +758,7 @@ def _objective(o: dict, where: str, band_hz: dict) -> dict:
         default, unit = _OBJECTIVE_OPTIONS[key]
         value = o.get(key, band_hz[default] if default else None)
         obj[key] = _num(where, f"objective.{key}", value, 0, None, True, unit)
+        _num(where, f"objective.{key}", value, *FREQUENCY_DOMAIN_HZ, False, "Hz")
     return obj
 
 

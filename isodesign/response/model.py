@@ -30,10 +30,12 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import FREQUENCY_DOMAIN_HZ, MODEL_AMPLITUDE_DOMAIN_M
 from isodesign.errors import (
     InputError,
     ModelValidityWarning,
     SolverError,
+    check_domain,
     check_positive,
 )
 from isodesign.floor import (
@@ -295,6 +297,8 @@ def linear_transmissibility(
     m = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
     f = check_positive("frequency_hz", frequency_hz, unit="Hz", allow_array=True)
     x = check_positive("amplitude_m", amplitude_m, unit="m")
+    check_domain("frequency_hz", f, FREQUENCY_DOMAIN_HZ, unit="Hz")
+    check_domain("amplitude_m", x, MODEL_AMPLITUDE_DOMAIN_M, unit="m")
     return m.transmissibility(m.k(f, x), f)
 
 

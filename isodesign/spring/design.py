@@ -20,6 +20,7 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import DESIGN_DOMAIN
 from isodesign.errors import InputError, check_positive, check_range
 from isodesign.numerics import backend as bk
 from isodesign.spring.gas import AIR, P_ATM, Gas, pressure_from_load
@@ -127,6 +128,11 @@ class SpringDesign:
             raise InputError(f"gas: expected an isodesign.Gas, got {type(self.gas).__name__}")
         p = check_range("pressure_pa", self.pressure_pa, P_ATM, None, lo_open=True, unit="Pa")
         object.__setattr__(self, "pressure_pa", p)
+        for name, (lo, hi, unit) in DESIGN_DOMAIN.items():  # the models' numeric domain
+            v = getattr(self, name)
+            if not _sym(v) and not lo <= v <= hi:
+                raise InputError(f"{name}: must be in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}"
+                                 f" (the models' domain), got {v:g}")
         object.__setattr__(
             self, "minor_loss", check_range("minor_loss", self.minor_loss, 0.0, 100.0)
         )

@@ -40,11 +40,13 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import FREQUENCY_DOMAIN_HZ, MODEL_AMPLITUDE_DOMAIN_M
 from isodesign.errors import (
     InputError,
     ModelValidityWarning,
     SolverError,
     check_choice,
+    check_domain,
     check_positive,
 )
 from isodesign.plotting.stiffness import stiffness_figure
@@ -195,6 +197,8 @@ class StiffnessResult(ResultDisplay):
 def _grid(frequency_hz, amplitude_m, pairwise: bool):
     f = check_positive("frequency_hz", frequency_hz, unit="Hz", allow_array=True)
     x = check_positive("amplitude_m", amplitude_m, unit="m", allow_array=True)
+    check_domain("frequency_hz", f, FREQUENCY_DOMAIN_HZ, unit="Hz")
+    check_domain("amplitude_m", x, MODEL_AMPLITUDE_DOMAIN_M, unit="m")
     if pairwise:
         try:
             np.broadcast_shapes(f.shape, x.shape)

@@ -194,7 +194,7 @@ def test_a_payload_beyond_the_pressure_validity_is_not_a_pass(capsys, tmp_path):
     ("constraints", "max_total_volume_m3", 8, "8 L would be 0.008 m^3"),
     ("hardware", "temperature_k", 20, "20 degC would be 293.15 K"),
     ("hardware", "piston_area_m2", 53, "53 cm^2 would be 0.0053 m^2"),
-    ("payload", "spacing_m", 1200, "1200 mm would be 1.2 m"),
+    ("payload", "spacing_m", 120, "120 mm would be 0.12 m"),
 ])
 def test_a_unit_slip_warns_naming_the_key_and_the_likely_unit(table, key, value, fragment):
     with pytest.warns(UnitWarning) as rec:
@@ -206,6 +206,15 @@ def test_a_unit_slip_warns_naming_the_key_and_the_likely_unit(table, key, value,
     if not msgs:  # the study was refused before the warning: the helper still names it
         msgs = unit_slips({table: {key: value}}, "mine.toml")
     assert any(f"{table}.{key} = {value:g}" in m and fragment in m for m in msgs), msgs
+
+
+def test_a_refused_value_that_looks_like_a_unit_slip_says_so(capsys, tmp_path):
+    p = tmp_path / "slip.toml"
+    p.write_text("[constraints]\nmax_pressure_pa = 10\n")
+    status, _, err = run(capsys, "optimize", p, "-o", tmp_path / "o")
+    assert status == 2 and len(err.strip().splitlines()) == 1
+    assert "constraints.max_pressure_pa: must be in [101325, 1e+12] Pa, got 10 (a unit slip? " \
+           "max_pressure_pa is in Pa, and 10 bar would be 1e+06 Pa)" in err
 
 
 def test_a_unit_slip_is_one_warning_line_on_the_command_line(capsys, tmp_path):

@@ -137,7 +137,7 @@ def test_wrong_type_is_named(d, fragment):
     ("d", "fragment"),
     [
         ({"payload": {"mass_kg": -1.0}}, "payload.mass_kg: must be in (0, inf]"),
-        ({"hardware": {"temperature_k": -3.0}}, "hardware.temperature_k: must be in (0, 1000]"),
+        ({"hardware": {"temperature_k": -3.0}}, "hardware.temperature_k: must be in (1, 1000]"),
         ({"constraints": {"max_mach": -0.3}}, "constraints.max_mach: must be in (0, inf]"),
         ({"models": {"points_per_band": 2}}, "models.points_per_band must be an integer in [3,"),
         ({"models": {"peak_points": 5000}}, "models.peak_points must be an integer in [10, 2000]"),
