@@ -59,10 +59,10 @@ from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
 from isodesign.results import ResultDisplay
-from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign, piston_area_from_diaphragm
 from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 from isodesign.spring.diaphragm import diaphragm_model
-from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS
+from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS, model_design
 from isodesign.spring.gas import Gas
 from isodesign.spring.stiffness import AMPLITUDE_MODES
 
@@ -87,6 +87,8 @@ _DEFAULT = {
         "temperature_k": 293.15,
         "minor_loss": 1.5,
         "roughness_m": 0.0,
+        "chamber_aspect_ratio": 1.0,
+        "chamber_heat_exchange": False,
     },
     "floor": {"criterion": "VC-A"},
     "target": {"criterion": "VC-C", "band_min_hz": 4.0, "band_max_hz": 80.0},
@@ -97,6 +99,7 @@ _DEFAULT = {
         "random_method": "statistical",
         "points_per_band": 6,
         "peak_points": 80,
+        "acoustics": "distributed",
     },
     "variables": {
         "volume_ratio": {"start": 1.5e-3 / 8.1e-4, "lower": 0.5, "upper": 8.0},
@@ -126,13 +129,14 @@ _KEYS = {
          "variables", "constraints", "objective", "solver", "table", "scenarios"},
     "payload": {"mass_kg", "isolators", "spacing_m", "cg_height_m"},
     "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
-                 "minor_loss", "polytropic_index", "roughness_m", "gas"},
+                 "minor_loss", "polytropic_index", "roughness_m", "gas",
+                 "chamber_aspect_ratio", "chamber_heat_exchange"},
     "hardware.gas": {"name", "gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"},
     "floor": {"criterion", "csv", "quantity", "kind", "unit", "record", "statistic",
               "percentile", "axis", "sample_rate_hz", "x", "y"},
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
-               "peak_points"},
+               "peak_points", "acoustics"},
     "variables": set(DESIGN_VARIABLES),
     "variable": {"start", "lower", "upper", "fixed"},
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
@@ -222,7 +226,10 @@ class Study(ResultDisplay):
 
         vals = {v.name: (v.start if v.fixed else values.get(v.name, v.start))
                 for v in self.variables}
-        d = SpringDesign(pressure_pa=2e5, **vals, **self.hardware)
+        acoustics = self.models.get("acoustics", ACOUSTIC_MODELS[0])
+        d = model_design(self.models["flow"], SpringDesign(pressure_pa=2e5, **vals,
+                                                           acoustics=acoustics,
+                                                           **self.hardware))
         return d.with_load(self.payload.mass_kg, self.payload.isolators,
                            g_m_s2=self.payload.g_m_s2)
 
@@ -447,6 +454,16 @@ def _hardware(h: dict, where: str) -> dict:
     if h.get("polytropic_index") is not None:
         hw["polytropic_index"] = _num(where, "hardware.polytropic_index", h["polytropic_index"],
                                       1.0, 1.67)
+    if "chamber_aspect_ratio" in h:
+        hw["chamber_aspect_ratio"] = _num(where, "hardware.chamber_aspect_ratio",
+                                          h["chamber_aspect_ratio"], 0.05, 20.0, True)
+    if "chamber_heat_exchange" in h:
+        hw["chamber_heat_exchange"] = _bool(where, "hardware.chamber_heat_exchange",
+                                            h["chamber_heat_exchange"])
+        if hw["chamber_heat_exchange"] and "polytropic_index" in hw:
+            raise InputError(f"{where}: hardware.chamber_heat_exchange = true is exclusive with "
+                             "hardware.polytropic_index (the wall heat exchange sets the "
+                             "polytropic index at each frequency)")
     if "gas" in h:
         try:
             hw["gas"] = Gas(**h["gas"])
@@ -657,11 +674,14 @@ def _models(m: dict, where: str, source: str) -> dict:
         diaphragm_model(dia)
     except InputError as exc:
         raise InputError(f"{where}: models.{exc}") from None
+    check_choice(f"{where}: models.acoustics", m.get("acoustics", ACOUSTIC_MODELS[0]),
+                 ACOUSTIC_MODELS)
     ppb = _int_in(where, "models.points_per_band", m.get("points_per_band", 6), 3, 200)
     npk = _int_in(where, "models.peak_points", m.get("peak_points", 80), 10, 2000)
     return {"flow": flow, "amplitude_mode": m.get("amplitude_mode", "self_consistent"),
             "diaphragm": dia, "random_method": m.get("random_method", "statistical"),
-            "points_per_band": ppb, "peak_points": npk}
+            "points_per_band": ppb, "peak_points": npk,
+            "acoustics": m.get("acoustics", ACOUSTIC_MODELS[0])}
 
 
 def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:

@@ -55,6 +55,7 @@ from isodesign.response.isolator import (
 )
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import model_design
 from isodesign.spring.stiffness import check_models, complex_stiffness
 
 __all__ = [
@@ -238,6 +239,7 @@ def spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressu
     d, payload = prepare_inputs(design, payload, derive_pressure)
     check_models(flow, amplitude_mode)
     diaphragm_model(diaphragm)  # validate early
+    d = model_design(flow, d)  # the paper's flow models are lumped by definition
     return SpringModel(d, payload.mass_per_isolator_kg, flow, amplitude_mode, diaphragm)
 
 

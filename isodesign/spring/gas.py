@@ -43,6 +43,9 @@ class Gas:
         Table 1 passes 1.79e-5 Pa s, which Sutherland gives at 288.1 K.
     sutherland_mu_ref_pa_s, sutherland_t_ref_k, sutherland_s_k : float
         Sutherland constants (air: 1.716e-5 Pa s at 273.15 K, S = 110.4 K).
+    prandtl_number : float
+        Prandtl number ``mu c_p / lambda`` (air: 0.71, nearly independent of p and T): the
+        thermal boundary layers of the tube and the chambers (``docs/acoustics.md``).
     """
 
     name: str = "air"
@@ -52,6 +55,7 @@ class Gas:
     sutherland_mu_ref_pa_s: float = 1.716e-5
     sutherland_t_ref_k: float = 273.15
     sutherland_s_k: float = 110.4
+    prandtl_number: float = 0.71
 
     def __post_init__(self):
         check_positive("gas.gas_constant_j_per_kg_k", self.gas_constant_j_per_kg_k)
@@ -65,6 +69,7 @@ class Gas:
         check_positive("gas.sutherland_mu_ref_pa_s", self.sutherland_mu_ref_pa_s)
         check_positive("gas.sutherland_t_ref_k", self.sutherland_t_ref_k)
         check_positive("gas.sutherland_s_k", self.sutherland_s_k)
+        check_range("gas.prandtl_number", self.prandtl_number, 0.1, 10.0)
 
     def viscosity(self, temperature_k):
         """Dynamic viscosity mu(T) in Pa s (Sutherland, or the fixed value)."""
@@ -81,6 +86,12 @@ class Gas:
     def density(self, pressure_pa, temperature_k):
         """Density rho = p / (R T) in kg/m^3 (paper Eq. 4)."""
         return pressure_pa / (self.gas_constant_j_per_kg_k * temperature_k)
+
+    def thermal_diffusivity(self, pressure_pa, temperature_k):
+        """Thermal diffusivity ``chi = lambda/(rho c_p) = mu/(rho Pr)`` in m^2/s."""
+        return self.viscosity(temperature_k) / (
+            self.density(pressure_pa, temperature_k) * self.prandtl_number
+        )
 
     def speed_of_sound(self, temperature_k):
         """Adiabatic speed of sound sqrt(kappa R T) in m/s."""

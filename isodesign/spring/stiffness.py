@@ -65,6 +65,7 @@ from isodesign.spring.flow_models import (
     FLOW_MODELS,
     SMOOTH_FLOW_MODELS,
     flow_model,
+    model_design,
     resistance_function,
 )
 
@@ -287,6 +288,7 @@ def complex_stiffness(
         raise InputError(f"design: expected a SpringDesign, got {type(design).__name__} "
                          f"{design!r:.40}")
     check_models(flow, amplitude_mode)
+    design = model_design(flow, design)
     dia = diaphragm_model(diaphragm)
     f, x = _grid(frequency_hz, amplitude_m, pairwise)  # un-broadcast, broadcastable
     shape = np.broadcast_shapes(f.shape, x.shape)
@@ -309,7 +311,7 @@ def complex_stiffness(
                 )
             u = solve.velocity
             c = solve.resistance
-        k_air = air_stiffness(design, w, c)
+        k_air = air_stiffness(design, w, c, flow)
         k_air_c = k_air.re + 1j * k_air.im
         k_d = dia.stiffness(w, x)
         k_d_c = np.broadcast_to(k_d.re + 1j * np.asarray(k_d.im), shape)
@@ -389,6 +391,7 @@ def stiffness_function(
             f"flow: {flow!r} is not available on CasADi symbols; valid: "
             f"{', '.join(SMOOTH_FLOW_MODELS)}"
         )
+    design = model_design(flow, design)
     dia = diaphragm_model(diaphragm)
     syms = ca.SX.sym("N"), ca.SX.sym("V_t0"), ca.SX.sym("L_c"), ca.SX.sym("D_c")
     f_hz, amp = ca.SX.sym("frequency_hz"), ca.SX.sym("amplitude_m")
@@ -413,7 +416,7 @@ def stiffness_function(
         x_sol = rf(lq - amplitude_residual(flow, d, w, amp, lq), p)
         u = ca.exp(x_sol)
     c = resistance_function(flow, d, w)(u)
-    k = spring_stiffness(air_stiffness(d, w, c), dia.stiffness(w, amp))
+    k = spring_stiffness(air_stiffness(d, w, c, flow), dia.stiffness(w, amp))
     return ca.Function(
         "k_star",
         [*syms, f_hz, amp],

@@ -414,7 +414,8 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
      ["study_temp_tiny.toml", "hardware.temperature_k"]),
     ("optimize", ["{study_plain.toml}", "--builtin", "table", "-o", "{tmp}/o"],
      ["--builtin", "not both"]),
-    ("pareto", ["--builtin", "table", "-o", "{tmp}/p"], ["[table]", "not available yet"]),
+    ("pareto", ["--builtin", "table", "--objectives", "peak_transmissibility,total_volume",
+                "-o", "{tmp}/p"], ["--objectives", "worst_band_margin,total_volume"]),
     # -- demo ---------------------------------------------------------------------------------
     ("demo", ["-o", "{earlier_run}"], ["--output", "already holds a run"]),
     ("demo", ["-o", "{not_a_dir}"], ["--output", "not a directory"]),
