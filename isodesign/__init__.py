@@ -10,6 +10,7 @@ The public API, importable from the top level (``isodesign.complex_stiffness``, 
   :func:`third_octave_bands`;
 * design studies: :func:`load_study`, :func:`default_study`, :func:`optimize`,
   :func:`pareto_front` (the subpackage is :mod:`isodesign.optimization`);
+* sweeps of many studies on Dask: :func:`sweep` (:mod:`isodesign.sweeps`);
 * verification: :func:`simulate_stiffness` (time-domain rig);
 * errors: :class:`InputError`, :class:`SolverError`, :class:`ModelValidityWarning`.
 
@@ -74,6 +75,9 @@ _EXPORTS = {
     "OptimizationResult": "optimization.result",
     "pareto_front": "optimization.pareto",
     "ParetoResult": "optimization.pareto",
+    # sweeps (Dask)
+    "sweep": "sweeps.runner",
+    "SweepResult": "sweeps.runner",
     # design files
     "load_design": "io.designfile",
     "save_design": "io.designfile",

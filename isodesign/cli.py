@@ -72,6 +72,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.pareto",
         "Pareto front of two objectives (default: worst-band margin vs total volume)",
     ),
+    "sweep": (
+        "isodesign.commands.sweep",
+        "sweep a study over study changes, one Dask task per point (laptop or cluster)",
+    ),
     "modes": (
         "isodesign.commands.modes",
         "modes and rocking stability of a table in six degrees of freedom (docs/table.md)",

@@ -2,33 +2,35 @@
 
 For each payload mass (on the default study's 4 isolators) the default study
 (:func:`isodesign.optimization.study.default_study`: reference spring hardware, VC-A floor,
-VC-C needed in the 4-80 Hz bands, total volume <= 6 L, ...) is optimized again
-from scratch with ``study.with_changes(payload={"mass_kg": m})``; each run is
-independent (its own multi-start). The chamber pressure follows the payload
-(p0 = p_atm + m g / (n A_p)), so the spring's stiffness, the natural frequency,
-the stroke and the tube flow all change with it.
+VC-C needed in the 4-80 Hz bands, total volume <= 6 L, ...) is optimized again from
+scratch: one point of :func:`isodesign.sweep` per mass (``--vary payload.mass_kg=...``),
+each an independent optimization with its own multi-start, run as one Dask task on a
+local cluster of this machine's cores (or on ``--scheduler ADDRESS``). The chamber
+pressure follows the payload (p0 = p_atm + m g / (n A_p)), so the spring's stiffness, the
+natural frequency, the stroke and the tube flow all change with it.
 
-Besides the optimum, each row records the branches refined before the winner was
-chosen (``refined_branches``: refined objective @ start) and the best feasible start
-(on the sampled grid) that ended on a *different* volume-ratio branch (final N more
-than 10 % away from the optimum's):
-the default study has two local optima at the volume cap, a small-N branch
-(large top chamber) and a large-N branch (small top chamber), and which one is
-global can change with the payload.
+Besides the optimum, each row records the best feasible start (on the sampled grid) that
+ended on a *different* volume-ratio branch (final N more than 10 % away from the
+optimum's), read from the point's run record: the default study has two local optima at
+the volume cap, a small-N branch (large top chamber) and a large-N branch (small top
+chamber), and which one is global can change with the payload.
 
 Usage::
 
     python studies/payload_sweep.py -o out/payload_sweep [--starts 8] [--masses 300,600]
+        [--workers 2] [--scheduler tcp://host:8786]
 
-Outputs (in the ``-o`` directory): ``payload_sweep.csv`` (one row per mass:
-feasible, N, V_t0, L_c, D_c, objective, natural frequency, binding constraints,
-the other branch) and ``payload_sweep.png`` (optimal N, V_t0, L_c and D_c
+Outputs (in the ``-o`` directory): ``sweep/`` (the sweep directory: ``sweep.parquet``,
+one run directory per mass, the design chart; rerunning resumes it), ``payload_sweep.csv``
+(one row per mass: feasible, N, V_t0, L_c, D_c, objective, natural frequency, binding
+constraints, the other branch) and ``payload_sweep.png`` (optimal N, V_t0, L_c and D_c
 against payload, 2 x 2).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import sys
 import time
 from pathlib import Path
@@ -36,8 +38,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from isodesign.io.record import variables_at_bounds
-from isodesign.optimization.driver import optimize
+import isodesign
 from isodesign.optimization.study import default_study
 
 #: Payload masses of the sweep, kg (on the default study's 4 isolators).
@@ -46,58 +47,59 @@ DEFAULT_MASSES_KG = (300.0, 450.0, 600.0, 800.0, 1000.0, 1200.0)
 BRANCH_TOLERANCE = 0.10
 
 
-def other_branch(result) -> tuple[float, float]:
-    """(objective, N) of the best feasible start ending away from the optimum's N."""
-    n_opt = result.values["volume_ratio"]
+def other_branch(record: dict) -> tuple[float, float]:
+    """(objective, N) of the best feasible start ending away from the optimum's N.
+
+    Parameters
+    ----------
+    record : dict
+        The ``record.json`` of the point's optimize run (its ``starts`` and ``design``).
+    """
+    n_opt = record["design"]["volume_ratio"]
     best = (np.nan, np.nan)
-    for s in result.starts:
-        if not s.feasible or not s.final:
+    for s in record.get("starts", ()):
+        if not s.get("feasible") or not s.get("final") or s.get("objective") is None:
             continue
-        n = s.final["volume_ratio"]
+        n = s["final"]["volume_ratio"]
         if abs(n / n_opt - 1.0) <= BRANCH_TOLERANCE:
             continue
-        if np.isnan(best[0]) or s.objective > best[0]:
-            best = (s.objective, n)
+        if np.isnan(best[0]) or s["objective"] > best[0]:
+            best = (s["objective"], n)
     return best
 
 
-def sweep_row(mass_kg: float, result) -> dict:
-    """One row of the table: the optimum of one payload mass."""
-    v = result.values
-    row = {
-        "mass_kg": mass_kg,
-        "feasible": result.feasible,
-        "status": result.status,
-        "N": v["volume_ratio"],
-        "V_t0_l": v["top_volume_m3"] * 1e3,
-        "L_c_mm": v["capillary_length_m"] * 1e3,
-        "D_c_mm": v["capillary_diameter_m"] * 1e3,
-        "total_volume_l": v["top_volume_m3"] * (1.0 + v["volume_ratio"]) * 1e3,
-        "objective_db": result.objective_value,
-        "start_objective_db": result.start_objective,
-        "natural_frequency_hz": np.nan,
-        "worst_margin_db_analysis": np.nan,
-        "peak_transmissibility_db": np.nan,
-        "pressure_bar": result.design.pressure_pa / 1e5,
-        # every branch refined before the winner was chosen: refined objective (dB) @ start
-        "refined_branches": ";".join(f"{j:.4f}@{i}" for i, j in result.branches),
-        "binding": ";".join([c.name for c in result.constraints if c.active]
-                            + [f"{n}={side}" for n, side in variables_at_bounds(result).items()]),
-        "n_reached_best": result.n_reached_best,
-        "starts": len(result.starts),
+def sweep_row(row, sweep_dir: Path) -> dict:
+    """One row of the table: the optimum of one payload mass (a row of the sweep table)."""
+    rec = json.loads((sweep_dir / row["run_dir"] / "record.json").read_text(encoding="utf-8"))
+    ok = bool(row["feasible"]) and row["status"] != "failed"
+    out = {
+        "mass_kg": float(row["payload.mass_kg"]),
+        "feasible": ok,
+        "status": row.get("solver_status") or row["status"],
+        "N": row["volume_ratio"],
+        "V_t0_l": row["top_volume_m3"] * 1e3,
+        "L_c_mm": row["capillary_length_m"] * 1e3,
+        "D_c_mm": row["capillary_diameter_m"] * 1e3,
+        "total_volume_l": row["total_volume_m3"] * 1e3,
+        "objective_db": row["objective_value"],
+        "start_objective_db": rec.get("start_objective_value"),
+        "natural_frequency_hz": row.get("natural_frequency_hz", np.nan) if ok else np.nan,
+        "worst_margin_db_analysis": row.get("worst_band_margin_db", np.nan) if ok else np.nan,
+        "peak_transmissibility_db": row.get("peak_transmissibility_db", np.nan) if ok
+        else np.nan,
+        "pressure_bar": (rec.get("figures") or {}).get("pressure_pa", np.nan) / 1e5
+        if ok else np.nan,
+        "binding": row["binding"],
+        "n_reached_best": row.get("n_reached_best"),
+        "starts": row.get("starts"),
         "other_branch_objective_db": np.nan,
         "other_branch_N": np.nan,
-        "wall_s": result.wall_s,
+        "wall_s": row["wall_s"],
+        "worker": row["worker"],
     }
-    if result.feasible:
-        s = result.analysis.stability
-        row["natural_frequency_hz"] = s.natural_frequency_hz
-        row["worst_margin_db_analysis"] = result.analysis.worst_margin_db
-        row["peak_transmissibility_db"] = 20.0 * np.log10(s.excited_peak_transmissibility)
-        row["other_branch_objective_db"], row["other_branch_N"] = other_branch(result)
-    else:
-        row["binding"] = "violated: " + ";".join(n for n, _ in result.violations[:3])
-    return row
+    if ok:
+        out["other_branch_objective_db"], out["other_branch_N"] = other_branch(rec)
+    return out
 
 
 #: Relative change of the optimal N between neighbouring masses taken as a branch change.
@@ -162,46 +164,46 @@ def plot(df: pd.DataFrame, path: Path) -> Path:
 
 
 def main(argv=None) -> int:
-    """Run the sweep; return 0."""
+    """Run the sweep; return 0 (1 if a mass failed)."""
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("-o", "--output", default="out/payload_sweep", help="output directory")
     ap.add_argument("--starts", type=int, default=None,
                     help="starts per optimization (default: the study's, 8)")
-    ap.add_argument("--workers", type=int, default=None, help="worker processes per run")
+    ap.add_argument("--workers", type=int, default=None,
+                    help="worker processes of the local Dask cluster (default: the cores)")
+    ap.add_argument("--scheduler", default=None,
+                    help="a Dask scheduler address (default: a local cluster)")
     ap.add_argument("--masses", default=",".join(f"{m:g}" for m in DEFAULT_MASSES_KG),
-                    help="payload masses, kg, comma separated")
+                    help="payload masses, kg, comma separated (or start:stop:count)")
     args = ap.parse_args(argv)
-    masses = [float(m) for m in args.masses.split(",")]
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
     base = default_study()
-    solver = {k: v for k, v in (("starts", args.starts), ("workers", args.workers))
-              if v is not None}
-    rows = []
+    if args.starts is not None:
+        base = base.with_changes(solver={"starts": args.starts})
     t0 = time.perf_counter()
-    for i, m in enumerate(masses):
-        study = base.with_changes(payload={"mass_kg": m}, solver=solver) if solver \
-            else base.with_changes(payload={"mass_kg": m})
-        res = optimize(study)
-        row = sweep_row(m, res)
-        rows.append(row)
-        print(f"[{i + 1}/{len(masses)}] {m:6g} kg: "
-              + (f"N {row['N']:.3f}, V_t0 {row['V_t0_l']:.3f} L, L_c {row['L_c_mm']:.1f} mm, "
-                 f"D_c {row['D_c_mm']:.3f} mm, margin {row['objective_db']:+.3f} dB, "
-                 f"f_n {row['natural_frequency_hz']:.3f} Hz; {row['n_reached_best']}/"
-                 f"{row['starts']} starts at the best; {res.wall_s:.1f} s"
-                 if res.feasible else f"NO FEASIBLE DESIGN ({res.status}); {row['binding']}"),
-              flush=True)
-    df = pd.DataFrame(rows)
+
+    def progress(done, total, row, running):
+        if row is not None:
+            print(f"[{done}/{total}] {json.loads(row['changes'])['payload.mass_kg']:6g} kg: "
+                  f"{row['status']}, margin {row.get('objective_value', float('nan')):+.3f} dB, "
+                  f"{row.get('wall_s') or 0:.1f} s on {row.get('worker')}", flush=True)
+
+    res = isodesign.sweep(base, [f"payload.mass_kg={args.masses}"], output=out / "sweep",
+                          scheduler=args.scheduler, workers=args.workers, progress=progress)
+    df = pd.DataFrame([sweep_row(r, res.directory) for _, r in res.table.iterrows()])
+    df = df.sort_values("mass_kg").reset_index(drop=True)
     df.to_csv(out / "payload_sweep.csv", index=False)
     plot(df, out / "payload_sweep.png")
     cols = ["mass_kg", "feasible", "N", "V_t0_l", "L_c_mm", "D_c_mm", "objective_db",
             "natural_frequency_hz", "other_branch_N", "other_branch_objective_db", "binding"]
     with pd.option_context("display.width", 200, "display.max_colwidth", 80):
         print(df[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}"))
-    print(f"wrote {out / 'payload_sweep.csv'} and {out / 'payload_sweep.png'} "
-          f"({time.perf_counter() - t0:.0f} s)")
-    return 0
+    print(f"{res.ran} masses run now, {res.reused} reused, on {res.where}; "
+          f"{time.perf_counter() - t0:.0f} s")
+    print(f"wrote {out / 'payload_sweep.csv'}, {out / 'payload_sweep.png'} and the sweep "
+          f"{res.directory} (isodesign report {res.directory} -o report.html)")
+    return 1 if res.status == "failed" else 0
 
 
 if __name__ == "__main__":

@@ -8,6 +8,7 @@ import os
 import numpy as np
 
 from isodesign.errors import SolverError
+from isodesign.optimization.executor import executor_for
 
 __all__ = ["DEFAULT_WORKERS", "available_cores", "map_in_workers", "run_starts", "start_points"]
 
@@ -101,7 +102,9 @@ def map_in_workers(fn, items, *, workers=None, progress=None) -> list:
         Worker processes asked for; default :data:`DEFAULT_WORKERS`. Capped by the cores
         available to the process (:func:`available_cores`) and by the number of items.
         With 1 worker after the cap, a single item or no ``fork`` start method, the items
-        run one after the other in this process.
+        run one after the other in this process; an executor installed with
+        :func:`isodesign.optimization.executor.use_executor` (a sweep task's serial one)
+        runs them instead.
     progress : callable, optional
         ``progress(done, total, result)`` after each item (in completion order when
         parallel).
@@ -117,29 +120,14 @@ def map_in_workers(fn, items, *, workers=None, progress=None) -> list:
     n = len(items)
     workers = min(DEFAULT_WORKERS if workers is None else workers, available_cores())
     results: list = [None] * n
-    ctx = None
-    if workers > 1 and n > 1:
-        import multiprocessing as mp
-
-        try:
-            ctx = mp.get_context("fork")
-        except ValueError:
-            ctx = None
-    if ctx is None:
-        for i, item in enumerate(items):
-            results[i] = fn(item)
-            if progress:
-                progress(i + 1, n, results[i])
-        return results
     _TASK = fn
     try:
-        with ctx.Pool(processes=min(workers, n)) as pool:
-            done = 0
-            for i, out in pool.imap_unordered(_run_indexed, list(enumerate(items))):
-                results[i] = out
-                done += 1
-                if progress:
-                    progress(done, n, out)
+        executor = executor_for(workers, n)  # the local fork pool, or the one installed
+        for done, (i, out) in enumerate(executor.map_unordered(_run_indexed,
+                                                                list(enumerate(items))), 1):
+            results[i] = out
+            if progress:
+                progress(done, n, out)
     finally:
         _TASK = None
     return results

@@ -40,6 +40,7 @@ __all__ = [
     "OPERATING_PARAMETERS",
     "PARAMETER_UNITS",
     "SCENARIO_SETTINGS",
+    "TABLE_PARAMETERS",
     "TOLERANCE_PARAMETERS",
     "ScaledDiaphragm",
     "ScenarioStudy",
@@ -50,7 +51,9 @@ __all__ = [
 
 #: Operating parameters (physical values) and their units.
 OPERATING_PARAMETERS = {"payload_mass_kg": "kg", "ambient_pressure_pa": "Pa",
-                        "temperature_k": "K"}
+                        "temperature_k": "K", "cg_offset_x_m": "m", "cg_offset_y_m": "m"}
+#: Operating parameters of a table study only (offsets of the CG from the study's, m).
+TABLE_PARAMETERS = ("cg_offset_x_m", "cg_offset_y_m")
 #: Manufacturing tolerances: the four design variables and the diaphragm's stiffness.
 TOLERANCE_PARAMETERS = (*DESIGN_VARIABLES, "diaphragm_stiffness")
 #: Unit of each parameter's coordinate (a relative deviation is "-").
@@ -237,6 +240,8 @@ def _nominal_operating(name: str, study) -> float:
     if name == "temperature_k":
         return float(study.hardware.get("temperature_k", SpringDesign.__dataclass_fields__[
             "temperature_k"].default))
+    if name in TABLE_PARAMETERS:
+        return 0.0
     return P_ATM
 
 
@@ -307,6 +312,8 @@ def _check_positive(where: str, p: UncertainParameter, study) -> None:
     if p.distribution == "normal" and not p.discrete:
         lo = 0.5 * (p.lo + p.hi) - (4.0 / NORMAL_SIGMAS) * p.half_width
     key = f"scenarios.{p.name}"
+    if p.name in TABLE_PARAMETERS:
+        return  # an offset: any sign
     if p.mode == "value":
         if lo <= 0:
             raise InputError(f"{where}: {key}: the range reaches {lo:g} "
@@ -361,6 +368,14 @@ def parse_scenarios(table, where: str, study) -> UncertaintySpace | None:
         if k not in valid:
             raise InputError(f"{where}: unknown key {k!r} in [scenarios]; valid: "
                              f"{', '.join(sorted(valid))}")
+    is_table = getattr(study, "table", None) is not None
+    for k in table:
+        if k in TABLE_PARAMETERS and not is_table:
+            raise InputError(f"{where}: scenarios.{k} needs a [table] study (the vertical "
+                             "study has no centre of gravity to move)")
+        if k == "ambient_pressure_pa" and is_table:
+            raise InputError(f"{where}: scenarios.{k} is not available with a [table] study "
+                             "yet (its leveling sets the pressures from the supply)")
     params = tuple(_parameter(where, n, table[n], study)
                    for n in (*OPERATING_PARAMETERS, *TOLERANCE_PARAMETERS) if n in table)
     settings = dict(SCENARIO_SETTINGS)

@@ -23,12 +23,14 @@ __all__ = ["render_html", "report", "timed_report"]
 _TEMPLATE = "report.html.j2"
 
 
-def render_html(context: dict) -> str:
+def render_html(context: dict, template: str = _TEMPLATE) -> str:
     """Render the report template with ``context`` (:func:`build_context`).
 
     Parameters
     ----------
     context : dict
+    template : str
+        The template's file name (``report.html.j2``; ``sweep.html.j2`` for a sweep).
 
     Returns
     -------
@@ -41,7 +43,7 @@ def render_html(context: dict) -> str:
         autoescape=jinja2.select_autoescape(["html", "j2"]),
         undefined=jinja2.StrictUndefined, trim_blocks=True, lstrip_blocks=True,
     )
-    return env.get_template(_TEMPLATE).render(**context, escape=html.escape)
+    return env.get_template(template).render(**context, escape=html.escape)
 
 
 def report(inputs, output=None, *, study=None, labels=None, command=None, title=None):
@@ -52,7 +54,9 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
     inputs : str, Path or sequence of them
         Design files, study files, ``isodesign optimize`` or ``isodesign pareto`` run
         directories. Several inputs give a comparison report: the candidates side by
-        side in one band plot, one transmissibility plot and one table.
+        side in one band plot, one transmissibility plot and one table. A sweep
+        directory (``isodesign sweep``), alone, gives the sweep's report: its design
+        charts and the table of its points.
     output : str or Path, optional
         Where to write the HTML; default: return the text only.
     study : str or Path, optional
@@ -81,6 +85,12 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
     if not inputs:
 
         raise InputError("inputs: give at least one design file, study file or run directory")
+    from isodesign.reporting.sweep import is_sweep_dir
+
+    if any(is_sweep_dir(p) for p in inputs):  # a sweep directory: charts and the table
+        if len(inputs) != 1:
+            raise InputError("inputs: a sweep directory is reported on its own (one input)")
+        return _sweep_report(inputs[0], output, command=command, title=title)
     labels = list(labels) if labels is not None else [None] * len(inputs)
     cases = [load_case(p, study=study, label=lab) for p, lab in zip(inputs, labels, strict=True)]
     seen: dict[str, int] = {}
@@ -95,6 +105,21 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
                    + (f", {str(output)!r}" if output is not None else "")
                    + (f", study={str(study)!r}" if study is not None else "") + ")"]
     text = render_html(build_context(analyses, command=command, title=title))
+    if output is None:
+        return text
+    out = Path(output)
+    out.write_text(text, encoding="utf-8")
+    return out
+
+
+def _sweep_report(directory, output, *, command=None, title=None):
+    from isodesign.reporting.sweep import sweep_context
+
+    if command is None:
+        command = [f"isodesign.report({str(directory)!r}"
+                   + (f", {str(output)!r}" if output is not None else "") + ")"]
+    text = render_html(sweep_context(directory, command=command, title=title),
+                       "sweep.html.j2")
     if output is None:
         return text
     out = Path(output)

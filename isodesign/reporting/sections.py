@@ -41,6 +41,7 @@ from isodesign.reporting.analysis import (
 )
 from isodesign.reporting.inputs import Case
 from isodesign.reporting.robustness import robustness_section
+from isodesign.reporting.table_section import table_section
 from isodesign.response.random_input import band_response
 
 __all__ = ["SECTIONS", "build_context"]
@@ -122,7 +123,16 @@ def _job(c: Case, a: CaseAnalysis) -> dict:
         ("job from", c.job_source),
     ]
     sc = a.judged.scope
-    rows += [("scope", sc.covers), ("not modelled", "; ".join(sc.leaves_out))]
+    if getattr(st, "table", None) is not None:  # docs/table.md
+        t = st.table
+        rows += [("scope", f"a rigid table in six degrees of freedom on {t.n_isolators} "
+                           "isolators with three leveling valves, floor in x, y and z, every "
+                           "instrument point (section 1); the vertical-only sections below "
+                           "show the symmetric payload it reduces to"),
+                 ("not modelled", "floor rotation; differential floor motion between "
+                                  "isolators; leveling-valve dynamics; table flexibility")]
+    else:
+        rows += [("scope", sc.covers), ("not modelled", "; ".join(sc.leaves_out))]
     if sc.illustrative_share is not None:
         rows.append(("illustrative parameters",
                      f"{sc.illustrative_what} supplies {100 * sc.illustrative_share:.0f} % of "
@@ -511,6 +521,7 @@ def build_context(analyses: list[CaseAnalysis], *, command=None, title=None) -> 
         "stability_rows": _stability_rows(cases),
         "optimizations": [o for o in (_optimization(a) for a in cases) if o],
         "robustness": [r for r in (robustness_section(a.case) for a in cases) if r],
+        "tables": [t for t in (table_section(a.case) for a in cases) if t],
         "paretos": [p for p in (_pareto(a) for a in cases) if p],
         "flags": _flags(cases),
         "figures": _figures(cases),

@@ -7,6 +7,14 @@ One concept a module:
 * :mod:`~isodesign.table.statics`: three-valve leveling, each isolator's load and p0.
 * :mod:`~isodesign.table.assembly`: the 6x6 dynamic stiffness with the gravity term (NumPy
   and CasADi alike).
+* :mod:`~isodesign.table.model`: the table bound to its springs, transfer functions.
+* :mod:`~isodesign.table.floor`: the floor per axis and the response grid.
+* :mod:`~isodesign.table.response`: the band response, the random closure per isolator.
+* :mod:`~isodesign.table.harmonic`: harmonic floor motion, the closure per isolator.
+* :mod:`~isodesign.table.modes`: modes (nonlinear eigenproblem), rocking stability.
+* :mod:`~isodesign.table.problem`, :mod:`~isodesign.table.optimize`: the NLP in three axes.
+* :mod:`~isodesign.table.study`, :mod:`~isodesign.table.summary`,
+  :mod:`~isodesign.table.plots`: study files, text, figures.
 
 The vertical-only :class:`~isodesign.response.isolator.Payload` is the symmetric special
 case (docs/table.md).

@@ -204,8 +204,11 @@ def table_grid(floor, bands=None, *, target=None, points_per_band: int = 50) -> 
             raise InputError("bands: the axes' floor spectra share no whole band")
         bands = Bands(tuple(common))
     grids = [None, None, None]
-    for i, s in present:
-        grids[i] = response_grid(s, bands, target=tg, points_per_band=points_per_band)
+    built: dict = {}
+    for i, s in present:  # one floor on several axes: one grid
+        if id(s) not in built:
+            built[id(s)] = response_grid(s, bands, target=tg, points_per_band=points_per_band)
+        grids[i] = built[id(s)]
     ref = grids[present[0][0]]
     for i, _ in present[1:]:
         g = grids[i]

@@ -27,6 +27,7 @@ from isodesign.numerics.cplx import Cx
 from isodesign.response.model import TWO_PI, SpringModel
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import model_design
 from isodesign.spring.stiffness import check_models
 from isodesign.table.assembly import Geometry, dynamic_stiffness, geometry, solve_complex
 from isodesign.table.layout import Table
@@ -142,7 +143,8 @@ class TableModel:
         h = self.table.horizontal
         return [h.stiffness(w, float(load)) for load in self.leveling.load_n]
 
-    def outputs(self, k_vertical, omega, k_horizontal=None) -> TableOutputs:
+    def outputs(self, k_vertical, omega, k_horizontal=None, *,
+                strokes_only: bool = False) -> TableOutputs:
         """Transfer functions for given vertical (and horizontal) isolator stiffnesses.
 
         Parameters
@@ -153,6 +155,9 @@ class TableModel:
             Angular frequency, rad/s.
         k_horizontal : list of Cx, optional
             Default :meth:`horizontal_stiffness`.
+        strokes_only : bool
+            Compute the vertical strokes only (``points`` and ``horizontal_strokes`` are
+            ``None``): what the closure iterates on.
         """
         w = np.asarray(omega, dtype=float)
         kv = [k if isinstance(k, Cx) else Cx.from_complex(k) for k in k_vertical]
@@ -160,10 +165,13 @@ class TableModel:
         d, b = dynamic_stiffness(self.geometry, kv, kh, w)
         q = solve_complex(d, b)
         geo = self.geometry
-        pts = np.einsum("kij,fja->fkia", geo.points, q)
-        s = np.einsum("nj,fja->fna", geo.gz, q)
+        s = np.matmul(geo.gz, q)  # (f, n, 3)
         s[:, :, 2] -= 1.0
-        hs = np.einsum("cnj,fja->fcna", geo.gh, q)
+        if strokes_only:
+            return TableOutputs(body=q, points=None, strokes=s, horizontal_strokes=None)
+        pts = np.matmul(geo.points[None], q[:, None])  # (f, k, 3, 3)
+        n = self.n_isolators
+        hs = np.matmul(geo.gh.reshape(2 * n, 6), q).reshape(-1, 2, n, 3)
         hs[:, 0, :, 0] -= 1.0
         hs[:, 1, :, 1] -= 1.0
         return TableOutputs(body=q, points=pts, strokes=s, horizontal_strokes=hs)
@@ -209,6 +217,7 @@ def table_model(design, table, *, flow: str = "quasi_steady",
         raise InputError(f"table: expected an isodesign Table, got {type(table).__name__}")
     check_models(flow, amplitude_mode)
     diaphragm_model(diaphragm)
+    design = model_design(flow, design)  # the paper's flow models are lumped by definition
     lv = level(table, design.piston_area_m2)
     geo = geometry(table, lv.load_n, include_gravity=include_gravity)
     return TableModel(table=table, design=design, leveling=lv, designs=lv.designs(design),

@@ -19,8 +19,8 @@ then:
 
 Derivatives: the gradient and the constraint Jacobian are exact (CasADi AD); the Hessian of
 the Lagrangian is IPOPT's limited-memory quasi-Newton approximation (:data:`HESSIAN`): the
-exact Hessian through the mapped 6x6 solve gave the same optimum at 4.8 times the cost
-(``benchmarks/bench_table.py``).
+exact Hessian through the mapped 6x6 solve gives the same optimum at several times the cost
+(``benchmarks/bench_table.py`` times both).
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def closure_springs(model, sigma, sigma_u):
         out = []
         for i, d in enumerate(model.designs):
             c = statistical_resistance_function(model.flow, d, w)(float(sigma_u[i]))
-            out.append(spring_stiffness(air_stiffness(d, w, c),
+            out.append(spring_stiffness(air_stiffness(d, w, c, model.flow),
                                         dia.stiffness(w, equivalent_amplitude(float(sigma[i])))))
         return out
 

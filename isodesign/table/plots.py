@@ -6,7 +6,7 @@ import numpy as np
 
 from isodesign.plotting.style import FAIL, FLOOR, LIMIT, band_axis, candidate_style, new_figure
 
-__all__ = ["layout_figure", "table_bands_figure"]
+__all__ = ["layout_figure", "table_bands_figure", "table_transmissibility_figure"]
 
 _AXES = ("x", "y", "z")
 
@@ -99,4 +99,41 @@ def layout_figure(table, leveling=None, *, ax=None):
     ax.set_title("table layout (top view)", fontsize=10)
     ax.legend(fontsize=7, loc="center left", bbox_to_anchor=(1.02, 0.5))
     ax.grid(True, alpha=0.3)
+    return fig
+
+
+def table_transmissibility_figure(res, *, axes=None):
+    """|T| (dB) per axis at every instrument point: at the closure and in the linear regime.
+
+    ``T_p,aa``: the point's motion along axis ``a`` per floor motion along ``a``.
+
+    Parameters
+    ----------
+    res : TableBandResponse
+    axes : sequence of 3 matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if axes is None:
+        fig = new_figure(11.0, 3.4)
+        axes = fig.subplots(1, 3, sharey=True)
+    fig = axes[0].figure
+    f = res.grid.frequency_hz
+    for a, ax in enumerate(axes):
+        for p, name in enumerate(res.point_names):
+            st = candidate_style(p)
+            t = np.abs(res.transmissibility[:, p, a, a])
+            tl = np.abs(res.transmissibility_linear[:, p, a, a])
+            ax.semilogx(f, 20 * np.log10(t), color=st["color"], ls=st["ls"], lw=1.5,
+                        label=f"{name} (closure)")
+            ax.semilogx(f, 20 * np.log10(tl), color=st["color"], ls=":", lw=1.0,
+                        label=f"{name} (linear, 1 um)")
+        ax.axhline(0.0, color="0.55", lw=0.9)
+        ax.set_title(f"{_AXES[a]} floor -> {_AXES[a]} at the points", fontsize=10)
+        ax.set_xlabel("frequency (Hz)")
+        ax.grid(True, which="major", alpha=0.4)
+    axes[0].set_ylabel("|T| (dB)")
+    axes[0].legend(fontsize=7, loc="lower left")
     return fig

@@ -80,7 +80,7 @@ class TableStatistical:
             key = (rep, float(sigma[i]), float(sigma_u[i]))
             if key not in cache:
                 c = self.c_of[rep](float(sigma_u[i]))
-                k_air = air_stiffness(self.model.designs[rep], w, c)
+                k_air = air_stiffness(self.model.designs[rep], w, c, self.model.flow)
                 k_d = self.dia.stiffness(w, equivalent_amplitude(float(sigma[i])))
                 cache[key] = (spring_stiffness(k_air, k_d), c, k_air, k_d)
             k, c, _, _ = cache[key]
@@ -88,22 +88,26 @@ class TableStatistical:
             cs.append(c)
         return ks, cs
 
-    def variances(self, sigma, sigma_u):
+    def variances(self, sigma, sigma_u, *, strokes_only: bool = False):
         """``(sigma^2, sigma_u^2, outputs, k, C)`` produced at ``(sigma, sigma_u)``.
 
         Parameters
         ----------
         sigma, sigma_u : ndarray (n,)
             Stroke and tube-velocity RMS per isolator.
+        strokes_only : bool
+            Outputs with the strokes only (the closure's iterations).
         """
         ks, cs = self.springs(sigma, sigma_u)
-        out = self.model.outputs(ks, self.grid.omega, self.kh)
-        a2 = np.abs(out.strokes) ** 2  # (f, n, 3)
-        s2 = np.einsum("af,fna->n", self.grid.stroke_weight, a2)
+        out = self.model.outputs(ks, self.grid.omega, self.kh, strokes_only=strokes_only)
+        a2 = out.strokes.real ** 2 + out.strokes.imag ** 2  # (f, n, 3)
+        sw = self.grid.stroke_weight  # (3, f)
+        s2 = np.einsum("fna,af->n", a2, sw, optimize=True)
         su2 = np.empty_like(s2)
         for i in range(self.model.n_isolators):
-            g2 = np.asarray(tube_velocity_gain2(self.model.designs[i], self.grid.omega, cs[i]))
-            su2[i] = np.einsum("af,fa->", self.grid.stroke_weight, a2[:, i, :] * g2[:, None])
+            g2 = np.asarray(tube_velocity_gain2(self.model.designs[i], self.grid.omega, cs[i],
+                                                self.model.flow))
+            su2[i] = float(np.sum(sw.T * a2[:, i, :] * g2[:, None]))
         return s2, su2, out, ks, cs
 
 
@@ -158,14 +162,14 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
     """
     n = st.model.n_isolators
     sigma0 = np.full(n, LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR)
-    s2, su2, _, _, _ = st.variances(sigma0, np.full(n, 1e-9))
+    s2, su2, _, _, _ = st.variances(sigma0, np.full(n, 1e-9), strokes_only=True)
     if not np.all(s2 > 0):
         raise InputError("floor: the spectrum carries no motion (PSD zero)")
     x0 = 0.5 * np.log(np.concatenate([s2, np.maximum(su2, 1e-300)]))
 
     def g(x):
         e = np.exp(x)
-        a, b, _, _, _ = st.variances(e[:n], e[n:])
+        a, b, _, _, _ = st.variances(e[:n], e[n:], strokes_only=True)
         return 0.5 * np.log(np.concatenate([a, np.maximum(b, 1e-300)]))
 
     x, n_eval, res = _anderson(g, x0, rtol, max_iter)
@@ -426,8 +430,10 @@ def _result(model, grid, target_name, out: TableOutputs, ks, kh, sigma, sigma_u,
             warn) -> TableBandResponse:
     bw = grid.band_weight
     t = out.points
-    ms = np.einsum("anf,fpba->pbn", bw, np.abs(t) ** 2)
-    hs2 = np.einsum("af,fcna->nc", grid.stroke_weight, np.abs(out.horizontal_strokes) ** 2)
+    t2 = t.real ** 2 + t.imag ** 2
+    ms = np.einsum("anf,fpba->pbn", bw, t2, optimize=True)
+    h2 = out.horizontal_strokes.real ** 2 + out.horizontal_strokes.imag ** 2
+    hs2 = np.einsum("af,fcna->nc", grid.stroke_weight, h2, optimize=True)
     lin = model.linear_outputs(grid.frequency_hz)
     notes = [*grid.floor.notes, RIGID_FLOOR_NOTE]
     lines = list(flags) + _spring_flags(model, grid, sigma, sigma_u)
@@ -462,7 +468,7 @@ def _spring_flags(model, grid, sigma, sigma_u) -> list[str]:
             continue
         seen[key] = i
         c = statistical_resistance_function(model.flow, d, w)(float(sigma_u[i]))
-        k_air = air_stiffness(d, w, c)
+        k_air = air_stiffness(d, w, c, model.flow)
         amp = equivalent_amplitude(float(sigma[i]))
         k_d = dia.stiffness(w, amp)
         k = spring_stiffness(k_air, k_d).to_complex()

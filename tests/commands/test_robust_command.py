@@ -142,3 +142,25 @@ def test_report_has_the_robustness_section(robust_run, tmp_path):
                   "Clopper-Pearson", "robust optimum", "Price of robustness"):
         assert words in html, words
     assert html.count("<svg") >= 5
+
+
+def test_optimize_a_table_study_with_scenarios(tmp_path, capsys):
+    import copy
+
+    from isodesign.io.record import study_toml
+    from isodesign.optimization.study import study_from_dict, table_study
+
+    raw = copy.deepcopy(table_study().raw)
+    raw["scenarios"] = {"payload_mass_kg": {"min": 560.0, "max": 640.0},
+                        "cg_offset_y_m": {"absolute": 0.03}}
+    raw["solver"]["starts"] = 2
+    raw["models"]["points_per_band"] = 3
+    f = tmp_path / "table_robust.toml"
+    f.write_text(study_toml(study_from_dict(raw, source="x", fill_defaults=False)))
+    status, out, err = run(capsys, "optimize", str(f), "-o", str(tmp_path / "o"))
+    assert status == 0, err
+    rob = json.loads((tmp_path / "o" / "robust.json").read_text())
+    assert rob["table"] and rob["feasible"] and rob["converged"]
+    assert rob["worst_case_objective"] <= rob["nominal_objective"]
+    assert "cg_offset_y_m" in out and "(worst)" in out
+    assert (tmp_path / "o" / "design.toml").is_file()

@@ -1,0 +1,236 @@
+"""Sweep a study over study changes, one Dask task per point, on a laptop or a cluster.
+
+Each --vary KEY=VALUES names a study key by its dotted path (payload.mass_kg,
+floor.criterion, variables.top_volume_m3.upper, ...) and its values: a list a,b,c or a
+linear range start:stop:count (both ends included). The keys combine as a cartesian
+product (--combine zip: side by side), or the points come from a file of study-change
+tables (--points-file). Every point runs --task (optimize, response, pareto; yield with
+robust design) as one Dask task: on a LocalCluster of this machine's cores (127.0.0.1,
+no dashboard), or on the scheduler of --scheduler / DASK_SCHEDULER_ADDRESS. Writes, as
+each point finishes, its run directory OUTDIR/points/HASH/ (docs/cli.md contract) and
+the table OUTDIR/sweep.parquet (one row per point, written whole each time); at the end
+the design charts OUTDIR/charts/OBJECTIVE.png. A rerun of the same sweep skips finished
+points (matched by the resolved study's hash) and runs only new or failed ones; a worker
+that dies loses nothing (its task is retried elsewhere); a point that fails twice is
+recorded failed with its error. Render with: isodesign report OUTDIR -o report.html.
+See docs/sweep.md. Exit status 0: every point finished; 1: some point failed; 2: bad
+input; 130: interrupted (finished points kept; rerun to resume).
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+from isodesign.commands import check_count
+from isodesign.commands import int_option as _int_option
+
+TASK_NAMES = ("optimize", "response", "pareto", "yield")
+
+
+def add_arguments(parser: argparse.ArgumentParser) -> None:
+    """Options of ``isodesign sweep``."""
+    parser.add_argument("study", nargs="?", metavar="STUDY.toml",
+                        help="base study (default: the built-in default study)")
+    parser.add_argument("--vary", action="append", metavar="KEY=VALUES", default=[],
+                        help="a study key and its values: a,b,c or start:stop:count (linear, "
+                        "both ends); repeat for several keys")
+    parser.add_argument("--combine", choices=("product", "zip"), default="product",
+                        help="how several --vary combine (default %(default)s)")
+    parser.add_argument("--points-file", metavar="FILE",
+                        help="the points as study-change tables: TOML [[point]] tables or a "
+                        "CSV whose header names the keys (instead of --vary)")
+    parser.add_argument("--task", default="optimize", metavar="TASK",
+                        help=f"what each point runs: {', '.join(TASK_NAMES)} (default "
+                        "%(default)s)")
+    parser.add_argument("--objectives", metavar="A,B",
+                        help="task pareto: objectives A (optimized) and B (swept)")
+    parser.add_argument("--pareto-points", type=_int_option, metavar="K",
+                        help="task pareto: epsilon values per front (2..500; default 10)")
+    parser.add_argument("--yield-samples", type=_int_option, metavar="N",
+                        help="task yield: draws per point (1..1000000; default 200)")
+    parser.add_argument("--starts", type=_int_option, metavar="N",
+                        help="starts per optimization (sets solver.starts of the base study)")
+    parser.add_argument("--seed", type=_int_option, metavar="N",
+                        help="Latin-hypercube seed (sets solver.seed of the base study)")
+    parser.add_argument("--scheduler", metavar="ADDRESS",
+                        help="Dask scheduler (tcp://host:8786); default DASK_SCHEDULER_ADDRESS, "
+                        "else a local cluster; 'serial' runs the points in this process")
+    parser.add_argument("--workers", type=_int_option, metavar="N",
+                        help="worker processes of the local cluster (1..64; default: the "
+                        "cores available)")
+    parser.add_argument("-o", "--output", metavar="OUTDIR", required=True,
+                        help="sweep directory; rerunning the same sweep into it resumes it")
+    parser.add_argument("--overwrite", action="store_true",
+                        help="replace another sweep held in OUTDIR")
+    parser.add_argument("--point-plots", action="store_true",
+                        help="write each point's figure (response.png, pareto.png)")
+    parser.add_argument("--no-plots", action="store_true", help="write no design chart")
+    parser.add_argument("--quiet", action="store_true",
+                        help="no progress; print only the summary line")
+
+
+class _Progress:
+    """Points done, failed, running and time left: a rich bar on a terminal, else lines."""
+
+    def __init__(self, args, keys):
+        self.args = args
+        self.keys = keys
+        self.failed = 0
+        self.bar = None
+        self.task = None
+        self.tty = sys.stderr.isatty() and not args.quiet
+
+    def __enter__(self):
+        if self.tty:
+            from rich.console import Console
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
+
+            self.bar = Progress(TextColumn("points"), BarColumn(), MofNCompleteColumn(),
+                                TextColumn("{task.fields[state]}"), TimeElapsedColumn(),
+                                TextColumn("left"), TimeRemainingColumn(),
+                                console=Console(stderr=True), transient=True)
+            self.bar.start()
+            self.task = self.bar.add_task("points", total=1, state="")
+        return self
+
+    def __call__(self, done, total, row, running):
+        if row is not None and row.get("status") == "failed":
+            self.failed += 1
+        if self.bar is not None:
+            self.bar.update(self.task, completed=done, total=total,
+                            state=f"failed {self.failed}, running {running}")
+        elif row is not None and not self.args.quiet:
+            import json
+
+            ch = json.loads(row.get("changes") or "{}")
+            what = ", ".join(f"{k}={v}" for k, v in ch.items())
+            val = row.get("objective_value")
+            val = f"{row.get('objective')} {val:.6g}" if isinstance(val, float) else ""
+            err = f" ({row.get('error')})" if row.get("error") else ""
+            print(f"[{done}/{total}] {what}: {row.get('status')} {val}{err}; "
+                  f"{row.get('wall_s') or 0:.1f} s on {row.get('worker') or '-'}", flush=True)
+
+    def __exit__(self, *exc):
+        if self.bar is not None:
+            self.bar.stop()
+        return False
+
+
+def summary(res) -> str:
+    """The end-of-sweep summary (counts, times, where, the table, the charts)."""
+    import statistics
+
+    df = res.table
+    counts = df["status"].value_counts().to_dict() if len(df) else {}
+    walls = res.point_wall_s
+    over = ", ".join(res.keys) or "a points file"
+    lines = [f"sweep {res.directory}: task {res.task} over {over};"
+             f" {len(df)} points in the table ({res.ran} run now, {res.reused} already "
+             f"finished, {res.failed} failed now); {res.wall_s:.1f} s on {res.where}",
+             "  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))]
+    if walls:
+        lines.append(f"  time per point: median {statistics.median(walls):.2f} s, min "
+                     f"{min(walls):.2f} s, max {max(walls):.2f} s (sum {sum(walls):.1f} s: "
+                     f"{sum(walls) / max(res.wall_s, 1e-9):.2f} points running on average)")
+    if 0 < len(df) <= 60:
+        cols = [*[k for k in res.keys if k in df], "status", "objective_value", "volume_ratio",
+                "top_volume_m3", "capillary_length_m", "capillary_diameter_m", "binding"]
+        cols = [c for c in cols if c in df]
+        import pandas as pd
+
+        with pd.option_context("display.width", 200, "display.max_colwidth", 60):
+            lines += ["", df[cols].to_string(index=False, float_format=lambda v: f"{v:.4g}")]
+    lines.append("")
+    lines.append(f"wrote {res.directory / 'sweep.parquet'}, {res.directory / 'points'}/ "
+                 f"(one run directory per point)"
+                 + (f", {res.directory / 'charts'}/" if (res.directory / "charts").is_dir()
+                    else ""))
+    lines.append(f"report: isodesign report {res.directory} -o {res.directory}/report.html")
+    return "\n".join(lines)
+
+
+def run(args) -> int:
+    """Run ``isodesign sweep``."""
+    import signal
+
+    from isodesign.commands.pareto import parse_objectives
+    from isodesign.errors import InputError
+    from isodesign.optimization.study import default_study, load_study
+    from isodesign.sweeps.runner import sweep
+
+    if args.workers is not None:
+        check_count(args.workers, "--workers", 1, 64)
+    if args.pareto_points is not None:
+        check_count(args.pareto_points, "--pareto-points", 2, 500)
+    options = {}
+    if args.task == "pareto":
+        options = {"objectives": list(parse_objectives(args.objectives))
+                   if args.objectives else None, "points": args.pareto_points}
+    elif args.objectives or args.pareto_points:
+        raise InputError("--objectives/--pareto-points: only for --task pareto")
+    if args.task == "yield":
+        if args.yield_samples is not None:
+            check_count(args.yield_samples, "--yield-samples", 1, 1_000_000)
+        options = {"samples": args.yield_samples, "seed": args.seed}
+    elif args.yield_samples is not None:
+        raise InputError("--yield-samples: only for --task yield")
+    if args.point_plots:
+        options["plots"] = True
+    if args.points_file is not None and args.vary:
+        raise InputError("--points-file: give a points file or --vary, not both")
+    base = default_study() if args.study is None else load_study(args.study)
+    changes = {}
+    if args.starts is not None:
+        changes["starts"] = check_count(args.starts, "--starts", 1, 256)
+    if args.seed is not None:
+        changes["seed"] = check_count(args.seed, "--seed", 0, 2**32 - 1)
+    if changes:
+        base = base.with_changes(solver=changes)
+    keys = [v.partition("=")[0].strip() for v in args.vary]
+    old = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):  # interrupt the loop: finished points stay
+        old[sig] = signal.signal(sig, _raise_interrupt)
+    try:
+        with _Progress(args, keys) as bar:
+            res = sweep(base, args.vary or None, output=args.output, combine=args.combine,
+                        points=args.points_file, task=args.task, options=options,
+                        scheduler=args.scheduler, workers=args.workers,
+                        overwrite=args.overwrite, charts=not args.no_plots, progress=bar,
+                        argv=["isodesign", *sys.argv[1:]])
+    except KeyboardInterrupt as exc:
+        name = str(exc) or "SIGINT"
+        print(f"isodesign: interrupted by {name}; the finished points are in {args.output} "
+              "(sweep.parquet, points/; run_status interrupted): rerun the same command to "
+              "run the others", file=sys.stderr)
+        return 130
+    finally:
+        for sig, h in old.items():
+            signal.signal(sig, h)
+    if args.quiet:
+        print(f"sweep {res.directory}: {len(res.table)} points, {res.ran} run now, "
+              f"{res.reused} reused, {res.failed} failed; {res.wall_s:.1f} s")
+    else:
+        print(summary(res))
+    if res.status == "failed":
+        n = int((res.table["status"] == "failed").sum())
+        print(f"isodesign: error: {n} of {len(res.table)} points failed (the table's error "
+              "column; points/*/record.json); rerun the same command to retry them",
+              file=sys.stderr)
+        return 1
+    return 0
+
+
+def _raise_interrupt(signum, frame):
+    import signal
+
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C does not cut the cleanup
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    raise KeyboardInterrupt(signal.Signals(signum).name)

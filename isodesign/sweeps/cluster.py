@@ -1,0 +1,142 @@
+"""Where a sweep runs: a Dask ``LocalCluster`` on this machine, or an existing scheduler.
+
+:func:`connect` gives a ``distributed.Client``:
+
+* no address (and no ``DASK_SCHEDULER_ADDRESS``): a ``LocalCluster`` of worker processes
+  (one thread each; by default one per core available to this process), its scheduler
+  and workers on 127.0.0.1 and no dashboard, so a sweep opens no port beyond the
+  loopback interface;
+* an address (``--scheduler tcp://host:8786`` or ``DASK_SCHEDULER_ADDRESS``): that
+  scheduler and its workers (a dask-jobqueue or Kubernetes cluster: ``docs/sweep.md``).
+  An address that does not answer within :data:`CONNECT_TIMEOUT_S` is an InputError
+  naming it.
+
+Fault tolerance is Dask's own: a task whose worker dies is rescheduled on another worker,
+and after :data:`ALLOWED_FAILURES` + 1 deaths the scheduler gives up on it
+(``KilledWorker``); an exception inside a task is retried once (``retries`` of
+``Client.submit``). The local cluster's scheduler gets ``allowed-failures`` from here; an
+external scheduler's own configuration applies (set
+``DASK_DISTRIBUTED__SCHEDULER__ALLOWED_FAILURES=1`` where it starts).
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+
+from isodesign.errors import InputError
+
+__all__ = ["ALLOWED_FAILURES", "CONNECT_TIMEOUT_S", "Connection", "connect"]
+
+#: Seconds to wait for an external scheduler before giving up.
+CONNECT_TIMEOUT_S = 5.0
+#: Worker deaths a task survives (the next one marks it failed: it failed twice).
+ALLOWED_FAILURES = 1
+
+
+class Connection:
+    """A Dask client and, for a local cluster, the cluster it owns (closed together).
+
+    Attributes
+    ----------
+    client : distributed.Client
+    cluster : distributed.LocalCluster or None
+    where : str
+        For messages: ``local cluster (2 workers on 127.0.0.1)`` or the address.
+    workers : int
+        Workers at connection time.
+    """
+
+    def __init__(self, client, cluster, where: str, workers: int):
+        self.client, self.cluster, self.where, self.workers = client, cluster, where, workers
+
+    def close(self) -> None:
+        """Close the client and the local cluster (its worker processes end)."""
+        import contextlib
+
+        with contextlib.suppress(Exception):
+            self.client.close(timeout=5)
+        if self.cluster is not None:
+            with contextlib.suppress(Exception):
+                self.cluster.close(timeout=10)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+        return False
+
+
+def _quiet_logs() -> None:
+    for name in ("distributed", "distributed.comm", "distributed.core", "distributed.nanny",
+                 "distributed.scheduler", "distributed.worker", "tornado"):
+        logging.getLogger(name).setLevel(logging.CRITICAL)
+
+
+def connect(scheduler: str | None = None, workers: int | None = None, *,
+            option: str = "--scheduler", timeout_s: float = CONNECT_TIMEOUT_S) -> Connection:
+    """A Dask client: a local cluster, or the scheduler at ``scheduler``.
+
+    Parameters
+    ----------
+    scheduler : str, optional
+        ``tcp://host:port`` (or ``host:port``); default ``DASK_SCHEDULER_ADDRESS``, else a
+        ``LocalCluster``.
+    workers : int, optional
+        Worker processes of a local cluster (default: the cores available to this
+        process); ignored for an external scheduler.
+    option : str
+        For messages.
+    timeout_s : float
+        Connection timeout for an external scheduler.
+
+    Returns
+    -------
+    Connection
+    """
+    import dask
+    from distributed import Client, LocalCluster
+
+    from isodesign.optimization.multistart import available_cores
+
+    _quiet_logs()
+    address = scheduler or os.environ.get("DASK_SCHEDULER_ADDRESS") or None
+    if address:
+        if address == "local":
+            address = None
+        elif any(c.isspace() for c in address) or not address.strip(":/"):
+            raise InputError(f"{option}: {address!r} is not a scheduler address "
+                             "(tcp://host:port)")
+    if address:
+        src = option if scheduler else "DASK_SCHEDULER_ADDRESS"
+        try:
+            client = Client(address, timeout=f"{timeout_s}s", set_as_default=False)
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise InputError(
+                f"{src}: cannot reach the Dask scheduler at {address} within {timeout_s:g} s "
+                f"({type(exc).__name__}: {' '.join(str(exc).split())[:160]}); start it "
+                "(dask scheduler), check the address, or leave --scheduler out for a "
+                "local cluster") from None
+        n = len(client.scheduler_info(n_workers=-1).get("workers", {})) \
+            if _accepts_n_workers(client) else len(client.scheduler_info().get("workers", {}))
+        return Connection(client, None, f"scheduler {address} ({n} workers now)", n)
+    n = int(workers) if workers else available_cores()
+    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+                          "distributed.worker.daemon": True,
+                          "distributed.admin.system-monitor.gil.enabled": False}):
+        # no dashboard; the scheduler's HTTP routes (health, metrics) on a free loopback port
+        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                               host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                               scheduler_kwargs={"dashboard": False},
+                               worker_dashboard_address=None,
+                               silence_logs=logging.CRITICAL, scheduler_port=0)
+    client = Client(cluster, set_as_default=False)
+    return Connection(client, cluster, f"local cluster ({n} worker processes on 127.0.0.1)",
+                      n)
+
+
+def _accepts_n_workers(client) -> bool:
+    import inspect
+
+    return "n_workers" in inspect.signature(client.scheduler_info).parameters

@@ -1,0 +1,477 @@
+"""Run a sweep: every point one Dask task, results written as each finishes, resumable.
+
+The sweep directory (``-o DIR``)::
+
+    DIR/record.json          kind "isodesign sweep": the sweep's identity, status, counts
+    DIR/study_base.toml      the base study, resolved (replay)
+    DIR/sweep.parquet        one row per point (isodesign.sweeps.table), rewritten whole
+                             and atomically after each point
+    DIR/points/<hash16>/     each point's run directory (docs/cli.md contract), named by
+                             the first 16 hex digits of its resolved study's SHA-256
+    DIR/charts/<objective>.png   design charts (isodesign.plotting.sweep)
+
+Unlike a single run, the sweep directory is filled as the points finish (a point's run
+directory appears whole, moved into place by the worker that computed it), so a sweep
+that stops (SIGINT, a crash, a lost cluster) leaves every finished point usable. Its
+identity is the task, its options, the base study's hash and the set of swept keys: a
+rerun with the same identity skips the points whose run directory is finished
+(``complete`` or ``infeasible``, matched by the study hash) and runs the others (new
+values, failed points); a directory that holds another sweep is refused unless
+``overwrite``. One sweep at a time per directory (a lock file).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import datetime as _dt
+import json
+import shutil
+import statistics
+import sys
+import time
+import uuid
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from isodesign import __version__
+from isodesign.errors import InputError
+from isodesign.io.files import atomic_write_text
+from isodesign.io.record import resolved_study_dict, study_toml
+from isodesign.io.rundir import RECORD_NAME, check_run_target, read_run_record
+from isodesign.optimization.study import Study, default_study, load_study
+from isodesign.results import ResultDisplay
+from isodesign.sweeps.spec import build_points, combine, parse_vary, read_points, study_hash
+from isodesign.sweeps.table import TABLE_NAME, collect_rows, frame, write_table
+from isodesign.sweeps.tasks import FINISHED, get_task, record_failed_point, run_point
+
+__all__ = ["SweepResult", "sweep"]
+
+KIND = "isodesign sweep"
+POINTS = "points"
+CHARTS = "charts"
+LOCK = ".sweep.lock"
+#: Entries of a sweep directory that a sweep writes (an overwrite removes only these).
+OWNED = (RECORD_NAME, TABLE_NAME, "study_base.toml", POINTS, CHARTS, LOCK)
+#: Retries of a task that raised (Dask's ``retries``): a point that fails twice is failed.
+RETRIES = 1
+
+
+def _now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class SweepResult(ResultDisplay):
+    """A finished (or interrupted) sweep: its directory and its table.
+
+    Attributes
+    ----------
+    directory : Path
+    table : pandas.DataFrame
+        One row per point (:mod:`isodesign.sweeps.table`), every point of the directory.
+    keys : tuple of str
+        The swept keys.
+    task : str
+    ran, reused, failed : int
+        Points computed by this call, found finished, failed (this call).
+    wall_s : float
+    where : str
+        Where it ran.
+    status : str
+        ``complete``, ``failed`` (some point failed) or ``interrupted``.
+    """
+
+    directory: Path
+    table: object
+    keys: tuple
+    task: str
+    ran: int
+    reused: int
+    failed: int
+    wall_s: float
+    where: str
+    status: str
+    point_wall_s: tuple = field(default_factory=tuple)
+
+    def to_frame(self):
+        """The table (a copy)."""
+        return self.table.copy()
+
+    def _summary_items(self):
+        n = len(self.table)
+        med = statistics.median(self.point_wall_s) if self.point_wall_s else float("nan")
+        return [("task", self.task), ("keys", ", ".join(self.keys) or "(points file)"),
+                ("points", f"{n} in the table; {self.ran} run now, {self.reused} reused, "
+                           f"{self.failed} failed"),
+                ("status", self.status), ("where", self.where),
+                ("wall time", f"{self.wall_s:.1f} s (median point {med:.2f} s)")]
+
+    def plot(self, objective: str | None = None):
+        """The design chart of one objective (default: the first in the table).
+
+        Parameters
+        ----------
+        objective : str, optional
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from isodesign.plotting.sweep import design_chart
+
+        return design_chart(self.table, self.keys, objective=objective)
+
+
+# ---------------------------------------------------------------------------------------
+# the directory
+# ---------------------------------------------------------------------------------------
+def _check_dir(target: Path, identity: dict, overwrite: bool, option: str) -> str:
+    """``new`` or ``resume``; InputError for another sweep, another run, other files."""
+    if str(target).strip() == "":
+        raise InputError(f"{option}: empty; give a directory name")
+    if target.exists() and not target.is_dir():
+        raise InputError(f"{option}: {target} exists and is not a directory")
+    if not target.exists() or not any(target.iterdir()):
+        check_run_target(target, option=option)  # a parent that is a file, unwritable
+        return "new"
+    rec = read_run_record(target)
+    if rec is not None and rec.get("kind") == KIND:
+        theirs = (rec.get("sweep") or {}).get("identity")
+        if theirs == identity:
+            return "resume"
+        if not overwrite:
+            t = theirs or {}
+            raise InputError(
+                f"{option}: {target} holds another sweep (task {t.get('task')!r} over "
+                f"{', '.join(t.get('keys') or []) or 'a points file'}, base study "
+                f"{str(t.get('base_study_hash'))[:16]}); choose a new directory, or give "
+                "--overwrite to replace it")
+        for e in OWNED:
+            p = target / e
+            if p.is_dir():
+                shutil.rmtree(p)
+            elif p.exists():
+                p.unlink()
+        return "new"
+    if rec is not None:
+        raise InputError(f"{option}: {target} holds an {rec.get('kind')} run, not a sweep; "
+                         "choose a new or empty directory")
+    raise InputError(f"{option}: {target} is not empty and holds no isodesign sweep; choose a "
+                     "new or empty directory")
+
+
+@contextlib.contextmanager
+def _locked(target: Path, option: str):
+    import fcntl
+
+    target.mkdir(parents=True, exist_ok=True)
+    fh = open(target / LOCK, "a+")
+    try:
+        try:
+            fcntl.flock(fh, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except OSError:
+            raise InputError(f"{option}: another isodesign sweep is running in {target}; "
+                             "wait for it or choose another directory") from None
+        yield
+    finally:
+        fh.close()
+        with contextlib.suppress(OSError):  # nothing but the lock: leave no trace
+            if [e.name for e in target.iterdir()] == [LOCK]:
+                (target / LOCK).unlink()
+                target.rmdir()
+
+
+def _clean_leftovers(points_dir: Path) -> None:
+    """Staging directories of points whose worker died or was interrupted (under the lock)."""
+    if not points_dir.is_dir():
+        return
+    for p in points_dir.iterdir():
+        if ".isodesign-partial-" in p.name or ".isodesign-old-" in p.name \
+                or ".interrupted" in p.name:
+            shutil.rmtree(p, ignore_errors=True)
+
+
+# ---------------------------------------------------------------------------------------
+# the sweep
+# ---------------------------------------------------------------------------------------
+def _base_study(study) -> Study:
+    if study is None:
+        return default_study()
+    if isinstance(study, Study):
+        return study
+    return load_study(study)
+
+
+def _tables(vary, mode, points) -> tuple[list[dict], list[str]]:
+    if points is not None and vary:
+        raise InputError("--points-file: give a points file or --vary, not both")
+    if points is not None:
+        tables = read_points(points) if isinstance(points, str | Path) else \
+            [dict(t) for t in points]
+        keys = []
+        for t in tables:
+            keys += [k for k in t if k not in keys]
+        return tables, keys
+    if not vary:
+        raise InputError("--vary: give at least one KEY=VALUES (or --points-file FILE)")
+    items = vary.items() if isinstance(vary, dict) else [parse_vary(v) for v in vary]
+    varies = []
+    for k, v in items:
+        if isinstance(v, str):
+            varies.append(parse_vary(f"{k}={v}"))
+        else:
+            vals = list(v)
+            key, _ = parse_vary(f"{k}=0")  # checks the key
+            if not vals:
+                raise InputError(f"--vary {key}: no values")
+            varies.append((key, vals))
+    return combine(varies, mode), [k for k, _ in varies]
+
+
+def _identity(task: str, options: dict, base: Study, keys: list[str]) -> dict:
+    b = base.with_changes(solver={"workers": 1})
+    return {"task": task, "options": json.loads(json.dumps(options, sort_keys=True)),
+            "base_study_hash": study_hash(b), "keys": sorted(keys)}
+
+
+def _write_record(target: Path, rec: dict) -> None:
+    atomic_write_text(target / RECORD_NAME, json.dumps(rec, indent=2, default=str) + "\n")
+
+
+def sweep(study=None, vary=None, *, output, combine: str = "product", points=None,
+          task: str = "optimize", options: dict | None = None, scheduler: str | None = None,
+          workers: int | None = None, overwrite: bool = False, charts: bool = True,
+          progress=None, argv=None) -> SweepResult:
+    """Run a sweep of study changes, one Dask task per point (see the module docstring).
+
+    Parameters
+    ----------
+    study : Study, str or Path, optional
+        The base study (default: the built-in default study).
+    vary : dict or list of str, optional
+        Key -> values (a list, or a ``"300:1500:13"`` / ``"VC-A,VC-B"`` string), or
+        ``["payload.mass_kg=300:1500:13", ...]`` (:func:`isodesign.sweeps.spec.parse_vary`).
+    output : str or Path
+        The sweep directory.
+    combine : {'product', 'zip'}
+        How the varied keys combine.
+    points : str, Path or list of dict, optional
+        Instead of ``vary``: a points file (:func:`isodesign.sweeps.spec.read_points`) or
+        change tables.
+    task : str
+        ``optimize``, ``response``, ``pareto`` (or a registered task).
+    options : dict, optional
+        Task options (``plots``; ``objectives``, ``points`` for ``pareto``).
+    scheduler : str, optional
+        A Dask scheduler address (default ``DASK_SCHEDULER_ADDRESS``, else a local
+        cluster); ``"serial"`` runs the points one by one in this process (no Dask: the
+        baseline of the benchmark, and for debugging).
+    workers : int, optional
+        Worker processes of a local cluster (default: one per core available).
+    overwrite : bool
+        Replace a directory holding another sweep.
+    charts : bool
+        Write the design charts when the sweep ends.
+    progress : callable, optional
+        ``progress(done, total, row, running)`` after each point (``row`` None at start;
+        ``running``: the points being computed, at most one per worker).
+    argv : list of str, optional
+        The command line recorded.
+
+    Returns
+    -------
+    SweepResult
+
+    Examples
+    --------
+    >>> import isodesign
+    >>> res = isodesign.sweep(vary={"payload.mass_kg": "300:1500:13"},
+    ...                       output="out/mass_sweep")                    # doctest: +SKIP
+    >>> res.table[["payload.mass_kg", "objective_value", "binding"]]      # doctest: +SKIP
+    """
+    t_all = time.perf_counter()
+    spec = get_task(task)
+    options = {k: v for k, v in (options or {}).items() if v is not None}
+    unknown = set(options) - set(spec.options)
+    if unknown:
+        raise InputError(f"--task {task}: option {sorted(unknown)[0]!r} does not apply; "
+                         f"valid: {', '.join(spec.options) or 'none'}")
+    base = _base_study(study)
+    if spec.check is not None:
+        spec.check(base)
+    tables, keys = _tables(vary, combine, points)
+    pts, dropped = build_points(base, tables,
+                                 "--points-file" if points is not None else "--vary")
+    identity = _identity(task, options, base, keys)
+    target = Path(output)
+    mode = _check_dir(target, identity, overwrite, "--output")
+    if scheduler not in (None, "serial", "local") and scheduler.strip() == "":
+        raise InputError("--scheduler: empty; give tcp://host:port")
+    with _locked(target, "--output"):
+        return _run(target, mode, base, pts, dropped, keys, identity, task, options,
+                    scheduler, workers, charts, progress, argv, t_all, combine)
+
+
+def _run(target, mode, base, pts, dropped, keys, identity, task, options, scheduler, workers,
+         charts, progress, argv, t_all, mode_combine) -> SweepResult:
+    points_dir = target / POINTS
+    rows = collect_rows(points_dir)
+    todo = [p for p in pts if rows.get(p.study_hash, {}).get("status") not in FINISHED]
+    reused = len(pts) - len(todo)
+    conn = None
+    if todo and scheduler != "serial":  # an unreachable scheduler fails before any write
+        from isodesign.sweeps.cluster import connect
+
+        conn = connect(None if scheduler == "local" else scheduler, workers)
+    points_dir.mkdir(exist_ok=True)
+    _clean_leftovers(points_dir)
+    rec = {"kind": KIND, "run_status": "running", "isodesign_version": __version__,
+           "argv": list(sys.argv if argv is None else argv), "started_utc": _now(),
+           "output_directory": str(target),
+           "sweep": {"identity": identity, "task": task, "options": options, "keys": keys,
+                     "combine": mode_combine, "points": len(pts),
+                     "duplicates_dropped": dropped, "base_study_source": base.source,
+                     "base_study": resolved_study_dict(base)},
+           "table": TABLE_NAME}
+    prev = read_run_record(target)
+    if mode == "resume" and prev is not None:
+        rec["first_started_utc"] = prev.get("first_started_utc", prev.get("started_utc"))
+    _write_record(target, rec)
+    if mode == "new":
+        atomic_write_text(target / "study_base.toml", study_toml(base, header=(
+            "Base study of an isodesign sweep (resolved). Each point is this study with its\n"
+            "changes applied (see sweep.parquet, column changes, and points/*/)")))
+    table_path = target / TABLE_NAME
+    write_table(frame(rows.values(), keys), table_path)
+    total, done, failed = len(pts), 0, 0
+    walls: list[float] = []
+    where = "nothing to run" if not todo else ""
+    status = "complete"
+    if progress:
+        progress(reused, total, None, 0)
+
+    def finished(p, row):
+        nonlocal done, failed
+        rows[p.study_hash] = row
+        done += 1
+        failed += row.get("status") == "failed"
+        if row.get("wall_s") is not None and not row.get("reused"):
+            walls.append(float(row["wall_s"]))
+        write_table(frame(rows.values(), keys), table_path)
+        if progress:
+            slots = 1 if conn is None else max(conn.workers, 1)  # a point per worker
+            progress(reused + done, total, row, min(slots, len(todo) - done))
+
+    error = None
+    try:
+        if todo and scheduler == "serial":
+            where = "serial (this process, no Dask)"
+            for p in todo:
+                pdir = str(points_dir / p.key)
+                try:
+                    row = run_point(task, resolved_study_dict(p.study), p.study_hash,
+                                    p.changes, pdir, options)
+                except Exception as exc:  # a bug in the task: recorded, the sweep goes on
+                    row = record_failed_point(task, p.study_hash, p.changes, pdir,
+                                              f"{type(exc).__name__}: {exc}")
+                finished(p, row)
+        elif todo:
+            where = conn.where
+            _run_dask(conn.client, todo, task, options, points_dir, finished)
+    except KeyboardInterrupt:
+        status = "interrupted"
+        raise
+    except BaseException as exc:
+        status, error = "failed", f"{type(exc).__name__}: {exc}"
+        raise
+    finally:
+        if conn is not None:
+            conn.close()
+        if status == "complete":
+            mine = {p.study_hash for p in pts}
+            if any(r.get("status") == "failed" for h, r in rows.items() if h in mine):
+                status = "failed"
+        if status != "interrupted":  # every task has ended: no worker writes any more
+            _clean_leftovers(points_dir)
+        _finish(target, rec, rows, pts, status, where, keys,
+                charts and status != "interrupted", error)
+    return SweepResult(directory=target, table=frame(rows.values(), keys), keys=tuple(keys),
+                       task=task, ran=done, reused=reused, failed=failed,
+                       wall_s=time.perf_counter() - t_all, where=where, status=status,
+                       point_wall_s=tuple(walls))
+
+
+def _run_dask(client, todo, task, options, points_dir, finished) -> None:
+    """Submit every point as a task; hand each row to ``finished`` as it completes."""
+    from distributed import as_completed
+
+    tag = uuid.uuid4().hex[:8]
+    futures = {}
+    for p in todo:
+        fut = client.submit(run_point, task, resolved_study_dict(p.study), p.study_hash,
+                            p.changes, str(points_dir / p.key), options,
+                            key=f"isodesign-point-{p.key}-{tag}", pure=False, retries=RETRIES)
+        futures[fut] = p
+    try:
+        for fut in as_completed(list(futures), loop=client.loop):
+            p = futures.pop(fut)
+            try:
+                row = fut.result()
+            except Exception as exc:  # KilledWorker, or a task that raised twice
+                msg = " ".join(str(exc).split())[:500]
+                row = record_failed_point(task, p.study_hash, p.changes,
+                                          str(points_dir / p.key), f"{type(exc).__name__}: {msg}")
+            finished(p, row)
+    except BaseException:
+        with contextlib.suppress(Exception):
+            client.cancel(list(futures), force=True)
+        raise
+
+
+def _finish(target, rec, rows, pts, status, where, keys, charts, error=None) -> None:
+    ours = [rows[p.study_hash] for p in pts if p.study_hash in rows]
+    counts = {s: sum(1 for r in ours if r.get("status") == s)
+              for s in ("complete", "infeasible", "failed")}
+    counts["missing"] = len(pts) - len(ours)
+    rec.update(run_status=status, finished_utc=_now(), where=where, counts=counts,
+               points_in_table=len(rows))
+    if status == "failed" and not error:
+        rec["error"] = (f"{counts['failed']} of {len(pts)} points failed (see the table's error "
+                        "column); rerun the same command to retry them")
+    if error:
+        rec["error"] = error
+    elif status == "interrupted":
+        rec["error"] = (f"interrupted: {len(ours)} of {len(pts)} points finished; rerun the "
+                        "same command to run the others")
+    if charts and rows:
+        with contextlib.suppress(Exception):  # a chart never costs the results
+            rec["charts"] = _write_charts(target, frame(rows.values(), keys), keys)
+    _write_record(target, rec)
+
+
+def _write_charts(target: Path, df, keys) -> list[str]:
+    from isodesign.io.files import atomic_path
+    from isodesign.plotting.style import save_figure
+    from isodesign.plotting.sweep import chart_objectives, design_chart
+
+    out = []
+    (target / CHARTS).mkdir(exist_ok=True)
+    for obj in chart_objectives(df):
+        fig = design_chart(df, keys, objective=obj)
+        name = f"{CHARTS}/{obj}.png"
+        with atomic_path(target / name) as tmp:
+            save_figure(fig, tmp, dpi=110)
+        out.append(name)
+    return out
+
+
+def sweep_record(directory) -> dict | None:
+    """The ``record.json`` of a sweep directory (None if it holds no sweep).
+
+    Parameters
+    ----------
+    directory : str or Path
+    """
+    rec = read_run_record(directory)
+    return rec if rec is not None and rec.get("kind") == KIND else None
+

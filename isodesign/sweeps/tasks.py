@@ -1,0 +1,446 @@
+"""What each sweep point runs: the task registry and the Dask task :func:`run_point`.
+
+A task is a :class:`SweepTask`: a name (``--task``), the run-directory command it writes
+(``record.json["kind"] = "isodesign <command>"``), the options it takes and a function
+``run(study, run, options) -> dict`` that computes the point into the open
+:class:`~isodesign.io.rundir.RunDirectory` ``run`` and returns the point's row fields
+(``feasible``, ``objective``, ``objective_value``, the design variables, ``binding``, ...).
+
+Built in: ``optimize`` (the point's optimum, the files of ``isodesign optimize``),
+``response`` (the band response of the study's start design: vary
+``variables.<name>.start`` to sweep a design) and ``pareto`` (the point's Pareto front, the
+files of ``isodesign pareto``). Another capability adds its own with
+:func:`register_task`; a task that a later capability provides (``yield``, from robust
+design) is looked up in :data:`OPTIONAL_TASKS` and, when its module is absent, refused
+with a message saying so.
+
+:func:`run_point` is what a Dask worker runs for one point. It is idempotent: a point whose
+run directory already holds a finished run of the same study hash is read back, not
+recomputed, so a task retried after its worker died (or finished just before dying)
+neither loses nor duplicates the point. Inside it the optimizer's starts run serially
+(:func:`isodesign.optimization.executor.use_executor`): no nested pools.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as _dt
+import importlib
+import json
+import os
+import socket
+import time
+import warnings
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from isodesign.errors import InputError, SolverError
+from isodesign.io.rundir import RunDirectory, read_run_record
+
+__all__ = [
+    "OPTIONAL_TASKS",
+    "POINT_FILE",
+    "TASKS",
+    "SweepTask",
+    "get_task",
+    "register_task",
+    "run_point",
+]
+
+#: The row of a point, written into its run directory (the sweep table is built from these).
+POINT_FILE = "sweep_point.json"
+#: Run statuses of a finished point that a rerun skips.
+FINISHED = ("complete", "infeasible")
+
+
+@dataclass(frozen=True)
+class SweepTask:
+    """A kind of sweep point.
+
+    Attributes
+    ----------
+    name : str
+        The ``--task`` name.
+    command : str
+        The run-directory kind written (``isodesign <command>``).
+    run : callable
+        ``run(study, run, options) -> dict``: computes the point into the open run
+        directory and returns its row fields; sets ``run.status = "infeasible"`` when the
+        point has no feasible design.
+    options : tuple of str
+        The options it reads from the sweep's task options.
+    description : str
+        One line for ``--help`` and the docs.
+    check : callable, optional
+        ``check(study)`` raises InputError when the base study cannot run this task
+        (called before anything runs).
+    """
+
+    name: str
+    command: str
+    run: Callable
+    options: tuple[str, ...] = field(default_factory=tuple)
+    description: str = ""
+    check: Callable | None = None
+
+
+#: Registered tasks, by name.
+TASKS: dict[str, SweepTask] = {}
+#: Tasks another capability provides: name -> (module it needs, what provides it). When
+#: the module imports, the task is registered (by the module itself, or from
+#: :data:`_OPTIONAL_BUILDERS` here).
+OPTIONAL_TASKS: dict[str, tuple[str, str]] = {
+    "yield": ("isodesign.optimization.yields", "robust design (yield under tolerances)"),
+}
+
+
+def register_task(task: SweepTask) -> SweepTask:
+    """Add a task to the registry (replacing one of the same name).
+
+    Parameters
+    ----------
+    task : SweepTask
+
+    Returns
+    -------
+    SweepTask
+    """
+    TASKS[task.name] = task
+    return task
+
+
+def get_task(name: str, option: str = "--task") -> SweepTask:
+    """The task called ``name``, or InputError naming what is available.
+
+    Parameters
+    ----------
+    name : str
+    option : str
+        For messages.
+
+    Returns
+    -------
+    SweepTask
+    """
+    if name in TASKS:
+        return TASKS[name]
+    if name in OPTIONAL_TASKS:
+        module, what = OPTIONAL_TASKS[name]
+        try:
+            importlib.import_module(module)
+        except ModuleNotFoundError:
+            raise InputError(
+                f"{option}: {name!r} is not available in this isodesign: it comes with "
+                f"{what} ({module} is not installed); available: {', '.join(sorted(TASKS))}"
+            ) from None
+        if name not in TASKS and name in _OPTIONAL_BUILDERS:
+            register_task(_OPTIONAL_BUILDERS[name]())
+        if name in TASKS:
+            return TASKS[name]
+    raise InputError(f"{option}: unknown task {name!r}; available: "
+                     f"{', '.join(sorted(TASKS))}")
+
+
+# ---------------------------------------------------------------------------------------
+# the built-in tasks
+# ---------------------------------------------------------------------------------------
+def _args(run: RunDirectory, *, plots: bool, **extra) -> argparse.Namespace:
+    """The command-line namespace a point's records are written with (its replay command)."""
+    return argparse.Namespace(study=str(run.final_path("study_resolved.toml")), starts=None,
+                              workers=None, seed=None, output=str(run.target),
+                              no_plots=not plots, quiet=True, overwrite=False, **extra)
+
+
+def _variables(values: dict) -> dict:
+    from isodesign.optimization.variables import DESIGN_VARIABLES
+
+    out = {k: float(values[k]) for k in DESIGN_VARIABLES}
+    out["total_volume_m3"] = out["top_volume_m3"] * (1.0 + out["volume_ratio"])
+    return out
+
+
+def _analysis_fields(analysis) -> dict:
+    import math
+
+    if analysis is None:
+        return {}
+    s = analysis.stability
+    pk = s.excited_peak_transmissibility
+    return {"worst_band_margin_db": float(analysis.worst_margin_db),
+            "worst_band_hz": float(analysis.worst_band_hz),
+            "passes": bool(analysis.passes),
+            "natural_frequency_hz": float(s.natural_frequency_hz),
+            "peak_transmissibility_db": 20.0 * math.log10(pk) if pk else None}
+
+
+def _optimize(study, run: RunDirectory, options: dict) -> dict:
+    from isodesign.commands.optimize import write_outputs
+    from isodesign.io.record import variables_at_bounds
+    from isodesign.optimization.driver import optimize
+
+    result = optimize(study)
+    write_outputs(result, run, _args(run, plots=bool(options.get("plots", False))),
+                  plots=bool(options.get("plots", False)))
+    binding = [c.name for c in result.constraints if c.active]
+    binding += [f"{n}={side}" for n, side in variables_at_bounds(result).items()]
+    row = {"feasible": bool(result.feasible), "objective": result.objective,
+           "objective_value": float(result.objective_value), "solver_status": result.status,
+           **_variables(result.values), "binding": ";".join(binding),
+           "n_reached_best": int(result.n_reached_best), "starts": len(result.starts)}
+    if result.feasible:
+        row.update(_analysis_fields(result.analysis))
+    else:
+        run.status = "infeasible"
+        row["binding"] = "violated: " + ";".join(n for n, _ in result.violations[:3])
+    return row
+
+
+def _response(study, run: RunDirectory, options: dict) -> dict:
+    from isodesign.io.record import design_figures, resolved_study_dict, study_toml
+    from isodesign.response.random_input import band_response
+
+    m = study.models
+    analysis = band_response(study.start_design(), study.payload, study.floor, study.target,
+                             bands=study.bands, derive_pressure=False, warn=False,
+                             flow=m["flow"], amplitude_mode=m["amplitude_mode"],
+                             diaphragm=m["diaphragm"], random_method=m["random_method"])
+    values = {v.name: v.start for v in study.variables}
+    run.record.update({"study": resolved_study_dict(study), "study_source": study.source,
+                       "design": values})
+    run.write_text("study_resolved.toml", study_toml(study, header=(
+        "Resolved study of an isodesign sweep point (task response: the band response of\n"
+        "the study's start design)")))
+    run.write_csv("bands.csv", analysis.to_frame())
+    run.write_json("response.json", {"design": values, "verdict": analysis.verdict(),
+                                     "figures": design_figures(study.start_design(),
+                                                               analysis)})
+    return {"feasible": bool(analysis.passes), "objective": "worst_band_margin",
+            "objective_value": float(analysis.worst_margin_db), **_variables(values),
+            "binding": "", **_analysis_fields(analysis)}
+
+
+def _pareto(study, run: RunDirectory, options: dict) -> dict:
+    import numpy as np
+
+    from isodesign.commands.pareto import pareto_json
+    from isodesign.io.record import pareto_record, resolved_study_dict, study_toml
+    from isodesign.optimization.objectives import OBJECTIVES
+    from isodesign.optimization.pareto import DEFAULT_OBJECTIVES, pareto_front
+
+    objectives = tuple(options.get("objectives") or DEFAULT_OBJECTIVES)
+    points = int(options.get("points") or 10)
+    run.record.update({"study": resolved_study_dict(study), "study_source": study.source})
+    run.write_text("study_resolved.toml", study_toml(study, header=(
+        "Resolved study of an isodesign sweep point (task pareto)")))
+    try:
+        result = pareto_front(study, objectives, points)
+    except SolverError as exc:
+        if "no feasible design" not in str(exc):
+            raise
+        run.status = "infeasible"
+        run.record["error"] = str(exc)
+        return {"feasible": False, "objective": "hypervolume", "binding": "",
+                "solver_status": str(exc)}
+    run.write_csv("pareto.csv", result.to_frame())
+    run.write_json("pareto.json", pareto_json(result))
+    run.record.update(pareto_record(result, study))
+    if options.get("plots"):
+        from isodesign.plotting import pareto_plot
+
+        with run.writing("pareto.png") as tmp:
+            pareto_plot(result, tmp)
+    a = objectives[0]
+    va = np.where(result.front, OBJECTIVES[a].minimized(result.values[:, 0]), np.inf)
+    best = int(np.argmin(va))
+    return {"feasible": True, "objective": "hypervolume",
+            "objective_value": float(result.hypervolume), **_variables(result.designs[best]),
+            "binding": "", "n_front": int(np.sum(result.front)),
+            f"best_{a}": float(result.values[best, 0])}
+
+
+def _check_yield(study) -> None:
+    if getattr(study, "scenarios", None) is None:
+        raise InputError("--task yield: the study has no [scenarios] table (the tolerance laws "
+                         "the built tables are drawn from; docs/robust.md)")
+
+
+def _yield(study, run: RunDirectory, options: dict) -> dict:
+    from isodesign.io.record import resolved_study_dict, study_toml
+    from isodesign.optimization.yields import estimate_yield
+
+    values = {v.name: v.start for v in study.variables}
+    run.record.update({"study": resolved_study_dict(study), "study_source": study.source,
+                       "design": values})
+    run.write_text("study_resolved.toml", study_toml(study, header=(
+        "Resolved study of an isodesign sweep point (task yield: the yield of the study's\n"
+        "start design under its [scenarios])")))
+    res = estimate_yield(study, values, samples=int(options.get("samples") or 200),
+                         seed=int(options.get("seed") or 0), workers=1,
+                         label="the study's start design")
+    run.write_json("yield.json", res.record())
+    run.write_csv("yield.csv", res.to_frame())
+    lo, hi = res.record()["clopper_pearson"]
+    return {"feasible": bool(res.passed > 0), "objective": "yield",
+            "objective_value": float(res.fraction), **_variables(values), "binding": "",
+            "yield_low": float(lo), "yield_high": float(hi), "samples": int(res.samples),
+            "worst_band_margin_db": float(res.worst_margin_db())}
+
+
+#: Builders of the optional tasks whose code lives here (registered once their module is).
+_OPTIONAL_BUILDERS = {
+    "yield": lambda: SweepTask("yield", "yield", _yield, ("samples", "seed"),
+                               "yield of the study's start design under its [scenarios]",
+                               check=_check_yield),
+}
+
+
+register_task(SweepTask("optimize", "optimize", _optimize, ("plots",),
+                        "the point's optimum (the files of isodesign optimize)"))
+register_task(SweepTask("response", "response", _response, (),
+                        "band response of the study's start design (bands.csv, response.json)"))
+register_task(SweepTask("pareto", "pareto", _pareto, ("objectives", "points", "plots"),
+                        "the point's Pareto front (the files of isodesign pareto)"))
+
+
+# ---------------------------------------------------------------------------------------
+# one point, as a Dask task
+# ---------------------------------------------------------------------------------------
+def _now() -> str:
+    return _dt.datetime.now(_dt.UTC).isoformat(timespec="seconds")
+
+
+def worker_name() -> str:
+    """The Dask worker's address, else ``local:<host>:<pid>``.
+
+    Returns
+    -------
+    str
+    """
+    try:
+        from distributed import get_worker
+
+        return get_worker().address
+    except (ImportError, ValueError):
+        return f"local:{socket.gethostname()}:{os.getpid()}"
+
+
+def read_point(directory, study_hash: str | None = None) -> dict | None:
+    """The row of a finished point in ``directory`` (None if absent, unfinished or another).
+
+    Parameters
+    ----------
+    directory : str or Path
+        A point's run directory.
+    study_hash : str, optional
+        Required hash (None: any).
+
+    Returns
+    -------
+    dict or None
+    """
+    d = Path(directory)
+    rec = read_run_record(d)
+    if rec is None or rec.get("run_status") not in (*FINISHED, "failed"):
+        return None
+    try:
+        row = json.loads((d / POINT_FILE).read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    if study_hash is not None and row.get("study_hash") != study_hash:
+        return None
+    return row
+
+
+def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, point_dir: str,
+              options: dict | None = None) -> dict:
+    """Compute one sweep point into its run directory; return its row (a Dask task).
+
+    Parameters
+    ----------
+    task_name : str
+        A registered task.
+    study_raw : dict
+        The point's resolved study (:func:`isodesign.io.record.resolved_study_dict`).
+    study_hash : str
+        Its hash (:func:`isodesign.sweeps.spec.study_hash`), checked here.
+    changes : dict
+        The point's study changes (dotted key -> value), recorded.
+    point_dir : str
+        The point's run directory (on a file system the workers share).
+    options : dict, optional
+        Task options.
+
+    Returns
+    -------
+    dict
+        The row: ``point``, ``study_hash``, ``task``, ``status`` (the run's
+        ``run_status``), ``error``, ``warnings``, ``worker``, ``started_utc``, ``wall_s``,
+        ``run_dir`` and the task's fields. A point already finished in ``point_dir`` is
+        read back (``reused`` true).
+    """
+    from isodesign.optimization.executor import SerialExecutor, use_executor
+    from isodesign.optimization.study import study_from_dict
+    from isodesign.sweeps.spec import study_hash as _hash
+
+    options = dict(options or {})
+    task = get_task(task_name)
+    done = read_point(point_dir, study_hash)
+    if done is not None and done.get("status") in FINISHED:
+        return {**done, "reused": True}
+    study = study_from_dict(study_raw, source="<dict>", fill_defaults=False)
+    if _hash(study) != study_hash:  # pragma: no cover - a bug, never a silent mismatch
+        raise RuntimeError("sweep point: the study changed on its way to the worker")
+    row = {"point": study_hash[:16], "study_hash": study_hash, "task": task_name,
+           "changes": json.dumps(changes), "status": None, "error": "", "warnings": "",
+           "worker": worker_name(), "started_utc": _now(), "wall_s": None,
+           "run_dir": f"points/{Path(point_dir).name}", "reused": False}
+    t0 = time.perf_counter()
+    run = RunDirectory(point_dir, command=task.command, overwrite=True,
+                       argv=["isodesign", "sweep", "--task", task_name])
+    with run, use_executor(SerialExecutor()), warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        run.record["sweep_point"] = {"study_hash": study_hash, "changes": changes,
+                                     "task": task_name, "options": options}
+        try:
+            row.update(task.run(study, run, options))
+            status, error = run.status, None
+        except (SolverError, InputError) as exc:  # the point's own failure: not retried
+            status, error = "failed", f"{type(exc).__name__}: {exc}"
+        msgs = sorted({str(w.message) for w in caught})
+        row.update(status=status, error=error or "", warnings=" | ".join(msgs)[:2000],
+                   wall_s=time.perf_counter() - t0)
+        run.write_json(POINT_FILE, row)
+        if status == "failed":
+            run.finish("failed", error=error)
+    return row
+
+
+def record_failed_point(task_name: str, study_hash: str, changes: dict, point_dir: str,
+                        error: str) -> dict:
+    """Write the run directory of a point whose task failed on Dask (twice); return its row.
+
+    Parameters
+    ----------
+    task_name, study_hash, changes, point_dir
+        As :func:`run_point`.
+    error : str
+        What Dask reported (``KilledWorker: ...`` when its workers died).
+
+    Returns
+    -------
+    dict
+    """
+    task = get_task(task_name)
+    row = {"point": study_hash[:16], "study_hash": study_hash, "task": task_name,
+           "changes": json.dumps(changes), "status": "failed", "error": error,
+           "warnings": "", "worker": "", "started_utc": _now(), "wall_s": None,
+           "run_dir": f"points/{Path(point_dir).name}", "reused": False}
+    run = RunDirectory(point_dir, command=task.command, overwrite=True,
+                       argv=["isodesign", "sweep", "--task", task_name])
+    with run:
+        run.record["sweep_point"] = {"study_hash": study_hash, "changes": changes,
+                                     "task": task_name}
+        run.write_json(POINT_FILE, row)
+        run.finish("failed", error=error)
+    return row

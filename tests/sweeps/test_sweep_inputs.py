@@ -1,0 +1,278 @@
+"""Sweep inputs: --vary parsing, combinations, points files, the task registry, bad input."""
+
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+import socket
+import time
+
+import pytest
+
+import isodesign
+import isodesign.sweeps
+from isodesign.cli import main
+from isodesign.errors import InputError
+from isodesign.optimization.study import default_study
+from isodesign.sweeps.spec import build_points, combine, parse_vary, read_points, study_hash
+from isodesign.sweeps.tasks import SweepTask, get_task, register_task
+
+
+def run_cli(*argv) -> tuple[int, str, str]:
+    o, e = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(o), contextlib.redirect_stderr(e):
+        status = main([str(a) for a in argv])
+    return status, o.getvalue(), e.getvalue()
+
+
+# -- values and combinations ---------------------------------------------------------------
+def test_a_linear_range_includes_both_ends_and_an_extension_meets_the_same_values():
+    assert parse_vary("payload.mass_kg=300:1500:13") == (
+        "payload.mass_kg", [300, 400, 500, 600, 700, 800, 900, 1000, 1100, 1200, 1300, 1400,
+                            1500])
+    _, a = parse_vary("payload.mass_kg=0.1:0.7:7")
+    _, b = parse_vary("payload.mass_kg=0.1:0.9:9")
+    assert a == b[:7]  # rounded to 12 digits: 0.30000000000000004 is 0.3 in both
+    assert parse_vary("floor.criterion=VC-A, VC-B") == ("floor.criterion", ["VC-A", "VC-B"])
+    assert parse_vary("constraints.max_mach=false,0.3")[1] == [False, 0.3]
+    assert parse_vary("payload.mass_kg=600:600:1")[1] == [600.0]
+
+
+@pytest.mark.parametrize("text, words", [
+    ("payload.mas_kg=1,2", ["unknown key 'payload.mas_kg'", "mass_kg"]),
+    ("paylod.mass_kg=1,2", ["unknown key 'paylod.mass_kg'", "payload.KEY"]),
+    ("variables.N.start=1", ["unknown key", "variables.volume_ratio"]),
+    ("payload.mass_kg=", ["no values"]),
+    ("payload.mass_kg=300:1500:0", ["empty range", "count 0"]),
+    ("payload.mass_kg=300:300:5", ["empty range", "start equals stop"]),
+    ("payload.mass_kg=a:b:3", ["needs numbers"]),
+    ("payload.mass_kg=1,,2", ["empty item"]),
+    ("payload.mass_kg", ["KEY=VALUES"]),
+])
+def test_bad_vary_names_the_key(text, words):
+    with pytest.raises(InputError) as e:
+        parse_vary(text)
+    for w in words:
+        assert w in str(e.value)
+
+
+def test_product_zip_and_the_point_studies():
+    a, b = parse_vary("payload.mass_kg=300,600"), parse_vary("floor.criterion=VC-A,VC-B")
+    prod = combine([a, b])
+    assert prod[1] == {"payload.mass_kg": 300, "floor.criterion": "VC-B"} and len(prod) == 4
+    assert combine([a, b], "zip") == [{"payload.mass_kg": 300, "floor.criterion": "VC-A"},
+                                      {"payload.mass_kg": 600, "floor.criterion": "VC-B"}]
+    with pytest.raises(InputError, match="same number of values"):
+        combine([a, parse_vary("floor.criterion=VC-A")], "zip")
+    pts, dropped = build_points(default_study(), prod + prod[:1])
+    assert dropped == 1 and len(pts) == 4
+    assert pts[1].study.payload.mass_kg == 300 and pts[1].study.raw["floor"]["criterion"] == "VC-B"
+    assert all(p.study.solver["workers"] == 1 for p in pts)  # starts run serially in a task
+    # an invalid point names its changes and the key
+    with pytest.raises(InputError, match=r"--vary payload.mass_kg=-1: payload.mass_kg"):
+        build_points(default_study(), [{"payload.mass_kg": -1}])
+
+
+def test_the_study_hash_is_the_resolved_study():
+    st = default_study()
+    assert study_hash(st.with_changes(payload={"mass_kg": 600})) == study_hash(st)
+    assert study_hash(st.with_changes(payload={"mass_kg": 600.0})) == study_hash(st)
+    assert study_hash(st.with_changes(payload={"mass_kg": 601})) != study_hash(st)
+
+
+def test_points_files_toml_and_csv(tmp_path):
+    t = tmp_path / "pts.toml"
+    t.write_text('[[point]]\npayload.mass_kg = 300\nfloor.criterion = "VC-B"\n\n'
+                 '[[point]]\n[point.payload]\nmass_kg = 900\n', encoding="utf-8")
+    assert read_points(t) == [{"payload.mass_kg": 300, "floor.criterion": "VC-B"},
+                              {"payload.mass_kg": 900}]
+    c = tmp_path / "pts.csv"
+    c.write_text("# masses\npayload.mass_kg,target.criterion\n300,VC-C\n1200,VC-D\n",
+                 encoding="utf-8")
+    assert read_points(c) == [{"payload.mass_kg": 300, "target.criterion": "VC-C"},
+                              {"payload.mass_kg": 1200, "target.criterion": "VC-D"}]
+    bad = tmp_path / "bad.csv"
+    bad.write_text("payload.mass_g\n3\n", encoding="utf-8")
+    with pytest.raises(InputError, match=r"--points-file .*bad.csv: unknown key"):
+        read_points(bad)
+
+
+# -- tasks ------------------------------------------------------------------------------------
+def test_the_task_registry_is_extensible_and_says_what_is_missing():
+    assert {"optimize", "response", "pareto"} <= set(isodesign.sweeps.TASKS)
+    import importlib.util
+
+    if importlib.util.find_spec("isodesign.optimization.yields") is None:  # not here yet
+        with pytest.raises(InputError, match=r"--task: 'yield' is not available.*robust"):
+            get_task("yield")
+    with pytest.raises(InputError, match=r"unknown task 'optimise'; available: .*optimize"):
+        get_task("optimise")
+
+    def volume(study, run, options):
+        v = study.start_design()
+        run.write_json("volume.json", {"v": v.top_volume_m3})
+        return {"feasible": True, "objective": "total_volume",
+                "objective_value": v.top_volume_m3 * (1 + v.volume_ratio)}
+
+    register_task(SweepTask("volume_only", "volume", volume, (), "test task"))
+    try:
+        assert get_task("volume_only").command == "volume"
+    finally:
+        isodesign.sweeps.TASKS.pop("volume_only")
+
+
+def test_a_custom_task_runs_serially_and_writes_its_run_directories(tmp_path):
+    def volume(study, run, options):
+        v = study.start_design()
+        run.write_json("volume.json", {"v": v.top_volume_m3})
+        return {"feasible": True, "objective": "total_volume",
+                "objective_value": v.top_volume_m3 * (1 + v.volume_ratio)}
+
+    register_task(SweepTask("volume_only", "volume", volume))
+    try:
+        res = isodesign.sweep(vary={"variables.top_volume_m3.start": [5e-4, 1e-3]},
+                              task="volume_only", output=tmp_path / "s", scheduler="serial",
+                              charts=False)
+    finally:
+        isodesign.sweeps.TASKS.pop("volume_only")
+    assert list(res.table["objective_value"].round(9)) == [round(5e-4 * (1 + 1.5e-3 / 8.1e-4), 9),
+                                                           round(1e-3 * (1 + 1.5e-3 / 8.1e-4),
+                                                                 9)]
+    for p in res.table["point"]:
+        rec = json.loads((tmp_path / "s" / "points" / p / "record.json").read_text())
+        assert rec["kind"] == "isodesign volume" and rec["run_status"] == "complete"
+        assert "volume.json" in rec["files"] and "sweep_point.json" in rec["files"]
+
+
+def test_a_failing_point_is_recorded_failed_with_its_error_and_retried_on_rerun(tmp_path):
+    def flaky(study, run, options):
+        if study.payload.mass_kg > 700:
+            raise isodesign.SolverError("IPOPT: Restoration_Failed (test)")
+        return {"feasible": True, "objective": "worst_band_margin", "objective_value": 1.0}
+
+    register_task(SweepTask("flaky", "flaky", flaky))
+    try:
+        res = isodesign.sweep(vary=["payload.mass_kg=600,800"], task="flaky",
+                              output=tmp_path / "s", scheduler="serial", charts=False)
+        assert res.status == "failed" and res.failed == 1
+        row = res.table[res.table["payload.mass_kg"] == 800].iloc[0]
+        assert row["status"] == "failed" and "Restoration_Failed" in row["error"]
+        rec = json.loads((tmp_path / "s" / row["run_dir"] / "record.json").read_text())
+        assert rec["run_status"] == "failed" and "Restoration_Failed" in rec["error"]
+        again = isodesign.sweep(vary=["payload.mass_kg=600,800"], task="flaky",
+                                output=tmp_path / "s", scheduler="serial", charts=False)
+        assert (again.ran, again.reused) == (1, 1)  # the failed point is retried
+    finally:
+        isodesign.sweeps.TASKS.pop("flaky")
+
+
+# -- bad input at the command line: one line, exit 2, nothing written --------------------------
+@pytest.mark.parametrize("args, words", [
+    (["--vary", "payload.mas_kg=300,600"], ["--vary: unknown key 'payload.mas_kg'"]),
+    (["--vary", "payload.mass_kg=300:1500:0"], ["--vary payload.mass_kg", "empty range"]),
+    (["--vary", "payload.mass_kg=300,600", "--task", "yield"], ["--task", "yield"]),
+    (["--vary", "payload.mass_kg=300,600", "--vary", "floor.criterion=VC-A", "--combine",
+      "zip"], ["--combine zip", "same number"]),
+    (["--vary", "payload.mass_kg=0,600"], ["payload.mass_kg=0", "payload.mass_kg"]),
+    ([], ["--vary: give at least one"]),
+    (["--vary", "payload.mass_kg=300", "--workers", "0"], ["--workers", "[1, 64]"]),
+])
+def test_bad_input_is_one_line_and_exit_2(tmp_path, args, words):
+    out = tmp_path / "s"
+    status, _stdout, stderr = run_cli("sweep", *args, "-o", out)
+    assert status == 2, stderr
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("isodesign: error: "), stderr
+    for w in words:
+        assert w in lines[0]
+    assert not out.exists()
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+def test_an_unreachable_scheduler_is_a_clear_error_within_10_s(tmp_path):
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    out = tmp_path / "s"
+    t0 = time.monotonic()
+    status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+                                "response", "--scheduler", address, "-o", out)
+    assert time.monotonic() - t0 < 10.0
+    assert status == 2
+    line = stderr.strip()
+    assert "\n" not in line and f"cannot reach the Dask scheduler at {address}" in line
+    assert not out.exists()
+
+
+def test_an_output_directory_holding_another_sweep_is_refused(tmp_path):
+    out = tmp_path / "s"
+    status, _, err = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+                             "response", "--scheduler", "serial", "-o", out, "--quiet",
+                             "--no-plots")
+    assert status == 0, err
+    before = sorted(p.name for p in (out / "points").iterdir())
+    for args in (["--vary", "floor.criterion=VC-A,VC-B", "--task", "response"],
+                 ["--vary", "payload.mass_kg=300,600", "--task", "optimize"]):
+        status, _, err = run_cli("sweep", *args, "--scheduler", "serial", "-o", out)
+        assert status == 2 and "holds another sweep" in err and "--overwrite" in err, err
+    assert sorted(p.name for p in (out / "points").iterdir()) == before
+    # a directory with other files, or another kind of run, is no sweep
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "notes.txt").write_text("mine")
+    status, _, err = run_cli("sweep", "--vary", "payload.mass_kg=300", "--task", "response",
+                             "--scheduler", "serial", "-o", other)
+    assert status == 2 and "holds no isodesign sweep" in err
+    assert sorted(p.name for p in other.iterdir()) == ["notes.txt"]
+    # --overwrite replaces the other sweep
+    status, _, err = run_cli("sweep", "--vary", "floor.criterion=VC-A,VC-B", "--task",
+                             "response", "--scheduler", "serial", "-o", out, "--overwrite",
+                             "--quiet", "--no-plots")
+    assert status == 0, err
+    assert len(list((out / "points").iterdir())) == 2
+
+
+def test_the_local_cluster_runs_on_loopback_without_a_dashboard(tmp_path, monkeypatch):
+    from isodesign.sweeps.cluster import connect
+
+    monkeypatch.delenv("DASK_SCHEDULER_ADDRESS", raising=False)
+    with connect(workers=2) as conn:
+        assert conn.cluster is not None and conn.workers == 2
+        info = conn.client.scheduler_info(n_workers=-1)
+        assert info["address"].startswith("tcp://127.0.0.1:")
+        assert all(a.startswith("tcp://127.0.0.1:") for a in info["workers"])
+        # every port the cluster listens on (scheduler here, workers in child processes)
+        import psutil
+
+        me = psutil.Process()
+        listening = [c.laddr for p in (me, *me.children(recursive=True))
+                     for c in p.net_connections(kind="inet") if c.status == psutil.CONN_LISTEN]
+        assert listening and all(a.ip == "127.0.0.1" for a in listening), listening
+        assert 8787 not in {a.port for a in listening}  # no dashboard on its usual port
+        res = isodesign.sweep(vary={"payload.mass_kg": [400, 800, 1200]}, task="response",
+                              output=tmp_path / "s", scheduler=info["address"], charts=False)
+    assert res.status == "complete" and len(res.table) == 3
+    assert all(w.startswith("tcp://127.0.0.1:") for w in res.table["worker"])
+
+
+def test_the_yield_task_when_robust_design_is_installed(tmp_path):
+    import importlib.util
+
+    if importlib.util.find_spec("isodesign.optimization.yields") is None:
+        pytest.skip("robust design (isodesign.optimization.yields) is not in this isodesign")
+    study = tmp_path / "robust.toml"
+    study.write_text("[scenarios]\npayload_mass_kg = {relative = 0.05}\n"
+                     "capillary_diameter_m = {relative = 0.05}\n", encoding="utf-8")
+    res = isodesign.sweep(study, ["payload.mass_kg=400,900"], task="yield",
+                          options={"samples": 20, "seed": 1}, output=tmp_path / "y",
+                          scheduler="serial", charts=False)
+    assert res.status == "complete" and list(res.table["objective"]) == ["yield", "yield"]
+    assert all(0 <= v <= 1 for v in res.table["objective_value"])
+    assert (res.table["yield_low"] <= res.table["objective_value"]).all()
+    with pytest.raises(InputError, match=r"--task yield: the study has no \[scenarios\]"):
+        isodesign.sweep(None, ["payload.mass_kg=400"], task="yield", output=tmp_path / "z",
+                        scheduler="serial")
