@@ -16,6 +16,7 @@ __all__ = [
     "ModelValidityWarning",
     "SolverError",
     "check_choice",
+    "check_domain",
     "check_finite_array",
     "check_positive",
     "check_range",
@@ -83,6 +84,41 @@ def check_positive(name: str, value: Any, *, unit: str = "", allow_array: bool =
     if not math.isfinite(v) or v <= 0:
         raise InputError(f"{name}: must be finite and > 0{u}, got {_shown(value)}")
     return v
+
+
+def check_domain(name: str, values, domain, *, unit: str = ""):
+    """Require every entry of ``values`` in the closed range ``domain`` (symbols pass).
+
+    For the models' numeric domain (:mod:`isodesign.domain`): a frequency of 1e-320 Hz is
+    finite and positive but no solver can answer for it.
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name as the user wrote it.
+    values : float or array_like
+        Already checked to be finite and positive.
+    domain : tuple of float
+        ``(lo, hi)``.
+    unit : str
+        Unit for the message.
+
+    Returns
+    -------
+    values
+        Unchanged.
+    """
+    if _is_symbolic(values):
+        return values
+    lo, hi = domain
+    a = np.asarray(values, float)
+    bad = (a < lo) | (a > hi)
+    if np.any(bad):
+        v = a[bad].flat[0]
+        u = f" {unit}" if unit else ""
+        raise InputError(f"{name}: every value must be in [{lo:g}, {hi:g}]{u} (the models' "
+                         f"domain), got {v:g}")
+    return values
 
 
 def check_range(

@@ -150,7 +150,7 @@ def _model_function(design, names, flow, dia):
     lq = ca.log(d.volume_ratio * kinematic_velocity(d, w, amp))
     x_sol = rf(lq - amplitude_residual(flow, d, w, amp, lq), p)
     c = resistance_function(flow, d, w)(ca.exp(x_sol))
-    k = air_stiffness(d, w, c) + dia.stiffness(w, amp)
+    k = air_stiffness(d, w, c, flow) + dia.stiffness(w, amp)
     return ca.Function("k_model", [theta, f_hz, amp], [k.re, k.im])
 
 

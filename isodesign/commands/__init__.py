@@ -33,7 +33,7 @@ import sys
 from pathlib import Path
 
 from isodesign.errors import InputError
-from isodesign.io.files import atomic_path, atomic_write_text
+from isodesign.io.files import atomic_path, atomic_write_text, write_probe
 from isodesign.io.rundir import RunDirectory
 
 __all__ = [
@@ -280,7 +280,8 @@ def _number(token: str, name: str, units: dict[str, float], default: float, unit
     return v * (default if factor is None else factor)
 
 
-def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: str) -> list[float]:
+def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: str,
+                 domain: tuple[float, float] | None = None) -> list[float]:
     """Parse a list of positive numbers: ``a,b,c`` or a log-spaced range ``start:stop:count``.
 
     Parameters
@@ -296,6 +297,9 @@ def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: st
         Accepted unit suffixes and their factors to SI.
     unit_name : str
         The SI unit, for messages (``Hz``, ``m``).
+    domain : tuple of float, optional
+        ``(lo, hi)`` in SI: every value must lie in it (the models' domain,
+        :mod:`isodesign.domain`); the message names the option and the value typed.
 
     Returns
     -------
@@ -338,6 +342,7 @@ def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: st
                 f"{name}: in start:stop:count, stop must be greater than start "
                 f"({parts[1].strip()} <= {parts[0].strip()})"
             )
+        _in_domain([start, stop], [parts[0], parts[1]], name, unit_name, domain)
         ratio = math.log(stop / start)
         values = [start * math.exp(ratio * i / (count - 1)) for i in range(count)]
         values[0], values[-1] = start, stop
@@ -349,7 +354,20 @@ def parse_values(spec: str, name: str, *, units: dict[str, float], unit_name: st
         raise input_error(
             f"{name}: {len(items)} values; give between 1 and {MAX_LIST_VALUES}"
         )
-    return [_number(it, name, units, default, unit_name) for it in items]
+    values = [_number(it, name, units, default, unit_name) for it in items]
+    _in_domain(values, items, name, unit_name, domain)
+    return values
+
+
+def _in_domain(values, typed, name: str, unit_name: str, domain) -> None:
+    """InputError naming the option and the word typed for a value outside ``domain``."""
+    if domain is None:
+        return
+    lo, hi = domain
+    for v, t in zip(values, typed, strict=True):
+        if not lo <= v <= hi:
+            raise input_error(f"{name}: every value must be in [{lo:g}, {hi:g}] {unit_name} "
+                              f"(the models' domain), got {_clip(t.strip())!r}")
 
 
 def _clip(text: str, n: int = 40) -> str:
@@ -398,6 +416,12 @@ def check_output_path(path: str | Path | None, option: str, *, suffixes=None) ->
         raise input_error(f"{option}: cannot write in {parent} (permission denied)")
     if p.exists() and not os.access(p, os.W_OK):
         raise input_error(f"{option}: {p} is not writable (permission denied)")
+    if p.exists() and not p.is_file():
+        raise input_error(f"{option}: {p} is not a regular file; give a file name")
+    why = write_probe(parent)
+    if why is not None:
+        raise input_error(f"{option}: cannot write {p}: cannot create a file in {parent} "
+                          f"({why.lower()})")
 
 
 def write_text(path: str | Path, text: str) -> Path:

@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import argparse
 
-from isodesign.commands import add_output_dir_arguments, input_error, run_directory
+from isodesign.commands import add_output_dir_arguments, input_error, option_names, run_directory
 from isodesign.floor.survey import analyze_record, read_record
 
 
@@ -56,7 +56,9 @@ def run(args) -> int:
         raise input_error(f"--percentile: must be in (0, 100], got {args.percentile:g}")
     rundir = run_directory(args, "floor", known_outputs=OUTPUT_FILES)  # checked first
     try:
-        rec = read_record(args.record, unit=args.unit, sample_rate_hz=args.sample_rate)
+        with option_names(**({"sample_rate_hz": "--sample-rate"} if args.sample_rate is not None
+                              else {})):
+            rec = read_record(args.record, unit=args.unit, sample_rate_hz=args.sample_rate)
     except UnicodeDecodeError as exc:
         raise input_error(f"record {args.record}: not a UTF-8 text file (undecodable byte at "
                           f"offset {exc.start})") from None

@@ -200,12 +200,51 @@ def run(args) -> int:
     objectives = parse_objectives(args.objectives)
     check_count(args.points, "--points", *POINTS_RANGE)
     study = load_study_from_args(args)
-    if study.table is not None:
-        raise InputError("STUDY.toml: a Pareto front of a study with a [table] is not "
-                         "available yet; isodesign optimize handles the table (docs/table.md)")
+    if study.table is not None:  # six degrees of freedom (docs/table.md, section 11)
+        if tuple(objectives) != ("worst_band_margin", "total_volume"):
+            raise InputError("--objectives: a study with a [table] has the front "
+                             "worst_band_margin,total_volume")
+        with open_run(args, "pareto", known_outputs=OUTPUT_FILES) as rundir:
+            return _execute_table(study, rundir, args)
     rundir = open_run(args, "pareto", known_outputs=(*OUTPUT_FILES, *OPTIMIZE_FILES))
     with rundir:
         return _execute(study, rundir, args, objectives)
+
+
+def _execute_table(study, run, args) -> int:
+    """The front of a table study: worst margin over points and axes against volume."""
+    import math
+
+    from isodesign.plotting.style import save_figure
+    from isodesign.table.pareto import table_pareto_front
+
+    run.record.update({"kind": "isodesign pareto", "table": True,
+                       "command_line": command_line(canonical_command(args, "pareto")[1:]),
+                       "environment": environment(), "study": resolved_study_dict(study),
+                       "study_source": study.source})
+    run.write_text("study_resolved.toml", study_toml(study, header=(
+        "Resolved study of an isodesign pareto run (a table study).")))
+    res = table_pareto_front(study, args.points)
+    df = res.to_frame()
+    run.write_csv("pareto.csv", df)
+    pts = [{"worst_band_margin": None if not math.isfinite(m) else float(m),
+            "total_volume": None if not math.isfinite(v) else float(v),
+            "design": d, "status": stt, "nondominated": bool(f)}
+           for m, v, d, stt, f in zip(res.worst_margin_db, res.total_volume_m3, res.designs,
+                                      res.statuses, res.front, strict=True)]
+    run.record.update({"points": pts, "wall_s": res.wall_s,
+                       "objectives": ["worst_band_margin", "total_volume"]})
+    if not args.no_plots:
+        with run.writing("pareto.png") as tmp:
+            save_figure(res.plot(), tmp)
+    if not args.quiet:
+        print(f"table study {study_label(study)}: worst margin (3 axes, every point) against "
+              f"total volume, {args.points} points; {res.wall_s:.1f} s")
+        for m, v, f in zip(res.worst_margin_db, res.total_volume_m3, res.front, strict=True):
+            print(f"  {v * 1e3:8.4g} L  {m:+8.2f} dB  {'' if f else '(dominated)'}")
+    print(f"{int(res.front.sum())} of {len(res.designs)} points non-dominated; wrote "
+          f"{run.target}")
+    return 0
 
 
 def _execute(study, run, args, objectives) -> int:

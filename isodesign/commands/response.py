@@ -41,7 +41,7 @@ from isodesign.simulation.monte_carlo import simulate_random_response
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
 from isodesign.spring.flow_models import FLOW_MODELS
-from isodesign.spring.gas import P_ATM
+from isodesign.spring.gas import P_ATM, pressure_from_load
 from isodesign.spring.stiffness import AMPLITUDE_MODES
 
 #: Default load per isolator (kg) when --payload-kg is not given.
@@ -243,7 +243,9 @@ def make_payload(args, base=None, **extra):
             raise InputError(f"--{opt.replace('_', '-')}: must be finite and > 0 m, got {v}")
     if base is not None:
         extra = {k: (v if v is not None else getattr(base, k)) for k, v in extra.items()}
-    return Payload(mass, n, **extra)
+    with option_names(mass_kg="--payload-kg", spacing_m="--spacing-m",
+                      cg_height_m="--cg-height-m"):
+        return Payload(mass, n, **extra)
 
 
 def check_payload_pressure(design, payload, derive: bool = True) -> None:
@@ -262,6 +264,9 @@ def check_payload_pressure(design, payload, derive: bool = True) -> None:
             f"--payload-kg: {payload.mass_kg:g} kg on {payload.isolators} isolators needs a "
             f"chamber pressure beyond floating point ({p0:g} Pa); give a physical payload"
         )
+    with option_names(mass_kg="--payload-kg"):  # outside the models' domain, or nothing
+        pressure_from_load(payload.mass_kg, payload.isolators, float(design.piston_area_m2),
+                           g_m_s2=payload.g_m_s2)
 
 
 def resolve_job(args, *, extra_payload: dict | None = None):

@@ -27,6 +27,7 @@ from isodesign.commands import (
     write_figure,
     write_frame,
 )
+from isodesign.domain import AMPLITUDE_DOMAIN_M, FREQUENCY_DOMAIN_HZ
 from isodesign.errors import ModelValidityWarning
 from isodesign.io.designfile import load_design
 from isodesign.plotting import plot_stiffness
@@ -112,12 +113,14 @@ def grid_from_args(args) -> tuple[list[float], list[float]]:
     freq = (
         list(TABLE2_FREQUENCIES_HZ)
         if args.freq is None
-        else parse_values(args.freq, "--freq", units=FREQUENCY_UNITS, unit_name="Hz")
+        else parse_values(args.freq, "--freq", units=FREQUENCY_UNITS, unit_name="Hz",
+                       domain=FREQUENCY_DOMAIN_HZ)
     )
     amp = (
         list(DEFAULT_AMPLITUDES_M)
         if args.amplitude is None
-        else parse_values(args.amplitude, "--amplitude", units=LENGTH_UNITS, unit_name="m")
+        else parse_values(args.amplitude, "--amplitude", units=LENGTH_UNITS, unit_name="m",
+                       domain=AMPLITUDE_DOMAIN_M)
     )
     check_grid_size(len(freq), len(amp), "--freq", "--amplitude")
     return freq, amp

@@ -34,6 +34,7 @@ from isodesign.commands.response import (
     save_plot,
     without_plot,
 )
+from isodesign.domain import AMPLITUDE_DOMAIN_M, FREQUENCY_DOMAIN_HZ
 from isodesign.errors import ModelValidityWarning
 from isodesign.response import harmonic_response
 from isodesign.response.harmonic import BRANCHES
@@ -110,8 +111,10 @@ def run(args) -> int:
     import warnings
 
 
-    freq = parse_values(args.freq, "--freq", units=FREQUENCY_UNITS, unit_name="Hz")
-    amp = parse_values(args.floor_amplitude, "--floor-amplitude", units=LENGTH_UNITS, unit_name="m")
+    freq = parse_values(args.freq, "--freq", units=FREQUENCY_UNITS, unit_name="Hz",
+                        domain=FREQUENCY_DOMAIN_HZ)
+    amp = parse_values(args.floor_amplitude, "--floor-amplitude", units=LENGTH_UNITS,
+                       unit_name="m", domain=AMPLITUDE_DOMAIN_M)
     check_grid_size(len(freq), len(amp), "--freq", "--floor-amplitude")
     check_output_path(args.output, "--output")
     check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)

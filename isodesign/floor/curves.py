@@ -514,7 +514,16 @@ def criteria_table(
     check_choice("layout", layout, ("long", "wide"))
     factor = unit_factor("velocity", velocity_unit)
     bands = third_octave_bands(f_min_hz, f_max_hz)
+    if names is not None:
+        if isinstance(names, str) or not all(isinstance(n, str) for n in names):
+            raise InputError(f"names: expected a sequence of criterion names, got {names!r:.60}")
+        if len(names) == 0:
+            raise InputError("names: empty; give at least one criterion name (valid: "
+                             f"{', '.join(criterion_names())}), or None for all")
     curves = [criterion(n) for n in (names if names is not None else criterion_names())]
+    if not any(c.covers(bands).any() for c in curves):
+        raise InputError(f"f_min_hz, f_max_hz: no band of {f_min_hz:g}-{f_max_hz:g} Hz lies on "
+                         f"the curve of {', '.join(c.name for c in curves)}")
     if layout == "long":
         frames = []
         for c in curves:

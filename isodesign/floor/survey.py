@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from isodesign.domain import SAMPLE_RATE_DOMAIN_HZ
 from isodesign.errors import InputError
 from isodesign.floor.bands import Bands, third_octave_bands
 from isodesign.floor.curves import criterion
@@ -255,6 +256,10 @@ def read_record(path, *, unit: str | None = None, sample_rate_hz: float | None =
         if not math.isfinite(fs) or fs <= 0:
             raise InputError(f"sample_rate_hz: must be finite and > 0 Hz, got {rate}")
         axes_idx = list(range(len(cols)))
+    lo, hi = SAMPLE_RATE_DOMAIN_HZ
+    if not lo <= fs <= hi:
+        raise InputError(f"sample_rate_hz: must be in [{lo:g}, {hi:g}] Hz (a survey "
+                         f"record's), got {fs:g} Hz ({where})")
     if not 1 <= len(axes_idx) <= 3:
         raise InputError(
             f"record: {where} must have 1 to 3 axis columns besides the time, got "
@@ -492,7 +497,7 @@ def analyze_record(
         raise InputError(
             f"sample_rate_hz: {fs:g} Hz is too low for the {bands.labels[-1]} Hz band (upper "
             f"edge {top:.4g} Hz needs at least {NYQUIST_MARGIN} x {top:.4g} = "
-            f"{NYQUIST_MARGIN * top:.4g} Hz); lower --f-max or record faster"
+            f"{NYQUIST_MARGIN * top:.4g} Hz); lower --fmax (f_max_hz) or record faster"
         )
     nper = _segment_length(fs, Bands((bands.index[0],)))
     n = record.data.shape[0]
@@ -500,7 +505,8 @@ def analyze_record(
         raise InputError(
             f"record: {record.duration_s:.4g} s is too short for the {bands.labels[0]} Hz band: "
             f"one segment with {MIN_BINS_PER_BAND} frequency bins in that band takes "
-            f"{nper / fs:.4g} s ({nper} samples at {fs:g} Hz); raise --f-min or record longer"
+            f"{nper / fs:.4g} s ({nper} samples at {fs:g} Hz); raise --fmin (f_min_hz) or record "
+            "longer"
         )
     nover = int(nper * OVERLAP)
     x = record.data - record.data.mean(axis=0)

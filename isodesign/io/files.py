@@ -93,6 +93,32 @@ def atomic_path(path) -> Iterator[Path]:
             tmp.unlink()
 
 
+def write_probe(directory) -> str | None:
+    """Why files cannot be created in ``directory`` (None: they can).
+
+    ``os.access`` answers from the permission bits, and says yes to root on a read-only
+    file system (``/sys``) or in ``/proc``: a file really created and removed is the test.
+
+    Parameters
+    ----------
+    directory : str or Path
+        An existing directory.
+
+    Returns
+    -------
+    str or None
+        The system's reason (``"Read-only file system"``, ``"Permission denied"``, ...).
+    """
+    try:
+        fd, name = tempfile.mkstemp(prefix=".isodesign-probe-", dir=directory)
+    except OSError as exc:
+        return exc.strerror or type(exc).__name__
+    os.close(fd)
+    with contextlib.suppress(OSError):
+        os.unlink(name)
+    return None
+
+
 def _umask() -> int:
     mask = os.umask(0)
     os.umask(mask)

@@ -88,6 +88,10 @@ def unit_slips(values: dict, where: str = "") -> list[str]:
             if rng is None or isinstance(v, bool) or not isinstance(v, int | float):
                 continue
             lo, hi, below, above = rng
+            try:
+                v = float(v)
+            except OverflowError:  # a 400-digit integer: the schema's own check names it
+                continue
             if not (v == v and abs(v) != float("inf")) or v <= 0:
                 continue  # the schema's own checks name these
             slip = below if v < lo else above if v > hi else None

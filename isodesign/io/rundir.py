@@ -55,7 +55,7 @@ from typing import Any
 
 from isodesign import __version__
 from isodesign.errors import InputError
-from isodesign.io.files import atomic_path, atomic_write_text, discard_pending_writes
+from isodesign.io.files import atomic_path, atomic_write_text, discard_pending_writes, write_probe
 
 __all__ = [
     "RECORD_NAME",
@@ -157,6 +157,9 @@ def check_run_target(target, *, overwrite: bool = False, option: str = "--output
         raise InputError(f"{option}: {anc} is a file, so {t} cannot be created")
     if not os.access(anc, os.W_OK | os.X_OK):
         raise InputError(f"{option}: cannot write in {anc} (permission denied)")
+    why = write_probe(anc)
+    if why is not None:
+        raise InputError(f"{option}: cannot create {t}: cannot write in {anc} ({why.lower()})")
     if t.exists():
         parent = t.absolute().parent
         if not os.access(parent, os.W_OK | os.X_OK):

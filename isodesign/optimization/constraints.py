@@ -133,8 +133,22 @@ def build_constraints(study, mt: dict, n_all: int) -> list[Constraint]:
                               math.log(c["max_pressure_pa"]), 1,
                               "static chamber pressure p0 <= max (set by the payload)"))
     if c["model_validity"]:
-        out += _lumped_constraints(mt)
+        if study.start_design().acoustics == "lumped":
+            out += _lumped_constraints(mt)
+        else:
+            out += _plane_wave_constraints(mt)
         out += flow_validity_constraints(study.models["flow"], mt, n_all)
+    return out
+
+
+def _plane_wave_constraints(mt: dict) -> list[Constraint]:
+    """The distributed model's validity: plane waves in both chambers (first transverse mode
+    above the grid's highest frequency)."""
+    out = []
+    for name, e in zip(("top_chamber", "bottom_chamber"), mt["ln_plane_wave"], strict=True):
+        out.append(Constraint(f"plane_wave_{name}", e, -math.inf, math.log(VALIDITY_MARGIN), 1,
+                              f"{name.replace('_', ' ')} below its first transverse mode: "
+                              f"w D / (1.8412 c) <= 1"))
     return out
 
 
@@ -310,6 +324,8 @@ _NATURAL = {
     "chamber_pressure": (_exp, "Pa"),
     "laminar": (_exp, "Re"),
     "quasi_steady_alpha": (_exp, "alpha"),
+    "plane_wave_top_chamber": (_exp, "w D/(1.84 c)"),
+    "plane_wave_bottom_chamber": (_exp, "w D/(1.84 c)"),
     "lumped_tube": (_exp, "w l/c"),
     "lumped_top_chamber": (_exp, "w l/c"),
     "lumped_bottom_chamber": (_exp, "w l/c"),

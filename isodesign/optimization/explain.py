@@ -19,7 +19,7 @@ __all__ = ["BINDING_NOTE", "MODEL_VALIDITY_CONSTRAINTS", "STUDY_KEYS", "constrai
 #: Constraints that keep the design inside a model's validity, not user requirements.
 MODEL_VALIDITY_CONSTRAINTS = frozenset({
     "mach", "laminar", "quasi_steady_alpha", "lumped_tube", "lumped_top_chamber",
-    "lumped_bottom_chamber",
+    "lumped_bottom_chamber", "plane_wave_top_chamber", "plane_wave_bottom_chamber",
 })
 
 #: For the lumped-model limits: the design quantity each caps, how it scales with the
@@ -132,7 +132,8 @@ def limiting_factors(result) -> list[str]:
                 now = (v["top_volume_m3"] * v["volume_ratio"] if key is None else v[key])
                 limit = now * (c.upper / c.value) ** power
                 text += (f"; it caps {label} at {limit * scale:.3g} {unit} "
-                         f"(now {now * scale:.3g} {unit}); a distributed model would lift it")
+                         f"(now {now * scale:.3g} {unit}); the distributed acoustics "
+                         "(models.acoustics = \"distributed\", docs/acoustics.md) lifts it")
             out.append(text)
         else:
             key = STUDY_KEYS.get(c.name)

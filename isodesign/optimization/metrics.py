@@ -30,9 +30,11 @@ from isodesign.response.linearization import (
     stroke_weighted_sum,
 )
 from isodesign.spring.capillary import gaussian_equivalent_resistance, linear_resistance
+from isodesign.spring.chamber import chamber_dimensions
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.spring.flow_models import resistance_function
+from isodesign.spring.transmission_line import TRANSVERSE_MODE_FACTOR
 
 __all__ = ["combine", "design_quantities", "metrics", "point_quantities", "statistical"]
 
@@ -97,7 +99,7 @@ def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
     else:
         lin = linear_resistance(flow, d, omega)
         c = Cx(lin.re + c_nl, lin.im)
-    k = spring_stiffness(air_stiffness(d, omega, c), dia.stiffness(omega, a_star))
+    k = spring_stiffness(air_stiffness(d, omega, c, flow), dia.stiffness(omega, a_star))
     out = {
         "T": transmissibility(k, m_i, omega),
         "R": relative_transmissibility(k, m_i, omega),
@@ -105,7 +107,7 @@ def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
         "ln_re": bk.log(d.density_kg_m3 * velocity * d.capillary_diameter_m / d.viscosity_pa_s),
     }
     if c_nl is not None:
-        out["G2"] = tube_velocity_gain2(d, omega, c)
+        out["G2"] = tube_velocity_gain2(d, omega, c, flow)
     return out
 
 
@@ -131,7 +133,10 @@ def design_quantities(study, grid, d, dia) -> dict:
         and a CG height); ``ln_fn`` (undamped natural frequency
         ``sqrt(K0 / (m/n)) / (2 pi)``, Hz); ``ln_zeta`` (Zener damping ratio);
         ``ln_lumped``, a list of three: ``w_max L_c / c``, ``w_max V_t0^(1/3) / c``
-        and ``w_max V_b0^(1/3) / c`` (acoustic compactness of tube and chambers);
+        and ``w_max V_b0^(1/3) / c`` (acoustic compactness of tube and chambers, the
+        lumped model's validity); ``ln_plane_wave``, a list of two: ``w_max D / (1.8412
+        c)`` for each chamber's diameter (plane waves below the first transverse mode: the
+        distributed model's validity);
         ``ln_alpha_max``, the Womersley number ``(D_c / 2) sqrt(w_max rho / mu)``.
 
     Notes
@@ -155,6 +160,11 @@ def design_quantities(study, grid, d, dia) -> dict:
         bk.log(w_max * d.capillary_length_m / c),
         bk.log(w_max * bk.power(d.top_volume_m3, 1.0 / 3.0) / c),
         bk.log(w_max * bk.power(d.bottom_volume_m3, 1.0 / 3.0) / c),
+    ]
+    # plane waves in the chambers (the distributed model): w_max D / (1.8412 c) per chamber
+    out["ln_plane_wave"] = [
+        bk.log(w_max * chamber_dimensions(d, v)[1] / (TRANSVERSE_MODE_FACTOR * c))
+        for v in (d.top_volume_m3, d.bottom_volume_m3)
     ]
     out["ln_alpha_max"] = 0.5 * bk.log(
         d.density_kg_m3 * w_max * d.capillary_diameter_m**2 / d.viscosity_pa_s

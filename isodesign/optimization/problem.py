@@ -74,6 +74,10 @@ IPOPT_OPTIONS = {
     "ipopt.slack_bound_push": 1e-9,
     "ipopt.slack_bound_frac": 1e-9,
 }
+#: Options of the per-point SX function: common subexpressions (the flow model and the
+#: distributed network share the Womersley function and the line elements) computed once.
+_POINT_OPTIONS = {"cse": True}
+
 #: IPOPT's constraint violation tolerance (``ipopt.constr_viol_tol``).
 CONSTRAINT_VIOLATION_TOL = 1e-9
 #: Boxes on the implicit unknowns of the NLP (far outside any physical solution).
@@ -161,7 +165,7 @@ class Problem:
                                   self.dia, cnl_sx)
             return ca.Function("point", [dv, s_sx, y_sx, cnl_sx, w_sx],
                                [ca.SX(0), pq["T"].re, pq["T"].im, pq["R"].re, pq["R"].im,
-                                pq["ln_mach"], pq["ln_re"], pq["G2"]])
+                                pq["ln_mach"], pq["ln_re"], pq["G2"]], _POINT_OPTIONS)
         if self.self_consistent:
             u_sx = ca.exp(y_sx)
             res_sx = amplitude_residual(study.models["flow"], d_sx, w_sx, a_sx, y_sx)
@@ -171,7 +175,7 @@ class Problem:
         pq = point_quantities(study, d_sx, w_sx, u_sx, sig_sx, self.dia)
         return ca.Function("point", [dv, s_sx, y_sx, cnl_sx, w_sx],
                            [res_sx, pq["T"].re, pq["T"].im, pq["R"].re, pq["R"].im,
-                            pq["ln_mach"], pq["ln_re"], ca.SX(0)])
+                            pq["ln_mach"], pq["ln_re"], ca.SX(0)], _POINT_OPTIONS)
 
     def _decision_variables(self, nlp) -> None:
         """Scaled design z, ln sigma s, ln U y, the design values and the slot parameters."""

@@ -21,8 +21,8 @@ __all__ = ["RECHECK_RTOL", "evaluate_design", "recheck"]
 #: (dB) for the objectives in dB.
 RECHECK_RTOL = 1e-6
 _METRIC_KEYS = ("stroke_variance", "tube_velocity_variance", "ln_ms_band", "ln_T2_peak",
-                "ln_total_volume", "ln_tilt", "ln_lumped", "ln_fn", "ln_zeta", "ln_mach", "ln_re",
-                "ln_T2_point")
+                "ln_total_volume", "ln_tilt", "ln_lumped", "ln_plane_wave", "ln_fn", "ln_zeta",
+                "ln_mach", "ln_re", "ln_T2_point")
 
 
 def recheck(prob, sol, d) -> float:

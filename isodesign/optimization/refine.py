@@ -128,7 +128,8 @@ def continuous_peak_db(prob, values: dict, sigma: float,
 
     if tube_rms is not None:  # the statistical closure (docs/random-response.md)
         c = statistical_resistance_function(st.models["flow"], d, w)(tube_rms)
-        k = spring_stiffness(air_stiffness(d, w, c), prob.dia.stiffness(w, a)).to_complex()
+        k = spring_stiffness(air_stiffness(d, w, c, st.models["flow"]),
+                             prob.dia.stiffness(w, a)).to_complex()
     else:
         k = complex_stiffness(d, f, a, flow=st.models["flow"],
                               amplitude_mode=st.models["amplitude_mode"], diaphragm=prob.dia,

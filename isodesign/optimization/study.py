@@ -49,19 +49,20 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import CONSTRAINT_DOMAIN, DESIGN_DOMAIN, FREQUENCY_DOMAIN_HZ
 from isodesign.errors import InputError, check_choice, check_range
 from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
 from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
 from isodesign.io.files import read_toml
-from isodesign.io.plausible import warn_unit_slips
+from isodesign.io.plausible import unit_slips, warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
 from isodesign.results import ResultDisplay
-from isodesign.spring.design import SpringDesign, piston_area_from_diaphragm
+from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign, piston_area_from_diaphragm
 from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 from isodesign.spring.diaphragm import diaphragm_model
-from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS
+from isodesign.spring.flow_models import SMOOTH_FLOW_MODELS, model_design
 from isodesign.spring.gas import Gas
 from isodesign.spring.stiffness import AMPLITUDE_MODES
 
@@ -86,6 +87,8 @@ _DEFAULT = {
         "temperature_k": 293.15,
         "minor_loss": 1.5,
         "roughness_m": 0.0,
+        "chamber_aspect_ratio": 1.0,
+        "chamber_heat_exchange": False,
     },
     "floor": {"criterion": "VC-A"},
     "target": {"criterion": "VC-C", "band_min_hz": 4.0, "band_max_hz": 80.0},
@@ -96,6 +99,7 @@ _DEFAULT = {
         "random_method": "statistical",
         "points_per_band": 6,
         "peak_points": 80,
+        "acoustics": "distributed",
     },
     "variables": {
         "volume_ratio": {"start": 1.5e-3 / 8.1e-4, "lower": 0.5, "upper": 8.0},
@@ -125,13 +129,14 @@ _KEYS = {
          "variables", "constraints", "objective", "solver", "table", "scenarios"},
     "payload": {"mass_kg", "isolators", "spacing_m", "cg_height_m"},
     "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
-                 "minor_loss", "polytropic_index", "roughness_m", "gas"},
+                 "minor_loss", "polytropic_index", "roughness_m", "gas",
+                 "chamber_aspect_ratio", "chamber_heat_exchange"},
     "hardware.gas": {"name", "gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"},
     "floor": {"criterion", "csv", "quantity", "kind", "unit", "record", "statistic",
               "percentile", "axis", "sample_rate_hz", "x", "y"},
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
-               "peak_points"},
+               "peak_points", "acoustics"},
     "variables": set(DESIGN_VARIABLES),
     "variable": {"start", "lower", "upper", "fixed"},
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
@@ -221,7 +226,10 @@ class Study(ResultDisplay):
 
         vals = {v.name: (v.start if v.fixed else values.get(v.name, v.start))
                 for v in self.variables}
-        d = SpringDesign(pressure_pa=2e5, **vals, **self.hardware)
+        acoustics = self.models.get("acoustics", ACOUSTIC_MODELS[0])
+        d = model_design(self.models["flow"], SpringDesign(pressure_pa=2e5, **vals,
+                                                           acoustics=acoustics,
+                                                           **self.hardware))
         return d.with_load(self.payload.mass_kg, self.payload.isolators,
                            g_m_s2=self.payload.g_m_s2)
 
@@ -325,7 +333,26 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     """
 
     where = source
+    if not isinstance(source, str):
+        raise InputError(f"source: expected a string (a file name or '<dict>'), got "
+                         f"{type(source).__name__}")
+    if not isinstance(d, dict):
+        raise InputError(f"study_from_dict: d must be a dict of study tables (the TOML schema), "
+                         f"got {type(d).__name__} {d!r:.40}")
     _check_all_keys(d, where)
+    try:
+        return _study(d, where, source, fill_defaults)
+    except InputError as exc:  # a value the schema refuses may be a unit slip: say so
+        msg = str(exc)
+        hints = [h.split("; a unit slip? ", 1)[1] for h in unit_slips(d)
+                 if "; a unit slip? " in h and h.split(" = ", 1)[0] in msg]
+        if hints:
+            raise InputError(f"{msg} (a unit slip? {hints[0]})") from None
+        raise
+
+
+def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
+    """The validation of :func:`study_from_dict` after the key check."""
     raw = _resolve(d, fill_defaults)
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
@@ -340,7 +367,10 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
     solver = _solver(raw["solver"], where)
     name = raw.get("name", "study")
     if not isinstance(name, str):
-        raise InputError(f"{where}: name must be a string")
+        raise InputError(f"{where}: name must be a string, got {type(name).__name__} {name!r:.40}")
+    if not isinstance(raw.get("description", ""), str):
+        raise InputError(f"{where}: description must be a string, got "
+                         f"{type(raw['description']).__name__} {raw['description']!r:.40}")
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source, table=table,
@@ -415,13 +445,25 @@ def _hardware(h: dict, where: str) -> dict:
     else:
         hw["piston_area_m2"] = _num(where, "hardware.piston_area_m2", h.get("piston_area_m2"),
                                     0, None, True, "m^2")
-    for k, lo, hi in (("temperature_k", 0, 1000), ("minor_loss", 0, 100),
+        lo_a, hi_a, _ = DESIGN_DOMAIN["piston_area_m2"]
+        _num(where, "hardware.piston_area_m2", hw["piston_area_m2"], lo_a, hi_a, False, "m^2")
+    for k, lo, hi in (("temperature_k", 1.0, 1000), ("minor_loss", 0, 100),
                       ("roughness_m", 0, 1e-2)):
         if k in h:
             hw[k] = _num(where, f"hardware.{k}", h[k], lo, hi, k == "temperature_k")
     if h.get("polytropic_index") is not None:
         hw["polytropic_index"] = _num(where, "hardware.polytropic_index", h["polytropic_index"],
                                       1.0, 1.67)
+    if "chamber_aspect_ratio" in h:
+        hw["chamber_aspect_ratio"] = _num(where, "hardware.chamber_aspect_ratio",
+                                          h["chamber_aspect_ratio"], 0.05, 20.0, True)
+    if "chamber_heat_exchange" in h:
+        hw["chamber_heat_exchange"] = _bool(where, "hardware.chamber_heat_exchange",
+                                            h["chamber_heat_exchange"])
+        if hw["chamber_heat_exchange"] and "polytropic_index" in hw:
+            raise InputError(f"{where}: hardware.chamber_heat_exchange = true is exclusive with "
+                             "hardware.polytropic_index (the wall heat exchange sets the "
+                             "polytropic index at each frequency)")
     if "gas" in h:
         try:
             hw["gas"] = Gas(**h["gas"])
@@ -522,8 +564,13 @@ def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
     path = Path(fl["csv"])
     if not path.is_absolute() and source not in ("<dict>", "<default>"):
         path = Path(source).parent / path
-    return FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
-                                  unit=fl.get("unit"))
+    try:
+        return FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
+                                      unit=fl.get("unit"))
+    except InputError as exc:
+        msg = str(exc)
+        msg = msg.removeprefix("path: ")
+        raise InputError(msg if msg.startswith(where) else f"{where}: floor.csv: {msg}") from None
 
 
 def _target(tg: dict, where: str):
@@ -627,11 +674,14 @@ def _models(m: dict, where: str, source: str) -> dict:
         diaphragm_model(dia)
     except InputError as exc:
         raise InputError(f"{where}: models.{exc}") from None
+    check_choice(f"{where}: models.acoustics", m.get("acoustics", ACOUSTIC_MODELS[0]),
+                 ACOUSTIC_MODELS)
     ppb = _int_in(where, "models.points_per_band", m.get("points_per_band", 6), 3, 200)
     npk = _int_in(where, "models.peak_points", m.get("peak_points", 80), 10, 2000)
     return {"flow": flow, "amplitude_mode": m.get("amplitude_mode", "self_consistent"),
             "diaphragm": dia, "random_method": m.get("random_method", "statistical"),
-            "points_per_band": ppb, "peak_points": npk}
+            "points_per_band": ppb, "peak_points": npk,
+            "acoustics": m.get("acoustics", ACOUSTIC_MODELS[0])}
 
 
 def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
@@ -661,6 +711,13 @@ def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
             if not lo <= start <= hi:
                 raise InputError(f"{w}.start ({start:g}) must lie in [lower, upper] = "
                                  f"[{lo:g}, {hi:g}]")
+        dlo, dhi, unit = DESIGN_DOMAIN[name]
+        for k, v in (("start", start), ("lower", lo), ("upper", hi)):
+            if k != "start" and fixed:
+                continue
+            if not dlo <= v <= dhi:
+                raise InputError(f"{where}: variables.{name}.{k} = {v:g} is outside the models' "
+                                 f"domain [{dlo:g}, {dhi:g}]{' ' + unit if unit else ''}")
         variables.append(VariableSpec(name, start, lo, hi, fixed))
     if all(v.fixed for v in variables):
         raise InputError(f"{where}: [variables] every design variable is fixed, so there is "
@@ -679,6 +736,8 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
             continue
         lo_open = k != "max_peak_transmissibility_db"  # 0 dB is a valid peak bound
         cons[k] = _num(where, f"constraints.{k}", v, 0.0, None, lo_open)
+        lo, hi, unit = CONSTRAINT_DOMAIN[k]  # the models' numeric domain
+        _num(where, f"constraints.{k}", v, lo, hi, False, unit)
     if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
         if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
             raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "
@@ -719,6 +778,7 @@ def _objective(o: dict, where: str, band_hz: dict) -> dict:
         default, unit = _OBJECTIVE_OPTIONS[key]
         value = o.get(key, band_hz[default] if default else None)
         obj[key] = _num(where, f"objective.{key}", value, 0, None, True, unit)
+        _num(where, f"objective.{key}", value, *FREQUENCY_DOMAIN_HZ, False, "Hz")
     return obj
 
 

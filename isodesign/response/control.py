@@ -139,6 +139,10 @@ def to_transfer_function(
 ):
     """The linear isolator as a ``control.TransferFunction`` (rational models only).
 
+    The spring is the lumped model (Eq. 38, ``acoustics="lumped"`` whatever the design
+    names): the distributed acoustics (a transmission line, chamber modes) is not
+    rational; its frequency response is :func:`to_frd`.
+
     Parameters
     ----------
     design : SpringDesign

@@ -12,10 +12,12 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import AMPLITUDE_DOMAIN_M, FREQUENCY_DOMAIN_HZ
 from isodesign.errors import (
     InputError,
     SolverError,
     check_choice,
+    check_domain,
     check_positive,
 )
 from isodesign.numerics.cplx import Cx
@@ -409,6 +411,8 @@ def harmonic_response(
     xf = np.atleast_1d(
         check_positive("floor_amplitude_m", floor_amplitude_m, unit="m", allow_array=True)
     )
+    check_domain("frequency_hz", f, FREQUENCY_DOMAIN_HZ, unit="Hz")
+    check_domain("floor_amplitude_m", xf, AMPLITUDE_DOMAIN_M, unit="m")
     if f.ndim != 1 or xf.ndim != 1:
         raise InputError("frequency_hz, floor_amplitude_m: expected scalars or 1-D arrays")
     rtol = check_positive("rtol", rtol)

@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from isodesign.domain import LAYOUT_DOMAIN
 from isodesign.errors import InputError, check_positive, check_range
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx, as_cx
@@ -101,6 +102,10 @@ class Payload:
                 check_range("cg_height_m", self.cg_height_m, 0.0, None, lo_open=True, unit="m"),
             )
         check_range("g_m_s2", self.g_m_s2, 0.0, 100.0, lo_open=True, unit="m/s^2")
+        for name, (lo, hi, unit) in LAYOUT_DOMAIN.items():  # the models' numeric domain
+            v = getattr(self, name)
+            if v is not None:
+                check_range(name, v, lo, hi, unit=unit)
 
     @property
     def mass_per_isolator_kg(self) -> float:

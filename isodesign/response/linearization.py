@@ -464,7 +464,7 @@ def stroke_variance(relative_transmissibility: Cx, grid: ResponseGrid):
 
 
 def tube_velocity_variance(relative_transmissibility: Cx, resistance: Cx, design,
-                           grid: ResponseGrid):
+                           grid: ResponseGrid, flow: str | None = None):
     """Variance of the capillary's mean velocity, ``sigma_u^2`` ((m/s)^2), any backend.
 
     ``sigma_u^2 = sum_j stroke_weight[j] |T_j - 1|^2 |U/X|_j^2``: the stroke's spectrum
@@ -482,10 +482,13 @@ def tube_velocity_variance(relative_transmissibility: Cx, resistance: Cx, design
     design : SpringDesign
         The loaded design (fields may be CasADi symbols).
     grid : ResponseGrid
+    flow : str, optional
+        The flow model of ``resistance`` (distributed acoustics; see
+        :func:`~isodesign.spring.equations.air_stiffness`).
     """
     rel = as_cx(relative_transmissibility)
     return stroke_weighted_sum(
-        rel.abs2() * tube_velocity_gain2(design, grid.omega, resistance), grid
+        rel.abs2() * tube_velocity_gain2(design, grid.omega, resistance, flow), grid
     )
 
 

@@ -30,10 +30,12 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import FREQUENCY_DOMAIN_HZ, MODEL_AMPLITUDE_DOMAIN_M
 from isodesign.errors import (
     InputError,
     ModelValidityWarning,
     SolverError,
+    check_domain,
     check_positive,
 )
 from isodesign.floor import (
@@ -53,6 +55,7 @@ from isodesign.response.isolator import (
 )
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import model_design
 from isodesign.spring.stiffness import check_models, complex_stiffness
 
 __all__ = [
@@ -236,6 +239,7 @@ def spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressu
     d, payload = prepare_inputs(design, payload, derive_pressure)
     check_models(flow, amplitude_mode)
     diaphragm_model(diaphragm)  # validate early
+    d = model_design(flow, d)  # the paper's flow models are lumped by definition
     return SpringModel(d, payload.mass_per_isolator_kg, flow, amplitude_mode, diaphragm)
 
 
@@ -295,6 +299,8 @@ def linear_transmissibility(
     m = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
     f = check_positive("frequency_hz", frequency_hz, unit="Hz", allow_array=True)
     x = check_positive("amplitude_m", amplitude_m, unit="m")
+    check_domain("frequency_hz", f, FREQUENCY_DOMAIN_HZ, unit="Hz")
+    check_domain("amplitude_m", x, MODEL_AMPLITUDE_DOMAIN_M, unit="m")
     return m.transmissibility(m.k(f, x), f)
 
 

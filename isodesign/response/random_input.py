@@ -125,7 +125,7 @@ class _Statistical:
         """``(k, k_air, k_dia, C)`` as Cx at ``omega`` for the two RMS values."""
         d = self.model.design
         c = (c_of or statistical_resistance_function(self.model.flow, d, omega))(sigma_u)
-        k_air = air_stiffness(d, omega, c)
+        k_air = air_stiffness(d, omega, c, self.model.flow)
         k_d = self.dia.stiffness(omega, equivalent_amplitude(sigma))
         return spring_stiffness(k_air, k_d), k_air, k_d, c
 
@@ -135,10 +135,10 @@ class _Statistical:
         c = self.c_of(sigma_u)
         if k_dia is None:
             k_dia = self.dia.stiffness(w, equivalent_amplitude(sigma))
-        k = spring_stiffness(air_stiffness(d, w, c), k_dia)
+        k = spring_stiffness(air_stiffness(d, w, c, self.model.flow), k_dia)
         rel = relative_transmissibility(k, self.model.mass, w)
         s2 = float(stroke_variance(rel, self.grid))
-        su2 = float(tube_velocity_variance(rel, c, d, self.grid))
+        su2 = float(tube_velocity_variance(rel, c, d, self.grid, self.model.flow))
         return s2, su2, k
 
     def tube_closure(self, sigma, y0: float, rtol: float, max_iter: int):
@@ -674,7 +674,8 @@ def band_response(
         kc, k_air_c, k_d_c, c = st.stiffness(w, sigma_in, sigma_u_in, st.c_of)
         k = kc.to_complex()
         rel = relative_transmissibility(kc, model.mass, w)
-        sigma_u = math.sqrt(float(tube_velocity_variance(rel, c, model.design, grid)))
+        sigma_u = math.sqrt(float(tube_velocity_variance(rel, c, model.design, grid,
+                                                         model.flow)))
         amp = equivalent_amplitude(sigma_in)
         diag = evaluate_diagnostics(
             flow, model.design, w, np.full(f.shape, amp),

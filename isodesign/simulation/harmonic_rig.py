@@ -379,7 +379,9 @@ class _Model:
     """
 
     def __init__(self, design: SpringDesign, flow: str):
-        d = design
+        # the rig integrates the lumped chambers and tube slug (uniform pressures); its
+        # harmonic-balance start is that model's, whatever acoustics the design names
+        d = design.replace(acoustics="lumped", chamber_heat_exchange=False)
         self.design = d
         self.flow = flow
         #: the tube's momentum equation is a state ("inertial" law), or m_dot = dp / C_u

@@ -11,6 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from isodesign.numerics.cplx import Cx
+from isodesign.spring.acoustics import acoustic_network
 from isodesign.spring.equations import kinematic_velocity
 from isodesign.spring.flow_models import resistance_function
 
@@ -113,6 +114,21 @@ def _solve_block(flow, design, w_all, x_all, tol, max_iter) -> _Solve:
         di = w * s * c.re
         mod = np.sqrt(dr * dr + di * di)
         return mod, di * w * s * dcr / mod
+
+    if getattr(design, "acoustics", "lumped") == "distributed":
+        net_all = acoustic_network(design, w_all, flow)
+        x_over = nq_all / x_all  # N (A_p/A_c) w
+
+        def evaluate(u, idx):  # the distributed model's effective |D|
+            """``|D| = N Q / U_driven`` of the network and its slope in U (difference)."""
+            w = w_all if idx is None else w_all[idx]
+            net = net_all if idx is None else net_all.take(idx)
+            xo = x_over if idx is None else x_over[idx]
+            c, dcr = resistance_function(flow, design, w, with_slope=True)(u)
+            mod = xo / np.sqrt(net.velocity_gain2(c))
+            h = 1e-6 * np.abs(c.re) + 1e-300
+            mod_h = xo / np.sqrt(net.velocity_gain2(Cx(c.re + h, c.im)))
+            return mod, (mod_h - mod) / h * dcr
 
     with np.errstate(over="ignore", divide="ignore", invalid="ignore"):
         mod0, _ = evaluate(np.zeros_like(w_all), None)

@@ -69,6 +69,7 @@ __all__ = [
     "linear_resistance",
     "poiseuille_resistance",
     "statistical_resistance_function",
+    "tube_boundary_layer_functions",
     "womersley_number",
     "womersley_zeta",
     "zhao_friction",
@@ -311,26 +312,72 @@ _ZETA_T_MIN = math.log(1e-3)
 _ZETA_T_MAX = math.log(1e3)
 
 
-@lru_cache(maxsize=1)
-def _womersley_splines():
-    """CasADi B-spline interpolants of the exact impedance, built once.
+#: Prandtl number of air: the thermal wave number of the tube is ``alpha sqrt(Pr)``.
+AIR_PRANDTL = 0.71
 
-    Fitted on ``t = ln(alpha)`` in [ln 1e-3, ln 1e3] to ``ln(zeta_r)`` and
-    ``zeta_i / alpha^2``, both smooth and O(1), so that a cubic spline on a
-    uniform grid of step 0.004 matches scipy's Bessel evaluation to better than
-    1e-8 relative (checked in the tests).
+
+@lru_cache(maxsize=4)
+def _tube_spline(prandtl: float = AIR_PRANDTL):
+    """One CasADi B-spline of the tube's boundary-layer functions in ``t = ln(alpha)``, built once.
+
+    Four outputs, smooth and O(1), so that a cubic spline on a uniform grid of step 0.004
+    matches scipy's Bessel evaluation to better than 1e-8 (checked in the tests):
+    ``ln(zeta_r(alpha))``, ``zeta_i(alpha) / alpha^2`` (the Womersley impedance) and the
+    real and imaginary parts of the thermal function ``G(alpha sqrt(Pr))``
+    (:func:`isodesign.spring.transmission_line.thermal_function`). One call evaluates the
+    flow model's impedance and the transmission line's elements (one interpolant call per
+    frequency in the NLP).
     """
     import casadi as ca
 
     t = np.linspace(_ZETA_T_MIN, _ZETA_T_MAX, 3455)
     alpha = np.exp(t)
     zeta = _womersley_zeta_exact(alpha)
-    g_r = np.log(zeta.real)
-    g_i = zeta.imag / alpha**2
-    opts = {}
-    s_r = ca.interpolant("womersley_ln_zr", "bspline", [t.tolist()], g_r.tolist(), opts)
-    s_i = ca.interpolant("womersley_zi_a2", "bspline", [t.tolist()], g_i.tolist(), opts)
-    return s_r, s_i
+    zt = _womersley_zeta_exact(alpha * math.sqrt(prandtl))
+    a2t = prandtl * alpha**2
+    g = 1.0 - 1j * a2t / (8.0 * zt)  # G = 1 - j s^2 / (8 zeta(s))
+    values = np.stack([np.log(zeta.real), zeta.imag / alpha**2, g.real, g.imag], axis=0)
+    # multi-output values are flattened with the output index fastest
+    return ca.interpolant("womersley_tube", "bspline", [t.tolist()],
+                          values.T.ravel().tolist(), {})
+
+
+def tube_boundary_layer_functions(alpha, prandtl: float = AIR_PRANDTL) -> tuple[Cx, Cx]:
+    """``(zeta(alpha), G(alpha sqrt(Pr)))``: the Womersley impedance and thermal function.
+
+    NumPy: scipy's Bessel functions (exact). CasADi: one four-output B-spline call
+    (:func:`_tube_spline`), valid for 1e-3 <= alpha <= 1e3.
+
+    Parameters
+    ----------
+    alpha : float, ndarray or CasADi symbol
+        Womersley (shear wave) number (> 0).
+    prandtl : float
+        Prandtl number of the gas (a plain number).
+
+    Returns
+    -------
+    tuple of Cx
+    """
+    if bk.is_casadi(alpha):
+        out = _tube_spline(float(prandtl))(bk.log(alpha))
+        return (Cx(bk.exp(out[0]), out[1] * alpha * alpha), Cx(out[2], out[3]))
+    alpha = np.asarray(alpha, dtype=float)
+    if alpha.size > 64:  # many points share few frequencies: the Bessel functions once each
+        uniq, inv = np.unique(alpha, return_inverse=True)
+        if uniq.size < alpha.size:
+            zeta, g = _tube_functions_exact(uniq, prandtl)
+            return (Cx.from_complex(zeta[inv].reshape(alpha.shape)),
+                    Cx.from_complex(g[inv].reshape(alpha.shape)))
+    zeta, g = _tube_functions_exact(alpha, prandtl)
+    return Cx.from_complex(zeta), Cx.from_complex(g)
+
+
+def _tube_functions_exact(alpha: np.ndarray, prandtl: float):
+    """``(zeta(alpha), G(alpha sqrt(Pr)))`` as complex NumPy arrays (scipy's Bessel)."""
+    s = alpha * math.sqrt(prandtl)
+    zt = _womersley_zeta_exact(s)
+    return _womersley_zeta_exact(alpha), 1.0 - 1j * s * s / (8.0 * zt)
 
 
 def womersley_zeta(alpha) -> Cx:
@@ -343,7 +390,8 @@ def womersley_zeta(alpha) -> Cx:
     alpha/(4 sqrt 2) (1 + j)`` as alpha -> inf.
 
     NumPy: scipy's Bessel functions (exact). CasADi: a cubic B-spline of the
-    exact function in ln(alpha), valid for 1e-3 <= alpha <= 1e3.
+    exact function in ln(alpha), valid for 1e-3 <= alpha <= 1e3 (the first two outputs
+    of :func:`tube_boundary_layer_functions`' spline).
 
     Parameters
     ----------
@@ -351,9 +399,7 @@ def womersley_zeta(alpha) -> Cx:
         Womersley number (> 0).
     """
     if bk.is_casadi(alpha):
-        s_r, s_i = _womersley_splines()
-        t = bk.log(alpha)
-        return Cx(bk.exp(s_r(t)), s_i(t) * alpha * alpha)
+        return tube_boundary_layer_functions(alpha)[0]
     return Cx.from_complex(_womersley_zeta_exact(alpha))
 
 

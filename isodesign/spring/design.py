@@ -20,11 +20,16 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import DESIGN_DOMAIN
 from isodesign.errors import InputError, check_positive, check_range
 from isodesign.numerics import backend as bk
 from isodesign.spring.gas import AIR, P_ATM, Gas, pressure_from_load
 
-__all__ = ["SpringDesign", "piston_area_from_diaphragm"]
+__all__ = ["ACOUSTIC_MODELS", "SpringDesign", "piston_area_from_diaphragm"]
+
+#: The acoustic models of tube and chambers (:attr:`SpringDesign.acoustics`); the first is
+#: the default.
+ACOUSTIC_MODELS = ("distributed", "lumped")
 
 
 def piston_area_from_diaphragm(r1_m, r2_m):
@@ -91,6 +96,20 @@ class SpringDesign:
         paper's choice), otherwise n in [1, kappa] replacing kappa in Eqs. 12-15.
     roughness_m : float
         Absolute wall roughness of the capillary for the all-regime friction law.
+    acoustics : {'distributed', 'lumped'}
+        Acoustic model of tube and chambers. ``distributed`` (default): the tube as a
+        lossy transmission line (viscous and thermal boundary layers) between chambers
+        with plane-wave (longitudinal) modes (:mod:`isodesign.spring.acoustics`,
+        ``docs/acoustics.md``). ``lumped``: the paper's uniform chamber pressures and
+        incompressible tube slug (Eq. 38), valid while ``w l / c <= 0.3``.
+    chamber_aspect_ratio : float
+        Length over diameter of each (cylindrical) chamber, in (0.05, 20]; default 1. The
+        plane waves run along the axis: the top chamber has the piston at one end and the
+        tube at the other, the bottom chamber the tube at one end.
+    chamber_heat_exchange : bool
+        Heat exchange of the chamber gas with the walls (thermal boundary layer, a complex
+        polytropic index between 1 and kappa with frequency). Off by default (adiabatic
+        chambers, the paper's choice); exclusive with ``polytropic_index``.
     """
 
     volume_ratio: Any
@@ -104,6 +123,9 @@ class SpringDesign:
     gas: Gas = field(default=AIR)
     polytropic_index: float | None = None
     roughness_m: float = 0.0
+    acoustics: str = "distributed"
+    chamber_aspect_ratio: float = 1.0
+    chamber_heat_exchange: bool = False
 
     def __post_init__(self):
         for name in ("volume_ratio", "top_volume_m3", "capillary_length_m",
@@ -127,6 +149,11 @@ class SpringDesign:
             raise InputError(f"gas: expected an isodesign.Gas, got {type(self.gas).__name__}")
         p = check_range("pressure_pa", self.pressure_pa, P_ATM, None, lo_open=True, unit="Pa")
         object.__setattr__(self, "pressure_pa", p)
+        for name, (lo, hi, unit) in DESIGN_DOMAIN.items():  # the models' numeric domain
+            v = getattr(self, name)
+            if not _sym(v) and not lo <= v <= hi:
+                raise InputError(f"{name}: must be in [{lo:g}, {hi:g}]{' ' + unit if unit else ''}"
+                                 f" (the models' domain), got {v:g}")
         object.__setattr__(
             self, "minor_loss", check_range("minor_loss", self.minor_loss, 0.0, 100.0)
         )
@@ -138,6 +165,20 @@ class SpringDesign:
                 "polytropic_index", self.polytropic_index, 1.0, self.gas.heat_capacity_ratio
             )
             object.__setattr__(self, "polytropic_index", n)
+        if self.acoustics not in ACOUSTIC_MODELS:
+            raise InputError(f"acoustics: unknown value {self.acoustics!r}; valid: "
+                             f"{', '.join(ACOUSTIC_MODELS)}")
+        _check_real("chamber_aspect_ratio", self.chamber_aspect_ratio)
+        object.__setattr__(self, "chamber_aspect_ratio", check_range(
+            "chamber_aspect_ratio", self.chamber_aspect_ratio, 0.05, 20.0, lo_open=True))
+        if not isinstance(self.chamber_heat_exchange, bool | np.bool_):
+            raise InputError("chamber_heat_exchange: expected true or false, got "
+                             f"{type(self.chamber_heat_exchange).__name__} "
+                             f"{self.chamber_heat_exchange!r:.40}")
+        object.__setattr__(self, "chamber_heat_exchange", bool(self.chamber_heat_exchange))
+        if self.chamber_heat_exchange and self.polytropic_index is not None:
+            raise InputError("chamber_heat_exchange: exclusive with polytropic_index (the wall "
+                             "heat exchange sets the polytropic index at each frequency)")
         if not _sym(self.capillary_diameter_m) and not _sym(self.capillary_length_m):
             if self.capillary_diameter_m >= self.capillary_length_m:
                 raise InputError(
@@ -263,6 +304,12 @@ class SpringDesign:
         }
         if self.polytropic_index is not None:
             d["polytropic_index"] = float(self.polytropic_index)
+        if self.acoustics != ACOUSTIC_MODELS[0]:
+            d["acoustics"] = self.acoustics
+        if self.chamber_aspect_ratio != 1.0:
+            d["chamber_aspect_ratio"] = float(self.chamber_aspect_ratio)
+        if self.chamber_heat_exchange:
+            d["chamber_heat_exchange"] = True
         g = self.gas
         gd = {
             "name": g.name,
@@ -271,5 +318,7 @@ class SpringDesign:
         }
         if g.viscosity_pa_s is not None:
             gd["viscosity_pa_s"] = g.viscosity_pa_s
+        if g.prandtl_number != 0.71:
+            gd["prandtl_number"] = g.prandtl_number
         d["gas"] = gd
         return d

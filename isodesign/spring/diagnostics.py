@@ -17,8 +17,11 @@ import numpy as np
 
 from isodesign.numerics.cplx import Cx
 from isodesign.spring.capillary import flow_regime, kinetic_reynolds
+from isodesign.spring.chamber import first_transverse_mode_hz
 from isodesign.spring.equations import kinematic_velocity
+from isodesign.spring.equations import tube_velocity_gain2 as velocity_gain2
 from isodesign.spring.flow_models import FlowPoint, flow_check_descriptions, flow_model
+from isodesign.spring.transmission_line import TRANSVERSE_MODE_FACTOR
 
 __all__ = ["CHECK_DESCRIPTIONS", "MAX_STATIC_PRESSURE_PA", "Diagnostics", "evaluate_diagnostics"]
 
@@ -57,6 +60,14 @@ CHECK_DESCRIPTIONS = {
     "lumped": (
         f"acoustically compact: w l / c <= {LUMPED_LIMIT} for the tube length and chamber sizes "
         "(lumped model)"
+    ),
+    "chamber_plane_wave": (
+        "below the first transverse mode 1.8412 c / (pi D) of both chambers (plane waves, "
+        "distributed model; docs/acoustics.md)"
+    ),
+    "tube_plane_wave": (
+        "below the first transverse mode 1.8412 c / (pi D_c) of the tube (plane waves, "
+        "distributed model)"
     ),
     **flow_check_descriptions(),
     "kinematic_consistency": (
@@ -204,6 +215,7 @@ def evaluate_diagnostics(
     """
     model = flow_model(flow)
     d = design
+    distributed = d.acoustics == "distributed"
     shape = np.broadcast_shapes(np.shape(omega), np.shape(amplitude_m), np.shape(velocity))
     u = np.broadcast_to(velocity, shape)
     rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
@@ -220,9 +232,13 @@ def evaluate_diagnostics(
     p_amp = np.abs(k_air) * (amplitude_m / d.piston_area_m2)
     u_kin = (u if amplitude_mode == "kinematic"  # u is Eq. 37's velocity already
              else np.broadcast_to(kinematic_velocity(d, omega, amplitude_m), shape))
-    # driven velocity N Q/|D| from Eq. 38 itself: k_air = k_s (1 - N/D), so
-    # N/|D| = |1 - k_air/k_s| (exact, and cheaper than recomputing D)
-    ratio = np.abs(1.0 - k_air * (1.0 / d.single_chamber_stiffness_n_per_m))
+    if distributed:
+        g2 = velocity_gain2(d, omega, c, flow)
+        ratio = np.sqrt(g2) * (amplitude_m / np.where(u_kin > 0, u_kin, 1.0))
+    else:
+        # driven velocity N Q/|D| from Eq. 38 itself: k_air = k_s (1 - N/D), so
+        # N/|D| = |1 - k_air/k_s| (exact, and cheaper than recomputing D)
+        ratio = np.abs(1.0 - k_air * (1.0 / d.single_chamber_stiffness_n_per_m))
     u_driven = u_kin * ratio
 
     checks: dict[str, np.ndarray] = {}
@@ -232,7 +248,16 @@ def evaluate_diagnostics(
     )
     checks["passive"] = k_total.imag >= -1e-9 * np.abs(k_total)
     checks["static_pressure"] = np.asarray(d.pressure_pa <= MAX_STATIC_PRESSURE_PA)
-    checks["lumped"] = lumped0
+    if distributed:
+        c0 = d.speed_of_sound_m_s
+        f0 = omega / (2.0 * math.pi)
+        checks["chamber_plane_wave"] = (
+            f0 < np.minimum(first_transverse_mode_hz(d, d.top_volume_m3),
+                            first_transverse_mode_hz(d, d.bottom_volume_m3)))
+        checks["tube_plane_wave"] = (
+            f0 < TRANSVERSE_MODE_FACTOR * c0 / (math.pi * d.capillary_diameter_m))
+    else:
+        checks["lumped"] = lumped0
     checks.update(model.validity(FlowPoint(
         reynolds=re, kinetic_reynolds=re_w0, womersley_number=alpha0, dimensionless_amplitude=a0
     )))

@@ -80,6 +80,7 @@ __all__ = [
     "FlowPoint",
     "flow_check_descriptions",
     "flow_model",
+    "model_design",
     "resistance",
     "resistance_function",
 ]
@@ -160,6 +161,11 @@ class FlowModel:
         The self-consistent amplitude (harmonic balance) is defined for the model.
     checks : tuple of FlowCheck
         The model's own validity checks.
+    distributed : bool
+        The model has a distributed (transmission-line) form: its resistance splits into
+        the exact laminar impedance, carried along the line, and end terms
+        (:mod:`isodesign.spring.acoustics`). The paper's models (``poiseuille``, ``zhao``,
+        ``zhao_turbulent``) are lumped by definition and always evaluated lumped.
     """
 
     name: str
@@ -171,6 +177,7 @@ class FlowModel:
     amplitude_dependent: bool
     self_consistent: bool
     checks: tuple[FlowCheck, ...] = ()
+    distributed: bool = False
 
     def validity(self, point: FlowPoint) -> dict[str, np.ndarray]:
         """Evaluate the model's checks.
@@ -339,6 +346,7 @@ _register(FlowModel(
     amplitude_dependent=True,
     self_consistent=True,
     checks=(_QUASI_STEADY_ALPHA,),
+    distributed=True,
 ))
 _register(FlowModel(
     name="womersley",
@@ -350,6 +358,7 @@ _register(FlowModel(
     amplitude_dependent=True,
     self_consistent=True,
     checks=(_LAMINAR,),
+    distributed=True,
 ))
 _register(FlowModel(
     name="poiseuille",
@@ -395,6 +404,29 @@ SMOOTH_FLOW_MODELS = tuple(m.name for m in _REGISTRY.values() if m.smooth)
 RATIONAL_FLOW_MODELS = tuple(m.name for m in _REGISTRY.values() if m.rational)
 #: Models the time-domain simulator integrates.
 SIMULATION_FLOW_MODELS = tuple(m.name for m in _REGISTRY.values() if m.time_domain)
+
+
+def model_design(flow: str, design):
+    """The design as the flow model evaluates it: lumped acoustics for a lumped-only model.
+
+    The paper's models (``FlowModel.distributed`` False) are lumped by definition; a
+    design naming the distributed acoustics is evaluated with ``acoustics="lumped"`` for
+    them. Other designs are returned unchanged.
+
+    Parameters
+    ----------
+    flow : str
+        A flow model name.
+    design : SpringDesign
+        The spring.
+
+    Returns
+    -------
+    SpringDesign
+    """
+    if getattr(design, "acoustics", "lumped") != "lumped" and not flow_model(flow).distributed:
+        return design.replace(acoustics="lumped")
+    return design
 
 
 def flow_model(name: str) -> FlowModel:

@@ -14,6 +14,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from isodesign.domain import DESIGN_DOMAIN, GAS_DOMAIN
 from isodesign.errors import InputError, check_positive, check_range
 from isodesign.numerics import backend as bk
 
@@ -42,6 +43,9 @@ class Gas:
         Table 1 passes 1.79e-5 Pa s, which Sutherland gives at 288.1 K.
     sutherland_mu_ref_pa_s, sutherland_t_ref_k, sutherland_s_k : float
         Sutherland constants (air: 1.716e-5 Pa s at 273.15 K, S = 110.4 K).
+    prandtl_number : float
+        Prandtl number ``mu c_p / lambda`` (air: 0.71, nearly independent of p and T): the
+        thermal boundary layers of the tube and the chambers (``docs/acoustics.md``).
     """
 
     name: str = "air"
@@ -51,15 +55,21 @@ class Gas:
     sutherland_mu_ref_pa_s: float = 1.716e-5
     sutherland_t_ref_k: float = 273.15
     sutherland_s_k: float = 110.4
+    prandtl_number: float = 0.71
 
     def __post_init__(self):
         check_positive("gas.gas_constant_j_per_kg_k", self.gas_constant_j_per_kg_k)
         check_range("gas.heat_capacity_ratio", self.heat_capacity_ratio, 1.0, 1.7, lo_open=True)
         if self.viscosity_pa_s is not None:
             check_positive("gas.viscosity_pa_s", self.viscosity_pa_s, unit="Pa s")
+        for name, (lo, hi, unit) in GAS_DOMAIN.items():  # the models' numeric domain
+            v = getattr(self, name)
+            if v is not None:
+                check_range(f"gas.{name}", v, lo, hi, unit=unit)
         check_positive("gas.sutherland_mu_ref_pa_s", self.sutherland_mu_ref_pa_s)
         check_positive("gas.sutherland_t_ref_k", self.sutherland_t_ref_k)
         check_positive("gas.sutherland_s_k", self.sutherland_s_k)
+        check_range("gas.prandtl_number", self.prandtl_number, 0.1, 10.0)
 
     def viscosity(self, temperature_k):
         """Dynamic viscosity mu(T) in Pa s (Sutherland, or the fixed value)."""
@@ -76,6 +86,12 @@ class Gas:
     def density(self, pressure_pa, temperature_k):
         """Density rho = p / (R T) in kg/m^3 (paper Eq. 4)."""
         return pressure_pa / (self.gas_constant_j_per_kg_k * temperature_k)
+
+    def thermal_diffusivity(self, pressure_pa, temperature_k):
+        """Thermal diffusivity ``chi = lambda/(rho c_p) = mu/(rho Pr)`` in m^2/s."""
+        return self.viscosity(temperature_k) / (
+            self.density(pressure_pa, temperature_k) * self.prandtl_number
+        )
 
     def speed_of_sound(self, temperature_k):
         """Adiabatic speed of sound sqrt(kappa R T) in m/s."""
@@ -123,10 +139,23 @@ def pressure_from_load(
             or int(n_isolators) != n_isolators or not 1 <= n_isolators <= 10**6):
         raise InputError(f"n_isolators: must be an integer in [1, 1000000], got "
                          f"{n_isolators!r:.40}")
-    p0 = p_atm_pa + m * g_m_s2 / (int(n_isolators) * a)
+    g = check_range("g_m_s2", g_m_s2, 0.0, 100.0, lo_open=True, unit="m/s^2")
+    pa = check_range("p_atm_pa", p_atm_pa, 0.0, 1e7, unit="Pa")
+    p0 = pa + m * g / (int(n_isolators) * a)
     if not math.isfinite(p0):
         raise InputError(
             f"mass_kg: {m:g} kg on {int(n_isolators)} isolators of {a:g} m^2 needs a chamber "
             "pressure beyond floating point; give a physical payload"
+        )
+    if not p0 > pa:
+        raise InputError(
+            f"mass_kg: {m:g} kg on {int(n_isolators)} isolators of {a:g} m^2 adds nothing to "
+            f"the atmosphere's {pa:g} Pa in floating point; give a physical payload"
+        )
+    p_hi = DESIGN_DOMAIN["pressure_pa"][1]
+    if p0 > p_hi:
+        raise InputError(
+            f"mass_kg: {m:g} kg on {int(n_isolators)} isolators of {a:g} m^2 needs p0 = "
+            f"{p0:.3g} Pa, beyond the models' domain ({p_hi:g} Pa); give a physical payload"
         )
     return p0

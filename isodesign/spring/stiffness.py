@@ -40,11 +40,13 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import FREQUENCY_DOMAIN_HZ, MODEL_AMPLITUDE_DOMAIN_M
 from isodesign.errors import (
     InputError,
     ModelValidityWarning,
     SolverError,
     check_choice,
+    check_domain,
     check_positive,
 )
 from isodesign.plotting.stiffness import stiffness_figure
@@ -63,6 +65,7 @@ from isodesign.spring.flow_models import (
     FLOW_MODELS,
     SMOOTH_FLOW_MODELS,
     flow_model,
+    model_design,
     resistance_function,
 )
 
@@ -195,6 +198,8 @@ class StiffnessResult(ResultDisplay):
 def _grid(frequency_hz, amplitude_m, pairwise: bool):
     f = check_positive("frequency_hz", frequency_hz, unit="Hz", allow_array=True)
     x = check_positive("amplitude_m", amplitude_m, unit="m", allow_array=True)
+    check_domain("frequency_hz", f, FREQUENCY_DOMAIN_HZ, unit="Hz")
+    check_domain("amplitude_m", x, MODEL_AMPLITUDE_DOMAIN_M, unit="m")
     if pairwise:
         try:
             np.broadcast_shapes(f.shape, x.shape)
@@ -283,6 +288,7 @@ def complex_stiffness(
         raise InputError(f"design: expected a SpringDesign, got {type(design).__name__} "
                          f"{design!r:.40}")
     check_models(flow, amplitude_mode)
+    design = model_design(flow, design)
     dia = diaphragm_model(diaphragm)
     f, x = _grid(frequency_hz, amplitude_m, pairwise)  # un-broadcast, broadcastable
     shape = np.broadcast_shapes(f.shape, x.shape)
@@ -305,7 +311,7 @@ def complex_stiffness(
                 )
             u = solve.velocity
             c = solve.resistance
-        k_air = air_stiffness(design, w, c)
+        k_air = air_stiffness(design, w, c, flow)
         k_air_c = k_air.re + 1j * k_air.im
         k_d = dia.stiffness(w, x)
         k_d_c = np.broadcast_to(k_d.re + 1j * np.asarray(k_d.im), shape)
@@ -385,6 +391,7 @@ def stiffness_function(
             f"flow: {flow!r} is not available on CasADi symbols; valid: "
             f"{', '.join(SMOOTH_FLOW_MODELS)}"
         )
+    design = model_design(flow, design)
     dia = diaphragm_model(diaphragm)
     syms = ca.SX.sym("N"), ca.SX.sym("V_t0"), ca.SX.sym("L_c"), ca.SX.sym("D_c")
     f_hz, amp = ca.SX.sym("frequency_hz"), ca.SX.sym("amplitude_m")
@@ -409,7 +416,7 @@ def stiffness_function(
         x_sol = rf(lq - amplitude_residual(flow, d, w, amp, lq), p)
         u = ca.exp(x_sol)
     c = resistance_function(flow, d, w)(u)
-    k = spring_stiffness(air_stiffness(d, w, c), dia.stiffness(w, amp))
+    k = spring_stiffness(air_stiffness(d, w, c, flow), dia.stiffness(w, amp))
     return ca.Function(
         "k_star",
         [*syms, f_hz, amp],

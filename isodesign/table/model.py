@@ -27,6 +27,7 @@ from isodesign.numerics.cplx import Cx
 from isodesign.response.model import TWO_PI, SpringModel
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import model_design
 from isodesign.spring.stiffness import check_models
 from isodesign.table.assembly import Geometry, dynamic_stiffness, geometry, solve_complex
 from isodesign.table.layout import Table
@@ -216,6 +217,7 @@ def table_model(design, table, *, flow: str = "quasi_steady",
         raise InputError(f"table: expected an isodesign Table, got {type(table).__name__}")
     check_models(flow, amplitude_mode)
     diaphragm_model(diaphragm)
+    design = model_design(flow, design)  # the paper's flow models are lumped by definition
     lv = level(table, design.piston_area_m2)
     geo = geometry(table, lv.load_n, include_gravity=include_gravity)
     return TableModel(table=table, design=design, leveling=lv, designs=lv.designs(design),

@@ -66,7 +66,7 @@ def closure_springs(model, sigma, sigma_u):
         out = []
         for i, d in enumerate(model.designs):
             c = statistical_resistance_function(model.flow, d, w)(float(sigma_u[i]))
-            out.append(spring_stiffness(air_stiffness(d, w, c),
+            out.append(spring_stiffness(air_stiffness(d, w, c, model.flow),
                                         dia.stiffness(w, equivalent_amplitude(float(sigma[i])))))
         return out
 

@@ -114,6 +114,10 @@ class TableProblem:
         self.kh_re = np.stack([np.broadcast_to(np.asarray(c.re, float), w.shape) for c in kh])
         self.kh_im = np.stack([np.broadcast_to(np.asarray(c.im, float), w.shape) for c in kh])
         self.n_modes = 6
+        from isodesign.table.study import objective_selection
+
+        self.objective_axes, self.objective_points = objective_selection(
+            study.raw.get("table", {}), self.table)
         # per mode [active, w, phi_re(6), phi_im(6)]; an inactive mode keeps w = 2 pi rad/s
         self.mode_params = np.tile(np.r_[0.0, 2 * math.pi, np.zeros(12)], self.n_modes)
         self._build(ca)
@@ -125,10 +129,10 @@ class TableProblem:
         for i in range(self.n):
             d = base.replace(pressure_pa=float(self.leveling.pressure_pa[i]))
             c = statistical_resistance_function(self.flow, d, w)(ca.exp(y[i]))
-            k = spring_stiffness(air_stiffness(d, w, c),
+            k = spring_stiffness(air_stiffness(d, w, c, self.flow),
                                  self.dia.stiffness(w, EQUIVALENT_AMPLITUDE_FACTOR * ca.exp(s[i])))
             kv.append(k)
-            g2.append(tube_velocity_gain2(d, w, c))
+            g2.append(tube_velocity_gain2(d, w, c, self.flow))
         return base, kv, g2
 
     def _point_function(self, ca):
@@ -222,6 +226,10 @@ class TableProblem:
             rows_eq.append((ca.exp(2 * y[i]) - red[n + i]) / self.tube_ref[i] ** 2)
         lim2 = np.tile(np.asarray(g.limit_velocity_m_s, float) ** 2, 3 * k)
         margins = (10.0 / _LN10) * (ca.log(ca.DM(lim2)) - ca.log(red[2 * n: 2 * n + 3 * k * nb]))
+        # the objective's axes and points ([table] objective_axes / objective_points)
+        axes, pts = self.objective_axes, self.objective_points
+        keep = [(p * 3 + b) * nb + j for p in pts for b in axes for j in range(nb)]
+        judged = margins[keep] if len(keep) < 3 * k * nb else margins
         out = diag  # (3k x nf): |T_p,aa|^2
         self.n_margins = int(margins.numel())
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
@@ -229,7 +237,7 @@ class TableProblem:
         j_parts = {"total_volume": ca.log(d.total_volume_m3)}
         if t.numel():
             j_parts["worst_band_margin"] = -t[0]
-            cons.insert(0, ("worst_band_margin_epigraph", t[0] - margins, -np.inf, 0.0))
+            cons.insert(0, ("worst_band_margin_epigraph", t[0] - judged, -np.inf, 0.0))
         p_w = X.sym("weights", len(self.objectives))
         p_wd = X.sym("w_diameter")
         p_eps = X.sym("eps", len(self.objectives))
@@ -260,7 +268,8 @@ class TableProblem:
         self.ubx = np.concatenate([np.ones(self.nz), np.full(n, math.log(SIGMA_BOUNDS_M[1])),
                                    np.full(n, math.log(VELOCITY_BOUNDS_M_S[1])),
                                    np.full(int(t.numel()), EPIGRAPH_BOUND)])
-        self._margins_fn = ca.Function("margins", [x], [margins])
+        self._margins_fn = ca.Function("margins", [x], [judged])
+        self._all_margins_fn = ca.Function("all_margins", [x], [margins])
         self._j_fn = ca.Function("objectives", [x], [ca.vertcat(*js)])
         self.eval_fn = ca.Function("eval", [x, pp], [j_total, gg])
         self.solver = ca.nlpsol("isodesign_table", "ipopt",

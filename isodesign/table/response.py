@@ -80,7 +80,7 @@ class TableStatistical:
             key = (rep, float(sigma[i]), float(sigma_u[i]))
             if key not in cache:
                 c = self.c_of[rep](float(sigma_u[i]))
-                k_air = air_stiffness(self.model.designs[rep], w, c)
+                k_air = air_stiffness(self.model.designs[rep], w, c, self.model.flow)
                 k_d = self.dia.stiffness(w, equivalent_amplitude(float(sigma[i])))
                 cache[key] = (spring_stiffness(k_air, k_d), c, k_air, k_d)
             k, c, _, _ = cache[key]
@@ -105,7 +105,8 @@ class TableStatistical:
         s2 = np.einsum("fna,af->n", a2, sw, optimize=True)
         su2 = np.empty_like(s2)
         for i in range(self.model.n_isolators):
-            g2 = np.asarray(tube_velocity_gain2(self.model.designs[i], self.grid.omega, cs[i]))
+            g2 = np.asarray(tube_velocity_gain2(self.model.designs[i], self.grid.omega, cs[i],
+                                                self.model.flow))
             su2[i] = float(np.sum(sw.T * a2[:, i, :] * g2[:, None]))
         return s2, su2, out, ks, cs
 
@@ -467,7 +468,7 @@ def _spring_flags(model, grid, sigma, sigma_u) -> list[str]:
             continue
         seen[key] = i
         c = statistical_resistance_function(model.flow, d, w)(float(sigma_u[i]))
-        k_air = air_stiffness(d, w, c)
+        k_air = air_stiffness(d, w, c, model.flow)
         amp = equivalent_amplitude(float(sigma[i]))
         k_d = dia.stiffness(w, amp)
         k = spring_stiffness(k_air, k_d).to_complex()

@@ -90,6 +90,17 @@ FILES: dict[str, bytes] = {
     "floor_binary.csv": bytes(range(256)) * 4,
     "floor_latin1.csv": "f_hz,v\n1,caf\xe9\n".encode("latin-1"),
     "not_a_dir": b"a file",
+    # issue 14: finite and positive, but outside the models' domain
+    "vr_absurd.toml": _design(volume_ratio="1e10").encode(),
+    "vr_1e300.toml": _design(volume_ratio="1e300").encode(),
+    "p_1e300.toml": _design(pressure_pa="1e300").encode(),
+    "temp_tiny.toml": (REFERENCE + "temperature_k = 1e-300\n").encode(),
+    "gas_viscous.toml": (REFERENCE + "[gas]\nviscosity_pa_s = 1e300\n").encode(),
+    "study_vr_upper.toml": b"[variables.volume_ratio]\nstart = 2.0\nlower = 0.5\nupper = 1e10\n",
+    "study_vr_fixed.toml": b"[variables.volume_ratio]\nstart = 1e10\nfixed = true\n",
+    "study_band_200.toml": b"[target]\ncriterion = \"VC-C\"\nband_max_hz = 200\n",
+    "study_piston_tiny.toml": b"[hardware]\npiston_area_m2 = 1e-30\n",
+    "study_temp_tiny.toml": b"[hardware]\ntemperature_k = 1e-300\n",
 }
 
 # (command, argv with {tmp}/{name} placeholders, fragments the one error line contains)
@@ -361,9 +372,50 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
      ["--builtin", "not both"]),
     ("modes", ["--builtin", "table", "-o", "{foreign}"], ["--output", "not empty"]),
     ("response", ["{study_table_cg_out.toml}"], ["table.cg_m"]),
+    # -- issue 14: unwritable and odd output paths, refused before the computation -------
+    ("stiffness", ["-o", "/proc/version"], ["--output", "/proc/version"]),
+    ("stiffness", ["-o", "/sys/x.csv"], ["--output", "/sys"]),
+    ("stiffness", ["--plot", "/sys/x.png"], ["--plot", "/sys"]),
+    ("response", ["-o", "/proc/version"], ["--output", "/proc/version"]),
+    ("response", ["--plot", "/sys/x.png"], ["--plot", "/sys"]),
+    ("transmissibility", ["-o", "/sys/x.csv"], ["--output", "/sys"]),
+    ("criteria", ["-o", "/proc/x.csv"], ["--output", "/proc"]),
+    ("optimize", ["-o", "/proc/x"], ["--output", "/proc"]),
+    ("pareto", ["-o", "/sys/x"], ["--output", "/sys"]),
+    ("floor", ["{floor_latin1.csv}", "-o", "/proc/f"], ["--output", "/proc"]),
+    ("report", ["{latin1.toml}", "-o", "/sys/r.html"], ["--output", "/sys"]),
+    ("demo", ["-o", "/proc/x"], ["--output", "/proc"]),
+    # -- issue 14: finite values outside the models' domain: range errors, not "did not
+    # converge" or an overflow -------------------------------------------------------------
+    ("stiffness", ["--freq", "1e-320"], ["--freq", "[1e-06, 1e+06] Hz", "1e-320"]),
+    ("stiffness", ["--freq", "1e308"], ["--freq", "[1e-06, 1e+06] Hz", "1e308"]),
+    ("stiffness", ["--freq", "1:1e308:5"], ["--freq", "1e308"]),
+    ("stiffness", ["--amplitude", "1e300"], ["--amplitude", "[1e-30, 10] m", "1e300"]),
+    ("stiffness", ["--amplitude", "1e-320um"], ["--amplitude", "[1e-30, 10] m"]),
+    ("transmissibility", ["--freq", "1e308"], ["--freq", "[1e-06, 1e+06] Hz"]),
+    ("transmissibility", ["--floor-amplitude", "1e300"], ["--floor-amplitude", "[1e-30, 10] m"]),
+    ("stiffness", ["{vr_absurd.toml}"], ["vr_absurd.toml", "volume_ratio", "[0.001, 1000]"]),
+    ("stiffness", ["{vr_1e300.toml}"], ["vr_1e300.toml", "volume_ratio", "[0.001, 1000]"]),
+    ("response", ["{vr_absurd.toml}"], ["vr_absurd.toml", "volume_ratio", "[0.001, 1000]"]),
+    ("transmissibility", ["{p_1e300.toml}"], ["p_1e300.toml", "pressure_pa"]),
+    ("stiffness", ["{temp_tiny.toml}"], ["temp_tiny.toml", "temperature_k"]),
+    ("stiffness", ["{gas_viscous.toml}"], ["gas_viscous.toml", "viscosity_pa_s"]),
+    ("optimize", ["{study_vr_upper.toml}", "-o", "{tmp}/o"],
+     ["study_vr_upper.toml", "variables.volume_ratio.upper", "[0.001, 1000]"]),
+    ("optimize", ["{study_vr_fixed.toml}", "-o", "{tmp}/o"],
+     ["study_vr_fixed.toml", "variables.volume_ratio.start"]),
+    ("optimize", ["{study_band_200.toml}", "-o", "{tmp}/o"],
+     ["study_band_200.toml", "target.band_max_hz = 200", "VC-A floor"]),
+    ("response", ["{study_band_200.toml}"], ["study_band_200.toml", "target.band_max_hz = 200"]),
+    ("response", ["--bands", "1:200"], ["--bands 1:200", "VC-A floor"]),
+    ("optimize", ["{study_piston_tiny.toml}", "-o", "{tmp}/o"],
+     ["study_piston_tiny.toml", "hardware.piston_area_m2"]),
+    ("optimize", ["{study_temp_tiny.toml}", "-o", "{tmp}/o"],
+     ["study_temp_tiny.toml", "hardware.temperature_k"]),
     ("optimize", ["{study_plain.toml}", "--builtin", "table", "-o", "{tmp}/o"],
      ["--builtin", "not both"]),
-    ("pareto", ["--builtin", "table", "-o", "{tmp}/p"], ["[table]", "not available yet"]),
+    ("pareto", ["--builtin", "table", "--objectives", "peak_transmissibility,total_volume",
+                "-o", "{tmp}/p"], ["--objectives", "worst_band_margin,total_volume"]),
     # -- demo ---------------------------------------------------------------------------------
     ("demo", ["-o", "{earlier_run}"], ["--output", "already holds a run"]),
     ("demo", ["-o", "{not_a_dir}"], ["--output", "not a directory"]),
@@ -440,3 +492,17 @@ def test_the_table_covers_every_command_that_takes_input():
     counts = hostile_counts()
     assert set(counts) == set(COMMANDS)
     assert sum(counts.values()) == len(HOSTILE) >= 150
+
+
+def test_a_device_is_refused_as_an_output_file_and_never_replaced():
+    # checked on the path check alone: were it to pass, a command run as root would rename
+    # its temporary file over the device node (an earlier version replaced /dev/null)
+    from isodesign.commands import check_output_path
+    from isodesign.errors import InputError
+
+    for dev in ("/dev/null", "/dev/full"):
+        if not os.path.exists(dev):
+            continue
+        with pytest.raises(InputError, match=r"--output: .* is not a regular file"):
+            check_output_path(dev, "--output")
+        assert not Path(dev).is_file()  # still a device

@@ -657,3 +657,17 @@ def test_import_is_light():
     code = "import sys, isodesign.floor; print('pandas' in sys.modules, 'scipy' in sys.modules)"
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert out.stdout.split() == ["False", "False"]
+
+
+def test_criteria_table_names_its_bad_arguments():
+    # issue 14: names=[] raised pandas' "No objects to concatenate"
+    from isodesign.errors import InputError
+    from isodesign.floor import criteria_table
+
+    with pytest.raises(InputError, match=r"^names: empty; give at least one criterion name"):
+        criteria_table(names=[])
+    with pytest.raises(InputError, match=r"^names: expected a sequence of criterion names"):
+        criteria_table(names="VC-A")
+    with pytest.raises(InputError, match=r"^f_min_hz, f_max_hz: no band of 100-200 Hz"):
+        criteria_table(100.0, 200.0, names=("VC-A",))
+    assert len(criteria_table(names=("VC-A",))) == 20

@@ -225,11 +225,15 @@ def test_a_scenario_no_design_can_meet_is_named():
 
 @pytest.mark.slow
 def test_default_robust_optimum_holds_at_1000_draws():
-    """The issue's judgement: +-5 % D_c and L_c, 480-720 kg; 1000 draws, NumPy analysis."""
+    """The issue's judgement: +-5 % D_c and L_c, 480-720 kg; 1000 draws, NumPy analysis.
+
+    With the lumped acoustics, the worked example of docs/robust.md (with the distributed
+    default the exchange method ends on a worse local optimum: docs/robust.md, section 1).
+    """
     st = default_study().with_changes(scenarios={
         "payload_mass_kg": {"min": 480.0, "max": 720.0},
         "capillary_diameter_m": {"relative": 0.05},
-        "capillary_length_m": {"relative": 0.05}})
+        "capillary_length_m": {"relative": 0.05}}, models={"acoustics": "lumped"})
     res = robust_optimize(st)
     assert res.feasible and res.converged
     y = estimate_yield(st, res.values, samples=1000, seed=1, workers=2)

@@ -78,7 +78,7 @@ def test_default_study_file_loads(tmp_path):
          {"mass_kg", "isolators", "spacing_m", "cg_height_m"}),
         ({"models": {"flow_model": "womersley"}}, "flow_model", "[models]",
          {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
-          "peak_points"}),
+          "peak_points", "acoustics"}),
         ({"constraints": {"max_volume": 1e-3}}, "max_volume", "[constraints]",
          {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
           "min_natural_frequency_hz", "max_natural_frequency_hz",
@@ -137,7 +137,7 @@ def test_wrong_type_is_named(d, fragment):
     ("d", "fragment"),
     [
         ({"payload": {"mass_kg": -1.0}}, "payload.mass_kg: must be in (0, inf]"),
-        ({"hardware": {"temperature_k": -3.0}}, "hardware.temperature_k: must be in (0, 1000]"),
+        ({"hardware": {"temperature_k": -3.0}}, "hardware.temperature_k: must be in (1, 1000]"),
         ({"constraints": {"max_mach": -0.3}}, "constraints.max_mach: must be in (0, inf]"),
         ({"models": {"points_per_band": 2}}, "models.points_per_band must be an integer in [3,"),
         ({"models": {"peak_points": 5000}}, "models.peak_points must be an integer in [10, 2000]"),
@@ -404,3 +404,20 @@ def test_toml_round_trip(tmp_path, raw):
     assert st.models == orig.models and st.objective == orig.objective
     assert st.constraints == orig.constraints and st.solver == orig.solver
     assert st.start_design() == orig.start_design()
+
+
+def test_acoustics_and_chamber_keys():
+    """[models] acoustics and the chamber shape reach the design; bad values are named."""
+    st = default_study().with_changes(models={"acoustics": "lumped"},
+                                      hardware={"chamber_aspect_ratio": 2.0,
+                                                "chamber_heat_exchange": True})
+    d = st.start_design()
+    assert d.acoustics == "lumped" and d.chamber_aspect_ratio == 2.0 and d.chamber_heat_exchange
+    assert default_study().start_design().acoustics == "distributed"
+    with pytest.raises(InputError, match=r"models\.acoustics"):
+        default_study().with_changes(models={"acoustics": "wave"})
+    with pytest.raises(InputError, match=r"hardware\.chamber_aspect_ratio"):
+        default_study().with_changes(hardware={"chamber_aspect_ratio": 0.0})
+    with pytest.raises(InputError, match="chamber_heat_exchange"):
+        default_study().with_changes(hardware={"chamber_heat_exchange": True,
+                                               "polytropic_index": 1.2})

@@ -97,3 +97,17 @@ def test_max_pressure_pa_is_reported_as_a_constraint_of_the_run():
     assert row.value == pytest.approx(p0, rel=1e-9)
     assert row.upper == pytest.approx(MAX_STATIC_PRESSURE_PA)
     assert row.unit == "Pa" and not row.active
+
+
+@pytest.mark.parametrize("bad", ["not a dict", 3, None, ["payload"]])
+def test_study_from_dict_names_its_argument(bad):
+    # issue 14: 'not a dict' was reported as '<dict>: [] must be a table'
+    with pytest.raises(InputError, match=r"^study_from_dict: d must be a dict of study tables"):
+        study_from_dict(bad)
+
+
+def test_variable_bounds_outside_the_models_domain_name_the_key():
+    with pytest.raises(InputError, match=r"variables.volume_ratio.upper = 1e\+10 is outside "
+                                         r"the models' domain \[0.001, 1000\]"):
+        study_from_dict({"variables": {"volume_ratio": {"start": 2.0, "lower": 0.5,
+                                                        "upper": 1e10}}})

@@ -37,7 +37,7 @@ def test_default_is_statistical_and_self_consistent(res):
     # T is the spring with C = linear part + Gaussian-equivalent resistance at sigma_u and
     # the diaphragm at A* = 1.880 sigma
     c = statistical_resistance_function("quasi_steady", d, g.omega)(sigma_u)
-    k = air_stiffness(d, g.omega, c) + diaphragm_model("viscoelastic").stiffness(
+    k = air_stiffness(d, g.omega, c, "quasi_steady") + diaphragm_model("viscoelastic").stiffness(
         g.omega, EQUIVALENT_AMPLITUDE_FACTOR * res.stroke_rms_m)
     k = k.to_complex()
     np.testing.assert_allclose(res.transmissibility, k / (k - 100.0 * g.omega**2), rtol=1e-9)
@@ -45,7 +45,7 @@ def test_default_is_statistical_and_self_consistent(res):
     floor = FloorSpectrum.from_criterion("VC-A")
     f = g.frequency_hz
     rel = res.transmissibility - 1.0
-    gain2 = tube_velocity_gain2(d, g.omega, Cx(c.re, c.im))
+    gain2 = tube_velocity_gain2(d, g.omega, Cx(c.re, c.im), "quasi_steady")
 
     def on_grid(values):
         def fn(ff):

@@ -56,3 +56,44 @@ def test_complex_stiffness_checks_its_design(design):
 def test_pressure_from_load_names_the_payload(mass, n, match):
     with pytest.raises(InputError, match=match):
         pressure_from_load(mass, n, 5.3e-3)
+
+
+@pytest.mark.parametrize("g", [-9.80665, 0.0, float("nan"), 1e300])
+def test_a_bad_gravity_is_named_as_g_m_s2(g):
+    # issue 14: a negative g_m_s2 was reported as pressure_pa
+    from isodesign.errors import InputError
+    from isodesign.spring.gas import pressure_from_load
+
+    with pytest.raises(InputError, match=r"^g_m_s2: must be in \(0, 100\] m/s\^2"):
+        SpringDesign.reference().with_load(600.0, 4, g_m_s2=g)
+    with pytest.raises(InputError, match=r"^g_m_s2"):
+        pressure_from_load(600.0, 4, 5.3e-3, g_m_s2=g)
+
+
+@pytest.mark.parametrize(("field", "value"), [
+    ("volume_ratio", 1e10), ("volume_ratio", 1e-10), ("top_volume_m3", 1e20),
+    ("pressure_pa", 1e300), ("temperature_k", 1e-300), ("capillary_length_m", 1e5),
+])
+def test_a_design_outside_the_models_domain_is_a_range_error(field, value):
+    import re
+
+    from isodesign.domain import DESIGN_DOMAIN
+    from isodesign.errors import InputError
+
+    lo, hi, _ = DESIGN_DOMAIN[field]
+    with pytest.raises(InputError, match="^" + re.escape(f"{field}: must be in [{lo:g}, {hi:g}]")):
+        SpringDesign.reference().replace(**{field: value})
+
+
+def test_the_corners_of_the_models_domain_give_finite_stiffness():
+    import numpy as np
+
+    from isodesign.domain import FREQUENCY_DOMAIN_HZ, MODEL_AMPLITUDE_DOMAIN_M
+    from isodesign.spring.stiffness import complex_stiffness
+
+    for change in ({}, {"volume_ratio": 1e-3}, {"volume_ratio": 1e3}, {"pressure_pa": 1e12},
+                   {"temperature_k": 1.0}, {"temperature_k": 5000.0}):
+        d = SpringDesign.reference().replace(**change)
+        res = complex_stiffness(d, [*FREQUENCY_DOMAIN_HZ, 1.0],
+                                [*MODEL_AMPLITUDE_DOMAIN_M, 1e-3], warn=False)
+        assert np.isfinite(res.k).all(), change

@@ -97,7 +97,9 @@ LIMIT_DESIGNS = {
 @pytest.mark.parametrize("mode", MODES)
 @pytest.mark.parametrize("flow", SMOOTH_FLOWS)
 def test_frequency_limits_without_diaphragm(ref, flow, mode, changes):
-    d = ref.replace(**changes)
+    """Eq. 38's limits k_s/(N+1) and k_s (the lumped model; the distributed one's are in
+    tests/spring/test_acoustics.py)."""
+    d = ref.replace(acoustics="lumped", **changes)
     n, ks = d.volume_ratio, d.single_chamber_stiffness_n_per_m
     s = d.bottom_volume_m3 / (KAPPA * R_GAS * T0)
     c_u = poiseuille_resistance(d)
@@ -124,10 +126,12 @@ def test_resistance_at_least_poiseuille(ref, flow):
 
 
 def test_reference_limits_numbers(ref):
-    """docs/physics.md's numbers: 8,393 N/m and 23,935 N/m (literal model too)."""
+    """docs/physics.md's numbers: 8,393 N/m and 23,935 N/m (literal model too; Eq. 38 is
+    the lumped model, whose high-frequency limit is the blocked tube)."""
+    lumped = ref.replace(acoustics="lumped")
     for kw in ({"flow": "zhao", "amplitude_mode": "kinematic"}, {}):
-        k_lo = k_of(ref, 1e-6, 1e-4, diaphragm="none", **kw).item()
-        k_hi = k_of(ref, 1e5, 1e-4, diaphragm="none", **kw).item()
+        k_lo = k_of(lumped, 1e-6, 1e-4, diaphragm="none", **kw).item()
+        k_hi = k_of(lumped, 1e5, 1e-4, diaphragm="none", **kw).item()
         assert k_lo.real == pytest.approx(8393, abs=0.5)
         assert k_hi.real == pytest.approx(23935, abs=1)
 
@@ -475,19 +479,24 @@ def test_churchill_slope(roughness):
 # --------------------------------------------------------------------------------------------
 # The self-consistent flow amplitude
 # --------------------------------------------------------------------------------------------
+@pytest.mark.parametrize("acoustics", ["lumped", "distributed"])
 @pytest.mark.parametrize("flow", SMOOTH_FLOWS)
-def test_self_consistent_velocity_is_driven_velocity(ref, random_points, flow):
+def test_self_consistent_velocity_is_driven_velocity(ref, random_points, flow, acoustics):
     f, x = random_points
-    res = complex_stiffness(ref, f, x, flow=flow, pairwise=True, warn=False)
+    d = ref.replace(acoustics=acoustics)
+    res = complex_stiffness(d, f, x, flow=flow, pairwise=True, warn=False)
+    d = res.design  # the paper's poiseuille is lumped by definition
     u = res.diagnostics.velocity_amplitude_m_s
     w = 2 * math.pi * f
     c = resistance(flow, ref, w, u)
-    # written out: N (A_p/A_c) X w / |1 + N + j w s C|
-    s = N_REF * V_T0 / (KAPPA * R_GAS * T0)
-    by_hand = N_REF * (A_P / A_C) * x * w / np.abs(1 + N_REF + 1j * w * s * (c.re + 1j * c.im))
-    np.testing.assert_allclose(u, driven_velocity(ref, w, x, c), rtol=1e-10)
-    np.testing.assert_allclose(u, by_hand, rtol=1e-10)
+    np.testing.assert_allclose(u, driven_velocity(d, w, x, c, flow), rtol=1e-10)
     np.testing.assert_allclose(res.diagnostics.driven_velocity_m_s, u, rtol=1e-10)
+    if d.acoustics == "lumped":
+        # written out: N (A_p/A_c) X w / |1 + N + j w s C|
+        s = N_REF * V_T0 / (KAPPA * R_GAS * T0)
+        by_hand = N_REF * (A_P / A_C) * x * w / np.abs(
+            1 + N_REF + 1j * w * s * (c.re + 1j * c.im))
+        np.testing.assert_allclose(u, by_hand, rtol=1e-10)
 
 
 # Independent harmonic balance (laminar friction + K = 1.5; docs/physics.md, section 3)

@@ -56,3 +56,17 @@ def test_optimize_builtin_table_and_its_run_directory(tmp_path, capsys):
     assert main(["modes", str(out), "-o", str(tmp_path / "m")]) == 0
     assert "optimum of" in capsys.readouterr().out
     assert main(["response", str(out), "--points-per-band", "6"]) == 0
+
+
+@pytest.mark.slow
+def test_pareto_of_the_table_study(tmp_path, capsys):
+    out = tmp_path / "p"
+    assert main(["pareto", "--builtin", "table", "--points", "3", "--starts", "1",
+                 "--workers", "1", "-o", str(out)]) == 0
+    df = pd.read_csv(out / "pareto.csv")
+    assert len(df) == 3 and df["nondominated"].all()
+    # less volume, less margin: a front
+    assert df["total_volume_m3"].is_monotonic_decreasing
+    assert df["worst_margin_db"].is_monotonic_decreasing
+    assert (out / "pareto.png").is_file()
+    assert main(["report", str(out), "-o", str(tmp_path / "r.html")]) == 0

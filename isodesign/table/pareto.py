@@ -1,0 +1,153 @@
+"""Pareto front of a table study: worst margin (three axes, every point) against volume.
+
+Epsilon constraint on the :class:`~isodesign.table.problem.TableProblem` with both
+objectives: anchor A is :func:`~isodesign.table.optimize.optimize_table` (multi-start, mode
+refresh, re-check); anchor B minimizes the total volume from it; between them the worst
+margin is maximized subject to ``ln V <= eps`` for ``points`` values of eps, each solve
+warm-started from the previous one (from anchor B when that one stalls; docs/table.md,
+section 11).
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from isodesign.errors import InputError, SolverError
+from isodesign.results import ResultDisplay
+
+__all__ = ["TableParetoResult", "table_pareto_front"]
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class TableParetoResult(ResultDisplay):
+    """Points of a table study's Pareto front (worst margin against total volume).
+
+    Attributes
+    ----------
+    worst_margin_db : ndarray
+        Worst margin over points, axes and bands (NLP grid), per point; NaN if infeasible.
+    total_volume_m3 : ndarray
+    designs : tuple of dict
+    statuses : tuple of str
+    front : ndarray of bool
+        Non-dominated points.
+    study : Study
+    wall_s : float
+    """
+
+    worst_margin_db: np.ndarray
+    total_volume_m3: np.ndarray
+    designs: tuple
+    statuses: tuple
+    front: np.ndarray
+    study: Any
+    wall_s: float
+
+    def to_frame(self):
+        """One row per point: margin, volume, design, status, non-dominated."""
+        import pandas as pd
+
+        df = pd.DataFrame(list(self.designs))
+        df.insert(0, "total_volume_m3", self.total_volume_m3)
+        df.insert(0, "worst_margin_db", self.worst_margin_db)
+        df["status"] = list(self.statuses)
+        df["nondominated"] = self.front
+        return df
+
+    def _summary_items(self) -> list[tuple[str, str]]:
+        return [("points", str(len(self.designs))), ("non-dominated", str(int(self.front.sum()))),
+                ("wall", f"{self.wall_s:.3g} s")]
+
+    def plot(self, ax=None):
+        """Worst margin against total volume (L), the non-dominated points joined.
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from isodesign.plotting.style import new_figure
+
+        if ax is None:
+            ax = new_figure(6.0, 4.0).subplots()
+        v, m = self.total_volume_m3 * 1e3, self.worst_margin_db
+        ax.plot(v[self.front], m[self.front], "C0-o", ms=4, label="non-dominated")
+        ax.plot(v[~self.front], m[~self.front], "x", color="0.5", label="dominated")
+        ax.axhline(0.0, color="C3", lw=0.8)
+        ax.set_xlabel("total volume per isolator V_t0 (1 + N) (L)")
+        ax.set_ylabel("worst margin, 3 axes, every point (dB)")
+        ax.set_title(f"table study {self.study.name!r}: margin against volume", fontsize=10)
+        ax.grid(True, alpha=0.3)
+        ax.legend(fontsize=8)
+        return ax.figure
+
+
+def table_pareto_front(study, points: int = 10, *, progress=None) -> TableParetoResult:
+    """Worst margin (maximized) against total volume (minimized) of a table study.
+
+    Parameters
+    ----------
+    study : Study
+        With a ``[table]``.
+    points : int
+        Epsilon values (>= 2), anchors included.
+    progress : callable, optional
+        ``progress(done, total)`` after each point.
+
+    Returns
+    -------
+    TableParetoResult
+
+    Raises
+    ------
+    SolverError
+        No feasible design at anchor A.
+    """
+    from isodesign.table.optimize import optimize_table
+    from isodesign.table.problem import TableProblem
+
+    if isinstance(points, bool) or not isinstance(points, int) or points < 2:
+        raise InputError(f"points: must be an integer >= 2, got {points!r}")
+    t0 = time.perf_counter()
+    st = study.with_changes(objective={"kind": "worst_band_margin"})
+    prob = TableProblem(st, objectives=("worst_band_margin", "total_volume"))
+    res_a = optimize_table(st, problem=prob, analyze=False)
+    if not res_a.feasible:
+        raise SolverError(f"pareto: no feasible design when maximizing the worst margin "
+                          f"({res_a.status})")
+    anchor_a = prob.solve(prob.initial_guess(res_a.values))
+    anchor_b = prob.solve(anchor_a.x, prob.params(weights=[0.0, 1.0]))
+    if not anchor_b.feasible:
+        raise SolverError(f"pareto: minimizing the total volume failed ({anchor_b.status})")
+    eps = np.linspace(float(anchor_a.objectives[1]), float(anchor_b.objectives[1]), points)
+    sols, x = [], anchor_a.x
+    for k, e in enumerate(eps):
+        sol = anchor_a if k == 0 else prob.solve(x, prob.params(eps=[None, e + 1e-9]))
+        if not sol.feasible:  # the chain stalled: from the other anchor
+            sol = prob.solve(anchor_b.x, prob.params(eps=[None, e + 1e-9]))
+        if sol.feasible:
+            x = sol.x
+        sols.append(sol)
+        if progress:
+            progress(k + 1, points)
+    margin = np.array([prob.worst_margin_db(s.x) if s.feasible else math.nan for s in sols])
+    vol = np.array([math.exp(s.objectives[1]) if s.feasible else math.nan for s in sols])
+    front = np.zeros(points, bool)
+    for i in range(points):
+        if not np.isfinite(margin[i]):
+            continue
+        dominated = any(np.isfinite(margin[j]) and margin[j] >= margin[i] and vol[j] <= vol[i]
+                        and (margin[j] > margin[i] or vol[j] < vol[i]) for j in range(points))
+        front[i] = not dominated
+    return TableParetoResult(worst_margin_db=margin, total_volume_m3=vol,
+                             designs=tuple(s.values for s in sols),
+                             statuses=tuple(s.status for s in sols), front=front, study=st,
+                             wall_s=time.perf_counter() - t0)
