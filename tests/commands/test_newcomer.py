@@ -102,6 +102,8 @@ def test_the_newcomer_study_states_scope_binding_limit_and_units(newcomer_run):
     assert not validity and "total_volume" in binding, binding
     assert "the design is stopped by the requirements" in text
     assert design["limited_by"] and all(s in text for s in design["limited_by"])
+    rec = json.loads((newcomer_run["dir"] / "record.json").read_text())  # the run record too
+    assert rec["limited_by"] == design["limited_by"] and rec["scope"] == design["scope"]
     # units stated: volumes in L, lengths in mm, in the constraint table as in the design
     assert "values and margins in the unit shown (L, mm)" in text
     assert re.search(r"total_volume +[\d.]+ +<= 8 +[\d.e+-]+ +L", text), text
