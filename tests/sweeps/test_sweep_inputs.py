@@ -281,3 +281,13 @@ def test_the_yield_task_when_robust_design_is_installed(tmp_path):
     with pytest.raises(InputError, match=r"--task yield: the study has no \[scenarios\]"):
         isodesign.sweep(None, ["payload.mass_kg=400"], task="yield", output=tmp_path / "z",
                         scheduler="serial")
+
+
+def test_dask_scheduler_address_from_the_environment(tmp_path, monkeypatch):
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", address)
+    t0 = time.monotonic()
+    status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+                                "response", "-o", tmp_path / "s")
+    assert status == 2 and time.monotonic() - t0 < 10.0
+    assert f"DASK_SCHEDULER_ADDRESS: cannot reach the Dask scheduler at {address}" in stderr
