@@ -102,6 +102,8 @@ def test_the_newcomer_study_states_scope_binding_limit_and_units(newcomer_run):
     assert not validity and "total_volume" in binding, binding
     assert "the design is stopped by the requirements" in text
     assert design["limited_by"] and all(s in text for s in design["limited_by"])
+    rec = json.loads((newcomer_run["dir"] / "record.json").read_text())  # the run record too
+    assert rec["limited_by"] == design["limited_by"] and rec["scope"] == design["scope"]
     # units stated: volumes in L, lengths in mm, in the constraint table as in the design
     assert "values and margins in the unit shown (L, mm)" in text
     assert re.search(r"total_volume +[\d.]+ +<= 8 +[\d.e+-]+ +L", text), text
@@ -316,3 +318,16 @@ def test_the_pareto_plot_marks_the_envelope_and_explains_each_break():
     assert "#5 to #3: point #4 not solved" in box and "natural_frequency released" in box
     letters = [t.get_text() for t in ax.texts if re.fullmatch(r"\([a-z]\)", t.get_text())]
     assert letters == ["(a)", "(b)", "(c)"]
+
+
+def test_a_study_level_scope_for_answers_over_many_designs():
+    from isodesign.response.scope import study_scope
+
+    sc = study_scope(default_study())
+    lines = sc.lines()
+    assert lines[0].startswith("scope: vertical motion of a 600 kg point-mass payload on 4")
+    assert sc.illustrative_share is None
+    assert lines[-1].startswith("illustrative: the viscoelastic diaphragm") and "per design" \
+        in lines[-1]
+    assert study_scope(default_study().with_changes(models={"diaphragm": "none"})).lines()[
+        -1].startswith("not modelled")
