@@ -4,8 +4,9 @@ The scenario box is semi-infinite (every payload, every drill size in the tolera
 like the peak refinement (:mod:`.refine`), the robust NLP is solved on a finite set of
 scenarios and the box is searched for the scenario that hurts most at the new design:
 
-1. solve the stacked NLP (:class:`.robust.RobustProblem`) on the current scenarios,
-   warm-started at the previous design; place movable peak frequencies where a
+1. solve the stacked NLP (:class:`.robust.RobustProblem`) on the current scenarios from
+   the previous design, the nominal optimum and the best robust design so far (the best
+   feasible solution is kept); place movable peak frequencies where a
    scenario's continuous peak of |T| exceeds its bound (as :func:`.refine.refine_peak`);
 2. search the box with the NumPy analysis (:func:`.recheck.evaluate_design` on
    :class:`.uncertainty.ScenarioStudy`): every corner (every value of a listed
