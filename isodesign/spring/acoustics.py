@@ -4,11 +4,12 @@ The piston drives the volume velocity ``Q_p = j w A_p X`` into the top chamber's
 piston end. The top chamber (a line, :func:`isodesign.spring.chamber.chamber_line`)
 carries it to the tube's inlet; the tube (:func:`isodesign.spring.transmission_line.
 tube_two_port`) to the bottom chamber, closed at its far end. The flow model's
-resistance ``C`` (Pa s/kg) enters as its exact laminar part, the Womersley impedance
-``C_W = C_u zeta(alpha)`` that the line carries distributed along the tube, plus the
-rest ``dC = C - C_W`` (the minor loss, the turbulent friction excess and, for the
-approximate laws, their difference from the exact laminar one): half of ``rho dC`` at
-each end of the tube as a series impedance. With ``r = rho dC / 2``::
+resistance ``C`` (Pa s/kg) enters as its linear part ``C_lin`` (the Womersley impedance
+``C_u zeta(alpha)`` for ``womersley``, Poiseuille plus the 4/3 inertance for
+``quasi_steady``), which the line carries distributed along the tube as its series
+impedance ``rho C_lin / L_c`` per length, plus the rest ``dC = C - C_lin`` (the minor
+loss and the turbulent friction excess): half of ``rho dC`` at each end of the tube as a
+series impedance. With ``r = rho dC / 2``::
 
     Z2 = Z_b + r                         (Z_b = ch_b / C_b, the bottom chamber, closed end)
     Z3 = (ch Z2 + B) / (C Z2 + ch) + r   (the tube and its inlet term)
@@ -181,10 +182,11 @@ def acoustic_network(design, omega, flow: str | None = None) -> AcousticNetwork:
     flow : str, optional
         The flow model whose resistance the network will receive. Its linear part
         (:func:`isodesign.spring.capillary.linear_resistance`: Poiseuille plus the 4/3
-        inertance for ``quasi_steady``, ``C_u zeta`` for ``womersley``) is what the line
-        replaces, so the end terms are exactly the model's nonlinear part (minor loss,
-        turbulent friction excess: passive). ``None``: the exact laminar impedance
-        ``C_u zeta`` is subtracted.
+        inertance for ``quasi_steady``, ``C_u zeta`` for ``womersley``), per unit length,
+        is the line's series impedance, so the end terms are exactly the model's nonlinear
+        part (minor loss, turbulent friction excess: passive) and the distributed model
+        tends to the same flow model's lumped one at low frequency. ``None``: the exact
+        laminar impedance ``C_u zeta``.
 
     Returns
     -------
@@ -215,13 +217,13 @@ def _network(design, omega, flow) -> AcousticNetwork:
     d = design
     top = chamber_line(d, d.top_volume_m3, omega)
     ch_b, _, c_b = chamber_line(d, d.bottom_volume_m3, omega)
-    tube = tube_two_port(d, omega)
     if flow in STATISTICAL_FLOW_MODELS:
         c_lin = linear_resistance(flow, d, omega)
     else:
         zeta = womersley_zeta(womersley_number(d, omega))
         c_u = poiseuille_resistance(d)
         c_lin = Cx(c_u * zeta.re, c_u * zeta.im)
+    tube = tube_two_port(d, omega, c_lin)
     return AcousticNetwork(
         omega=omega,
         top=top,
