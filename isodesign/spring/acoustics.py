@@ -115,16 +115,21 @@ class AcousticNetwork:
         return z3, c_t * z3 + ch_t, den2
 
     def _solve(self, c: Cx):
-        """``(Z3, den1, den2)`` for the resistance ``c``."""
+        """``(N1, D1, den2)`` for the resistance ``c``, free of divisions (symbolic path).
+
+        With ``N3 = ch Z2 + B + r den2`` (so that ``Z3 = N3 / den2``):
+        ``N1 = ch_t N3 + B_t den2`` and ``D1 = C_t N3 + ch_t den2 = den1 den2``, so that
+        ``Z_piston = N1 / D1`` and ``|Q1|^2 / |Q_p|^2 = |den2|^2 / |D1|^2``: one complex
+        division for the stiffness, none for the gain (smaller derivatives in the NLP).
+        """
         dc = c - self.c_womersley
         r = dc * (0.5 * self.rho)
         ch, b, cc = self.tube
         z2 = self.z_bottom + r
         den2 = cc * z2 + ch
-        z3 = (ch * z2 + b) / den2 + r
-        ch_t, _, c_t = self.top
-        den1 = c_t * z3 + ch_t
-        return z3, den1, den2
+        n3 = ch * z2 + b + r * den2
+        ch_t, b_t, c_t = self.top
+        return ch_t * n3 + b_t * den2, c_t * n3 + ch_t * den2, den2
 
     def stiffness(self, c: Cx) -> Cx:
         """Air stiffness ``k = j w A_p^2 (ch_t Z3 + B_t) / (C_t Z3 + ch_t)``, N/m.
@@ -139,9 +144,8 @@ class AcousticNetwork:
             z3, den1, _ = self._solve_numpy(parts, c)
             zp = (parts[0] * z3 + parts[1]) / den1
             return Cx.from_complex(1j * (self.omega * self.piston_area**2) * zp)
-        z3, den1, _ = self._solve(c)
-        ch_t, b_t, _ = self.top
-        zp = (ch_t * z3 + b_t) / den1
+        n1, d1, _ = self._solve(c)
+        zp = n1 / d1
         s = self.omega * self.piston_area * self.piston_area
         return Cx(-s * zp.im, s * zp.re)
 
@@ -160,8 +164,8 @@ class AcousticNetwork:
             a1 = den1.real * den1.real + den1.imag * den1.imag
             a2 = den2.real * den2.real + den2.imag * den2.imag
             return 0.5 * g * g * (1.0 + 1.0 / a2) / a1
-        _, den1, den2 = self._solve(c)
-        return 0.5 * g * g * (1.0 + 1.0 / den2.abs2()) / den1.abs2()
+        _, d1, den2 = self._solve(c)
+        return 0.5 * g * g * (den2.abs2() + 1.0) / d1.abs2()
 
 
 def _t(x, idx):
