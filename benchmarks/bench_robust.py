@@ -2,8 +2,8 @@
 
 ``robust_optimize`` end to end (the nominal multi-start optimization included, 2 forked
 workers), median of 3 without warm-up (each about 10-20 s); then, informative, the robust
-optimum judged at 1,000 uniform draws from the box with the NumPy analysis (one process pool
-of 2 workers): the largest constraint violation, the continuous peak's largest excess, and
+optimum judged at 1,000 uniform draws from the box with the NumPy analysis (2 forked
+workers): the largest constraint violation, the continuous peak's largest excess, and
 the stated worst case minus the worst draw (must be <= 0.05 dB).
 """
 

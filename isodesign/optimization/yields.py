@@ -9,8 +9,9 @@ every constraint holds (violation <= :data:`.solution.FEASIBILITY_TOLERANCE`) an
 continuous peak of |T| is within :data:`.refine.PEAK_TOLERANCE_DB` of its bound.
 
 The pass fraction comes with an exact Clopper-Pearson interval (and the Wilson score
-interval); the draws run on a process pool (forked workers, the study inherited, only the
-draws and the verdicts cross).
+interval); the draws run in forked workers through the optimizer's one map
+(:func:`.multistart.map_in_workers`: the study inherited, only the draws and the verdicts
+cross).
 """
 
 from __future__ import annotations
@@ -22,7 +23,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isodesign.errors import InputError
-from isodesign.optimization.multistart import available_cores
+from isodesign.optimization.multistart import available_cores, map_in_workers
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.results import ResultDisplay
 
@@ -266,14 +267,10 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
     workers = min(workers or study.solver.get("workers", 2), available_cores(), samples)
     _CTX = (study, dict(values), build_grid(study))
     try:
-        if workers > 1:
-            import multiprocessing as mp
-
-            chunks = np.array_split(draws, workers * 4)
-            with mp.get_context("fork").Pool(workers) as pool:
-                verdicts = [v for part in pool.map(_judge_chunk, chunks) for v in part]
-        else:
-            verdicts = _judge_chunk(draws)
+        # the optimizer's one forked map (the workers inherit the study through fork)
+        chunks = np.array_split(draws, workers * 4) if workers > 1 else [draws]
+        parts = map_in_workers(_judge_chunk, chunks, workers=workers)
+        verdicts = [v for part in parts for v in part]
     finally:
         _CTX = None
     return YieldResult(study=study, values=dict(values), draws=draws, verdicts=tuple(verdicts),

@@ -11,6 +11,8 @@ Schema (docs/table.md, section 8)::
     instrument_points_m = [[0.0, 0.0, 0.6]]
     point_names = ["column"]
     supply_pressure_pa = 701325.0      # absolute
+    objective_axes = ["x", "y", "z"]   # the axes and points the worst-margin objective
+    objective_points = ["column"]      # judges (default all; the verdict is over all)
     [table.horizontal]
     pendulum_length_m = 0.15           # false: no pendulum
     lateral_stiffness_n_per_m = 1.0e4
@@ -27,12 +29,13 @@ import numpy as np
 from isodesign.errors import InputError
 from isodesign.table.layout import HorizontalElement, Table, box_inertia
 
-__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "table_from_dict"]
+__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection", "table_from_dict"]
 
 #: Keys of ``[table]`` and ``[table.horizontal]``.
 TABLE_KEYS = {
     "table": {"isolators_m", "cg_m", "inertia_kg_m2", "box_m", "leveling_groups",
-              "instrument_points_m", "point_names", "supply_pressure_pa", "horizontal"},
+              "instrument_points_m", "point_names", "supply_pressure_pa", "horizontal",
+              "objective_axes", "objective_points"},
     "table.horizontal": {"pendulum_length_m", "lateral_stiffness_n_per_m",
                          "lateral_loss_factor", "elastic_centre_height_m"},
 }
@@ -100,9 +103,11 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
         for k in ("supply_pressure_pa", "instrument_points_m", "point_names"):
             if k in d:
                 kw[k] = d[k]
-        return Table(mass_kg=mass_kg, isolators_m=d["isolators_m"], cg_m=d["cg_m"],
-                     inertia_kg_m2=inertia, leveling_groups=groups, horizontal=hor,
-                     g_m_s2=g_m_s2, **kw)  # fmt: skip
+        t = Table(mass_kg=mass_kg, isolators_m=d["isolators_m"], cg_m=d["cg_m"],
+                  inertia_kg_m2=inertia, leveling_groups=groups, horizontal=hor,
+                  g_m_s2=g_m_s2, **kw)  # fmt: skip
+        objective_selection(d, t)
+        return t
     except InputError as exc:
         msg = str(exc)
         if msg.startswith(("horizontal:", "pendulum_length_m", "lateral_", "elastic_")):
@@ -111,6 +116,28 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
         if msg.startswith("box_m"):
             raise InputError(f"{where}: table.{msg}") from None
         raise InputError(f"{where}: table.{msg}") from None
+
+
+def objective_selection(d: dict, table: Table) -> tuple[tuple[int, ...], tuple[int, ...]]:
+    """``(axes, points)`` indices the worst-margin objective judges (``[table]``'s
+    ``objective_axes`` and ``objective_points``; default every axis and point).
+
+    Parameters
+    ----------
+    d : dict
+        The ``[table]`` table.
+    table : Table
+        Its points' names.
+    """
+    axes = d.get("objective_axes", ["x", "y", "z"])
+    pts = d.get("objective_points", list(table.point_names))
+    if not isinstance(axes, list) or not axes or any(a not in ("x", "y", "z") for a in axes):
+        raise InputError(f"objective_axes: a non-empty list of x, y, z; got {axes!r:.60}")
+    if not isinstance(pts, list) or not pts or any(p not in table.point_names for p in pts):
+        raise InputError(f"objective_points: a non-empty list of point_names "
+                         f"({', '.join(table.point_names)}); got {pts!r:.60}")
+    return (tuple(sorted({"xyz".index(a) for a in axes})),
+            tuple(sorted({table.point_names.index(p) for p in pts})))
 
 
 def narrowest_spacing_m(table: Table) -> float:

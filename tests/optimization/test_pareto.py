@@ -300,7 +300,7 @@ def test_front_not_dominated_by_independent_designs(front):
 def test_anchor_b_is_the_minimum_of_b_with_or_without_the_band(monkeypatch):
     """B minimized alone with A's epigraph bounded (pareto.ANCHOR_B_BAND) reaches the same
     minimum as without the bound; a band so narrow that it binds falls back to the
-    unbounded solve."""
+    unbounded solve (lumped acoustics: there the unbounded solve converges, slowly)."""
     from isodesign.optimization import pareto
     from isodesign.optimization.problem import Problem
 
