@@ -43,6 +43,7 @@ from isodesign.io.record import (
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.pareto import DEFAULT_OBJECTIVES, pareto_front
 from isodesign.plotting import pareto_plot
+from isodesign.response.scope import study_scope
 
 #: Objective names: the objective registry's.
 OBJECTIVE_CHOICES = tuple(OBJECTIVES)
@@ -289,6 +290,7 @@ def _execute(study, run, args, objectives) -> int:
 
         print(models_line(study.models, "the study"))
         print(front_table(result))
+        print("\n".join(study_scope(study).lines()))
     print(f"{n_front} of {len(result.designs)} points non-dominated; hypervolume "
           f"{result.hypervolume:.4f} (normalized: ideal point -> 0, reference point -> 1)")
     print(f"  reference point (nadir + {result.settings['reference_margin']:.0%} of the "

@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import sys
 
+import numpy as np
+
 #: Files written by a table optimization (feasible run, plots on).
 TABLE_OUTPUT_FILES = ("design.json", "design.toml", "bands.csv", "modes.csv", "starts.csv",
                       "record.json", "study_resolved.toml", "response.png", "layout.png")
@@ -62,6 +64,13 @@ def table_summary_text(result) -> str:
     for i, ax in enumerate(AXES):
         lines.append(f"  {'worst margin ' + ax + ' (dB)':<24}{a0.axis_margin_db()[i]:>+10.2f}"
                      f"{a1.axis_margin_db()[i]:>+10.2f}")
+    pk = a1.peak_transmissibility_db().max(axis=0)
+    lim = st.constraints.get("max_peak_transmissibility_db")
+    over = lim is not None and lim is not False and bool(np.any(pk > lim + 0.01))
+    lines.append("  peak |T| per axis on the analysis grid (every point): " + ", ".join(
+        f"{ax} {v:+.2f} dB" for ax, v in zip("xyz", pk, strict=True))
+        + ("" if lim in (None, False) else f" (limit {lim:g} dB"
+           + ("; ABOVE it between the NLP's grid points)" if over else ")")))
     lines.append("  constraints (worst violation, NLP units): " + ", ".join(
         f"{n} {v:.2g}" for n, v in result.constraints))
     lines.append(f"  re-check: NumPy closure = NLP to {result.recheck_sigma_rel:.2g} (sigma), "
@@ -90,6 +99,7 @@ def execute_table(study, run, args) -> int:
     from isodesign.io.designfile import design_to_toml
     from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
     from isodesign.plotting.style import save_figure
+    from isodesign.table.modes import rocking_stability
     from isodesign.table.optimize import optimize_table
     from isodesign.table.plots import layout_figure
 
@@ -97,12 +107,20 @@ def execute_table(study, run, args) -> int:
                        "command_line": command_line(), "environment": environment(),
                        "study": resolved_study_dict(study), "study_source": study.source})
     res = optimize_table(study)
+    start = {v.name: v.start for v in study.variables}
     run.record.update({"feasible": res.feasible, "status": res.status,
-                       "design": res.values, "objective": res.objective,
-                       "objective_value": res.objective_value, "wall_s": res.wall_s,
+                       "design": res.values, "start_design": start,
+                       "objective": res.objective, "objective_value": res.objective_value,
+                       "start_objective_value": res.start_objective, "wall_s": res.wall_s,
+                       "n_reached_best": res.n_reached_best,
+                       "starts": [{"start": i, "status": stt, "feasible": bool(f),
+                                   "iterations": it, "wall_s": w}
+                                  for i, stt, f, it, w, _ in res.starts],
                        "hessian": res.hessian, "mode_rounds": res.mode_rounds,
+                       "recheck_max_rel_diff": res.recheck_sigma_rel,
                        "recheck_sigma_rel": res.recheck_sigma_rel,
-                       "recheck_margin_db": res.recheck_margin_db})
+                       "recheck_margin_db": res.recheck_margin_db,
+                       "violations": [[n, v] for n, v in res.constraints]})
     run.write_csv("starts.csv", _starts_frame(res))
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign optimize run (a table study).\n"
@@ -117,9 +135,26 @@ def execute_table(study, run, args) -> int:
     run.write_text("design.toml", design_to_toml(res.design, models=models, header=(
         f"Optimized spring of the table study {study.name!r} (isodesign optimize); each "
         "isolator's p0 comes from the table's leveling (docs/table.md).")))
+    variables = {}
+    for v in study.variables:
+        val = res.values[v.name]
+        at = ("lower" if abs(val / v.lower - 1) < 1e-6 else
+              "upper" if abs(val / v.upper - 1) < 1e-6 else None) if not v.fixed else None
+        variables[v.name] = {"value": val, "lower": v.lower, "upper": v.upper,
+                             "fixed": v.fixed, "at_bound": at}
+    def derived(analysis, modes, values):
+        z = [f for f, n in zip(modes.frequency_hz, modes.names, strict=True) if n == "z"]
+        return {"worst_band_margin_db": analysis.worst_margin_db,
+                "natural_frequency_hz": z[0] if z else None,
+                "peak_transmissibility_db": float(analysis.peak_transmissibility_db().max()),
+                "tilt_margin": float(rocking_stability(analysis.model).margin[0]),
+                "total_volume_m3": values["top_volume_m3"] * (1 + values["volume_ratio"])}
+
     run.write_json("design.json", {
-        "variables": res.values, "objective": {"kind": res.objective,
-                                               "value": res.objective_value},
+        "derived": derived(res.analysis, res.modes, res.values),
+        "start_derived": derived(res.start_analysis, res.start_modes, start),
+        "variables": variables, "objective": {"kind": res.objective,
+                                              "value": res.objective_value},
         "verdict": res.analysis.verdict(), "start_verdict": res.start_analysis.verdict(),
         "worst_margin_per_axis_db": dict(zip("xyz", res.analysis.axis_margin_db().tolist(),
                                              strict=True)),

@@ -27,6 +27,7 @@ from isodesign.commands import (
     write_result,
 )
 from isodesign.commands.response import (
+    _db,
     add_payload_arguments,
     check_payload_pressure,
     models_line,
@@ -93,13 +94,14 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
                      "diaphragm": s.diaphragm}, models_source),
         f"  {f.size} frequencies {f.min():.4g}..{f.max():.4g} Hz; {res.branch} branch",
         f"  natural frequency {s.natural_frequency_hz:.4g} Hz; linear peak |T| "
-        f"{s.peak_transmissibility:.4g} at {s.peak_frequency_hz:.4g} Hz",
+        f"{_db(s.peak_transmissibility):.2f} dB at {s.peak_frequency_hz:.4g} Hz",
         f"  {'floor ampl.':>11}  {'peak |T|':>8}  {'at (Hz)':>8}  {'max stroke':>10}  "
         f"{'multi-root':>10}",
+        f"  {'':>11}  {'(dB)':>8}",
     ]
     for j, xf in enumerate(res.floor_amplitude_m):
         lines.append(
-            f"  {xf * 1e6:>8.4g} um  {res.peak_transmissibility[j]:>8.4g}  "
+            f"  {xf * 1e6:>8.4g} um  {_db(res.peak_transmissibility[j]):>8.2f}  "
             f"{res.peak_frequency_hz[j]:>8.4g}  {np.max(res.stroke_m[:, j]) * 1e6:>7.4g} um  "
             f"{int(np.sum(res.multiple_roots[:, j])):>10d}"
         )

@@ -516,7 +516,8 @@ def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict
         status, objective and start objective (natural units), ``design`` and
         ``start_design`` (SI), ``constraints``, ``violations``, ``flat_direction``,
         ``peak_refinement``, ``recheck_max_rel_diff``, ``wall_s`` and, if feasible,
-        ``figures``.
+        ``figures``, ``scope`` (:class:`~isodesign.response.scope.Scope` as a dict) and
+        ``limited_by`` (:func:`~isodesign.optimization.explain.limiting_factors`).
     """
 
     starts = []
@@ -553,6 +554,9 @@ def optimization_record(result, *, argv=None, extra: dict | None = None) -> dict
     }
     if result.feasible:
         rec["figures"] = design_figures(result.design, result.analysis)
+        # what the answer covers and leaves out, and what stopped the design (issue 14)
+        rec["scope"] = result.analysis.scope.to_dict() if result.analysis is not None else None
+        rec["limited_by"] = limiting_factors(result)
     if extra:
         rec.update(extra)
     return rec

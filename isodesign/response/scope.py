@@ -18,7 +18,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
-__all__ = ["ILLUSTRATIVE_DIAPHRAGMS", "SHORT_VERTICAL", "Scope", "response_scope"]
+__all__ = ["ILLUSTRATIVE_DIAPHRAGMS", "SHORT_VERTICAL", "Scope", "response_scope", "study_scope"]
 
 #: The short scope of the vertical model (``repr`` of results, table cells).
 SHORT_VERTICAL = "vertical only, equal loads, no rocking/horizontal modes"
@@ -66,6 +66,10 @@ class Scope:
             out.append(f"illustrative: {self.illustrative_what} supplies "
                        f"{100.0 * self.illustrative_share:.0f} % of the static stiffness K0 "
                        "(calibrate it from rig data: isodesign fit diaphragm)")
+        elif self.illustrative_what:
+            out.append(f"illustrative: {self.illustrative_what} supplies part of the static "
+                       "stiffness K0 of every design (its share per design: isodesign response "
+                       "RUN; calibrate it from rig data: isodesign fit diaphragm)")
         return out
 
     def short(self) -> str:
@@ -132,3 +136,28 @@ def response_scope(payload, diaphragm: str, static_stiffness_n_per_m: float | No
         what = f"the {diaphragm} diaphragm (illustrative parameters, not measured)"
     return Scope(covers=covers, leaves_out=leaves_out, illustrative_share=share,
                  illustrative_what=what)
+
+
+def study_scope(study) -> Scope:
+    """The scope of every answer about a (vertical) study, before any design is chosen.
+
+    For results that span many designs (a Pareto front): the model's reach and, for an
+    illustrative diaphragm, that it is illustrative (its share of ``K0`` is per design).
+
+    Parameters
+    ----------
+    study : Study
+        Its payload, ``models["diaphragm"]`` and floor.
+
+    Returns
+    -------
+    Scope
+    """
+    sc = response_scope(study.payload, study.models["diaphragm"], None, None,
+                        getattr(study.floor, "name", ""))
+    dia = str(study.models["diaphragm"])
+    if dia.split(":")[0] in ILLUSTRATIVE_DIAPHRAGMS:
+        sc = Scope(covers=sc.covers, leaves_out=sc.leaves_out, illustrative_share=None,
+                   illustrative_what=f"the {dia} diaphragm (illustrative parameters, not "
+                                     "measured)", headline=sc.headline)
+    return sc

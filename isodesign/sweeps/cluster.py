@@ -68,6 +68,24 @@ class Connection:
         return False
 
 
+def _ignore_sigint_plugin():
+    """A worker plugin: the local cluster's workers ignore SIGINT (Ctrl-C reaches the whole
+    process group; the sweep cancels their tasks and closes the cluster itself)."""
+    from distributed.diagnostics.plugin import WorkerPlugin
+
+    class IgnoreSigint(WorkerPlugin):
+        name = "isodesign-ignore-sigint"
+
+        def setup(self, worker):
+            import signal
+            import threading
+
+            if threading.current_thread() is threading.main_thread():
+                signal.signal(signal.SIGINT, signal.SIG_IGN)
+
+    return IgnoreSigint()
+
+
 def _quiet_logs() -> None:
     for name in ("distributed", "distributed.comm", "distributed.core", "distributed.nanny",
                  "distributed.scheduler", "distributed.worker", "tornado"):
@@ -132,6 +150,10 @@ def connect(scheduler: str | None = None, workers: int | None = None, *,
                                worker_dashboard_address=None,
                                silence_logs=logging.CRITICAL, scheduler_port=0)
     client = Client(cluster, set_as_default=False)
+    import contextlib
+
+    with contextlib.suppress(Exception):  # best effort: a worker's traceback is cosmetic
+        client.register_plugin(_ignore_sigint_plugin())
     return Connection(client, cluster, f"local cluster ({n} worker processes on 127.0.0.1)",
                       n)
 

@@ -348,7 +348,8 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
     where = "nothing to run" if not todo else ""
     status = "complete"
     if progress:
-        progress(reused, total, None, 0)
+        progress(reused, total, None,
+                 0 if conn is None else min(max(conn.workers, 1), len(todo)))
 
     def finished(p, row):
         nonlocal done, failed

@@ -80,6 +80,12 @@ def check_key(key: str, option: str = "--vary") -> str:
         return k
     parts = k.split(".")
     head = parts[0]
+    if head in SCHEMA_KEYS[""] and head not in (*_TABLES, "variables", "name", "description") \
+            and len(parts) >= 2 and all(parts):
+        return k  # a table with its own schema ([table], [scenarios]): checked by the study
+    if head in _TABLES and len(parts) == 3 and all(parts) and parts[1] in SCHEMA_KEYS[head]:
+        return k  # a sub-table ([floor.x], [floor.y]): checked by the study
+    head = parts[0]
     if head in _TABLES and len(parts) >= 2:
         table = ".".join(parts[:2]) if parts[:2] == ["hardware", "gas"] else head
         valid = sorted(SCHEMA_KEYS[table] - {"gas"})
@@ -88,7 +94,8 @@ def check_key(key: str, option: str = "--vary") -> str:
         valid = [f"variables.{v}.{{start,lower,upper,fixed}}" for v in DESIGN_VARIABLES]
         where = "[variables]"
     else:
-        valid = ["name", *(f"{t}.KEY" for t in _TABLES), "variables.NAME.FIELD"]
+        others = sorted(set(SCHEMA_KEYS[""]) - {*_TABLES, "variables", "name", "description"})
+        valid = ["name", *(f"{t}.KEY" for t in (*_TABLES, *others)), "variables.NAME.FIELD"]
         where = "a study"
     raise InputError(f"{option}: unknown key {k!r}; valid in {where}: {', '.join(valid)}")
 

@@ -64,17 +64,12 @@ def newcomer_run(tmp_path_factory):
 
     buf_out, buf_err = io.StringIO(), io.StringIO()
     with contextlib.redirect_stdout(buf_out), contextlib.redirect_stderr(buf_err):
-        status = main(["optimize", str(study), "-o", str(out), "--quiet"])
-        assert status == 0, buf_err.getvalue()
-        quiet = buf_out.getvalue()
-        buf_out.truncate(0)
-        buf_out.seek(0)
-        status = main(["optimize", str(study), "-o", str(out), "--overwrite"])
+        status = main(["optimize", str(study), "-o", str(out)])
         assert status == 0, buf_err.getvalue()
         text = buf_out.getvalue()
         status = main(["report", str(out)])  # no -o: RUN/report.html
         assert status == 0, buf_err.getvalue()
-    return {"dir": out, "text": text, "quiet": quiet, "err": buf_err.getvalue(),
+    return {"dir": out, "text": text, "err": buf_err.getvalue(),
             "study": load_study(study)}
 
 
@@ -107,12 +102,14 @@ def test_the_newcomer_study_states_scope_binding_limit_and_units(newcomer_run):
     assert not validity and "total_volume" in binding, binding
     assert "the design is stopped by the requirements" in text
     assert design["limited_by"] and all(s in text for s in design["limited_by"])
+    rec = json.loads((newcomer_run["dir"] / "record.json").read_text())  # the run record too
+    assert rec["limited_by"] == design["limited_by"] and rec["scope"] == design["scope"]
     # units stated: volumes in L, lengths in mm, in the constraint table as in the design
     assert "values and margins in the unit shown (L, mm)" in text
     assert re.search(r"total_volume +[\d.]+ +<= 8 +[\d.e+-]+ +L", text), text
     assert "m^3" not in text.split("constraints at the optimum")[1].split("flat direction")[0]
-    # the quiet form carries the verdict; the report has the scope in its job section
-    assert "PASS" in newcomer_run["quiet"] or "FAIL" in newcomer_run["quiet"]
+    # the verdict, and the report has the scope in its job section
+    assert "optimum: PASS" in text or "optimum: FAIL" in text
     html = (newcomer_run["dir"] / "report.html").read_text()
     assert "not modelled" in html and "illustrative parameters" in html
     assert "What stopped the design" in html and "requirement" in html
@@ -321,3 +318,16 @@ def test_the_pareto_plot_marks_the_envelope_and_explains_each_break():
     assert "#5 to #3: point #4 not solved" in box and "natural_frequency released" in box
     letters = [t.get_text() for t in ax.texts if re.fullmatch(r"\([a-z]\)", t.get_text())]
     assert letters == ["(a)", "(b)", "(c)"]
+
+
+def test_a_study_level_scope_for_answers_over_many_designs():
+    from isodesign.response.scope import study_scope
+
+    sc = study_scope(default_study())
+    lines = sc.lines()
+    assert lines[0].startswith("scope: vertical motion of a 600 kg point-mass payload on 4")
+    assert sc.illustrative_share is None
+    assert lines[-1].startswith("illustrative: the viscoelastic diaphragm") and "per design" \
+        in lines[-1]
+    assert study_scope(default_study().with_changes(models={"diaphragm": "none"})).lines()[
+        -1].startswith("not modelled")

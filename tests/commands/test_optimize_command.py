@@ -347,3 +347,11 @@ def test_demo_runs_the_default_optimization_and_the_stiffness_comparison(capsys,
     assert design["start_derived"]["passes"] is False
     assert "PASS" in out and "paper's model" in out
     assert "Traceback" not in err
+    # issue 14: the demo writes the report, inside the run, and prints its path last
+    report = outdir / "report.html"
+    html = report.read_text()
+    assert report.stat().st_size > 10_000 and "isodesign-partial" not in html
+    assert str(outdir / "optimize") in html and "What stopped the design" in html
+    assert out.strip().splitlines()[-1] == f"report: {report} (open it in a browser)"
+    rec = json.loads((outdir / "record.json").read_text())
+    assert "report.html" in rec["files"]

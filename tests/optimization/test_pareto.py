@@ -300,11 +300,14 @@ def test_front_not_dominated_by_independent_designs(front):
 def test_anchor_b_is_the_minimum_of_b_with_or_without_the_band(monkeypatch):
     """B minimized alone with A's epigraph bounded (pareto.ANCHOR_B_BAND) reaches the same
     minimum as without the bound; a band so narrow that it binds falls back to the
-    unbounded solve."""
+    unbounded solve (lumped acoustics: there the unbounded solve converges, slowly)."""
     from isodesign.optimization import pareto
     from isodesign.optimization.problem import Problem
 
-    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40})
+    # the lumped acoustics: with the distributed default the unbounded solve from this start
+    # ends Infeasible_Problem_Detected (IPOPT; noted in the issue-16 report)
+    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40,
+                                              "acoustics": "lumped"})
     st = st.with_changes(objective={"kind": "worst_band_margin"})
     prob = Problem(st, objectives=("worst_band_margin", "total_volume"))
     a = prob.solve(prob.initial_guess({v.name: v.start for v in st.variables}))

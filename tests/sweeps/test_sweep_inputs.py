@@ -72,6 +72,10 @@ def test_product_zip_and_the_point_studies():
     # an invalid point names its changes and the key
     with pytest.raises(InputError, match=r"--vary payload.mass_kg=-1: payload.mass_kg"):
         build_points(default_study(), [{"payload.mass_kg": -1}])
+    # a sub-table's keys ([floor.x]) and a table with its own schema are the study's to check
+    assert parse_vary("floor.x.criterion=VC-A")[0] == "floor.x.criterion"
+    with pytest.raises(InputError, match=r"--vary floor.x.criterion=VC-A: floor.x applies only"):
+        build_points(default_study(), [{"floor.x.criterion": "VC-A"}])
 
 
 def test_the_study_hash_is_the_resolved_study():
@@ -267,12 +271,27 @@ def test_the_yield_task_when_robust_design_is_installed(tmp_path):
     study = tmp_path / "robust.toml"
     study.write_text("[scenarios]\npayload_mass_kg = {relative = 0.05}\n"
                      "capillary_diameter_m = {relative = 0.05}\n", encoding="utf-8")
-    res = isodesign.sweep(study, ["payload.mass_kg=400,900"], task="yield",
+    res = isodesign.sweep(study, ["scenarios.capillary_diameter_m.relative=0.01,0.2"],
+                          task="yield",
                           options={"samples": 20, "seed": 1}, output=tmp_path / "y",
                           scheduler="serial", charts=False)
     assert res.status == "complete" and list(res.table["objective"]) == ["yield", "yield"]
     assert all(0 <= v <= 1 for v in res.table["objective_value"])
     assert (res.table["yield_low"] <= res.table["objective_value"]).all()
+    assert sorted(res.table["scenarios.capillary_diameter_m.relative"]) == [0.01, 0.2]
+    for _, r in res.table.iterrows():
+        y = json.loads((tmp_path / "y" / r["run_dir"] / "yield.json").read_text())
+        assert y["samples"] == r["samples"] == 20 and y["fraction"] == r["objective_value"]
     with pytest.raises(InputError, match=r"--task yield: the study has no \[scenarios\]"):
         isodesign.sweep(None, ["payload.mass_kg=400"], task="yield", output=tmp_path / "z",
                         scheduler="serial")
+
+
+def test_dask_scheduler_address_from_the_environment(tmp_path, monkeypatch):
+    address = f"tcp://127.0.0.1:{_free_port()}"
+    monkeypatch.setenv("DASK_SCHEDULER_ADDRESS", address)
+    t0 = time.monotonic()
+    status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+                                "response", "-o", tmp_path / "s")
+    assert status == 2 and time.monotonic() - t0 < 10.0
+    assert f"DASK_SCHEDULER_ADDRESS: cannot reach the Dask scheduler at {address}" in stderr

@@ -56,6 +56,9 @@ def test_optimize_builtin_table_and_its_run_directory(tmp_path, capsys):
     assert main(["modes", str(out), "-o", str(tmp_path / "m")]) == 0
     assert "optimum of" in capsys.readouterr().out
     assert main(["response", str(out), "--points-per-band", "6"]) == 0
+    assert main(["report", str(out), "-o", str(tmp_path / "r.html")]) == 0
+    html = (tmp_path / "r.html").read_text(encoding="utf-8")
+    assert "The table in six degrees of freedom" in html and "upper" in html  # N at its bound
 
 
 @pytest.mark.slow
