@@ -286,7 +286,7 @@ def _check_worked_example(res, y, yn):
             "capillary_diameter_m": 0.05} in binding
     assert f"takes {len(res.rounds)} rounds and {len(res.scenarios)} scenarios" in doc
     assert f"({rv['capillary_diameter_m'] * 1e3:.2f} mm, so that a bore" in doc
-    assert f"under 15 dB; {rv['capillary_length_m'] * 1e3:.1f} mm)" in doc
+    assert f"under 15 dB; {rv['capillary_length_m'] * 1e3:.1f} mm, so" in doc
 
 
 # -- yield --------------------------------------------------------------------------------
