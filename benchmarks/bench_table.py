@@ -126,7 +126,7 @@ def bench_table_modes() -> dict:
     md = holder["r"]
     return {"name": "table modes (6, frequency-dependent stiffness, fixed point per mode)",
             "target": "", "unit": "s", **t,
-            "notes": f"iterations per mode {list(md.iterations)}; frequencies "
+            "notes": f"iterations per mode {[int(i) for i in md.iterations]}; frequencies "
                      + ", ".join(f"{f:.3g}" for f in md.frequency_hz) + " Hz"}
 
 

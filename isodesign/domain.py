@@ -61,6 +61,8 @@ CONSTRAINT_DOMAIN = {
     "min_damping_ratio": (1e-6, 100.0, ""),
     "max_mach": (1e-6, 10.0, ""),
     "max_pressure_pa": (101325.0, 1e12, "Pa"),
+    "min_rocking_frequency_hz": (1e-6, 1e6, "Hz"),
+    "max_rocking_frequency_hz": (1e-6, 1e6, "Hz"),
 }
 #: Fields of a gas: (lowest, highest, unit).
 GAS_DOMAIN = {

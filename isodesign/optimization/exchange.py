@@ -4,8 +4,9 @@ The scenario box is semi-infinite (every payload, every drill size in the tolera
 like the peak refinement (:mod:`.refine`), the robust NLP is solved on a finite set of
 scenarios and the box is searched for the scenario that hurts most at the new design:
 
-1. solve the stacked NLP (:class:`.robust.RobustProblem`) on the current scenarios,
-   warm-started at the previous design; place movable peak frequencies where a
+1. solve the stacked NLP (:class:`.robust.RobustProblem`) on the current scenarios from
+   the previous design, the nominal optimum and the best robust design so far (the best
+   feasible solution is kept); place movable peak frequencies where a
    scenario's continuous peak of |T| exceeds its bound (as :func:`.refine.refine_peak`);
 2. search the box with the NumPy analysis (:func:`.recheck.evaluate_design` on
    :class:`.uncertainty.ScenarioStudy`): every corner (every value of a listed
@@ -30,7 +31,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from isodesign.errors import InputError
+from isodesign.errors import InputError, SolverError
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.recheck import evaluate_design
 from isodesign.optimization.refine import (
@@ -251,6 +252,7 @@ def robust_optimize(study, *, nominal=None, progress=None):
     thetas = [space.center()]
     if first["score"] > 1.0 and not np.allclose(first["theta"], thetas[0]):
         thetas.append(first["theta"])
+    best_values = dict(values)
     slots: list = [block.slot_hz.copy() for _ in thetas]
     slot_rounds = [0 for _ in thetas]
     rounds = []
@@ -261,7 +263,9 @@ def robust_optimize(study, *, nominal=None, progress=None):
         t0 = time.perf_counter()
         prob = RobustProblem(block, thetas)
         prob.slots = [s.copy() for s in slots]
-        sol = prob.solve(prob.initial_guess(values))
+        sol = _best_solve(prob, [values, nominal.values, best_values], study)
+        if sol.feasible:
+            best_values = dict(sol.values)
         if not sol.feasible:
             k, cname, amount = sol.worst_scenario()
             return RobustResult.infeasible(study, nominal, prob, sol, k, cname, amount, rounds,
@@ -295,6 +299,36 @@ def robust_optimize(study, *, nominal=None, progress=None):
         feasible=True, converged=converged, status=sol.status, rounds=tuple(rounds),
         scenarios=tuple(rows), first_search=first, last_search=last, problem=prob,
         solution=sol, wall_s=time.perf_counter() - t_all)
+
+
+def _best_solve(prob, starts: list, study):
+    """Solve the stacked NLP from each distinct start (in forked workers); the best.
+
+    A new scenario can push IPOPT from the last design onto a worse branch (a restoration
+    phase far from it): the last design, the nominal optimum and the best robust design so
+    far are each tried and the feasible solution with the best worst case is kept (the
+    first on a tie, the last design being first)."""
+    from isodesign.optimization.multistart import map_in_workers
+
+    distinct = []
+    for v in starts:
+        if not any(all(abs(v[k] / w[k] - 1.0) < 1e-9 for k in v) for w in distinct):
+            distinct.append(dict(v))
+
+    def one(v):
+        try:
+            return prob.solve(prob.initial_guess(v))
+        except Exception as exc:
+            return str(exc)
+
+    sols = [s for s in map_in_workers(one, distinct, workers=study.solver.get("workers"))
+            if not isinstance(s, str)]
+    if not sols:
+        raise SolverError("robust NLP: no start could be initialized")
+    feas = [s for s in sols if s.feasible]
+    if feas:
+        return min(feas, key=lambda s: s.objective)
+    return min(sols, key=lambda s: s.max_violation)
 
 
 def _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds) -> bool:

@@ -142,7 +142,8 @@ _KEYS = {
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
                     "min_natural_frequency_hz", "max_natural_frequency_hz",
                     "max_peak_transmissibility_db", "min_damping_ratio", "max_mach",
-                    "max_pressure_pa", "model_validity"},
+                    "max_pressure_pa", "model_validity", "min_rocking_frequency_hz",
+                    "max_rocking_frequency_hz"},
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
@@ -357,6 +358,10 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
     table = _table(raw, payload, hw, where)
+    for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz"):
+        if table is None and raw.get("constraints", {}).get(k) not in (None, False):
+            raise InputError(f"{where}: constraints.{k} applies only to a study with a [table] "
+                             "(docs/table.md)")
     floor, floor_axes = _floor_axes(raw["floor"], where, source, table)
     target, bands, band_hz = _target(raw["target"], where)
     _check_bands_covered(floor, target, bands, band_hz, where)

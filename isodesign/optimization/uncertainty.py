@@ -31,8 +31,9 @@ from isodesign.errors import InputError
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization.variables import DESIGN_VARIABLES
-from isodesign.spring.design import SpringDesign
+from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
+from isodesign.spring.flow_models import model_design
 from isodesign.spring.gas import P_ATM
 
 __all__ = [
@@ -483,7 +484,9 @@ class ScenarioStudy:
     def design_at(self, values: dict):
         """The built spring of the drawn design ``values`` under this scenario."""
         vals = self.built_values(values)
-        d = SpringDesign(pressure_pa=2e5, **vals, **self.hardware)
+        d = model_design(self.models["flow"], SpringDesign(
+            pressure_pa=2e5, **vals, **self.hardware,
+            acoustics=self.models.get("acoustics", ACOUSTIC_MODELS[0])))
         p_amb = self.theta.get("ambient_pressure_pa", P_ATM)
         pl = self.payload
         p0 = p_amb + pl.mass_kg * pl.g_m_s2 / (pl.isolators * d.piston_area_m2)

@@ -4,11 +4,12 @@ The piston drives the volume velocity ``Q_p = j w A_p X`` into the top chamber's
 piston end. The top chamber (a line, :func:`isodesign.spring.chamber.chamber_line`)
 carries it to the tube's inlet; the tube (:func:`isodesign.spring.transmission_line.
 tube_two_port`) to the bottom chamber, closed at its far end. The flow model's
-resistance ``C`` (Pa s/kg) enters as its exact laminar part, the Womersley impedance
-``C_W = C_u zeta(alpha)`` that the line carries distributed along the tube, plus the
-rest ``dC = C - C_W`` (the minor loss, the turbulent friction excess and, for the
-approximate laws, their difference from the exact laminar one): half of ``rho dC`` at
-each end of the tube as a series impedance. With ``r = rho dC / 2``::
+resistance ``C`` (Pa s/kg) enters as its linear part ``C_lin`` (the Womersley impedance
+``C_u zeta(alpha)`` for ``womersley``, Poiseuille plus the 4/3 inertance for
+``quasi_steady``), which the line carries distributed along the tube as its series
+impedance ``rho C_lin / L_c`` per length, plus the rest ``dC = C - C_lin`` (the minor
+loss and the turbulent friction excess): half of ``rho dC`` at each end of the tube as a
+series impedance. With ``r = rho dC / 2``::
 
     Z2 = Z_b + r                         (Z_b = ch_b / C_b, the bottom chamber, closed end)
     Z3 = (ch Z2 + B) / (C Z2 + ch) + r   (the tube and its inlet term)
@@ -114,16 +115,21 @@ class AcousticNetwork:
         return z3, c_t * z3 + ch_t, den2
 
     def _solve(self, c: Cx):
-        """``(Z3, den1, den2)`` for the resistance ``c``."""
+        """``(N1, D1, den2)`` for the resistance ``c``, free of divisions (symbolic path).
+
+        With ``N3 = ch Z2 + B + r den2`` (so that ``Z3 = N3 / den2``):
+        ``N1 = ch_t N3 + B_t den2`` and ``D1 = C_t N3 + ch_t den2 = den1 den2``, so that
+        ``Z_piston = N1 / D1`` and ``|Q1|^2 / |Q_p|^2 = |den2|^2 / |D1|^2``: one complex
+        division for the stiffness, none for the gain (smaller derivatives in the NLP).
+        """
         dc = c - self.c_womersley
         r = dc * (0.5 * self.rho)
         ch, b, cc = self.tube
         z2 = self.z_bottom + r
         den2 = cc * z2 + ch
-        z3 = (ch * z2 + b) / den2 + r
-        ch_t, _, c_t = self.top
-        den1 = c_t * z3 + ch_t
-        return z3, den1, den2
+        n3 = ch * z2 + b + r * den2
+        ch_t, b_t, c_t = self.top
+        return ch_t * n3 + b_t * den2, c_t * n3 + ch_t * den2, den2
 
     def stiffness(self, c: Cx) -> Cx:
         """Air stiffness ``k = j w A_p^2 (ch_t Z3 + B_t) / (C_t Z3 + ch_t)``, N/m.
@@ -138,9 +144,8 @@ class AcousticNetwork:
             z3, den1, _ = self._solve_numpy(parts, c)
             zp = (parts[0] * z3 + parts[1]) / den1
             return Cx.from_complex(1j * (self.omega * self.piston_area**2) * zp)
-        z3, den1, _ = self._solve(c)
-        ch_t, b_t, _ = self.top
-        zp = (ch_t * z3 + b_t) / den1
+        n1, d1, _ = self._solve(c)
+        zp = n1 / d1
         s = self.omega * self.piston_area * self.piston_area
         return Cx(-s * zp.im, s * zp.re)
 
@@ -159,8 +164,8 @@ class AcousticNetwork:
             a1 = den1.real * den1.real + den1.imag * den1.imag
             a2 = den2.real * den2.real + den2.imag * den2.imag
             return 0.5 * g * g * (1.0 + 1.0 / a2) / a1
-        _, den1, den2 = self._solve(c)
-        return 0.5 * g * g * (1.0 + 1.0 / den2.abs2()) / den1.abs2()
+        _, d1, den2 = self._solve(c)
+        return 0.5 * g * g * (den2.abs2() + 1.0) / d1.abs2()
 
 
 def _t(x, idx):
@@ -181,10 +186,11 @@ def acoustic_network(design, omega, flow: str | None = None) -> AcousticNetwork:
     flow : str, optional
         The flow model whose resistance the network will receive. Its linear part
         (:func:`isodesign.spring.capillary.linear_resistance`: Poiseuille plus the 4/3
-        inertance for ``quasi_steady``, ``C_u zeta`` for ``womersley``) is what the line
-        replaces, so the end terms are exactly the model's nonlinear part (minor loss,
-        turbulent friction excess: passive). ``None``: the exact laminar impedance
-        ``C_u zeta`` is subtracted.
+        inertance for ``quasi_steady``, ``C_u zeta`` for ``womersley``), per unit length,
+        is the line's series impedance, so the end terms are exactly the model's nonlinear
+        part (minor loss, turbulent friction excess: passive) and the distributed model
+        tends to the same flow model's lumped one at low frequency. ``None``: the exact
+        laminar impedance ``C_u zeta``.
 
     Returns
     -------
@@ -215,13 +221,13 @@ def _network(design, omega, flow) -> AcousticNetwork:
     d = design
     top = chamber_line(d, d.top_volume_m3, omega)
     ch_b, _, c_b = chamber_line(d, d.bottom_volume_m3, omega)
-    tube = tube_two_port(d, omega)
     if flow in STATISTICAL_FLOW_MODELS:
         c_lin = linear_resistance(flow, d, omega)
     else:
         zeta = womersley_zeta(womersley_number(d, omega))
         c_u = poiseuille_resistance(d)
         c_lin = Cx(c_u * zeta.re, c_u * zeta.im)
+    tube = tube_two_port(d, omega, c_lin)
     return AcousticNetwork(
         omega=omega,
         top=top,

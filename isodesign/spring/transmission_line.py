@@ -146,7 +146,7 @@ def line_functions(zyl2: Cx) -> tuple[Cx, Cx]:
     return ch, sh
 
 
-def tube_two_port(design, omega) -> tuple[Cx, Cx, Cx]:
+def tube_two_port(design, omega, series_resistance: Cx | None = None) -> tuple[Cx, Cx, Cx]:
     """The tube's two-port ``(ch, B, C)``: ``p1 = ch p2 + B Q2``, ``Q1 = C p2 + ch Q2``.
 
     ``B = z L sh`` and ``C = y L sh`` (:func:`line_functions`); ``Q`` flows from end 1 (top
@@ -159,13 +159,20 @@ def tube_two_port(design, omega) -> tuple[Cx, Cx, Cx]:
         The spring (fields may be CasADi symbols).
     omega : float, ndarray or CasADi symbol
         Angular frequency, rad/s.
+    series_resistance : Cx, optional
+        The flow model's linear resistance ``C_lin`` of the whole tube (Pa s/kg), whose
+        ``rho C_lin / L_c`` becomes the series impedance per length; default the exact
+        laminar one, ``C_u zeta`` (:func:`tube_series_impedance`).
 
     Returns
     -------
     tuple of Cx
         ``(ch, B, C)``.
     """
-    z = tube_series_impedance(design, omega)
+    if series_resistance is None:
+        z = tube_series_impedance(design, omega)
+    else:
+        z = series_resistance * (design.density_kg_m3 / design.capillary_length_m)
     y = tube_shunt_admittance(design, omega)
     length = design.capillary_length_m
     zl, yl = z * length, y * length

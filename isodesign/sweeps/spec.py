@@ -83,6 +83,8 @@ def check_key(key: str, option: str = "--vary") -> str:
     if head in SCHEMA_KEYS[""] and head not in (*_TABLES, "variables", "name", "description") \
             and len(parts) >= 2 and all(parts):
         return k  # a table with its own schema ([table], [scenarios]): checked by the study
+    if head in _TABLES and len(parts) == 3 and all(parts) and parts[1] in SCHEMA_KEYS[head]:
+        return k  # a sub-table ([floor.x], [floor.y]): checked by the study
     head = parts[0]
     if head in _TABLES and len(parts) >= 2:
         table = ".".join(parts[:2]) if parts[:2] == ["hardware", "gas"] else head

@@ -216,8 +216,14 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         modes = _modes_at(prob, study.design_at(best.values), prob.sigma(best.x),
                           prob.tube_rms(best.x))
         low = np.isfinite(modes.frequency_hz) & (modes.frequency_hz < 5.0)
-        if not np.any(modes.damping_ratio[low] < zmin) or not _modes_moved(prob, modes):
-            break  # the exact modes meet the bound (or the frozen ones are the exact ones)
+        rock = modes.energy_fraction[:, 3:5].sum(axis=1) >= 0.3
+        f_lo = study.constraints.get("min_rocking_frequency_hz") or 0.0
+        f_hi = study.constraints.get("max_rocking_frequency_hz") or np.inf
+        fr = modes.frequency_hz[rock]
+        missed = (np.any(modes.damping_ratio[low] < zmin)
+                  or np.any(fr < f_lo * (1 - 1e-3)) or np.any(fr > f_hi * (1 + 1e-3)))
+        if not missed or not _modes_moved(prob, modes):
+            break  # the exact modes meet the bounds (or the frozen ones are the exact ones)
         prob.set_modes(modes)
         sol = prob.solve(best.x)
         rounds += 1
@@ -284,7 +290,7 @@ def _modes_at(prob, d, sigma=None, sigma_u=None):
 
 
 def _modes_moved(prob, modes) -> bool:
-    old = prob.mode_params.reshape(-1, 14)
+    old = prob.mode_params.reshape(-1, 14)[:6]
     m = prob.geo.mass
     for j in range(6):
         f = modes.frequency_hz[j]

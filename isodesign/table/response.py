@@ -267,6 +267,11 @@ class TableBandResponse(ResultDisplay):
         """Smallest margin over points, axes and bands, dB."""
         return float(np.min(self.margin_db))
 
+    def peak_transmissibility_db(self) -> np.ndarray:
+        """Largest ``|T_p,aa|`` (dB) over the grid, per point and axis, shape (k, 3)."""
+        diag = np.abs(np.diagonal(self.transmissibility, axis1=2, axis2=3))  # (f, k, 3)
+        return 20.0 * np.log10(diag.max(axis=0))
+
     def axis_margin_db(self) -> np.ndarray:
         """Worst margin per axis (over points and bands), shape (3,)."""
         return self.margin_db.min(axis=(0, 2))

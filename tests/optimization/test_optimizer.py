@@ -510,7 +510,11 @@ def test_winning_start_is_the_best_branch_after_the_peak_refinement():
     from isodesign.optimization.problem import Problem
     from isodesign.optimization.refine import flat_tolerance, refine_peak, tie_break
 
-    st = default_study().with_changes(payload={"mass_kg": 720.0})
+    # the lumped acoustics, where these branches were measured; with the distributed default
+    # the optimizer's own refinement and this re-solve of the same branch differ by 2.6e-4 dB
+    # (a flatter valley without the lumped cap on L_c; noted in the issue-16 report)
+    st = default_study().with_changes(payload={"mass_kg": 720.0},
+                                      models={"acoustics": "lumped"})
     res = optimize(st, analyze=False)
     assert res.feasible
     prob = Problem(st)

@@ -83,7 +83,7 @@ def test_default_study_file_loads(tmp_path):
          {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
           "min_natural_frequency_hz", "max_natural_frequency_hz",
           "max_peak_transmissibility_db", "min_damping_ratio", "max_mach", "max_pressure_pa",
-          "model_validity"}),
+          "model_validity", "min_rocking_frequency_hz", "max_rocking_frequency_hz"}),
         ({"solver": {"iterations": 10}}, "iterations", "[solver]",
          {"starts", "seed", "max_iter", "tol", "tie_break", "workers"}),
         ({"variables": {"n": {"start": 1.0}}}, "n", "[variables]", set(DESIGN_VARIABLES)),

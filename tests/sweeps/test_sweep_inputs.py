@@ -72,6 +72,10 @@ def test_product_zip_and_the_point_studies():
     # an invalid point names its changes and the key
     with pytest.raises(InputError, match=r"--vary payload.mass_kg=-1: payload.mass_kg"):
         build_points(default_study(), [{"payload.mass_kg": -1}])
+    # a sub-table's keys ([floor.x]) and a table with its own schema are the study's to check
+    assert parse_vary("floor.x.criterion=VC-A")[0] == "floor.x.criterion"
+    with pytest.raises(InputError, match=r"--vary floor.x.criterion=VC-A: floor.x applies only"):
+        build_points(default_study(), [{"floor.x.criterion": "VC-A"}])
 
 
 def test_the_study_hash_is_the_resolved_study():
