@@ -68,6 +68,31 @@ def run(args) -> int:
         return _write(run, res, floor, args)
 
 
+def axes_note(res, axis, statistic: str) -> str:
+    """Which survey axis ``floor.csv`` holds and which it drops (the scope of the floor).
+
+    Parameters
+    ----------
+    res : SurveyResult
+    axis : str or None
+        ``--axis`` (None: z, or the only axis).
+    statistic : str
+        ``--statistic``.
+
+    Returns
+    -------
+    str
+    """
+    used = res.axes[res._axis_index(axis)]
+    dropped = [a for a in res.axes if a != used]
+    text = f"floor.csv: axis {used} ({statistic})"
+    if dropped:
+        text += (f"; axis {', '.join(dropped)} not in it (bands.csv and bands.png have every "
+                 "axis): the vertical model takes one floor axis; a study with a [table] "
+                 "takes one floor per axis ([floor.x], [floor.y])")
+    return text
+
+
 #: Files written by ``isodesign floor``.
 OUTPUT_FILES = ("bands.csv", "floor.csv", "bands.png", "record.json")
 
@@ -88,6 +113,10 @@ def _write(run, res, floor, args) -> int:
     lines += [f"{n:g},{x:.9g}" for n, x in zip(res.bands.nominal_hz, v, strict=True)]
     run.write_text("floor.csv", "\n".join(lines) + "\n")
     print(f"wrote {out / 'floor.csv'} (use it as --floor)")
+    print(axes_note(res, args.axis, args.statistic))
+    run.record["floor_axis"] = res.axes[res._axis_index(args.axis)]
+    run.record["axes_not_in_floor_csv"] = [a for a in res.axes
+                                           if a != run.record["floor_axis"]]
     with run.writing("bands.png") as tmp:
         res.plot(tmp)
     print(f"wrote {out / 'bands.png'}")

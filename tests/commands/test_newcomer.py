@@ -331,3 +331,16 @@ def test_a_study_level_scope_for_answers_over_many_designs():
         in lines[-1]
     assert study_scope(default_study().with_changes(models={"diaphragm": "none"})).lines()[
         -1].startswith("not modelled")
+
+
+def test_floor_says_which_survey_axes_it_uses_and_drops(capsys, tmp_path):
+    rng = np.random.default_rng(0)
+    rec = tmp_path / "rec.csv"
+    with rec.open("w") as fh:
+        fh.write("# sample_rate_hz: 1000\n# unit: m/s^2\nx,y,z\n")
+        np.savetxt(fh, rng.normal(size=(120_000, 3)) * 1e-4, delimiter=",", fmt="%.6g")
+    status, out, err = run(capsys, "floor", rec, "-o", tmp_path / "f")
+    assert status == 0, err
+    assert "floor.csv: axis z (mean); axis x, y not in it" in out
+    r = json.loads((tmp_path / "f" / "record.json").read_text())
+    assert r["floor_axis"] == "z" and r["axes_not_in_floor_csv"] == ["x", "y"]
