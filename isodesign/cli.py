@@ -61,7 +61,7 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "transmissibility for harmonic floor amplitudes (self-consistent stroke)",
     ),
     "optimize": (
-        "isodesign.commands.optimize",
+        "isodesign.commands.optimize_cli",
         "optimize a study: N, V_t0, L_c, D_c for a payload, floor and target (IPOPT)",
     ),
     "yield": (

@@ -147,7 +147,7 @@ def study_figures() -> None:
 
 def robust_corner_figures() -> None:
     """docs/robust.md: the lumped robust design judged with the distributed model, corners."""
-    from isodesign.optimization.exchange import scenario_check
+    from isodesign.optimization.scenario_check import scenario_check
     from isodesign.optimization.study import default_study
 
     st = default_study().with_changes(scenarios={

@@ -589,23 +589,3 @@ def execute(study, run, args, *, prefix: str = "") -> int:
     for line in design["notes"]:
         warnings.warn(f"optimum: {line}", ModelValidityWarning, stacklevel=2)
     return 0
-
-
-def run(args) -> int:
-    """Run ``isodesign optimize``."""
-    study = load_study_from_args(args)
-    n = getattr(args, "yield_samples", None)
-    if n is not None and not 0 <= n <= 10**6:
-        raise InputError(f"--yield-samples: must be an integer in [0, 1000000], got {n}")
-    if study.scenarios is not None:  # robust design (docs/robust.md)
-        from isodesign.commands.robust import ROBUST_FILES, execute_robust
-
-        with open_run(args, known_outputs=OUTPUT_FILES + ROBUST_FILES) as rundir:
-            return execute_robust(study, rundir, args)
-    if study.table is not None:  # six degrees of freedom (docs/table.md)
-        from isodesign.commands.table_optimize import TABLE_OUTPUT_FILES, execute_table
-
-        with open_run(args, known_outputs=TABLE_OUTPUT_FILES) as rundir:
-            return execute_table(study, rundir, args)
-    with open_run(args) as rundir:  # the target is checked here, before the computation
-        return execute(study, rundir, args)

@@ -11,6 +11,16 @@ from __future__ import annotations
 
 import sys
 
+from isodesign.commands.optimize import canonical_command, run_optimization, write_outputs
+from isodesign.io.designfile import design_to_toml
+from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
+from isodesign.optimization.exchange import robust_optimize
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.robust_table import robust_optimize_table
+from isodesign.optimization.sensitivity import design_sensitivities
+from isodesign.optimization.yields import estimate_yield
+from isodesign.plotting.robust import robustness_plot
+
 #: Files written by a robust ``isodesign optimize`` run (besides ``nominal/``).
 ROBUST_FILES = ("robust.json", "scenarios.csv", "rounds.csv", "sensitivities.csv",
                 "yield.csv", "robustness.png", "design.toml", "record.json",
@@ -46,8 +56,6 @@ def active_sensitivities(res) -> list:
 
 def robust_summary(res, sens, yields) -> str:
     """Text summary of a robust run."""
-    from isodesign.optimization.objectives import OBJECTIVES
-
     st = res.study
     o = OBJECTIVES[res.objective]
     sp = st.scenarios
@@ -107,10 +115,6 @@ def robust_summary(res, sens, yields) -> str:
 def execute_robust_table(study, run, args) -> int:
     """A table study with ``[scenarios]``: the robust table optimum (docs/robust.md,
     section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml."""
-    from isodesign.io.designfile import design_to_toml
-    from isodesign.io.record import study_toml
-    from isodesign.optimization.robust_table import robust_optimize_table
-
     res = robust_optimize_table(study)
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of a robust table isodesign optimize run. Replay: isodesign "
@@ -156,17 +160,6 @@ def execute_robust(study, run, args) -> int:
     """Optimize ``study`` robustly into the run directory ``run``; the exit status."""
     if getattr(study, "table", None) is not None:
         return execute_robust_table(study, run, args)
-    from isodesign.commands.optimize import (
-        canonical_command,
-        run_optimization,
-        write_outputs,
-    )
-    from isodesign.io.designfile import design_to_toml
-    from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
-    from isodesign.optimization.exchange import robust_optimize
-    from isodesign.optimization.yields import estimate_yield
-    from isodesign.plotting.robust import robustness_plot
-
     run.record.update({"kind": "isodesign optimize",
                        "command_line": command_line(canonical_command(args, "optimize")[1:]),
                        "environment": environment(), "study": resolved_study_dict(study),
@@ -190,8 +183,6 @@ def execute_robust(study, run, args) -> int:
     b = res.problem.block
     th = study.scenarios.nominal()
     b.select(th, b.base_slot_hz)
-    from isodesign.optimization.sensitivity import design_sensitivities
-
     sens["nominal"] = design_sensitivities(b, b.initial_guess(nominal.values), th)
     sens["active"] = active_sensitivities(res)
     yields = []

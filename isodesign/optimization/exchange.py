@@ -27,19 +27,24 @@ from __future__ import annotations
 
 import math
 import time
-from types import SimpleNamespace
 
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.driver import optimize
+from isodesign.optimization.grid import build_grid
+from isodesign.optimization.multistart import map_in_workers
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.recheck import evaluate_design
+from isodesign.optimization.problem import PEAK_ROUNDS
 from isodesign.optimization.refine import (
     FLAT_TOLERANCE_REL,
     PEAK_TOLERANCE_DB,
     continuous_peak_db,
+    peak_slots,
 )
-from isodesign.optimization.uncertainty import ScenarioStudy
+from isodesign.optimization.robust import RobustProblem, ScenarioBlock
+from isodesign.optimization.robust_result import RobustResult, scenario_rows
+from isodesign.optimization.scenario_check import scenario_check
 
 __all__ = ["CONSTRAINT_TOLERANCE", "robust_optimize", "scenario_check", "worst_case"]
 
@@ -47,68 +52,6 @@ __all__ = ["CONSTRAINT_TOLERANCE", "robust_optimize", "scenario_check", "worst_c
 #: anywhere in the box when the exchange stops.
 CONSTRAINT_TOLERANCE = 1e-6
 _LN10_DB = math.log(10.0) / 10.0
-
-
-def scenario_check(study, values: dict, theta, *, grid=None, reference=None) -> dict:
-    """One scenario at one drawn design, on the NumPy analysis path.
-
-    Parameters
-    ----------
-    study : Study
-        The nominal study, with ``scenarios``.
-    values : dict
-        The drawn design (SI).
-    theta : array
-        The scenario, in ``study.scenarios.names`` order.
-    grid : Grid, optional
-        Frequency grid (default: the nominal study's :func:`.grid.build_grid`).
-    reference : float, optional
-        The stated worst case J (internal units of the objective); the shortfall
-        ``J - reference`` is returned.
-
-    Returns
-    -------
-    dict
-        ``objective`` (natural value), ``j`` (internal J), ``gap`` (``j - reference``),
-        ``criterion_margin_db`` (the worst target band's margin, dB),
-        ``violations`` (constraint -> signed worst-row excess over its bound, NLP units:
-        negative when met), ``max_violation`` (the largest, clipped at 0),
-        ``peak_db`` and ``peak_excess_db`` (continuous peak of |T| and its excess over the
-        bound; None without a peak bound), ``sigma`` and ``tube_rms``.
-    """
-    from isodesign.optimization.grid import build_grid
-
-    space = study.scenarios
-    sc = ScenarioStudy(study, space, np.asarray(theta, float))
-    grid = grid or build_grid(study)
-    ev = evaluate_design(sc, values, grid=grid)
-    kind = study.objective["kind"]
-    obj = OBJECTIVES[kind]
-    val = ev["objectives"][kind]
-    j = obj.from_natural(val)
-    signed = {}
-    for name, c in ev["constraints"].items():
-        v = c["value"]
-        ex = max(float(np.max(c["lower"] - v)) if math.isfinite(c["lower"]) else -math.inf,
-                 float(np.max(v - c["upper"])) if math.isfinite(c["upper"]) else -math.inf)
-        signed[name] = ex
-    bound = study.constraints.get("max_peak_transmissibility_db")
-    peak = excess = None
-    if bound is not None:
-        from isodesign.spring.diaphragm import diaphragm_model
-
-        shim = SimpleNamespace(study=sc, dia=diaphragm_model(sc.models["diaphragm"]), grid=grid)
-        peak, _ = continuous_peak_db(shim, values, ev["sigma"], ev["tube_rms"])
-        excess = peak - bound
-    mt = ev["metrics"]
-    rows = grid.target_band_rows
-    crit = float(np.min(10.0 / math.log(10.0) * (np.asarray(mt["ln_limit2"])[rows]
-                                                  - np.asarray(mt["ln_ms_band"])[rows])))
-    return {"objective": val, "j": j, "criterion_margin_db": crit,
-            "gap": None if reference is None else j - reference,
-            "violations": signed, "max_violation": max(0.0, max(signed.values(), default=0)),
-            "peak_db": peak, "peak_excess_db": excess, "sigma": ev["sigma"],
-            "tube_rms": ev["tube_rms"]}
 
 
 def _score(chk: dict, tol_obj: float) -> tuple[float, str]:
@@ -156,8 +99,6 @@ def worst_case(study, values: dict, reference: float, *, grid=None, samples: int
         ``check`` (:func:`scenario_check` there) and ``evaluations``.
     """
     from scipy.optimize import minimize
-
-    from isodesign.optimization.grid import build_grid
 
     space = study.scenarios
     grid = grid or build_grid(study)
@@ -228,11 +169,6 @@ def robust_optimize(study, *, nominal=None, progress=None):
     -------
     RobustResult
     """
-    from isodesign.optimization.driver import optimize
-    from isodesign.optimization.grid import build_grid
-    from isodesign.optimization.robust import RobustProblem, ScenarioBlock
-    from isodesign.optimization.robust_result import RobustResult, scenario_rows
-
     if study.scenarios is None:
         raise InputError("robust_optimize: the study has no [scenarios] table")
     t_all = time.perf_counter()
@@ -308,8 +244,6 @@ def _best_solve(prob, starts: list, study):
     phase far from it): the last design, the nominal optimum and the best robust design so
     far are each tried and the feasible solution with the best worst case is kept (the
     first on a tie, the last design being first)."""
-    from isodesign.optimization.multistart import map_in_workers
-
     distinct = []
     for v in starts:
         if not any(all(abs(v[k] / w[k] - 1.0) < 1e-9 for k in v) for w in distinct):
@@ -334,9 +268,6 @@ def _best_solve(prob, starts: list, study):
 def _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds) -> bool:
     """Peak refinement per scenario: movable frequencies near a continuous peak above
     its bound (at most :data:`.problem.PEAK_ROUNDS` rounds per scenario)."""
-    from isodesign.optimization.problem import PEAK_ROUNDS
-    from isodesign.optimization.refine import peak_slots
-
     bound = study.constraints.get("max_peak_transmissibility_db")
     if bound is None:
         return False

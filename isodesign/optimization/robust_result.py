@@ -9,6 +9,9 @@ import numpy as np
 
 from isodesign.optimization.constraints import constraint_reports
 from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.scenario_check import scenario_check
+from isodesign.optimization.sensitivity import design_sensitivities, reoptimized_sensitivities
+from isodesign.plotting.robust import scenario_bars
 from isodesign.results import ResultDisplay
 
 __all__ = ["RobustResult", "scenario_rows"]
@@ -44,8 +47,6 @@ def scenario_rows(study, prob, sol, grid, nominal_values=None) -> list[dict]:
         binding = [c.name for c in reps if c.active]
         # the epigraph variable of a scenario that does not set the worst case is slack in
         # the stacked NLP: its objective is evaluated afresh (NumPy analysis)
-        from isodesign.optimization.exchange import scenario_check
-
         j = obj.from_natural(scenario_check(study, sol.values, th, grid=grid)["objective"])
         worst = j >= sol.objective - tol
         nom = None if nominal_values is None else scenario_check(
@@ -135,8 +136,6 @@ class RobustResult(ResultDisplay):
 
     def nominal_at_robust(self) -> float:
         """The robust design's objective in the nominal scenario (natural units)."""
-        from isodesign.optimization.exchange import scenario_check
-
         return scenario_check(self.study, self.values, self.study.scenarios.nominal())[
             "objective"]
 
@@ -149,8 +148,6 @@ class RobustResult(ResultDisplay):
     def sensitivities(self, scenario: int | None = None):
         """Design-held sensitivities at the robust design in a scenario (default: the
         nominal values of the parameters); see :func:`.sensitivity.design_sensitivities`."""
-        from isodesign.optimization.sensitivity import design_sensitivities
-
         b = self.problem.block
         if scenario is None:
             th = self.study.scenarios.nominal()
@@ -164,8 +161,6 @@ class RobustResult(ResultDisplay):
 
     def reoptimized_sensitivities(self) -> dict:
         """lam_p of the final robust solve (:func:`.sensitivity.reoptimized_sensitivities`)."""
-        from isodesign.optimization.sensitivity import reoptimized_sensitivities
-
         return reoptimized_sensitivities(self.problem, self.solution)
 
     def to_frame(self):
@@ -211,8 +206,6 @@ class RobustResult(ResultDisplay):
         -------
         matplotlib.figure.Figure
         """
-        from isodesign.plotting.robust import scenario_bars
-
         return scenario_bars(self, ax=ax)
 
     def record(self) -> dict:

@@ -29,12 +29,15 @@ import numpy as np
 
 from isodesign.errors import InputError
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+from isodesign.optimization.study import study_from_dict
 from isodesign.optimization.uncertainty import (
     OPERATING_PARAMETERS,
     ScenarioStudy,
     UncertaintySpace,
 )
 from isodesign.results import ResultDisplay
+from isodesign.table.optimize import HESSIAN, _modes_at, optimize_table
+from isodesign.table.problem import TableProblem
 
 __all__ = ["MAX_CORNERS", "TableRobustResult", "robust_optimize_table", "table_scenario"]
 
@@ -56,8 +59,6 @@ def table_scenario(study, theta):
     -------
     Study or ScenarioStudy
     """
-    from isodesign.optimization.study import study_from_dict
-
     space = study.scenarios
     th = space.as_dict(theta)
     raw = copy.deepcopy(study.raw)
@@ -87,9 +88,6 @@ class _Scenarios:
         self.cache: dict = {}
 
     def problem(self, theta):
-        from isodesign.table.optimize import HESSIAN
-        from isodesign.table.problem import TableProblem
-
         key = tuple(np.round(np.asarray(theta, float), 12))
         if key not in self.cache:
             self.cache[key] = TableProblem(table_scenario(self.study, theta), hessian=HESSIAN)
@@ -98,8 +96,6 @@ class _Scenarios:
     def check(self, theta, values: dict, reference: float | None) -> dict:
         """Objective J and violations of scenario ``theta`` at a drawn design (NumPy
         closure, the NLP's own constraint expressions)."""
-        from isodesign.table.optimize import _modes_at
-
         prob = self.problem(theta)
         d = prob.study.design_at(values)
         prob.set_modes(_modes_at(prob, d))
@@ -213,8 +209,6 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     -------
     TableRobustResult
     """
-    from isodesign.table.optimize import _modes_at, optimize_table
-
     if study.table is None or study.scenarios is None:
         raise InputError("robust_optimize_table: the study needs a [table] and [scenarios]")
     t_all = time.perf_counter()

@@ -26,7 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isodesign.optimization.constraints import ACTIVE_MARGIN
+from isodesign.optimization.constraints import _NATURAL, ACTIVE_MARGIN
 from isodesign.optimization.objectives import OBJECTIVES
 
 __all__ = ["Sensitivity", "design_sensitivities", "reoptimized_sensitivities"]
@@ -132,8 +132,6 @@ def design_sensitivities(block, x: np.ndarray, theta, slot_hz=None) -> list[Sens
         out.append(Sensitivity("objective", name, float(dnat[k]), obj.unit, units[k],
                                float(dnat[k] * half[k]), True))
     # the constraints: worst row of each
-    from isodesign.optimization.constraints import _NATURAL
-
     for c, row, n in block.con_rows:
         if c.name.startswith(("epigraph_", "bound_")):
             continue

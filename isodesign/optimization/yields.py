@@ -23,8 +23,12 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isodesign.errors import InputError
+from isodesign.optimization.grid import build_grid
 from isodesign.optimization.multistart import available_cores, map_in_workers
+from isodesign.optimization.refine import PEAK_TOLERANCE_DB
+from isodesign.optimization.scenario_check import scenario_check
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+from isodesign.plotting.robust import yield_histogram
 from isodesign.results import ResultDisplay
 
 __all__ = ["YieldResult", "clopper_pearson", "estimate_yield", "wilson"]
@@ -79,9 +83,6 @@ def wilson(k: int, n: int, confidence: float = 0.95) -> tuple[float, float]:
 
 
 def _judge(theta) -> dict:
-    from isodesign.optimization.exchange import scenario_check
-    from isodesign.optimization.refine import PEAK_TOLERANCE_DB
-
     study, values, grid = _CTX
     try:
         c = scenario_check(study, values, theta, grid=grid)
@@ -221,8 +222,6 @@ class YieldResult(ResultDisplay):
         -------
         matplotlib.figure.Figure
         """
-        from isodesign.plotting.robust import yield_histogram
-
         return yield_histogram(self, ax=ax)
 
 
@@ -253,8 +252,6 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
     YieldResult
     """
     global _CTX
-    from isodesign.optimization.grid import build_grid
-
     if study.scenarios is None:
         raise InputError("yield: the study has no [scenarios] table (the laws to draw from)")
     if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 10**6:
