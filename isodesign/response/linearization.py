@@ -61,6 +61,7 @@ __all__ = [
     "stroke_variance",
     "stroke_weighted_sum",
     "tube_velocity_variance",
+    "velocity_margin_db",
 ]
 
 #: ``A* / sigma = 3 sqrt(pi/8) = 1.8800``: the harmonic amplitude whose describing function
@@ -554,3 +555,26 @@ def band_margin_db(band_mean_square_value, grid: ResponseGrid):
 
         lim2 = ca.DM(lim2)
     return (10.0 / math.log(10.0)) * bk.log(lim2 / band_mean_square_value)
+
+
+def velocity_margin_db(limit_velocity_rms_m_s, velocity_rms_m_s) -> np.ndarray:
+    """Margin in dB of band RMS velocities, ``20 log10(limit / velocity)`` (NumPy).
+
+    Positive: below the limit; ``+inf`` where the velocity is 0. The results of the
+    vertical payload (:class:`.random_input.BandResponse`) and of the rigid table
+    (:class:`isodesign.table.response.TableBandResponse`) both report their margins with it.
+
+    Parameters
+    ----------
+    limit_velocity_rms_m_s : array_like
+        The criterion's band RMS velocities (m/s).
+    velocity_rms_m_s : array_like
+        The response's band RMS velocities (m/s), broadcastable against the limits.
+
+    Returns
+    -------
+    ndarray
+        Margins in dB.
+    """
+    with np.errstate(divide="ignore"):
+        return 20.0 * np.log10(np.asarray(limit_velocity_rms_m_s) / np.asarray(velocity_rms_m_s))

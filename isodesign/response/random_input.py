@@ -42,6 +42,7 @@ from isodesign.response.linearization import (
     response_grid,
     stroke_variance,
     tube_velocity_variance,
+    velocity_margin_db,
 )
 from isodesign.response.model import (
     LINEAR_REFERENCE_AMPLITUDE_M,
@@ -389,8 +390,7 @@ class BandResponse(ResultDisplay):
     @property
     def margin_db(self) -> np.ndarray:
         """``20 log10(limit / payload)`` per band (positive: below the limit)."""
-        with np.errstate(divide="ignore"):
-            return 20.0 * np.log10(self.limit_velocity_rms_m_s / self.payload_velocity_rms_m_s)
+        return velocity_margin_db(self.limit_velocity_rms_m_s, self.payload_velocity_rms_m_s)
 
     @property
     def band_passes(self) -> np.ndarray:

@@ -27,7 +27,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from isodesign.errors import InputError, ModelValidityWarning, SolverError, check_positive
-from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR, equivalent_amplitude
+from isodesign.response.linearization import (
+    EQUIVALENT_AMPLITUDE_FACTOR,
+    equivalent_amplitude,
+    velocity_margin_db,
+)
 from isodesign.response.model import LINEAR_REFERENCE_AMPLITUDE_M, emit_flags, resolve_target
 from isodesign.results import ResultDisplay
 from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
@@ -247,8 +251,7 @@ class TableBandResponse(ResultDisplay):
     @property
     def margin_db(self) -> np.ndarray:
         """``20 log10(limit / velocity)`` per point, axis and band (positive: below)."""
-        with np.errstate(divide="ignore"):
-            return 20.0 * np.log10(self.limit_velocity_rms_m_s / self.velocity_rms_m_s)
+        return velocity_margin_db(self.limit_velocity_rms_m_s, self.velocity_rms_m_s)
 
     @property
     def passes(self) -> bool:

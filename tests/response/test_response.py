@@ -39,6 +39,7 @@ from isodesign.response.linearization import (
     rayleigh_rule,
     response_grid,
     stroke_variance,
+    velocity_margin_db,
 )
 from isodesign.spring.capillary import gaussian_equivalent_resistance, linear_resistance
 from isodesign.spring.design import SpringDesign
@@ -323,6 +324,23 @@ def test_band_mean_square_is_the_floor_band_integration():
     np.testing.assert_allclose(g.limit_velocity_m_s, 3.12e-6)
     margin = band_margin_db(band_mean_square(one, g), g)
     np.testing.assert_allclose(margin, 20 * np.log10(3.12e-6 / g.floor_velocity_rms_m_s))
+    # the RMS-velocity form used by the results agrees with the mean-square form
+    np.testing.assert_allclose(velocity_margin_db(g.limit_velocity_m_s, g.floor_velocity_rms_m_s),
+                               margin, rtol=1e-12)
+
+
+def test_velocity_margin_db_sign_zero_and_broadcast():
+    limit = np.array([2.0, 1.0, 1.0])
+    # twice below the limit: +6.02 dB; at it: 0; ten times above: -20 dB
+    np.testing.assert_allclose(velocity_margin_db(limit, np.array([1.0, 1.0, 10.0])),
+                               [20 * math.log10(2.0), 0.0, -20.0], atol=1e-12)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # a zero velocity is an infinite margin, silently
+        assert velocity_margin_db(limit, np.zeros(3)).tolist() == [math.inf] * 3
+    # per-band limits against (points, axes, bands) velocities (the rigid table)
+    v = np.full((2, 6, 3), 0.5)
+    np.testing.assert_allclose(velocity_margin_db(limit, v),
+                               np.broadcast_to(20 * np.log10(limit / 0.5), v.shape))
 
 
 def test_stroke_grid_covers_a_pointwise_floor_beyond_the_bands():
