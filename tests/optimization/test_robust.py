@@ -227,8 +227,8 @@ def test_a_scenario_no_design_can_meet_is_named():
 def test_default_robust_optimum_holds_at_1000_draws():
     """The issue's judgement: +-5 % D_c and L_c, 480-720 kg; 1000 draws, NumPy analysis.
 
-    With the lumped acoustics, the worked example of docs/robust.md (with the distributed
-    default the exchange method ends on a worse local optimum: docs/robust.md, section 1).
+    With the lumped acoustics: the worked example of docs/robust.md, whose numbers are
+    checked here (the next test judges the distributed default the same way).
     """
     st = default_study().with_changes(scenarios={
         "payload_mass_kg": {"min": 480.0, "max": 720.0},
@@ -249,6 +249,28 @@ def test_default_robust_optimum_holds_at_1000_draws():
     yn = estimate_yield(st, res.nominal.values, samples=1000, seed=1, workers=2)
     assert yn.fraction < 1.0 and yn.failure_counts()
     _check_worked_example(res, y, yn)
+
+
+@pytest.mark.slow
+def test_default_robust_optimum_holds_at_1000_draws_with_the_default_acoustics():
+    """The issue's judgement on the study as shipped (distributed acoustics, the default):
+    every constraint met at 1000 draws and at every corner, and the stated worst case no
+    more than 0.05 dB above the worst draw (NumPy analysis, not the NLP)."""
+    st = default_study().with_changes(scenarios={
+        "payload_mass_kg": {"min": 480.0, "max": 720.0},
+        "capillary_diameter_m": {"relative": 0.05},
+        "capillary_length_m": {"relative": 0.05}})
+    assert st.models["acoustics"] == "distributed"
+    res = robust_optimize(st)
+    assert res.feasible and res.converged
+    y = estimate_yield(st, res.values, samples=1000, seed=1, workers=2)
+    assert y.worst("max_violation") <= 1e-6
+    assert y.worst("peak_excess_db") <= 0.01
+    assert y.fraction == 1.0
+    assert res.objective_value - y.worst("objective", "min") <= 0.05
+    for th in st.scenarios.corners():
+        c = scenario_check(st, res.values, th)
+        assert c["max_violation"] <= 1e-6 and c["objective"] >= res.objective_value - 1e-6
 
 
 def _check_worked_example(res, y, yn):
