@@ -13,6 +13,7 @@ from isodesign.reporting.inputs import Case
 from isodesign.response.harmonic import harmonic_response
 from isodesign.response.random_input import band_response
 from isodesign.spring.diagnostics import CHECK_DESCRIPTIONS
+from isodesign.spring.flow_models import FLOW_MODELS, flow_model
 from isodesign.spring.stiffness import complex_stiffness
 
 __all__ = [
@@ -63,6 +64,12 @@ AMPLITUDE_CAVEATS = {
     "kinematic": "the paper's kinematic tube velocity (Eq. 37), which overestimates the "
                  "velocity once the tube blocks",
 }
+ACOUSTICS_CAVEATS = {
+    "distributed": "tube as a lossy transmission line, chambers with their longitudinal "
+                   "modes (docs/acoustics.md); flagged beyond the first transverse mode",
+    "lumped": "uniform chamber pressures and an incompressible slug in the tube; valid "
+              "while w l / c stays small (flagged beyond it)",
+}
 RANDOM_CAVEATS = {
     "equivalent_amplitude": "spring linearized at A* = 1.88 x the RMS stroke "
                             "(equivalent linearization of a random stroke)",
@@ -70,17 +77,20 @@ RANDOM_CAVEATS = {
 }
 
 
-def model_caveats(models: dict) -> list[tuple[str, str, str]]:
+def model_caveats(models: dict, acoustics: str | None = None) -> list[tuple[str, str, str]]:
     """``(what, model, caveat)`` rows for the models in force.
 
     Parameters
     ----------
     models : dict
         ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method``.
+    acoustics : str, optional
+        The design's acoustic model (:attr:`SpringDesign.acoustics`); a row is added when
+        given. The paper's flow models are always evaluated lumped, and the row says so.
     """
     dia = str(models.get("diaphragm", ""))
     dia_key = "table" if dia.startswith("table:") or dia.lower().endswith(".csv") else dia
-    return [
+    rows = [
         ("capillary flow", models.get("flow", ""), FLOW_CAVEATS.get(models.get("flow"), "")),
         ("tube velocity amplitude", models.get("amplitude_mode", ""),
          AMPLITUDE_CAVEATS.get(models.get("amplitude_mode"), "")),
@@ -88,6 +98,15 @@ def model_caveats(models: dict) -> list[tuple[str, str, str]]:
         ("random closure", models.get("random_method", ""),
          RANDOM_CAVEATS.get(models.get("random_method"), "")),
     ]
+    if acoustics is not None:
+        flow = models.get("flow")
+        fm = flow_model(flow) if flow in FLOW_MODELS else None
+        if acoustics != "lumped" and fm is not None and not fm.distributed:
+            rows.append(("acoustics", "lumped", "the paper's flow models are evaluated "
+                         "lumped (uniform chamber pressures, incompressible tube slug)"))
+        else:
+            rows.append(("acoustics", acoustics, ACOUSTICS_CAVEATS.get(acoustics, "")))
+    return rows
 
 
 @dataclass(frozen=True, eq=False)

@@ -514,7 +514,9 @@ def build_context(analyses: list[CaseAnalysis], *, command=None, title=None) -> 
         "design_head": ["", *designs],
         "design_rows": _design_rows(cases),
         "models": [{"label": a.case.label, "source": a.case.models_source,
-                    "rows": model_caveats(a.case.models), "notes": list(a.case.notes)}
+                    "rows": model_caveats(a.case.models,
+                                         getattr(a.case.design, "acoustics", None)),
+                    "notes": list(a.case.notes)}
                    for a in cases],
         "band_table": _band_table(cases),
         "harmonic_rows": _harmonic_rows(cases),

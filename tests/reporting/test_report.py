@@ -112,6 +112,23 @@ def test_report_of_an_optimize_run(optimize_report, optimize_run):
     design = json.loads((optimize_run / "design.json").read_text())
     assert design["verdict"].split(";")[0].split(":")[0] in body  # PASS/FAIL as the run's
     assert "no (shown)" in body  # bands outside the judged range are in the table
+    # the models table names the acoustic model the analysis used (distributed by default)
+    assert "transmission line" in body
+
+
+def test_models_table_names_the_acoustics_the_design_uses():
+    from isodesign.reporting.analysis import model_caveats
+
+    base = {"amplitude_mode": "self_consistent", "diaphragm": "viscoelastic",
+            "random_method": "statistical"}
+    rows = {r[0]: r for r in model_caveats({**base, "flow": "womersley"}, "distributed")}
+    assert rows["acoustics"][1] == "distributed"
+    rows = {r[0]: r for r in model_caveats({**base, "flow": "womersley"}, "lumped")}
+    assert rows["acoustics"][1] == "lumped"
+    # the paper's flow models are lumped whatever the design says
+    rows = {r[0]: r for r in model_caveats({**base, "flow": "zhao"}, "distributed")}
+    assert rows["acoustics"][1] == "lumped" and "paper" in rows["acoustics"][2]
+    assert "acoustics" not in {r[0] for r in model_caveats({**base, "flow": "womersley"})}
 
 
 def test_report_of_a_design_file_and_of_a_study(design_file, fast_study, tmp_path):
