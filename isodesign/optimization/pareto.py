@@ -245,10 +245,10 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     st = study.with_changes(objective=_objective_table(study, a))
     total = points + 1
     prob = Problem(st, objectives=(a, b))
-    anchor_a = _anchor_a(st, prob, progress, total)
+    anchor_a, lex = _anchor_a(st, prob, progress, total)
     if progress:
         progress(1, total)
-    anchor_b, last = _anchor_b(prob, anchor_a)
+    anchor_b, last = _anchor_b(prob, anchor_a, lex)
     jb_at_a = float(anchor_a.objectives[1])
     jb_min = float(anchor_b.objectives[1])
     eps = np.linspace(jb_at_a, jb_min, points)
@@ -314,16 +314,18 @@ LEXICOGRAPHIC_WEIGHT = 0.01
 VERIFY_BAND = {True: 1.0, False: math.log(1.1)}
 
 
-def _anchor_a(st: Study, prob: Problem, progress, total: int) -> Solution:
+def _anchor_a(st: Study, prob: Problem, progress, total: int):
     """A's optimum as :func:`~isodesign.optimization.driver.optimize` finds it, without
-    the tie-break.
+    the tie-break; and the lexicographic anchor of B, solved alongside.
 
     The starts, then the peak refinement of each distinct branch
     (:func:`~isodesign.optimization.refine.refine_branches`) and the NumPy re-check of the
     winner; the tie-break of the flat direction is left out (the front starts at the
     NLP's best design, which the tie-break would leave by up to its tolerance), so its
-    solves are not spent. Returns the winner's refined optimum; ``prob``'s movable peak
-    frequencies are the winner's.
+    solves are not spent. While the branches are refined, B's lexicographic anchor is
+    solved from the best start in the same map (:func:`_lexicographic_b`). Returns the
+    winner's refined optimum (``prob``'s movable peak frequencies are the winner's) and
+    that anchor's result.
     """
     a = prob.objectives[0]
 
@@ -340,34 +342,64 @@ def _anchor_a(st: Study, prob: Problem, progress, total: int) -> Solution:
                   else f"no start could be initialized: {outs[0]}")
         verb = "maximizing" if OBJECTIVES[a].maximized else "minimizing"
         raise SolverError(f"pareto: no feasible design when {verb} {a} alone ({status})")
+    best = min(good.values(), key=lambda o: o.objective)
     win = refine_branches(st.with_changes(solver={"tie_break": False}), prob, good,
-                          flat_tolerance(a))
+                          flat_tolerance(a), alongside=lambda: _lexicographic_b(prob, best))
     recheck(prob, win.best, st.design_at(win.best.values))
-    return win.best
+    return win.best, win.alongside
 
 
-def _anchor_b(prob: Problem, anchor_a: Solution) -> tuple[Solution, Solution | None]:
+def _lexicographic_b(prob: Problem, start: Solution):
+    """B's lexicographic anchor from a solution of A: ``(anchor, end point)``, or ``None``.
+
+    ``J_B + w J_A`` minimized (:data:`LEXICOGRAPHIC_WEIGHT`) gives B's minimum with the
+    best A there, which is the sweep's last point (A optimized subject to
+    ``B <= min B``). It is verified by minimizing B alone from it, A's epigraph bounded to
+    :data:`VERIFY_BAND` above its value there (:func:`_minimize_b`: the solve is repeated
+    without the bound if the bound binds): when that does not lower B (beyond the sweep's
+    1e-9 relative slack on epsilon), the lexicographic point is the anchor and the last
+    point; otherwise the verified minimum is the anchor and the end point ``None`` (the
+    sweep solves it). ``None`` when a solve fails.
+    """
+    lex = prob.solve(start.x, prob.params(weights=[LEXICOGRAPHIC_WEIGHT, 1.0]))
+    if not lex.feasible:
+        return None
+    ver = _minimize_b(prob, lex, VERIFY_BAND)
+    if not ver.feasible:
+        return None
+    jb = float(ver.objectives[1])
+    if float(lex.objectives[1]) <= jb + 1e-9 * max(1.0, abs(jb)):
+        return lex, lex
+    return ver, None
+
+
+def _on_grid(prob: Problem, sol: Solution) -> Solution:
+    """A solution re-evaluated on the NLP's current peak grid (constraints, objectives)."""
+    _, g = prob.eval_fn(sol.x, prob.params())
+    g = np.asarray(g).ravel()
+    return sol.replace(g=g, objectives=prob.objective_values(sol.x),
+                       objective=float(prob.objective_values(sol.x)[0]),
+                       violations=tuple(prob.violations(g)))
+
+
+def _anchor_b(prob: Problem, anchor_a: Solution, lex=None) -> tuple[Solution, Solution | None]:
     """B's minimum, and the front's end point when the lexicographic solve gives it.
 
-    Lexicographic: ``J_B + w J_A`` minimized from A's optimum (:data:`LEXICOGRAPHIC_WEIGHT`)
-    gives B's minimum with the best A there, which is the sweep's last point (A optimized
-    subject to ``B <= min B``). It is verified by minimizing B alone from it, A's epigraph
-    bounded to :data:`VERIFY_BAND` above its value there (:func:`_minimize_b`: the solve is
-    repeated without the bound if the bound binds): when that does not lower B (beyond the
-    sweep's 1e-9 relative slack on epsilon), the lexicographic point is the anchor and the
-    last point. Otherwise the verified minimum is the anchor, and the last point is
-    solved in the sweep (returned ``None``). If the lexicographic solve fails, B is
-    minimized from A's optimum (:func:`_minimize_b`), then from the study's starts.
+    ``lex`` is :func:`_lexicographic_b`'s result solved on the study's peak grid
+    (alongside the branches); it stands when its points are feasible on the current grid
+    (the winner's movable frequencies added: then B's minimum is the same, since the
+    current grid only adds constraints). Else the lexicographic anchor is solved here
+    from A's optimum; if that fails, B is minimized from A's optimum
+    (:func:`_minimize_b`), then from the study's starts.
     """
     b = prob.objectives[1]
-    lex = prob.solve(anchor_a.x, prob.params(weights=[LEXICOGRAPHIC_WEIGHT, 1.0]))
-    if lex.feasible:
-        ver = _minimize_b(prob, lex, VERIFY_BAND)
-        if ver.feasible:
-            jb = float(ver.objectives[1])
-            if float(lex.objectives[1]) <= jb + 1e-9 * max(1.0, abs(jb)):
-                return lex, lex
-            return ver, None
+    if lex is not None:
+        anchor_b, last = (_on_grid(prob, s) if s is not None else None for s in lex)
+        if anchor_b.feasible and (last is None or last.feasible):
+            return anchor_b, last
+    lex = _lexicographic_b(prob, anchor_a)
+    if lex is not None:
+        return lex
     anchor_b = _minimize_b(prob, anchor_a, ANCHOR_B_BAND)
     if anchor_b.feasible:
         return anchor_b, None
