@@ -538,17 +538,16 @@ def _other_branch(prob: Problem, sols: dict, in_a: set, eps, workers) -> dict:
         z = np.mean([o.x[: prob.nz] for o in other], axis=0)
         if sols[k].feasible and np.max(np.abs(sols[k].x[: prob.nz] - z)) <= BRANCH_DZ:
             continue
-        f_pk = (math.exp(np.mean([math.log(_peak_of(prob, o)[1]) for o in other]))
-                if _peak_refined(prob) else None)
-        todo.append((k, z, f_pk))
+        todo.append((k, z, other))
     slots = prob.slot_hz.copy()
 
     def solve(item):
-        k, z, f_pk = item
+        k, z, other = item
         if not np.array_equal(prob.slot_hz, slots):
             prob.set_slots(slots)
-        if f_pk is not None:
-            peak_slots(prob, 0, f_pk)
+        if _peak_refined(prob):
+            peak_slots(prob, 0, math.exp(np.mean([math.log(_peak_of(prob, o)[1])
+                                                  for o in other])))
         x = np.zeros(prob.nx)
         x[: prob.nz] = z
         e_k = eps[k] + 1e-9 * max(1.0, abs(eps[k]))
