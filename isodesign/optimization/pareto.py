@@ -350,8 +350,11 @@ def _anchor_a(st: Study, prob: Problem, progress, total: int):
     best = min(good.values(), key=lambda o: o.objective)
     win = refine_branches(st.with_changes(solver={"tie_break": False}), prob, good,
                           flat_tolerance(a), alongside=lambda: _lexicographic_b(prob, best))
-    recheck(prob, win.best, st.design_at(win.best.values))
-    return win.best, win.alongside
+    # B has no weight here: its epigraph variable (if any) is made tight, so that the
+    # anchor's B is B's value there (the sweep's first epsilon) and the re-check holds
+    best = prob.retighten(win.best)
+    recheck(prob, best, st.design_at(best.values))
+    return best, win.alongside
 
 
 def _lexicographic_b(prob: Problem, start: Solution):
@@ -475,6 +478,7 @@ def _chain(prob: Problem, anchor: Solution, indices: list[int], eps,
                                  prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
         if sol.feasible:
             sol, f_pk = _refine_point(prob, sol, [None, e_k])
+            sol = _tight(prob, sol)
             x = sol.x
             zs.append(sol.x[: prob.nz].copy())
             if refined and f_pk is not None:
@@ -556,7 +560,7 @@ def _other_branch(prob: Problem, sols: dict, in_a: set, eps, workers) -> dict:
         except SolverError:
             return None
         sol = prob.solve(x, prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
-        return _refine_point(prob, sol, [None, e_k])[0] if sol.feasible else None
+        return _tight(prob, _refine_point(prob, sol, [None, e_k])[0]) if sol.feasible else None
 
     outs = map_in_workers(solve, todo, workers=workers) if todo else []
     tol = flat_tolerance(prob.objectives[0])
@@ -567,6 +571,14 @@ def _other_branch(prob: Problem, sols: dict, in_a: set, eps, workers) -> dict:
             sols[k] = sol
             replaced.append(k)
     return {"compared": [t[0] for t in todo], "replaced": replaced}
+
+
+def _tight(prob: Problem, sol: Solution) -> Solution:
+    """A sweep point with B's epigraph variable (if any, slack below epsilon where B has
+    no weight) made tight on the peak grid it was solved on, so that its B is the
+    design's own value; the point as it is if that is not feasible."""
+    tight = prob.retighten(sol)
+    return tight if tight.feasible else sol
 
 
 def _consistent(prob: Problem, sol: Solution) -> np.ndarray:
@@ -590,7 +602,8 @@ def _refine_point(prob: Problem, sol: Solution, eps) -> tuple[Solution, float | 
     """The exchange method of :func:`isodesign.optimization.driver.optimize` for one sweep point.
 
     If the continuous peak of |T| exceeds the study's bound (or the sampled peak
-    objective) by more than PEAK_TOLERANCE_DB, move five of the NLP's movable
+    objective, its epigraph made tight) by more than PEAK_TOLERANCE_DB, move five of the
+    NLP's movable
     peak frequencies around it and solve again (at most PEAK_ROUNDS rounds, using the
     slot rounds 1, 2, ... and 0 last: round 0 holds the chain's predicted peak). The
     frequencies stay for the next point, whose peak is usually close. Returns the point
@@ -605,9 +618,11 @@ def _refine_point(prob: Problem, sol: Solution, eps) -> tuple[Solution, float | 
         vals = sol.values
         peak_db, f_pk = _peak_of(prob, sol)
         limits = [bound] if bound is not None else []
-        for k, kind in enumerate(kinds):
-            if kind == "peak_transmissibility":
-                limits.append(OBJECTIVES[kind].to_natural(sol.objectives[k]))
+        if "peak_transmissibility" in kinds:
+            # the sampled peak itself: an objective without weight has a slack epigraph
+            j = prob.retighten(sol).objectives
+            limits += [OBJECTIVES[kind].to_natural(j[k]) for k, kind in enumerate(kinds)
+                       if kind == "peak_transmissibility"]
         if peak_db <= min(limits) + PEAK_TOLERANCE_DB:
             break
         peak_slots(prob, (rnd + 1) % PEAK_ROUNDS, f_pk)

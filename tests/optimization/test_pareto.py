@@ -391,3 +391,30 @@ def test_other_branch_replaces_a_worse_point_and_keeps_the_rest(front):
     assert worse[1].feasible
     assert worse[1].objectives[1] <= eps[1] + 1e-6
     assert worse[1].objective == pytest.approx(sols[1].objective, abs=0.01)
+
+
+@pytest.mark.slow
+def test_a_front_against_an_epigraph_objective_reports_its_true_values():
+    """With B = peak |T| (an epigraph variable, slack below epsilon where B has no weight)
+    every point's values are the design's own: the margin as evaluate_design gives it, the
+    peak between the NLP's sampled peak (the fixed grid, evaluate_design) and the
+    continuous peak, within the exchange method's tolerance of the latter; every point is
+    solved and non-dominated."""
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db
+
+    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40},
+                                      solver={"starts": 2})
+    objs = ("worst_band_margin", "peak_transmissibility")
+    pf = pareto_front(st, objectives=objs, points=4)
+    assert all(s == "Solve_Succeeded" for s in pf.statuses), pf.statuses
+    assert pf.front.all()
+    prob = Problem(st.with_changes(objective={"kind": objs[0]}), objectives=objs)
+    for i, d in enumerate(pf.designs):
+        ev = evaluate_design(st, d, objectives=pf.objectives)
+        assert ev["max_violation"] <= FEASIBILITY_TOLERANCE, i
+        assert ev["objectives"]["worst_band_margin"] == pytest.approx(pf.values[i, 0], abs=1e-6)
+        peak_db, _ = continuous_peak_db(prob, d, ev["sigma"], ev["tube_rms"])
+        assert ev["objectives"]["peak_transmissibility"] <= pf.values[i, 1] + 1e-6, i
+        assert abs(pf.values[i, 1] - peak_db) <= PEAK_TOLERANCE_DB + 1e-6, i
+    assert np.all(np.diff(pf.values[:, 1]) < 0) and np.all(np.diff(pf.values[:, 0]) < 0)
