@@ -38,7 +38,7 @@ from isodesign.response.isolator import Payload
 # loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
 from isodesign.response.random_input import RANDOM_METHODS
 from isodesign.simulation.monte_carlo import simulate_random_response
-from isodesign.spring.design import SpringDesign
+from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign
 from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
 from isodesign.spring.flow_models import FLOW_MODELS
 from isodesign.spring.gas import P_ATM, pressure_from_load
@@ -96,6 +96,13 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
         choices=AMPLITUDE_MODES,
         help="tube velocity amplitude of the spring model (default: the study's or design "
         "file's, else self_consistent)",
+    )
+    parser.add_argument(
+        "--acoustics",
+        choices=ACOUSTIC_MODELS,
+        help="acoustic model of tube and chambers: distributed (transmission line and "
+        "acoustic volumes, docs/acoustics.md) or lumped (the paper's); default: the study's "
+        "or design file's, else distributed",
     )
     parser.add_argument(
         "--diaphragm",
@@ -314,6 +321,9 @@ def resolve_job(args, *, extra_payload: dict | None = None):
                 models_source = f"design file {Path(path).name} [models]"
     given = {k: getattr(args, k, None) for k in MODEL_DEFAULTS}
     overridden = [k for k, v in given.items() if v is not None]
+    if getattr(args, "acoustics", None) is not None:  # a field of the spring itself
+        design = design.replace(acoustics=args.acoustics)
+        overridden.append("acoustics")
     models.update({k: v for k, v in given.items() if v is not None})
     if overridden:
         models_source += "; options " + ", ".join("--" + k.replace("_", "-") for k in overridden)
@@ -331,6 +341,8 @@ def resolve_job(args, *, extra_payload: dict | None = None):
             bands = study.bands
     floor = DEFAULT_FLOOR if floor is None else floor
     target = DEFAULT_TARGET if target is None else target
+    if study is not None and getattr(args, "acoustics", None) is not None:
+        study = study.with_changes(models={"acoustics": args.acoustics})
     return SimpleNamespace(design=design, label=label, payload=payload, floor=floor,
                            target=target, bands=bands, judged_hz=judged_hz, models=models,
                            models_source=models_source, study=study)
@@ -373,8 +385,10 @@ def models_line(models: dict, source: str) -> str:
     """The models in force and where they come from (one summary line)."""
     dia = str(models.get("diaphragm"))
     note = " (illustrative parameters)" if dia == "viscoelastic" else ""
+    acoustics = models.get("acoustics")
     return (f"  models in force: flow={models.get('flow')}, "
             f"amplitude_mode={models.get('amplitude_mode')}, diaphragm={dia}{note}"
+            + (f", acoustics={acoustics}" if acoustics else "")
             + (f", random closure {models['random_method']}" if "random_method" in models
                else "") + f" (from {source})")
 
@@ -384,7 +398,8 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
     s = res.stability
     p = res.payload
     models = {"flow": res.flow, "amplitude_mode": res.amplitude_mode,
-              "diaphragm": res.diaphragm, "random_method": res.random_method}
+              "diaphragm": res.diaphragm, "acoustics": getattr(res.design, "acoustics", None),
+              "random_method": res.random_method}
     lines = [
         f"band response: {design_label}; payload {p.mass_kg:g} kg on {p.isolators} isolators "
         f"({p.mass_per_isolator_kg:g} kg each), p0 = {s.pressure_pa / 1e5:.4g} bar "
