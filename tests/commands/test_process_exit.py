@@ -1,6 +1,7 @@
 """How ``isodesign optimize`` ends: the program skips the interpreter's teardown once its
 run directory is complete (``isodesign.cli``, "Process exit"); the NLP is freed in a thread
-beside the writing of the outputs; ``main`` called from Python always returns.
+beside the writing of the outputs and the objects frozen for the garbage collector during
+the run are unfrozen; ``main`` called from Python always returns.
 """
 
 from __future__ import annotations
@@ -119,3 +120,5 @@ def test_in_process_optimize_returns_and_frees_the_nlp(monkeypatch, fast_study, 
     assert not any(t.name == "isodesign-release" for t in threading.enumerate())
     # the output writers' modules were imported while the solver was built, once
     assert prefetched == [0]
+    # the objects frozen for the collector during the run are given back to it
+    assert gc.get_freeze_count() == 0
