@@ -87,6 +87,12 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
         help="seed of the Latin hypercube (overrides solver.seed; >= 0)",
     )
     parser.add_argument(
+        "--acoustics",
+        choices=("distributed", "lumped"),
+        help="acoustic model of tube and chambers (overrides models.acoustics): distributed "
+        "(docs/acoustics.md) or lumped (the paper's, with its model-validity limits)",
+    )
+    parser.add_argument(
         "--quiet",
         action="store_true",
         help="no progress bar; print only the result (warnings and errors still go to stderr)",
@@ -137,6 +143,8 @@ def load_study_from_args(args):
         study = default_study() if args.study is None else load_study(args.study)
     if changes:
         study = study.with_changes(solver=changes)
+    if getattr(args, "acoustics", None) is not None:
+        study = study.with_changes(models={"acoustics": args.acoustics})
     return study
 
 
@@ -155,7 +163,7 @@ def canonical_command(args, name: str) -> list[str]:
     words = ["isodesign", name]
     if args.study is not None:
         words.append(str(args.study))
-    for opt in ("objectives", "points", "starts", "workers", "seed"):
+    for opt in ("objectives", "points", "starts", "workers", "seed", "acoustics"):
         v = getattr(args, opt, None)
         if v is not None:
             words += [f"--{opt}", str(v)]
@@ -383,7 +391,7 @@ def summary(result, design: dict) -> str:
         f"{result.analysis.floor_name}; target {result.analysis.target_name} in "
         f"{tg['band_min_hz']:g}-{tg['band_max_hz']:g} Hz ({len(st.bands)} bands); "
         f"flow {st.models['flow']}, {st.models['amplitude_mode']}, diaphragm "
-        f"{st.models['diaphragm']}",
+        f"{st.models['diaphragm']}, acoustics {st.models.get('acoustics', 'distributed')}",
         f"  {starts_text(result)}; {result.wall_s:.1f} s",
         "",
         table(design_rows(result, design["derived"], design["start_derived"]),
