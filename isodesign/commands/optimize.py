@@ -36,6 +36,7 @@ from isodesign.io.record import (
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.explain import BINDING_NOTE, constraint_table_rows, limiting_summary
 from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.problem import Problem
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.study import default_study, load_study
 from isodesign.plotting import optimization_plot
@@ -534,22 +535,74 @@ def prefetch_imports(modules=PREFETCHED_MODULES):
     return thread
 
 
-def run_optimization(study, args):
+class _PrefetchingProblem(Problem):
+    """:class:`~isodesign.optimization.problem.Problem` whose solver build imports the
+    output writers' modules meanwhile (:func:`prefetch_imports`).
+
+    CasADi releases the GIL while it generates IPOPT's derivative functions (the last and
+    longest step of the build, :meth:`_build_solver`), so the imports run there on the
+    other core. Started before the build, the import thread shared the GIL with the
+    build's Python steps and slowed them down about as much as it hid.
+    """
+
+    def _build_solver(self, nlp) -> None:
+        import gc
+
+        thread = prefetch_imports()
+        try:
+            super()._build_solver(nlp)
+        finally:
+            thread.join()  # before anything forks (the starts' worker processes)
+        # every object alive now (the modules, the study, the NLP) lives until the run
+        # ends: the collector skips them from here on (a full collection during the plot
+        # took 80 ms), and the forked workers do not copy their pages by collecting them.
+        # run_optimization / execute unfreeze them.
+        gc.freeze()
+
+
+def run_optimization(study, args, *, background: list | None = None):
     """``optimize(study)`` with the progress bar of ``args``.
 
     The NLP is built first, while :func:`prefetch_imports` imports the output writers'
-    dependencies; the thread is joined before the starts run.
-    """
-    from isodesign.optimization.problem import Problem
+    dependencies (:class:`_PrefetchingProblem`); the thread is joined before the starts
+    run.
 
-    thread = prefetch_imports()
+    Parameters
+    ----------
+    study : Study
+    args : argparse.Namespace
+    background : list, optional
+        When given, the NLP is freed in a thread appended to it, to be joined once the
+        outputs are written: freeing CasADi's graphs takes about 0.2 s with the GIL
+        released, so it runs beside the writing of the outputs and the plot (CasADi is
+        built with thread-safe symbolics). The objects frozen for the garbage collector
+        when the NLP was built stay frozen: the caller calls ``gc.unfreeze()`` after the
+        outputs (:func:`execute`). Default: freed and unfrozen on return.
+
+    Returns
+    -------
+    OptimizationResult
+    """
+    import gc
+
+    gc.freeze()  # the modules imported so far: the build's collections skip them too
     try:
-        problem = Problem(study)
+        problem = _PrefetchingProblem(study)
+        with StartProgress(progress_enabled(args), study.solver["starts"],
+                           study.objective["kind"]) as bar:
+            result = optimize(study, progress=bar, problem=problem)
     finally:
-        thread.join()
-    with StartProgress(progress_enabled(args), study.solver["starts"],
-                       study.objective["kind"]) as bar:
-        return optimize(study, progress=bar, problem=problem)
+        if background is None:
+            gc.unfreeze()
+    if background is not None:
+        import threading
+
+        holder = [problem]
+        del problem  # the thread drops the last reference
+        thread = threading.Thread(target=holder.clear, name="isodesign-release", daemon=True)
+        thread.start()
+        background.append(thread)
+    return result
 
 
 def execute(study, run, args, *, prefix: str = "") -> int:
@@ -558,6 +611,7 @@ def execute(study, run, args, *, prefix: str = "") -> int:
     A :class:`~isodesign.errors.SolverError` propagates (the run directory records it as
     a failed run); an infeasible study sets ``run.status = "infeasible"`` and returns 1.
     """
+    import gc
     import warnings
 
 
@@ -570,8 +624,18 @@ def execute(study, run, args, *, prefix: str = "") -> int:
         run.record.setdefault("parts", {})[prefix.rstrip("/")] = base
     else:
         run.record.update(base)
-    result = run_optimization(study, args)
-    written = write_outputs(result, run, args, plots=not args.no_plots, prefix=prefix)
+    background: list = []
+    try:
+        result = run_optimization(study, args, background=background)
+    except BaseException:
+        gc.unfreeze()
+        raise
+    try:
+        written = write_outputs(result, run, args, plots=not args.no_plots, prefix=prefix)
+    finally:
+        for thread in background:
+            thread.join()
+        gc.unfreeze()
     out = run.final_path(prefix) if prefix else run.target
     if not result.feasible:
         run.status = "infeasible"
