@@ -65,10 +65,14 @@ def study():
 
 
 @pytest.fixture(scope="module")
-def agreement(study):
+def grid(study):
+    return study._grid(REF)
+
+
+@pytest.fixture(scope="module")
+def agreement(grid):
     from isodesign.simulation.harmonic_rig import agreement_table
 
-    grid = study._grid(REF)
     df = agreement_table(grid, REF.replace(acoustics="lumped"))
     sim = grid.to_frame()
     df["cycles"] = sim["cycles"].to_numpy()
@@ -162,3 +166,23 @@ def test_measured_figures(study):
     assert f"{v['n_plus_1_over_n']:.2f}" == f"{v['u_kinematic_low']:.2f}"
     quoted(f"(peak {v['peak_ratio_min']:.2f} to {v['peak_ratio_max']:.2f} of the")
     quoted(f"carries up to {v['distortion_max']:.1%}".replace("%", " %") + " of higher harmonics")
+
+
+def test_sizes_quoted_in_sections_1_and_2():
+    d = REF
+    quoted(f"for the\nreference spring X < {0.5 * d.top_volume_m3 / d.piston_area_m2 * 1e3:.1f} mm")
+    lo = d.static_stiffness_n_per_m * 1e-7 / d.piston_area_m2 / d.pressure_pa
+    hi = d.single_chamber_stiffness_n_per_m * 1e-7 / d.piston_area_m2 / d.pressure_pa
+    quoted(f"where it is {lo:.0e} (`k_s/(N+1) X/A_p`) to {hi:.0e} (`k_s X/A_p`) of `p0`."
+           .replace("e-0", "e-"))
+    quoted(f"at most {d.piston_area_m2 * 5e-4 / d.top_volume_m3:.1%}".replace("%", " %")
+           + " of the inertance at 0.5 mm")
+
+
+@pytest.mark.slow
+def test_cycles_and_mach_on_the_grid(agreement, grid):
+    quoted(f"From there the cases of the reference grid stop after {agreement['cycles'].min()} "
+           f"to {agreement['cycles'].max()} cycles.")
+    peak = grid._field("peak_velocity_m_s", float)[:, -1].max()
+    mach = peak / REF.gas.speed_of_sound(REF.temperature_k)
+    quoted(f"the Mach number reaches {mach:.2f} at 0.5 mm")
