@@ -186,3 +186,22 @@ def test_cycles_and_mach_on_the_grid(agreement, grid):
     peak = grid._field("peak_velocity_m_s", float)[:, -1].max()
     mach = peak / REF.gas.speed_of_sound(REF.temperature_k)
     quoted(f"the Mach number reaches {mach:.2f} at 0.5 mm")
+
+
+def test_describing_velocity_of_the_all_regime_friction():
+    """Section 4, item 3: Phi(U_eq) against the exact first harmonic of Phi(Re(u)) u."""
+    from scipy import integrate
+
+    from isodesign.spring.capillary import churchill_friction_re_product as phi
+
+    per_u = REF.density_kg_m3 * REF.capillary_diameter_m / REF.viscosity_pa_s
+
+    def ratio(u):
+        exact = 2 / np.pi * integrate.quad(
+            lambda t: float(phi(per_u * u * np.sin(t))) * np.sin(t) ** 2, 0, np.pi, limit=200)[0]
+        return float(phi(per_u * 8 * u / (3 * np.pi))) / exact
+
+    quoted(f"`Phi(U_eq)/Phi_DF = {ratio(8.0):.2f}` at U = 8 m/s (peak Re {round(per_u * 8, -2):,.0f}), "
+           f"{ratio(10.0):.2f} at 10\n   m/s, {ratio(14.7):.2f} at 14.7 m/s, {ratio(20.0):.2f} at "
+           "20 m/s (exact for laminar, U <= 5 m/s)")
+    assert ratio(5.0) == pytest.approx(1.0, abs=1e-6)
