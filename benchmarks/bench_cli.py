@@ -7,10 +7,13 @@ teardown) in a few fresh processes, with wall-clock marks at the phases' boundar
 time to the start of the NLP build (interpreter start, imports, study, run directory), the
 NLP build, the starts, the tie-break and peak refinement, the re-check and band analyses,
 the output files, the plot and the exit. Each phase's median over the processes is shown
-(the medians need not add up to the median total).
+(the medians need not add up to the median total). Then the same runs import a
+byte-compiled copy of the package: without ``.pyc`` files (``PYTHONDONTWRITEBYTECODE`` set,
+as on the team's machines) every process compiles the package's sources, which an
+installed wheel never does.
 
 Run alone with ``python benchmarks/bench_cli.py`` or ``python benchmarks/run.py cli``
-(about 20 s).
+(about 40 s).
 """
 
 from __future__ import annotations
@@ -72,14 +75,21 @@ def _load() -> str:
         return "load unknown"
 
 
-def _one_run() -> dict:
-    """One fresh process: the phases' durations (s) and the process wall time."""
+def _one_run(package_dir: str | None = None) -> dict:
+    """One fresh process: the phases' durations (s) and the process wall time.
+
+    ``package_dir``: a directory holding a copy of the ``isodesign`` package to import
+    instead of the installed one (the bytecode-compiled copy of :func:`_compiled_copy`).
+    """
+    env = dict(os.environ)
+    if package_dir is not None:
+        env["PYTHONPATH"] = package_dir + os.pathsep + env.get("PYTHONPATH", "")
     with tempfile.TemporaryDirectory(prefix="bench_cli_") as tmp:
         out = str(Path(tmp) / "run")
         code = f"OUT = {out!r}\n" + _CHILD
         t0 = time.perf_counter()
         p = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                           timeout=600, cwd=tmp)
+                           timeout=600, cwd=tmp, env=env)
         wall = time.perf_counter() - t0
     if p.returncode != 0:
         raise RuntimeError(f"isodesign optimize exited {p.returncode}: {p.stderr[-300:]}")
@@ -99,12 +109,43 @@ def _one_run() -> dict:
     }
 
 
+def _compiled_copy(dest: Path) -> str:
+    """A copy of the ``isodesign`` package in ``dest`` with every module byte-compiled."""
+    import compileall
+    import shutil
+
+    import isodesign
+
+    src = Path(isodesign.__file__).resolve().parent
+    shutil.copytree(src, dest / "isodesign", ignore=shutil.ignore_patterns("__pycache__"))
+    compileall.compile_dir(str(dest / "isodesign"), quiet=1)
+    return str(dest)
+
+
 def bench_cli_breakdown() -> dict:
     """Informative: phases of ``isodesign optimize -o tmpdir --quiet`` in fresh processes."""
     load0 = _load()
     runs = [_one_run() for _ in range(REPEATS)]
     med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
     parts = "; ".join(f"{k} {v:.2f} s" for k, v in med.items() if k != "total")
+    # without bytecode (PYTHONDONTWRITEBYTECODE, or a source tree nobody imported yet)
+    # every process compiles the package's modules from source: compare with the
+    # bytecode an installed wheel carries
+    import isodesign
+
+    src = Path(isodesign.__file__).resolve().parent
+    has_pyc = any(src.glob("__pycache__/*.pyc"))
+    with tempfile.TemporaryDirectory(prefix="bench_cli_pyc_") as tmp:
+        pkg = _compiled_copy(Path(tmp))
+        runs_c = [_one_run(pkg) for _ in range(REPEATS)]
+    med_c = {k: statistics.median(r[k] for r in runs_c) for k in runs_c[0]}
+    bytecode = (
+        f"The package as imported here {'has' if has_pyc else 'has NO'} bytecode "
+        f"(PYTHONDONTWRITEBYTECODE={os.environ.get('PYTHONDONTWRITEBYTECODE', 'unset')}); a "
+        f"byte-compiled copy of it (as a wheel installs it), same runs: total "
+        f"{med_c['total']:.2f} s, to the NLP build {med_c['to the NLP build']:.2f} s, NLP "
+        f"build {med_c['NLP build']:.2f} s, response.png {med_c['response.png']:.2f} s"
+    )
     return {
         "name": "informative: where `isodesign optimize -o tmpdir --quiet`'s time goes",
         "target": "",
@@ -116,12 +157,12 @@ def bench_cli_breakdown() -> dict:
         "notes": f"medians of {REPEATS} fresh processes (`python -m isodesign`, which ends "
         f"like the script), {load0} before, {_load()} after: {parts}. 'to the NLP build': "
         f"imports, study, run directory; 'exit' includes the interpreter's start before "
-        f"the first mark",
+        f"the first mark. {bytecode}",
     }
 
 
 def run() -> list[dict]:
-    """The command-line benchmark rows (about 20 s).
+    """The command-line benchmark rows (about 40 s).
 
     Returns
     -------
