@@ -510,8 +510,11 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
 PREFETCHED_MODULES = ("pandas", "matplotlib.figure", "matplotlib.backends.backend_agg")
 
 
-def prefetch_imports(modules=PREFETCHED_MODULES):
+def prefetch_imports(modules=PREFETCHED_MODULES, *, then=()):
     """Import ``modules`` in a background thread; return the started thread (join it).
+
+    ``then``: callables the thread calls after the imports (their results are dropped:
+    caches to fill, like :func:`isodesign.io.record.environment`'s package versions).
 
     CasADi releases the GIL while it builds the NLP's derivatives (about half a second),
     so the imports that writing the outputs needs (pandas, Matplotlib: a few tenths of a
@@ -528,6 +531,11 @@ def prefetch_imports(modules=PREFETCHED_MODULES):
             try:
                 importlib.import_module(name)
             except Exception:  # the real import reports it
+                return
+        for fn in then:
+            try:
+                fn()
+            except Exception:  # the real call reports it
                 return
 
     thread = threading.Thread(target=work, name="isodesign-prefetch", daemon=True)
@@ -548,7 +556,7 @@ class _PrefetchingProblem(Problem):
     def _build_solver(self, nlp) -> None:
         import gc
 
-        thread = prefetch_imports()
+        thread = prefetch_imports(then=(environment,))  # the run record's versions too
         try:
             super()._build_solver(nlp)
         finally:
@@ -615,21 +623,26 @@ def execute(study, run, args, *, prefix: str = "") -> int:
     import warnings
 
 
-    # what is known before the solve: recorded even if the run fails or is interrupted
+    # what is known before the solve: recorded even if the run fails or is interrupted;
+    # the environment's package versions are looked up while the NLP is built (None if
+    # the run is interrupted before)
     base = {"kind": "isodesign optimize",
             "command_line": command_line(canonical_command(args, "optimize")[1:]),
-            "environment": environment(), "study": resolved_study_dict(study),
+            "environment": None, "study": resolved_study_dict(study),
             "study_source": study.source}
     if prefix:
         run.record.setdefault("parts", {})[prefix.rstrip("/")] = base
     else:
         run.record.update(base)
+    rec = base if prefix else run.record
     background: list = []
     try:
         result = run_optimization(study, args, background=background)
     except BaseException:
         gc.unfreeze()
+        rec["environment"] = environment()
         raise
+    rec["environment"] = environment()
     try:
         written = write_outputs(result, run, args, plots=not args.no_plots, prefix=prefix)
     finally:

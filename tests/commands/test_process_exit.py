@@ -122,3 +122,22 @@ def test_in_process_optimize_returns_and_frees_the_nlp(monkeypatch, fast_study, 
     assert prefetched == [0]
     # the objects frozen for the collector during the run are given back to it
     assert gc.get_freeze_count() == 0
+
+
+def test_a_failed_run_records_its_environment(monkeypatch, fast_study, tmp_path, capsys):
+    # the package versions are looked up while the NLP is built; a run that fails after
+    # the build still records them
+    from isodesign.errors import SolverError
+
+    def fail(*a, **kw):
+        raise SolverError("solver exploded (test)")
+
+    monkeypatch.setattr(optimize_cmd, "optimize", fail)
+    out = tmp_path / "run"
+    status = cli.main(["optimize", str(fast_study), "-o", str(out), "--quiet"])
+    assert status == 1
+    assert "solver exploded (test)" in capsys.readouterr().err
+    rec = json.loads((out / "record.json").read_text(encoding="utf-8"))
+    assert rec["run_status"] == "failed"
+    assert rec["environment"]["packages"]["casadi"]
+    assert gc.get_freeze_count() == 0
