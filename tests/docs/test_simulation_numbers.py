@@ -201,7 +201,8 @@ def test_describing_velocity_of_the_all_regime_friction():
             lambda t: float(phi(per_u * u * np.sin(t))) * np.sin(t) ** 2, 0, np.pi, limit=200)[0]
         return float(phi(per_u * 8 * u / (3 * np.pi))) / exact
 
-    quoted(f"`Phi(U_eq)/Phi_DF = {ratio(8.0):.2f}` at U = 8 m/s (peak Re {round(per_u * 8, -2):,.0f}), "
+    peak_re = round(per_u * 8, -2)
+    quoted(f"`Phi(U_eq)/Phi_DF = {ratio(8.0):.2f}` at U = 8 m/s (peak Re {peak_re:,.0f}), "
            f"{ratio(10.0):.2f} at 10\n   m/s, {ratio(14.7):.2f} at 14.7 m/s, {ratio(20.0):.2f} at "
            "20 m/s (exact for laminar, U <= 5 m/s)")
     assert ratio(5.0) == pytest.approx(1.0, abs=1e-6)
