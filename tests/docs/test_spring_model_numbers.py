@@ -182,3 +182,53 @@ def test_section_11_limits_of_eq38():
         hi = complex_stiffness(d, 1e5, 1e-4, flow=flow, amplitude_mode=mode, diaphragm="none",
                                warn=False).k.item().real
         quoted(f"k(1e-6 Hz) = {lo:,.2f} N/m = k_s/(N+1), k(1e5 Hz) =\n  {hi:,.2f} N/m = k_s")
+
+
+def test_section_9_defaults(fig11):
+    mod, _, curves, _ = fig11
+    f = np.sort(curves[curves["grid"] == "fine"]["frequency_hz"].unique())
+    x = np.asarray(mod.AMPLITUDES_M)
+    low = complex_stiffness(REF, 0.2, 0.05e-3, flow="zhao", amplitude_mode="kinematic",
+                            warn=False).diagnostics
+    qs_low = complex_stiffness(REF, 0.2, 0.05e-3, warn=False).diagnostics
+    kin = complex_stiffness(REF, 20.0, 0.5e-3, flow="zhao", amplitude_mode="kinematic",
+                            warn=False).diagnostics
+    qs = complex_stiffness(REF, 20.0, 0.5e-3, warn=False).diagnostics
+    lo = low.velocity_amplitude_m_s.item() / qs_low.velocity_amplitude_m_s.item()
+    hi = kin.velocity_amplitude_m_s.item() / qs.velocity_amplitude_m_s.item()
+    quoted(f"Eq. 37 overestimates the tube velocity by {lo:.1f}x at low frequency and by\n  up to "
+           f"{hi:.0f}x at 0.5 mm / 20 Hz")
+    with_d = complex_stiffness(REF, f, x, warn=False).loss_factor.max(axis=0)
+    air = complex_stiffness(REF, f, x, diaphragm="none", warn=False).loss_factor.max(axis=0)
+    wo = complex_stiffness(REF, f, x, flow="womersley", diaphragm="none",
+                           warn=False).loss_factor.max(axis=0)
+    rise = ", ".join(f"{100 * (a / b - 1):.0f} %" for a, b in zip(air[:2], with_d[:2], strict=True))
+    quoted(f"by {rise} and {100 * (air[2] / with_d[2] - 1):.0f} % at 0.05, 0.15 and 0.5 mm")
+    quoted(f"peak loss factors ({air[0]:.3f}, {air[1]:.3f}, {air[2]:.3f} at 0.05, 0.15,\n  0.5 mm)")
+    assert np.all(air > REF.volume_ratio / (2 * np.sqrt(REF.volume_ratio + 1)))
+    assert np.allclose(wo, air, atol=0.01)  # "womersley agrees"
+    fine = curves[curves["grid"] == "fine"]
+
+    def eta(model):
+        g = fine[(fine["model"] == model) & (fine["diaphragm"] == "viscoelastic")]
+        return g.pivot(index="frequency_hz", columns="amplitude_m", values="loss_factor")
+
+    diff = (eta("quasi_steady_sc") - eta("womersley_sc")).abs().max(axis=0).to_numpy()
+    assert diff[0] < 0.001
+    quoted(f"differ by less than 0.001 in loss factor at 0.05 mm\n  ({diff[1]:.3f} at 0.15 mm and "
+           f"{diff[2]:.3f} at 0.5 mm")
+
+
+@pytest.mark.slow
+def test_section_11_time_domain_check(fig11):
+    mod = fig11[0]
+    sim = mod.run_simulation(REF)
+    i = int(np.argmax(sim["rel_diff_abs_k"]))
+    quoted(f"agrees to **{sim['rel_diff_abs_k'].max():.1%}".replace("%", " %") + " in\n  k** "
+           f"(`|k_sim - k|/|k|`, worst at {sim['frequency_hz'][i]:g} Hz / "
+           f"{sim['amplitude_m'][i] * 1e3:g} mm) and **{sim['diff_loss_factor'].abs().max():.3f} "
+           "in loss factor**")
+    quoted(f"to {sim['rel_diff_abs_k'].max():.1%}".replace("%", " %") + " in k (`|k_sim - k|/|k|`)")
+    first = sim[(sim["frequency_hz"] == 0.3) & (sim["amplitude_m"] == 0.05e-3)].iloc[0]
+    assert first["rel_diff_abs_k"] < 1e-3
+    quoted("below 0.1 % at\n  0.3 Hz and 0.05 mm")
