@@ -232,3 +232,28 @@ def test_section_11_time_domain_check(fig11):
     first = sim[(sim["frequency_hz"] == 0.3) & (sim["amplitude_m"] == 0.05e-3)].iloc[0]
     assert first["rel_diff_abs_k"] < 1e-3
     quoted("below 0.1 % at\n  0.3 Hz and 0.05 mm")
+
+
+def test_section_12_range_and_friction_ratio():
+    from isodesign.spring.capillary import ZHAO_RANGES, kinetic_reynolds
+
+    lo_re, hi_re = (kinetic_reynolds(REF, 2 * math.pi * f) for f in (0.2, 24.0))
+    f23 = 23.0 / kinetic_reynolds(REF, 1.0) / (2 * math.pi)
+    a0 = [REF.piston_area_m2 / REF.capillary_area_m2 * x / REF.capillary_diameter_m
+          for x in (0.05e-3, 0.5e-3)]
+    top = ZHAO_RANGES["laminar"][3]
+    quoted(f"the reference tube has Re_ω = {lo_re:.2f} to {hi_re:.0f} (≥ 23 only above\n   "
+           f"{f23:.1f} Hz), and with Eq. 37, A0 = (A_p/A_c) X_p/D_c = **{a0[0]:.0f} at 0.05 mm and "
+           f"{a0[1]:,.0f} at 0.5 mm**,\n   {a0[0] / top:.0f} to {a0[1] / top:.0f} times the upper "
+           "bound")
+
+    def ratio(f, x):  # (L_c/D_c) fr : K with Eq. 24 at Eq. 37's A0
+        a = REF.piston_area_m2 / REF.capillary_area_m2 * x / REF.capillary_diameter_m
+        fr = 4 / a * 3.27 / (kinetic_reynolds(REF, 2 * math.pi * f) ** 0.548 - 2.04)
+        return REF.capillary_length_m / REF.capillary_diameter_m * fr / REF.minor_loss
+
+    r = [ratio(f, 0.05e-3) for f in (2.2, 2.5, 3.0, 5.0)]
+    quoted(f"With the literal model at 0.05 mm it is {r[0]:.0f} at 2.2 Hz (next to the pole), "
+           f"{r[1]:.1f} at 2.5 Hz, {r[2]:.2f}\n   at 3 Hz and {r[3]:.2f} at 5 Hz; at 0.5 mm ten "
+           "times smaller")
+    assert ratio(3.0, 0.5e-3) == pytest.approx(r[2] / 10, rel=1e-12)
