@@ -257,3 +257,43 @@ def test_section_12_range_and_friction_ratio():
            f"{r[1]:.1f} at 2.5 Hz, {r[2]:.2f}\n   at 3 Hz and {r[3]:.2f} at 5 Hz; at 0.5 mm ten "
            "times smaller")
     assert ratio(3.0, 0.5e-3) == pytest.approx(r[2] / 10, rel=1e-12)
+
+
+def _resistance(design, f, u):
+    from isodesign.spring.flow_models import resistance_function
+
+    return resistance_function("quasi_steady", design, np.array([2 * math.pi * f]))(
+        np.array([u])).to_complex()[0]
+
+
+def test_section_6_slug_resonance():
+    d = REF
+    kappa_p0 = d.gas.heat_capacity_ratio * d.pressure_pa
+    w2 = (kappa_p0 * d.capillary_area_m2 * (1 / d.top_volume_m3 + 1 / d.bottom_volume_m3)
+          / (d.density_kg_m3 * d.capillary_length_m * 4 / 3))
+    f_slug = math.sqrt(w2) / (2 * math.pi)
+    quoted(f"the resonance (about {f_slug:.0f} Hz")
+    u = complex_stiffness(d, f_slug, 0.05e-3, warn=False).diagnostics.velocity_amplitude_m_s.item()
+    s = d.bottom_volume_m3 / (d.gas.heat_capacity_ratio * d.gas.gas_constant_j_per_kg_k
+                              * d.temperature_k)
+    ws_re_c = 2 * math.pi * f_slug * s * _resistance(d, f_slug, u).real
+    quoted(f"(ω s Re C ≈ {ws_re_c:.0f} there at 0.05 mm)")
+
+
+def test_section_11_what_sets_the_damping(fig11):
+    """The minor loss's share of Re C at each peak, and the slug's Im C/Re C without diaphragm."""
+    f = np.geomspace(0.2, 24.0, 2001)
+    shares = []
+    for x in (0.05e-3, 0.15e-3, 0.5e-3):
+        r = complex_stiffness(REF, f, [x], warn=False)
+        i = int(np.argmax(r.loss_factor[:, 0]))
+        u = r.diagnostics.velocity_amplitude_m_s[i, 0]
+        c = _resistance(REF, f[i], u)
+        c0 = _resistance(REF.replace(minor_loss=0.0), f[i], u)
+        shares.append((c.real - c0.real) / c.real)
+    quoted("at the peak the minor loss is " + ", ".join(f"{100 * v:.0f} %" for v in shares[:2])
+           + f" and {100 * shares[2]:.0f} % of the real\n  resistance at 0.05, 0.15 and 0.5 mm")
+    r = complex_stiffness(REF, f, [0.05e-3], diaphragm="none", warn=False)
+    i = int(np.argmax(r.loss_factor[:, 0]))
+    c = _resistance(REF, f[i], r.diagnostics.velocity_amplitude_m_s[i, 0])
+    quoted(f"(Im C/Re C = {c.imag / c.real:.2f} at the 0.05 mm peak)")
