@@ -310,3 +310,20 @@ def test_section_11_peak_frequencies_at_the_table_2_amplitudes():
     quoted(f"on Table 2's 11 amplitudes (with the diaphragm: "
            f"{peaks(flow='zhao', amplitude_mode='kinematic')} Hz on a 1,200-point grid)")
     quoted(f"over all 11 Table 2 amplitudes ({peaks()} Hz on the same grid)")
+
+
+def test_section_12_eq24_against_womersley():
+    """Item 7: Eq. 36 with K = 0 and Eq. 24 against C_u Re zeta(alpha), both independent of U."""
+    d = REF
+    rho, mu, dia = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
+    ratios = []
+    for re_w in (23.0, 50.0, 100.0, 200.0, 395.0):
+        w = re_w * mu / (rho * dia**2)
+        # (L/D) fr 4 u_max/(3 pi A_c) with fr = (4/A0) 3.27/(Re_w^0.548 - 2.04), A0 = u_max/(w D)
+        c36 = (d.capillary_length_m * 16 * w * 3.27
+               / (3 * math.pi * d.capillary_area_m2 * (re_w**0.548 - 2.04)))
+        zeta = womersley_zeta(np.array([math.sqrt(re_w) / 2])).to_complex()[0]
+        ratios.append(c36 / (poiseuille_resistance(d) * zeta.real))
+    quoted(f"this package finds Eq. 24 **{ratios[0]:.2f} to {max(ratios):.2f} times** Womersley's "
+           "over Re_ω = 23-395 (" + ", ".join(f"{r:.2f}" for r in ratios)
+           + " at 23, 50, 100, 200, 395)")
