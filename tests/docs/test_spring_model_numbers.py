@@ -327,3 +327,11 @@ def test_section_12_eq24_against_womersley():
     quoted(f"this package finds Eq. 24 **{ratios[0]:.2f} to {max(ratios):.2f} times** Womersley's "
            "over Re_ω = 23-395 (" + ", ".join(f"{r:.2f}" for r in ratios)
            + " at 23, 50, 100, 200, 395)")
+
+
+def test_section_5_churchill_against_blasius():
+    from isodesign.spring.capillary import churchill_friction_re_product
+
+    re = np.geomspace(1e4, 1e5, 2001)
+    dev = np.max(np.abs(churchill_friction_re_product(re) / re / (0.3164 * re**-0.25) - 1))
+    quoted(f"within {100 * dev:.1f} % of\nBlasius `0.3164 Re^-0.25` over 1e4-1e5")
