@@ -139,7 +139,8 @@ def _quiet_logs() -> None:
 
 
 def connect(scheduler: str | None = None, workers: int | None = None, *,
-            option: str = "--scheduler", timeout_s: float = CONNECT_TIMEOUT_S) -> Connection:
+            option: str = "--scheduler", timeout_s: float = CONNECT_TIMEOUT_S,
+            config: dict | None = None) -> Connection:
     """A Dask client: a local cluster, or the scheduler at ``scheduler``.
 
     Parameters
@@ -154,6 +155,9 @@ def connect(scheduler: str | None = None, workers: int | None = None, *,
         For messages.
     timeout_s : float
         Connection timeout for an external scheduler.
+    config : dict, optional
+        Dask configuration of a local cluster (default :data:`LOCAL_CONFIG`; the
+        benchmark compares it with Dask's defaults).
 
     Returns
     -------
@@ -186,7 +190,7 @@ def connect(scheduler: str | None = None, workers: int | None = None, *,
             if _accepts_n_workers(client) else len(client.scheduler_info().get("workers", {}))
         return Connection(client, None, f"scheduler {address} ({n} workers now)", n)
     n = int(workers) if workers else available_cores()
-    with dask.config.set(LOCAL_CONFIG), _environ_kept():
+    with dask.config.set(LOCAL_CONFIG if config is None else config), _environ_kept():
         # no dashboard; the scheduler's HTTP routes (health, metrics) on a free loopback port
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                host="127.0.0.1", dashboard_address="127.0.0.1:0",
