@@ -43,7 +43,7 @@ ALLOWED_FAILURES = 1
 #: * ``MALLOC_TRIM_THRESHOLD_`` is not set in the workers (Dask sets 64 KiB to give the
 #:   memory of large arrays back to the OS): glibc's own threshold, so that CasADi and
 #:   IPOPT, which free and allocate again many medium blocks per point, do not pay a page
-#:   fault for each (with 64 KiB a point takes 4 to 7 % longer);
+#:   fault for each (with 64 KiB a point takes measurably more CPU time);
 #: * no statistical profiler in the workers (it samples the task's stack every 10 ms,
 #:   interrupting it; its profile feeds only the dashboard, which is off);
 #: * the event-loop health tick, the memory monitor and the system monitor every 1, 1 and
