@@ -1,4 +1,4 @@
-"""The sweep table: one row per point, written whole (Parquet, atomically) after each point.
+"""The sweep table: one row per point, written whole (Parquet, atomically) as the points finish.
 
 The table is an index of the point run directories: every row is also the point's
 ``sweep_point.json``, so the table can always be rebuilt from ``points/``
