@@ -36,6 +36,7 @@ from isodesign.io.record import (
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.explain import BINDING_NOTE, constraint_table_rows, limiting_summary
 from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.problem import Problem
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.study import default_study, load_study
 from isodesign.plotting import optimization_plot
@@ -84,6 +85,12 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
         type=_int_option,
         metavar="N",
         help="seed of the Latin hypercube (overrides solver.seed; >= 0)",
+    )
+    parser.add_argument(
+        "--acoustics",
+        choices=("distributed", "lumped"),
+        help="acoustic model of tube and chambers (overrides models.acoustics): distributed "
+        "(docs/acoustics.md) or lumped (the paper's, with its model-validity limits)",
     )
     parser.add_argument(
         "--quiet",
@@ -136,6 +143,8 @@ def load_study_from_args(args):
         study = default_study() if args.study is None else load_study(args.study)
     if changes:
         study = study.with_changes(solver=changes)
+    if getattr(args, "acoustics", None) is not None:
+        study = study.with_changes(models={"acoustics": args.acoustics})
     return study
 
 
@@ -154,7 +163,7 @@ def canonical_command(args, name: str) -> list[str]:
     words = ["isodesign", name]
     if args.study is not None:
         words.append(str(args.study))
-    for opt in ("objectives", "points", "starts", "workers", "seed"):
+    for opt in ("objectives", "points", "starts", "workers", "seed", "acoustics"):
         v = getattr(args, opt, None)
         if v is not None:
             words += [f"--{opt}", str(v)]
@@ -382,7 +391,7 @@ def summary(result, design: dict) -> str:
         f"{result.analysis.floor_name}; target {result.analysis.target_name} in "
         f"{tg['band_min_hz']:g}-{tg['band_max_hz']:g} Hz ({len(st.bands)} bands); "
         f"flow {st.models['flow']}, {st.models['amplitude_mode']}, diaphragm "
-        f"{st.models['diaphragm']}",
+        f"{st.models['diaphragm']}, acoustics {st.models.get('acoustics', 'distributed')}",
         f"  {starts_text(result)}; {result.wall_s:.1f} s",
         "",
         table(design_rows(result, design["derived"], design["start_derived"]),
@@ -501,8 +510,11 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
 PREFETCHED_MODULES = ("pandas", "matplotlib.figure", "matplotlib.backends.backend_agg")
 
 
-def prefetch_imports(modules=PREFETCHED_MODULES):
+def prefetch_imports(modules=PREFETCHED_MODULES, *, then=()):
     """Import ``modules`` in a background thread; return the started thread (join it).
+
+    ``then``: callables the thread calls after the imports (their results are dropped:
+    caches to fill, like :func:`isodesign.io.record.environment`'s package versions).
 
     CasADi releases the GIL while it builds the NLP's derivatives (about half a second),
     so the imports that writing the outputs needs (pandas, Matplotlib: a few tenths of a
@@ -520,28 +532,85 @@ def prefetch_imports(modules=PREFETCHED_MODULES):
                 importlib.import_module(name)
             except Exception:  # the real import reports it
                 return
+        for fn in then:
+            try:
+                fn()
+            except Exception:  # the real call reports it
+                return
 
     thread = threading.Thread(target=work, name="isodesign-prefetch", daemon=True)
     thread.start()
     return thread
 
 
-def run_optimization(study, args):
+class _PrefetchingProblem(Problem):
+    """:class:`~isodesign.optimization.problem.Problem` whose solver build imports the
+    output writers' modules meanwhile (:func:`prefetch_imports`).
+
+    CasADi releases the GIL while it generates IPOPT's derivative functions (the last and
+    longest step of the build, :meth:`_build_solver`), so the imports run there on the
+    other core. Started before the build, the import thread shared the GIL with the
+    build's Python steps and slowed them down about as much as it hid.
+    """
+
+    def _build_solver(self, nlp) -> None:
+        import gc
+
+        thread = prefetch_imports(then=(environment,))  # the run record's versions too
+        try:
+            super()._build_solver(nlp)
+        finally:
+            thread.join()  # before anything forks (the starts' worker processes)
+        # every object alive now (the modules, the study, the NLP) lives until the run
+        # ends: the collector skips them from here on (a full collection during the plot
+        # took 80 ms), and the forked workers do not copy their pages by collecting them.
+        # run_optimization / execute unfreeze them.
+        gc.freeze()
+
+
+def run_optimization(study, args, *, background: list | None = None):
     """``optimize(study)`` with the progress bar of ``args``.
 
     The NLP is built first, while :func:`prefetch_imports` imports the output writers'
-    dependencies; the thread is joined before the starts run.
-    """
-    from isodesign.optimization.problem import Problem
+    dependencies (:class:`_PrefetchingProblem`); the thread is joined before the starts
+    run.
 
-    thread = prefetch_imports()
+    Parameters
+    ----------
+    study : Study
+    args : argparse.Namespace
+    background : list, optional
+        When given, the NLP is freed in a thread appended to it, to be joined once the
+        outputs are written: freeing CasADi's graphs takes about 0.2 s with the GIL
+        released, so it runs beside the writing of the outputs and the plot (CasADi is
+        built with thread-safe symbolics). The objects frozen for the garbage collector
+        when the NLP was built stay frozen: the caller calls ``gc.unfreeze()`` after the
+        outputs (:func:`execute`). Default: freed and unfrozen on return.
+
+    Returns
+    -------
+    OptimizationResult
+    """
+    import gc
+
+    gc.freeze()  # the modules imported so far: the build's collections skip them too
     try:
-        problem = Problem(study)
+        problem = _PrefetchingProblem(study)
+        with StartProgress(progress_enabled(args), study.solver["starts"],
+                           study.objective["kind"]) as bar:
+            result = optimize(study, progress=bar, problem=problem)
     finally:
-        thread.join()
-    with StartProgress(progress_enabled(args), study.solver["starts"],
-                       study.objective["kind"]) as bar:
-        return optimize(study, progress=bar, problem=problem)
+        if background is None:
+            gc.unfreeze()
+    if background is not None:
+        import threading
+
+        holder = [problem]
+        del problem  # the thread drops the last reference
+        thread = threading.Thread(target=holder.clear, name="isodesign-release", daemon=True)
+        thread.start()
+        background.append(thread)
+    return result
 
 
 def execute(study, run, args, *, prefix: str = "") -> int:
@@ -550,20 +619,36 @@ def execute(study, run, args, *, prefix: str = "") -> int:
     A :class:`~isodesign.errors.SolverError` propagates (the run directory records it as
     a failed run); an infeasible study sets ``run.status = "infeasible"`` and returns 1.
     """
+    import gc
     import warnings
 
 
-    # what is known before the solve: recorded even if the run fails or is interrupted
+    # what is known before the solve: recorded even if the run fails or is interrupted;
+    # the environment's package versions are looked up while the NLP is built (None if
+    # the run is interrupted before)
     base = {"kind": "isodesign optimize",
             "command_line": command_line(canonical_command(args, "optimize")[1:]),
-            "environment": environment(), "study": resolved_study_dict(study),
+            "environment": None, "study": resolved_study_dict(study),
             "study_source": study.source}
     if prefix:
         run.record.setdefault("parts", {})[prefix.rstrip("/")] = base
     else:
         run.record.update(base)
-    result = run_optimization(study, args)
-    written = write_outputs(result, run, args, plots=not args.no_plots, prefix=prefix)
+    rec = base if prefix else run.record
+    background: list = []
+    try:
+        result = run_optimization(study, args, background=background)
+    except BaseException:
+        gc.unfreeze()
+        rec["environment"] = environment()
+        raise
+    rec["environment"] = environment()
+    try:
+        written = write_outputs(result, run, args, plots=not args.no_plots, prefix=prefix)
+    finally:
+        for thread in background:
+            thread.join()
+        gc.unfreeze()
     out = run.final_path(prefix) if prefix else run.target
     if not result.feasible:
         run.status = "infeasible"

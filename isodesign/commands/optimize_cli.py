@@ -20,7 +20,11 @@ from isodesign.commands.optimize import (
 )
 from isodesign.errors import InputError
 
-__all__ = ["add_arguments", "run"]
+__all__ = ["EXIT_WITHOUT_TEARDOWN", "add_arguments", "run"]
+
+#: Run as the program, the process ends as soon as the command returns (its run directory
+#: is complete by then): no interpreter teardown (:mod:`isodesign.cli`, "Process exit").
+EXIT_WITHOUT_TEARDOWN = True
 
 #: The command's help text (``isodesign optimize --help``): the nominal optimizer's.
 __doc__ = _optimize.__doc__

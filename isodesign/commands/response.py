@@ -38,7 +38,7 @@ from isodesign.response.isolator import Payload
 # loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
 from isodesign.response.random_input import RANDOM_METHODS
 from isodesign.simulation.monte_carlo import simulate_random_response
-from isodesign.spring.design import SpringDesign
+from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign
 from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
 from isodesign.spring.flow_models import FLOW_MODELS
 from isodesign.spring.gas import P_ATM, pressure_from_load
@@ -96,6 +96,13 @@ def add_payload_arguments(parser: argparse.ArgumentParser) -> None:
         choices=AMPLITUDE_MODES,
         help="tube velocity amplitude of the spring model (default: the study's or design "
         "file's, else self_consistent)",
+    )
+    parser.add_argument(
+        "--acoustics",
+        choices=ACOUSTIC_MODELS,
+        help="acoustic model of tube and chambers: distributed (transmission line and "
+        "acoustic volumes, docs/acoustics.md) or lumped (the paper's); default: the study's "
+        "or design file's, else distributed",
     )
     parser.add_argument(
         "--diaphragm",
@@ -176,8 +183,26 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
 
 
-def monte_carlo_table(res, mc) -> str:
-    """The closure against the Monte Carlo verifier, per band (um/s, dB), and the RMS values."""
+def lumped_twin(design):
+    """The design with the acoustics the time-domain simulators integrate (lumped, adiabatic
+    or polytropic chambers), or ``None`` when it has them already."""
+    if design.acoustics == "lumped" and not design.chamber_heat_exchange:
+        return None
+    return design.replace(acoustics="lumped", chamber_heat_exchange=False)
+
+
+def monte_carlo_table(res, mc, in_force=None) -> str:
+    """The closure against the Monte Carlo verifier, per band (um/s, dB), and the RMS values.
+
+    Parameters
+    ----------
+    res : BandResponse
+        The closure of the model the simulator integrates (the lumped acoustics).
+    mc : MonteCarloResult
+    in_force : BandResponse, optional
+        The closure of the model in force when it is another one (the distributed
+        acoustics): one more line gives their largest difference over the simulated bands.
+    """
     import numpy as np
 
     err = mc.error_db(res)
@@ -204,6 +229,15 @@ def monte_carlo_table(res, mc) -> str:
         + (f"{su:.3g} m/s vs " if su is not None else "")
         + f"{mc.tube_velocity_rms_m_s:.3g} m/s (kurtosis {mc.tube_velocity_kurtosis:.2f})"
     )
+    if in_force is not None:
+        diff = 20.0 * np.log10(np.asarray(in_force.payload_velocity_rms_m_s)[idx]
+                               / np.asarray(res.payload_velocity_rms_m_s)[idx])
+        k = int(np.argmax(np.abs(diff)))
+        lines.append(
+            "  the simulator integrates the lumped acoustics (uniform chamber pressures, a "
+            "slug in the tube), so the closure above is the lumped model's; the "
+            f"{in_force.design.acoustics} acoustics in force differ from it by at most "
+            f"{diff[k]:+.3f} dB (band {mc.bands.labels[k]} Hz; docs/acoustics.md)")
     return "\n".join(lines)
 
 
@@ -314,6 +348,9 @@ def resolve_job(args, *, extra_payload: dict | None = None):
                 models_source = f"design file {Path(path).name} [models]"
     given = {k: getattr(args, k, None) for k in MODEL_DEFAULTS}
     overridden = [k for k, v in given.items() if v is not None]
+    if getattr(args, "acoustics", None) is not None:  # a field of the spring itself
+        design = design.replace(acoustics=args.acoustics)
+        overridden.append("acoustics")
     models.update({k: v for k, v in given.items() if v is not None})
     if overridden:
         models_source += "; options " + ", ".join("--" + k.replace("_", "-") for k in overridden)
@@ -331,6 +368,8 @@ def resolve_job(args, *, extra_payload: dict | None = None):
             bands = study.bands
     floor = DEFAULT_FLOOR if floor is None else floor
     target = DEFAULT_TARGET if target is None else target
+    if study is not None and getattr(args, "acoustics", None) is not None:
+        study = study.with_changes(models={"acoustics": args.acoustics})
     return SimpleNamespace(design=design, label=label, payload=payload, floor=floor,
                            target=target, bands=bands, judged_hz=judged_hz, models=models,
                            models_source=models_source, study=study)
@@ -373,8 +412,10 @@ def models_line(models: dict, source: str) -> str:
     """The models in force and where they come from (one summary line)."""
     dia = str(models.get("diaphragm"))
     note = " (illustrative parameters)" if dia == "viscoelastic" else ""
+    acoustics = models.get("acoustics")
     return (f"  models in force: flow={models.get('flow')}, "
             f"amplitude_mode={models.get('amplitude_mode')}, diaphragm={dia}{note}"
+            + (f", acoustics={acoustics}" if acoustics else "")
             + (f", random closure {models['random_method']}" if "random_method" in models
                else "") + f" (from {source})")
 
@@ -384,7 +425,8 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
     s = res.stability
     p = res.payload
     models = {"flow": res.flow, "amplitude_mode": res.amplitude_mode,
-              "diaphragm": res.diaphragm, "random_method": res.random_method}
+              "diaphragm": res.diaphragm, "acoustics": getattr(res.design, "acoustics", None),
+              "random_method": res.random_method}
     lines = [
         f"band response: {design_label}; payload {p.mass_kg:g} kg on {p.isolators} isolators "
         f"({p.mass_per_isolator_kg:g} kg each), p0 = {s.pressure_pa / 1e5:.4g} bar "
@@ -472,6 +514,7 @@ def run(args) -> int:
         warnings.warn(f"spring model at A*: {line}", ModelValidityWarning, stacklevel=2)
     to_stdout = args.output == "-"
     mc = None
+    mc_closure = in_force = None
     if args.verify_monte_carlo is not None:
 
         try:
@@ -482,6 +525,14 @@ def run(args) -> int:
             )  # fmt: skip
         except InputError as exc:
             raise InputError(f"--verify-monte-carlo: {exc}") from None
+        # like with like: the simulator's lumped equations against the lumped closure
+        twin = lumped_twin(job.design)
+        mc_closure, in_force = res, None
+        if twin is not None:
+            with option_names(**RESPONSE_OPTION_NAMES):
+                mc_closure = band_response(twin, job.payload, job.floor, job.target,
+                                           bands=res.bands, **kw)
+            in_force = res
     status = write_result(res, without_plot(args), "" if to_stdout else summary(
         res, job.label, not args.design_pressure, job.models_source))
     if args.plot:
@@ -499,5 +550,5 @@ def run(args) -> int:
         if not to_stdout:
             print(f"wrote {args.plot}")
     if mc is not None and not to_stdout:
-        print(monte_carlo_table(res, mc))
+        print(monte_carlo_table(mc_closure, mc, in_force))
     return status

@@ -100,6 +100,12 @@ def add_model_arguments(parser: argparse.ArgumentParser) -> None:
         "kinematic (the paper's Eq. 37; required by the zhao models)",
     )
     parser.add_argument(
+        "--acoustics",
+        choices=("distributed", "lumped"),
+        help="acoustic model of tube and chambers (default: the design file's, else "
+        "distributed; lumped is the paper's, docs/acoustics.md)",
+    )
+    parser.add_argument(
         "--diaphragm",
         default="viscoelastic",
         metavar="MODEL",
@@ -243,6 +249,9 @@ def run(args) -> int:
             f"valid: {', '.join(PLOT_SUFFIXES)}"
         )
     design, label = load(args.design)
+    if args.acoustics is not None:
+        design = design.replace(acoustics=args.acoustics)
+        label += f", {args.acoustics} acoustics"
     res = compute(
         design,
         freq,

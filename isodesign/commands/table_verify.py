@@ -42,13 +42,17 @@ def verify_table(args, job, res, floor):
         raise InputError(f"--verify-monte-carlo: {exc}") from None
 
 
-def table_monte_carlo_table(res, mc) -> str:
+def table_monte_carlo_table(res, mc, in_force=None) -> str:
     """The closure against the Monte Carlo verifier: dB per band, point and axis; strokes.
 
     Parameters
     ----------
     res : TableBandResponse
+        The closure of the model the simulator integrates (the lumped acoustics).
     mc : TableMonteCarloResult
+    in_force : TableBandResponse, optional
+        The closure of the model in force when it is another one (the distributed
+        acoustics): one more line gives their largest difference over the simulated bands.
 
     Returns
     -------
@@ -86,4 +90,13 @@ def table_monte_carlo_table(res, mc) -> str:
     for i, (a, b) in enumerate(zip(res.stroke_rms_m, mc.stroke_rms_m, strict=True)):
         lines.append(f"  {i + 1:>8}  {a * 1e6:>23.4g}  {b * 1e6:>15.4g}  "
                      f"{100 * (a / b - 1):>+5.1f} %")
+    if in_force is not None:  # in force minus the simulated model, on the simulated bands
+        diff = mc.error_db(in_force.velocity_rms_m_s, in_force.bands) - err
+        k = np.unravel_index(int(np.argmax(np.abs(diff))), diff.shape)
+        lines.append(
+            "  the simulator integrates the lumped acoustics (uniform chamber pressures, a slug "
+            "in the tube), so the closure above is the lumped model's; the "
+            f"{in_force.model.design.acoustics} acoustics in force differ from it by at most "
+            f"{diff[k]:+.3f} dB ({mc.point_names[k[0]]} {AXES[k[1]]}, {mc.bands.labels[k[2]]} "
+            "Hz; docs/acoustics.md)")
     return "\n".join(lines)

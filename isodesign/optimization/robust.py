@@ -34,6 +34,7 @@ from isodesign.optimization.problem import (
     EPIGRAPH_BOUND,
     IPOPT_OPTIONS,
     Problem,
+    hoisted_map,
 )
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.uncertainty import ScenarioStudy
@@ -123,7 +124,8 @@ class ScenarioBlock(Problem):
         study = self._sym_study(nlp.p_theta)
         dia = diaphragm_model(study.models["diaphragm"])
         w = self.grid.omega
-        mapped = point.map(nlp.n_all, "unroll")
+        mapped = hoisted_map(point, nlp.n_all,
+                             (0, 1, 3, 5, 2) if self.statistical else (0, 1, 3, 5))
         v = ca.vertcat(*nlp.vals)
         nlp.d = study.design_at({n: nlp.vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
         if self.self_consistent:

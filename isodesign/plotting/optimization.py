@@ -77,6 +77,29 @@ def all_bands_response(study, design):
                          diaphragm=study.models["diaphragm"], derive_pressure=False, warn=False)
 
 
+#: Size of :func:`optimization_figure`'s own figure, inches.
+FIGURE_SIZE_IN = (12.5, 5.4)
+#: Its fixed layout: margins and gaps between the axes, inches. The room the constrained
+#: layout gives the default study's figure, with spare width for the widest tick labels a
+#: study gives (10^-3 um/s, -100 dB, -180 deg). Drawing with a constrained layout measured
+#: every tick label in two extra passes: a third of the figure's time in ``optimize``.
+FIXED_MARGINS_IN = {"left": 0.68, "right": 0.06, "bottom": 0.48, "top": 0.47,
+                    "between_columns": 1.36, "between_rows": 0.34}
+
+
+def _fixed_layout(size_in) -> dict:
+    """:data:`FIXED_MARGINS_IN` as GridSpec parameters (fractions) of a 2 x 2 grid."""
+    w, h = size_in
+    m = FIXED_MARGINS_IN
+    left, right = m["left"] / w, 1.0 - m["right"] / w
+    bottom, top = m["bottom"] / h, 1.0 - m["top"] / h
+    # GridSpec's spaces are fractions of the mean axes width (height)
+    col = (right - left - m["between_columns"] / w) / 2.0
+    row = (top - bottom - m["between_rows"] / h) / 2.0
+    return {"left": left, "right": right, "bottom": bottom, "top": top,
+            "wspace": m["between_columns"] / w / col, "hspace": m["between_rows"] / h / row}
+
+
 def _judged_range(study):
     tg = study.raw["target"]
     return float(tg["band_min_hz"]), float(tg["band_max_hz"])
@@ -104,8 +127,11 @@ def optimization_figure(result, *, start_all=None, optimum_all=None, fig=None):
     optimum_all = optimum_all or all_bands_response(st, result.design)
     judged = judged_mask(optimum_all.bands, _judged_range(st))
     if fig is None:
-        fig = new_figure(12.5, 5.4)
-    gs = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0), height_ratios=(1.6, 1.0))
+        fig = new_figure(*FIGURE_SIZE_IN, layout=None)
+        gs = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0), height_ratios=(1.6, 1.0),
+                              **_fixed_layout(FIGURE_SIZE_IN))
+    else:
+        gs = fig.add_gridspec(2, 2, width_ratios=(1.15, 1.0), height_ratios=(1.6, 1.0))
     ax_b = fig.add_subplot(gs[:, 0])
     ax_m = fig.add_subplot(gs[0, 1])
     ax_p = fig.add_subplot(gs[1, 1], sharex=ax_m)
@@ -131,9 +157,12 @@ def optimization_figure(result, *, start_all=None, optimum_all=None, fig=None):
                              peak if isinstance(peak, int | float) and peak is not True else None)
     ax_m.set_title("transmissibility at each design's operating amplitude", fontsize=9.5)
     p = st.payload
+    # the fixed layout puts the title where the constrained layout would (3 points down)
+    top = {} if fig.get_layout_engine() else {"y": 1.0 - 3.0 / 72.0 / fig.get_figheight()}
     fig.suptitle(f"study {st.name}: optimum {design_caption(result.design)} per isolator; "
                  f"payload {p.mass_kg:g} kg on {p.isolators} isolators; "
-                 f"{floor_label(opt.floor_name)}; limit {opt.target_name}", fontsize=10)
+                 f"{floor_label(opt.floor_name)}; limit {opt.target_name}", fontsize=10,
+                 **top)
     return fig
 
 

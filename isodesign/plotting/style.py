@@ -91,13 +91,17 @@ def candidate_style(i: int) -> dict:
     }
 
 
-def new_figure(width_in: float, height_in: float):
+def new_figure(width_in: float, height_in: float, *, layout: str | None = "constrained"):
     """A :class:`~matplotlib.figure.Figure` with an Agg canvas (no pyplot, no backend switch).
 
     Parameters
     ----------
     width_in, height_in : float
         Size in inches.
+    layout : str or None
+        Matplotlib's layout engine: ``"constrained"`` (default) fits the axes around
+        their labels when the figure is drawn; None leaves the axes where the caller put
+        them (a figure with a fixed layout, drawn without the layout's measuring pass).
 
     Returns
     -------
@@ -106,7 +110,7 @@ def new_figure(width_in: float, height_in: float):
     from matplotlib.backends.backend_agg import FigureCanvasAgg
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(width_in, height_in), layout="constrained")
+    fig = Figure(figsize=(width_in, height_in), layout=layout)
     FigureCanvasAgg(fig)
     return fig
 

@@ -133,7 +133,10 @@ def womersley_number(design, omega):
     omega : float, ndarray or CasADi symbol
         Angular frequency, rad/s.
     """
-    return 0.5 * bk.sqrt(kinetic_reynolds(design, omega))
+    # the design's factor apart from sqrt(w): the NLP computes it once per design
+    d = design
+    return bk.sqrt(omega) * (0.5 * d.capillary_diameter_m
+                             * bk.sqrt(d.density_kg_m3 / d.viscosity_pa_s))
 
 
 def flow_regime(reynolds) -> np.ndarray:

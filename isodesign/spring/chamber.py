@@ -154,15 +154,18 @@ def chamber_line(design, volume_m3, omega) -> tuple[Cx, Cx, Cx]:
     d = design
     length, _ = chamber_dimensions(d, volume_m3)
     rho, p0 = d.density_kg_m3, d.pressure_pa
-    mass = omega * rho * length * length / volume_m3  # w rho l / S
+    # design factors apart from w (the NLP computes them once per design)
+    inertance = rho * length * length / volume_m3  # rho l / S
+    mass = omega * inertance  # w rho l / S
     if not d.chamber_heat_exchange:
-        comp = omega * volume_m3 / (d.process_index * p0)  # w V / (n p0)
-        kl = bk.sqrt(mass * comp)  # w l / c_n
+        compliance = volume_m3 / (d.process_index * p0)  # V / (n p0)
+        comp = omega * compliance  # w V / (n p0)
+        kl = omega * bk.sqrt(inertance * compliance)  # w l / c_n
         ch = Cx(bk.cos(kl), 0.0 * kl)
         sinc = bk.sin(kl) / kl
         return ch, Cx(0.0 * kl, mass * sinc), Cx(0.0 * kl, comp * sinc)
     f = chamber_heat_exchange_factor(d, volume_m3, omega)
-    comp = f * (omega * volume_m3 / (d.gas.heat_capacity_ratio * p0))  # w V F / (kappa p0)
+    comp = f * (omega * (volume_m3 / (d.gas.heat_capacity_ratio * p0)))  # w V F / (kappa p0)
     # (j mass)(j comp) = -mass comp
     ch, sh = line_functions(Cx(-mass * comp.re, -mass * comp.im))
     return ch, Cx(0.0 * mass, mass) * sh, Cx(-comp.im, comp.re) * sh

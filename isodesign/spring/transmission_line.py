@@ -101,10 +101,16 @@ def tube_shunt_admittance(design, omega) -> Cx:
     omega : float, ndarray or CasADi symbol
         Angular frequency, rad/s.
     """
+    return _shunt_admittance(design, omega, design.capillary_area_m2)
+
+
+def _shunt_admittance(design, omega, area) -> Cx:
+    """``j w area (1 + (kappa-1) G) / (kappa p0)``: ``y`` for the section, ``y L_c`` for
+    the tube's volume (the design factor apart from ``w`` is computed once in the NLP)."""
     d = design
     kappa = d.gas.heat_capacity_ratio
     _, g = tube_boundary_layer_functions(womersley_number(d, omega), d.gas.prandtl_number)
-    scale = omega * d.capillary_area_m2 / (kappa * d.pressure_pa)
+    scale = omega * (area / (kappa * d.pressure_pa))
     # j scale (1 + (kappa-1) G)
     return Cx(-scale * (kappa - 1.0) * g.im, scale * (1.0 + (kappa - 1.0) * g.re))
 
@@ -169,12 +175,11 @@ def tube_two_port(design, omega, series_resistance: Cx | None = None) -> tuple[C
     tuple of Cx
         ``(ch, B, C)``.
     """
+    d = design
     if series_resistance is None:
-        z = tube_series_impedance(design, omega)
-    else:
-        z = series_resistance * (design.density_kg_m3 / design.capillary_length_m)
-    y = tube_shunt_admittance(design, omega)
-    length = design.capillary_length_m
-    zl, yl = z * length, y * length
+        zl = tube_series_impedance(d, omega) * d.capillary_length_m
+    else:  # rho C_lin / L_c per length: z L = rho C_lin
+        zl = series_resistance * d.density_kg_m3
+    yl = _shunt_admittance(d, omega, d.capillary_area_m2 * d.capillary_length_m)  # y L
     ch, sh = line_functions(zl * yl)
     return ch, zl * sh, yl * sh

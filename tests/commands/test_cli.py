@@ -470,3 +470,67 @@ def test_broken_command_module_is_internal_error(capsys, monkeypatch):
     status, _, err = run(capsys, "broken")
     assert status == 3
     assert_one_error_line(err, "internal error", "no_such_module")
+
+
+# -- the acoustic model by name (issue 16) -------------------------------------------------
+def test_acoustics_option_response_and_transmissibility(capsys, tmp_path):
+    """--acoustics picks the model by name; the models line says which one is in force, and
+    the band table follows it (a 1 m tube: the lumped model misses its waves)."""
+    d = SpringDesign.reference().replace(capillary_length_m=1.0, capillary_diameter_m=4e-3)
+    f = tmp_path / "long.toml"
+    f.write_text(design_to_toml(d))
+    tables = {}
+    for model in ("lumped", "distributed"):
+        csv = tmp_path / f"{model}.csv"
+        status, out, _ = run(capsys, "response", str(f), "--acoustics", model, "--bands",
+                             "1:80", "-o", str(csv))
+        assert status == 0
+        assert f"acoustics={model}" in out and "options --acoustics" in out
+        tables[model] = pd.read_csv(csv)
+        status, out, _ = run(capsys, "transmissibility", str(f), "--acoustics", model)
+        assert status == 0 and f"acoustics={model}" in out
+    a, b = (tables[m]["payload_velocity_rms_m_s"].to_numpy() for m in ("lumped", "distributed"))
+    assert np.max(np.abs(np.log(a / b))) > 0.01  # the models differ on this tube
+    # without the option: the design file's model (the default, distributed)
+    status, out, _ = run(capsys, "response", str(f))
+    assert status == 0 and "acoustics=distributed" in out
+    status, _, err = run(capsys, "response", str(f), "--acoustics", "lumpd")
+    assert status == 2 and "lumped" in err
+
+
+def test_acoustics_option_optimize_records_it(capsys, tmp_path):
+    """optimize --acoustics lumped folds the model into the resolved study and the design file
+    (a replay and a re-analysis use it), and the lumped model's validity limits apply."""
+    import json
+    import tomllib
+
+    out_dir = tmp_path / "run"
+    status, _out, _ = run(capsys, "optimize", "--acoustics", "lumped", "--starts", "1",
+                         "-o", str(out_dir), "--quiet")
+    assert status == 0
+    resolved = tomllib.loads((out_dir / "study_resolved.toml").read_text())
+    assert resolved["models"]["acoustics"] == "lumped"
+    assert 'acoustics = "lumped"' in (out_dir / "design.toml").read_text()
+    rec = json.loads((out_dir / "record.json").read_text())
+    assert "--acoustics" in rec["command_line"]
+    names = {c["name"] for c in rec["constraints"]}
+    assert "lumped_tube" in names and "plane_wave_top_chamber" not in names
+
+
+def test_acoustics_option_stiffness(capsys, tmp_path):
+    """stiffness --acoustics: the CSV equals the API's complex_stiffness with that model."""
+    d = SpringDesign.reference().replace(capillary_length_m=1.0, capillary_diameter_m=4e-3)
+    f = tmp_path / "long.toml"
+    f.write_text(design_to_toml(d))
+    got = {}
+    for model in ("lumped", "distributed"):
+        csv = tmp_path / f"{model}.csv"
+        status, out, _ = run(capsys, "stiffness", str(f), "--acoustics", model, "--freq",
+                             "5,120", "--amplitude", "0.1mm", "-o", str(csv))
+        assert status == 0 and f"{model} acoustics" in out
+        got[model] = pd.read_csv(csv)["k_real_n_per_m"].to_numpy()
+        api = complex_stiffness(d.replace(acoustics=model), [5.0, 120.0], [1e-4],
+                                warn=False).to_frame()
+        np.testing.assert_allclose(got[model], api["k_real_n_per_m"], rtol=1e-12)
+    # the 1 m tube's waves: about 2 % on Re k at 5 and 120 Hz
+    assert np.min(np.abs(got["lumped"] / got["distributed"] - 1.0)) > 0.01

@@ -44,3 +44,23 @@ def test_table_verify_bad_input_is_one_line(table_study, capsys):
     errors = [ln for ln in err.splitlines() if ln.startswith("isodesign: error")]
     assert rc == 2 and len(errors) == 1 and "Traceback" not in err
     assert errors[0].startswith("isodesign: error: --verify-monte-carlo: duration_s:")
+
+
+def test_table_verify_compares_like_with_like(table_study, capsys):
+    """The 6-DOF simulator integrates the lumped acoustics: with the distributed default in
+    force the table printed is the lumped closure's (the same as with --acoustics lumped), and
+    one line states how far the distributed closure is from it."""
+    argv = ["response", str(table_study), "--flow", "quasi_steady", "--diaphragm", "none",
+            "--points-per-band", "8", "--bands", "4:20", "--verify-monte-carlo", "1",
+            "--mc-duration-s", "20"]
+    assert main(argv) == 0
+    out, _ = capsys.readouterr()
+    m = re.search(r"the distributed acoustics in force differ from it by at most "
+                  r"([+-]\d+\.\d+) dB \((centre|corner) [xyz], \S+ Hz", out)
+    assert m, out
+    assert main([*argv, "--acoustics", "lumped"]) == 0
+    out_l, _ = capsys.readouterr()
+    assert "in force differ" not in out_l
+    band = re.compile(r"^\s+(4|5|6\.3|8|10|12\.5|16|20)\s+[+-]")
+    rows = [ln for ln in out.splitlines() if band.match(ln)]
+    assert rows == [ln for ln in out_l.splitlines() if band.match(ln)] and len(rows) == 8

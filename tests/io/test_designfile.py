@@ -301,3 +301,45 @@ def test_design_file_diaphragm_table_is_the_recorded_diaphragm(tmp_path):
         load_design_models(both)
     with pytest.raises(InputError, match="given twice"):
         load_design(both)
+
+
+def test_acoustic_keys_round_trip(tmp_path):
+    """A design with the lumped acoustics, a chamber shape and wall heat exchange is written
+    with those keys and read back the same (before, the file dropped them and the design came
+    back with the distributed default)."""
+    from isodesign.io.designfile import design_to_toml, load_design
+    from isodesign.spring.design import SpringDesign
+
+    d = SpringDesign.reference().replace(acoustics="lumped", chamber_aspect_ratio=2.5,
+                                         chamber_heat_exchange=True)
+    p = tmp_path / "d.toml"
+    p.write_text(design_to_toml(d))
+    text = p.read_text()
+    assert 'acoustics = "lumped"' in text and "chamber_heat_exchange = true" in text
+    back = load_design(p)
+    assert (back.acoustics, back.chamber_aspect_ratio, back.chamber_heat_exchange) == (
+        "lumped", 2.5, True)
+    assert back == d
+    # the defaults are not written and read back as defaults
+    p.write_text(design_to_toml(SpringDesign.reference()))
+    assert "acoustics" not in p.read_text()
+    assert load_design(p).acoustics == "distributed"
+
+
+@pytest.mark.parametrize(("line", "words"), [
+    ('acoustics = "wave"', ["acoustics", "distributed, lumped"]),
+    ("acoustics = 1", ["acoustics", "expected a string"]),
+    ("chamber_aspect_ratio = 0", ["chamber_aspect_ratio", "0.05"]),
+    ('chamber_heat_exchange = "yes"', ["chamber_heat_exchange", "true or false"]),
+])
+def test_acoustic_keys_bad_values_are_named(tmp_path, line, words):
+    from isodesign.errors import InputError
+    from isodesign.io.designfile import design_to_toml, load_design
+    from isodesign.spring.design import SpringDesign
+
+    p = tmp_path / "d.toml"
+    p.write_text(line + "\n" + design_to_toml(SpringDesign.reference()))
+    with pytest.raises(InputError) as exc:
+        load_design(p)
+    msg = str(exc.value)
+    assert str(p) in msg and all(w in msg for w in words), msg

@@ -41,7 +41,7 @@ SELF_CONSISTENT_WORST = {
 
 @pytest.fixture(scope="module")
 def grid() -> SimulationGridResult:
-    """The reference grid, simulated once (about 10 s)."""
+    """The reference grid, simulated once (seconds)."""
     return simulate_grid(REF, REFERENCE_FREQUENCIES_HZ, REFERENCE_AMPLITUDES_M, diaphragm="none")
 
 
@@ -145,7 +145,8 @@ def test_self_consistent_velocity_amplitude(grid):
 @pytest.mark.slow
 def test_heating_matches_dissipated_work(grid):
     """Energy identity of the closed adiabatic gas: the work pi X^2 Im k_air done per cycle
-    stays in the gas, so (p_t V_t + p_b V_b) rises by (kappa - 1) times it (measured 8e-6)."""
+    stays in the gas, so (p_t V_t + p_b V_b) rises by (kappa - 1) times it (measured 1e-5:
+    ``python studies/rig_agreement.py --checks``)."""
     x = np.asarray(REFERENCE_AMPLITUDES_M)[None, :]
     kappa = REF.gas.heat_capacity_ratio
     work = math.pi * x**2 * grid.k_air.imag
