@@ -371,7 +371,9 @@ def bench_pareto() -> dict:
             f"total volume: {int(p.front.sum())}/{len(p.values)} non-dominated points, margin "
             f"{np.nanmin(v[:, 0]):.3f} to {np.nanmax(v[:, 0]):.3f} dB, volume "
             f"{np.nanmin(v[:, 1]) * 1e3:.4f} to {np.nanmax(v[:, 1]) * 1e3:.4f} L; normalized "
-            f"hypervolume {p.hypervolume:.4f} (every repeat: {hvs})"
+            f"hypervolume {p.hypervolume:.4f} (every repeat: {hvs}); points solved again "
+            f"from the other chain's branch: {p.settings['branches']['compared']}, kept: "
+            f"{p.settings['branches']['replaced']}"
         ),
     }
 
