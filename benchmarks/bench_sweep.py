@@ -7,7 +7,9 @@ points, in the client while the workers compute). Informative: the cluster's sta
 end-to-end speed-up with it, the scheduler overhead per task (the wall time of the
 cluster not spent inside the tasks, per task; and a round trip of 200 empty tasks), the
 CPU time per task spent outside the points (the client process: the sweep loop, the table,
-the scheduler and the nannies; the worker processes beside their task), a point's CPU time
+the scheduler and the nannies; the worker processes beside their task and its helper
+threads), the cores the serial process used (a point's NLP build runs a second thread: the
+speed-up's ceiling is the workers over those cores), a point's CPU time
 on a worker against the serial process (the ``cpu_s`` column: the thread that computed it)
 and the idle tail (the last point running alone). CPU times are less noisy than wall times
 on a shared machine. Each side is timed once (about 1 and 2 min on 2 cores), after a
@@ -72,15 +74,20 @@ def _serial(study, tmp: Path) -> dict:
 
     isodesign.sweep(study, WARMUP, output=tmp / "warm_serial", scheduler="serial",
                     charts=False)
-    t0, c0 = time.perf_counter(), time.process_time()
+    t0, c0, m0 = time.perf_counter(), time.process_time(), time.thread_time()
     res = isodesign.sweep(study, VARY, output=tmp / "serial", scheduler="serial",
                           charts=False)
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    main = time.thread_time() - m0
     n = len(res.table)
-    return {"res": res, "wall": wall, "n": n, "task_cpu": _sum(res, "cpu_s"),
+    task_cpu = _sum(res, "cpu_s")
+    return {"res": res, "wall": wall, "n": n, "task_cpu": task_cpu, "cpu": cpu,
             "busy": float(sum(res.point_wall_s)),
-            # the loop, the table rewrites, building the points: CPU beside the points
-            "outside_cpu": (cpu - _sum(res, "cpu_s")) / n}
+            # this thread beside the points: the loop, the table rewrites, the points' set-up
+            "loop_cpu": (main - task_cpu) / n,
+            # the points' own helper threads (the NLP's Hessian generated beside its
+            # Jacobian, the run directory's fsyncs): a worker runs them too
+            "helper_cpu": (cpu - main) / n}
 
 
 def _cluster(study, tmp: Path, config: dict | None, tag: str) -> dict:
@@ -144,7 +151,10 @@ def _rows(s: dict, d: dict, load: tuple, label: str = "") -> list[dict]:
     slowdown = d["busy"] / s["busy"]
     cpu_ratio = d["task_cpu"] / s["task_cpu"]
     overhead = (WORKERS * t_dask - d["busy"]) / n
-    outside = d["client_cpu"] + d["workers_cpu"]
+    dask_workers = d["workers_cpu"] - s["helper_cpu"]  # beside the task and its helpers
+    outside = d["client_cpu"] + dask_workers
+    cores = s["cpu"] / t_serial
+    ceiling = WORKERS / max(cores, 1.0)
     notes = (f"{n} points (default study, {STARTS} start each, {VARY[0]} x {VARY[1]}); serial "
              f"{t_serial:.1f} s in one process (median point {per_point:.2f} s), local cluster "
              f"of {WORKERS} worker processes{label} {t_dask:.1f} s (warm: started and warmed "
@@ -152,8 +162,11 @@ def _rows(s: dict, d: dict, load: tuple, label: str = "") -> list[dict]:
              f"identical: {same}; the workers were busy {busy_fraction:.0%} of the time, and "
              f"their points took {slowdown:.2f} x the serial points' wall time, "
              f"{cpu_ratio:.3f} x their CPU time (CPU shared with other processes: the "
-             f"speed-up is {WORKERS} x busy / slowdown); load average {load[0]:.1f} -> "
-             f"{load[1]:.1f}")
+             f"speed-up is {WORKERS} x busy / slowdown); the serial process used "
+             f"{cores:.2f} cores on average (a point's helper threads: "
+             f"{s['helper_cpu']:.2f} s CPU per point beside its own "
+             f"{s['task_cpu'] / n:.2f} s), so {WORKERS} workers on {WORKERS} cores reach at "
+             f"most {ceiling:.2f}; load average {load[0]:.1f} -> {load[1]:.1f}")
     return [
         {"name": f"sweep: {n} optimize points, local cluster ({WORKERS} workers{label}) "
                  "vs serial",
@@ -175,11 +188,12 @@ def _rows(s: dict, d: dict, load: tuple, label: str = "") -> list[dict]:
          "median": outside * 1e3, "ratio": "",
          "notes": f"the client process {d['client_cpu'] * 1e3:.1f} ms (the sweep loop, the "
                   "table rewrites, the scheduler, the nannies) + the worker processes "
-                  f"{d['workers_cpu'] * 1e3:.1f} ms beside their task (event loop, heartbeats, "
-                  "monitors); the serial process spends "
-                  f"{s['outside_cpu'] * 1e3:.1f} ms per point beside the points (the loop and "
-                  "the table rewrites); a point's CPU time is "
-                  f"{s['task_cpu'] / s['n']:.2f} s"},
+                  f"{dask_workers * 1e3:.1f} ms (event loop, heartbeats, monitors: their CPU "
+                  f"beside the tasks, {d['workers_cpu'] * 1e3:.1f} ms, less the points' helper "
+                  f"threads measured serially, {s['helper_cpu'] * 1e3:.1f} ms); the serial "
+                  f"process spends {s['loop_cpu'] * 1e3:.1f} ms per point beside the points "
+                  "(the loop and the table rewrites); a point's CPU time is "
+                  f"{s['task_cpu'] / s['n']:.2f} s in its thread"},
         {"name": f"sweep: a point's CPU time on a worker / in the serial process{label}",
          "target": "", "unit": "x", "median": cpu_ratio, "ratio": "",
          "notes": f"the cpu_s column (CPU time of the thread computing the point) summed: "

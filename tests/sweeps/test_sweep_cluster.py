@@ -104,3 +104,42 @@ def test_cpu_s_is_the_points_cpu_time(tmp_path):
     assert list(df.columns).index("cpu_s") == list(df.columns).index("wall_s") + 1
     assert (df["cpu_s"] > 0).all()
     assert (df["cpu_s"] <= df["wall_s"] + 0.01).all()  # one thread's CPU within its wall
+
+
+def test_a_worker_of_the_local_cluster_killed_mid_sweep_loses_no_point(cheap_study, tmp_path,
+                                                                       monkeypatch):
+    """The local cluster's configuration keeps Dask's fault tolerance: the killed worker's
+    point runs again (on the other worker, or on the worker its nanny restarts)."""
+    import signal
+    import time
+
+    monkeypatch.delenv("DASK_SCHEDULER_ADDRESS", raising=False)
+    killed: dict = {}
+    with cluster.connect(workers=2) as conn:
+        client = conn.client
+        pids = client.run(os.getpid)
+
+        def progress(done, total, row, running):
+            if row is None or killed or done < 2:
+                return
+            t0 = time.monotonic()
+            while time.monotonic() - t0 < 10:
+                busy = {a: list(k) for a, k in client.processing().items() if k}
+                if busy:
+                    break
+                time.sleep(0.02)
+            addr, keys = next(iter(busy.items()))
+            killed.update(address=addr, keys=keys)
+            os.kill(pids[addr], signal.SIGKILL)
+
+        res = isodesign.sweep(cheap_study, ["payload.mass_kg=300:1400:12"], output=tmp_path / "s",
+                              scheduler=client.scheduler.address, charts=False,
+                              progress=progress)
+    assert killed["keys"], "a worker was computing a point when it was killed"
+    df = res.table
+    assert res.status == "complete" and res.failed == 0
+    assert len(df) == 12 and df["point"].is_unique
+    assert sorted(os.listdir(res.directory / "points")) == sorted(df["point"])
+    for key in killed["keys"]:  # the killed point is there, once, computed by another worker
+        row = df[df["point"] == key.split("-")[2]]
+        assert len(row) == 1 and row["worker"].iloc[0] != killed["address"]
