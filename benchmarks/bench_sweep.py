@@ -8,8 +8,9 @@ end-to-end speed-up with it, the scheduler overhead per task (the wall time of t
 cluster not spent inside the tasks, per task; and a round trip of 200 empty tasks), the
 CPU time per task spent outside the points (the client process: the sweep loop, the table,
 the scheduler and the nannies; the worker processes beside their task and its helper
-threads), the cores the serial process used (a point's NLP build runs a second thread: the
-speed-up's ceiling is the workers over those cores), a point's CPU time
+threads), the cores the serial process used (a point keeps to one thread of computation,
+its NLP build included; the speed-up's ceiling is the workers over those cores), a point's
+CPU time
 on a worker against the serial process (the ``cpu_s`` column: the thread that computed it)
 and the idle tail (the last point running alone). CPU times are less noisy than wall times
 on a shared machine. Each side is timed once (about 1 and 2 min on 2 cores), after a
@@ -85,8 +86,8 @@ def _serial(study, tmp: Path) -> dict:
             "busy": float(sum(res.point_wall_s)),
             # this thread beside the points: the loop, the table rewrites, the points' set-up
             "loop_cpu": (main - task_cpu) / n,
-            # the points' own helper threads (the NLP's Hessian generated beside its
-            # Jacobian, the run directory's fsyncs): a worker runs them too
+            # the points' own helper threads (the run directory's fsyncs; the NLP build
+            # keeps to the point's thread in a sweep): a worker runs them too
             "helper_cpu": (cpu - main) / n}
 
 

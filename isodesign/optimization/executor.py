@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import contextvars
+import os
 from collections.abc import Callable, Iterable, Iterator
 from typing import Protocol
 
@@ -28,8 +29,10 @@ __all__ = [
     "Executor",
     "ForkExecutor",
     "SerialExecutor",
+    "available_cores",
     "executor_for",
     "local_executor",
+    "parallel_allowed",
     "use_executor",
 ]
 
@@ -132,6 +135,47 @@ def use_executor(executor: Executor) -> Iterator[Executor]:
         yield executor
     finally:
         _SCOPED.reset(token)
+
+
+def available_cores() -> int:
+    """Cores this process may run on: its CPU affinity, else ``os.cpu_count()``.
+
+    Returns
+    -------
+    int
+        At least 1; the size of ``os.sched_getaffinity(0)`` where the platform has
+        it (a container or ``taskset`` may allow fewer cores than the machine has),
+        else ``os.cpu_count()`` (1 when unknown).
+    """
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    return max(1, n)
+
+
+def parallel_allowed(workers: int) -> bool:
+    """Whether one computation of the optimizer may occupy more than one core here.
+
+    No when an executor is installed with one worker (a sweep point, a Dask task: the
+    parallelism is across the points, none nested inside one), or when ``workers`` (the
+    study's ``solver.workers``, ``--workers``) or the cores available allow only one. The NLP
+    build (:func:`isodesign.optimization.problem.derivative_functions`) uses a second thread
+    only when this holds.
+
+    Parameters
+    ----------
+    workers : int
+        Worker processes the caller allows (``solver.workers``).
+
+    Returns
+    -------
+    bool
+    """
+    ex = _SCOPED.get()
+    if ex is not None:
+        return ex.workers > 1
+    return workers > 1 and available_cores() > 1
 
 
 def _can_fork() -> bool:

@@ -3,35 +3,16 @@
 
 from __future__ import annotations
 
-import os
-
 import numpy as np
 
 from isodesign.errors import SolverError
-from isodesign.optimization.executor import executor_for
+from isodesign.optimization.executor import available_cores, executor_for
 
 __all__ = ["DEFAULT_WORKERS", "available_cores", "map_in_workers", "run_starts", "start_points"]
 
 #: Worker processes for the starts when none is asked for (capped by the cores
 #: available to the process, like any asked-for number).
 DEFAULT_WORKERS = 2
-
-
-def available_cores() -> int:
-    """Cores this process may run on: its CPU affinity, else ``os.cpu_count()``.
-
-    Returns
-    -------
-    int
-        At least 1; the size of ``os.sched_getaffinity(0)`` where the platform has
-        it (a container or ``taskset`` may allow fewer cores than the machine has),
-        else ``os.cpu_count()`` (1 when unknown).
-    """
-    try:
-        n = len(os.sched_getaffinity(0))
-    except (AttributeError, OSError):
-        n = os.cpu_count() or 1
-    return max(1, n)
 
 
 def start_points(study, scaling) -> list[dict]:

@@ -34,6 +34,7 @@ import numpy as np
 from isodesign.errors import SolverError
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization.constraints import Constraint, build_constraints
+from isodesign.optimization.executor import parallel_allowed
 from isodesign.optimization.grid import build_grid, take
 from isodesign.optimization.metrics import (
     combine,
@@ -142,7 +143,7 @@ def hoisted_map(point, n: int, shared: tuple):
     return call
 
 
-def derivative_functions(nlp) -> dict:
+def derivative_functions(nlp, threads: bool = True) -> dict:
     """IPOPT's Jacobian and Hessian functions, generated side by side in two threads.
 
     What ``nlpsol`` would generate itself, one after the other: the constraint Jacobian
@@ -155,6 +156,10 @@ def derivative_functions(nlp) -> dict:
     ----------
     nlp : namespace
         ``ca``, ``x``, ``p``, ``j_total`` (objective) and ``g`` (constraints), SX.
+    threads : bool
+        Build the two in two threads (default); ``False``: one after the other, in this
+        thread (a sweep point or a one-worker run, where no second core is the run's to
+        take: :func:`isodesign.optimization.executor.parallel_allowed`).
 
     Returns
     -------
@@ -174,6 +179,8 @@ def derivative_functions(nlp) -> dict:
         return ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
                            ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
 
+    if not threads:
+        return {"jac_g": jac_g(), "hess_lag": hess_lag()}
     with ThreadPoolExecutor(max_workers=2) as pool:
         hess = pool.submit(hess_lag)
         jac = jac_g()
@@ -425,7 +432,8 @@ class Problem:
                                       mt["ms_all"]])
         self.solver = ca.nlpsol("isodesign", "ipopt",
                                 {"x": nlp.x, "f": nlp.j_total, "g": nlp.g, "p": nlp.p},
-                                {**self.ipopt_options(), **derivative_functions(nlp)})
+                                {**self.ipopt_options(), **derivative_functions(
+                                    nlp, parallel_allowed(self.study.solver["workers"]))})
 
     def ipopt_options(self) -> dict:
         """The options given to CasADi's nlpsol."""

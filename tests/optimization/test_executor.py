@@ -57,3 +57,45 @@ def test_a_daemonic_process_does_not_fork(monkeypatch, daemon):
     monkeypatch.setattr(mp.current_process(), "_config", {**mp.current_process()._config,
                                                            "daemon": daemon})
     assert isinstance(local_executor(4, 4), SerialExecutor)
+
+
+def test_parallel_allowed_follows_the_executor_the_workers_and_the_cores(monkeypatch):
+    """A sweep point (a one-worker executor installed) and a one-worker run keep to one core;
+    so does a process with one core; otherwise a second core may be taken."""
+    from isodesign.optimization.executor import parallel_allowed
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    assert parallel_allowed(2)
+    assert not parallel_allowed(1)
+    with use_executor(SerialExecutor()):
+        assert not parallel_allowed(2)
+    with use_executor(ForkExecutor(2)):
+        assert parallel_allowed(1)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0}, raising=False)
+    assert not parallel_allowed(2)
+
+
+def test_nlp_build_in_a_sweep_point_uses_no_second_thread(monkeypatch):
+    """Inside a one-worker executor (what a sweep point installs) the NLP's derivatives are
+    built in this thread, and the solver is the same as one built with the second thread."""
+    import numpy as np
+
+    from isodesign.optimization import problem
+    from isodesign.optimization.study import default_study
+
+    st = default_study().with_changes(models={"points_per_band": 3, "peak_points": 20})
+
+    class NoThreads:
+        def __init__(self, *a, **k):
+            raise AssertionError("a thread pool was started")
+
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
+    threaded = problem.Problem(st)
+    monkeypatch.setattr(problem, "ThreadPoolExecutor", NoThreads)
+    with use_executor(SerialExecutor()):
+        single = problem.Problem(st)
+    with pytest.raises(AssertionError, match="thread pool"):
+        problem.Problem(st)  # outside the executor the build would take the second core
+    x0 = single.initial_guess({v.name: v.start for v in st.variables})
+    a, b = threaded.solve(x0), single.solve(x0)
+    assert a.iterations == b.iterations and np.array_equal(a.x, b.x)
