@@ -1,18 +1,32 @@
 """Sweeps on Dask (target): 64 optimize points (the default study with one start per point,
 32 payload masses x 2 floors) on a local cluster of 2 worker processes against the same
-points serially in one process: speed-up at least 1.8. Informative: the cluster's start,
-the end-to-end speed-up with it, the scheduler overhead per task (the wall time of the
-cluster not spent inside the tasks, per task; and a round trip of 200 empty tasks), and
-the table writes. Each side is timed once (about 20-60 s each on 2 cores), after a warm-up
-sweep of 2 points on each side (imports, CasADi's first NLP build).
+points serially in one process: speed-up at least 1.8. Both sides run the same
+:func:`isodesign.sweeps.tasks.run_point` per point (the point's whole run directory, no
+plots) and the same table rewrite after each point (in the serial process between the
+points, in the client while the workers compute). Informative: the cluster's start, the
+end-to-end speed-up with it, the scheduler overhead per task (the wall time of the
+cluster not spent inside the tasks, per task; and a round trip of 200 empty tasks), the
+CPU time per task spent outside the points (the client process: the sweep loop, the table,
+the scheduler and the nannies; the worker processes beside their task and its helper
+threads), the cores the serial process used (a point's NLP build runs a second thread: the
+speed-up's ceiling is the workers over those cores), a point's CPU time
+on a worker against the serial process (the ``cpu_s`` column: the thread that computed it)
+and the idle tail (the last point running alone). CPU times are less noisy than wall times
+on a shared machine. Each side is timed once (about 1 and 2 min on 2 cores), after a
+warm-up sweep of 4 points on each side (imports, CasADi's first NLP build, on every
+worker: checked).
 
-Run alone with ``python benchmarks/bench_sweep.py`` or ``python benchmarks/run.py sweep``.
+Run alone with ``python benchmarks/bench_sweep.py`` or ``python benchmarks/run.py sweep``;
+``python benchmarks/bench_sweep.py --compare`` also runs the cluster with Dask's default
+configuration (what the local cluster used before ``isodesign.sweeps.cluster.LOCAL_CONFIG``)
+in the same run and prints both.
 """
 
 from __future__ import annotations
 
 import os
 import statistics
+import sys
 import tempfile
 import time
 import warnings
@@ -23,13 +37,26 @@ TARGET_SPEEDUP = 1.8
 WORKERS = 2
 #: 32 masses x 2 floors = 64 points.
 VARY = ["payload.mass_kg=300:1540:32", "floor.criterion=VC-A,VC-B"]
-WARMUP = ["payload.mass_kg=555,777"]
+#: Two points per worker: every worker has imported isodesign and built an NLP.
+WARMUP = ["payload.mass_kg=555,666,777,888"]
 STARTS = 1
 EMPTY_TASKS = 200
+#: The local cluster's configuration before LOCAL_CONFIG: Dask's defaults but these.
+DASK_DEFAULTS = {"distributed.scheduler.allowed-failures": 1,
+                 "distributed.worker.daemon": True,
+                 "distributed.admin.system-monitor.gil.enabled": False}
 
 
 def _noop(i):
     return i
+
+
+def _process_cpu_s() -> float:
+    """CPU seconds of the calling process, every thread (run on the workers)."""
+    import psutil
+
+    t = psutil.Process(os.getpid()).cpu_times()
+    return t.user + t.system
 
 
 def _study():
@@ -38,75 +65,162 @@ def _study():
     return default_study().with_changes(solver={"starts": STARTS})
 
 
-def run() -> list[dict]:
-    """The rows: speed-up (target), then the informative ones."""
+def _sum(res, col) -> float:
+    return float(sum(v for v in res.table[col] if v == v and v is not None))
+
+
+def _serial(study, tmp: Path) -> dict:
+    import isodesign
+
+    isodesign.sweep(study, WARMUP, output=tmp / "warm_serial", scheduler="serial",
+                    charts=False)
+    t0, c0, m0 = time.perf_counter(), time.process_time(), time.thread_time()
+    res = isodesign.sweep(study, VARY, output=tmp / "serial", scheduler="serial",
+                          charts=False)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    main = time.thread_time() - m0
+    n = len(res.table)
+    task_cpu = _sum(res, "cpu_s")
+    return {"res": res, "wall": wall, "n": n, "task_cpu": task_cpu, "cpu": cpu,
+            "busy": float(sum(res.point_wall_s)),
+            # this thread beside the points: the loop, the table rewrites, the points' set-up
+            "loop_cpu": (main - task_cpu) / n,
+            # the points' own helper threads (the NLP's Hessian generated beside its
+            # Jacobian, the run directory's fsyncs): a worker runs them too
+            "helper_cpu": (cpu - main) / n}
+
+
+def _cluster(study, tmp: Path, config: dict | None, tag: str) -> dict:
     import isodesign
     from isodesign.sweeps.cluster import connect
 
+    t0 = time.perf_counter()
+    conn = connect(workers=WORKERS, config=config)
+    t_start = time.perf_counter() - t0
+    arrivals: list[float] = []
+
+    def progress(done, total, row, running):
+        if row is not None:
+            arrivals.append(time.perf_counter())
+
+    try:
+        client = conn.client
+        address = client.scheduler.address
+        warmed: set = set()
+        for i in range(3):  # until every worker has computed a point
+            w = isodesign.sweep(study, WARMUP, output=tmp / f"warm_{tag}_{i}",
+                                scheduler=address, charts=False)
+            warmed |= set(w.table["worker"])
+            if len(warmed) >= WORKERS:
+                break
+        cpu0 = client.run(_process_cpu_s)
+        t0, c0 = time.perf_counter(), time.process_time()
+        res = isodesign.sweep(study, VARY, output=tmp / tag, scheduler=address, charts=False,
+                              progress=progress)
+        wall, client_cpu = time.perf_counter() - t0, time.process_time() - c0
+        t_end = time.perf_counter()
+        cpu1 = client.run(_process_cpu_s)
+        t0 = time.perf_counter()
+        futs = client.map(_noop, range(EMPTY_TASKS), pure=False)
+        client.gather(futs)
+        t_empty = (time.perf_counter() - t0) / EMPTY_TASKS
+    finally:
+        conn.close()
+    n = len(res.table)
+    task_cpu = _sum(res, "cpu_s")
+    workers_cpu = sum(cpu1[k] - cpu0[k] for k in cpu1 if k in cpu0)
+    busy = float(sum(res.point_wall_s))
+    # after the last-but-one point arrives, one worker has nothing left: the last point
+    # runs alone (the 2-worker case; the sweep's end follows at once)
+    tail = (t_end - arrivals[-2]) if len(arrivals) >= 2 else 0.0
+    return {"res": res, "wall": wall, "n": n, "start": t_start, "empty": t_empty,
+            "task_cpu": task_cpu, "busy": busy, "tail": tail,
+            "client_cpu": client_cpu / n, "workers_cpu": (workers_cpu - task_cpu) / n,
+            "warmed": len(warmed)}
+
+
+def _rows(s: dict, d: dict, load: tuple, label: str = "") -> list[dict]:
+    n = d["n"]
+    t_serial, t_dask = s["wall"], d["wall"]
+    a = s["res"].table.set_index("point")["objective_value"].sort_index()
+    b = d["res"].table.set_index("point")["objective_value"].sort_index()
+    same = bool(list(a.index) == list(b.index) and (a - b).abs().max() < 1e-9)
+    speedup = t_serial / t_dask
+    per_point = statistics.median(s["res"].point_wall_s)
+    busy_fraction = d["busy"] / (WORKERS * t_dask)
+    slowdown = d["busy"] / s["busy"]
+    cpu_ratio = d["task_cpu"] / s["task_cpu"]
+    overhead = (WORKERS * t_dask - d["busy"]) / n
+    dask_workers = d["workers_cpu"] - s["helper_cpu"]  # beside the task and its helpers
+    outside = d["client_cpu"] + dask_workers
+    cores = s["cpu"] / t_serial
+    ceiling = WORKERS / max(cores, 1.0)
+    notes = (f"{n} points (default study, {STARTS} start each, {VARY[0]} x {VARY[1]}); serial "
+             f"{t_serial:.1f} s in one process (median point {per_point:.2f} s), local cluster "
+             f"of {WORKERS} worker processes{label} {t_dask:.1f} s (warm: started and warmed "
+             f"up before timing, {d['warmed']} of {WORKERS} workers warmed); results "
+             f"identical: {same}; the workers were busy {busy_fraction:.0%} of the time, and "
+             f"their points took {slowdown:.2f} x the serial points' wall time, "
+             f"{cpu_ratio:.3f} x their CPU time (CPU shared with other processes: the "
+             f"speed-up is {WORKERS} x busy / slowdown); the serial process used "
+             f"{cores:.2f} cores on average (a point's helper threads: "
+             f"{s['helper_cpu']:.2f} s CPU per point beside its own "
+             f"{s['task_cpu'] / n:.2f} s), so {WORKERS} workers on {WORKERS} cores reach at "
+             f"most {ceiling:.2f}; load average {load[0]:.1f} -> {load[1]:.1f}")
+    return [
+        {"name": f"sweep: {n} optimize points, local cluster ({WORKERS} workers{label}) "
+                 "vs serial",
+         "target": f">= {TARGET_SPEEDUP}", "median": speedup, "unit": "x",
+         "ratio": speedup / TARGET_SPEEDUP, "passed": speedup >= TARGET_SPEEDUP,
+         "repeats": 1, "notes": notes},
+        {"name": f"sweep: end to end with the cluster's start{label}", "target": "",
+         "unit": "x", "median": t_serial / (t_dask + d["start"]), "ratio": "",
+         "notes": f"LocalCluster({WORKERS} workers) start {d['start']:.1f} s added to the "
+                  "cluster's time (the warm-up sweep, which pays the workers' imports, is not)"},
+        {"name": f"sweep: scheduler overhead per task{label}", "target": "", "unit": "s",
+         "median": overhead, "ratio": "",
+         "notes": f"({WORKERS} x {t_dask:.1f} s - {d['busy']:.1f} s inside the tasks) / {n}: "
+                  "scheduling, transfer and the idle tail (the last point alone: "
+                  f"{d['tail']:.2f} s, {d['tail'] / (WORKERS * t_dask):.1%} of the workers' "
+                  f"time); a round trip of {EMPTY_TASKS} empty tasks: "
+                  f"{d['empty'] * 1e3:.2f} ms per task"},
+        {"name": f"sweep: CPU per task outside the points{label}", "target": "", "unit": "ms",
+         "median": outside * 1e3, "ratio": "",
+         "notes": f"the client process {d['client_cpu'] * 1e3:.1f} ms (the sweep loop, the "
+                  "table rewrites, the scheduler, the nannies) + the worker processes "
+                  f"{dask_workers * 1e3:.1f} ms (event loop, heartbeats, monitors: their CPU "
+                  f"beside the tasks, {d['workers_cpu'] * 1e3:.1f} ms, less the points' helper "
+                  f"threads measured serially, {s['helper_cpu'] * 1e3:.1f} ms); the serial "
+                  f"process spends {s['loop_cpu'] * 1e3:.1f} ms per point beside the points "
+                  "(the loop and the table rewrites); a point's CPU time is "
+                  f"{s['task_cpu'] / s['n']:.2f} s in its thread"},
+        {"name": f"sweep: a point's CPU time on a worker / in the serial process{label}",
+         "target": "", "unit": "x", "median": cpu_ratio, "ratio": "",
+         "notes": f"the cpu_s column (CPU time of the thread computing the point) summed: "
+                  f"{d['task_cpu']:.1f} s on the workers, {s['task_cpu']:.1f} s serially"},
+    ]
+
+
+def run(compare: bool = False) -> list[dict]:
+    """The rows: speed-up (target), then the informative ones.
+
+    With ``compare``, the cluster also runs with :data:`DASK_DEFAULTS` (rows labelled).
+    """
     warnings.simplefilter("ignore")
     study = _study()
     load0 = os.getloadavg()[0]
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
-        isodesign.sweep(study, WARMUP, output=tmp / "warm_serial", scheduler="serial",
-                        charts=False)
-        t0 = time.perf_counter()
-        serial = isodesign.sweep(study, VARY, output=tmp / "serial", scheduler="serial",
-                                 charts=False)
-        t_serial = time.perf_counter() - t0
-        t0 = time.perf_counter()
-        conn = connect(workers=WORKERS)
-        t_start = time.perf_counter() - t0
-        try:
-            address = conn.client.scheduler.address
-            isodesign.sweep(study, WARMUP, output=tmp / "warm_dask", scheduler=address,
-                            charts=False)
-            t0 = time.perf_counter()
-            dask = isodesign.sweep(study, VARY, output=tmp / "dask", scheduler=address,
-                                   charts=False)
-            t_dask = time.perf_counter() - t0
-            t0 = time.perf_counter()
-            futs = conn.client.map(_noop, range(EMPTY_TASKS), pure=False)
-            conn.client.gather(futs)
-            t_empty = (time.perf_counter() - t0) / EMPTY_TASKS
-        finally:
-            conn.close()
-    load1 = os.getloadavg()[0]
-    n = len(dask.table)
-    busy = float(sum(dask.point_wall_s))
-    overhead = (WORKERS * t_dask - busy) / n
-    same = bool((serial.table.set_index("point")["objective_value"].sort_index()
-                 - dask.table.set_index("point")["objective_value"].sort_index()).abs().max()
-                < 1e-9)
-    speedup = t_serial / t_dask
-    per_point = statistics.median(serial.point_wall_s)
-    busy_fraction = busy / (WORKERS * t_dask)
-    slowdown = busy / float(sum(serial.point_wall_s))
-    notes = (f"{n} points (default study, {STARTS} start each, {VARY[0]} x {VARY[1]}); serial "
-             f"{t_serial:.1f} s in one process (median point {per_point:.2f} s), local cluster "
-             f"of {WORKERS} worker processes {t_dask:.1f} s (warm: started and warmed up "
-             f"before timing); results identical: {same}; the workers were busy "
-             f"{busy_fraction:.0%} of the time, and their points took {slowdown:.2f} x the "
-             "serial points' time (CPU shared with other processes: the speed-up is "
-             f"{WORKERS} x busy / slowdown); load average {load0:.1f} -> {load1:.1f}")
-    return [
-        {"name": f"sweep: {n} optimize points, local cluster ({WORKERS} workers) vs serial",
-         "target": f">= {TARGET_SPEEDUP}", "median": speedup, "unit": "x",
-         "ratio": speedup / TARGET_SPEEDUP, "passed": speedup >= TARGET_SPEEDUP,
-         "repeats": 1, "notes": notes},
-        {"name": "sweep: end to end with the cluster's start", "target": "", "unit": "x",
-         "median": t_serial / (t_dask + t_start), "ratio": "",
-         "notes": f"LocalCluster({WORKERS} workers) start {t_start:.1f} s added to the "
-                  "cluster's time (the warm-up sweep, which pays the workers' imports, is not)"},
-        {"name": "sweep: scheduler overhead per task", "target": "", "unit": "s",
-         "median": overhead, "ratio": "",
-         "notes": f"({WORKERS} x {t_dask:.1f} s - {busy:.1f} s inside the tasks) / {n}: "
-                  "scheduling, transfer, the table rewrite after each point and the idle "
-                  f"tail; a round trip of {EMPTY_TASKS} empty tasks: {t_empty * 1e3:.2f} ms "
-                  "per task"},
-    ]
+        s = _serial(study, tmp)
+        d = _cluster(study, tmp, None, "dask")
+        load1 = os.getloadavg()[0]
+        rows = _rows(s, d, (load0, load1))
+        if compare:
+            d0 = _cluster(study, tmp, DASK_DEFAULTS, "dask_defaults")
+            rows += _rows(s, d0, (load1, os.getloadavg()[0]), label=", Dask's defaults")
+    return rows
 
 
 if __name__ == "__main__":
-    for row in run():
+    for row in run(compare="--compare" in sys.argv[1:]):
         print(row)

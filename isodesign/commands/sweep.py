@@ -96,7 +96,8 @@ class _Progress:
             self.bar = Progress(TextColumn("points"), BarColumn(), MofNCompleteColumn(),
                                 TextColumn("{task.fields[state]}"), TimeElapsedColumn(),
                                 TextColumn("left"), TimeRemainingColumn(),
-                                console=Console(stderr=True), transient=True)
+                                console=Console(stderr=True), transient=True,
+                                refresh_per_second=1)  # the clock; a point redraws at once
             self.bar.start()
             self.task = self.bar.add_task("points", total=1, state="")
         return self
@@ -107,6 +108,7 @@ class _Progress:
         if self.bar is not None:
             self.bar.update(self.task, completed=done, total=total,
                             state=f"failed {self.failed}, running {running}")
+            self.bar.refresh()
         elif row is not None and not self.args.quiet:
             import json
 

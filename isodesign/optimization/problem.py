@@ -103,9 +103,8 @@ def hoisted_map(point, n: int, shared: tuple):
     into one function evaluated once; the mapped function receives its values as a further
     input. The outputs are the same expressions (``substitute`` restores them exactly), so
     values and exact derivatives are unchanged; the NLP's graph loses the ``n - 1`` copies
-    of the design-level parts (chamber dimensions, wave speeds, areas: measured on the
-    default study, 23 % fewer instructions per grid point with the distributed acoustics and
-    11 % fewer in the Hessian of the Lagrangian).
+    of the design-level parts (chamber dimensions, wave speeds, areas). The NLP's size per
+    acoustic model is a row of ``docs/benchmarks.md`` (``benchmarks/bench_acoustics.py``).
 
     Parameters
     ----------
@@ -224,8 +223,8 @@ class Problem:
         self.statistical = statistical(study)
         self.self_consistent = (study.models["amplitude_mode"] == "self_consistent"
                                 and not self.statistical)
-        # SX throughout: with MX the Jacobian's colouring needed one sweep per grid point
-        # (measured 50-70 ms per Jacobian against ~1 ms for the expanded SX graph)
+        # SX throughout: with MX the Jacobian's colouring needed one sweep per grid point,
+        # tens of times the cost of a Jacobian of the expanded SX graph
         nlp = SimpleNamespace(ca=ca, X=ca.SX)
         self._decision_variables(nlp)
         self._physics(nlp, self._point_function(ca))

@@ -364,6 +364,7 @@ class Refined:
     peak: dict
     slot_hz: np.ndarray
     branches: tuple = ()
+    alongside: object = None
 
 
 def _refine_one(study, prob, i: int, sol, tol_j: float, known=()) -> Refined:
@@ -374,7 +375,7 @@ def _refine_one(study, prob, i: int, sol, tol_j: float, known=()) -> Refined:
     return Refined(i, best, final, flat, peak, prob.slot_hz.copy())
 
 
-def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
+def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) -> Refined:
     """Refine the feasible starts' branches and return the best refined one.
 
     ``sols`` maps start index -> feasible :class:`~.solution.Solution`. The starts are
@@ -404,6 +405,11 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
         Start index -> feasible Solution.
     tol_j : float
         The tie-break's tolerance on J (:func:`flat_tolerance`).
+    alongside : callable, optional
+        ``alongside()``: one more task, independent of the branches, run first in the
+        same map (from the study's peak grid, like each branch; the Pareto sweep's
+        lexicographic anchor). It must not raise; its result (picklable) is returned
+        in ``Refined.alongside``.
 
     Returns
     -------
@@ -411,7 +417,8 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
         The winning branch (its start index, refined optimum, tie-broken final
         point, flat-direction and peak-refinement reports, slot frequencies) with
         ``branches``: (start index, refined J) of every branch refined, winner
-        first (a branch that joined another one carries that one's refined J).
+        first (a branch that joined another one carries that one's refined J), and
+        ``alongside``: the result of ``alongside()`` (``None`` without it).
 
     Raises
     ------
@@ -440,10 +447,18 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
         except SolverError as exc:
             return exc
 
+    def task(k):
+        if k is None:  # the task run alongside, from the study's peak grid too
+            if not np.array_equal(prob.slot_hz, slots0):
+                prob.set_slots(slots0)
+            return alongside()
+        return refine(k)
+
     # the branches are independent: refined in the start workers' processes when the
     # cores allow (each worker's copy of the NLP moves its own peak frequencies)
-    results = map_in_workers(refine, range(len(branches)),
-                             workers=study.solver.get("workers"))
+    items = ([None] if alongside is not None else []) + list(range(len(branches)))
+    results = map_in_workers(task, items, workers=study.solver.get("workers"))
+    side = results.pop(0) if alongside is not None else None
     done: list[Refined] = []
     merged: list[tuple[int, Refined]] = []  # (start, the refined branch it joined)
     error = None
@@ -475,4 +490,4 @@ def refine_branches(study, prob, sols: dict, tol_j: float) -> Refined:
     rows = [(r.start, r.best.objective) for r in ranked]
     rows += [(i, r.best.objective) for i, r in merged]
     return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz,
-                   tuple(rows))
+                   tuple(rows), side)

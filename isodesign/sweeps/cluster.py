@@ -21,17 +21,49 @@ external scheduler's own configuration applies (set
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import os
 
 from isodesign.errors import InputError
 
-__all__ = ["ALLOWED_FAILURES", "CONNECT_TIMEOUT_S", "Connection", "connect"]
+__all__ = ["ALLOWED_FAILURES", "CONNECT_TIMEOUT_S", "LOCAL_CONFIG", "Connection", "connect"]
 
 #: Seconds to wait for an external scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0
 #: Worker deaths a task survives (the next one marks it failed: it failed twice).
 ALLOWED_FAILURES = 1
+#: Dask configuration of the local cluster. A sweep task is seconds of single-threaded,
+#: GIL-holding optimization; on a machine whose cores all run tasks, every cycle that
+#: Dask's own monitoring takes is a cycle a point waits for (measured in
+#: ``benchmarks/bench_sweep.py``). So, against Dask's defaults (which suit many short,
+#: data-heavy tasks):
+#:
+#: * ``allowed-failures``: a task survives one worker death (see the module docstring);
+#: * ``MALLOC_TRIM_THRESHOLD_`` is not set in the workers (Dask sets 64 KiB to give the
+#:   memory of large arrays back to the OS): glibc's own threshold, so that CasADi and
+#:   IPOPT, which free and allocate again many medium blocks per point, do not pay a page
+#:   fault for each (with 64 KiB a point takes measurably more CPU time);
+#: * no statistical profiler in the workers (it samples the task's stack every 10 ms,
+#:   interrupting it; its profile feeds only the dashboard, which is off);
+#: * the event-loop health tick, the memory monitor and the system monitor every 1, 1 and
+#:   2 s instead of 20 ms, 100 ms and 0.5 s (the memory limit still holds: the nanny
+#:   restarts a worker that exceeds it, and its task is retried);
+#: * one task per worker thread at a time (``worker-saturation`` 1.0) and no work
+#:   stealing: a worker asks for its next point when it is free, so no point waits in the
+#:   queue of a busy worker while another worker idles at the end of the sweep.
+LOCAL_CONFIG = {
+    "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+    "distributed.scheduler.worker-saturation": 1.0,
+    "distributed.scheduler.work-stealing": False,
+    "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+    "distributed.worker.daemon": True,
+    "distributed.worker.profile.enabled": False,
+    "distributed.worker.memory.monitor-interval": "1s",
+    "distributed.admin.tick.interval": "1s",
+    "distributed.admin.system-monitor.interval": "2s",
+    "distributed.admin.system-monitor.gil.enabled": False,
+}
 
 
 class Connection:
@@ -52,8 +84,6 @@ class Connection:
 
     def close(self) -> None:
         """Close the client and the local cluster (its worker processes end)."""
-        import contextlib
-
         with contextlib.suppress(Exception):
             self.client.close(timeout=5)
         if self.cluster is not None:
@@ -86,6 +116,22 @@ def _ignore_sigint_plugin():
     return IgnoreSigint()
 
 
+@contextlib.contextmanager
+def _environ_kept():
+    """Undo, in this process, the variables a nanny sets before it spawns its worker
+    (``OMP_NUM_THREADS=1`` ...): they are meant for the worker processes, not for the
+    process that runs the sweep and whatever it starts afterwards."""
+    saved = dict(os.environ)
+    try:
+        yield
+    finally:
+        for k in [k for k in os.environ if k not in saved]:
+            del os.environ[k]
+        for k, v in saved.items():
+            if os.environ.get(k) != v:
+                os.environ[k] = v
+
+
 def _quiet_logs() -> None:
     for name in ("distributed", "distributed.comm", "distributed.core", "distributed.nanny",
                  "distributed.scheduler", "distributed.worker", "tornado"):
@@ -93,7 +139,8 @@ def _quiet_logs() -> None:
 
 
 def connect(scheduler: str | None = None, workers: int | None = None, *,
-            option: str = "--scheduler", timeout_s: float = CONNECT_TIMEOUT_S) -> Connection:
+            option: str = "--scheduler", timeout_s: float = CONNECT_TIMEOUT_S,
+            config: dict | None = None) -> Connection:
     """A Dask client: a local cluster, or the scheduler at ``scheduler``.
 
     Parameters
@@ -108,6 +155,9 @@ def connect(scheduler: str | None = None, workers: int | None = None, *,
         For messages.
     timeout_s : float
         Connection timeout for an external scheduler.
+    config : dict, optional
+        Dask configuration of a local cluster (default :data:`LOCAL_CONFIG`; the
+        benchmark compares it with Dask's defaults).
 
     Returns
     -------
@@ -140,9 +190,7 @@ def connect(scheduler: str | None = None, workers: int | None = None, *,
             if _accepts_n_workers(client) else len(client.scheduler_info().get("workers", {}))
         return Connection(client, None, f"scheduler {address} ({n} workers now)", n)
     n = int(workers) if workers else available_cores()
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
-                          "distributed.worker.daemon": True,
-                          "distributed.admin.system-monitor.gil.enabled": False}):
+    with dask.config.set(LOCAL_CONFIG if config is None else config), _environ_kept():
         # no dashboard; the scheduler's HTTP routes (health, metrics) on a free loopback port
         cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
                                host="127.0.0.1", dashboard_address="127.0.0.1:0",
@@ -150,8 +198,6 @@ def connect(scheduler: str | None = None, workers: int | None = None, *,
                                worker_dashboard_address=None,
                                silence_logs=logging.CRITICAL, scheduler_port=0)
     client = Client(cluster, set_as_default=False)
-    import contextlib
-
     with contextlib.suppress(Exception):  # best effort: a worker's traceback is cosmetic
         client.register_plugin(_ignore_sigint_plugin())
     return Connection(client, cluster, f"local cluster ({n} worker processes on 127.0.0.1)",

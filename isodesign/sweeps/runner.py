@@ -5,7 +5,8 @@ The sweep directory (``-o DIR``)::
     DIR/record.json          kind "isodesign sweep": the sweep's identity, status, counts
     DIR/study_base.toml      the base study, resolved (replay)
     DIR/sweep.parquet        one row per point (isodesign.sweeps.table), rewritten whole
-                             and atomically after each point
+                             and atomically as the points finish (after each point, or
+                             once for the points that finished together)
     DIR/points/<hash16>/     each point's run directory (docs/cli.md contract), named by
                              the first 16 hex digits of its resolved study's SHA-256
     DIR/charts/<objective>.png   design charts (isodesign.plotting.sweep)
@@ -345,20 +346,26 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
     write_table(frame(rows.values(), keys), table_path)
     total, done, failed = len(pts), 0, 0
     walls: list[float] = []
+    unwritten = []  # rows handed over but not yet in the table (a batch cut short)
     where = "nothing to run" if not todo else ""
     status = "complete"
     if progress:
         progress(reused, total, None,
                  0 if conn is None else min(max(conn.workers, 1), len(todo)))
 
-    def finished(p, row):
+    def finished(p, row, write=True):
+        # write=False: more rows that have already arrived follow at once, and the last of
+        # them writes the table (one rewrite for all the points finished meanwhile)
         nonlocal done, failed
         rows[p.study_hash] = row
         done += 1
         failed += row.get("status") == "failed"
         if row.get("wall_s") is not None and not row.get("reused"):
             walls.append(float(row["wall_s"]))
-        write_table(frame(rows.values(), keys), table_path)
+        unwritten.append(p.study_hash)
+        if write:
+            write_table(frame(rows.values(), keys), table_path)
+            unwritten.clear()
         if progress:
             slots = 1 if conn is None else max(conn.workers, 1)  # a point per worker
             progress(reused + done, total, row, min(slots, len(todo) - done))
@@ -392,6 +399,8 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
             mine = {p.study_hash for p in pts}
             if any(r.get("status") == "failed" for h, r in rows.items() if h in mine):
                 status = "failed"
+        if unwritten:  # interrupted inside a batch: its rows reach the table all the same
+            write_table(frame(rows.values(), keys), table_path)
         if status != "interrupted":  # every task has ended: no worker writes any more
             _clean_leftovers(points_dir)
         _finish(target, rec, rows, pts, status, where, keys,
@@ -414,15 +423,19 @@ def _run_dask(client, todo, task, options, points_dir, finished) -> None:
                             key=f"isodesign-point-{p.key}-{tag}", pure=False, retries=RETRIES)
         futures[fut] = p
     try:
-        for fut in as_completed(list(futures), loop=client.loop):
-            p = futures.pop(fut)
-            try:
-                row = fut.result()
-            except Exception as exc:  # KilledWorker, or a task that raised twice
-                msg = " ".join(str(exc).split())[:500]
-                row = record_failed_point(task, p.study_hash, p.changes,
-                                          str(points_dir / p.key), f"{type(exc).__name__}: {msg}")
-            finished(p, row)
+        # the futures finished since the last batch (usually one): their rows, then one
+        # rewrite of the table (a large cluster finishes points faster than whole rewrites)
+        for batch in as_completed(list(futures), loop=client.loop).batches():
+            for i, fut in enumerate(batch):
+                p = futures.pop(fut)
+                try:
+                    row = fut.result()
+                except Exception as exc:  # KilledWorker, or a task that raised twice
+                    msg = " ".join(str(exc).split())[:500]
+                    row = record_failed_point(task, p.study_hash, p.changes,
+                                              str(points_dir / p.key),
+                                              f"{type(exc).__name__}: {msg}")
+                finished(p, row, write=i == len(batch) - 1)
     except BaseException:
         with contextlib.suppress(Exception):
             client.cancel(list(futures), force=True)

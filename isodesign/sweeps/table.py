@@ -1,4 +1,4 @@
-"""The sweep table: one row per point, written whole (Parquet, atomically) after each point.
+"""The sweep table: one row per point, written whole (Parquet, atomically) as the points finish.
 
 The table is an index of the point run directories: every row is also the point's
 ``sweep_point.json``, so the table can always be rebuilt from ``points/``
@@ -13,9 +13,9 @@ per dotted key, as given), ``task``, ``status`` (the point's ``run_status``: ``c
 variables (``volume_ratio``, ``top_volume_m3``, ``capillary_length_m``,
 ``capillary_diameter_m``, ``total_volume_m3``), ``binding`` (the binding constraints and
 the variables at a bound, ``;``-separated), the task's figures (``worst_band_margin_db``,
-``worst_band_hz``, ``natural_frequency_hz``, ...), ``wall_s``, ``worker``, ``started_utc``,
-``study_hash``, ``run_dir``, ``error``, ``warnings`` and ``changes`` (the point's changes as
-JSON).
+``worst_band_hz``, ``natural_frequency_hz``, ...), ``wall_s``, ``cpu_s`` (the CPU time of
+the thread that computed the point), ``worker``, ``started_utc``, ``study_hash``,
+``run_dir``, ``error``, ``warnings`` and ``changes`` (the point's changes as JSON).
 """
 
 from __future__ import annotations
@@ -34,8 +34,8 @@ _FIRST = ("point",)
 _MIDDLE = ("task", "status", "feasible", "objective", "objective_value", "volume_ratio",
            "top_volume_m3", "capillary_length_m", "capillary_diameter_m", "total_volume_m3",
            "binding")
-_LAST = ("wall_s", "worker", "started_utc", "study_hash", "run_dir", "error", "warnings",
-         "reused", "changes")
+_LAST = ("wall_s", "cpu_s", "worker", "started_utc", "study_hash", "run_dir", "error",
+         "warnings", "reused", "changes")
 
 
 def collect_rows(points_dir) -> dict[str, dict]:

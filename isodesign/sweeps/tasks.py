@@ -376,8 +376,9 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
     dict
         The row: ``point``, ``study_hash``, ``task``, ``status`` (the run's
         ``run_status``), ``error``, ``warnings``, ``worker``, ``started_utc``, ``wall_s``,
-        ``run_dir`` and the task's fields. A point already finished in ``point_dir`` is
-        read back (``reused`` true).
+        ``cpu_s`` (the CPU time of the thread that computed it: much less than ``wall_s``
+        when the point waited for a core), ``run_dir`` and the task's fields. A point
+        already finished in ``point_dir`` is read back (``reused`` true).
     """
     from isodesign.optimization.executor import SerialExecutor, use_executor
     from isodesign.optimization.study import study_from_dict
@@ -393,9 +394,9 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
         raise RuntimeError("sweep point: the study changed on its way to the worker")
     row = {"point": study_hash[:16], "study_hash": study_hash, "task": task_name,
            "changes": json.dumps(changes), "status": None, "error": "", "warnings": "",
-           "worker": worker_name(), "started_utc": _now(), "wall_s": None,
+           "worker": worker_name(), "started_utc": _now(), "wall_s": None, "cpu_s": None,
            "run_dir": f"points/{Path(point_dir).name}", "reused": False}
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.thread_time()
     run = RunDirectory(point_dir, command=task.command, overwrite=True,
                        argv=["isodesign", "sweep", "--task", task_name])
     with run, use_executor(SerialExecutor()), warnings.catch_warnings(record=True) as caught:
@@ -409,7 +410,7 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
             status, error = "failed", f"{type(exc).__name__}: {exc}"
         msgs = sorted({str(w.message) for w in caught})
         row.update(status=status, error=error or "", warnings=" | ".join(msgs)[:2000],
-                   wall_s=time.perf_counter() - t0)
+                   wall_s=time.perf_counter() - t0, cpu_s=time.thread_time() - c0)
         run.write_json(POINT_FILE, row)
         if status == "failed":
             run.finish("failed", error=error)
@@ -434,7 +435,7 @@ def record_failed_point(task_name: str, study_hash: str, changes: dict, point_di
     task = get_task(task_name)
     row = {"point": study_hash[:16], "study_hash": study_hash, "task": task_name,
            "changes": json.dumps(changes), "status": "failed", "error": error,
-           "warnings": "", "worker": "", "started_utc": _now(), "wall_s": None,
+           "warnings": "", "worker": "", "started_utc": _now(), "wall_s": None, "cpu_s": None,
            "run_dir": f"points/{Path(point_dir).name}", "reused": False}
     run = RunDirectory(point_dir, command=task.command, overwrite=True,
                        argv=["isodesign", "sweep", "--task", task_name])

@@ -30,6 +30,7 @@ LISTINGS = [
     ("response.md", "isodesign response --target VC-E -o bands.csv", False),
     ("response.md", "isodesign transmissibility --floor-amplitude 1,10,100um", False),
     ("optimization.md", "isodesign optimize -o out/optimize", True),
+    ("optimization.md", "isodesign pareto -o out/pareto", True),
 ]
 
 _VOLATILE = [

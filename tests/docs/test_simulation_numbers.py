@@ -65,10 +65,14 @@ def study():
 
 
 @pytest.fixture(scope="module")
-def agreement(study):
+def grid(study):
+    return study._grid(REF)
+
+
+@pytest.fixture(scope="module")
+def agreement(grid):
     from isodesign.simulation.harmonic_rig import agreement_table
 
-    grid = study._grid(REF)
     df = agreement_table(grid, REF.replace(acoustics="lumped"))
     sim = grid.to_frame()
     df["cycles"] = sim["cycles"].to_numpy()
@@ -162,3 +166,58 @@ def test_measured_figures(study):
     assert f"{v['n_plus_1_over_n']:.2f}" == f"{v['u_kinematic_low']:.2f}"
     quoted(f"(peak {v['peak_ratio_min']:.2f} to {v['peak_ratio_max']:.2f} of the")
     quoted(f"carries up to {v['distortion_max']:.1%}".replace("%", " %") + " of higher harmonics")
+
+
+def test_sizes_quoted_in_sections_1_and_2():
+    d = REF
+    quoted(f"for the\nreference spring X < {0.5 * d.top_volume_m3 / d.piston_area_m2 * 1e3:.1f} mm")
+    lo = d.static_stiffness_n_per_m * 1e-7 / d.piston_area_m2 / d.pressure_pa
+    hi = d.single_chamber_stiffness_n_per_m * 1e-7 / d.piston_area_m2 / d.pressure_pa
+    quoted(f"where it is {lo:.0e} (`k_s/(N+1) X/A_p`) to {hi:.0e} (`k_s X/A_p`) of `p0`."
+           .replace("e-0", "e-"))
+    quoted(f"at most {d.piston_area_m2 * 5e-4 / d.top_volume_m3:.1%}".replace("%", " %")
+           + " of the inertance at 0.5 mm")
+
+
+@pytest.mark.slow
+def test_cycles_and_mach_on_the_grid(agreement, grid):
+    quoted(f"From there the cases of the reference grid stop after {agreement['cycles'].min()} "
+           f"to {agreement['cycles'].max()} cycles.")
+    peak = grid._field("peak_velocity_m_s", float)[:, -1].max()
+    mach = peak / REF.gas.speed_of_sound(REF.temperature_k)
+    quoted(f"the Mach number reaches {mach:.2f} at 0.5 mm")
+
+
+def test_describing_velocity_of_the_all_regime_friction():
+    """Section 4, item 3: Phi(U_eq) against the exact first harmonic of Phi(Re(u)) u."""
+    from scipy import integrate
+
+    from isodesign.spring.capillary import churchill_friction_re_product as phi
+
+    per_u = REF.density_kg_m3 * REF.capillary_diameter_m / REF.viscosity_pa_s
+
+    def ratio(u):
+        exact = 2 / np.pi * integrate.quad(
+            lambda t: float(phi(per_u * u * np.sin(t))) * np.sin(t) ** 2, 0, np.pi, limit=200)[0]
+        return float(phi(per_u * 8 * u / (3 * np.pi))) / exact
+
+    peak_re = round(per_u * 8, -2)
+    quoted(f"`Phi(U_eq)/Phi_DF = {ratio(8.0):.2f}` at U = 8 m/s (peak Re {peak_re:,.0f}), "
+           f"{ratio(10.0):.2f} at 10\n   m/s, {ratio(14.7):.2f} at 14.7 m/s, {ratio(20.0):.2f} at "
+           "20 m/s (exact for laminar, U <= 5 m/s)")
+    assert ratio(5.0) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_monte_carlo_warmup_changes_little():
+    """Section 7, limits: 20 s against 60 s of warm-up, reference case, one 320 s realization."""
+    from isodesign.response import Payload
+    from isodesign.simulation import simulate_random_response
+
+    def stroke(warmup_s):
+        return simulate_random_response(REF, Payload(400.0, 4), "VC-A", target="VC-E",
+                                        seeds=[1], duration_s=320.0, diaphragm="none",
+                                        warmup_s=warmup_s).stroke_rms_m
+
+    change = abs(stroke(20.0) / stroke(60.0) - 1)
+    quoted(f"20 s against 60 s of warm-up\nchange the stroke RMS by {100 * change:.3f} % in the "
+           "reference case, one 320 s realization")

@@ -320,3 +320,101 @@ def test_anchor_b_is_the_minimum_of_b_with_or_without_the_band(monkeypatch):
     narrow = pareto._minimize_b(prob, a)
     assert narrow.feasible
     assert narrow.objectives[1] == pytest.approx(free.objectives[1], abs=1e-6)
+
+
+def _lumped_pareto_problem():
+    """The small lumped study of the anchor tests, its two-objective NLP and A's optimum."""
+    from isodesign.optimization.problem import Problem
+
+    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40,
+                                              "acoustics": "lumped"})
+    st = st.with_changes(objective={"kind": "worst_band_margin"})
+    prob = Problem(st, objectives=("worst_band_margin", "total_volume"))
+    a = prob.solve(prob.initial_guess({v.name: v.start for v in st.variables}))
+    assert a.feasible
+    return st, prob, a
+
+
+@pytest.mark.slow
+def test_lexicographic_anchor_is_b_minimum_and_the_last_point(monkeypatch):
+    """B's lexicographic anchor (J_B + w J_A) is B's minimum (the unbounded solve's) and,
+    verified, the sweep's last point: A's optimum subject to B <= min B. With a weight so
+    large that the weighted optimum trades B for A, the verification finds B's minimum
+    and the last point is left to the sweep."""
+    from isodesign.optimization import pareto
+
+    _, prob, a = _lumped_pareto_problem()
+    free = prob.solve(a.x, prob.params(weights=[0.0, 1.0]))
+    assert free.feasible
+    anchor, last = pareto._lexicographic_b(prob, a)
+    assert last is anchor and anchor.feasible
+    jb = float(free.objectives[1])
+    assert anchor.objectives[1] == pytest.approx(jb, abs=1e-6)
+    # the last point solved as the sweep would: A optimized subject to B <= min B
+    e = jb + 1e-9 * max(1.0, abs(jb))
+    end = prob.solve(prob.initial_guess(anchor.values),
+                     prob.params(weights=[1.0, 0.0], eps=[None, e]))
+    assert end.feasible
+    assert anchor.objectives[0] <= end.objectives[0] + 1e-6
+    monkeypatch.setattr(pareto, "LEXICOGRAPHIC_WEIGHT", 1.0)
+    anchor2, last2 = pareto._lexicographic_b(prob, a)
+    assert last2 is None and anchor2.feasible
+    assert anchor2.objectives[1] == pytest.approx(jb, abs=1e-6)
+
+
+@pytest.mark.slow
+def test_other_branch_replaces_a_worse_point_and_keeps_the_rest(front):
+    """A sweep point held on a worse solution (here: the next point's design, feasible
+    there but with less margin) differs from the other chain's neighbours: it is solved
+    again from them and replaced by the better solution; points on the same branch as
+    the other chain are left alone."""
+    from isodesign.optimization import pareto
+    from isodesign.optimization.problem import Problem
+
+    st, pf, _ = front
+    st = st.with_changes(objective={"kind": "worst_band_margin"})
+    prob = Problem(st, objectives=pf.objectives)
+    a = prob.solve(prob.initial_guess(pf.designs[0]))
+    b, last = pareto._anchor_b(prob, a)
+    eps = np.linspace(a.objectives[1], b.objectives[1], POINTS)
+    idx_a, idx_b = [0, 2], [3, 1]
+    sols = pareto._run_chains(prob, [(a, idx_a, a), (b, idx_b, last)], eps, b, 1)
+    assert all(s.feasible for s in sols.values())
+    untouched = dict(sols)
+    report = pareto._other_branch(prob, untouched, set(idx_a), eps, 1)
+    assert report["replaced"] == []
+    worse = dict(sols)
+    worse[1] = sols[2]  # B <= eps_2 < eps_1: feasible for point 1, less margin
+    assert sols[2].objective > sols[1].objective + 0.1
+    report = pareto._other_branch(prob, worse, set(idx_a), eps, 1)
+    assert 1 in report["compared"] and report["replaced"] == [1]
+    assert worse[1].feasible
+    assert worse[1].objectives[1] <= eps[1] + 1e-6
+    assert worse[1].objective == pytest.approx(sols[1].objective, abs=0.01)
+
+
+@pytest.mark.slow
+def test_a_front_against_an_epigraph_objective_reports_its_true_values():
+    """With B = peak |T| (an epigraph variable, slack below epsilon where B has no weight)
+    every point's values are the design's own: the margin as evaluate_design gives it, the
+    peak between the NLP's sampled peak (the fixed grid, evaluate_design) and the
+    continuous peak, within the exchange method's tolerance of the latter; every point is
+    solved and non-dominated."""
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db
+
+    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40},
+                                      solver={"starts": 2})
+    objs = ("worst_band_margin", "peak_transmissibility")
+    pf = pareto_front(st, objectives=objs, points=4)
+    assert all(s == "Solve_Succeeded" for s in pf.statuses), pf.statuses
+    assert pf.front.all()
+    prob = Problem(st.with_changes(objective={"kind": objs[0]}), objectives=objs)
+    for i, d in enumerate(pf.designs):
+        ev = evaluate_design(st, d, objectives=pf.objectives)
+        assert ev["max_violation"] <= FEASIBILITY_TOLERANCE, i
+        assert ev["objectives"]["worst_band_margin"] == pytest.approx(pf.values[i, 0], abs=1e-6)
+        peak_db, _ = continuous_peak_db(prob, d, ev["sigma"], ev["tube_rms"])
+        assert ev["objectives"]["peak_transmissibility"] <= pf.values[i, 1] + 1e-6, i
+        assert abs(pf.values[i, 1] - peak_db) <= PEAK_TOLERANCE_DB + 1e-6, i
+    assert np.all(np.diff(pf.values[:, 1]) < 0) and np.all(np.diff(pf.values[:, 0]) < 0)
