@@ -395,6 +395,7 @@ class RunDirectory:
         self.status, self.error = "interrupted", reason
         with contextlib.suppress(OSError):
             self._write_record("interrupted", reason)
+            make_durable(self.path)  # what the run wrote, kept for inspection
         dest = self.target.with_name(self.target.name + ".interrupted")
         k = 2
         while dest.exists():
