@@ -4,7 +4,7 @@ VENV   := .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test test-fast test-browser lint bench docs clean venv
+.PHONY: demo test test-fast test-browser lint bench docs clean venv bytecode
 
 venv: $(STAMP)
 
@@ -12,7 +12,13 @@ $(STAMP): pyproject.toml
 	@test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e ".[test]"
+	@$(MAKE) --no-print-directory bytecode
 	@touch $(STAMP)
+
+# The package's bytecode, as an installed wheel ships it (the editable install does not, and
+# with PYTHONDONTWRITEBYTECODE set every fresh process would compile ~130 modules again)
+bytecode:
+	@$(BIN)/python -m compileall -q isodesign
 
 demo: $(STAMP)
 	$(BIN)/isodesign demo -o out/demo --overwrite
@@ -34,7 +40,7 @@ test-fast: $(STAMP)
 lint: $(STAMP)
 	$(BIN)/ruff check isodesign tests studies benchmarks
 
-bench: $(STAMP)
+bench: $(STAMP) bytecode
 	$(BIN)/python benchmarks/run.py
 
 DOCS_STAMP := $(VENV)/.installed-docs
