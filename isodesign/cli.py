@@ -28,7 +28,8 @@ Process exit: a command whose module sets ``EXIT_WITHOUT_TEARDOWN = True`` (``op
 run as the program (the ``isodesign`` script or ``python -m isodesign``), ends the process
 as soon as it returns: the :mod:`atexit` handlers run and the standard streams are
 flushed, then ``os._exit`` skips the interpreter's teardown (freeing every module, the
-Matplotlib figure's reference cycles and CasADi's graphs: about 0.2 s). Its output files
+Matplotlib figure's reference cycles and CasADi's graphs: a sizeable part of the run's exit,
+see the `bench_cli.py` row of docs/benchmarks.md). Its output files
 are complete by then (a run directory is finished inside the command). :func:`main`
 called from Python always returns.
 """
