@@ -37,6 +37,7 @@ from isodesign.response.isolator import Payload
 # The model choices come from the library's registries (declared once there). Loading them
 # loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
 from isodesign.response.random_input import RANDOM_METHODS
+from isodesign.simulation.harmonic_rig import lumped_twin
 from isodesign.simulation.monte_carlo import simulate_random_response
 from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign
 from isodesign.spring.diaphragm import DIAPHRAGM_SPECS
@@ -181,14 +182,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         metavar="S",
         help="length of each Monte Carlo realization, s (default %(default)g)",
     )
-
-
-def lumped_twin(design):
-    """The design with the acoustics the time-domain simulators integrate (lumped, adiabatic
-    or polytropic chambers), or ``None`` when it has them already."""
-    if design.acoustics == "lumped" and not design.chamber_heat_exchange:
-        return None
-    return design.replace(acoustics="lumped", chamber_heat_exchange=False)
 
 
 def monte_carlo_table(res, mc, in_force=None) -> str:

@@ -79,9 +79,31 @@ __all__ = [
     "SimulationGridResult",
     "SimulationResult",
     "agreement_table",
+    "lumped_twin",
     "simulate_grid",
     "simulate_stiffness",
 ]
+
+def lumped_twin(design: SpringDesign) -> SpringDesign | None:
+    """The design as the time-domain simulators integrate it, or ``None`` if it is already so.
+
+    The rig and the Monte Carlo verifiers (:mod:`.monte_carlo`, :mod:`.table_monte_carlo`)
+    integrate the lumped acoustics (uniform chamber pressures, a slug in the tube) with
+    adiabatic or polytropic chambers: ``acoustics="lumped"`` and no wall heat exchange. A
+    closure judged against them is this design's (like with like).
+
+    Parameters
+    ----------
+    design : SpringDesign
+
+    Returns
+    -------
+    SpringDesign or None
+    """
+    if design.acoustics == "lumped" and not design.chamber_heat_exchange:
+        return None
+    return design.replace(acoustics="lumped", chamber_heat_exchange=False)
+
 
 #: Largest allowed swept volume A_p X as a fraction of V_t0 (V_t must stay > 0).
 MAX_STROKE_FRACTION = 0.5
@@ -381,7 +403,7 @@ class _Model:
     def __init__(self, design: SpringDesign, flow: str):
         # the rig integrates the lumped chambers and tube slug (uniform pressures); its
         # harmonic-balance start is that model's, whatever acoustics the design names
-        d = design.replace(acoustics="lumped", chamber_heat_exchange=False)
+        d = lumped_twin(design) or design
         self.design = d
         self.flow = flow
         #: the tube's momentum equation is a state ("inertial" law), or m_dot = dp / C_u
