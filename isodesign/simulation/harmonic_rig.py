@@ -85,12 +85,10 @@ __all__ = [
 ]
 
 def lumped_twin(design: SpringDesign) -> SpringDesign | None:
-    """The design as the time-domain simulators integrate it, or ``None`` if it is already so.
+    """The design as the time-domain simulators integrate it (``None``: it is already so).
 
-    The rig and the Monte Carlo verifiers (:mod:`.monte_carlo`, :mod:`.table_monte_carlo`)
-    integrate the lumped acoustics (uniform chamber pressures, a slug in the tube) with
-    adiabatic or polytropic chambers: ``acoustics="lumped"`` and no wall heat exchange. A
-    closure judged against them is this design's (like with like).
+    The rig and the Monte Carlo verifiers integrate the lumped acoustics without wall heat
+    exchange; a closure judged against them is this design's (like with like).
 
     Parameters
     ----------
