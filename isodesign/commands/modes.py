@@ -142,7 +142,7 @@ def run_table_response(args, job) -> int:
     mc_closure, in_force = res, None
     if args.verify_monte_carlo is not None:  # the 6-DOF time-domain check
         from isodesign.commands.table_verify import verify_table
-        from isodesign.simulation.harmonic_rig import lumped_twin
+        from isodesign.simulation.lumped import lumped_twin
 
         mc = verify_table(args, job, res, floor)
         twin = lumped_twin(job.design)  # like with like: the simulator's lumped equations

@@ -37,7 +37,7 @@ from isodesign.response.isolator import Payload
 # The model choices come from the library's registries (declared once there). Loading them
 # loads NumPy, not SciPy, pandas or CasADi; ``isodesign --help`` does not import this module.
 from isodesign.response.random_input import RANDOM_METHODS
-from isodesign.simulation.harmonic_rig import lumped_twin
+from isodesign.simulation.lumped import lumped_twin
 from isodesign.simulation.monte_carlo import simulate_random_response
 from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign
 from isodesign.spring.diaphragm import DIAPHRAGM_SPECS

@@ -62,6 +62,7 @@ import numpy as np
 
 from isodesign.errors import InputError, SolverError, check_positive, check_range
 from isodesign.results import ResultDisplay
+from isodesign.simulation.lumped import lumped_twin
 from isodesign.spring.amplitude import solve_velocity_amplitude
 from isodesign.spring.capillary import (
     QUASI_STEADY_INERTANCE_COEFFICIENT,
@@ -79,29 +80,9 @@ __all__ = [
     "SimulationGridResult",
     "SimulationResult",
     "agreement_table",
-    "lumped_twin",
     "simulate_grid",
     "simulate_stiffness",
 ]
-
-def lumped_twin(design: SpringDesign) -> SpringDesign | None:
-    """The design as the time-domain simulators integrate it (``None``: it is already so).
-
-    The rig and the Monte Carlo verifiers integrate the lumped acoustics without wall heat
-    exchange; a closure judged against them is this design's (like with like).
-
-    Parameters
-    ----------
-    design : SpringDesign
-
-    Returns
-    -------
-    SpringDesign or None
-    """
-    if design.acoustics == "lumped" and not design.chamber_heat_exchange:
-        return None
-    return design.replace(acoustics="lumped", chamber_heat_exchange=False)
-
 
 #: Largest allowed swept volume A_p X as a fraction of V_t0 (V_t must stay > 0).
 MAX_STROKE_FRACTION = 0.5
