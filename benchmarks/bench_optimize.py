@@ -167,8 +167,9 @@ def bench_optimize() -> dict:
     starts = ", ".join(f"{s.objective:.3f}/{s.iterations}it/{s.wall_s:.2f}s" for s in r.starts)
     notes = (
         f"{OPTIMIZE_REPEATS} repeat(s) (no warm-up); {load0} before, {_load()} after; "
-        f"{len(r.starts)} starts in {r.study.solver['workers']} forked workers + tie-break "
-        f"(2 solves) + {'peak refinement + ' if pk else ''}re-check + 2 band responses; "
+        f"{len(r.starts)} starts in {r.study.solver['workers']} forked workers + "
+        f"{'peak refinement of the branches + ' if pk else ''}tie-break of the winner "
+        f"(2 solves) + re-check + 2 band responses; "
         f"worst-band margin {r.objective_value:.4f} dB "
         f"(every repeat: {objs}), feasible={r.feasible}, {r.n_reached_best}/{len(r.starts)} "
         f"starts reached the best; the study's own start (start 0) stops at "
@@ -206,16 +207,16 @@ def bench_optimize_breakdown() -> dict:
     sols = run_starts(prob, starts, workers=st.solver["workers"])
     t_starts = time.perf_counter() - t0
     good = {i: s for i, s in enumerate(sols) if isinstance(s, Solution) and s.feasible}
-    # tie-break and peak refinement of the best start of each branch that could win
+    # peak refinement of the best start of each branch that could win, tie-break of the winner
     t0 = time.perf_counter()
     win = refine_branches(st, prob, good, flat_tolerance(prob.objective))
     final, info = win.final, win.peak
     t_tie = time.perf_counter() - t0
     t_peak = None
     peak_note = (
-        f"tie-break + peak refinement of {len(win.branches)} branch(es) "
-        f"({info.get('rounds')} round(s), continuous peak "
-        f"{info.get('peak_db') or math.nan:.3f} dB); "
+        f"peak refinement of {len(win.branches)} branch(es), the winner's "
+        f"{info.get('rounds')} round(s) ending at a continuous peak of "
+        f"{info.get('peak_db') or math.nan:.3f} dB; "
     )
     d = st.design_at(final.values)
     t0 = time.perf_counter()
@@ -277,8 +278,9 @@ def bench_optimize_breakdown() -> dict:
             f"{load0}: Problem(study) build {t_build:.2f} s; 8 starts in 2 forked workers "
             f"{t_starts:.2f} s (sum of the solves' walls {walls_par:.2f} s; the same 8 serially "
             f"in 1 process: {t_serial:.2f} s, solves {walls_ser:.2f} s, speed-up "
-            f"{t_serial / t_starts:.2f}{blas_note}); tie-break and peak refinement of the "
-            f"distinct branches (in the workers) {t_tie:.2f} s; {peak_note}re-check "
+            f"{t_serial / t_starts:.2f}{blas_note}); peak refinement of the distinct "
+            f"branches (in the workers) and the winner's tie-break {t_tie:.2f} s; "
+            f"{peak_note}re-check "
             f"{t_re:.2f} s; 2 band responses (optimum and start) {t_an:.2f} s"
         ),
     }

@@ -4,8 +4,8 @@ Trust
 -----
 * Multi-start: space-filling starts (Latin hypercube in the scaled log space)
   plus the study's start; the report says how many reached the best design.
-* The winning start is chosen after the tie-break and the peak refinement of the
-  best start of each distinct branch (:func:`.refine.refine_branches`).
+* The winning start is chosen after the peak refinement of the best start of each
+  distinct branch; the winner alone is tie-broken (:func:`.refine.refine_branches`).
 * Re-check: the optimum is re-evaluated with the NumPy analysis path (its own
   solvers for U and sigma); objective and constraints must agree to 1e-6
   relative (an objective in dB to 1e-6 dB), else

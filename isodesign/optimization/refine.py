@@ -10,7 +10,9 @@
   largest D_c in it (larger bores clog less and are easier to make to tolerance).
 * The refinement costs distinct local optima differently, so the winning start is
   chosen after it: :func:`refine_branches` refines the best start of each distinct
-  branch and keeps the best refined one.
+  branch and keeps the best refined one. Only that one is tie-broken (the tie-break
+  cannot change which branch is best: it moves a branch's point by at most its
+  tolerance), and its peak is measured again at the tie-broken point.
 """
 
 from __future__ import annotations
@@ -182,7 +184,8 @@ def _peak_refined(study, prob) -> bool:
             or prob.objective == "peak_transmissibility")
 
 
-def refine_peak(study, prob, final, best, flat, *, known=()):
+def refine_peak(study, prob, final, best, flat, *, known=(), tie_break_after=None,
+                record=None):
     """Exchange method for the semi-infinite peak constraint (and objective).
 
     The NLP bounds |T| at the peak grid's frequencies only, so an optimum can hide
@@ -190,7 +193,8 @@ def refine_peak(study, prob, final, best, flat, *, known=()):
     operating amplitude is measured; if it exceeds the bound (or the sampled
     objective) by more than :data:`PEAK_TOLERANCE_DB`, five of the grid's movable
     frequencies (NLP parameters: no rebuild) are placed within +-1 % of it and the
-    NLP is solved again from the current design (then the tie-break again).
+    NLP is solved again from the current design (then the tie-break again, if
+    ``tie_break_after``).
 
     Parameters
     ----------
@@ -211,6 +215,14 @@ def refine_peak(study, prob, final, best, flat, *, known=()):
         that lands within :data:`BRANCH_TOLERANCE` of one of them has joined that branch
         (on a grid with at least that branch's refinement frequencies): the refinement
         stops there and ``info["merged_with"]`` gives the index of that J in ``known``.
+    tie_break_after : bool, optional
+        Tie-break after each re-solve (the peak is then measured at the tie-broken
+        point); default ``study.solver["tie_break"]``. :func:`refine_branches` refines
+        the branches without it and tie-breaks the winner only.
+    record : dict, optional
+        The refinement record of an earlier call on the same point's branch (its
+        ``info``): the rounds continue from its count (the next movable frequencies, at
+        most :data:`~.problem.PEAK_ROUNDS` in all) and its added frequencies are kept.
 
     Returns
     -------
@@ -246,6 +258,11 @@ def refine_peak(study, prob, final, best, flat, *, known=()):
     info = {"rounds": 0, "added_frequencies_hz": [], "peak_db": None, "peak_frequency_hz": None,
             "limit_db": None, "limit": None, "excess_db": None, "met": None,
             "max_rounds": PEAK_ROUNDS, "tolerance_db": PEAK_TOLERANCE_DB}
+    if record is not None:
+        info.update(rounds=record["rounds"],
+                    added_frequencies_hz=list(record["added_frequencies_hz"]))
+    if tie_break_after is None:
+        tie_break_after = study.solver["tie_break"]
     if not _peak_refined(study, prob):
         return final, best, flat, info
     for _ in range(PEAK_ROUNDS + 1):
@@ -275,7 +292,7 @@ def refine_peak(study, prob, final, best, flat, *, known=()):
         if joined:
             info["merged_with"] = joined[0]
             break
-        if study.solver["tie_break"]:
+        if tie_break_after:
             flat, final = tie_break(prob, sol, flat_tolerance(kind))
     return final, best, flat, info
 
@@ -368,11 +385,28 @@ class Refined:
 
 
 def _refine_one(study, prob, i: int, sol, tol_j: float, known=()) -> Refined:
-    flat, final = None, sol
-    if study.solver["tie_break"]:
-        flat, final = tie_break(prob, sol, tol_j)
-    final, best, flat, peak = refine_peak(study, prob, final, sol, flat, known=known)
+    """A branch's peak refinement from its start's optimum ``sol``, without the tie-break
+    (:func:`refine_branches` tie-breaks the winner only: :func:`_finish`)."""
+    final, best, flat, peak = refine_peak(study, prob, sol, sol, None, known=known,
+                                          tie_break_after=False)
     return Refined(i, best, final, flat, peak, prob.slot_hz.copy())
+
+
+def _finish(study, prob, r: Refined, tol_j: float) -> Refined:
+    """The tie-break of a refined branch, with its peak measured again at the tie-broken point.
+
+    The point the tie-break returns lies up to ``tol_j`` from the refined optimum, on the
+    branch's grid: its continuous peak is measured, and if it exceeds the limit the
+    exchange method goes on from there (:func:`refine_peak`, rounds counted on from the
+    branch's, a tie-break after each re-solve). ``prob`` is left on the branch's movable
+    frequencies.
+    """
+    if not np.array_equal(prob.slot_hz, r.slot_hz):
+        prob.set_slots(r.slot_hz)
+    flat, final = tie_break(prob, r.best, tol_j)
+    final, best, flat, peak = refine_peak(study, prob, final, r.best, flat,
+                                          tie_break_after=True, record=r.peak)
+    return Refined(r.start, best, final, flat, peak, prob.slot_hz.copy())
 
 
 def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) -> Refined:
@@ -387,7 +421,8 @@ def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) ->
     re-solve after a peak refinement is a new local solve and can move a branch a
     long way (on the default study at 717 kg, a start at 4.74 dB refines to 5.22 dB), so the sampled
     objective bounds nothing. The winner is the branch with the best refined
-    optimum (before its tie-break). The branches are refined in forked worker
+    optimum; only it is tie-broken (:func:`_finish_best`, in this process, when
+    ``solver.tie_break``). The branches are refined in forked worker
     processes when ``solver.workers`` and the cores allow
     (:func:`~isodesign.optimization.multistart.map_in_workers`; the result is the same
     as one after the other). Each branch starts from the study's peak grid;
@@ -483,11 +518,42 @@ def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) ->
             done.append(r)
     if not done:
         raise error
-    win = min(done, key=lambda r: r.best.objective)
+    done.sort(key=lambda r: r.best.objective)  # stable: equal optima keep the start order
+    if study.solver["tie_break"]:
+        done = _finish_best(study, prob, done, tol_j)
+    win = done[0]
     if not np.array_equal(prob.slot_hz, win.slot_hz):
         prob.set_slots(win.slot_hz)
-    ranked = [win] + [r for r in done if r is not win]
-    rows = [(r.start, r.best.objective) for r in ranked]
-    rows += [(i, r.best.objective) for i, r in merged]
+    refined = {r.start: r.best.objective for r in done}
+    rows = [(r.start, r.best.objective) for r in done]
+    rows += [(i, refined.get(r.start, r.best.objective)) for i, r in merged]
     return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz,
                    tuple(rows), side)
+
+
+def _finish_best(study, prob, done: list, tol_j: float) -> list:
+    """Tie-break the best refined branch (:func:`_finish`); the branches, best first.
+
+    ``done``: the refined branches, best refined optimum first. Only the winner needs the
+    tie-break, but the peak at its tie-broken point may call for more refinement rounds,
+    which can cost it its lead: then the next branch is finished too, until the best
+    finished branch is still ahead of every unfinished one. A branch whose finishing fails
+    (a re-solve infeasible) drops out; :class:`SolverError` when all of them fail.
+    """
+    out: list = []
+    error = None
+    for k, r in enumerate(done):
+        try:
+            out.append(_finish(study, prob, r, tol_j))
+        except SolverError as exc:
+            error = error or exc
+        if out:
+            lead = min(f.best.objective for f in out)
+            if k + 1 == len(done) or lead <= done[k + 1].best.objective:
+                rest = done[k + 1:]
+                break
+    else:
+        rest = []
+    if not out:
+        raise error
+    return sorted(out, key=lambda r: r.best.objective) + rest

@@ -505,7 +505,7 @@ def test_winning_start_is_the_best_branch_after_the_peak_refinement():
     """The default study at 720 kg has two branches. Chosen on the sampled peak grid, the
     winner was the large-N branch (N = 3.18, +5.219 dB after its refinement), while the
     small-N branch refines to +5.281 dB. Every distinct feasible start is refined here on
-    its own, from the study's peak grid, with the public tie-break and refinement: the
+    its own, from the study's peak grid, with the public refinement and tie-break: the
     returned optimum must be the best of them."""
     from isodesign.optimization.problem import Problem
     from isodesign.optimization.refine import flat_tolerance, refine_peak, tie_break
@@ -529,8 +529,12 @@ def test_winning_start_is_the_best_branch_after_the_peak_refinement():
         prob.set_slots(slots0)
         sol = prob.solve(prob.initial_guess(s.final))
         assert sol.feasible
-        flat, final = tie_break(prob, sol, tol)
-        final, best, _, _ = refine_peak(st, prob, final, sol, flat)
+        # the branch's refinement from its optimum, then the tie-break the winner gets, its
+        # peak measured again at the tie-broken point
+        _, best, _, info = refine_peak(st, prob, sol, sol, None, tie_break_after=False)
+        flat, final = tie_break(prob, best, tol)
+        final, _, _, _ = refine_peak(st, prob, final, best, flat, tie_break_after=True,
+                                     record=info)
         refined.append((-best.objective, -final.objective))
     assert len(refined) >= 2  # two distinct branches on the sampled grid
     best_refined = max(r[0] for r in refined)

@@ -84,3 +84,79 @@ def test_a_branch_that_joins_a_better_one_is_not_refined_twice():
         prob.objective))
     assert "merged_with" not in full.peak
     assert -full.best.objective <= j_win + 1e-6
+
+
+def _refined(start: int, objective: float):
+    """A refined branch whose optimum has internal objective J = ``objective``."""
+    import numpy as np
+
+    from isodesign.optimization.solution import Solution
+
+    sol = Solution(x=np.zeros(1), values={}, objective=objective,
+                   objectives=np.array([objective]), g=np.zeros(0), violations=(),
+                   status="Solve_Succeeded", success=True, iterations=1, wall_s=0.0)
+    return refine.Refined(start, sol, sol, None, {"rounds": 0, "added_frequencies_hz": []},
+                          np.zeros(0))
+
+
+def test_only_the_winner_is_tie_broken(monkeypatch):
+    """The branches are refined without the tie-break; the winner gets one (two solves),
+    and its peak is measured at the tie-broken point. Serially, so that the calls are seen."""
+    calls = []
+    tie_break = refine.tie_break
+
+    def counted(prob, best, tol):
+        calls.append(best.objective)
+        return tie_break(prob, best, tol)
+
+    monkeypatch.setattr(refine, "tie_break", counted)
+    st = default_study().with_changes(models=COARSE, solver={"starts": 4, "workers": 1})
+    res = optimize(st, analyze=False)
+    assert res.feasible and len(res.branches) >= 2
+    assert len(calls) == res.peak["rounds"] - _rounds_before_tie_break(st) + 1
+    # the tie-break started from the winner's refined optimum, and the result is its point
+    assert -calls[0] == pytest.approx(res.branches[0][1], abs=1e-12)
+    assert res.flat_direction is not None
+    assert res.objective_value >= res.branches[0][1] - refine.FLAT_TOLERANCE_DB - 1e-6
+
+
+def _rounds_before_tie_break(st) -> int:
+    """Rounds of the winner's refinement before its tie-break (the branch stage's)."""
+    from isodesign.optimization.multistart import run_starts, start_points
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.solution import Solution
+
+    prob = Problem(st)
+    sols = run_starts(prob, start_points(st, prob.scaling), workers=1)
+    good = {i: s for i, s in enumerate(sols) if isinstance(s, Solution) and s.feasible}
+    win = refine.refine_branches(st.with_changes(solver={"tie_break": False}), prob, good,
+                                 refine.flat_tolerance(prob.objective))
+    return win.peak["rounds"]
+
+
+def test_a_winner_that_loses_its_lead_in_the_finish_lets_the_next_branch_in(monkeypatch):
+    """Rounds after the winner's tie-break may cost it its lead: the next branch is then
+    finished too and the better of the two wins; a finish that fails drops its branch."""
+    from isodesign.errors import SolverError
+
+    after = {0: -7.5, 1: -7.9, 2: -7.0}  # J after the finish, by start
+
+    def finish(study, prob, r, tol_j):
+        if after[r.start] is None:
+            raise SolverError(f"branch {r.start}: re-solve infeasible")
+        return _refined(r.start, after[r.start])
+
+    monkeypatch.setattr(refine, "_finish", finish)
+    done = [_refined(0, -8.0), _refined(1, -7.95), _refined(2, -7.2)]
+    out = refine._finish_best(None, None, done, 0.01)
+    # start 0 fell behind start 1 (-7.5 > -7.95): 1 finished too and wins; 2 left as it was
+    assert [(r.start, r.best.objective) for r in out] == [(1, -7.9), (0, -7.5), (2, -7.2)]
+    after[0] = -8.0  # no loss: only the winner is finished
+    out = refine._finish_best(None, None, done, 0.01)
+    assert [(r.start, r.best.objective) for r in out] == [(0, -8.0), (1, -7.95), (2, -7.2)]
+    after[0] = None  # the winner's finish fails: the next one is finished and wins
+    out = refine._finish_best(None, None, done, 0.01)
+    assert [(r.start, r.best.objective) for r in out] == [(1, -7.9), (2, -7.2)]
+    after.update({0: None, 1: None, 2: None})
+    with pytest.raises(SolverError, match="branch 0"):
+        refine._finish_best(None, None, done, 0.01)
