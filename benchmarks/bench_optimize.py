@@ -316,6 +316,8 @@ def bench_cli_optimize() -> dict:
         }
     import resource
 
+    from isodesign.optimization.executor import available_cores
+
     walls, cpus = [], []
     load0 = _load()
     for _ in range(CLI_REPEATS):
@@ -335,7 +337,7 @@ def bench_cli_optimize() -> dict:
             break
     wall = statistics.median(walls)
     cpu = statistics.median(cpus)
-    cores = os.cpu_count() or 1
+    cores = available_cores()
     state = (
         f"exit status 0, wrote {', '.join(files) or 'nothing'}"
         if p.returncode == 0

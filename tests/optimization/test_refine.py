@@ -100,38 +100,38 @@ def _refined(start: int, objective: float):
 
 
 def test_only_the_winner_is_tie_broken(monkeypatch):
-    """The branches are refined without the tie-break; the winner gets one (two solves),
-    and its peak is measured at the tie-broken point. Serially, so that the calls are seen."""
-    calls = []
-    tie_break = refine.tie_break
+    """The branches are refined without the tie-break; only the winner's finish tie-breaks,
+    from its refined optimum. Serially, so that the calls are seen in this process."""
+    finishing: list = []  # the start being finished, while _finish runs
+    finished: list = []
+    calls: list = []  # (start being finished or None, J the tie-break started from)
+    finish, tie_break = refine._finish, refine.tie_break
 
-    def counted(prob, best, tol):
-        calls.append(best.objective)
+    def watched_finish(study, prob, r, tol_j):
+        finishing.append(r.start)
+        finished.append(r.start)
+        try:
+            return finish(study, prob, r, tol_j)
+        finally:
+            finishing.pop()
+
+    def watched_tie_break(prob, best, tol):
+        calls.append((finishing[-1] if finishing else None, best.objective))
         return tie_break(prob, best, tol)
 
-    monkeypatch.setattr(refine, "tie_break", counted)
+    monkeypatch.setattr(refine, "_finish", watched_finish)
+    monkeypatch.setattr(refine, "tie_break", watched_tie_break)
     st = default_study().with_changes(models=COARSE, solver={"starts": 4, "workers": 1})
     res = optimize(st, analyze=False)
     assert res.feasible and len(res.branches) >= 2
-    assert len(calls) == res.peak["rounds"] - _rounds_before_tie_break(st) + 1
-    # the tie-break started from the winner's refined optimum, and the result is its point
-    assert -calls[0] == pytest.approx(res.branches[0][1], abs=1e-12)
+    win = res.branches[0][0]
+    # one branch finished (the winner kept its lead); every tie-break inside its finish
+    assert finished == [win]
+    assert calls and all(who == win for who, _ in calls)
+    # the first from the winner's refined optimum; the result within the tolerance of it
+    assert -calls[0][1] == pytest.approx(res.branches[0][1], abs=1e-12)
     assert res.flat_direction is not None
     assert res.objective_value >= res.branches[0][1] - refine.FLAT_TOLERANCE_DB - 1e-6
-
-
-def _rounds_before_tie_break(st) -> int:
-    """Rounds of the winner's refinement before its tie-break (the branch stage's)."""
-    from isodesign.optimization.multistart import run_starts, start_points
-    from isodesign.optimization.problem import Problem
-    from isodesign.optimization.solution import Solution
-
-    prob = Problem(st)
-    sols = run_starts(prob, start_points(st, prob.scaling), workers=1)
-    good = {i: s for i, s in enumerate(sols) if isinstance(s, Solution) and s.feasible}
-    win = refine.refine_branches(st.with_changes(solver={"tie_break": False}), prob, good,
-                                 refine.flat_tolerance(prob.objective))
-    return win.peak["rounds"]
 
 
 def test_a_winner_that_loses_its_lead_in_the_finish_lets_the_next_branch_in(monkeypatch):
