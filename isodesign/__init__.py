@@ -71,7 +71,7 @@ _EXPORTS = {
     "Study": "optimization.study",
     "load_study": "optimization.study",
     "default_study": "optimization.study",
-    "optimize": "optimization.driver",
+    "optimize": "optimization.dispatch",
     "OptimizationResult": "optimization.result",
     "pareto_front": "optimization.pareto",
     "ParetoResult": "optimization.pareto",

@@ -33,7 +33,7 @@ from isodesign.io.record import (
     resolved_study_dict,
     study_toml,
 )
-from isodesign.optimization.driver import optimize
+from isodesign.optimization.dispatch import optimize
 from isodesign.optimization.explain import BINDING_NOTE, constraint_table_rows, limiting_summary
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import Problem
@@ -569,7 +569,7 @@ class _PrefetchingProblem(Problem):
 
 
 def run_optimization(study, args, *, background: list | None = None):
-    """``optimize(study)`` with the progress bar of ``args``.
+    """``optimize(study)`` of a vertical study with the progress bar of ``args``.
 
     The NLP is built first, while :func:`prefetch_imports` imports the output writers'
     dependencies (:class:`_PrefetchingProblem`); the thread is joined before the starts
@@ -613,8 +613,11 @@ def run_optimization(study, args, *, background: list | None = None):
     return result
 
 
-def execute(study, run, args, *, prefix: str = "") -> int:
+def execute(study, run, args, *, prefix: str = "", result=None) -> int:
     """Optimize ``study`` into the run directory ``run`` and print the report; the status.
+
+    ``result``: the study's optimum when already computed (a sweep point); computed here
+    otherwise.
 
     A :class:`~isodesign.errors.SolverError` propagates (the run directory records it as
     a failed run); an infeasible study sets ``run.status = "infeasible"`` and returns 1.
@@ -637,7 +640,8 @@ def execute(study, run, args, *, prefix: str = "") -> int:
     rec = base if prefix else run.record
     background: list = []
     try:
-        result = run_optimization(study, args, background=background)
+        if result is None:
+            result = run_optimization(study, args, background=background)
     except BaseException:
         gc.unfreeze()
         rec["environment"] = environment()

@@ -40,8 +40,9 @@ from isodesign.io.record import (
     resolved_study_dict,
     study_toml,
 )
+from isodesign.optimization.dispatch import refuse
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.pareto import DEFAULT_OBJECTIVES, pareto_front
+from isodesign.optimization.pareto import DEFAULT_OBJECTIVES, PARETO_WHAT, pareto_front
 from isodesign.plotting import pareto_plot
 from isodesign.response.scope import study_scope
 
@@ -201,23 +202,27 @@ def run(args) -> int:
     objectives = parse_objectives(args.objectives)
     check_count(args.points, "--points", *POINTS_RANGE)
     study = load_study_from_args(args)
+    refuse(study, PARETO_WHAT, table=False)  # the API's line: no robust front
     if study.table is not None:  # six degrees of freedom (docs/table.md, section 11)
         if tuple(objectives) != ("worst_band_margin", "total_volume"):
             raise InputError("--objectives: a study with a [table] has the front "
                              "worst_band_margin,total_volume")
         with open_run(args, "pareto", known_outputs=OUTPUT_FILES) as rundir:
-            return _execute_table(study, rundir, args)
+            return execute_table_front(study, rundir, args)
     rundir = open_run(args, "pareto", known_outputs=(*OUTPUT_FILES, *OPTIMIZE_FILES))
     with rundir:
         return _execute(study, rundir, args, objectives)
 
 
-def _execute_table(study, run, args) -> int:
-    """The front of a table study: worst margin over points and axes against volume."""
+def execute_table_front(study, run, args, result=None) -> int:
+    """The front of a table study: worst margin over points and axes against volume.
+
+    ``result``: the study's front when already computed (a sweep point), else computed
+    here by :func:`isodesign.pareto_front`; either way the same files are written.
+    """
     import math
 
     from isodesign.plotting.style import save_figure
-    from isodesign.table.pareto import table_pareto_front
 
     run.record.update({"kind": "isodesign pareto", "table": True,
                        "command_line": command_line(canonical_command(args, "pareto")[1:]),
@@ -225,7 +230,7 @@ def _execute_table(study, run, args) -> int:
                        "study_source": study.source})
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign pareto run (a table study).")))
-    res = table_pareto_front(study, args.points)
+    res = pareto_front(study, DEFAULT_OBJECTIVES, args.points) if result is None else result
     df = res.to_frame()
     run.write_csv("pareto.csv", df)
     pts = [{"worst_band_margin": None if not math.isfinite(m) else float(m),

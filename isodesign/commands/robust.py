@@ -11,12 +11,16 @@ from __future__ import annotations
 
 import sys
 
-from isodesign.commands.optimize import canonical_command, run_optimization, write_outputs
+from isodesign.commands.optimize import (
+    StartProgress,
+    canonical_command,
+    progress_enabled,
+    write_outputs,
+)
 from isodesign.io.designfile import design_to_toml
 from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
-from isodesign.optimization.exchange import robust_optimize
+from isodesign.optimization.dispatch import optimize
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.robust_table import robust_optimize_table
 from isodesign.optimization.sensitivity import design_sensitivities
 from isodesign.optimization.yields import estimate_yield
 from isodesign.plotting.robust import robustness_plot
@@ -112,10 +116,18 @@ def robust_summary(res, sens, yields) -> str:
     return "\n".join(lines)
 
 
-def execute_robust_table(study, run, args) -> int:
+def _answer(study, args):
+    """The study's robust optimum through :func:`isodesign.optimize` (with the starts'
+    progress bar of its nominal optimum)."""
+    with StartProgress(progress_enabled(args), study.solver["starts"],
+                       study.objective["kind"]) as bar:
+        return optimize(study, progress=bar)
+
+
+def execute_robust_table(study, run, args, result=None) -> int:
     """A table study with ``[scenarios]``: the robust table optimum (docs/robust.md,
     section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml."""
-    res = robust_optimize_table(study)
+    res = optimize(study) if result is None else result
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of a robust table isodesign optimize run. Replay: isodesign "
         f"optimize {run.final_path('study_resolved.toml')} -o NEWDIR")))
@@ -156,20 +168,24 @@ def execute_robust_table(study, run, args) -> int:
     return 0
 
 
-def execute_robust(study, run, args) -> int:
-    """Optimize ``study`` robustly into the run directory ``run``; the exit status."""
+def execute_robust(study, run, args, result=None) -> int:
+    """Optimize ``study`` robustly into the run directory ``run``; the exit status.
+
+    ``result``: the study's robust optimum when already computed (a sweep point), else
+    computed here by :func:`isodesign.optimize`; either way the same files are written.
+    """
     if getattr(study, "table", None) is not None:
-        return execute_robust_table(study, run, args)
+        return execute_robust_table(study, run, args, result)
     run.record.update({"kind": "isodesign optimize",
                        "command_line": command_line(canonical_command(args, "optimize")[1:]),
                        "environment": environment(), "study": resolved_study_dict(study),
                        "study_source": study.source, "robust": True})
-    nominal = run_optimization(study, args)
+    res = _answer(study, args) if result is None else result
+    nominal = res.nominal
     write_outputs(nominal, run, args, plots=not args.no_plots, prefix="nominal/")
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of a robust isodesign optimize run. Replay: isodesign optimize "
         f"{run.final_path('study_resolved.toml')} -o NEWDIR")))
-    res = robust_optimize(study, nominal=nominal)
     if not res.feasible:
         run.status = "infeasible"
         run.write_json("robust.json", res.record())

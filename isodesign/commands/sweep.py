@@ -48,7 +48,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--pareto-points", type=_int_option, metavar="K",
                         help="task pareto: epsilon values per front (2..500; default 10)")
     parser.add_argument("--yield-samples", type=_int_option, metavar="N",
-                        help="task yield: draws per point (1..1000000; default 200)")
+                        help="task yield: draws per point (1..1000000; default 200); task "
+                        "optimize of a study with [scenarios]: the robust yield's draws (0..; "
+                        "default 500, as isodesign optimize)")
     parser.add_argument("--starts", type=_int_option, metavar="N",
                         help="starts per optimization (sets solver.starts of the base study)")
     parser.add_argument("--seed", type=_int_option, metavar="N",
@@ -182,8 +184,12 @@ def run(args) -> int:
         if args.yield_samples is not None:
             check_count(args.yield_samples, "--yield-samples", 1, 1_000_000)
         options = {"samples": args.yield_samples, "seed": args.seed}
+    elif args.task == "optimize" and args.yield_samples is not None:
+        # a study with [scenarios]: the draws of each robust point's yield (0: none)
+        options = {"yield_samples": check_count(args.yield_samples, "--yield-samples", 0,
+                                                1_000_000)}
     elif args.yield_samples is not None:
-        raise InputError("--yield-samples: only for --task yield")
+        raise InputError("--yield-samples: only for --task yield or optimize")
     if args.point_plots:
         options["plots"] = True
     if args.points_file is not None and args.vary:

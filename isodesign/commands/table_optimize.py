@@ -85,7 +85,7 @@ def table_summary_text(result) -> str:
     return "\n".join(lines)
 
 
-def execute_table(study, run, args) -> int:
+def execute_table(study, run, args, result=None) -> int:
     """Optimize a table study into the run directory ``run``; print the report; the status.
 
     Parameters
@@ -95,18 +95,21 @@ def execute_table(study, run, args) -> int:
     run : RunDirectory
     args : argparse.Namespace
         The optimize command's options.
+    result : TableOptimizationResult, optional
+        The study's optimum when already computed (a sweep point); else computed here by
+        :func:`isodesign.optimize`.
     """
     from isodesign.io.designfile import design_to_toml
     from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
+    from isodesign.optimization.dispatch import optimize
     from isodesign.plotting.style import save_figure
     from isodesign.table.modes import rocking_stability
-    from isodesign.table.optimize import optimize_table
     from isodesign.table.plots import layout_figure
 
     run.record.update({"kind": "isodesign optimize", "table": True,
                        "command_line": command_line(), "environment": environment(),
                        "study": resolved_study_dict(study), "study_source": study.source})
-    res = optimize_table(study)
+    res = optimize(study) if result is None else result
     start = {v.name: v.start for v in study.variables}
     run.record.update({"feasible": res.feasible, "status": res.status,
                        "design": res.values, "start_design": start,

@@ -123,6 +123,10 @@ def run(args) -> int:
     check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     with option_names(floor="--floor", target="--target", diaphragm="--diaphragm"):
         job = resolve_job(args)
+    if job.study is not None:  # the 1-DOF payload's |T|: not a table's (six DOFs)
+        from isodesign.optimization.dispatch import refuse
+
+        refuse(job.study, "isodesign transmissibility", scenarios=False)
     check_payload_pressure(job.design, job.payload, not args.design_pressure)
     m = job.models
     with option_names(diaphragm="--diaphragm"):

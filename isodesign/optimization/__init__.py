@@ -15,7 +15,8 @@ One file per concept:
 ``refine``          peak refinement (exchange method), tie-break, branch choice
 ``recheck``         the NumPy re-check of the optimum, :func:`evaluate_design`
 ``result``          :class:`OptimizationResult`
-``driver``          :func:`optimize`
+``driver``          :func:`optimize_vertical` (the vertical nominal solve)
+``dispatch``        :func:`optimize`: the answer to the study's question (table, robust)
 ``pareto``          epsilon-constraint Pareto fronts
 ``uncertainty``     the ``[scenarios]`` table: uncertain parameters, scenario studies
 ``robust``          scenario blocks stacked in one NLP (worst case by epigraph)
@@ -50,7 +51,9 @@ _EXPORTS = {
     "evaluate_design": "recheck",
     "OptimizationResult": "result",
     "StartRecord": "result",
-    "optimize": "driver",
+    "optimize": "dispatch",
+    "optimize_vertical": "driver",
+    "study_kind": "dispatch",
     "ParetoResult": "pareto",
     "pareto_front": "pareto",
     "robust_optimize": "exchange",

@@ -37,20 +37,27 @@ from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.study import Study
 from isodesign.response.random_input import band_response
 
-__all__ = ["PEAK_VIOLATION", "optimize", "solver_settings"]
+__all__ = ["PEAK_VIOLATION", "optimize", "optimize_vertical", "solver_settings"]
 
 #: Name of the violation a feasible result carries when the peak refinement ended with
 #: the continuous peak of |T| above its limit (amount: the excess, dB).
 PEAK_VIOLATION = "continuous_peak_transmissibility"
 
 
-def optimize(study, *, progress=None, problem: Problem | None = None,
-             analyze: bool = True) -> OptimizationResult:
-    """Optimize a study: multi-start IPOPT, tie-break, peak refinement, re-check, analysis.
+def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
+                      analyze: bool = True, nominal: bool = False) -> OptimizationResult:
+    """The vertical nominal optimum: multi-start IPOPT, tie-break, peak refinement, re-check.
+
+    The internal solve of the one-degree-of-freedom payload. The public entry point is
+    :func:`isodesign.optimize` (:mod:`.dispatch`), which sends a study with a ``[table]``
+    or ``[scenarios]`` to the optimizer of its question; this one refuses a table study,
+    and a study with ``[scenarios]`` unless ``nominal`` says that its nominal optimum is
+    what is wanted (the robust exchange's starting point).
 
     Parameters
     ----------
     study : Study
+        Without ``[table]``.
     progress : callable or None
         ``progress(done, total, solution)`` after each start (for a progress bar).
     problem : Problem, optional
@@ -58,6 +65,8 @@ def optimize(study, *, progress=None, problem: Problem | None = None,
         study passes its two-objective NLP); built here by default.
     analyze : bool
         Run the fine-grid band responses of the optimum and of the start (default).
+    nominal : bool
+        A study with ``[scenarios]``: optimize its nominal scenario (default: refused).
 
     Returns
     -------
@@ -72,6 +81,12 @@ def optimize(study, *, progress=None, problem: Problem | None = None,
     if not isinstance(study, Study):
         raise InputError(f"study: expected a Study (load_study(path) or default_study()), "
                          f"got {type(study).__name__} {study!r:.40}")
+    if getattr(study, "table", None) is not None:
+        raise InputError("[table]: the vertical optimizer does not answer a table study; "
+                         "use isodesign.optimize (six degrees of freedom)")
+    if getattr(study, "scenarios", None) is not None and not nominal:
+        raise InputError("[scenarios]: the vertical nominal optimizer does not answer a robust "
+                         "study; use isodesign.optimize (robust design)")
     t_all = time.perf_counter()
     prob = problem if problem is not None else Problem(study)
     starts = start_points(study, prob.scaling)
@@ -111,6 +126,11 @@ def optimize(study, *, progress=None, problem: Problem | None = None,
         peak=win.peak, wall_s=time.perf_counter() - t_all, settings=solver_settings(study),
         branches=tuple((i, obj.to_natural(j)) for i, j in win.branches),
     )
+
+
+#: The former name of :func:`optimize_vertical` (same guards: a table or robust study is
+#: refused, never answered with the vertical nominal optimum).
+optimize = optimize_vertical
 
 
 def _start_records(prob, starts, results) -> tuple[list[StartRecord], list]:

@@ -31,7 +31,7 @@ import time
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
-from isodesign.optimization.driver import optimize
+from isodesign.optimization.driver import optimize_vertical
 from isodesign.optimization.grid import build_grid
 from isodesign.optimization.multistart import map_in_workers
 from isodesign.optimization.objectives import OBJECTIVES
@@ -160,8 +160,8 @@ def robust_optimize(study, *, nominal=None, progress=None):
     study : Study
         A study with ``scenarios`` (:class:`~.uncertainty.UncertaintySpace`).
     nominal : OptimizationResult, optional
-        The nominal optimum (run here by default: :func:`.driver.optimize` of the study
-        without scenarios); the exchange starts from it.
+        The nominal optimum (run here by default: :func:`.driver.optimize_vertical` of the
+        study's nominal scenario); the exchange starts from it.
     progress : callable, optional
         ``progress(message)`` after each round.
 
@@ -171,11 +171,14 @@ def robust_optimize(study, *, nominal=None, progress=None):
     """
     if study.scenarios is None:
         raise InputError("robust_optimize: the study has no [scenarios] table")
+    if getattr(study, "table", None) is not None:  # never the vertical answer to a table
+        raise InputError("[table]: robust_optimize is the vertical robust design; a table "
+                         "study's is isodesign.optimize (robust_optimize_table)")
     t_all = time.perf_counter()
     space = study.scenarios
     settings = space.settings
     if nominal is None:
-        nominal = optimize(study)
+        nominal = optimize_vertical(study, nominal=True)
     if not nominal.feasible:
         return RobustResult.infeasible_nominal(study, nominal, time.perf_counter() - t_all)
     block = ScenarioBlock(study)

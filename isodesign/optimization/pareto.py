@@ -24,6 +24,7 @@ import numpy as np
 
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.constraints import constraint_reports
+from isodesign.optimization.dispatch import refuse
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
 from isodesign.optimization.multistart import map_in_workers, run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
@@ -44,6 +45,10 @@ from isodesign.results import ResultDisplay
 __all__ = ["DEFAULT_OBJECTIVES", "ParetoResult", "hypervolume_2d", "nondominated", "pareto_front"]
 
 DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
+#: The front of a table study (its only one).
+TABLE_OBJECTIVES = DEFAULT_OBJECTIVES
+#: The entry point's name in its refusal of a robust study (the API's and the CLI's line).
+PARETO_WHAT = "the Pareto front"
 
 
 def _minimized(kind: str, v: np.ndarray) -> np.ndarray:
@@ -234,13 +239,29 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         Number of epsilon values (>= 2), anchors included.
     progress : callable or None
         ``progress(done, total)`` after each start of the anchor and each sweep point.
+
+    Returns
+    -------
+    ParetoResult or TableParetoResult
+        A study with ``[table]`` gets the table's front (worst margin over every point,
+        axis and band against total volume: :func:`isodesign.table.pareto.table_pareto_front`);
+        a study with ``[scenarios]`` is refused (InputError naming ``[scenarios]``): the
+        front is nominal.
     """
     if not isinstance(study, Study):
         raise InputError(f"study: expected a Study (load_study(path) or default_study()), "
                          f"got {type(study).__name__} {study!r:.40}")
+    refuse(study, PARETO_WHAT, table=False)  # no robust front (docs/robust.md)
     a, b = _check_objectives(objectives)
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
+    if study.table is not None:  # the table's front (docs/table.md, section 11)
+        from isodesign.table.pareto import table_pareto_front
+
+        if (a, b) != TABLE_OBJECTIVES:
+            raise InputError(f"objectives: a study with a [table] has the front "
+                             f"{','.join(TABLE_OBJECTIVES)}, got {a},{b}")
+        return table_pareto_front(study, points, progress=progress)
     t0 = time.perf_counter()
     st = study.with_changes(objective=_objective_table(study, a))
     total = points + 1

@@ -8,6 +8,16 @@ criterion holds in every target band (worst band margin >= 0 dB on the analysis 
 every constraint holds (violation <= :data:`.solution.FEASIBILITY_TOLERANCE`) and the
 continuous peak of |T| is within :data:`.refine.PEAK_TOLERANCE_DB` of its bound.
 
+A table study (``[table]``) is judged with the table's analysis: each draw is the table
+study under the draw's scenario (:func:`.robust_table.table_scenario`: its payload, its
+centre-of-gravity offsets ``cg_offset_x_m`` / ``cg_offset_y_m``, its temperature, the built
+spring's tolerances), its band response in three axes solved by the table's NumPy closure
+(:func:`isodesign.table.response.table_band_response`, on the study's
+``points_per_band``); it *passes* when the criterion holds at every instrument point, in
+every axis and band, and the largest diagonal |T| of every axis is within
+:data:`.refine.PEAK_TOLERANCE_DB` of ``constraints.max_peak_transmissibility_db``. A draw
+whose leveling or closure fails does not pass.
+
 The pass fraction comes with an exact Clopper-Pearson interval (and the Wilson score
 interval); the draws run in forked workers through the optimizer's one map
 (:func:`.multistart.map_in_workers`: the study inherited, only the draws and the verdicts
@@ -100,8 +110,48 @@ def _judge(theta) -> dict:
             "peak_excess_db": c["peak_excess_db"]}
 
 
+def _judge_table(theta) -> dict:
+    """The verdict of one drawn table: the table study under the draw's scenario, its band
+    response over every point, axis and band (the NumPy closure)."""
+    import warnings
+
+    from isodesign.errors import SolverError
+    from isodesign.optimization.robust_table import table_scenario
+    from isodesign.table.response import table_band_response
+
+    study, values, _ = _CTX
+    try:
+        sc = table_scenario(study, theta)
+        d = sc.design_at(values)
+        m = sc.models
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            r = table_band_response(d, sc.table, sc.floor_axes, sc.target, bands=sc.bands,
+                                    points_per_band=m["points_per_band"], flow=m["flow"],
+                                    amplitude_mode=m["amplitude_mode"],
+                                    diaphragm=m["diaphragm"], warn=False)
+    except (InputError, SolverError) as exc:  # not a valid table, or no closure: fails
+        return {"passes": False, "reason": f"invalid: {exc}", "margin_db": math.nan,
+                "max_violation": math.inf, "objective": math.nan, "peak_excess_db": math.nan}
+    margin = float(r.worst_margin_db)
+    lim = study.constraints.get("max_peak_transmissibility_db")
+    peak = None
+    if lim is not None and lim is not False:
+        peak = float(r.peak_transmissibility_db().max() - lim)
+    reasons = ["criterion"] if margin < 0 else []
+    if peak is not None and peak > PEAK_TOLERANCE_DB:
+        reasons.append("peak_transmissibility")
+    vals = sc.built_values(values) if hasattr(sc, "built_values") else values
+    objective = margin if study.objective["kind"] == "worst_band_margin" else \
+        vals["top_volume_m3"] * (1.0 + vals["volume_ratio"])
+    return {"passes": not reasons, "reason": ", ".join(reasons), "margin_db": margin,
+            "max_violation": max(peak or 0.0, 0.0), "objective": objective,
+            "peak_excess_db": peak}
+
+
 def _judge_chunk(chunk):
-    return [_judge(th) for th in chunk]
+    judge = _judge_table if getattr(_CTX[0], "table", None) is not None else _judge
+    return [judge(th) for th in chunk]
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -154,7 +204,8 @@ class YieldResult(ResultDisplay):
 
     def worst_margin_db(self) -> float:
         """The smallest criterion margin over the draws, dB."""
-        return float(np.nanmin([v["margin_db"] for v in self.verdicts]))
+        m = np.array([v["margin_db"] for v in self.verdicts], float)
+        return float(np.nanmin(m)) if np.isfinite(m).any() else math.nan
 
     def worst(self, key: str, sense: str = "max") -> float:
         """The largest (``sense="max"``) or smallest value of a verdict field over the draws
@@ -230,6 +281,10 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
                    label: str = "") -> YieldResult:
     """Sample the tolerance distributions and judge every draw with the NumPy analysis.
 
+    A study with ``[table]`` judges every draw with the table's analysis (payload, CG
+    offsets, temperature and tolerances applied; every point, axis and band), any other
+    with the vertical one (see the module docstring).
+
     Parameters
     ----------
     study : Study
@@ -262,7 +317,8 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
     rng = np.random.default_rng(seed)
     draws = study.scenarios.draws(samples, rng)
     workers = min(workers or study.solver.get("workers", 2), available_cores(), samples)
-    _CTX = (study, dict(values), build_grid(study))
+    grid = build_grid(study) if getattr(study, "table", None) is None else None
+    _CTX = (study, dict(values), grid)
     try:
         # the optimizer's one forked map (the workers inherit the study through fork)
         chunks = np.array_split(draws, workers * 4) if workers > 1 else [draws]

@@ -8,14 +8,16 @@ process, a notebook, ``isodesign report``) sees the previous table or the new on
 half-written file, however the sweep ends.
 
 Columns, in order: ``point`` (16 hex digits of the study hash), the swept keys (one column
-per dotted key, as given), ``task``, ``status`` (the point's ``run_status``: ``complete``,
-``infeasible`` or ``failed``), ``feasible``, ``objective``, ``objective_value``, the design
-variables (``volume_ratio``, ``top_volume_m3``, ``capillary_length_m``,
-``capillary_diameter_m``, ``total_volume_m3``), ``binding`` (the binding constraints and
-the variables at a bound, ``;``-separated), the task's figures (``worst_band_margin_db``,
-``worst_band_hz``, ``natural_frequency_hz``, ...), ``wall_s``, ``cpu_s`` (the CPU time of
-the thread that computed the point), ``worker``, ``started_utc``, ``study_hash``,
-``run_dir``, ``error``, ``warnings`` and ``changes`` (the point's changes as JSON).
+per dotted key, as given), ``task``, ``question`` (the study's kind: ``vertical``,
+``table``, ``robust`` or ``robust table``: the question the point answered), ``status``
+(the point's ``run_status``: ``complete``, ``infeasible`` or ``failed``), ``feasible``,
+``objective``, ``objective_value``, the design variables (``volume_ratio``,
+``top_volume_m3``, ``capillary_length_m``, ``capillary_diameter_m``, ``total_volume_m3``),
+``binding`` (the binding constraints and the variables at a bound, ``;``-separated), the
+task's figures (``worst_band_margin_db``, ``worst_band_hz``, ``natural_frequency_hz``,
+...), ``wall_s``, ``cpu_s`` (the CPU time of the thread that computed the point),
+``worker``, ``started_utc``, ``study_hash``, ``run_dir``, ``error``, ``warnings`` and
+``changes`` (the point's changes as JSON).
 """
 
 from __future__ import annotations
@@ -31,9 +33,9 @@ __all__ = ["TABLE_NAME", "collect_rows", "frame", "read_table", "write_table"]
 #: File name of the table in a sweep directory.
 TABLE_NAME = "sweep.parquet"
 _FIRST = ("point",)
-_MIDDLE = ("task", "status", "feasible", "objective", "objective_value", "volume_ratio",
-           "top_volume_m3", "capillary_length_m", "capillary_diameter_m", "total_volume_m3",
-           "binding")
+_MIDDLE = ("task", "question", "status", "feasible", "objective", "objective_value",
+           "volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m",
+           "total_volume_m3", "binding")
 _LAST = ("wall_s", "cpu_s", "worker", "started_utc", "study_hash", "run_dir", "error",
          "warnings", "reused", "changes")
 

@@ -6,7 +6,9 @@ A task is a :class:`SweepTask`: a name (``--task``), the run-directory command i
 :class:`~isodesign.io.rundir.RunDirectory` ``run`` and returns the point's row fields
 (``feasible``, ``objective``, ``objective_value``, the design variables, ``binding``, ...).
 
-Built in: ``optimize`` (the point's optimum, the files of ``isodesign optimize``),
+Built in: ``optimize`` (the point's answer from :func:`isodesign.optimize`: the robust
+optimum of a study with ``[scenarios]``, the six-degree-of-freedom optimum of one with
+``[table]``; the files of ``isodesign optimize`` for that kind of study),
 ``response`` (the band response of the study's start design: vary
 ``variables.<name>.start`` to sweep a design) and ``pareto`` (the point's Pareto front, the
 files of ``isodesign pareto``). Another capability adds its own with
@@ -175,15 +177,42 @@ def _analysis_fields(analysis) -> dict:
 
 
 def _optimize(study, run: RunDirectory, options: dict) -> dict:
-    from isodesign.commands.optimize import write_outputs
-    from isodesign.io.record import variables_at_bounds
-    from isodesign.optimization.driver import optimize
+    """The point's answer from :func:`isodesign.optimize` (vertical, table, robust or robust
+    table) and the files ``isodesign optimize`` writes for that kind of study."""
+    import contextlib
+    import io
 
+    from isodesign.commands.optimize import write_outputs
+    from isodesign.commands.optimize_cli import execute_study
+    from isodesign.optimization.dispatch import optimize, study_kind
+
+    kind = study_kind(study)
     result = optimize(study)
-    write_outputs(result, run, _args(run, plots=bool(options.get("plots", False))),
-                  plots=bool(options.get("plots", False)))
-    binding = [c.name for c in result.constraints if c.active]
-    binding += [f"{n}={side}" for n, side in variables_at_bounds(result).items()]
+    plots = bool(options.get("plots", False))
+    args = _args(run, plots=plots, yield_samples=options.get("yield_samples"))
+    if kind == "vertical":
+        write_outputs(result, run, args, plots=plots)
+        row = _vertical_row(result)
+    else:
+        # the command's writers print its report: a sweep point keeps its output quiet
+        # (the run directory and the row say everything)
+        with contextlib.redirect_stdout(io.StringIO()), \
+                contextlib.redirect_stderr(io.StringIO()):
+            execute_study(study, run, args, result)
+        row = _table_row(result) if kind == "table" else _robust_row(result)
+    if not row["feasible"]:
+        run.status = "infeasible"
+    return row
+
+
+def _at_bounds(result) -> list[str]:
+    from isodesign.io.record import variables_at_bounds
+
+    return [f"{n}={side}" for n, side in variables_at_bounds(result).items()]
+
+
+def _vertical_row(result) -> dict:
+    binding = [c.name for c in result.constraints if c.active] + _at_bounds(result)
     row = {"feasible": bool(result.feasible), "objective": result.objective,
            "objective_value": float(result.objective_value), "solver_status": result.status,
            **_variables(result.values), "binding": ";".join(binding),
@@ -191,8 +220,52 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
     if result.feasible:
         row.update(_analysis_fields(result.analysis))
     else:
-        run.status = "infeasible"
         row["binding"] = "violated: " + ";".join(n for n, _ in result.violations[:3])
+    return row
+
+
+def _table_row(result) -> dict:
+    """The row of a table optimum: its objective, design, and the table's analysis (worst
+    margin over points, axes and bands; the z mode; the peak of |T| over every axis)."""
+    binding = [c.name for c in result.constraints if getattr(c, "active", False)]
+    row = {"feasible": bool(result.feasible), "objective": result.objective,
+           "objective_value": float(result.objective_value), "solver_status": result.status,
+           **_variables(result.values), "binding": ";".join(binding + _at_bounds(result)),
+           "n_reached_best": int(result.n_reached_best), "starts": len(result.starts)}
+    if not result.feasible:
+        viol = [(n, v) for n, v in result.constraints
+                if isinstance(v, int | float) and v > 1e-6]
+        row["binding"] = "violated: " + ";".join(n for n, _ in viol[:3])
+        return row
+    a = result.analysis
+    if a is not None:
+        point, axis, band, _ = a.worst
+        z = [f for f, n in zip(result.modes.frequency_hz, result.modes.names, strict=True)
+             if n == "z"] if result.modes is not None else []
+        row.update({"worst_band_margin_db": float(a.worst_margin_db),
+                    "worst_band_hz": float(band), "worst_point": str(point),
+                    "worst_axis": str(axis), "passes": bool(a.passes),
+                    "natural_frequency_hz": float(z[0]) if z else None,
+                    "peak_transmissibility_db": float(a.peak_transmissibility_db().max())})
+    return row
+
+
+def _robust_row(result) -> dict:
+    """The row of a robust optimum (vertical or table): the worst case over the scenarios
+    is ``objective_value``; the nominal optimum's objective beside it."""
+    binding = sorted({b for r in result.scenarios for b in (r.get("binding") or ())})
+    row = {"feasible": bool(result.feasible), "objective": result.objective,
+           "objective_value": (None if result.objective_value is None
+                               else float(result.objective_value)),
+           "solver_status": result.status, **_variables(result.values),
+           "binding": ";".join(binding), "converged": bool(result.converged),
+           "rounds": len(result.rounds), "scenarios": len(result.scenarios),
+           "nominal_objective_value": float(result.nominal.objective_value)}
+    if not result.feasible:
+        s = result.infeasible_scenario or {}
+        row["binding"] = f"violated: {s.get('constraint')} in {s.get('description')}"
+    elif result.objective == "worst_band_margin":
+        row["worst_band_margin_db"] = float(result.objective_value)
     return row
 
 
@@ -200,6 +273,8 @@ def _response(study, run: RunDirectory, options: dict) -> dict:
     from isodesign.io.record import design_figures, resolved_study_dict, study_toml
     from isodesign.response.random_input import band_response
 
+    if study.table is not None:
+        return _table_response(study, run)
     m = study.models
     analysis = band_response(study.start_design(), study.payload, study.floor, study.target,
                              bands=study.bands, derive_pressure=False, warn=False,
@@ -220,6 +295,33 @@ def _response(study, run: RunDirectory, options: dict) -> dict:
             "binding": "", **_analysis_fields(analysis)}
 
 
+def _table_response(study, run: RunDirectory) -> dict:
+    """The table's band response of the start design (three axes, every point), as
+    ``isodesign response`` answers a table study."""
+    from isodesign.io.record import resolved_study_dict, study_toml
+    from isodesign.table.optimize import _analyze
+
+    analysis, modes, _ = _analyze(study, study.start_design())
+    values = {v.name: v.start for v in study.variables}
+    run.record.update({"study": resolved_study_dict(study), "study_source": study.source,
+                       "design": values, "table": True})
+    run.write_text("study_resolved.toml", study_toml(study, header=(
+        "Resolved study of an isodesign sweep point (task response: the table's band\n"
+        "response of the study's start design)")))
+    run.write_csv("bands.csv", analysis.to_frame())
+    run.write_json("response.json", {"design": values, "verdict": analysis.verdict(),
+                                     "worst_margin_db": analysis.worst_margin_db,
+                                     "table": True})
+    _, axis, band, _ = analysis.worst
+    z = [f for f, n in zip(modes.frequency_hz, modes.names, strict=True) if n == "z"]
+    return {"feasible": bool(analysis.passes), "objective": "worst_band_margin",
+            "objective_value": float(analysis.worst_margin_db), **_variables(values),
+            "binding": "", "worst_band_margin_db": float(analysis.worst_margin_db),
+            "worst_band_hz": float(band), "worst_axis": str(axis),
+            "passes": bool(analysis.passes), "natural_frequency_hz": float(z[0]) if z else None,
+            "peak_transmissibility_db": float(analysis.peak_transmissibility_db().max())}
+
+
 def _pareto(study, run: RunDirectory, options: dict) -> dict:
     import numpy as np
 
@@ -233,6 +335,8 @@ def _pareto(study, run: RunDirectory, options: dict) -> dict:
     run.record.update({"study": resolved_study_dict(study), "study_source": study.source})
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign sweep point (task pareto)")))
+    if study.table is not None:
+        return _table_pareto(study, run, options, points)
     try:
         result = pareto_front(study, objectives, points)
     except SolverError as exc:
@@ -257,6 +361,49 @@ def _pareto(study, run: RunDirectory, options: dict) -> dict:
             "objective_value": float(result.hypervolume), **_variables(result.designs[best]),
             "binding": "", "n_front": int(np.sum(result.front)),
             f"best_{a}": float(result.values[best, 0])}
+
+
+def _table_pareto(study, run: RunDirectory, options: dict, points: int) -> dict:
+    """The front of a table study (the files of ``isodesign pareto`` for a table)."""
+    import contextlib
+    import io
+    import math
+
+    import numpy as np
+
+    from isodesign.commands.pareto import execute_table_front
+    from isodesign.optimization.pareto import TABLE_OBJECTIVES, pareto_front
+
+    objectives = tuple(options.get("objectives") or TABLE_OBJECTIVES)
+    try:
+        result = pareto_front(study, objectives, points)
+    except SolverError as exc:
+        if "no feasible design" not in str(exc):
+            raise
+        run.status = "infeasible"
+        run.record["error"] = str(exc)
+        return {"feasible": False, "objective": "worst_band_margin", "binding": "",
+                "solver_status": str(exc)}
+    args = _args(run, plots=bool(options.get("plots", False)), points=points)
+    with contextlib.redirect_stdout(io.StringIO()):
+        execute_table_front(study, run, args, result)
+    m = np.where(result.front, result.worst_margin_db, -np.inf)
+    best = int(np.argmax(m))
+    return {"feasible": True, "objective": "worst_band_margin",
+            "objective_value": float(result.worst_margin_db[best]),
+            **_variables(result.designs[best]), "binding": "",
+            "n_front": int(np.sum(result.front)),
+            "best_worst_band_margin": float(result.worst_margin_db[best]),
+            "min_total_volume_m3": float(np.nanmin(np.where(result.front,
+                                                            result.total_volume_m3,
+                                                            math.inf)))}
+
+
+def _check_pareto(study) -> None:
+    from isodesign.optimization.dispatch import refuse
+    from isodesign.optimization.pareto import PARETO_WHAT
+
+    refuse(study, PARETO_WHAT, table=False)
 
 
 def _check_yield(study) -> None:
@@ -295,12 +442,15 @@ _OPTIONAL_BUILDERS = {
 }
 
 
-register_task(SweepTask("optimize", "optimize", _optimize, ("plots",),
-                        "the point's optimum (the files of isodesign optimize)"))
+register_task(SweepTask("optimize", "optimize", _optimize, ("plots", "yield_samples"),
+                        "the point's optimum, robust with [scenarios], in six degrees of "
+                        "freedom with [table] (the files of isodesign optimize)"))
 register_task(SweepTask("response", "response", _response, (),
-                        "band response of the study's start design (bands.csv, response.json)"))
+                        "band response of the study's start design, in three axes at every "
+                        "point with [table] (bands.csv, response.json)"))
 register_task(SweepTask("pareto", "pareto", _pareto, ("objectives", "points", "plots"),
-                        "the point's Pareto front (the files of isodesign pareto)"))
+                        "the point's Pareto front (the files of isodesign pareto)",
+                        check=_check_pareto))
 
 
 # ---------------------------------------------------------------------------------------
@@ -374,12 +524,14 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
     Returns
     -------
     dict
-        The row: ``point``, ``study_hash``, ``task``, ``status`` (the run's
+        The row: ``point``, ``study_hash``, ``task``, ``question`` (the study's kind:
+        ``vertical``, ``table``, ``robust`` or ``robust table``), ``status`` (the run's
         ``run_status``), ``error``, ``warnings``, ``worker``, ``started_utc``, ``wall_s``,
         ``cpu_s`` (the CPU time of the thread that computed it: much less than ``wall_s``
         when the point waited for a core), ``run_dir`` and the task's fields. A point
         already finished in ``point_dir`` is read back (``reused`` true).
     """
+    from isodesign.optimization.dispatch import study_kind
     from isodesign.optimization.executor import SerialExecutor, use_executor
     from isodesign.optimization.study import study_from_dict
     from isodesign.sweeps.spec import study_hash as _hash
@@ -393,6 +545,7 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
     if _hash(study) != study_hash:  # pragma: no cover - a bug, never a silent mismatch
         raise RuntimeError("sweep point: the study changed on its way to the worker")
     row = {"point": study_hash[:16], "study_hash": study_hash, "task": task_name,
+           "question": study_kind(study),
            "changes": json.dumps(changes), "status": None, "error": "", "warnings": "",
            "worker": worker_name(), "started_utc": _now(), "wall_s": None, "cpu_s": None,
            "run_dir": f"points/{Path(point_dir).name}", "reused": False}
