@@ -268,3 +268,21 @@ def test_a_table_sweep_response_point_is_the_tables_band_response(tmp_path):
     assert row["worst_axis"] == a.worst[1]
     bands = __import__("pandas").read_csv(tmp_path / "sw" / row["run_dir"] / "bands.csv")
     assert set(bands["axis"]) == {"x", "y", "z"}
+
+
+@pytest.mark.slow
+def test_a_robust_table_study_has_one_answer_through_api_and_sweep(tmp_path):
+    st = table_with_scenarios({"payload_mass_kg": {"min": 560.0, "max": 640.0},
+                               "cg_offset_y_m": {"absolute": 0.03}})
+    api = isodesign.optimize(st)
+    assert type(api).__name__ == "TableRobustResult" and api.feasible
+    assert api.objective_value <= api.nominal.objective_value + 1e-9
+    res = one_point_sweep(st, tmp_path / "sw")
+    row = res.table.iloc[0]
+    assert row["status"] == "complete" and row["question"] == "robust table"
+    rob = json.loads((tmp_path / "sw" / row["run_dir"] / "robust.json").read_text())
+    assert rob["table"] is True
+    assert rob["worst_case_objective"] == pytest.approx(api.objective_value, abs=1e-6)
+    assert row["objective_value"] == pytest.approx(api.objective_value, abs=1e-6)
+    for k in DESIGN_KEYS:
+        assert row[k] == pytest.approx(api.values[k], rel=1e-6), k
