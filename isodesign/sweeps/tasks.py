@@ -227,14 +227,16 @@ def _vertical_row(result) -> dict:
 def _table_row(result) -> dict:
     """The row of a table optimum: its objective, design, and the table's analysis (worst
     margin over points, axes and bands; the z mode; the peak of |T| over every axis)."""
-    binding = [c.name for c in result.constraints if getattr(c, "active", False)]
+    # (name, worst violation) pairs, or constraint reports with ``active`` and ``margin``
+    cons = [(c[0], c[1], False) if isinstance(c, tuple) else
+            (c.name, max(-float(c.margin), 0.0), bool(c.active)) for c in result.constraints]
+    binding = [n for n, _, active in cons if active]
     row = {"feasible": bool(result.feasible), "objective": result.objective,
            "objective_value": float(result.objective_value), "solver_status": result.status,
            **_variables(result.values), "binding": ";".join(binding + _at_bounds(result)),
            "n_reached_best": int(result.n_reached_best), "starts": len(result.starts)}
     if not result.feasible:
-        viol = [(n, v) for n, v in result.constraints
-                if isinstance(v, int | float) and v > 1e-6]
+        viol = [(n, v) for n, v, _ in cons if v > 1e-6]
         row["binding"] = "violated: " + ";".join(n for n, _ in viol[:3])
         return row
     a = result.analysis
