@@ -123,6 +123,15 @@ class RobustResult(ResultDisplay):
         """Feasible and converged (nothing in the box beyond the tolerances)."""
         return self.feasible and self.converged
 
+    def raise_for_status(self) -> RobustResult:
+        """Raise :class:`~isodesign.errors.SolverError` naming the scenario that cannot be
+        met unless a robust design was found; return self (as the nominal results do)."""
+        from isodesign.errors import SolverError
+
+        if not self.feasible:
+            raise SolverError(self.failure_message())
+        return self
+
     def failure_message(self) -> str:
         """One line naming the scenario that cannot be met."""
         s = self.infeasible_scenario or {}

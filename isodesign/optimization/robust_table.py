@@ -166,6 +166,15 @@ class TableRobustResult(ResultDisplay):
     infeasible_scenario: dict | None = None
     extra: dict = field(default_factory=dict)
 
+    def raise_for_status(self) -> TableRobustResult:
+        """Raise :class:`~isodesign.errors.SolverError` naming the scenario that cannot be
+        met unless a robust design was found; return self (as the nominal results do)."""
+        from isodesign.errors import SolverError
+
+        if not self.feasible:
+            raise SolverError(self.failure_message())
+        return self
+
     def failure_message(self) -> str:
         """One line naming the scenario that cannot be met."""
         s = self.infeasible_scenario or {}

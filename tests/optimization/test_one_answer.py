@@ -132,7 +132,7 @@ def test_a_robust_sweep_point_is_the_robust_optimum_of_the_cli(tmp_path):
     assert (point / "nominal" / "design.json").is_file()
     # the API's answer is the robust one too
     api = isodesign.optimize(st)
-    assert type(api).__name__ == "RobustResult"
+    assert type(api).__name__ == "RobustResult" and api.raise_for_status() is api
     assert api.objective_value == pytest.approx(rob_cli["worst_case_objective"], abs=1e-6)
 
 
@@ -276,6 +276,7 @@ def test_a_robust_table_study_has_one_answer_through_api_and_sweep(tmp_path):
                                "cg_offset_y_m": {"absolute": 0.03}})
     api = isodesign.optimize(st)
     assert type(api).__name__ == "TableRobustResult" and api.feasible
+    assert api.raise_for_status() is api  # every answer has the same check
     assert api.objective_value <= api.nominal.objective_value + 1e-9
     res = one_point_sweep(st, tmp_path / "sw")
     row = res.table.iloc[0]
