@@ -126,8 +126,17 @@ def _answer(study, args):
 
 def execute_robust_table(study, run, args, result=None) -> int:
     """A table study with ``[scenarios]``: the robust table optimum (docs/robust.md,
-    section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml."""
+    section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml and, with
+    ``--yield-samples N``, the table yields of the nominal and robust optima (yield.csv)."""
     res = optimize(study) if result is None else result
+    n = getattr(args, "yield_samples", None) or 0  # table draws cost more: asked for only
+    yields = []
+    if n and res.feasible:
+        seed = study.scenarios.settings["seed"]
+        yields = [estimate_yield(study, res.nominal.values, samples=n, seed=seed,
+                                 label="nominal optimum"),
+                  estimate_yield(study, res.values, samples=n, seed=seed,
+                                 label="robust optimum")]
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of a robust table isodesign optimize run. Replay: isodesign "
         f"optimize {run.final_path('study_resolved.toml')} -o NEWDIR")))
@@ -137,7 +146,8 @@ def execute_robust_table(study, run, args, result=None) -> int:
            "nominal_objective": res.nominal.objective_value, "rounds": list(res.rounds),
            "scenarios": [{k: v for k, v in r.items()} for r in res.scenarios],
            "parameters": [p.label() for p in study.scenarios.parameters],
-           "infeasible_scenario": res.infeasible_scenario, "wall_s": res.wall_s, "table": True}
+           "infeasible_scenario": res.infeasible_scenario, "wall_s": res.wall_s, "table": True,
+           "yields": [y.record() for y in yields]}
     run.write_json("robust.json", rec)
     run.record["robust_result"] = rec
     if not res.feasible:
@@ -165,6 +175,13 @@ def execute_robust_table(study, run, args, result=None) -> int:
     for r in res.scenarios:
         print(f"  scenario {r['description']}: {r['objective']:+.4g}"
               + ("  (worst)" if r["worst"] else ""))
+    if yields:
+        run.write_csv("yield.csv", yields[1].to_frame())
+    for y in yields:
+        lo, hi = y.interval
+        print(f"yield of the {y.label} (table analysis): {100 * y.fraction:.1f} % "
+              f"({y.passed}/{y.samples}; {100 * y.confidence:g} % CI {100 * lo:.1f}-"
+              f"{100 * hi:.1f} %)")
     return 0
 
 

@@ -287,3 +287,18 @@ def test_a_robust_table_study_has_one_answer_through_api_and_sweep(tmp_path):
     assert row["objective_value"] == pytest.approx(api.objective_value, abs=1e-6)
     for k in DESIGN_KEYS:
         assert row[k] == pytest.approx(api.values[k], rel=1e-6), k
+    # the CLI: the same worst case, and the table yields when asked for
+    from isodesign.optimization.yields import estimate_yield
+
+    f = tmp_path / "tr.toml"
+    f.write_text(study_toml(st))
+    p = cli("optimize", str(f), "-o", str(tmp_path / "cli"), "--no-plots", "--yield-samples",
+            "6")
+    assert p.returncode == 0, p.stderr
+    rob_cli = json.loads((tmp_path / "cli" / "robust.json").read_text())
+    assert rob_cli["worst_case_objective"] == pytest.approx(api.objective_value, abs=1e-6)
+    y = estimate_yield(st, api.values, samples=6, seed=st.scenarios.settings["seed"])
+    assert rob_cli["yields"][1]["fraction"] == y.fraction
+    assert rob_cli["yields"][1]["worst_margin_db"] == pytest.approx(y.worst_margin_db(),
+                                                                    abs=1e-6)
+    assert "(table analysis)" in p.stdout
