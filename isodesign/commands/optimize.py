@@ -109,7 +109,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=_int_option,
         metavar="N",
         help="a study with [scenarios]: draws of the yield estimate of the nominal and the "
-        "robust optimum (0..1000000; default 500; 0: none)",
+        "robust optimum (0..1000000; default 500, with a [table] 0; 0: none)",
     )
     add_output_dir_arguments(parser)
 
