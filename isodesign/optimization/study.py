@@ -266,7 +266,22 @@ class Study(ResultDisplay):
         raw = _merge(self.raw, tables)  # nested tables merge like a study file's
         st = study_from_dict(raw, source=self.source, fill_defaults=False)
         warn_unit_slips(tables, self.source)
+        _warn_table_slips(st, tables, self.source)
         return st
+
+
+def _warn_table_slips(st: Study, given: dict, where: str) -> None:
+    """One :class:`~isodesign.io.plausible.UnitWarning` per implausible ``[table]`` key the
+    user gave (a length in mm typed as m, an inertia that does not fit the table)."""
+    if st.table is None or not isinstance(given.get("table"), dict):
+        return
+    import warnings
+
+    from isodesign.io.plausible import UnitWarning
+    from isodesign.table.study import table_unit_slips
+
+    for msg in table_unit_slips(st.table, given["table"], where):
+        warnings.warn(msg, UnitWarning, stacklevel=4)
 
 
 def _check_keys(d: dict, table: str, where: str):
@@ -383,6 +398,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
         warn_unit_slips(d, where)
+        _warn_table_slips(st, d, where)
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
 

@@ -1,0 +1,211 @@
+"""Hostile and mistaken inputs on the table, scenario, sweep and yield surfaces (issue 23).
+
+Each case is a change to the built-in table study (``[table]``, ``[scenarios]``, ...) that
+must end in one :class:`~isodesign.errors.InputError` naming the key as the user typed it
+(``table.cg_m``), or, for a value that is valid but implausible, in a
+:class:`~isodesign.io.plausible.UnitWarning` naming the key and the likely unit slip. The
+CLI cases require exit status 2 and one ``isodesign: error:`` line, never a traceback.
+"""
+
+from __future__ import annotations
+
+import copy
+import warnings
+
+import pytest
+
+from isodesign.cli import main
+from isodesign.errors import InputError
+from isodesign.io.plausible import UnitWarning
+from isodesign.optimization.study import study_from_dict, table_study
+
+
+@pytest.fixture(scope="module")
+def base() -> dict:
+    raw = copy.deepcopy(table_study().raw)
+    raw.pop("name")
+    raw.pop("description")
+    return raw
+
+
+def _set(raw: dict, dotted: str, value) -> dict:
+    """``raw`` with ``dotted`` (``table.horizontal.pendulum_length_m``) set; ``None``
+    deletes it."""
+    raw = copy.deepcopy(raw)
+    *path, last = dotted.split(".")
+    t = raw
+    for p in path:
+        t = t.setdefault(p, {})
+    if value is None:
+        t.pop(last, None)
+    else:
+        t[last] = value
+    return raw
+
+
+def _mm(rows):
+    return [[1000.0 * v for v in r] for r in rows]
+
+
+#: (changes as {dotted key: value}, fragments of the error)
+TABLE_ERRORS = [
+    # types: strings, booleans and tables where numbers belong
+    ({"table.cg_m": {"x": 0.0, "y": 0.0, "z": 0.35}}, ["table.cg_m", "table"]),
+    ({"table.cg_m": ["0", "0", "0.35"]}, ["table.cg_m", "string '0'"]),
+    ({"table.cg_m": [0.0, 0.0, True]}, ["table.cg_m", "boolean"]),
+    ({"table.cg_m": "0.35"}, ["table.cg_m", "string"]),
+    ({"table.cg_m": [0.0, 0.0, float("nan")]}, ["table.cg_m", "finite"]),
+    ({"table.cg_m": [0.0, 0.0, float("inf")]}, ["table.cg_m", "finite"]),
+    ({"table.isolators_m": "corners"}, ["table.isolators_m"]),
+    ({"table.isolators_m": [["-0.6", -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4]]},
+     ["table.isolators_m", "string"]),
+    ({"table.isolators_m": [[True, 0], [1, 0], [1, 1], [0, 1]]}, ["table.isolators_m",
+                                                                 "boolean"]),
+    ({"table.isolators_m": {"a": 1}}, ["table.isolators_m"]),
+    ({"table.box_m": "abc"}, ["table.box_m", "string"]),
+    ({"table.box_m": {"a": 1}}, ["table.box_m"]),
+    ({"table.box_m": None, "table.inertia_kg_m2": "abc"}, ["table.inertia_kg_m2"]),
+    ({"table.box_m": None, "table.inertia_kg_m2": {"a": 1}}, ["table.inertia_kg_m2"]),
+    ({"table.box_m": None, "table.inertia_kg_m2": [[1, 2], [3]]}, ["table.inertia_kg_m2"]),
+    ({"table.box_m": None, "table.inertia_kg_m2": [True, 1, 1]}, ["table.inertia_kg_m2",
+                                                                  "boolean"]),
+    ({"table.instrument_points_m": [["0", 0, 0.7]]}, ["table.instrument_points_m", "string"]),
+    ({"table.point_names": 5}, ["table.point_names", "names"]),
+    ({"table.point_names": True}, ["table.point_names"]),
+    ({"table.point_names": 0.5}, ["table.point_names"]),
+    ({"table.point_names": [1, 2]}, ["table.point_names"]),
+    ({"table.point_names": ["a", ""]}, ["table.point_names"]),
+    ({"table.supply_pressure_pa": "7e5"}, ["table.supply_pressure_pa", "string"]),
+    ({"table.supply_pressure_pa": True}, ["table.supply_pressure_pa", "boolean"]),
+    ({"table.supply_pressure_pa": 7}, ["table.supply_pressure_pa", "bar"]),
+    ({"table.supply_pressure_pa": 1e30}, ["table.supply_pressure_pa", "1e+08"]),
+    ({"table.horizontal.pendulum_length_m": "0.15"}, ["table.horizontal.pendulum_length_m"]),
+    ({"table.horizontal.pendulum_length_m": 1e30}, ["table.horizontal.pendulum_length_m"]),
+    ({"table.horizontal.lateral_loss_factor": 1e30}, ["table.horizontal.lateral_loss_factor"]),
+    ({"table.horizontal.lateral_stiffness_n_per_m": 1e30},
+     ["table.horizontal.lateral_stiffness_n_per_m"]),
+    ({"table.horizontal.elastic_centre_height_m": -1e30},
+     ["table.horizontal.elastic_centre_height_m"]),
+    # beyond any table: an error, not a warning
+    ({"table.cg_m": [0.0, 0.0, 3500.0]}, ["table.cg_m", "1000 m"]),
+    # geometry: the isolators' own fault is named, in the user's 1-based numbering
+    ({"table.isolators_m": [[0, 0], [1, 0], [2, 0], [3, 0]]},
+     ["table.isolators_m", "one line"]),
+    ({"table.isolators_m": [[0, 0], [1, 0], [1, 0], [0, 1]]},
+     ["table.isolators_m", "isolators 2 and 3"]),
+    ({"table.leveling_groups": [[0, 1], [2], [3]]}, ["table.leveling_groups", "from 1 to 4"]),
+    ({"table.leveling_groups": [[1, 2], [2], [4]]},
+     ["table.leveling_groups", "1..4", "missing 3", "twice 2"]),
+    ({"table.leveling_groups": [[1, 2], [3, 4]]}, ["table.leveling_groups", "three groups"]),
+    ({"table.leveling_groups": 5}, ["table.leveling_groups"]),
+]
+
+
+@pytest.mark.parametrize("changes, fragments", TABLE_ERRORS,
+                         ids=[f"{i}-{next(iter(c))}" for i, (c, _) in enumerate(TABLE_ERRORS)])
+def test_table_input_refused_by_key(base, changes, fragments):
+    raw = base
+    for k, v in changes.items():
+        raw = _set(raw, k, v)
+    with pytest.raises(InputError) as exc:
+        study_from_dict(raw, source="s.toml")
+    msg = str(exc.value)
+    assert msg.startswith("s.toml: ")
+    for f in fragments:
+        assert f in msg, msg
+    assert "\n" not in msg
+
+
+#: (changes, the key the warning names, a fragment of the likely slip)
+TABLE_WARNINGS = [
+    ({"table.isolators_m": _mm([[-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4]])},
+     "table.isolators_m", "600 mm would be 0.6 m"),
+    ({"table.cg_m": [0.0, 0.0, 350.0]}, "table.cg_m", "350 mm would be 0.35 m"),
+    ({"table.instrument_points_m": [[0.0, 0.0, 700.0]], "table.point_names": ["c"]},
+     "table.instrument_points_m", "700 mm would be 0.7 m"),
+    ({"table.horizontal.pendulum_length_m": 150.0}, "table.horizontal.pendulum_length_m",
+     "150 mm would be 0.15 m"),
+    ({"table.horizontal.elastic_centre_height_m": 50.0},
+     "table.horizontal.elastic_centre_height_m", "mm"),
+    ({"table.horizontal.lateral_loss_factor": 5.0}, "table.horizontal.lateral_loss_factor",
+     "plausible"),
+    ({"table.box_m": None, "table.inertia_kg_m2": [1e8, 1.5e8, 2e8]}, "table.inertia_kg_m2",
+     "radius of gyration"),
+    ({"table.supply_pressure_pa": 5e7}, "table.supply_pressure_pa", "plausible"),
+]
+
+
+@pytest.mark.parametrize("changes, key, slip", TABLE_WARNINGS, ids=[k for _, k, _ in
+                                                                    TABLE_WARNINGS])
+def test_table_implausible_value_warns_naming_key(base, changes, key, slip):
+    raw = base
+    for k, v in changes.items():
+        raw = _set(raw, k, v)
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        study_from_dict(raw, source="s.toml")
+    msgs = [str(x.message) for x in w if issubclass(x.category, UnitWarning)]
+    assert any(key in m and slip in m for m in msgs), msgs
+
+
+def test_whole_table_in_millimetres_warns_for_every_length(base):
+    raw = copy.deepcopy(base)
+    t = raw["table"]
+    t["isolators_m"] = _mm(t["isolators_m"])
+    t["cg_m"] = [1000.0 * v for v in t["cg_m"]]
+    t["box_m"] = [1000.0 * v for v in t["box_m"]]
+    t["instrument_points_m"] = _mm(t["instrument_points_m"])
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        study_from_dict(raw, source="s.toml")
+    msgs = " | ".join(str(x.message) for x in w)
+    for key in ("table.isolators_m", "table.cg_m", "table.instrument_points_m"):
+        assert key in msgs
+    assert "350 mm would be 0.35 m" in msgs
+
+
+def test_plausible_table_gives_no_warning(base):
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        study_from_dict(copy.deepcopy(base), source="s.toml")
+    assert not [x for x in w if issubclass(x.category, UnitWarning)]
+
+
+def test_with_changes_warns_on_a_changed_table():
+    st = table_study()
+    with pytest.warns(UnitWarning, match=r"table\.cg_m"):
+        st.with_changes(table={"cg_m": [0.0, 0.0, 350.0]})
+
+
+def _study_file(tmp_path, text: str) -> str:
+    p = tmp_path / "s.toml"
+    p.write_text(text)
+    return str(p)
+
+
+TABLE_TOML = """\
+[payload]
+mass_kg = 600.0
+isolators = 4
+spacing_m = 0.8
+cg_height_m = 0.35
+[table]
+isolators_m = [[-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4]]
+box_m = [1.5, 1.0, 0.7]
+"""
+
+
+@pytest.mark.parametrize("line, fragments", [
+    ("cg_m = {x = 0.0, y = 0.0, z = 0.35}", ["table.cg_m"]),
+    ("cg_m = [0.0, 0.0, 0.35]\npoint_names = 5", ["table.point_names"]),
+    ('cg_m = ["0", "0", "0.35"]', ["table.cg_m", "string"]),
+    ("cg_m = [0.0, 0.0, 0.35]\nleveling_groups = [[0, 1], [2], [3]]",
+     ["table.leveling_groups", "from 1 to 4"]),
+])
+def test_modes_cli_one_line(tmp_path, capsys, line, fragments):
+    path = _study_file(tmp_path, TABLE_TOML + line + "\n")
+    assert main(["modes", path, "-o", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("isodesign: error: "), err
+    for f in fragments:
+        assert f in err[0]
