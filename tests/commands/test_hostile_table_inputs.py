@@ -209,3 +209,77 @@ def test_modes_cli_one_line(tmp_path, capsys, line, fragments):
     assert len(err) == 1 and err[0].startswith("isodesign: error: "), err
     for f in fragments:
         assert f in err[0]
+
+
+# -- [scenarios]: ranges in another unit ---------------------------------------------------
+
+SCENARIO_ERRORS = [
+    ("vertical", {"ambient_pressure_pa": {"min": 95, "max": 105}},
+     ["scenarios.ambient_pressure_pa", "95 .. 105 kPa would be 95000 .. 105000 Pa"]),
+    ("vertical", {"ambient_pressure_pa": {"min": 0.95, "max": 1.05}},
+     ["scenarios.ambient_pressure_pa", "bar"]),
+    ("vertical", {"ambient_pressure_pa": {"values": [1e9]}}, ["scenarios.ambient_pressure_pa"]),
+    ("vertical", {"temperature_k": {"min": 15, "max": 30}},
+     ["scenarios.temperature_k", "15 .. 30 degC would be 288.15 .. 303.15 K"]),
+    ("vertical", {"temperature_k": {"values": [20.0]}}, ["scenarios.temperature_k", "degC"]),
+    ("vertical", {"payload_mass_kg": {"min": 0.5, "max": 0.7}},
+     ["scenarios.payload_mass_kg", "tonnes", "500 .. 700 kg"]),
+    ("vertical", {"payload_mass_kg": {"min": 0.8, "max": 1.2}},
+     ["scenarios.payload_mass_kg", "fraction", "relative = [-0.2, 0.2]"]),
+    ("vertical", {"payload_mass_kg": {"min": 5e5, "max": 7e5}},
+     ["scenarios.payload_mass_kg", "grams"]),
+    ("vertical", {"payload_mass_kg": {"min": "500", "max": 700}},
+     ["scenarios.payload_mass_kg.min"]),
+    ("vertical", {"payload_mass_kg": {"min": True, "max": 700}},
+     ["scenarios.payload_mass_kg.min"]),
+    ("vertical", {"capillary_diameter_m": {"relative": [0, 5]}},
+     ["scenarios.capillary_diameter_m.relative", "fraction"]),
+    ("vertical", {"diaphragm_stiffness": {"relative": [0.0, 50.0]}},
+     ["scenarios.diaphragm_stiffness.relative"]),
+    ("vertical", {"capillary_length_m": {"absolute": [-0.001, 5.0]}},
+     ["scenarios.capillary_length_m.absolute", "mm"]),
+    ("vertical", {"cg_offset_x_m": {"min": -0.05, "max": 0.05}},
+     ["scenarios.cg_offset_x_m", "[table]"]),
+    ("table", {"cg_offset_x_m": {"min": -50, "max": 50}},
+     ["scenarios.cg_offset_x_m", "support polygon", "-50 mm would be -0.05 m"]),
+    ("table", {"cg_offset_y_m": {"min": -5, "max": 5}},
+     ["scenarios.cg_offset_y_m", "support polygon"]),
+    ("table", {"cg_offset_x_m": {"relative": 0.05}},
+     ["scenarios.cg_offset_x_m.relative", "no relative form"]),
+    ("table", {"temperature_k": {"min": 15, "max": 30}}, ["scenarios.temperature_k", "degC"]),
+]
+
+
+@pytest.mark.parametrize("which, scen, fragments", SCENARIO_ERRORS,
+                         ids=[f"{i}-{w}-{next(iter(s))}" for i, (w, s, _) in
+                              enumerate(SCENARIO_ERRORS)])
+def test_scenario_range_in_another_unit_refused(base, which, scen, fragments):
+    raw = copy.deepcopy(base) if which == "table" else {}
+    raw["scenarios"] = scen
+    with pytest.raises(InputError) as exc:
+        study_from_dict(raw, source="s.toml")
+    for f in fragments:
+        assert f in str(exc.value), str(exc.value)
+
+
+@pytest.mark.parametrize("scen, key", [
+    ({"payload_mass_kg": {"relative": 0.9}}, "scenarios.payload_mass_kg.relative"),
+    ({"ambient_pressure_pa": {"min": 2e4, "max": 1e5}}, "scenarios.ambient_pressure_pa"),
+    ({"temperature_k": {"min": 360.0, "max": 380.0}}, "scenarios.temperature_k"),
+])
+def test_scenario_implausible_range_warns(scen, key):
+    with pytest.warns(UnitWarning, match=key.replace(".", r"\.")):
+        study_from_dict({"scenarios": scen}, source="s.toml")
+
+
+def test_plausible_scenarios_accepted_without_warning(base):
+    raw = copy.deepcopy(base)
+    raw["scenarios"] = {"payload_mass_kg": {"relative": 0.2},
+                        "cg_offset_x_m": {"absolute": 0.05},
+                        "temperature_k": {"min": 288.15, "max": 303.15},
+                        "capillary_diameter_m": {"relative": 0.05}}
+    with warnings.catch_warnings(record=True) as w:
+        warnings.simplefilter("always")
+        st = study_from_dict(raw, source="s.toml")
+    assert st.scenarios.size == 4
+    assert not [x for x in w if issubclass(x.category, UnitWarning)]
