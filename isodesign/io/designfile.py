@@ -279,6 +279,17 @@ def design_from_dict(d: dict, source: str = "design"):
         kw["acoustics"] = d["acoustics"]
     if "chamber_heat_exchange" in d:
         kw["chamber_heat_exchange"] = d["chamber_heat_exchange"]  # a bool, checked by the design
+        if kw["chamber_heat_exchange"] is True and kw.get("acoustics") == "lumped":
+            import warnings
+
+            from isodesign.errors import ModelValidityWarning
+
+            # a warning, not an error: the file reads back the design it was written from
+            warnings.warn(f"{source}: acoustics = \"lumped\" with chamber_heat_exchange = true: "
+                          "the lumped chambers have no wall heat exchange (it is part of the "
+                          "distributed model), so it is not computed; use acoustics = "
+                          "\"distributed\" or chamber_heat_exchange = false",
+                          ModelValidityWarning, stacklevel=3)
 
     # piston area: A_p directly, or from the diaphragm radii (Eq. 43)
     radii = [k for k in ("diaphragm_r1_m", "diaphragm_r2_m") if k in d]

@@ -264,6 +264,11 @@ class Study(ResultDisplay):
             note = f"Changed from study {self.name!r}: [{'], ['.join(changed)}]."
             tables["description"] = f"{old} {note}".strip()
         raw = _merge(self.raw, tables)  # nested tables merge like a study file's
+        if isinstance(tables.get("models"), dict) and "acoustics" in tables["models"]:
+            _check_all_keys(raw, self.source)
+            _check_acoustics(copy.deepcopy(raw), _models(raw["models"], self.source,
+                                                         self.source),
+                             _hardware(raw["hardware"], self.source), tables, self.source)
         st = study_from_dict(raw, source=self.source, fill_defaults=False)
         warn_unit_slips(tables, self.source)
         _warn_table_slips(st, tables, self.source)
@@ -381,6 +386,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     target, bands, band_hz = _target(raw["target"], where)
     _check_bands_covered(floor, target, bands, band_hz, where)
     models = _models(raw["models"], where, source)
+    _check_acoustics(raw, models, hw, d if fill_defaults else {}, where)
     variables = _variables(raw["variables"], where)
     cons = _constraints(raw["constraints"], where, variables, payload)
     obj = _objective(raw["objective"], where, band_hz)
@@ -639,6 +645,37 @@ def _check_bands_covered(floor, target, bands, band_hz: dict, where: str) -> Non
               "centres)" if ok.any() else "")
     raise InputError(f"{where}: {' and '.join(keys) or 'target bands'} Hz: judged "
                      f"{'; '.join(bad)}{usable}")
+
+
+def _check_acoustics(raw: dict, models: dict, hw: dict, given: dict, where: str) -> None:
+    """The acoustic model in force is the one computed, and it computes what the study asks.
+
+    ``models.acoustics = "lumped"`` drops ``hardware.chamber_heat_exchange`` (the wall heat
+    exchange lives in the distributed chambers): refused, naming both. A paper's flow model
+    (``poiseuille``) is lumped by definition: ``acoustics = "distributed"`` written with it is
+    refused; left to the default it is recorded truthfully as ``"lumped"``.
+    """
+    from isodesign.spring.flow_models import flow_model
+
+    if models["acoustics"] == "lumped" and hw.get("chamber_heat_exchange"):
+        raise InputError(f"{where}: models.acoustics = \"lumped\" with "
+                         "hardware.chamber_heat_exchange = true: the lumped chambers have no "
+                         "wall heat exchange (it is part of the distributed model); use "
+                         "acoustics = \"distributed\" or chamber_heat_exchange = false")
+    if models["acoustics"] != "lumped" and not flow_model(models["flow"]).distributed:
+        written = isinstance(given.get("models"), dict) and "acoustics" in given["models"]
+        if written:
+            raise InputError(f"{where}: models.acoustics = {models['acoustics']!r} with "
+                             f"models.flow = {models['flow']!r}: the paper's flow model is lumped "
+                             "by definition and would be computed lumped; use acoustics = "
+                             "\"lumped\", or flow = \"womersley\" or \"quasi_steady\"")
+        if hw.get("chamber_heat_exchange"):
+            raise InputError(f"{where}: models.flow = {models['flow']!r} is computed with lumped "
+                             "acoustics, which drop hardware.chamber_heat_exchange = true; use "
+                             "flow = \"womersley\" or \"quasi_steady\", or chamber_heat_exchange "
+                             "= false")
+        models["acoustics"] = "lumped"  # what is computed, recorded
+        raw["models"]["acoustics"] = "lumped"
 
 
 def _int_in(where: str, key: str, value, lo: int, hi: int | None) -> int:

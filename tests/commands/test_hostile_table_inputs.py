@@ -283,3 +283,75 @@ def test_plausible_scenarios_accepted_without_warning(base):
         st = study_from_dict(raw, source="s.toml")
     assert st.scenarios.size == 4
     assert not [x for x in w if issubclass(x.category, UnitWarning)]
+
+
+# -- acoustics: the model in force is the model computed ------------------------------------
+
+DESIGN_HX = """\
+volume_ratio = 1.851851851851852
+top_volume_m3 = 0.00081
+capillary_length_m = 0.012
+capillary_diameter_m = 0.0009
+piston_area_m2 = 0.0053
+pressure_pa = 493000.0
+chamber_heat_exchange = true
+"""
+
+
+@pytest.mark.parametrize("options, fragments", [
+    (["--acoustics", "lumped"], ["--acoustics lumped", "chamber_heat_exchange"]),
+    (["--acoustics", "distributed", "--flow", "zhao"], ["--acoustics distributed",
+                                                       "--flow zhao"]),
+    (["--acoustics", "distributed", "--flow", "zhao_turbulent"], ["--flow zhao_turbulent"]),
+    (["--flow", "poiseuille"], ["--flow poiseuille", "chamber_heat_exchange"]),
+])
+def test_stiffness_acoustics_refused_naming_both(tmp_path, capsys, options, fragments):
+    design = tmp_path / "d.toml"
+    design.write_text(DESIGN_HX)
+    out = tmp_path / "k.csv"
+    rc = main(["stiffness", str(design), "--freq", "1,10", "--amplitude", "1um", "-o", str(out),
+               *options])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and err[0].startswith("isodesign: error: "), err
+    for f in fragments:
+        assert f in err[0]
+    assert not out.exists()
+
+
+def test_design_file_lumped_with_heat_exchange_warns(tmp_path):
+    from isodesign.errors import ModelValidityWarning
+    from isodesign.io.designfile import load_design
+
+    p = tmp_path / "d.toml"
+    p.write_text(DESIGN_HX + 'acoustics = "lumped"\n')
+    with pytest.warns(ModelValidityWarning, match=r"acoustics = \"lumped\" with "
+                      "chamber_heat_exchange"):
+        load_design(p)
+
+
+@pytest.mark.parametrize("study, fragments", [
+    ({"models": {"acoustics": "lumped"}, "hardware": {"chamber_heat_exchange": True}},
+     ["models.acoustics", "hardware.chamber_heat_exchange"]),
+    ({"models": {"acoustics": "distributed", "flow": "poiseuille"}},
+     ["models.acoustics", "models.flow"]),
+    ({"models": {"flow": "poiseuille"}, "hardware": {"chamber_heat_exchange": True}},
+     ["models.flow", "hardware.chamber_heat_exchange"]),
+])
+def test_study_acoustics_refused_naming_both(study, fragments):
+    with pytest.raises(InputError) as exc:
+        study_from_dict(study, source="s.toml")
+    for f in fragments:
+        assert f in str(exc.value)
+
+
+def test_study_lumped_flow_recorded_as_lumped():
+    from isodesign.optimization.study import default_study
+
+    st = study_from_dict({"models": {"flow": "poiseuille"}}, source="s.toml")
+    assert st.models["acoustics"] == "lumped" == st.raw["models"]["acoustics"]
+    assert st.start_design().acoustics == "lumped"
+    with pytest.raises(InputError, match=r"models\.flow"):
+        st.with_changes(models={"acoustics": "distributed"})
+    hx = default_study().with_changes(hardware={"chamber_heat_exchange": True})
+    with pytest.raises(InputError, match=r"hardware\.chamber_heat_exchange"):
+        hx.with_changes(models={"acoustics": "lumped"})
