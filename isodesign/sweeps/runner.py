@@ -26,6 +26,7 @@ from __future__ import annotations
 import contextlib
 import datetime as _dt
 import json
+import os
 import shutil
 import statistics
 import sys
@@ -291,6 +292,7 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
     >>> res.table[["payload.mass_kg", "objective_value", "binding"]]      # doctest: +SKIP
     """
     t_all = time.perf_counter()
+    _check_arguments(output, workers, scheduler, overwrite, charts, combine, task, options)
     spec = get_task(task)
     options = {k: v for k, v in (options or {}).items() if v is not None}
     unknown = set(options) - set(spec.options)
@@ -311,6 +313,34 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
     with _locked(target, "--output"):
         return _run(target, mode, base, pts, dropped, keys, identity, task, options,
                     scheduler, workers, charts, progress, argv, t_all, combine)
+
+
+def _check_arguments(output, workers, scheduler, overwrite, charts, combine, task,
+                     options) -> None:
+    """The Python arguments' types and ranges, named as the CLI option (before any work)."""
+    if not isinstance(output, str | os.PathLike):
+        raise InputError(f"--output: expected a directory name (a string or path), got "
+                         f"{type(output).__name__} {output!r:.40}")
+    if str(output).strip() == "":
+        raise InputError("--output: empty (it would write into the current directory); give "
+                         "a directory name")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or not 1 <= workers <= 64):
+        raise InputError(f"--workers: must be an integer in [1, 64] (worker processes of the "
+                         f"local cluster), got {workers!r:.40}")
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise InputError(f"--scheduler: expected an address (tcp://host:port), 'local' or "
+                         f"'serial', got {type(scheduler).__name__} {scheduler!r:.40}")
+    for name, v in (("--overwrite", overwrite), ("charts", charts)):
+        if not isinstance(v, bool):
+            raise InputError(f"{name}: expected true or false, got {v!r:.40}")
+    if combine not in ("product", "zip"):
+        raise InputError(f"--combine: unknown value {combine!r:.40}; valid: product, zip")
+    if not isinstance(task, str):
+        raise InputError(f"--task: expected a task name, got {type(task).__name__}")
+    if options is not None and not isinstance(options, dict):
+        raise InputError(f"options: expected a dict of task options, got "
+                         f"{type(options).__name__}")
 
 
 def _run(target, mode, base, pts, dropped, keys, identity, task, options, scheduler, workers,

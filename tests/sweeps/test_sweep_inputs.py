@@ -295,3 +295,125 @@ def test_dask_scheduler_address_from_the_environment(tmp_path, monkeypatch):
                                 "response", "-o", tmp_path / "s")
     assert status == 2 and time.monotonic() - t0 < 10.0
     assert f"DASK_SCHEDULER_ADDRESS: cannot reach the Dask scheduler at {address}" in stderr
+
+
+# -- issue 23: a scheduler that answers but is not Dask, Python arguments, run kinds ---------
+class _FakeServer:
+    """A TCP server on 127.0.0.1 that accepts and either sends ``reply`` (then keeps the
+    connection open) or, with ``reply=None``, waits for a request it never answers (an
+    HTTP server's behaviour towards a client that speaks first... never)."""
+
+    def __init__(self, reply: bytes | None):
+        import threading
+
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(8)
+        self.address = f"tcp://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.reply, self.conns, self.stop = reply, [], threading.Event()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def _serve(self):
+        self.sock.settimeout(0.2)
+        while not self.stop.is_set():
+            try:
+                c, _ = self.sock.accept()
+            except OSError:
+                continue
+            self.conns.append(c)
+            if self.reply is not None:
+                with contextlib.suppress(OSError):
+                    c.sendall(self.reply)
+
+    def close(self):
+        self.stop.set()
+        self.thread.join(timeout=5)
+        for c in [*self.conns, self.sock]:
+            c.close()
+
+
+@pytest.mark.parametrize("reply, words", [
+    (None, ["answers but is not a Dask scheduler", "no Dask handshake"]),
+    (b"\xff" * 64, ["answers but is not a Dask scheduler", "first bytes"]),
+    (b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n", ["not a Dask scheduler"]),
+    ((8).to_bytes(8, "little") + b"garbage!", ["not a Dask scheduler", "handshake"]),
+])
+def test_a_scheduler_address_that_is_not_dask_is_one_line(tmp_path, reply, words):
+    srv = _FakeServer(reply)
+    try:
+        out = tmp_path / "s"
+        t0 = time.monotonic()
+        status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+                                    "response", "--scheduler", srv.address, "-o", out)
+        assert time.monotonic() - t0 < 10.0  # the probe's 3 s, not Dask's hang
+    finally:
+        srv.close()
+    assert status == 2
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("isodesign: error: --scheduler: "), stderr
+    for w in words:
+        assert w in lines[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"workers": -2}, ["--workers", "[1, 64]", "-2"]),
+    ({"workers": 0}, ["--workers"]),
+    ({"workers": True}, ["--workers"]),
+    ({"workers": "2"}, ["--workers"]),
+    ({"workers": 2.5}, ["--workers"]),
+    ({"output": ""}, ["--output", "empty"]),
+    ({"output": "   "}, ["--output", "empty"]),
+    ({"output": 5}, ["--output", "directory name"]),
+    ({"scheduler": 8786}, ["--scheduler"]),
+    ({"overwrite": "yes"}, ["--overwrite"]),
+    ({"combine": "cross"}, ["--combine", "product, zip"]),
+    ({"task": 3}, ["--task"]),
+    ({"options": ["plots"]}, ["options"]),
+])
+def test_sweep_python_arguments_refused_by_name(tmp_path, kwargs, words):
+    args = {"vary": {"payload.mass_kg": [300, 600]}, "output": tmp_path / "s",
+            "scheduler": "serial", **kwargs}
+    with pytest.raises(InputError) as exc:
+        isodesign.sweep(**args)
+    for w in words:
+        assert w in str(exc.value)
+    assert not (tmp_path / "s").exists()
+
+
+def test_sweep_empty_output_on_the_command_line_writes_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "-o", "")
+    assert status == 2 and "--output: empty" in stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", ["modes", "yield"])
+def test_overwrite_refuses_a_sweep_directory(tmp_path, command):
+    """``modes``/``yield --overwrite`` into a sweep would replace its record and leave its
+    table and points, so that it could no longer resume: refused, the sweep untouched."""
+    from isodesign.io.rundir import check_run_target
+
+    sw = tmp_path / "sw"
+    (sw / "points").mkdir(parents=True)
+    rec = {"kind": "isodesign sweep", "run_status": "complete", "files": ["sweep.parquet"]}
+    (sw / "record.json").write_text(json.dumps(rec))
+    (sw / "sweep.parquet").write_bytes(b"PAR1")
+    with pytest.raises(InputError, match="another kind of run"):
+        check_run_target(sw, overwrite=True, command=command)
+    if command == "modes":
+        status, _, stderr = run_cli("modes", "--builtin", "table", "-o", sw, "--overwrite")
+        assert status == 2 and "another kind of run (isodesign sweep)" in stderr
+    assert json.loads((sw / "record.json").read_text()) == rec
+    assert sorted(p.name for p in sw.iterdir()) == ["points", "record.json", "sweep.parquet"]
+
+
+def test_a_run_refused_on_its_input_writes_nothing(tmp_path):
+    from isodesign.io.rundir import RunDirectory
+
+    target = tmp_path / "run"
+    with pytest.raises(InputError), RunDirectory(target, command="optimize") as run:
+        run.write_text("partial.txt", "x")
+        raise InputError("table.cg_m: refused")
+    assert list(tmp_path.iterdir()) == []
