@@ -537,7 +537,7 @@ def _floor_axes(fl: dict, where: str, source: str, table):
         if v is False:
             axes[k] = False
         elif isinstance(v, dict):
-            axes[k] = _floor(v, f"{where} [floor.{k}]", source)
+            axes[k] = _axis_floor(v, k, z, where, source)
         elif v is not None:
             raise InputError(f"{where}: floor.{k} must be a table or false")
         elif "record" in base and "axis" not in base:
@@ -546,6 +546,29 @@ def _floor_axes(fl: dict, where: str, source: str, table):
             except InputError:
                 pass
     return z, table_floor(z, **axes)
+
+
+#: Keys of ``[floor.x]`` / ``[floor.y]``: those of ``[floor]`` and ``scale``.
+_AXIS_FLOOR_KEYS = (_KEYS["floor"] - {"x", "y"}) | {"scale"}
+
+
+def _axis_floor(v: dict, axis: str, z: FloorSpectrum, where: str, source: str) -> FloorSpectrum:
+    """``[floor.x]``/``[floor.y]``: a floor of its own (the keys of ``[floor]``), optionally
+    ``scale``d: ``scale = 0.3`` alone is 30 % of the vertical floor's velocity; with a
+    criterion, CSV or record, 30 % of that floor's (the PSD times ``scale^2``)."""
+    for key in v:
+        if key not in _AXIS_FLOOR_KEYS:
+            raise InputError(f"{where}: unknown key {key!r} in [floor.{axis}]; valid: "
+                             f"{', '.join(sorted(_AXIS_FLOOR_KEYS))}")
+    if "scale" not in v:
+        return _floor(v, f"{where} [floor.{axis}]", source)
+    sc = _num(where, f"floor.{axis}.scale", v["scale"], 0.0, 10.0, True)
+    rest = {k: x for k, x in v.items() if k != "scale"}
+    base = _floor(rest, f"{where} [floor.{axis}]", source) if rest else z
+    name = f"{sc:g} x {base.name or 'floor'}"
+    return dataclasses.replace(base, psd_velocity_m2_s2_per_hz=np.asarray(
+        base.psd_velocity_m2_s2_per_hz) * sc * sc, name=name,
+        source=f"floor.{axis}.scale = {sc:g} of {base.name or 'the vertical floor'}")
 
 
 def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
