@@ -234,10 +234,12 @@ class Study(ResultDisplay):
         return d.with_load(self.payload.mass_kg, self.payload.isolators,
                            g_m_s2=self.payload.g_m_s2)
 
-    def with_changes(self, **tables) -> Study:
+    def with_changes(self, changes: dict | None = None, /, **tables) -> Study:
         """A copy with some tables replaced or updated (validated again).
 
-        ``study.with_changes(objective={"kind": "total_volume"})``.
+        ``study.with_changes(objective={"kind": "total_volume"})``, or by the dotted keys
+        ``isodesign sweep --vary`` takes: ``study.with_changes({"payload.mass_kg": 800})``
+        (also ``with_changes(**{"payload.mass_kg": 800})``).
 
         A changed study is another study, so it does not keep the old name and description
         silently: unless ``name`` (and ``description``) are given, a change of any table
@@ -247,14 +249,23 @@ class Study(ResultDisplay):
 
         Parameters
         ----------
+        changes : dict, optional
+            Dotted keys (``{"payload.mass_kg": 800, "floor.criterion": "VC-B"}``) or tables,
+            merged with ``tables``.
         **tables
-            Tables of the study schema (``payload={"mass_kg": 900.0}``), and optionally
-            ``name`` and ``description`` (strings).
+            Tables of the study schema (``payload={"mass_kg": 900.0}``), dotted keys, and
+            optionally ``name`` and ``description`` (strings).
 
         Returns
         -------
         Study
+
+        Raises
+        ------
+        InputError
+            A change that is not a key of the schema, or an invalid value (named as given).
         """
+        tables = _undot(changes, tables)
         changed = sorted(k for k in tables if k not in ("solver", "name", "description"))
         if changed and "name" not in tables:
             base = self.name.removesuffix(" (changed)")
@@ -273,6 +284,29 @@ class Study(ResultDisplay):
         warn_unit_slips(tables, self.source)
         _warn_table_slips(st, tables, self.source)
         return st
+
+
+def _undot(changes, tables: dict) -> dict:
+    """``changes`` and ``tables`` merged, dotted keys nested (``"payload.mass_kg"``)."""
+    if changes is not None and not isinstance(changes, dict):
+        raise InputError(f"with_changes: changes must be a dict of dotted keys or tables "
+                         f"({{'payload.mass_kg': 800}}), got {type(changes).__name__} "
+                         f"{changes!r:.40}")
+    out: dict = {}
+    for src in (changes or {}, tables):
+        for key, v in src.items():
+            if not isinstance(key, str):
+                raise InputError(f"with_changes: keys must be strings (dotted, e.g. "
+                                 f"'payload.mass_kg'), got {key!r:.40}")
+            parts = key.split(".")
+            if not all(p.strip() for p in parts):
+                raise InputError(f"with_changes: {key!r} is not a study key (dotted, e.g. "
+                                 "'payload.mass_kg')")
+            tree = v if not isinstance(v, dict) else copy.deepcopy(v)
+            for p in reversed(parts[1:]):
+                tree = {p: tree}
+            out = _merge(out, {parts[0]: tree})
+    return out
 
 
 def _warn_table_slips(st: Study, given: dict, where: str) -> None:

@@ -111,3 +111,38 @@ def test_variable_bounds_outside_the_models_domain_name_the_key():
                                          r"the models' domain \[0.001, 1000\]"):
         study_from_dict({"variables": {"volume_ratio": {"start": 2.0, "lower": 0.5,
                                                         "upper": 1e10}}})
+
+
+# -- issue 23: with_changes takes the dotted keys of sweep --vary -------------------------
+def test_with_changes_takes_dotted_keys():
+    from isodesign.optimization.study import default_study
+
+    st = default_study()
+    a = st.with_changes({"payload.mass_kg": 800})
+    b = st.with_changes(**{"payload.mass_kg": 800})
+    c = st.with_changes(payload={"mass_kg": 800})
+    assert a.payload.mass_kg == b.payload.mass_kg == c.payload.mass_kg == 800.0
+    assert a.raw == c.raw
+    d = st.with_changes({"payload.mass_kg": 800, "floor.criterion": "VC-B",
+                         "variables.volume_ratio.start": 2.0}, payload={"isolators": 6})
+    assert (d.payload.mass_kg, d.payload.isolators) == (800.0, 6)
+    assert d.floor.name == "VC-B floor" and d.variable("volume_ratio").start == 2.0
+    assert d.payload.isolators == 6 and st.payload.mass_kg == 600.0  # the base unchanged
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"payload.mas_kg": 5}, ["unknown key 'mas_kg' in [payload]", "mass_kg"]),
+    ({"payload.mass_kg": "800"}, ["payload.mass_kg"]),
+    ({"payload.mass_kg": True}, ["payload.mass_kg"]),
+    ({"payload..mass_kg": 1}, ["'payload..mass_kg' is not a study key"]),
+    ({1: 2}, ["keys must be strings"]),
+    ([("payload.mass_kg", 800)], ["changes must be a dict"]),
+    ("payload.mass_kg=800", ["changes must be a dict"]),
+])
+def test_with_changes_bad_changes_are_input_errors(changes, words):
+    from isodesign.optimization.study import default_study
+
+    with pytest.raises(InputError) as exc:
+        default_study().with_changes(changes)
+    for w in words:
+        assert w in str(exc.value)

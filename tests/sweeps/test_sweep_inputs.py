@@ -417,3 +417,30 @@ def test_a_run_refused_on_its_input_writes_nothing(tmp_path):
         run.write_text("partial.txt", "x")
         raise InputError("table.cg_m: refused")
     assert list(tmp_path.iterdir()) == []
+
+
+def test_an_invalid_value_is_found_before_the_points_are_validated_one_by_one(monkeypatch):
+    """30,000 points whose last value of one key is invalid: found in a few checks (each
+    distinct value once), not after validating the points one by one; the error names the
+    point's key and value."""
+    from isodesign.optimization.study import Study
+
+    base = default_study()
+    varies = [parse_vary("payload.mass_kg=300:1500:100"),
+              parse_vary("hardware.temperature_k=280:300:30"),
+              ("hardware.minor_loss", [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 6.0])]
+    varies[0] = (varies[0][0], [*varies[0][1][:-1], 0.0])  # the last mass: invalid
+    tables = combine(varies, "product")
+    assert len(tables) == 30_000
+    calls = []
+    original = Study.with_changes
+
+    def counted(self, *a, **k):
+        calls.append(1)
+        return original(self, *a, **k)
+
+    monkeypatch.setattr(Study, "with_changes", counted)
+    with pytest.raises(InputError) as exc:
+        build_points(base, tables)
+    assert "payload.mass_kg=0.0" in str(exc.value) and "payload.mass_kg" in str(exc.value)
+    assert len(calls) < 200  # the distinct values (140), not 29,700 valid points first
