@@ -63,6 +63,7 @@ __all__ = [
     "GAS_KEYS",
     "LOAD_KEYS",
     "MODEL_KEYS",
+    "check_design_values",
     "design_from_dict",
     "design_to_toml",
     "diaphragm_to_toml",
@@ -72,6 +73,53 @@ __all__ = [
     "reference_design_path",
     "save_design",
 ]
+
+def check_design_values(values, where: str = "values") -> dict:
+    """The four design variables of a drawn design (``values`` of a result, robust.json or
+    a Python call): a dict with each a finite number > 0; an InputError naming what is wrong.
+
+    Parameters
+    ----------
+    values : dict
+        ``{"volume_ratio": ..., "top_volume_m3": ..., "capillary_length_m": ...,
+        "capillary_diameter_m": ...}``; other keys are refused.
+    where : str
+        What the values are (``"robust.json values"``), starting every message.
+
+    Returns
+    -------
+    dict
+        Name -> float.
+    """
+    import math
+
+    from isodesign.optimization.variables import DESIGN_VARIABLES
+
+    if not isinstance(values, dict):
+        raise InputError(f"{where}: expected a table of the design variables "
+                         f"({', '.join(DESIGN_VARIABLES)}), got {type(values).__name__} "
+                         f"{values!r:.40}")
+    unknown = [k for k in values if k not in DESIGN_VARIABLES]
+    if unknown:
+        raise InputError(f"{where}: unknown design variable {str(unknown[0])!r:.40}; valid: "
+                         f"{', '.join(DESIGN_VARIABLES)}")
+    missing = [k for k in DESIGN_VARIABLES if k not in values]
+    if missing:
+        raise InputError(f"{where}: missing {', '.join(missing)} (every design variable: "
+                         f"{', '.join(DESIGN_VARIABLES)})")
+    out = {}
+    for k in DESIGN_VARIABLES:
+        v = values[k]
+        ok = isinstance(v, int | float) and not isinstance(v, bool)
+        try:
+            ok = ok and math.isfinite(float(v)) and float(v) > 0
+        except OverflowError:
+            ok = False
+        if not ok:
+            raise InputError(f"{where}: {k} must be a finite number > 0, got {v!r:.40}")
+        out[k] = float(v)
+    return out
+
 
 #: Top-level keys and their meaning (the first four are required).
 DESIGN_KEYS: dict[str, str] = {

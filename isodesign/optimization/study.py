@@ -957,6 +957,11 @@ def load_study(path) -> Study:
         :func:`study_from_dict`); the message names the file and the key.
     """
 
+    if not isinstance(path, str | Path) and not hasattr(path, "__fspath__"):
+        raise InputError(f"path: expected a study file name (a string or path), got "
+                         f"{type(path).__name__} {path!r:.40}")
+    if isinstance(path, str) and not path.strip():
+        raise InputError("path: empty; give a study file name")
     return study_from_dict(read_toml(path, what="study"), source=str(path))
 
 

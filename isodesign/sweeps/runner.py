@@ -201,6 +201,9 @@ def _base_study(study) -> Study:
         return default_study()
     if isinstance(study, Study):
         return study
+    if not isinstance(study, str | os.PathLike):
+        raise InputError(f"study: expected a Study, a study file name or None (the default "
+                         f"study), got {type(study).__name__} {study!r:.40}")
     return load_study(study)
 
 
@@ -208,21 +211,45 @@ def _tables(vary, mode, points) -> tuple[list[dict], list[str]]:
     if points is not None and vary:
         raise InputError("--points-file: give a points file or --vary, not both")
     if points is not None:
-        tables = read_points(points) if isinstance(points, str | Path) else \
-            [dict(t) for t in points]
+        if isinstance(points, str | Path):
+            tables = read_points(points)
+        elif isinstance(points, list | tuple) and all(isinstance(t, dict) for t in points):
+            tables = [dict(t) for t in points]
+            for t in tables:
+                for k in t:
+                    if not isinstance(k, str):
+                        raise InputError(f"points: keys must be dotted study keys "
+                                         f"('payload.mass_kg'), got {k!r:.40}")
+                    parse_vary(f"{k}=0", "points")  # checks the key
+        else:
+            raise InputError("points: expected a points file name or a list of change tables "
+                             f"({{'payload.mass_kg': 600}}), got {type(points).__name__} "
+                             f"{points!r:.40}")
         keys = []
         for t in tables:
             keys += [k for k in t if k not in keys]
         return tables, keys
     if not vary:
         raise InputError("--vary: give at least one KEY=VALUES (or --points-file FILE)")
+    if isinstance(vary, str):
+        vary = [vary]
+    if not isinstance(vary, dict | list | tuple) or (
+            not isinstance(vary, dict) and not all(isinstance(v, str) for v in vary)):
+        raise InputError("vary: expected {key: values} or a list of 'KEY=VALUES' strings, got "
+                         f"{type(vary).__name__} {vary!r:.40}")
     items = vary.items() if isinstance(vary, dict) else [parse_vary(v) for v in vary]
     varies = []
     for k, v in items:
+        if not isinstance(k, str):
+            raise InputError(f"vary: keys must be dotted study keys ('payload.mass_kg'), got "
+                             f"{k!r:.40}")
         if isinstance(v, str):
             varies.append(parse_vary(f"{k}={v}"))
         else:
-            vals = list(v)
+            if not isinstance(v, list | tuple | range) and not hasattr(v, "tolist"):
+                raise InputError(f"--vary {k}: expected a list of values or a 'lo:hi:n' string, "
+                                 f"got {type(v).__name__} {v!r:.40}")
+            vals = list(v.tolist() if hasattr(v, "tolist") else v)
             key, _ = parse_vary(f"{k}=0")  # checks the key
             if not vals:
                 raise InputError(f"--vary {key}: no values")

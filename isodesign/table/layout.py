@@ -500,6 +500,9 @@ class Table:
         **kwargs
             Further :class:`Table` fields (``inertia_kg_m2`` overrides the box).
         """
+        for name, v in (("spacing_x_m", spacing_x_m), ("spacing_y_m", spacing_y_m),
+                        ("cg_height_m", cg_height_m)):
+            _real(name, v)
         a, b = 0.5 * spacing_x_m, 0.5 * spacing_y_m
         xy = [(-a, -b), (a, -b), (a, b), (-a, b)]
         if "inertia_kg_m2" not in kwargs:

@@ -355,3 +355,31 @@ def test_study_lumped_flow_recorded_as_lumped():
     hx = default_study().with_changes(hardware={"chamber_heat_exchange": True})
     with pytest.raises(InputError, match=r"hardware\.chamber_heat_exchange"):
         hx.with_changes(models={"acoustics": "lumped"})
+
+
+# -- yield: a run's robust.json read as input -----------------------------------------------
+@pytest.mark.parametrize("content, fragments", [
+    (b'{"feasible": true}', ["robust.json: values", "expected a table"]),
+    (b'{"feasible": true, "values": {"volume_ratio": 2.0}}', ["values: missing",
+                                                              "top_volume_m3"]),
+    (b'{"feasible": true, "values": {"volume_ratio": "2", "top_volume_m3": 8e-4, '
+     b'"capillary_length_m": 0.012, "capillary_diameter_m": 9e-4}}',
+     ["values: volume_ratio", "number"]),
+    (b'{"feasible": tru', ["robust.json file", "malformed JSON"]),
+    (bytes(range(256)), ["robust.json file", "UTF-8"]),
+    (b"[1, 2]", ["robust.json file", "JSON object"]),
+])
+def test_yield_of_a_run_with_a_broken_robust_json_is_one_line(tmp_path, capsys, content,
+                                                              fragments):
+    run = tmp_path / "run"
+    run.mkdir()
+    (run / "robust.json").write_bytes(content)
+    study = tmp_path / "s.toml"
+    study.write_text("[scenarios]\npayload_mass_kg = {relative = 0.1}\n")
+    out = tmp_path / "y"
+    rc = main(["yield", str(run), "--study", str(study), "--samples", "10", "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and err[0].startswith("isodesign: error: "), err
+    for f in fragments:
+        assert f in err[0], err[0]
+    assert not out.exists()
