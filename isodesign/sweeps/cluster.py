@@ -24,6 +24,7 @@ from __future__ import annotations
 import contextlib
 import logging
 import os
+import sys
 import time
 
 from isodesign.errors import InputError
@@ -201,18 +202,77 @@ def connect(scheduler: str | None = None, workers: int | None = None, *,
             if _accepts_n_workers(client) else len(client.scheduler_info().get("workers", {}))
         return Connection(client, None, f"scheduler {address} ({n} workers now)", n)
     n = int(workers) if workers else available_cores()
-    with dask.config.set(LOCAL_CONFIG if config is None else config), _environ_kept():
-        # no dashboard; the scheduler's HTTP routes (health, metrics) on a free loopback port
-        cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
-                               host="127.0.0.1", dashboard_address="127.0.0.1:0",
-                               scheduler_kwargs={"dashboard": False},
-                               worker_dashboard_address=None,
-                               silence_logs=logging.CRITICAL, scheduler_port=0)
-    client = Client(cluster, set_as_default=False)
-    with contextlib.suppress(Exception):  # best effort: a worker's traceback is cosmetic
-        client.register_plugin(_ignore_sigint_plugin())
-    return Connection(client, cluster, f"local cluster ({n} worker processes on 127.0.0.1)",
-                      n)
+    conn = None
+    try:
+        # a Ctrl-C while the cluster starts waits until it has started (a half-started
+        # cluster prints its threads' and processes' tracebacks), then ends it cleanly
+        with _sigint_deferred(), _children_stderr_quiet():
+            with dask.config.set(LOCAL_CONFIG if config is None else config), \
+                    _environ_kept():
+                # no dashboard; the scheduler's HTTP routes on a free loopback port
+                cluster = LocalCluster(n_workers=n, threads_per_worker=1, processes=True,
+                                       host="127.0.0.1", dashboard_address="127.0.0.1:0",
+                                       scheduler_kwargs={"dashboard": False},
+                                       worker_dashboard_address=None,
+                                       silence_logs=logging.CRITICAL, scheduler_port=0)
+            client = Client(cluster, set_as_default=False)
+            conn = Connection(client, cluster,
+                              f"local cluster ({n} worker processes on 127.0.0.1)", n)
+            with contextlib.suppress(Exception):  # best effort: a worker's traceback is cosmetic
+                client.register_plugin(_ignore_sigint_plugin())
+    except BaseException:
+        if conn is not None:
+            conn.close()
+        raise
+    return conn
+
+
+@contextlib.contextmanager
+def _children_stderr_quiet():
+    """The worker processes started meanwhile write their stderr to /dev/null.
+
+    They inherit file descriptor 2 when they are spawned; their logs are silenced anyway,
+    and a Ctrl-C that reaches the whole process group while they import would print each
+    one's traceback (dozens of lines) under the sweep's one line. This process's own
+    stderr is restored on exit (it writes nothing while the cluster starts).
+    """
+    import threading
+
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    try:
+        sys.stderr.flush()
+        saved = os.dup(2)
+        quiet = os.open(os.devnull, os.O_WRONLY)
+    except (OSError, ValueError, AttributeError):
+        yield
+        return
+    try:
+        os.dup2(quiet, 2)
+        yield
+    finally:
+        os.dup2(saved, 2)
+        os.close(saved)
+        os.close(quiet)
+
+
+@contextlib.contextmanager
+def _sigint_deferred():
+    """SIGINT held back in this thread (and the threads and processes started meanwhile,
+    which inherit the mask: the cluster's workers never see a Ctrl-C); delivered on exit."""
+    import signal
+    import threading
+
+    if threading.current_thread() is not threading.main_thread() \
+            or not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def _host_port(address: str, src: str) -> tuple[str, int] | None:

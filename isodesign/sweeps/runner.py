@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import io
 import json
 import os
 import shutil
@@ -431,15 +432,25 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
     try:
         if todo and scheduler == "serial":
             where = "serial (this process, no Dask)"
-            for p in todo:
-                pdir = str(points_dir / p.key)
-                try:
-                    row = run_point(task, resolved_study_dict(p.study), p.study_hash,
-                                    p.changes, pdir, options)
-                except Exception as exc:  # a bug in the task: recorded, the sweep goes on
-                    row = record_failed_point(task, p.study_hash, p.changes, pdir,
-                                              f"{type(exc).__name__}: {exc}")
-                finished(p, row)
+            with _interrupts_seen() as seen:
+                for p in todo:
+                    pdir = str(points_dir / p.key)
+                    said = io.StringIO()  # the point's stderr, shown unless interrupted
+                    with contextlib.redirect_stderr(said):
+                        try:
+                            row = run_point(task, resolved_study_dict(p.study), p.study_hash,
+                                            p.changes, pdir, options)
+                        except Exception as exc:  # a bug in the task: recorded, goes on
+                            row = record_failed_point(task, p.study_hash, p.changes, pdir,
+                                                      f"{type(exc).__name__}: {exc}")
+                    if seen:
+                        # a Ctrl-C inside the solver (CasADi turns it into a failed solve):
+                        # the point ran under the interrupt, so it is not kept; stop here
+                        if not row.get("reused"):
+                            shutil.rmtree(pdir, ignore_errors=True)
+                        raise KeyboardInterrupt(seen[0])
+                    sys.stderr.write(said.getvalue())
+                    finished(p, row)
         elif todo:
             where = conn.where
             _run_dask(conn.client, todo, task, options, points_dir, finished)
@@ -456,6 +467,13 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
             mine = {p.study_hash for p in pts}
             if any(r.get("status") == "failed" for h, r in rows.items() if h in mine):
                 status = "failed"
+        if status == "interrupted":  # a point finished on disk just before the signal
+            mine = {p.study_hash for p in pts}
+            late = {h: r for h, r in collect_rows(points_dir).items()
+                    if h in mine and h not in rows}
+            if late:
+                rows.update(late)
+                unwritten.extend(late)
         if unwritten:  # interrupted inside a batch: its rows reach the table all the same
             write_table(frame(rows.values(), keys), table_path)
         if status != "interrupted":  # every task has ended: no worker writes any more
@@ -466,6 +484,41 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
                        task=task, ran=done, reused=reused, failed=failed,
                        wall_s=time.perf_counter() - t_all, where=where, status=status,
                        point_wall_s=tuple(walls))
+
+
+@contextlib.contextmanager
+def _interrupts_seen():
+    """A list that receives the name of each SIGINT/SIGTERM while the block runs (main
+    thread): the handler in force is still called, but a solver that swallows the
+    KeyboardInterrupt it raises (CasADi returns a failed solve) no longer hides it."""
+    import signal
+    import threading
+
+    seen: list[str] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield seen
+        return
+    old = {}
+
+    def make(prev):
+        def handler(signum, frame):
+            seen.append(signal.Signals(signum).name)
+            if callable(prev):
+                prev(signum, frame)
+            else:
+                raise KeyboardInterrupt(signal.Signals(signum).name)
+        return handler
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        prev = signal.getsignal(sig)
+        if callable(prev):  # SIG_DFL of SIGTERM (end the process) is left alone
+            old[sig] = prev
+            signal.signal(sig, make(prev))
+    try:
+        yield seen
+    finally:
+        for sig, prev in old.items():
+            signal.signal(sig, prev)
 
 
 def _run_dask(client, todo, task, options, points_dir, finished) -> None:
