@@ -34,6 +34,8 @@ __all__ = ["ALLOWED_FAILURES", "CONNECT_TIMEOUT_S", "LOCAL_CONFIG", "PROBE_TIMEO
 
 #: Seconds to wait for an external scheduler before giving up.
 CONNECT_TIMEOUT_S = 5.0
+#: Address schemes of Dask's communication layers.
+DASK_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx", "inproc")
 #: Seconds the probe (:func:`probe_scheduler`) waits for a Dask handshake: an address that
 #: answers but is not a Dask scheduler ends in one line within it.
 PROBE_TIMEOUT_S = 3.0
@@ -280,6 +282,10 @@ def _host_port(address: str, src: str) -> tuple[str, int] | None:
     rest = address
     if "://" in address:
         scheme, rest = address.split("://", 1)
+        if scheme not in DASK_SCHEMES:
+            raise InputError(f"{src}: {address!r} is not a Dask scheduler address (scheme "
+                             f"{scheme!r}; Dask's: {', '.join(DASK_SCHEMES)}, e.g. "
+                             "tcp://host:8786)")
         if scheme != "tcp":
             return None  # tls://, ucx://, ws://: the client's own handshake judges them
     rest = rest.rstrip("/")

@@ -444,3 +444,20 @@ def test_an_invalid_value_is_found_before_the_points_are_validated_one_by_one(mo
         build_points(base, tables)
     assert "payload.mass_kg=0.0" in str(exc.value) and "payload.mass_kg" in str(exc.value)
     assert len(calls) < 200  # the distinct values (140), not 29,700 valid points first
+
+
+@pytest.mark.parametrize("address, words", [
+    ("http://127.0.0.1:80", ["scheme 'http'", "tcp://host:8786"]),
+    ("tcp://127.0.0.1:99999", ["not a scheduler address", "1-65535"]),
+    ("tcp://:8786", ["not a scheduler address"]),
+    ("tcp://127.0.0.1:port", ["not a scheduler address"]),
+])
+def test_a_malformed_scheduler_address_is_one_line(tmp_path, address, words):
+    out = tmp_path / "s"
+    status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+                                "response", "--scheduler", address, "-o", out)
+    lines = stderr.strip().splitlines()
+    assert status == 2 and len(lines) == 1 and "--scheduler" in lines[0], stderr
+    for w in words:
+        assert w in lines[0]
+    assert not out.exists()
