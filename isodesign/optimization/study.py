@@ -611,6 +611,10 @@ def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
     if sum(k in fl for k in ("criterion", "csv", "record")) != 1:
         raise InputError(f"{where}: [floor] needs exactly one of criterion = \"VC-A\", "
                          "csv = \"file.csv\" or record = \"survey.csv\"")
+    for key in ("csv", "record"):
+        if key in fl and (not isinstance(fl[key], str) or not fl[key].strip()):
+            raise InputError(f"{where}: floor.{key} must be a file name (a string), got "
+                             f"{fl[key]!r:.40}")
     if "record" in fl:
         extra = set(fl) - _RECORD_KEYS
         if extra:

@@ -253,8 +253,15 @@ def read_points(path) -> list[dict]:
     if p.suffix.lower() == ".csv":
         import csv
 
-        with open(p, newline="", encoding="utf-8") as fh:
-            rows = list(csv.reader(row for row in fh if not row.lstrip().startswith("#")))
+        try:
+            with open(p, newline="", encoding="utf-8") as fh:
+                rows = list(csv.reader(row for row in fh if not row.lstrip().startswith("#")))
+        except UnicodeDecodeError as exc:
+            raise InputError(f"--points-file {path}: not a UTF-8 text file (undecodable byte "
+                             f"at offset {exc.start}); a CSV or TOML points file is "
+                             "expected") from None
+        except (OSError, csv.Error) as exc:
+            raise InputError(f"--points-file {path}: cannot read ({exc})") from None
         if not rows:
             raise InputError(f"{option}: empty file")
         header = [check_key(h, option) for h in rows[0]]

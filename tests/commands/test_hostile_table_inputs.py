@@ -383,3 +383,45 @@ def test_yield_of_a_run_with_a_broken_robust_json_is_one_line(tmp_path, capsys, 
     for f in fragments:
         assert f in err[0], err[0]
     assert not out.exists()
+
+
+# -- codec and JSON messages name the file and key -----------------------------------------
+FLOOR_X = TABLE_TOML + 'cg_m = [0.0, 0.0, 0.35]\n[floor]\ncriterion = "VC-A"\n[floor.x]\n'
+
+
+@pytest.mark.parametrize("case, fragments", [
+    ("points_binary", ["--points-file", "not a UTF-8 text file"]),
+    ("points_latin1", ["--points-file", "not a UTF-8 text file"]),
+    ("floor_x_csv_number", ["[floor.x]", "floor.csv must be a file name"]),
+    ("floor_x_record_binary", ["[floor.x]", "floor.record", "not a UTF-8 text file"]),
+    ("floor_x_csv_binary", ["[floor.x]", "floor.csv", "bin.csv"]),
+    ("run_record_list", ["record.json", "JSON object"]),
+    ("run_record_binary", ["record.json", "cannot read the run record"]),
+])
+def test_codec_and_json_errors_name_the_file(tmp_path, capsys, case, fragments):
+    (tmp_path / "bin.csv").write_bytes(bytes(range(256)) * 4)
+    (tmp_path / "lat.csv").write_bytes("payload.mass_kg\n5\xe9\n".encode("latin-1"))
+    study = tmp_path / "s.toml"
+    out = tmp_path / "out"
+    if case.startswith("points"):
+        f = "bin.csv" if case == "points_binary" else "lat.csv"
+        argv = ["sweep", "--points-file", str(tmp_path / f), "--scheduler", "serial", "-o",
+                str(out)]
+    elif case.startswith("floor_x"):
+        line = {"floor_x_csv_number": "csv = 5", "floor_x_record_binary": 'record = "bin.csv"',
+                "floor_x_csv_binary": 'csv = "bin.csv"'}[case]
+        study.write_text(FLOOR_X + line + "\n")
+        argv = ["modes", str(study), "-o", str(out)]
+    else:
+        run = tmp_path / "run"
+        run.mkdir()
+        (run / "record.json").write_bytes(b"[1, 2]" if case == "run_record_list"
+                                          else b"\xff\xfe{")
+        argv = ["modes", str(run), "-o", str(out)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("isodesign: error: "), err
+    for f in fragments:
+        assert f in err[0], err[0]
+    assert "internal error" not in err[0]
+    assert not out.exists()
