@@ -122,7 +122,7 @@ def _leveling_groups_1based(groups, n: int) -> list:
     return [[i - 1 for i in g] for g in groups]
 
 
-def _check_limits(t: Table, h: dict) -> None:
+def _check_limits(t: Table, h: dict, inertia_key: str = "inertia_kg_m2") -> None:
     """Hard errors beyond any real table (a length of a kilometre, a loss factor of 1e30)."""
     lengths = (("isolators_m", t.isolators_m), ("cg_m", t.cg_m),
                ("instrument_points_m", t.instrument_points_m))
@@ -131,6 +131,11 @@ def _check_limits(t: Table, h: dict) -> None:
         if big > LENGTH_LIMIT_M:
             raise InputError(f"{key}: every coordinate must be within +-{LENGTH_LIMIT_M:g} m "
                              f"(no table is larger), got {big:g} m")
+    r_g = float(np.sqrt(np.linalg.eigvalsh(t.inertia_kg_m2)[-1] / t.mass_kg))
+    if r_g > LENGTH_LIMIT_M:
+        raise InputError(f"{inertia_key}: the radius of gyration sqrt(I/m) = {r_g:.3g} m is "
+                         f"beyond any table (at most {LENGTH_LIMIT_M:g} m); box_m or "
+                         "inertia_kg_m2 in another unit?")
     for k, (_lo, _hi, hard, _slip) in _HORIZONTAL.items():
         v = h.get(k)
         if isinstance(v, int | float) and not isinstance(v, bool) and abs(v) > hard:
@@ -254,7 +259,7 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
                   inertia_kg_m2=inertia, leveling_groups=groups, horizontal=hor,
                   g_m_s2=g_m_s2, **kw)  # fmt: skip
         objective_selection(d, t)
-        _check_limits(t, h)
+        _check_limits(t, h, "box_m" if "box_m" in d else "inertia_kg_m2")
         return t
     except InputError as exc:
         msg = str(exc)

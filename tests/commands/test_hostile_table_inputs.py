@@ -87,6 +87,9 @@ TABLE_ERRORS = [
     ({"table.horizontal.elastic_centre_height_m": -1e30},
      ["table.horizontal.elastic_centre_height_m"]),
     # beyond any table: an error, not a warning
+    ({"table.box_m": [1e30, 1.0, 1.0]}, ["table.box_m", "radius of gyration"]),
+    ({"table.box_m": None, "table.inertia_kg_m2": [1e30, 1e30, 1e30]},
+     ["table.inertia_kg_m2", "beyond any table"]),
     ({"table.cg_m": [0.0, 0.0, 3500.0]}, ["table.cg_m", "1000 m"]),
     # geometry: the isolators' own fault is named, in the user's 1-based numbering
     ({"table.isolators_m": [[0, 0], [1, 0], [2, 0], [3, 0]]},
