@@ -24,6 +24,8 @@ The mass and gravity are the ``[payload]``'s; ``payload.isolators`` must match.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from isodesign.errors import InputError
@@ -58,6 +60,8 @@ _NUMERIC = ("isolators_m", "cg_m", "inertia_kg_m2", "box_m", "instrument_points_
 #: them but above the plausible limit, a warning names the likely unit slip (mm typed as m).
 LENGTH_LIMIT_M = 1000.0
 LENGTH_PLAUSIBLE_M = 20.0
+#: Smallest plausible span of a table's isolators, m.
+SPAN_PLAUSIBLE_M = 0.05
 #: Plausible and physical ranges of the ``[table.horizontal]`` numbers (low, high,
 #: hard high, the unit slip's name and factor).
 _HORIZONTAL = {
@@ -81,6 +85,11 @@ def _check_types(d: dict) -> None:
     for k in _NUMERIC[1:]:
         if k in d:
             check_numbers(k, d[k])
+    for k in ("isolators_m", "cg_m", "instrument_points_m"):
+        big = _largest(d.get(k))
+        if big > LENGTH_LIMIT_M:
+            raise InputError(f"{k}: every coordinate must be within +-{LENGTH_LIMIT_M:g} m (no "
+                             f"table is larger), got {big:g} m")
     if "supply_pressure_pa" in d:
         v = d["supply_pressure_pa"]
         check_numbers("supply_pressure_pa", v)
@@ -93,6 +102,18 @@ def _check_types(d: dict) -> None:
                               or not all(isinstance(n, str) and n.strip() for n in names)):
         raise InputError(f"point_names: expected a list of names (non-empty strings), one per "
                          f"instrument point, got {names!r:.60}")
+
+
+def _largest(v) -> float:
+    """The largest magnitude in nested lists of numbers (0 for anything else)."""
+    if isinstance(v, list | tuple):
+        return max((_largest(x) for x in v), default=0.0)
+    if isinstance(v, int | float) and not isinstance(v, bool):
+        try:
+            return abs(float(v))
+        except OverflowError:
+            return math.inf
+    return 0.0
 
 
 def _leveling_groups_1based(groups, n: int) -> list:
@@ -178,7 +199,11 @@ def table_unit_slips(t: Table, raw: dict | None = None, where: str = "") -> list
             out.append(f"{head}table.{key} has a coordinate of {big:g} m, outside the plausible "
                        f"range of a table (+-{LENGTH_PLAUSIBLE_M:g} m); a unit slip? {key} is in "
                        f"m, and {big:g} mm would be {big * 1e-3:g} m")
-    span = max(float(np.ptp(t.isolators_m, axis=0).max()), abs(t.cg_height_m), 1e-3)
+    iso_span = float(np.ptp(t.isolators_m, axis=0).max())
+    if (raw is None or "isolators_m" in raw) and iso_span < SPAN_PLAUSIBLE_M:
+        out.append(f"{head}table.isolators_m spans {iso_span:g} m, below the plausible span of "
+                   f"a table's isolators ({SPAN_PLAUSIBLE_M:g} m); isolators_m is in m")
+    span = max(iso_span, abs(t.cg_height_m), 1e-3)
     # the radius of gyration of any body about its CG is within its size; a table's is
     # about a third of its span: far below (kg mm^2? grams?) or far above is a slip
     r_g = float(np.sqrt(np.linalg.eigvalsh(t.inertia_kg_m2)[-1] / t.mass_kg))

@@ -91,6 +91,10 @@ TABLE_ERRORS = [
     ({"table.box_m": None, "table.inertia_kg_m2": [1e30, 1e30, 1e30]},
      ["table.inertia_kg_m2", "beyond any table"]),
     ({"table.cg_m": [0.0, 0.0, 3500.0]}, ["table.cg_m", "1000 m"]),
+    ({"table.isolators_m": [[-1e308, -0.4], [1e308, -0.4], [0.6, 0.4], [-0.6, 0.4]]},
+     ["table.isolators_m", "1000 m"]),
+    ({"table.instrument_points_m": [[0.0, 0.0, 1e300]], "table.point_names": ["a"]},
+     ["table.instrument_points_m", "1000 m"]),
     # geometry: the isolators' own fault is named, in the user's 1-based numbering
     ({"table.isolators_m": [[0, 0], [1, 0], [2, 0], [3, 0]]},
      ["table.isolators_m", "one line"]),
@@ -135,6 +139,8 @@ TABLE_WARNINGS = [
     ({"table.box_m": None, "table.inertia_kg_m2": [1e8, 1.5e8, 2e8]}, "table.inertia_kg_m2",
      "radius of gyration"),
     ({"table.supply_pressure_pa": 5e7}, "table.supply_pressure_pa", "plausible"),
+    ({"table.isolators_m": [[-6e-4, -4e-4], [6e-4, -4e-4], [6e-4, 4e-4], [-6e-4, 4e-4]]},
+     "table.isolators_m", "plausible span"),
 ]
 
 
