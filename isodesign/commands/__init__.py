@@ -41,6 +41,7 @@ __all__ = [
     "MAX_LIST_VALUES",
     "PLOT_SUFFIXES",
     "add_output_dir_arguments",
+    "check_acoustics",
     "check_count",
     "check_grid_size",
     "check_output_path",
@@ -217,6 +218,44 @@ def run_directory(args, command: str, *, known_outputs=(), option: str = "--outp
     return RunDirectory(args.output, command=command,
                         overwrite=bool(getattr(args, "overwrite", False)), option=option,
                         known_outputs=known_outputs)
+
+
+def check_acoustics(design, flow: str | None, option: str | None) -> None:
+    """Refuse an acoustic model the computation would not use (one line, both names).
+
+    ``--acoustics distributed`` with a paper's flow model (``poiseuille``, ``zhao``,
+    ``zhao_turbulent``: lumped by definition, computed lumped) would be labelled distributed
+    but computed lumped; lumped acoustics with ``chamber_heat_exchange = true`` would drop
+    the heat exchange (it lives in the distributed chambers) without a word.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring as it will be computed (``--acoustics`` applied).
+    flow : str or None
+        The flow model in force.
+    option : str or None
+        The ``--acoustics`` value the user gave (None: the design's own).
+    """
+    from isodesign.spring.flow_models import flow_model
+
+    ac = getattr(design, "acoustics", None)
+    what = f"--acoustics {option}" if option else f"acoustics = {ac!r}"
+    if ac == "lumped" and getattr(design, "chamber_heat_exchange", False):
+        raise input_error(f"{what} with chamber_heat_exchange = true: the lumped chambers have "
+                          "no wall heat exchange (it is part of the distributed model); use "
+                          "--acoustics distributed or set chamber_heat_exchange = false")
+    if option == "distributed" and flow is not None and not flow_model(flow).distributed:
+        raise input_error(f"--acoustics distributed with --flow {flow}: the paper's flow model "
+                          f"{flow!r} is lumped by definition and would be computed lumped; use "
+                          "--acoustics lumped, or a distributed flow model (quasi_steady, "
+                          "womersley)")
+    if flow is not None and not flow_model(flow).distributed \
+            and getattr(design, "chamber_heat_exchange", False):
+        raise input_error(f"--flow {flow} with chamber_heat_exchange = true: the paper's flow "
+                          "model is computed with lumped acoustics, which have no wall heat "
+                          "exchange; use a distributed flow model (quasi_steady, womersley) or "
+                          "set chamber_heat_exchange = false")
 
 
 def input_error(message: str) -> Exception:

@@ -19,6 +19,7 @@ import argparse
 
 from isodesign.commands import (
     PLOT_SUFFIXES,
+    check_acoustics,
     check_count,
     check_output_path,
     option_names,
@@ -345,6 +346,7 @@ def resolve_job(args, *, extra_payload: dict | None = None):
         design = design.replace(acoustics=args.acoustics)
         overridden.append("acoustics")
     models.update({k: v for k, v in given.items() if v is not None})
+    check_acoustics(design, models.get("flow"), getattr(args, "acoustics", None))
     if overridden:
         models_source += "; options " + ", ".join("--" + k.replace("_", "-") for k in overridden)
     payload = make_payload(args, base=study.payload if study else None, **extra_payload)

@@ -19,6 +19,7 @@ from pathlib import Path
 from isodesign.commands import (
     FREQUENCY_UNITS,
     LENGTH_UNITS,
+    check_acoustics,
     check_grid_size,
     check_output_path,
     input_error,
@@ -252,6 +253,7 @@ def run(args) -> int:
     if args.acoustics is not None:
         design = design.replace(acoustics=args.acoustics)
         label += f", {args.acoustics} acoustics"
+    check_acoustics(design, args.flow, args.acoustics)
     res = compute(
         design,
         freq,

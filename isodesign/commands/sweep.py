@@ -214,10 +214,19 @@ def run(args) -> int:
                         overwrite=args.overwrite, charts=not args.no_plots, progress=bar,
                         argv=["isodesign", *sys.argv[1:]])
     except KeyboardInterrupt as exc:
+        from pathlib import Path
+
+        from isodesign.sweeps.table import TABLE_NAME
+
         name = str(exc) or "SIGINT"
-        print(f"isodesign: interrupted by {name}; the finished points are in {args.output} "
-              "(sweep.parquet, points/; run_status interrupted): rerun the same command to "
-              "run the others", file=sys.stderr)
+        table = Path(args.output) / TABLE_NAME
+        if table.is_file():  # name only what exists
+            print(f"isodesign: interrupted by {name}; the finished points are in {table} "
+                  "(and points/; run_status interrupted): rerun the same command to run the "
+                  "others", file=sys.stderr)
+        else:
+            print(f"isodesign: interrupted by {name} before any point ran; nothing was "
+                  "written", file=sys.stderr)
         return 130
     finally:
         for sig, h in old.items():

@@ -42,7 +42,6 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def _design_values(path: Path) -> tuple[dict, str, Path | None]:
     """(design-variable values, label, the run's resolved study or None)."""
-    import json
 
     from isodesign.errors import InputError
     from isodesign.io.designfile import load_design
@@ -52,9 +51,16 @@ def _design_values(path: Path) -> tuple[dict, str, Path | None]:
         study = path / "study_resolved.toml"
         rob = path / "robust.json"
         if rob.is_file():
-            data = json.loads(rob.read_text())
+            from isodesign.io.designfile import check_design_values
+            from isodesign.io.files import read_json
+
+            data = read_json(rob, what="robust.json")
+            if not isinstance(data, dict):
+                raise InputError(f"robust.json file {rob}: expected a JSON object, got "
+                                 f"{type(data).__name__}")
             if data.get("feasible"):
-                return dict(data["values"]), f"robust optimum of {path}", study
+                return (check_design_values(data.get("values"), f"{rob}: values"),
+                        f"robust optimum of {path}", study)
         if (path / "design.toml").is_file():
             path_d = path / "design.toml"
             d = load_design(path_d)

@@ -183,7 +183,13 @@ def read_record(path, *, unit: str | None = None, sample_rate_hz: float | None =
     where = f"record '{p}'"
     if not p.is_file():
         raise InputError(f"record: {where} not found")
-    header, nskip = _header(p)
+    try:
+        header, nskip = _header(p)
+    except UnicodeDecodeError as exc:
+        raise InputError(f"record: {where}: not a UTF-8 text file (undecodable byte at offset "
+                         f"{exc.start}); a CSV time history is expected") from None
+    except OSError as exc:
+        raise InputError(f"record: {where}: cannot read ({exc.strerror or exc})") from None
     unit = unit if unit is not None else header.get("unit")
     if unit is None:
         raise InputError(

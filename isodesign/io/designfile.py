@@ -63,6 +63,7 @@ __all__ = [
     "GAS_KEYS",
     "LOAD_KEYS",
     "MODEL_KEYS",
+    "check_design_values",
     "design_from_dict",
     "design_to_toml",
     "diaphragm_to_toml",
@@ -72,6 +73,53 @@ __all__ = [
     "reference_design_path",
     "save_design",
 ]
+
+def check_design_values(values, where: str = "values") -> dict:
+    """The four design variables of a drawn design (``values`` of a result, robust.json or
+    a Python call): a dict with each a finite number > 0; an InputError naming what is wrong.
+
+    Parameters
+    ----------
+    values : dict
+        ``{"volume_ratio": ..., "top_volume_m3": ..., "capillary_length_m": ...,
+        "capillary_diameter_m": ...}``; other keys are refused.
+    where : str
+        What the values are (``"robust.json values"``), starting every message.
+
+    Returns
+    -------
+    dict
+        Name -> float.
+    """
+    import math
+
+    from isodesign.optimization.variables import DESIGN_VARIABLES
+
+    if not isinstance(values, dict):
+        raise InputError(f"{where}: expected a table of the design variables "
+                         f"({', '.join(DESIGN_VARIABLES)}), got {type(values).__name__} "
+                         f"{values!r:.40}")
+    unknown = [k for k in values if k not in DESIGN_VARIABLES]
+    if unknown:
+        raise InputError(f"{where}: unknown design variable {str(unknown[0])!r:.40}; valid: "
+                         f"{', '.join(DESIGN_VARIABLES)}")
+    missing = [k for k in DESIGN_VARIABLES if k not in values]
+    if missing:
+        raise InputError(f"{where}: missing {', '.join(missing)} (every design variable: "
+                         f"{', '.join(DESIGN_VARIABLES)})")
+    out = {}
+    for k in DESIGN_VARIABLES:
+        v = values[k]
+        ok = isinstance(v, int | float) and not isinstance(v, bool)
+        try:
+            ok = ok and math.isfinite(float(v)) and float(v) > 0
+        except OverflowError:
+            ok = False
+        if not ok:
+            raise InputError(f"{where}: {k} must be a finite number > 0, got {v!r:.40}")
+        out[k] = float(v)
+    return out
+
 
 #: Top-level keys and their meaning (the first four are required).
 DESIGN_KEYS: dict[str, str] = {
@@ -279,6 +327,17 @@ def design_from_dict(d: dict, source: str = "design"):
         kw["acoustics"] = d["acoustics"]
     if "chamber_heat_exchange" in d:
         kw["chamber_heat_exchange"] = d["chamber_heat_exchange"]  # a bool, checked by the design
+        if kw["chamber_heat_exchange"] is True and kw.get("acoustics") == "lumped":
+            import warnings
+
+            from isodesign.errors import ModelValidityWarning
+
+            # a warning, not an error: the file reads back the design it was written from
+            warnings.warn(f"{source}: acoustics = \"lumped\" with chamber_heat_exchange = true: "
+                          "the lumped chambers have no wall heat exchange (it is part of the "
+                          "distributed model), so it is not computed; use acoustics = "
+                          "\"distributed\" or chamber_heat_exchange = false",
+                          ModelValidityWarning, stacklevel=3)
 
     # piston area: A_p directly, or from the diaphragm radii (Eq. 43)
     radii = [k for k in ("diaphragm_r1_m", "diaphragm_r2_m") if k in d]

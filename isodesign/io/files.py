@@ -23,6 +23,7 @@ import tempfile
 import tomllib
 from collections.abc import Iterator
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
@@ -37,6 +38,7 @@ __all__ = [
     "names_for_message",
     "read_csv_columns",
     "read_csv_header_comments",
+    "read_json",
     "read_toml",
 ]
 
@@ -345,6 +347,37 @@ def read_csv_columns(path, required, *, optional=(), what="CSV") -> dict[str, np
             vals.append(v)
         out[name] = np.asarray(vals, dtype=float)
     return out
+
+
+def read_json(path, *, what="JSON") -> Any:
+    """Parse a JSON file, turning read, codec and parse errors into one :class:`InputError`
+    that names the file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    what : str
+        What the file is, for error messages (``"robust.json"``).
+    """
+    import json
+
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+        return json.loads(text)
+    except IsADirectoryError:
+        raise InputError(f"{what} file {p}: is a directory, not a JSON file") from None
+    except OSError as exc:
+        raise InputError(f"{what} file {p}: cannot read ({exc.strerror})") from None
+    except UnicodeDecodeError as exc:
+        raise InputError(f"{what} file {p}: not a UTF-8 text file (undecodable byte at offset "
+                         f"{exc.start}); JSON is expected") from None
+    except json.JSONDecodeError as exc:
+        raise InputError(f"{what} file {p}: malformed JSON ({exc.msg} at line {exc.lineno}, "
+                         f"column {exc.colno})") from None
+    except RecursionError:
+        raise InputError(f"{what} file {p}: malformed JSON (nested too deeply)") from None
 
 
 def read_toml(path, *, what="TOML") -> dict:

@@ -208,8 +208,9 @@ def resolved_study_dict(study) -> dict:
     Returns
     -------
     dict
-        A deep copy of ``study.raw`` with ``floor.csv`` and a diaphragm table path
-        made absolute; ``study.raw`` itself is not changed.
+        A deep copy of ``study.raw`` with ``floor.csv``/``floor.record`` (also in
+        ``[floor.x]`` and ``[floor.y]``) and a diaphragm table path made absolute;
+        ``study.raw`` itself is not changed.
     """
     import copy
 
@@ -222,9 +223,12 @@ def resolved_study_dict(study) -> dict:
         return str(p.resolve())
 
     fl = raw.get("floor", {})
-    for key in ("csv", "record"):  # a spectrum or a survey record, relative to the study file
-        if isinstance(fl, dict) and key in fl:
-            fl[key] = absolute(fl[key])
+    # a spectrum or a survey record, relative to the study file; the per-axis floors of a
+    # table ([floor.x], [floor.y]) likewise
+    for table in (fl, *(fl.get(a) for a in ("x", "y"))) if isinstance(fl, dict) else ():
+        for key in ("csv", "record"):
+            if isinstance(table, dict) and isinstance(table.get(key), str):
+                table[key] = absolute(table[key])
     models = raw.get("models", {})
     dia = models.get("diaphragm") if isinstance(models, dict) else None
     if isinstance(dia, str) and (dia.startswith("table:") or dia.lower().endswith(".csv")):

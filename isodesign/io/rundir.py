@@ -75,6 +75,9 @@ __all__ = [
     "read_run_record",
 ]
 
+#: Kinds of run that own their whole directory (more than a manifest of files: a sweep's
+#: table, points and lock); another command's ``--overwrite`` may not replace them.
+WHOLE_DIRECTORY_KINDS = ("isodesign sweep",)
 #: Name of the run record in every run directory.
 RECORD_NAME = "record.json"
 #: ``record.json["run_status"]`` of a finished run directory.
@@ -130,7 +133,7 @@ def _nearest_existing(p: Path) -> Path:
 
 
 def check_run_target(target, *, overwrite: bool = False, option: str = "--output",
-                     known_outputs=()) -> list[str]:
+                     known_outputs=(), command: str | None = None) -> list[str]:
     """Check that a run may write the directory ``target``; return the entries it replaces.
 
     Parameters
@@ -144,6 +147,11 @@ def check_run_target(target, *, overwrite: bool = False, option: str = "--output
     known_outputs : iterable of str
         File names the command writes: an earlier run without a manifest (written by an
         isodesign before the run-directory contract) is taken to own these.
+    command : str, optional
+        The command about to write (``"modes"``): a directory that holds a run of a kind in
+        :data:`WHOLE_DIRECTORY_KINDS` (a sweep, with its table and points, which would lose
+        its record and could no longer resume) is refused even with ``overwrite``, unless
+        it is the same kind.
 
     Returns
     -------
@@ -156,9 +164,12 @@ def check_run_target(target, *, overwrite: bool = False, option: str = "--output
         ``target`` is a file, its nearest existing ancestor is a file or not writable, or
         it holds a run (or other files) and ``overwrite`` is false.
     """
-    t = Path(target)
-    if str(target).strip() == "":
+    if not isinstance(target, str | os.PathLike):
+        raise InputError(f"{option}: expected a directory name (a string or path), got "
+                         f"{type(target).__name__} {target!r:.40}")
+    if str(target).strip() == "" or (isinstance(target, str) and target.strip() == ""):
         raise InputError(f"{option}: empty; give a directory name")
+    t = Path(target)
     if t.exists() and not t.is_dir():
         raise InputError(f"{option}: {t} exists and is not a directory")
     anc = _nearest_existing(t.parent if not t.exists() else t)
@@ -185,6 +196,13 @@ def check_run_target(target, *, overwrite: bool = False, option: str = "--output
             raise InputError(
                 f"{option}: {t} already holds a run ({prev.get('kind')}, {status}); give "
                 "--overwrite to replace it, or choose a new directory"
+            )
+        kind = prev.get("kind")
+        if command is not None and kind in WHOLE_DIRECTORY_KINDS \
+                and kind != f"isodesign {command}":
+            raise InputError(
+                f"{option}: {t} holds another kind of run ({kind}); --overwrite replaces only "
+                f"an earlier isodesign {command} run: choose a new directory"
             )
         owned = prev.get("files")
         if not isinstance(owned, list):
@@ -262,7 +280,7 @@ class RunDirectory:
         self.option = option
         self.overwrite = overwrite
         self.replaces = check_run_target(target, overwrite=overwrite, option=option,
-                                         known_outputs=known_outputs)
+                                         known_outputs=known_outputs, command=command)
         prev = read_run_record(self.target) if self.replaces else None
         self._previous_start = None if prev is None else prev.get("started_utc")
         self.status = "complete"
@@ -303,6 +321,8 @@ class RunDirectory:
             self.finish(self.status)
         elif issubclass(exc_type, KeyboardInterrupt):
             self.interrupt("interrupted (KeyboardInterrupt)")
+        elif issubclass(exc_type, InputError):
+            self.discard()  # refused on its input: the run writes nothing
         else:
             self.finish("failed", error=f"{exc_type.__name__}: {exc}")
         return False
@@ -408,6 +428,15 @@ class RunDirectory:
         self._deactivate()
         self.final = dest
         return dest
+
+    def discard(self) -> None:
+        """Remove the staging directory: the run leaves nothing (the target as it was)."""
+        if self.final is not None:
+            return
+        if self.path is not None:
+            shutil.rmtree(self.path, ignore_errors=True)
+        self._deactivate()
+        self.final = self.target
 
     def _deactivate(self) -> None:
         with contextlib.suppress(ValueError):

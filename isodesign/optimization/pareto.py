@@ -205,6 +205,10 @@ class ParetoResult(ResultDisplay):
 
 
 def _check_objectives(objectives) -> tuple[str, str]:
+    if isinstance(objectives, str) or not isinstance(objectives, list | tuple) \
+            or not all(isinstance(o, str) for o in objectives):
+        raise InputError(f"objectives: need two different objective names, e.g. "
+                         f"{DEFAULT_OBJECTIVES!r}, got {objectives!r:.60}")
     objs = tuple(objectives)
     if len(objs) != 2 or objs[0] == objs[1]:
         raise InputError(f"objectives: need two different objectives, got {','.join(objs)}")

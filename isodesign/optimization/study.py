@@ -234,10 +234,12 @@ class Study(ResultDisplay):
         return d.with_load(self.payload.mass_kg, self.payload.isolators,
                            g_m_s2=self.payload.g_m_s2)
 
-    def with_changes(self, **tables) -> Study:
+    def with_changes(self, changes: dict | None = None, /, **tables) -> Study:
         """A copy with some tables replaced or updated (validated again).
 
-        ``study.with_changes(objective={"kind": "total_volume"})``.
+        ``study.with_changes(objective={"kind": "total_volume"})``, or by the dotted keys
+        ``isodesign sweep --vary`` takes: ``study.with_changes({"payload.mass_kg": 800})``
+        (also ``with_changes(**{"payload.mass_kg": 800})``).
 
         A changed study is another study, so it does not keep the old name and description
         silently: unless ``name`` (and ``description``) are given, a change of any table
@@ -247,14 +249,23 @@ class Study(ResultDisplay):
 
         Parameters
         ----------
+        changes : dict, optional
+            Dotted keys (``{"payload.mass_kg": 800, "floor.criterion": "VC-B"}``) or tables,
+            merged with ``tables``.
         **tables
-            Tables of the study schema (``payload={"mass_kg": 900.0}``), and optionally
-            ``name`` and ``description`` (strings).
+            Tables of the study schema (``payload={"mass_kg": 900.0}``), dotted keys, and
+            optionally ``name`` and ``description`` (strings).
 
         Returns
         -------
         Study
+
+        Raises
+        ------
+        InputError
+            A change that is not a key of the schema, or an invalid value (named as given).
         """
+        tables = _undot(changes, tables)
         changed = sorted(k for k in tables if k not in ("solver", "name", "description"))
         if changed and "name" not in tables:
             base = self.name.removesuffix(" (changed)")
@@ -264,9 +275,52 @@ class Study(ResultDisplay):
             note = f"Changed from study {self.name!r}: [{'], ['.join(changed)}]."
             tables["description"] = f"{old} {note}".strip()
         raw = _merge(self.raw, tables)  # nested tables merge like a study file's
+        if isinstance(tables.get("models"), dict) and "acoustics" in tables["models"]:
+            _check_all_keys(raw, self.source)
+            _check_acoustics(copy.deepcopy(raw), _models(raw["models"], self.source,
+                                                         self.source),
+                             _hardware(raw["hardware"], self.source), tables, self.source)
         st = study_from_dict(raw, source=self.source, fill_defaults=False)
         warn_unit_slips(tables, self.source)
+        _warn_table_slips(st, tables, self.source)
         return st
+
+
+def _undot(changes, tables: dict) -> dict:
+    """``changes`` and ``tables`` merged, dotted keys nested (``"payload.mass_kg"``)."""
+    if changes is not None and not isinstance(changes, dict):
+        raise InputError(f"with_changes: changes must be a dict of dotted keys or tables "
+                         f"({{'payload.mass_kg': 800}}), got {type(changes).__name__} "
+                         f"{changes!r:.40}")
+    out: dict = {}
+    for src in (changes or {}, tables):
+        for key, v in src.items():
+            if not isinstance(key, str):
+                raise InputError(f"with_changes: keys must be strings (dotted, e.g. "
+                                 f"'payload.mass_kg'), got {key!r:.40}")
+            parts = key.split(".")
+            if not all(p.strip() for p in parts):
+                raise InputError(f"with_changes: {key!r} is not a study key (dotted, e.g. "
+                                 "'payload.mass_kg')")
+            tree = v if not isinstance(v, dict) else copy.deepcopy(v)
+            for p in reversed(parts[1:]):
+                tree = {p: tree}
+            out = _merge(out, {parts[0]: tree})
+    return out
+
+
+def _warn_table_slips(st: Study, given: dict, where: str) -> None:
+    """One :class:`~isodesign.io.plausible.UnitWarning` per implausible ``[table]`` key the
+    user gave (a length in mm typed as m, an inertia that does not fit the table)."""
+    if st.table is None or not isinstance(given.get("table"), dict):
+        return
+    import warnings
+
+    from isodesign.io.plausible import UnitWarning
+    from isodesign.table.study import table_unit_slips
+
+    for msg in table_unit_slips(st.table, given["table"], where):
+        warnings.warn(msg, UnitWarning, stacklevel=4)
 
 
 def _check_keys(d: dict, table: str, where: str):
@@ -366,6 +420,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     target, bands, band_hz = _target(raw["target"], where)
     _check_bands_covered(floor, target, bands, band_hz, where)
     models = _models(raw["models"], where, source)
+    _check_acoustics(raw, models, hw, d if fill_defaults else {}, where)
     variables = _variables(raw["variables"], where)
     cons = _constraints(raw["constraints"], where, variables, payload)
     obj = _objective(raw["objective"], where, band_hz)
@@ -383,6 +438,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
         warn_unit_slips(d, where)
+        _warn_table_slips(st, d, where)
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
 
@@ -515,7 +571,7 @@ def _floor_axes(fl: dict, where: str, source: str, table):
         if v is False:
             axes[k] = False
         elif isinstance(v, dict):
-            axes[k] = _floor(v, f"{where} [floor.{k}]", source)
+            axes[k] = _axis_floor(v, k, z, where, source)
         elif v is not None:
             raise InputError(f"{where}: floor.{k} must be a table or false")
         elif "record" in base and "axis" not in base:
@@ -526,12 +582,39 @@ def _floor_axes(fl: dict, where: str, source: str, table):
     return z, table_floor(z, **axes)
 
 
+#: Keys of ``[floor.x]`` / ``[floor.y]``: those of ``[floor]`` and ``scale``.
+_AXIS_FLOOR_KEYS = (_KEYS["floor"] - {"x", "y"}) | {"scale"}
+
+
+def _axis_floor(v: dict, axis: str, z: FloorSpectrum, where: str, source: str) -> FloorSpectrum:
+    """``[floor.x]``/``[floor.y]``: a floor of its own (the keys of ``[floor]``), optionally
+    ``scale``d: ``scale = 0.3`` alone is 30 % of the vertical floor's velocity; with a
+    criterion, CSV or record, 30 % of that floor's (the PSD times ``scale^2``)."""
+    for key in v:
+        if key not in _AXIS_FLOOR_KEYS:
+            raise InputError(f"{where}: unknown key {key!r} in [floor.{axis}]; valid: "
+                             f"{', '.join(sorted(_AXIS_FLOOR_KEYS))}")
+    if "scale" not in v:
+        return _floor(v, f"{where} [floor.{axis}]", source)
+    sc = _num(where, f"floor.{axis}.scale", v["scale"], 0.0, 10.0, True)
+    rest = {k: x for k, x in v.items() if k != "scale"}
+    base = _floor(rest, f"{where} [floor.{axis}]", source) if rest else z
+    name = f"{sc:g} x {base.name or 'floor'}"
+    return dataclasses.replace(base, psd_velocity_m2_s2_per_hz=np.asarray(
+        base.psd_velocity_m2_s2_per_hz) * sc * sc, name=name,
+        source=f"floor.{axis}.scale = {sc:g} of {base.name or 'the vertical floor'}")
+
+
 def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
     """``[floor]``: a criterion, a CSV spectrum or a survey record (paths relative to the study
     file)."""
     if sum(k in fl for k in ("criterion", "csv", "record")) != 1:
         raise InputError(f"{where}: [floor] needs exactly one of criterion = \"VC-A\", "
                          "csv = \"file.csv\" or record = \"survey.csv\"")
+    for key in ("csv", "record"):
+        if key in fl and (not isinstance(fl[key], str) or not fl[key].strip()):
+            raise InputError(f"{where}: floor.{key} must be a file name (a string), got "
+                             f"{fl[key]!r:.40}")
     if "record" in fl:
         extra = set(fl) - _RECORD_KEYS
         if extra:
@@ -623,6 +706,37 @@ def _check_bands_covered(floor, target, bands, band_hz: dict, where: str) -> Non
               "centres)" if ok.any() else "")
     raise InputError(f"{where}: {' and '.join(keys) or 'target bands'} Hz: judged "
                      f"{'; '.join(bad)}{usable}")
+
+
+def _check_acoustics(raw: dict, models: dict, hw: dict, given: dict, where: str) -> None:
+    """The acoustic model in force is the one computed, and it computes what the study asks.
+
+    ``models.acoustics = "lumped"`` drops ``hardware.chamber_heat_exchange`` (the wall heat
+    exchange lives in the distributed chambers): refused, naming both. A paper's flow model
+    (``poiseuille``) is lumped by definition: ``acoustics = "distributed"`` written with it is
+    refused; left to the default it is recorded truthfully as ``"lumped"``.
+    """
+    from isodesign.spring.flow_models import flow_model
+
+    if models["acoustics"] == "lumped" and hw.get("chamber_heat_exchange"):
+        raise InputError(f"{where}: models.acoustics = \"lumped\" with "
+                         "hardware.chamber_heat_exchange = true: the lumped chambers have no "
+                         "wall heat exchange (it is part of the distributed model); use "
+                         "acoustics = \"distributed\" or chamber_heat_exchange = false")
+    if models["acoustics"] != "lumped" and not flow_model(models["flow"]).distributed:
+        written = isinstance(given.get("models"), dict) and "acoustics" in given["models"]
+        if written:
+            raise InputError(f"{where}: models.acoustics = {models['acoustics']!r} with "
+                             f"models.flow = {models['flow']!r}: the paper's flow model is lumped "
+                             "by definition and would be computed lumped; use acoustics = "
+                             "\"lumped\", or flow = \"womersley\" or \"quasi_steady\"")
+        if hw.get("chamber_heat_exchange"):
+            raise InputError(f"{where}: models.flow = {models['flow']!r} is computed with lumped "
+                             "acoustics, which drop hardware.chamber_heat_exchange = true; use "
+                             "flow = \"womersley\" or \"quasi_steady\", or chamber_heat_exchange "
+                             "= false")
+        models["acoustics"] = "lumped"  # what is computed, recorded
+        raw["models"]["acoustics"] = "lumped"
 
 
 def _int_in(where: str, key: str, value, lo: int, hi: int | None) -> int:
@@ -847,6 +961,11 @@ def load_study(path) -> Study:
         :func:`study_from_dict`); the message names the file and the key.
     """
 
+    if not isinstance(path, str | Path) and not hasattr(path, "__fspath__"):
+        raise InputError(f"path: expected a study file name (a string or path), got "
+                         f"{type(path).__name__} {path!r:.40}")
+    if isinstance(path, str) and not path.strip():
+        raise InputError("path: empty; give a study file name")
     return study_from_dict(read_toml(path, what="study"), source=str(path))
 
 

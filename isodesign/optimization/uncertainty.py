@@ -302,9 +302,106 @@ def _parameter(where: str, name: str, spec, study) -> UncertainParameter:
     if dist == "normal" and values is None and mode == "value" and not operating:
         pass
     nominal = _nominal_operating(name, study) if operating else 0.0
+    if name in TABLE_PARAMETERS and form == "relative":
+        raise InputError(f"{where}: scenarios.{key}.relative: an offset of the CG has no "
+                         "relative form (its nominal value is 0); give min + max, values or "
+                         "absolute, in m")
     p = UncertainParameter(name, mode, lo, hi, nominal, dist, values)
     _check_positive(where, p, study)
+    _check_plausible(where, p, study, form)
     return p
+
+
+#: Physical (error) and plausible (warning) ranges of the operating parameters' values, with
+#: the unit slips to name: (unit, factor to SI) tried when the range is outside.
+_OPERATING_RANGES = {
+    "ambient_pressure_pa": ((1e4, 1e6), (5e4, 1.2e5), (("kPa", 1e3), ("bar", 1e5),
+                                                       ("hPa", 1e2))),
+    "temperature_k": ((150.0, 1000.0), (230.0, 350.0), (("degC", None),)),
+}
+
+
+def _slip_hint(lo: float, hi: float, slips, ok: tuple[float, float], si: str) -> str:
+    """``"; a unit slip? 95 .. 105 kPa would be 95000 .. 105000 Pa"`` (or "")."""
+    for unit, factor in slips:
+        a, b = (lo + 273.15, hi + 273.15) if factor is None else (lo * factor, hi * factor)
+        if ok[0] <= a and b <= ok[1]:
+            return f"; a unit slip? {lo:g} .. {hi:g} {unit} would be {a:g} .. {b:g} {si}"
+    return ""
+
+
+def _check_plausible(where: str, p: UncertainParameter, study, form: str) -> None:
+    """Ranges in another unit (kPa, degC, tonnes, per cent, mm) refused or warned, by key."""
+    import warnings
+
+    from isodesign.io.plausible import UnitWarning
+
+    key = f"scenarios.{p.name}"
+    if p.name in _OPERATING_RANGES:
+        (elo, ehi), (wlo, whi), slips = _OPERATING_RANGES[p.name]
+        unit = PARAMETER_UNITS[p.name]
+        if p.lo < elo or p.hi > ehi:
+            raise InputError(f"{where}: {key}: the range {p.lo:g} .. {p.hi:g} {unit} is outside "
+                             f"[{elo:g}, {ehi:g}] {unit} (in {unit}: "
+                             f"{'absolute, ' if unit == 'Pa' else ''}SI)"
+                             + _slip_hint(p.lo, p.hi, slips, (wlo, whi), unit))
+        if p.lo < wlo or p.hi > whi:
+            warnings.warn(f"{where}: {key}: the range {p.lo:g} .. {p.hi:g} {unit} is outside the "
+                          f"plausible range [{wlo:g}, {whi:g}] {unit} of a laboratory",
+                          UnitWarning, stacklevel=5)
+    elif p.name == "payload_mass_kg":
+        m = float(study.payload.mass_kg)
+        if p.hi < m / 10.0 or p.lo > 10.0 * m:
+            hint = ""
+            if p.hi < m / 10.0 and 0.1 <= p.lo and p.hi <= 10.0:
+                hint = (f"; a fraction of the payload? write relative = [{p.lo - 1:g}, "
+                        f"{p.hi - 1:g}] (or min/max in kg); in tonnes it would be "
+                        f"{1e3 * p.lo:g} .. {1e3 * p.hi:g} kg")
+            elif p.hi < m / 10.0:
+                hint = (f"; in tonnes? {p.lo:g} .. {p.hi:g} t would be {1e3 * p.lo:g} .. "
+                        f"{1e3 * p.hi:g} kg")
+            elif p.lo > 10.0 * m:
+                hint = (f"; in grams? it would be {1e-3 * p.lo:g} .. {1e-3 * p.hi:g} kg")
+            raise InputError(f"{where}: {key}: the range {p.lo:g} .. {p.hi:g} kg lies more than a "
+                             f"factor 10 from payload.mass_kg = {m:g} kg (allowed "
+                             f"[{m / 10:g}, {10 * m:g}] kg){hint}")
+    elif p.name in TABLE_PARAMETERS:
+        t = study.table
+        axis = 0 if p.name.endswith("x_m") else 1
+        for v in (p.lo, p.hi):
+            cg = np.array(t.cg_m[:2], float)
+            cg[axis] += v
+            from isodesign.table.layout import _inside
+
+            if not _inside(t.support_polygon(), cg):
+                hull = t.support_polygon()[:, axis]
+                c = t.cg_m[axis]
+                mm = (f"; a unit slip? {v:g} mm would be {v * 1e-3:g} m"
+                      if abs(v) >= 1.0 and hull.min() < c + 1e-3 * v < hull.max() else "")
+                raise InputError(f"{where}: {key}: an offset of {v:g} m moves the CG to "
+                                 f"{'xy'[axis]} = {cg[axis]:g} m, outside the support polygon "
+                                 f"({'xy'[axis]} {hull.min():g} to {hull.max():g} m): the table "
+                                 f"tips over{mm}")
+    if form == "relative":
+        big = max(abs(p.lo), abs(p.hi)) if p.mode == "relative" else \
+            max(abs(p.lo / p.nominal - 1), abs(p.hi / p.nominal - 1))
+        if big > 2.0:
+            raise InputError(f"{where}: {key}.relative: a deviation of {100 * big:g} % (relative "
+                             f"is a fraction: 0.05 is 5 %); the range is [-1, 2] (-100 % to "
+                             f"+200 %)")
+        if big > 0.5:
+            warnings.warn(f"{where}: {key}.relative: a deviation of {100 * big:g} % is far above "
+                          "a tolerance (relative is a fraction: 0.05 is 5 %)", UnitWarning,
+                          stacklevel=5)
+    if form == "absolute" and p.name in DESIGN_VARIABLES:
+        var = study.variable(p.name)
+        top = var.upper
+        big = max(abs(p.lo), abs(p.hi))
+        if big > top:
+            raise InputError(f"{where}: {key}.absolute: a deviation of {big:g} "
+                             f"{PARAMETER_UNITS[p.name]} exceeds the variable's own upper bound "
+                             f"({top:g} {PARAMETER_UNITS[p.name]}); a unit slip (mm typed as "
+                             "m)? a relative tolerance is relative = 0.05")
 
 
 def _check_positive(where: str, p: UncertainParameter, study) -> None:

@@ -307,6 +307,12 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
     YieldResult
     """
     global _CTX
+    from isodesign.io.designfile import check_design_values  # bad input: named (issue 23)
+    from isodesign.optimization.study import Study
+
+    if not isinstance(study, Study):
+        raise InputError(f"study: expected a Study (load_study), got {type(study).__name__}")
+    values = check_design_values(values, "values")
     if study.scenarios is None:
         raise InputError("yield: the study has no [scenarios] table (the laws to draw from)")
     if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 10**6:

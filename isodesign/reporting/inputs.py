@@ -102,9 +102,13 @@ class Case:
 
 def _read_json(path: Path) -> dict:
     try:
-        return json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError) as exc:
+        rec = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError, RecursionError) as exc:
         raise InputError(f"{path}: cannot read the run record ({exc})") from None
+    if not isinstance(rec, dict):
+        raise InputError(f"{path}: not a run record (a JSON object expected, got "
+                         f"{type(rec).__name__})")
+    return rec
 
 
 def input_kind(path) -> str:

@@ -25,7 +25,9 @@ from __future__ import annotations
 
 import contextlib
 import datetime as _dt
+import io
 import json
+import os
 import shutil
 import statistics
 import sys
@@ -200,6 +202,9 @@ def _base_study(study) -> Study:
         return default_study()
     if isinstance(study, Study):
         return study
+    if not isinstance(study, str | os.PathLike):
+        raise InputError(f"study: expected a Study, a study file name or None (the default "
+                         f"study), got {type(study).__name__} {study!r:.40}")
     return load_study(study)
 
 
@@ -207,21 +212,45 @@ def _tables(vary, mode, points) -> tuple[list[dict], list[str]]:
     if points is not None and vary:
         raise InputError("--points-file: give a points file or --vary, not both")
     if points is not None:
-        tables = read_points(points) if isinstance(points, str | Path) else \
-            [dict(t) for t in points]
+        if isinstance(points, str | Path):
+            tables = read_points(points)
+        elif isinstance(points, list | tuple) and all(isinstance(t, dict) for t in points):
+            tables = [dict(t) for t in points]
+            for t in tables:
+                for k in t:
+                    if not isinstance(k, str):
+                        raise InputError(f"points: keys must be dotted study keys "
+                                         f"('payload.mass_kg'), got {k!r:.40}")
+                    parse_vary(f"{k}=0", "points")  # checks the key
+        else:
+            raise InputError("points: expected a points file name or a list of change tables "
+                             f"({{'payload.mass_kg': 600}}), got {type(points).__name__} "
+                             f"{points!r:.40}")
         keys = []
         for t in tables:
             keys += [k for k in t if k not in keys]
         return tables, keys
     if not vary:
         raise InputError("--vary: give at least one KEY=VALUES (or --points-file FILE)")
+    if isinstance(vary, str):
+        vary = [vary]
+    if not isinstance(vary, dict | list | tuple) or (
+            not isinstance(vary, dict) and not all(isinstance(v, str) for v in vary)):
+        raise InputError("vary: expected {key: values} or a list of 'KEY=VALUES' strings, got "
+                         f"{type(vary).__name__} {vary!r:.40}")
     items = vary.items() if isinstance(vary, dict) else [parse_vary(v) for v in vary]
     varies = []
     for k, v in items:
+        if not isinstance(k, str):
+            raise InputError(f"vary: keys must be dotted study keys ('payload.mass_kg'), got "
+                             f"{k!r:.40}")
         if isinstance(v, str):
             varies.append(parse_vary(f"{k}={v}"))
         else:
-            vals = list(v)
+            if not isinstance(v, list | tuple | range) and not hasattr(v, "tolist"):
+                raise InputError(f"--vary {k}: expected a list of values or a 'lo:hi:n' string, "
+                                 f"got {type(v).__name__} {v!r:.40}")
+            vals = list(v.tolist() if hasattr(v, "tolist") else v)
             key, _ = parse_vary(f"{k}=0")  # checks the key
             if not vals:
                 raise InputError(f"--vary {key}: no values")
@@ -291,6 +320,7 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
     >>> res.table[["payload.mass_kg", "objective_value", "binding"]]      # doctest: +SKIP
     """
     t_all = time.perf_counter()
+    _check_arguments(output, workers, scheduler, overwrite, charts, combine, task, options)
     spec = get_task(task)
     options = {k: v for k, v in (options or {}).items() if v is not None}
     unknown = set(options) - set(spec.options)
@@ -311,6 +341,34 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
     with _locked(target, "--output"):
         return _run(target, mode, base, pts, dropped, keys, identity, task, options,
                     scheduler, workers, charts, progress, argv, t_all, combine)
+
+
+def _check_arguments(output, workers, scheduler, overwrite, charts, combine, task,
+                     options) -> None:
+    """The Python arguments' types and ranges, named as the CLI option (before any work)."""
+    if not isinstance(output, str | os.PathLike):
+        raise InputError(f"--output: expected a directory name (a string or path), got "
+                         f"{type(output).__name__} {output!r:.40}")
+    if str(output).strip() == "":
+        raise InputError("--output: empty (it would write into the current directory); give "
+                         "a directory name")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or not 1 <= workers <= 64):
+        raise InputError(f"--workers: must be an integer in [1, 64] (worker processes of the "
+                         f"local cluster), got {workers!r:.40}")
+    if scheduler is not None and not isinstance(scheduler, str):
+        raise InputError(f"--scheduler: expected an address (tcp://host:port), 'local' or "
+                         f"'serial', got {type(scheduler).__name__} {scheduler!r:.40}")
+    for name, v in (("--overwrite", overwrite), ("charts", charts)):
+        if not isinstance(v, bool):
+            raise InputError(f"{name}: expected true or false, got {v!r:.40}")
+    if combine not in ("product", "zip"):
+        raise InputError(f"--combine: unknown value {combine!r:.40}; valid: product, zip")
+    if not isinstance(task, str):
+        raise InputError(f"--task: expected a task name, got {type(task).__name__}")
+    if options is not None and not isinstance(options, dict):
+        raise InputError(f"options: expected a dict of task options, got "
+                         f"{type(options).__name__}")
 
 
 def _run(target, mode, base, pts, dropped, keys, identity, task, options, scheduler, workers,
@@ -374,15 +432,25 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
     try:
         if todo and scheduler == "serial":
             where = "serial (this process, no Dask)"
-            for p in todo:
-                pdir = str(points_dir / p.key)
-                try:
-                    row = run_point(task, resolved_study_dict(p.study), p.study_hash,
-                                    p.changes, pdir, options)
-                except Exception as exc:  # a bug in the task: recorded, the sweep goes on
-                    row = record_failed_point(task, p.study_hash, p.changes, pdir,
-                                              f"{type(exc).__name__}: {exc}")
-                finished(p, row)
+            with _interrupts_seen() as seen:
+                for p in todo:
+                    pdir = str(points_dir / p.key)
+                    said = io.StringIO()  # the point's stderr, shown unless interrupted
+                    with contextlib.redirect_stderr(said):
+                        try:
+                            row = run_point(task, resolved_study_dict(p.study), p.study_hash,
+                                            p.changes, pdir, options)
+                        except Exception as exc:  # a bug in the task: recorded, goes on
+                            row = record_failed_point(task, p.study_hash, p.changes, pdir,
+                                                      f"{type(exc).__name__}: {exc}")
+                    if seen:
+                        # a Ctrl-C inside the solver (CasADi turns it into a failed solve):
+                        # the point ran under the interrupt, so it is not kept; stop here
+                        if not row.get("reused"):
+                            shutil.rmtree(pdir, ignore_errors=True)
+                        raise KeyboardInterrupt(seen[0])
+                    sys.stderr.write(said.getvalue())
+                    finished(p, row)
         elif todo:
             where = conn.where
             _run_dask(conn.client, todo, task, options, points_dir, finished)
@@ -399,6 +467,13 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
             mine = {p.study_hash for p in pts}
             if any(r.get("status") == "failed" for h, r in rows.items() if h in mine):
                 status = "failed"
+        if status == "interrupted":  # a point finished on disk just before the signal
+            mine = {p.study_hash for p in pts}
+            late = {h: r for h, r in collect_rows(points_dir).items()
+                    if h in mine and h not in rows}
+            if late:
+                rows.update(late)
+                unwritten.extend(late)
         if unwritten:  # interrupted inside a batch: its rows reach the table all the same
             write_table(frame(rows.values(), keys), table_path)
         if status != "interrupted":  # every task has ended: no worker writes any more
@@ -409,6 +484,41 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
                        task=task, ran=done, reused=reused, failed=failed,
                        wall_s=time.perf_counter() - t_all, where=where, status=status,
                        point_wall_s=tuple(walls))
+
+
+@contextlib.contextmanager
+def _interrupts_seen():
+    """A list that receives the name of each SIGINT/SIGTERM while the block runs (main
+    thread): the handler in force is still called, but a solver that swallows the
+    KeyboardInterrupt it raises (CasADi returns a failed solve) no longer hides it."""
+    import signal
+    import threading
+
+    seen: list[str] = []
+    if threading.current_thread() is not threading.main_thread():
+        yield seen
+        return
+    old = {}
+
+    def make(prev):
+        def handler(signum, frame):
+            seen.append(signal.Signals(signum).name)
+            if callable(prev):
+                prev(signum, frame)
+            else:
+                raise KeyboardInterrupt(signal.Signals(signum).name)
+        return handler
+
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        prev = signal.getsignal(sig)
+        if callable(prev):  # SIG_DFL of SIGTERM (end the process) is left alone
+            old[sig] = prev
+            signal.signal(sig, make(prev))
+    try:
+        yield seen
+    finally:
+        for sig, prev in old.items():
+            signal.signal(sig, prev)
 
 
 def _run_dask(client, todo, task, options, points_dir, finished) -> None:

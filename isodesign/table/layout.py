@@ -31,6 +31,7 @@ __all__ = [
     "HorizontalElement",
     "Table",
     "box_inertia",
+    "check_numbers",
     "default_leveling_groups",
 ]
 
@@ -50,8 +51,54 @@ def _real(name: str, v) -> float:
     return v
 
 
+def _leaf_error(key: str, v) -> InputError | None:
+    """The error for one entry of a numeric key that is not a number (None: a number)."""
+    if isinstance(v, bool):
+        return InputError(f"{key}: expected a number, got the boolean {str(v).lower()}")
+    if isinstance(v, str):
+        return InputError(f"{key}: expected a number, got the string {v!r:.40} (write numbers "
+                          "without quotes)")
+    if isinstance(v, dict):
+        return InputError(f"{key}: expected numbers, got a table {{...}} (write a list, "
+                          "e.g. [0.0, 0.0, 0.35])")
+    if not isinstance(v, int | float):
+        return InputError(f"{key}: expected a number, got {type(v).__name__} {v!r:.40}")
+    try:
+        ok = math.isfinite(float(v))
+    except OverflowError:
+        ok = False
+    if not ok:
+        return InputError(f"{key}: every value must be finite, got {v!r:.40}")
+    return None
+
+
+def check_numbers(key: str, value) -> None:
+    """Every entry of ``value`` (a number or nested lists) a finite number, not a string,
+    boolean or table; the error names ``key``.
+
+    Parameters
+    ----------
+    key : str
+        The key as the user wrote it.
+    value : object
+        The value.
+    """
+    if isinstance(value, list | tuple):
+        for v in value:
+            check_numbers(key, v)
+        return
+    if isinstance(value, np.ndarray) and value.dtype.kind in "biufc":
+        if value.dtype.kind == "b":
+            raise InputError(f"{key}: expected numbers, got booleans")
+        return
+    err = _leaf_error(key, value)
+    if err is not None:
+        raise err
+
+
 def _matrix(name: str, value, cols: int | tuple[int, ...], rows_min: int = 1) -> np.ndarray:
     """A float array of shape (n, cols), every entry finite; an error naming ``name``."""
+    check_numbers(name, value)
     try:
         a = np.array(value, dtype=float)
     except (TypeError, ValueError):
@@ -88,7 +135,12 @@ def box_inertia(mass_kg: float, size_m) -> np.ndarray:
         Diagonal inertia tensor.
     """
     m = check_range("mass_kg", mass_kg, 0.0, None, lo_open=True, unit="kg")
-    s = np.asarray(size_m, dtype=float)
+    check_numbers("box_m", size_m)
+    try:
+        s = np.asarray(size_m, dtype=float)
+    except (TypeError, ValueError):
+        raise InputError(f"box_m: expected 3 edge lengths > 0 (x, y, z), m, got "
+                         f"{size_m!r:.60}") from None
     if s.shape != (3,) or not np.all(np.isfinite(s)) or np.any(s <= 0):
         raise InputError(f"box_m: expected 3 edge lengths > 0 (x, y, z), m, got {size_m!r:.60}")
     a, b, c = s
@@ -281,14 +333,26 @@ class Table:
                              f"{xy.shape[0]}")
         d = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=-1) + np.eye(xy.shape[0])
         if np.min(d) < 1e-6:
-            raise InputError("isolators_m: two isolators at the same position")
+            i, j = np.unravel_index(int(np.argmin(d)), d.shape)
+            raise InputError(f"isolators_m: isolators {min(i, j) + 1} and {max(i, j) + 1} (from "
+                             "1) are at the same position")
+        _check_not_collinear(xy)
         s(self, "isolators_m", xy)
-        cg = np.array(self.cg_m, dtype=float) if not isinstance(self.cg_m, str) else None
+        check_numbers("cg_m", self.cg_m)
+        try:
+            cg = np.array(self.cg_m, dtype=float)
+        except (TypeError, ValueError):
+            cg = None
         if cg is None or cg.shape != (3,) or not np.all(np.isfinite(cg)):
             raise InputError(f"cg_m: expected (x, y, z) in m, got {self.cg_m!r:.60}")
         cg.flags.writeable = False
         s(self, "cg_m", cg)
-        inert = np.array(self.inertia_kg_m2, dtype=float)
+        check_numbers("inertia_kg_m2", self.inertia_kg_m2)
+        try:
+            inert = np.array(self.inertia_kg_m2, dtype=float)
+        except (TypeError, ValueError):
+            raise InputError("inertia_kg_m2: expected 3 principal values or a 3x3 tensor, kg "
+                             f"m^2, got {self.inertia_kg_m2!r:.60}") from None
         if inert.shape == (3,):
             inert = np.diag(inert)
         if inert.shape != (3, 3) or not np.all(np.isfinite(inert)):
@@ -313,6 +377,10 @@ class Table:
         if names is None:
             names = tuple(f"P{i + 1}" for i in range(pts.shape[0]))
         else:
+            if isinstance(names, str) or not isinstance(names, list | tuple | np.ndarray) or \
+                    not all(isinstance(v, str) for v in names):
+                raise InputError(f"point_names: expected a list of {pts.shape[0]} names "
+                                 f"(strings), got {names!r:.60}")
             names = tuple(str(v) for v in names)
             if len(names) != pts.shape[0] or len(set(names)) != len(names):
                 raise InputError(f"point_names: expected {pts.shape[0]} distinct names, got "
@@ -348,7 +416,8 @@ class Table:
         if any(len(grp) == 0 for grp in groups):
             raise InputError("leveling_groups: a group has no isolator")
         if sorted(flat) != list(range(n)):
-            raise InputError(f"leveling_groups: every isolator 0..{n - 1} must be in exactly one "
+            raise InputError(f"leveling_groups: every isolator 0..{n - 1} (zero-based indices "
+                             "here; a study file numbers them from 1) must be in exactly one "
                              f"group, got {[list(grp) for grp in groups]}")
         return tuple(tuple(sorted(grp)) for grp in groups)
 
@@ -431,6 +500,9 @@ class Table:
         **kwargs
             Further :class:`Table` fields (``inertia_kg_m2`` overrides the box).
         """
+        for name, v in (("spacing_x_m", spacing_x_m), ("spacing_y_m", spacing_y_m),
+                        ("cg_height_m", cg_height_m)):
+            _real(name, v)
         a, b = 0.5 * spacing_x_m, 0.5 * spacing_y_m
         xy = [(-a, -b), (a, -b), (a, b), (-a, b)]
         if "inertia_kg_m2" not in kwargs:
@@ -452,6 +524,17 @@ class Table:
             "supply_pressure_pa": self.supply_pressure_pa,
             "horizontal": self.horizontal.to_dict(),
         }
+
+
+def _check_not_collinear(xy: np.ndarray) -> None:
+    """Isolators all on one line carry no moment about it: the table falls over."""
+    c = xy - xy.mean(axis=0)
+    sv = np.linalg.svd(c, compute_uv=False)
+    if sv[1] <= 1e-9 * max(sv[0], 1e-300):
+        nums = ", ".join(str(i + 1) for i in range(len(xy)))
+        raise InputError(f"isolators_m: the isolators ({nums}, numbered from 1) all lie on one "
+                         "line, so they cannot hold the table up about that line; place at "
+                         "least one off it")
 
 
 def _convex_hull(p: np.ndarray) -> np.ndarray:

@@ -24,12 +24,15 @@ The mass and gravity are the ``[payload]``'s; ``payload.isolators`` must match.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from isodesign.errors import InputError
-from isodesign.table.layout import HorizontalElement, Table, box_inertia
+from isodesign.table.layout import HorizontalElement, Table, box_inertia, check_numbers
 
-__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection", "table_from_dict"]
+__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection",
+           "table_from_dict", "table_unit_slips"]
 
 #: Keys of ``[table]`` and ``[table.horizontal]``.
 TABLE_KEYS = {
@@ -48,6 +51,187 @@ def _keys(d, table: str, where: str) -> None:
         if k not in TABLE_KEYS[table]:
             raise InputError(f"{where}: unknown key {k!r} in [{table}]; valid: "
                              f"{', '.join(sorted(TABLE_KEYS[table]))}")
+
+
+#: Keys of ``[table]`` that hold numbers (nested lists of them).
+_NUMERIC = ("isolators_m", "cg_m", "inertia_kg_m2", "box_m", "instrument_points_m")
+
+#: Physical limits of a table's lengths, m: beyond them no table exists (an error); within
+#: them but above the plausible limit, a warning names the likely unit slip (mm typed as m).
+LENGTH_LIMIT_M = 1000.0
+LENGTH_PLAUSIBLE_M = 20.0
+#: Smallest plausible span of a table's isolators, m.
+SPAN_PLAUSIBLE_M = 0.05
+#: Plausible and physical ranges of the ``[table.horizontal]`` numbers (low, high,
+#: hard high, the unit slip's name and factor).
+_HORIZONTAL = {
+    "pendulum_length_m": (1e-3, 3.0, LENGTH_LIMIT_M, ("mm", 1e-3, "m")),
+    "lateral_stiffness_n_per_m": (1.0, 1e8, 1e12, None),
+    "lateral_loss_factor": (0.0, 2.0, 100.0, None),
+    "elastic_centre_height_m": (0.0, LENGTH_PLAUSIBLE_M, LENGTH_LIMIT_M, ("mm", 1e-3, "m")),
+}
+#: Supply pressure: plausible absolute range, Pa, and the physical limit.
+_SUPPLY_PLAUSIBLE_PA = (1.5e5, 2.5e6)
+_SUPPLY_LIMIT_PA = 1e8
+
+
+def _check_types(d: dict) -> None:
+    """Strings, booleans and tables where numbers or names belong (before any use)."""
+    if "isolators_m" in d:
+        v = d["isolators_m"]
+        check_numbers("isolators_m", v)
+        if not isinstance(v, list | tuple | np.ndarray):
+            raise InputError(f"isolators_m: expected a list of (x, y) positions, m, got {v!r:.40}")
+    for k in _NUMERIC[1:]:
+        if k in d:
+            check_numbers(k, d[k])
+    for k in ("isolators_m", "cg_m", "instrument_points_m"):
+        big = _largest(d.get(k))
+        if big > LENGTH_LIMIT_M:
+            raise InputError(f"{k}: every coordinate must be within +-{LENGTH_LIMIT_M:g} m (no "
+                             f"table is larger), got {big:g} m")
+    if "supply_pressure_pa" in d:
+        v = d["supply_pressure_pa"]
+        check_numbers("supply_pressure_pa", v)
+        if isinstance(v, int | float) and 1.0 <= v <= 100.0:
+            raise InputError(f"supply_pressure_pa: must be in (101325, {_SUPPLY_LIMIT_PA:g}] Pa "
+                             f"(absolute), got {v:g}; a unit slip? {v:g} bar gauge would be "
+                             f"{101325 + v * 1e5:g} Pa")
+    names = d.get("point_names")
+    if names is not None and (not isinstance(names, list | tuple)
+                              or not all(isinstance(n, str) and n.strip() for n in names)):
+        raise InputError(f"point_names: expected a list of names (non-empty strings), one per "
+                         f"instrument point, got {names!r:.60}")
+
+
+def _largest(v) -> float:
+    """The largest magnitude in nested lists of numbers (0 for anything else)."""
+    if isinstance(v, list | tuple):
+        return max((_largest(x) for x in v), default=0.0)
+    if isinstance(v, int | float) and not isinstance(v, bool):
+        try:
+            return abs(float(v))
+        except OverflowError:
+            return math.inf
+    return 0.0
+
+
+def _leveling_groups_1based(groups, n: int) -> list:
+    """``leveling_groups`` as written (1-based): three lists covering 1..n once each."""
+    if not isinstance(groups, list) or not all(isinstance(g, list) for g in groups):
+        raise InputError("leveling_groups: expected three lists of isolator numbers (from 1), "
+                         f"got {groups!r:.60}")
+    for g in groups:
+        for i in g:
+            if isinstance(i, bool) or not isinstance(i, int) or not 1 <= i <= n:
+                raise InputError(f"leveling_groups: isolator numbers run from 1 to {n}, "
+                                 f"got {i!r:.40}")
+    if len(groups) != 3:
+        raise InputError(f"leveling_groups: expected three groups (three leveling valves), got "
+                         f"{len(groups)}")
+    if any(not g for g in groups):
+        raise InputError("leveling_groups: a group has no isolator")
+    flat = sorted(i for g in groups for i in g)
+    if flat != list(range(1, n + 1)):
+        missing = sorted(set(range(1, n + 1)) - set(flat))
+        twice = sorted({i for i in flat if flat.count(i) > 1})
+        what = "; ".join(s for s in (
+            f"missing {', '.join(map(str, missing))}" if missing else "",
+            f"listed twice {', '.join(map(str, twice))}" if twice else "") if s)
+        raise InputError(f"leveling_groups: every isolator 1..{n} must be in exactly one "
+                         f"group ({what}), got {groups}")
+    return [[i - 1 for i in g] for g in groups]
+
+
+def _check_limits(t: Table, h: dict, inertia_key: str = "inertia_kg_m2") -> None:
+    """Hard errors beyond any real table (a length of a kilometre, a loss factor of 1e30)."""
+    lengths = (("isolators_m", t.isolators_m), ("cg_m", t.cg_m),
+               ("instrument_points_m", t.instrument_points_m))
+    for key, a in lengths:
+        big = float(np.max(np.abs(a)))
+        if big > LENGTH_LIMIT_M:
+            raise InputError(f"{key}: every coordinate must be within +-{LENGTH_LIMIT_M:g} m "
+                             f"(no table is larger), got {big:g} m")
+    r_g = float(np.sqrt(np.linalg.eigvalsh(t.inertia_kg_m2)[-1] / t.mass_kg))
+    if r_g > LENGTH_LIMIT_M:
+        raise InputError(f"{inertia_key}: the radius of gyration sqrt(I/m) = {r_g:.3g} m is "
+                         f"beyond any table (at most {LENGTH_LIMIT_M:g} m); box_m or "
+                         "inertia_kg_m2 in another unit?")
+    for k, (_lo, _hi, hard, _slip) in _HORIZONTAL.items():
+        v = h.get(k)
+        if isinstance(v, int | float) and not isinstance(v, bool) and abs(v) > hard:
+            raise InputError(f"horizontal.{k}: must be within +-{hard:g} (no isolator's is "
+                             f"larger), got {v:g}")
+    if t.supply_pressure_pa > _SUPPLY_LIMIT_PA:
+        raise InputError(f"supply_pressure_pa: must be in ({101325:g}, {_SUPPLY_LIMIT_PA:g}] Pa "
+                         f"(absolute), got {t.supply_pressure_pa:g}")
+
+
+def table_unit_slips(t: Table, raw: dict | None = None, where: str = "") -> list[str]:
+    """Messages for the table geometry that is valid but implausible (a unit slip, named).
+
+    Lengths above 20 m (millimetres typed as metres: a CG 350 m high), an inertia whose
+    radius of gyration does not fit the table's size, a pendulum metres long, a supply
+    pressure in bar or above any compressor's.
+
+    Parameters
+    ----------
+    t : Table
+        The validated table.
+    raw : dict, optional
+        The ``[table]`` table as written (for ``[table.horizontal]``).
+    where : str
+        Prefix of each message (the study file).
+
+    Returns
+    -------
+    list of str
+        One message per implausible key, naming it as ``table.<key>``.
+    """
+    head = f"{where}: " if where else ""
+    out = []
+    for key, a in (("isolators_m", t.isolators_m), ("cg_m", t.cg_m),
+                   ("instrument_points_m", t.instrument_points_m)):
+        if raw is not None and key not in raw:
+            continue
+        big = float(np.max(np.abs(a)))
+        if big > LENGTH_PLAUSIBLE_M:
+            out.append(f"{head}table.{key} has a coordinate of {big:g} m, outside the plausible "
+                       f"range of a table (+-{LENGTH_PLAUSIBLE_M:g} m); a unit slip? {key} is in "
+                       f"m, and {big:g} mm would be {big * 1e-3:g} m")
+    iso_span = float(np.ptp(t.isolators_m, axis=0).max())
+    if (raw is None or "isolators_m" in raw) and iso_span < SPAN_PLAUSIBLE_M:
+        out.append(f"{head}table.isolators_m spans {iso_span:g} m, below the plausible span of "
+                   f"a table's isolators ({SPAN_PLAUSIBLE_M:g} m); isolators_m is in m")
+    span = max(iso_span, abs(t.cg_height_m), 1e-3)
+    # the radius of gyration of any body about its CG is within its size; a table's is
+    # about a third of its span: far below (kg mm^2? grams?) or far above is a slip
+    r_g = float(np.sqrt(np.linalg.eigvalsh(t.inertia_kg_m2)[-1] / t.mass_kg))
+    if raw is None or "inertia_kg_m2" in raw or "box_m" in raw:
+        key = "inertia_kg_m2" if raw is None or "inertia_kg_m2" in raw else "box_m"
+        if r_g > 5.0 * span or r_g < span / 300.0:
+            out.append(f"{head}table.{key} gives a radius of gyration sqrt(I/m) = {r_g:.3g} m "
+                       f"for a table whose isolators span {span:.3g} m (plausible "
+                       f"{span / 300:.3g} to {5 * span:.3g} m); a unit slip (mm, kg mm^2) or "
+                       "the inertia of another mass?")
+    h = (raw or {}).get("horizontal", {}) if raw is not None else t.horizontal.to_dict()
+    for k, (lo, hi, _hard, slip) in _HORIZONTAL.items():
+        v = h.get(k) if isinstance(h, dict) else None
+        if isinstance(v, bool) or not isinstance(v, int | float):
+            continue
+        if (abs(v) > hi) or (0 < abs(v) < lo):
+            msg = (f"{head}table.horizontal.{k} = {v:g} is outside its plausible range "
+                   f"[{lo:g}, {hi:g}]")
+            if slip is not None and abs(v) > hi:
+                msg += f"; a unit slip? {k} is in m, and {v:g} mm would be {v * 1e-3:g} m"
+            out.append(msg)
+    if raw is None or "supply_pressure_pa" in raw:
+        p = t.supply_pressure_pa
+        lo, hi = _SUPPLY_PLAUSIBLE_PA
+        if not lo <= p <= hi:
+            out.append(f"{head}table.supply_pressure_pa = {p:g} Pa is outside the plausible "
+                       f"range of a leveling valve's supply [{lo:g}, {hi:g}] Pa (absolute)")
+    return out
 
 
 def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>") -> Table:
@@ -78,18 +262,11 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
     if ("inertia_kg_m2" in d) == ("box_m" in d):
         raise InputError(f"{where}: [table] give inertia_kg_m2 or box_m (exactly one)")
     try:
+        _check_types(d)
         inertia = d["inertia_kg_m2"] if "inertia_kg_m2" in d else box_inertia(mass_kg, d["box_m"])
         groups = d.get("leveling_groups")
         if groups is not None:
-            if not isinstance(groups, list) or not all(isinstance(g, list) for g in groups):
-                raise InputError("leveling_groups: expected three lists of isolator numbers")
-            n = len(d["isolators_m"]) if isinstance(d["isolators_m"], list) else 0
-            for g in groups:
-                for i in g:
-                    if isinstance(i, bool) or not isinstance(i, int) or not 1 <= i <= n:
-                        raise InputError(f"leveling_groups: isolator numbers run from 1 to {n}, "
-                                         f"got {i!r}")
-            groups = [[i - 1 for i in g] for g in groups]
+            groups = _leveling_groups_1based(groups, len(d["isolators_m"]))
         pend = h.get("pendulum_length_m", 0.15)
         if pend is False:
             pend = None
@@ -107,6 +284,7 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
                   inertia_kg_m2=inertia, leveling_groups=groups, horizontal=hor,
                   g_m_s2=g_m_s2, **kw)  # fmt: skip
         objective_selection(d, t)
+        _check_limits(t, h, "box_m" if "box_m" in d else "inertia_kg_m2")
         return t
     except InputError as exc:
         msg = str(exc)

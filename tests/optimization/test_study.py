@@ -409,10 +409,15 @@ def test_toml_round_trip(tmp_path, raw):
 def test_acoustics_and_chamber_keys():
     """[models] acoustics and the chamber shape reach the design; bad values are named."""
     st = default_study().with_changes(models={"acoustics": "lumped"},
-                                      hardware={"chamber_aspect_ratio": 2.0,
-                                                "chamber_heat_exchange": True})
+                                      hardware={"chamber_aspect_ratio": 2.0})
     d = st.start_design()
-    assert d.acoustics == "lumped" and d.chamber_aspect_ratio == 2.0 and d.chamber_heat_exchange
+    assert d.acoustics == "lumped" and d.chamber_aspect_ratio == 2.0
+    st = default_study().with_changes(hardware={"chamber_heat_exchange": True})
+    assert st.start_design().chamber_heat_exchange
+    # the lumped chambers have no heat exchange: refused naming both keys (issue 23)
+    with pytest.raises(InputError, match=r"models\.acoustics.*hardware\.chamber_heat_exchange"):
+        default_study().with_changes(models={"acoustics": "lumped"},
+                                     hardware={"chamber_heat_exchange": True})
     assert default_study().start_design().acoustics == "distributed"
     with pytest.raises(InputError, match=r"models\.acoustics"):
         default_study().with_changes(models={"acoustics": "wave"})

@@ -111,3 +111,90 @@ def test_variable_bounds_outside_the_models_domain_name_the_key():
                                          r"the models' domain \[0.001, 1000\]"):
         study_from_dict({"variables": {"volume_ratio": {"start": 2.0, "lower": 0.5,
                                                         "upper": 1e10}}})
+
+
+# -- issue 23: with_changes takes the dotted keys of sweep --vary -------------------------
+def test_with_changes_takes_dotted_keys():
+    from isodesign.optimization.study import default_study
+
+    st = default_study()
+    a = st.with_changes({"payload.mass_kg": 800})
+    b = st.with_changes(**{"payload.mass_kg": 800})
+    c = st.with_changes(payload={"mass_kg": 800})
+    assert a.payload.mass_kg == b.payload.mass_kg == c.payload.mass_kg == 800.0
+    assert a.raw == c.raw
+    d = st.with_changes({"payload.mass_kg": 800, "floor.criterion": "VC-B",
+                         "variables.volume_ratio.start": 2.0}, payload={"isolators": 6})
+    assert (d.payload.mass_kg, d.payload.isolators) == (800.0, 6)
+    assert d.floor.name == "VC-B floor" and d.variable("volume_ratio").start == 2.0
+    assert d.payload.isolators == 6 and st.payload.mass_kg == 600.0  # the base unchanged
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"payload.mas_kg": 5}, ["unknown key 'mas_kg' in [payload]", "mass_kg"]),
+    ({"payload.mass_kg": "800"}, ["payload.mass_kg"]),
+    ({"payload.mass_kg": True}, ["payload.mass_kg"]),
+    ({"payload..mass_kg": 1}, ["'payload..mass_kg' is not a study key"]),
+    ({1: 2}, ["keys must be strings"]),
+    ([("payload.mass_kg", 800)], ["changes must be a dict"]),
+    ("payload.mass_kg=800", ["changes must be a dict"]),
+])
+def test_with_changes_bad_changes_are_input_errors(changes, words):
+    from isodesign.optimization.study import default_study
+
+    with pytest.raises(InputError) as exc:
+        default_study().with_changes(changes)
+    for w in words:
+        assert w in str(exc.value)
+
+
+# -- issue 23: the public API refuses wrong types with InputError, naming the argument -----
+def _api_cases():
+    import isodesign
+    from isodesign.optimization.pareto import pareto_front
+    from isodesign.optimization.study import load_study
+    from isodesign.optimization.yields import estimate_yield
+    from isodesign.table import Table
+
+    st = default_study()
+    rob = st.with_changes(scenarios={"payload_mass_kg": {"relative": 0.1}})
+    good = {"volume_ratio": 1.85, "top_volume_m3": 8.1e-4, "capillary_length_m": 0.012,
+            "capillary_diameter_m": 9e-4}
+    return [
+        (lambda: load_study(5), "path"),
+        (lambda: load_study(None), "path"),
+        (lambda: load_study(["a.toml"]), "path"),
+        (lambda: load_study(""), "path"),
+        (lambda: isodesign.sweep(5, {"payload.mass_kg": [1, 2]}, output="x"), "study"),
+        (lambda: isodesign.sweep(None, 5, output="x"), "vary"),
+        (lambda: isodesign.sweep(None, {"payload.mass_kg": 5}, output="x"), "payload.mass_kg"),
+        (lambda: isodesign.sweep(None, {5: [1, 2]}, output="x"), "vary"),
+        (lambda: isodesign.sweep(None, points=5, output="x"), "points"),
+        (lambda: isodesign.sweep(None, points=[5], output="x"), "points"),
+        (lambda: isodesign.sweep(None, points=[{"payload.mas_kg": 5}], output="x"),
+         "payload.mas_kg"),
+        (lambda: estimate_yield(5, good), "study"),
+        (lambda: estimate_yield(rob, 5), "values"),
+        (lambda: estimate_yield(rob, {}), "values: missing"),
+        (lambda: estimate_yield(rob, {**good, "volume_ratio": "a"}), "values: volume_ratio"),
+        (lambda: estimate_yield(rob, {**good, "volume_ratio": True}), "values: volume_ratio"),
+        (lambda: estimate_yield(rob, {**good, "colour": 1}), "unknown design variable"),
+        (lambda: pareto_front(st, objectives=5), "objectives"),
+        (lambda: pareto_front(st, objectives="worst_band_margin"), "objectives"),
+        (lambda: Table.symmetric(10.0, "a", 1.0, 0.3), "spacing_x_m"),
+        (lambda: Table(mass_kg=10.0, isolators_m=[[0, 0], [1, 0], [0, 1]],
+                       cg_m=["0.2", 0.2, 0.3], inertia_kg_m2=[1, 1, 1]), "cg_m"),
+        (lambda: Table(mass_kg=10.0, isolators_m=[[0, 0], [1, 0], [0, 1]],
+                       cg_m=[0.2, 0.2, 0.3], inertia_kg_m2=[1, 1, 1], point_names=5),
+         "point_names"),
+    ]
+
+
+@pytest.mark.parametrize("i", range(22))
+def test_public_api_wrong_types_are_input_errors(i, tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    call, name = _api_cases()[i]
+    with pytest.raises(InputError) as exc:
+        call()
+    assert name in str(exc.value)
+    assert not (tmp_path / "x").exists()

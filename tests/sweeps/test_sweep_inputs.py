@@ -295,3 +295,169 @@ def test_dask_scheduler_address_from_the_environment(tmp_path, monkeypatch):
                                 "response", "-o", tmp_path / "s")
     assert status == 2 and time.monotonic() - t0 < 10.0
     assert f"DASK_SCHEDULER_ADDRESS: cannot reach the Dask scheduler at {address}" in stderr
+
+
+# -- issue 23: a scheduler that answers but is not Dask, Python arguments, run kinds ---------
+class _FakeServer:
+    """A TCP server on 127.0.0.1 that accepts and either sends ``reply`` (then keeps the
+    connection open) or, with ``reply=None``, waits for a request it never answers (an
+    HTTP server's behaviour towards a client that speaks first... never)."""
+
+    def __init__(self, reply: bytes | None):
+        import threading
+
+        self.sock = socket.socket()
+        self.sock.bind(("127.0.0.1", 0))
+        self.sock.listen(8)
+        self.address = f"tcp://127.0.0.1:{self.sock.getsockname()[1]}"
+        self.reply, self.conns, self.stop = reply, [], threading.Event()
+        self.thread = threading.Thread(target=self._serve, daemon=True)
+        self.thread.start()
+
+    def _serve(self):
+        self.sock.settimeout(0.2)
+        while not self.stop.is_set():
+            try:
+                c, _ = self.sock.accept()
+            except OSError:
+                continue
+            self.conns.append(c)
+            if self.reply is not None:
+                with contextlib.suppress(OSError):
+                    c.sendall(self.reply)
+
+    def close(self):
+        self.stop.set()
+        self.thread.join(timeout=5)
+        for c in [*self.conns, self.sock]:
+            c.close()
+
+
+@pytest.mark.parametrize("reply, words", [
+    (None, ["answers but is not a Dask scheduler", "no Dask handshake"]),
+    (b"\xff" * 64, ["answers but is not a Dask scheduler", "first bytes"]),
+    (b"HTTP/1.1 400 Bad Request\r\nContent-Length: 0\r\n\r\n", ["not a Dask scheduler"]),
+    ((8).to_bytes(8, "little") + b"garbage!", ["not a Dask scheduler", "handshake"]),
+])
+def test_a_scheduler_address_that_is_not_dask_is_one_line(tmp_path, reply, words):
+    srv = _FakeServer(reply)
+    try:
+        out = tmp_path / "s"
+        t0 = time.monotonic()
+        status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+                                    "response", "--scheduler", srv.address, "-o", out)
+        assert time.monotonic() - t0 < 10.0  # the probe's 3 s, not Dask's hang
+    finally:
+        srv.close()
+    assert status == 2
+    lines = stderr.strip().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("isodesign: error: --scheduler: "), stderr
+    for w in words:
+        assert w in lines[0]
+    assert not out.exists()
+
+
+@pytest.mark.parametrize("kwargs, words", [
+    ({"workers": -2}, ["--workers", "[1, 64]", "-2"]),
+    ({"workers": 0}, ["--workers"]),
+    ({"workers": True}, ["--workers"]),
+    ({"workers": "2"}, ["--workers"]),
+    ({"workers": 2.5}, ["--workers"]),
+    ({"output": ""}, ["--output", "empty"]),
+    ({"output": "   "}, ["--output", "empty"]),
+    ({"output": 5}, ["--output", "directory name"]),
+    ({"scheduler": 8786}, ["--scheduler"]),
+    ({"overwrite": "yes"}, ["--overwrite"]),
+    ({"combine": "cross"}, ["--combine", "product, zip"]),
+    ({"task": 3}, ["--task"]),
+    ({"options": ["plots"]}, ["options"]),
+])
+def test_sweep_python_arguments_refused_by_name(tmp_path, kwargs, words):
+    args = {"vary": {"payload.mass_kg": [300, 600]}, "output": tmp_path / "s",
+            "scheduler": "serial", **kwargs}
+    with pytest.raises(InputError) as exc:
+        isodesign.sweep(**args)
+    for w in words:
+        assert w in str(exc.value)
+    assert not (tmp_path / "s").exists()
+
+
+def test_sweep_empty_output_on_the_command_line_writes_nothing(tmp_path, monkeypatch):
+    monkeypatch.chdir(tmp_path)
+    status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "-o", "")
+    assert status == 2 and "--output: empty" in stderr
+    assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("command", ["modes", "yield"])
+def test_overwrite_refuses_a_sweep_directory(tmp_path, command):
+    """``modes``/``yield --overwrite`` into a sweep would replace its record and leave its
+    table and points, so that it could no longer resume: refused, the sweep untouched."""
+    from isodesign.io.rundir import check_run_target
+
+    sw = tmp_path / "sw"
+    (sw / "points").mkdir(parents=True)
+    rec = {"kind": "isodesign sweep", "run_status": "complete", "files": ["sweep.parquet"]}
+    (sw / "record.json").write_text(json.dumps(rec))
+    (sw / "sweep.parquet").write_bytes(b"PAR1")
+    with pytest.raises(InputError, match="another kind of run"):
+        check_run_target(sw, overwrite=True, command=command)
+    if command == "modes":
+        status, _, stderr = run_cli("modes", "--builtin", "table", "-o", sw, "--overwrite")
+        assert status == 2 and "another kind of run (isodesign sweep)" in stderr
+    assert json.loads((sw / "record.json").read_text()) == rec
+    assert sorted(p.name for p in sw.iterdir()) == ["points", "record.json", "sweep.parquet"]
+
+
+def test_a_run_refused_on_its_input_writes_nothing(tmp_path):
+    from isodesign.io.rundir import RunDirectory
+
+    target = tmp_path / "run"
+    with pytest.raises(InputError), RunDirectory(target, command="optimize") as run:
+        run.write_text("partial.txt", "x")
+        raise InputError("table.cg_m: refused")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_an_invalid_value_is_found_before_the_points_are_validated_one_by_one(monkeypatch):
+    """30,000 points whose last value of one key is invalid: found in a few checks (each
+    distinct value once), not after validating the points one by one; the error names the
+    point's key and value."""
+    from isodesign.optimization.study import Study
+
+    base = default_study()
+    varies = [parse_vary("payload.mass_kg=300:1500:100"),
+              parse_vary("hardware.temperature_k=280:300:30"),
+              ("hardware.minor_loss", [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 6.0])]
+    varies[0] = (varies[0][0], [*varies[0][1][:-1], 0.0])  # the last mass: invalid
+    tables = combine(varies, "product")
+    assert len(tables) == 30_000
+    calls = []
+    original = Study.with_changes
+
+    def counted(self, *a, **k):
+        calls.append(1)
+        return original(self, *a, **k)
+
+    monkeypatch.setattr(Study, "with_changes", counted)
+    with pytest.raises(InputError) as exc:
+        build_points(base, tables)
+    assert "payload.mass_kg=0.0" in str(exc.value) and "payload.mass_kg" in str(exc.value)
+    assert len(calls) < 200  # the distinct values (140), not 29,700 valid points first
+
+
+@pytest.mark.parametrize("address, words", [
+    ("http://127.0.0.1:80", ["scheme 'http'", "tcp://host:8786"]),
+    ("tcp://127.0.0.1:99999", ["not a scheduler address", "1-65535"]),
+    ("tcp://:8786", ["not a scheduler address"]),
+    ("tcp://127.0.0.1:port", ["not a scheduler address"]),
+])
+def test_a_malformed_scheduler_address_is_one_line(tmp_path, address, words):
+    out = tmp_path / "s"
+    status, _, stderr = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+                                "response", "--scheduler", address, "-o", out)
+    lines = stderr.strip().splitlines()
+    assert status == 2 and len(lines) == 1 and "--scheduler" in lines[0], stderr
+    for w in words:
+        assert w in lines[0]
+    assert not out.exists()

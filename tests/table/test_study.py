@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from isodesign.errors import InputError
@@ -53,3 +54,67 @@ def test_isolator_count_must_match_and_axes_need_a_table():
         study_from_dict({"table": TABLE, "payload": {"isolators": 3}})
     with pytest.raises(InputError, match=r"floor\.x applies only to a study with a \[table\]"):
         study_from_dict({"floor": {"criterion": "VC-A", "x": {"criterion": "VC-B"}}})
+
+
+# -- issue 23: per-axis floors, relative paths and scale -----------------------------------
+def _table_study_text(floor: str) -> str:
+    return (
+        "[payload]\nmass_kg = 600.0\nisolators = 4\nspacing_m = 0.8\ncg_height_m = 0.35\n"
+        "[table]\nisolators_m = [[-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4]]\n"
+        "cg_m = [0.0, 0.0, 0.35]\nbox_m = [1.5, 1.0, 0.7]\n" + floor)
+
+
+def test_relative_axis_floor_paths_are_absolute_in_the_resolved_study(tmp_path, monkeypatch):
+    """``[floor.x]``/``[floor.y]`` CSV paths, relative to the study file, are written absolute
+    so that the run's own ``study_resolved.toml`` loads from any directory."""
+    from isodesign.floor import FloorSpectrum
+    from isodesign.io.record import resolved_study_dict, study_toml
+    from isodesign.optimization.study import load_study
+
+    d = tmp_path / "job"
+    (d / "floors").mkdir(parents=True)
+    FloorSpectrum.from_criterion("VC-B").to_csv(d / "floors" / "fx.csv")
+    FloorSpectrum.from_criterion("VC-C").to_csv(d / "floors" / "fy.csv")
+    (d / "s.toml").write_text(_table_study_text(
+        '[floor]\ncriterion = "VC-A"\n[floor.x]\ncsv = "floors/fx.csv"\n'
+        '[floor.y]\ncsv = "floors/fy.csv"\n'))
+    st = load_study(d / "s.toml")
+    res = resolved_study_dict(st)
+    for a, name in (("x", "fx.csv"), ("y", "fy.csv")):
+        p = res["floor"][a]["csv"]
+        assert p == str((d / "floors" / name).resolve())
+    assert st.raw["floor"]["x"]["csv"] == "floors/fx.csv"  # the study itself unchanged
+    out = tmp_path / "run"
+    out.mkdir()
+    (out / "study_resolved.toml").write_text(study_toml(st))
+    monkeypatch.chdir(tmp_path)
+    back = load_study(out / "study_resolved.toml")
+    assert back.floor_axes.names == st.floor_axes.names
+
+
+def test_axis_floor_as_a_fraction_of_another():
+    """``[floor.x] scale = 0.3``: 30 % of the vertical floor's velocity (PSD x 0.09); with a
+    criterion, 30 % of that criterion's."""
+    from isodesign.floor import FloorSpectrum
+    from isodesign.optimization.study import study_from_dict
+
+    text = {"payload": {"mass_kg": 600.0, "isolators": 4, "spacing_m": 0.8,
+                        "cg_height_m": 0.35},
+            "table": {"isolators_m": [[-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4]],
+                      "cg_m": [0.0, 0.0, 0.35], "box_m": [1.5, 1.0, 0.7]},
+            "floor": {"criterion": "VC-A", "x": {"scale": 0.3},
+                      "y": {"scale": 0.5, "criterion": "VC-B"}}}
+    st = study_from_dict(text, source="s.toml")
+    fx, fy, fz = st.floor_axes.spectra
+    vcb = FloorSpectrum.from_criterion("VC-B")
+    f = np.array([2.0, 8.0, 50.0])
+    np.testing.assert_allclose(fx.psd_velocity(f), 0.09 * fz.psd_velocity(f), rtol=1e-12)
+    np.testing.assert_allclose(fy.psd_velocity(f), 0.25 * vcb.psd_velocity(f), rtol=1e-12)
+    assert st.floor_axes.names[0] == "0.3 x VC-A floor"
+    for bad, words in (({"scale": "0.3"}, "floor.x.scale"), ({"scale": 0}, "(0, 10]"),
+                       ({"scale": True}, "floor.x.scale"), ({"scale": 0.3, "colour": 1},
+                                                            "unknown key 'colour' in [floor.x]")):
+        t = {**text, "floor": {"criterion": "VC-A", "x": bad}}
+        with pytest.raises(InputError) as exc:
+            study_from_dict(t, source="s.toml")
+        assert words in str(exc.value)
