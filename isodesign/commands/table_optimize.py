@@ -136,7 +136,13 @@ def execute_table(study, run, args) -> int:
         The optimize command's options.
     """
     from isodesign.io.designfile import design_to_toml
-    from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
+    from isodesign.io.record import (
+        command_line,
+        constraint_rows,
+        environment,
+        resolved_study_dict,
+        study_toml,
+    )
     from isodesign.plotting.style import save_figure
     from isodesign.table.modes import rocking_stability
     from isodesign.table.optimize import optimize_table
@@ -161,7 +167,7 @@ def execute_table(study, run, args) -> int:
                        "recheck_margin_db": res.recheck_margin_db,
                        "violations": [[n, v] for n, v in res.violations],
                        "nlp_violations": [[n, v] for n, v in res.nlp_violations],
-                       "constraints": [c.display() for c in res.constraints],
+                       "constraints": constraint_rows(res),
                        "limited_by": res.limited_by if res.feasible else [],
                        "success": res.success, "verdict": res.verdict(),
                        "peak_refinement": _peak_record(res)})
@@ -206,7 +212,7 @@ def execute_table(study, run, args) -> int:
                                               "value": res.objective_value},
         "verdict": res.verdict(), "start_verdict": res.start_analysis.verdict(),
         "success": res.success, "violations": [[n, v] for n, v in res.violations],
-        "constraints": [c.display() for c in res.constraints],
+        "constraints": constraint_rows(res),
         "limited_by": res.limited_by, "limiting_summary": limiting_summary(res),
         "continuous_peak_db": (None if res.peak["peaks"] is None
                                else res.peak["peaks"].max_db),

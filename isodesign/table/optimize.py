@@ -216,7 +216,8 @@ class TableOptimizationResult(ResultDisplay):
 
     def constraint_lines(self) -> list[str]:
         """The constraint table, the binding sentence and the Hessian, as text lines."""
-        lines = ["constraints at the optimum (" + BINDING_NOTE + "):"]
+        where = "the optimum" if self.feasible else "the best point found (not a design)"
+        lines = [f"constraints at {where} (" + BINDING_NOTE + "):"]
         rows = constraint_table_rows(self)
         head = ["", "constraint", "value", "bound", "margin", "unit"]
         w = [max(len(r[i]) for r in [head, *rows]) for i in range(6)]

@@ -14,42 +14,6 @@ from isodesign.optimization.study import load_study, table_study
 from isodesign.table.model import table_model
 from isodesign.table.response import TableStatistical, table_band_response
 
-#: A held-out-like table: 1,000 kg on 5 isolators, CG off-centre, VC-B floor, VC-D target,
-#: a 15 dB peak bound (and a 20 L volume envelope, so that the peak bound binds).
-HELD_OUT_TOML = """
-name = "five"
-[payload]
-mass_kg = 1000.0
-isolators = 5
-spacing_m = 1.0
-cg_height_m = 0.4
-[table]
-isolators_m = [[-0.8, -0.5], [0.8, -0.5], [0.8, 0.5], [-0.8, 0.5], [0.0, 0.55]]
-cg_m = [0.12, -0.08, 0.4]
-box_m = [1.8, 1.2, 0.8]
-leveling_groups = [[1, 2], [3, 5], [4]]
-instrument_points_m = [[0.0, 0.0, 0.8], [0.7, 0.45, 0.8]]
-point_names = ["centre", "corner"]
-supply_pressure_pa = 801325.0
-[table.horizontal]
-pendulum_length_m = 0.15
-lateral_stiffness_n_per_m = 10000.0
-lateral_loss_factor = 0.25
-elastic_centre_height_m = 0.0
-[floor]
-criterion = "VC-B"
-[target]
-criterion = "VC-D"
-band_min_hz = 4.0
-band_max_hz = 80.0
-[constraints]
-max_peak_transmissibility_db = 15.0
-max_total_volume_m3 = 0.02
-[solver]
-starts = 2
-workers = 1
-"""
-
 
 def independent_peak_db(study, values, f_low_hz=0.05, f_high_hz=20.0, n=20001):
     """|T_p,aa| of a design on a dense log grid, its own way: the closure from the NumPy
@@ -106,11 +70,11 @@ def test_continuous_peaks_find_the_mode_below_the_grid():
     np.testing.assert_allclose(pk.peak_db, dense, atol=2e-3)
 
 
-def test_refinement_rows_are_the_numpy_transmissibility():
+def test_refinement_rows_are_the_numpy_transmissibility(held_out_toml):
     """The NLP's movable peak rows at a frequency are ln |T_p,aa|^2 of the NumPy model."""
     from isodesign.table.problem import TableProblem
 
-    st = load_study_text(HELD_OUT_TOML)
+    st = load_study_text(held_out_toml)
     prob = TableProblem(st, peak_slots=3)
     f_slots = [0.5, 0.73, 3.1]
     prob.set_slots(f_slots)
@@ -142,13 +106,13 @@ def load_study_text(text):
 
 
 @pytest.mark.slow
-def test_held_out_table_optimum_meets_its_continuous_peak():
+def test_held_out_table_optimum_meets_its_continuous_peak(held_out_toml):
     """The optimum's |T| from well below its lowest mode stays within the bound (dense grid,
     the NumPy band response's closure: not the optimizer's numbers); a PASS only when every
     constraint holds."""
     from isodesign.table.optimize import PEAK_VIOLATION, optimize_table
 
-    st = load_study_text(HELD_OUT_TOML)
+    st = load_study_text(held_out_toml)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = optimize_table(st)
