@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import sys
 
+import numpy as np
+
 from isodesign.optimization.explain import limiting_summary
 
 #: Files written by a table optimization (feasible run, plots on).
@@ -146,7 +148,9 @@ def execute_table(study, run, args) -> int:
     from isodesign.plotting.style import save_figure
     from isodesign.table.modes import rocking_stability
     from isodesign.table.optimize import optimize_table
+    from isodesign.table.peaks import continuous_peaks, peak_search_band
     from isodesign.table.plots import layout_figure
+    from isodesign.table.problem import PEAK_ROWS_MAX_HZ
 
     run.record.update({"kind": "isodesign optimize", "table": True,
                        "command_line": command_line(), "environment": environment(),
@@ -196,12 +200,20 @@ def execute_table(study, run, args) -> int:
         variables[v.name] = {"value": val, "lower": v.lower, "upper": v.upper,
                              "fixed": v.fixed, "at_bound": at}
     def derived(analysis, modes, values):
-        z = [f for f, n in zip(modes.frequency_hz, modes.names, strict=True) if n == "z"]
+        # the vertical mode: the one with the most kinetic energy in z (an off-centre CG
+        # couples it, so its name need not be "z")
+        j = int(np.nanargmax(np.where(np.isfinite(modes.frequency_hz),
+                                      modes.energy_fraction[:, 2], -1.0)))
+        fz = float(modes.frequency_hz[j])
+        pk = continuous_peaks(analysis.model, analysis.stroke_rms_m,
+                              analysis.tube_velocity_rms_m_s,
+                              *peak_search_band(modes, PEAK_ROWS_MAX_HZ))
         return {"worst_band_margin_db": analysis.worst_margin_db,
-                "natural_frequency_hz": z[0] if z else None,
+                "natural_frequency_hz": fz if np.isfinite(fz) else None,
                 "natural_frequencies_hz": dict(zip(modes.names,
                                                    map(float, modes.frequency_hz), strict=True)),
-                "peak_transmissibility_db": float(analysis.peak_transmissibility_db().max()),
+                "peak_transmissibility_db": pk.max_db,
+                "peak_frequency_hz": pk.worst()[3],
                 "tilt_margin": float(rocking_stability(analysis.model).margin[0]),
                 "total_volume_m3": values["top_volume_m3"] * (1 + values["volume_ratio"])}
 

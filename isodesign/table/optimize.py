@@ -11,10 +11,20 @@ then:
    damping bound and the frozen shapes or frequencies moved (shape correlation < 0.999 or
    frequency by > 0.1 %), the NLP is solved again from the optimum with the new modes (at
    most three rounds).
-2. **Re-check.** The NumPy closure (:func:`~isodesign.table.response.solve_table_closure`)
+2. **Continuous peak refinement.** The peak of ``|T_p,aa|`` of every point and axis is
+   measured between the NLP's frequencies, on a fine grid from half the lowest modal
+   frequency (:mod:`isodesign.table.peaks`); a peak above ``max_peak_transmissibility_db``
+   puts movable frequencies around it into the NLP, which is solved again (at most
+   :data:`~isodesign.table.problem.TABLE_PEAK_ROUNDS` rounds, the mode refresh repeated
+   after each). A peak still above the bound is a violation (:data:`PEAK_VIOLATION`): the
+   result is not a success and its verdict is no PASS.
+3. **Re-check.** The NumPy closure (:func:`~isodesign.table.response.solve_table_closure`)
    at the optimum on the NLP's grid must give the NLP's stroke RMS values to 1e-6 and its
    worst margin to 1e-6 dB, else :class:`~isodesign.errors.SolverError`.
-3. **Analysis.** The band response on the fine grid (50 points per band), the modes and
+4. **Constraint table.** The constraints at the returned design with margins and binding
+   flags (:mod:`isodesign.table.constraint_table`), for the sentence naming what stopped it
+   (:mod:`isodesign.optimization.explain`).
+5. **Analysis.** The band response on the fine grid (50 points per band), the modes and
    the rocking stability of the optimum and of the start.
 
 Derivatives: the gradient and the constraint Jacobian are exact (CasADi AD); the Hessian of

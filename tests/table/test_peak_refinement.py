@@ -68,6 +68,19 @@ def test_continuous_peaks_find_the_mode_below_the_grid():
     diag = np.abs(np.diagonal(model.outputs(ks, w).points, axis1=2, axis2=3))
     dense = 20 * np.log10(diag.max(axis=0))
     np.testing.assert_allclose(pk.peak_db, dense, atol=2e-3)
+    # docs/table.md, "The continuous peak of |T|": the numbers quoted (peak to 0.05 dB)
+    assert prob.grid.frequency_hz[0] == pytest.approx(0.891, abs=5e-4)
+    assert f_min == pytest.approx(0.798, abs=5e-3)
+    y = int(np.argmax(pk.peak_db[:, 1]))
+    assert pk.peak_db[y, 1] == pytest.approx(13.95, abs=0.05)
+    assert pk.frequency_hz[y, 1] == pytest.approx(0.794, abs=5e-3)
+    from isodesign.table.response import table_band_response as tbr
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = tbr(d, st.table, st.floor_axes, st.target, bands=st.bands,
+                  flow=st.models["flow"], diaphragm=st.models["diaphragm"], warn=False)
+    assert res.peak_transmissibility_db()[:, 1].max() == pytest.approx(10.28, abs=0.05)
 
 
 def test_refinement_rows_are_the_numpy_transmissibility(held_out_toml):
