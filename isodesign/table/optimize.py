@@ -421,6 +421,42 @@ def measure_peaks(prob, d, sigma, sigma_u, modes):
     return continuous_peaks(_model(prob.study, d), sigma, sigma_u, lo, hi)
 
 
+def add_peak_frequencies(prob, over, used) -> tuple:
+    """Place movable peak frequencies around the peaks above the bound.
+
+    Parameters
+    ----------
+    prob : TableProblem
+        Built again with movable frequencies (:meth:`~.problem.TableProblem.with_peak_slots`)
+        if it has none.
+    over : list of (float, float)
+        ``(excess dB, frequency Hz)`` of the peaks above the bound, worst first
+        (:meth:`~isodesign.table.peaks.TablePeaks.above`).
+    used : list of float
+        The frequencies placed so far (kept).
+
+    Returns
+    -------
+    (TableProblem, list of float)
+        The NLP with ``used`` and the new frequencies set, and the new frequencies: 0.995, 1
+        and 1.005 times each of at most three distinct peak frequencies (none when every
+        movable frequency is taken).
+    """
+    new: list[float] = []
+    for _, f in over:  # the worst peaks, three frequencies around each distinct one
+        if any(abs(f / g - 1) < 2e-3 for g in new[1::3]):
+            continue
+        new += [f * r for r in _PEAK_SHIFTS]
+        if len(new) >= PEAK_SLOTS_PER_ROUND:
+            break
+    if not prob.n_slots:  # the NLP with movable peak frequencies, built when needed
+        prob = prob.with_peak_slots()
+    new = new[: max(0, prob.n_slots - len(used))]
+    f0 = float(prob.grid.frequency_hz[0])
+    prob.set_slots(list(used) + new + [f0] * (prob.n_slots - len(used) - len(new)))
+    return prob, new
+
+
 def _refine(prob, study, best):
     """Mode refresh and continuous peak refinement of the multi-start's best solution.
 
@@ -460,17 +496,8 @@ def _refine(prob, study, best):
         peak["excess_db"] = pk.max_db - limit
         if not over or peak["rounds"] >= TABLE_PEAK_ROUNDS:
             break
-        new = []
-        for _, f in over:  # the worst peaks, three frequencies around each distinct one
-            if any(abs(f / g - 1) < 2e-3 for g in new[1::3]):
-                continue
-            new += [f * r for r in _PEAK_SHIFTS]
-            if len(new) >= PEAK_SLOTS_PER_ROUND:
-                break
-        if not prob.n_slots:  # the NLP with movable peak frequencies, built when needed
-            prob = prob.with_peak_slots()
+        prob, new = add_peak_frequencies(prob, over, slots)
         slots += new
-        prob.set_slots(slots + [float(prob.grid.frequency_hz[0])] * (prob.n_slots - len(slots)))
         peak["added_frequencies_hz"] += new
         peak["rounds"] += 1
         sol = prob.solve(best.x)
