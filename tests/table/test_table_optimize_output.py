@@ -81,3 +81,10 @@ def test_a_peak_left_above_its_bound_is_a_violation_and_exits_1(tmp_path, capsys
     assert design["continuous_peak_db"] > 15.01
     rec = json.loads((out / "record.json").read_text())
     assert rec["run_status"] == "infeasible"
+    # its report: one verdict, FAIL, naming the broken constraint
+    assert main(["report", str(out), "-o", str(tmp_path / "r.html")]) == 0
+    html = (tmp_path / "r.html").read_text(encoding="utf-8")
+    verdict = html.split('<section id="verdict">', 1)[1].split("<h3", 1)[0]
+    assert verdict.count('<div class="card') == 1
+    assert '<div class="word">FAIL</div>' in verdict
+    assert "Constraint broken:</strong> continuous_peak_transmissibility" in verdict
