@@ -13,6 +13,8 @@ import sys
 
 import numpy as np
 
+from isodesign.optimization.explain import limiting_summary
+
 #: Files written by a table optimization (feasible run, plots on).
 TABLE_OUTPUT_FILES = ("design.json", "design.toml", "bands.csv", "modes.csv", "starts.csv",
                       "record.json", "study_resolved.toml", "response.png", "layout.png")
@@ -64,24 +66,63 @@ def table_summary_text(result) -> str:
     for i, ax in enumerate(AXES):
         lines.append(f"  {'worst margin ' + ax + ' (dB)':<24}{a0.axis_margin_db()[i]:>+10.2f}"
                      f"{a1.axis_margin_db()[i]:>+10.2f}")
-    pk = a1.peak_transmissibility_db().max(axis=0)
-    lim = st.constraints.get("max_peak_transmissibility_db")
-    over = lim is not None and lim is not False and bool(np.any(pk > lim + 0.01))
-    lines.append("  peak |T| per axis on the analysis grid (every point): " + ", ".join(
-        f"{ax} {v:+.2f} dB" for ax, v in zip("xyz", pk, strict=True))
-        + ("" if lim in (None, False) else f" (limit {lim:g} dB"
-           + ("; ABOVE it between the NLP's grid points)" if over else ")")))
-    lines.append("  constraints (worst violation, NLP units): " + ", ".join(
-        f"{n} {v:.2g}" for n, v in result.constraints))
+    lines.append(peak_text(result))
     lines.append(f"  re-check: NumPy closure = NLP to {result.recheck_sigma_rel:.2g} (sigma), "
                  f"{result.recheck_margin_db:.2g} dB (worst margin); mode refreshes "
                  f"{result.mode_rounds}")
     lines.append("  modes of the optimum (springs at its closure):")
     lines.append(modes_text(result.modes))
     lines.append(stability_text(result.stability))
+    lines.append("")
+    lines += result.constraint_lines()
+    lines.append("")
     lines.append(f"start:   {a0.verdict()}")
-    lines.append(f"optimum: {a1.verdict()}")
+    lines.append(f"optimum: {result.verdict()}")
     lines += [f"  note: {n}" for n in a1.notes]
+    return "\n".join(lines)
+
+
+def peak_text(result) -> str:
+    """The continuous peak of |T| per axis, its search band and the refinement rounds."""
+    pk = result.peak or {}
+    tp = pk.get("peaks")
+    if tp is None:
+        return "  continuous peak of |T|: not measured"
+    lim = pk.get("limit_db")
+    text = ("  peak |T| per axis (every point, continuous from "
+            f"{tp.f_low_hz:.3g} Hz = half the lowest mode to {tp.f_high_hz:.3g} Hz): "
+            + ", ".join(f"{ax} {v:+.2f} dB" for ax, v in zip("xyz", tp.axis_peak_db(),
+                                                            strict=True)))
+    if lim is None:
+        return text + " (no limit)"
+    rounds = pk.get("rounds", 0)
+    text += (f" (limit {lim:g} dB; {rounds} refinement round(s)"
+             + (f", {len(pk['added_frequencies_hz'])} frequencies added to the NLP"
+                if rounds else "") + ")")
+    if pk.get("met") is False:
+        p, a, v, f = tp.worst()
+        text += (f"\n  WARNING: the continuous peak {v:.2f} dB ({p} {a}, {f:.3g} Hz) is above "
+                 f"its limit {lim:g} dB by {v - lim:.2f} dB between the NLP's grid points "
+                 "after the last refinement round: not a design that meets the study")
+    return text
+
+
+def failure_text(result) -> str:
+    """An infeasible table run: IPOPT's status, the violations and the best point found."""
+    v = result.values
+    lines = [f"table study {result.study.name!r}: NO FEASIBLE DESIGN",
+             f"  {len(result.starts)} starts, none feasible; IPOPT status of the best point "
+             f"found: {result.status}",
+             "  violated constraints (worst violation, NLP units: ln of the quantity, or "
+             "ln |T|^2):"]
+    lines += [f"    {n}: {a:.3g}" for n, a in result.violations]
+    lines.append(f"  best point found (not a design): N = {v['volume_ratio']:.4g}, V_t0 = "
+                 f"{v['top_volume_m3'] * 1e3:.4g} L, L_c = {v['capillary_length_m'] * 1e3:.4g}"
+                 f" mm, D_c = {v['capillary_diameter_m'] * 1e3:.4g} mm")
+    lines.append("")
+    lines += result.constraint_lines()
+    lines.append("  relax the violated constraints or widen the variables' bounds "
+                 "(docs/optimization.md, 'When no design is feasible')")
     return "\n".join(lines)
 
 
@@ -100,11 +141,19 @@ def execute_table(study, run, args, result=None) -> int:
         :func:`isodesign.optimize`.
     """
     from isodesign.io.designfile import design_to_toml
-    from isodesign.io.record import command_line, environment, resolved_study_dict, study_toml
+    from isodesign.io.record import (
+        command_line,
+        constraint_rows,
+        environment,
+        resolved_study_dict,
+        study_toml,
+    )
     from isodesign.optimization.dispatch import optimize
     from isodesign.plotting.style import save_figure
     from isodesign.table.modes import rocking_stability
+    from isodesign.table.peaks import continuous_peaks, peak_search_band
     from isodesign.table.plots import layout_figure
+    from isodesign.table.problem import PEAK_ROWS_MAX_HZ
 
     run.record.update({"kind": "isodesign optimize", "table": True,
                        "command_line": command_line(), "environment": environment(),
@@ -123,15 +172,23 @@ def execute_table(study, run, args, result=None) -> int:
                        "recheck_max_rel_diff": res.recheck_sigma_rel,
                        "recheck_sigma_rel": res.recheck_sigma_rel,
                        "recheck_margin_db": res.recheck_margin_db,
-                       "violations": [[n, v] for n, v in res.constraints]})
+                       "violations": [[n, v] for n, v in res.violations],
+                       "nlp_violations": [[n, v] for n, v in res.nlp_violations],
+                       "constraints": constraint_rows(res),
+                       "limited_by": res.limited_by if res.feasible else [],
+                       "success": res.success, "verdict": res.verdict(),
+                       "peak_refinement": _peak_record(res)})
     run.write_csv("starts.csv", _starts_frame(res))
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign optimize run (a table study).\n"
         f"Replay: isodesign optimize {run.final_path('study_resolved.toml')} -o NEWDIR")))
     if not res.feasible:
         run.status = "infeasible"
+        print(failure_text(res))
+        sys.stdout.flush()
         print(f"isodesign: error: no feasible design ({res.status}); violations: "
-              + ", ".join(f"{n} ({v:.3g})" for n, v in res.constraints if v > 1e-6),
+              + ", ".join(f"{n} ({v:.3g})" for n, v in res.violations)
+              + f"; wrote {run.final_path('record.json')} (run_status infeasible)",
               file=sys.stderr)
         return 1
     models = resolved_study_dict(study).get("models")
@@ -146,10 +203,20 @@ def execute_table(study, run, args, result=None) -> int:
         variables[v.name] = {"value": val, "lower": v.lower, "upper": v.upper,
                              "fixed": v.fixed, "at_bound": at}
     def derived(analysis, modes, values):
-        z = [f for f, n in zip(modes.frequency_hz, modes.names, strict=True) if n == "z"]
+        # the vertical mode: the one with the most kinetic energy in z (an off-centre CG
+        # couples it, so its name need not be "z")
+        j = int(np.nanargmax(np.where(np.isfinite(modes.frequency_hz),
+                                      modes.energy_fraction[:, 2], -1.0)))
+        fz = float(modes.frequency_hz[j])
+        pk = continuous_peaks(analysis.model, analysis.stroke_rms_m,
+                              analysis.tube_velocity_rms_m_s,
+                              *peak_search_band(modes, PEAK_ROWS_MAX_HZ))
         return {"worst_band_margin_db": analysis.worst_margin_db,
-                "natural_frequency_hz": z[0] if z else None,
-                "peak_transmissibility_db": float(analysis.peak_transmissibility_db().max()),
+                "natural_frequency_hz": fz if np.isfinite(fz) else None,
+                "natural_frequencies_hz": dict(zip(modes.names,
+                                                   map(float, modes.frequency_hz), strict=True)),
+                "peak_transmissibility_db": pk.max_db,
+                "peak_frequency_hz": pk.worst()[3],
                 "tilt_margin": float(rocking_stability(analysis.model).margin[0]),
                 "total_volume_m3": values["top_volume_m3"] * (1 + values["volume_ratio"])}
 
@@ -158,7 +225,13 @@ def execute_table(study, run, args, result=None) -> int:
         "start_derived": derived(res.start_analysis, res.start_modes, start),
         "variables": variables, "objective": {"kind": res.objective,
                                               "value": res.objective_value},
-        "verdict": res.analysis.verdict(), "start_verdict": res.start_analysis.verdict(),
+        "verdict": res.verdict(), "start_verdict": res.start_analysis.verdict(),
+        "success": res.success, "violations": [[n, v] for n, v in res.violations],
+        "constraints": constraint_rows(res),
+        "limited_by": res.limited_by, "limiting_summary": limiting_summary(res),
+        "continuous_peak_db": (None if res.peak["peaks"] is None
+                               else res.peak["peaks"].max_db),
+        "hessian": res.hessian,
         "worst_margin_per_axis_db": dict(zip("xyz", res.analysis.axis_margin_db().tolist(),
                                              strict=True)),
         "rocking_margin": res.stability.margin.tolist(),
@@ -174,8 +247,25 @@ def execute_table(study, run, args, result=None) -> int:
             save_figure(layout_figure(study.table, res.analysis.model.leveling), tmp)
     if args.quiet:
         print(f"{study.name}: worst margin {res.objective_value:+.2f} dB (NLP grid); "
-              f"{res.analysis.verdict()}")
+              f"{res.verdict()}")
     else:
         print(table_summary_text(res))
         print(f"wrote {run.target}")
+    if res.violations:  # a design that breaks a constraint is not a success
+        run.status = "infeasible"
+        sys.stdout.flush()
+        print("isodesign: error: the design breaks a constraint: " + ", ".join(
+            f"{n} ({v:.3g})" for n, v in res.violations)
+            + f"; wrote {run.final_path('record.json')} (run_status infeasible)",
+            file=sys.stderr)
+        return 1
     return 0
+
+
+def _peak_record(res) -> dict:
+    pk = dict(res.peak or {})
+    tp = pk.pop("peaks", None)
+    if tp is not None:
+        pk.update(search_band_hz=[tp.f_low_hz, tp.f_high_hz], peak_db=tp.max_db,
+                  per_point_axis=tp.to_frame().to_dict("records"))
+    return pk

@@ -41,7 +41,12 @@ from isodesign.reporting.analysis import (
 )
 from isodesign.reporting.inputs import Case
 from isodesign.reporting.robustness import robustness_section
-from isodesign.reporting.table_section import table_section
+from isodesign.reporting.table_section import (
+    table_design_rows,
+    table_job_rows,
+    table_section,
+    table_verdict,
+)
 from isodesign.response.random_input import band_response
 
 __all__ = ["SECTIONS", "build_context"]
@@ -100,7 +105,7 @@ def _outside_note(a: CaseAnalysis) -> str:
             f"where |T| amplifies the floor")
 
 
-def _job(c: Case, a: CaseAnalysis) -> dict:
+def _job(c: Case, a: CaseAnalysis, t: dict | None = None) -> dict:
     st = c.study
     p = st.payload
     floor, target = st.floor, st.target
@@ -122,6 +127,8 @@ def _job(c: Case, a: CaseAnalysis) -> dict:
                          f"{len(a.all_bands.bands)} shown)"),
         ("job from", c.job_source),
     ]
+    if t is not None:  # the table's own job, not the [payload] it reduces to
+        rows[:2] = table_job_rows(c, t)
     sc = a.judged.scope
     if getattr(st, "table", None) is not None:  # docs/table.md
         t = st.table
@@ -266,7 +273,7 @@ def _harmonic_rows(cases: list[CaseAnalysis]) -> list[list[str]]:
     return rows
 
 
-def _optimization(a: CaseAnalysis) -> dict | None:
+def _optimization(a: CaseAnalysis, t: dict | None = None) -> dict | None:
     c = a.case
     rec = c.record
     if c.kind != "optimize" or rec is None:
@@ -323,7 +330,8 @@ def _optimization(a: CaseAnalysis) -> dict | None:
         }
     starts = rec.get("starts", [])
     return {
-        "svg": _start_vs_optimum_svg(a),
+        "svg": t["optimization_svg"] if t and t.get("optimization_svg") else
+        _start_vs_optimum_svg(a),
         "label": c.label,
         "objective": f"{sense} {name}: start {_f(rec.get('start_objective_value'), ofmt, sc)} "
                      f"{unit}, optimum {_f(rec.get('objective_value'), ofmt, sc)} {unit} (on the "
@@ -498,7 +506,15 @@ def build_context(analyses: list[CaseAnalysis], *, command=None, title=None) -> 
     dict
     """
     cases = analyses
-    jobs = [_job(a.case, a) for a in cases]
+    tsec = [table_section(a.case) for a in cases]  # None for a case without a table
+    jobs = [_job(a.case, a, t) for a, t in zip(cases, tsec, strict=True)]
+    design_rows = _design_rows(cases)
+    for j, t in enumerate(tsec):  # a table: p0 per valve, the six modes' frequencies
+        if t is not None:
+            cells = table_design_rows(t)
+            for r in design_rows:
+                if r[0] in cells:
+                    r[j + 1] = cells[r[0]]
     same_job = all(j["rows"][:8] == jobs[0]["rows"][:8] for j in jobs)
     designs = [a.case.label for a in cases]
     if title is None:
@@ -508,11 +524,12 @@ def build_context(analyses: list[CaseAnalysis], *, command=None, title=None) -> 
         "title": title,
         "comparison": len(cases) > 1,
         "labels": designs,
-        "verdicts": [_verdict(a) for a in cases],
+        "verdicts": [table_verdict(a.case, t) if t is not None else _verdict(a)
+                     for a, t in zip(cases, tsec, strict=True)],
         "jobs": jobs if not same_job else jobs[:1],
         "same_job": same_job,
         "design_head": ["", *designs],
-        "design_rows": _design_rows(cases),
+        "design_rows": design_rows,
         "models": [{"label": a.case.label, "source": a.case.models_source,
                     "rows": model_caveats(a.case.models,
                                          getattr(a.case.design, "acoustics", None)),
@@ -521,9 +538,10 @@ def build_context(analyses: list[CaseAnalysis], *, command=None, title=None) -> 
         "band_table": _band_table(cases),
         "harmonic_rows": _harmonic_rows(cases),
         "stability_rows": _stability_rows(cases),
-        "optimizations": [o for o in (_optimization(a) for a in cases) if o],
+        "optimizations": [o for o in (_optimization(a, t) for a, t in
+                                      zip(cases, tsec, strict=True)) if o],
         "robustness": [r for r in (robustness_section(a.case) for a in cases) if r],
-        "tables": [t for t in (table_section(a.case) for a in cases) if t],
+        "tables": [t for t in tsec if t],
         "paretos": [p for p in (_pareto(a) for a in cases) if p],
         "flags": _flags(cases),
         "figures": _figures(cases),

@@ -8,7 +8,7 @@ import numpy as np
 
 from isodesign.plotting.style import figure_svg
 
-__all__ = ["table_section"]
+__all__ = ["table_design_rows", "table_job_rows", "table_section", "table_verdict"]
 
 _AXES = ("x", "y", "z")
 
@@ -32,12 +32,13 @@ def table_section(case) -> dict | None:
     if getattr(st, "table", None) is None:
         return None
     from isodesign.table.modes import rocking_stability, table_modes
-    from isodesign.table.optimize import closure_springs
+    from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
     from isodesign.table.plots import (
         layout_figure,
         table_bands_figure,
         table_transmissibility_figure,
     )
+    from isodesign.table.problem import PEAK_ROWS_MAX_HZ
     from isodesign.table.response import table_band_response
 
     m = case.models
@@ -74,7 +75,23 @@ def table_section(case) -> dict | None:
                  f"{lev.pressure_pa[i] / 1e5:.4g}", f"{res.stroke_rms_m[i] * 1e6:.3g}"]
                 for i in range(lev.load_n.size)]
     p, a, b, w = res.worst
+    opt_svg = _start_vs_optimum_svg(case, res)
+    peaks = continuous_peaks(model, res.stroke_rms_m, res.tube_velocity_rms_m_s,
+                             *peak_search_band(modes, PEAK_ROWS_MAX_HZ))
+    lim = st.constraints.get("max_peak_transmissibility_db")
+    peak_line = (f"Peak |T| per axis over every point, continuous from {peaks.f_low_hz:.3g} Hz "
+                 f"(half the lowest mode) to {peaks.f_high_hz:.3g} Hz: " + ", ".join(
+                     f"{ax} {peaks.peak_db[:, i].max():+.2f} dB at "
+                     f"{peaks.frequency_hz[int(np.argmax(peaks.peak_db[:, i])), i]:.3g} Hz"
+                     for i, ax in enumerate(_AXES))
+                 + ("" if lim is None or lim is False else
+                    f"; limit {lim:g} dB" + (" (ABOVE it)" if peaks.max_db > lim + 0.01
+                                             else "")))
     return {
+        "response": res,
+        "modes": modes,
+        "optimization_svg": opt_svg,
+        "peak_line": peak_line,
         "label": case.label,
         "passes": res.passes,
         "verdict": res.verdict(),
@@ -91,3 +108,154 @@ def table_section(case) -> dict | None:
         "stability_rows": stab_rows,
         "leveling_rows": lev_rows,
     }
+
+
+def _fmt_xy(v) -> str:
+    return "(" + ", ".join(f"{x:g}" for x in v) + ")"
+
+
+def table_job_rows(case, t: dict) -> list[tuple[str, str]]:
+    """The job of a table case: the table, its layout, loads and p0 per isolator and group.
+
+    Parameters
+    ----------
+    case : Case
+    t : dict
+        :func:`table_section` of the case.
+
+    Returns
+    -------
+    list of (str, str)
+        Rows replacing the ``[payload]`` rows of the report's job section.
+    """
+    tab = case.study.table
+    lev = t["response"].model.leveling
+    inert = np.asarray(tab.inertia_kg_m2, float)
+    off = [inert[0, 1], inert[0, 2], inert[1, 2]]
+    inertia = (f"Ixx {inert[0, 0]:.4g}, Iyy {inert[1, 1]:.4g}, Izz {inert[2, 2]:.4g} kg m^2 "
+               "about the CG" + ("" if not np.any(off) else
+                                 f" (products Ixy {off[0]:.4g}, Ixz {off[1]:.4g}, Iyz "
+                                 f"{off[2]:.4g})"))
+    groups = []
+    for g, members in enumerate(tab.leveling_groups):
+        members = list(members)
+        groups.append(f"valve {g + 1}: isolator(s) {', '.join(str(i + 1) for i in members)}, "
+                      f"p0 {lev.group_pressure_pa[g] / 1e5:.4g} bar abs, load "
+                      + ", ".join(f"{lev.load_n[i]:.1f}" for i in members) + " N")
+    per = "; ".join(f"{i + 1}: {lev.load_n[i]:.1f} N, {lev.pressure_pa[i] / 1e5:.4g} bar"
+                    for i in range(lev.load_n.size))
+    pts = "; ".join(f"{n} {_fmt_xy(x)} m" for n, x in zip(tab.point_names,
+                                                        tab.instrument_points_m, strict=True))
+    h = tab.horizontal
+    return [
+        ("table", f"{tab.mass_kg:g} kg on {tab.n_isolators} isolators; centre of gravity "
+                  f"{_fmt_xy(tab.cg_m)} m (x, y from the isolators' origin, z above their "
+                  f"support plane); {inertia}"),
+        ("layout", "isolators at (x, y) m: " + "; ".join(
+            f"{i + 1}: {_fmt_xy(xy)}" for i, xy in enumerate(tab.isolators_m))),
+        ("leveling groups", "; ".join(groups) + f" (supply {tab.supply_pressure_pa / 1e5:.4g}"
+                                                " bar abs)"),
+        ("load and p0 per isolator", per),
+        ("instrument points", pts),
+        ("horizontal element", f"pendulum {h.pendulum_length_m:g} m, lateral stiffness "
+                               f"{h.lateral_stiffness_n_per_m:g} N/m, loss factor "
+                               f"{h.lateral_loss_factor:g}"),
+    ]
+
+
+def table_verdict(case, t: dict) -> dict:
+    """The report's one verdict card of a table case: over every point, axis and band, and
+    the run's constraints (a design that breaks one is a FAIL, whatever its margins).
+
+    Parameters
+    ----------
+    case : Case
+    t : dict
+        :func:`table_section` of the case.
+
+    Returns
+    -------
+    dict
+        The template's verdict card (``table`` True).
+    """
+    res = t["response"]
+    rec = case.record or {}
+    broken = [(n, v) for n, v in rec.get("violations") or []] \
+        if rec.get("table") and rec.get("feasible") else []
+    p, a, b, w = res.worst
+    passes = bool(res.passes and not broken)
+    line = res.verdict()
+    if broken:
+        line = ("constraint broken: " + ", ".join(f"{n} ({v:.3g})" for n, v in broken)
+                + "; bands: " + line)
+    m = res.margin_db
+    return {"label": case.label, "passes": passes, "word": "PASS" if passes else "FAIL",
+            "table": True, "line": line, "worst_band": f"{p} {a} {b}",
+            "worst_margin": f"{w:+.2f} dB", "failing": int(np.sum(m < 0)), "bands": m.size,
+            "target": res.target_name, "axis_margins": t["axis_margins"], "outside": "",
+            "scope": "a rigid table in six degrees of freedom, floor in x, y and z, every "
+                     "instrument point", "invalid": "", "broken": broken}
+
+
+def table_design_rows(t: dict) -> dict:
+    """Design-table cells of a table case that replace the payload's.
+
+    Parameters
+    ----------
+    t : dict
+        :func:`table_section` of the case.
+
+    Returns
+    -------
+    dict
+        Row name -> cell: p0 (absolute and gauge) per leveling valve and the six modes'
+        frequencies with their names.
+    """
+    lev = t["response"].model.leveling
+    modes = t["modes"]
+    freqs = ", ".join(("unstable" if np.isnan(f) else f"{f:.3g}") + f" ({n})"
+                      for f, n in zip(modes.frequency_hz, modes.names, strict=True))
+    return {
+        "p0 absolute (bar)": " / ".join(f"{p / 1e5:.4g}" for p in lev.group_pressure_pa)
+                             + " (per valve)",
+        "p0 gauge (bar)": " / ".join(f"{(p - 101325.0) / 1e5:.4g}"
+                                     for p in lev.group_pressure_pa) + " (per valve)",
+        "natural frequency f_n (Hz)": freqs,
+    }
+
+
+def _start_vs_optimum_svg(case, res) -> str | None:
+    """An optimize run's start against its optimum, per axis (worst over the points): the
+    panel titles give the same margins as the table's band table."""
+    rec = case.record
+    if case.kind != "optimize" or not rec or "start_design" not in rec:
+        return None
+    from isodesign.plotting.style import band_axis, new_figure
+    from isodesign.table.response import table_band_response
+
+    st = case.study
+    m = case.models
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        start = table_band_response(st.design_at(rec["start_design"]), st.table, st.floor_axes,
+                                    st.target, bands=st.bands, flow=m["flow"],
+                                    amplitude_mode=m["amplitude_mode"],
+                                    diaphragm=m["diaphragm"], warn=False)  # fmt: skip
+    fig = new_figure(11.0, 3.6)
+    axes = fig.subplots(1, 3, sharey=True)
+    x = np.asarray(res.bands.centre_hz, float)
+    for a, ax in enumerate(axes):
+        band_axis(ax, res.bands)
+        lim = res.limit_velocity_rms_m_s * 1e6
+        ax.plot(x, lim, color="k", ls="--", lw=1.2, label=res.target_name)
+        worst_s = start.velocity_rms_m_s[:, a].max(axis=0) * 1e6
+        worst_o = res.velocity_rms_m_s[:, a].max(axis=0) * 1e6
+        ax.plot(x, worst_s, color="#c0392b", ls="--", marker="o", ms=3, label="start")
+        ax.plot(x, worst_o, color="#1f5fa8", marker="o", ms=3, label="optimum")
+        ax.set_yscale("log")
+        ax.set_title(f"{_AXES[a]} axis: start {start.margin_db[:, a].min():+.1f} dB, optimum "
+                     f"{res.margin_db[:, a].min():+.1f} dB", fontsize=10)
+        ax.grid(True, which="major", lw=0.4, alpha=0.6)
+    axes[0].set_ylabel("band RMS velocity, worst point (um/s)")
+    axes[0].legend(fontsize=7, loc="lower left")
+    return figure_svg(fig)

@@ -11,10 +11,20 @@ then:
    damping bound and the frozen shapes or frequencies moved (shape correlation < 0.999 or
    frequency by > 0.1 %), the NLP is solved again from the optimum with the new modes (at
    most three rounds).
-2. **Re-check.** The NumPy closure (:func:`~isodesign.table.response.solve_table_closure`)
+2. **Continuous peak refinement.** The peak of ``|T_p,aa|`` of every point and axis is
+   measured between the NLP's frequencies, on a fine grid from half the lowest modal
+   frequency (:mod:`isodesign.table.peaks`); a peak above ``max_peak_transmissibility_db``
+   puts movable frequencies around it into the NLP, which is solved again (at most
+   :data:`~isodesign.table.problem.TABLE_PEAK_ROUNDS` rounds, the mode refresh repeated
+   after each). A peak still above the bound is a violation (:data:`PEAK_VIOLATION`): the
+   result is not a success and its verdict is no PASS.
+3. **Re-check.** The NumPy closure (:func:`~isodesign.table.response.solve_table_closure`)
    at the optimum on the NLP's grid must give the NLP's stroke RMS values to 1e-6 and its
    worst margin to 1e-6 dB, else :class:`~isodesign.errors.SolverError`.
-3. **Analysis.** The band response on the fine grid (50 points per band), the modes and
+4. **Constraint table.** The constraints at the returned design with margins and binding
+   flags (:mod:`isodesign.table.constraint_table`), for the sentence naming what stopped it
+   (:mod:`isodesign.optimization.explain`).
+5. **Analysis.** The band response on the fine grid (50 points per band), the modes and
    the rocking stability of the optimum and of the start.
 
 Derivatives: the gradient and the constraint Jacobian are exact (CasADi AD); the Hessian of
@@ -33,44 +43,33 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.explain import (
+    BINDING_NOTE,
+    constraint_table_rows,
+    limiting_factors,
+    limiting_summary,
+)
 from isodesign.optimization.multistart import run_starts, start_points
-from isodesign.response.linearization import equivalent_amplitude
+from isodesign.optimization.refine import PEAK_TOLERANCE_DB
 from isodesign.results import ResultDisplay
-from isodesign.spring.capillary import statistical_resistance_function
-from isodesign.spring.equations import air_stiffness, spring_stiffness
+from isodesign.table.constraint_table import CONTINUOUS_PEAK, table_constraint_reports
+from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
+from isodesign.table.problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
 
-__all__ = ["HESSIAN", "TableOptimizationResult", "closure_springs", "optimize_table"]
+__all__ = ["HESSIAN", "PEAK_VIOLATION", "TableOptimizationResult", "closure_springs",
+           "measure_peaks", "optimize_table"]
 
 #: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``).
 HESSIAN = "limited-memory"
 #: Agreement required of the NumPy re-check (relative on sigma, dB on the margin).
 RECHECK_TOL = 1e-6
 _MODE_ROUNDS = 3
-
-
-def closure_springs(model, sigma, sigma_u):
-    """``omega -> [Cx]``: each isolator's vertical spring linearized at a closure state.
-
-    Parameters
-    ----------
-    model : TableModel
-    sigma, sigma_u : ndarray (n,)
-        Stroke and tube-velocity RMS per isolator.
-    """
-    from isodesign.spring.diaphragm import diaphragm_model
-
-    dia = diaphragm_model(model.diaphragm)
-
-    def springs(omega):
-        w = np.asarray(omega, float)
-        out = []
-        for i, d in enumerate(model.designs):
-            c = statistical_resistance_function(model.flow, d, w)(float(sigma_u[i]))
-            out.append(spring_stiffness(air_stiffness(d, w, c, model.flow),
-                                        dia.stiffness(w, equivalent_amplitude(float(sigma[i])))))
-        return out
-
-    return springs
+#: Name of the violation a result carries when its continuous peak of |T| stays above
+#: ``constraints.max_peak_transmissibility_db`` after the last refinement round (the
+#: vertical optimizer's :data:`isodesign.optimization.driver.PEAK_VIOLATION`).
+PEAK_VIOLATION = CONTINUOUS_PEAK
+#: Refinement frequencies placed around each peak above the bound (relative).
+_PEAK_SHIFTS = (0.995, 1.0, 1.005)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -93,8 +92,21 @@ class TableOptimizationResult(ResultDisplay):
     starts : tuple
         ``(index, status, feasible, iterations, wall_s, objective)`` per start.
     n_reached_best : int
-    constraints : tuple
-        ``(name, worst violation)`` per constraint group at the optimum.
+    constraints : tuple of ConstraintReport
+        The constraint table at the returned design: value, bounds, margin and binding flag
+        of each constraint (:func:`~isodesign.table.constraint_table.table_constraint_reports`).
+    nlp_violations : tuple
+        ``(name, worst violation)`` per NLP constraint group (NLP units).
+    violations : tuple
+        ``(name, amount)`` of every constraint the returned design breaks: for an infeasible
+        run the NLP's violated groups; for a feasible one the continuous peak of |T| above
+        its limit after the last refinement round (:data:`PEAK_VIOLATION`, dB) and the exact
+        modes' damping or rocking-frequency misses. A result with violations is not a
+        :attr:`success` and its :meth:`verdict` is never PASS.
+    peak : dict
+        The continuous peak refinement's record: ``rounds``, ``added_frequencies_hz``,
+        ``limit_db``, ``met``, ``excess_db``, ``peaks`` (:class:`TablePeaks` of the returned
+        design, from below its lowest mode), ``resolve_failed``.
     mode_rounds : int
         NLP solves after the first (mode refreshes).
     recheck_sigma_rel, recheck_margin_db : float
@@ -129,16 +141,82 @@ class TableOptimizationResult(ResultDisplay):
     stability: Any = None
     wall_s: float = 0.0
     hessian: str = HESSIAN
+    nlp_violations: tuple = ()
+    violations: tuple = ()
+    peak: Any = None
+
+    @property
+    def success(self) -> bool:
+        """True for a feasible, re-checked optimum that breaks no constraint."""
+        return bool(self.feasible and not self.violations)
 
     def raise_for_status(self) -> TableOptimizationResult:
-        """Raise :class:`~isodesign.errors.SolverError` unless feasible; return self."""
-        if not self.feasible:
-            raise SolverError(f"table optimization: no feasible design (IPOPT: {self.status}); "
-                              f"violations: {self.constraints}")
+        """Raise :class:`~isodesign.errors.SolverError` unless a success; return self."""
+        if not self.success:
+            what = ("no feasible design" if not self.feasible
+                    else "the design breaks a constraint")
+            raise SolverError(f"table optimization: {what} (IPOPT: {self.status}); "
+                              f"violations: " + ", ".join(f"{n} ({v:.3g})"
+                                                          for n, v in self.violations))
         return self
 
+    def verdict(self) -> str:
+        """One line over every point, axis and band, and every constraint.
+
+        PASS only for a :attr:`success` whose band analysis passes; a design that breaks a
+        constraint is a FAIL naming it, whatever its band margins.
+        """
+        if not self.feasible:
+            return (f"INFEASIBLE: no design meets the constraints (IPOPT: {self.status}); "
+                    "violations: " + ", ".join(f"{n} ({v:.3g})" for n, v in self.violations))
+        band = self.analysis.verdict() if self.analysis is not None else \
+            f"worst margin {self.objective_value:+.2f} dB on the NLP's grid"
+        if not self.violations:
+            return band
+        broken = ", ".join(f"{n} ({v:.3g}{' dB' if n == PEAK_VIOLATION else ''})"
+                           for n, v in self.violations)
+        return f"FAIL: constraint broken: {broken}; bands: {band}"
+
+    @property
+    def limited_by(self) -> list[str]:
+        """Sentences naming the limits that stopped the design
+        (:func:`~isodesign.optimization.explain.limiting_factors`)."""
+        return limiting_factors(self)
+
+    def constraints_frame(self):
+        """One row per constraint: value, bounds, margin, unit, binding, description (the
+        command line's units: L, mm)."""
+        import pandas as pd
+
+        return pd.DataFrame([c.display() for c in self.constraints],
+                            columns=["name", "value", "lower", "upper", "margin", "unit",
+                                     "binding", "description"])
+
+    def starts_frame(self):
+        """One row per start: status, feasible, iterations, wall time, NLP objective."""
+        import pandas as pd
+
+        return pd.DataFrame(list(self.starts), columns=["start", "status", "feasible",
+                                                        "iterations", "wall_s", "objective_nlp"])
+
     def to_frame(self):
-        """One row per design variable: start and optimum."""
+        """Design variables (start and optimum), then the constraints (value, margin, binding).
+
+        SI units (``unit`` column); a constraint's ``note`` gives its margin and ``BINDING``
+        when it is within 0.5 % of its bound (0.022 dB for a peak).
+        """
+        import pandas as pd
+
+        start = {v.name: v.start for v in self.study.variables}
+        rows = [{"quantity": k, "start": start[k], "optimum": v, "unit": "", "note": ""}
+                for k, v in self.values.items()]
+        for c in self.constraints:
+            rows.append({"quantity": f"constraint: {c.name}", "start": None, "optimum": c.value,
+                         "unit": c.unit, "note": ("BINDING " if c.active else "")
+                         + f"margin {c.margin_natural:.3g} {c.unit}"})
+        return pd.DataFrame(rows)
+
+    def _display_frame(self):
         import pandas as pd
 
         start = {v.name: v.start for v in self.study.variables}
@@ -146,13 +224,38 @@ class TableOptimizationResult(ResultDisplay):
                              "start": [start[k] for k in self.values],
                              "optimum": list(self.values.values())})  # fmt: skip
 
+    def constraint_lines(self) -> list[str]:
+        """The constraint table, the binding sentence and the Hessian, as text lines."""
+        where = "the optimum" if self.feasible else "the best point found (not a design)"
+        lines = [f"constraints at {where} (" + BINDING_NOTE + "):"]
+        rows = constraint_table_rows(self)
+        head = ["", "constraint", "value", "bound", "margin", "unit"]
+        w = [max(len(r[i]) for r in [head, *rows]) for i in range(6)]
+        for r in [head, *rows]:
+            lines.append("  " + "  ".join(f"{r[i]:{'>' if i in (2, 4) else '<'}{w[i]}}"
+                                          for i in range(6)).rstrip())
+        if self.feasible:
+            lines += ["", limiting_summary(self) + ":"]
+            lines += [f"  - {t}" for t in self.limited_by]
+        lines.append(f"Hessian: {self.hessian} (IPOPT's quasi-Newton approximation of the "
+                     "Lagrangian's; gradient and Jacobian exact)" if self.hessian !=
+                     "exact" else "Hessian: exact (CasADi)")
+        return lines
+
+    def __str__(self) -> str:
+        return super().__str__() + "\n\n" + "\n".join(self.constraint_lines())
+
     def _summary_items(self) -> list[tuple[str, str]]:
-        items = [("", "feasible" if self.feasible else "INFEASIBLE"),
+        items = [("", "feasible" if self.feasible else "INFEASIBLE (best point found)"),
+                 ("verdict", self.verdict()),
                  ("objective", f"{self.objective} {self.objective_value:.4g}"),
+                 ("binding", ", ".join(c.name for c in self.constraints if c.active) or "none"),
                  ("starts at best", f"{self.n_reached_best} of {len(self.starts)}"),
+                 ("Hessian", self.hessian),
                  ("wall", f"{self.wall_s:.3g} s")]
-        if self.analysis is not None:
-            items.append(("analysis", self.analysis.verdict()))
+        if self.violations:
+            items.insert(2, ("violations", ", ".join(f"{n} {v:.3g}"
+                                                     for n, v in self.violations)))
         return items
 
 
@@ -209,28 +312,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     best = min(good.values(), key=lambda s: s.objective) if good else \
         min(cand, key=lambda s: s.max_violation)
     n_best = sum(1 for s in good.values() if abs(s.objective - best.objective) <= 1e-4)
-    rounds = 0
-    modes = None
-    zmin = study.constraints.get("min_damping_ratio") or 0.0
-    while best.feasible and rounds < _MODE_ROUNDS:
-        modes = _modes_at(prob, study.design_at(best.values), prob.sigma(best.x),
-                          prob.tube_rms(best.x))
-        low = np.isfinite(modes.frequency_hz) & (modes.frequency_hz < 5.0)
-        rock = modes.energy_fraction[:, 3:5].sum(axis=1) >= 0.3
-        f_lo = study.constraints.get("min_rocking_frequency_hz") or 0.0
-        f_hi = study.constraints.get("max_rocking_frequency_hz") or np.inf
-        fr = modes.frequency_hz[rock]
-        missed = (np.any(modes.damping_ratio[low] < zmin)
-                  or np.any(fr < f_lo * (1 - 1e-3)) or np.any(fr > f_hi * (1 + 1e-3)))
-        if not missed or not _modes_moved(prob, modes):
-            break  # the exact modes meet the bounds (or the frozen ones are the exact ones)
-        prob.set_modes(modes)
-        sol = prob.solve(best.x)
-        rounds += 1
-        if not sol.feasible:
-            best = sol
-            break
-        best = sol
+    prob, best, modes, rounds, peak = _refine(prob, study, best)
     d = study.design_at(best.values)
     sig_rel = margin_db = math.nan
     if best.feasible:
@@ -252,18 +334,178 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     except SolverError:
         pass
     analysis = start_analysis = stab = None
+    nlp_modes = modes
     if analyze:
         analysis, modes, stab = _analyze(study, d)
         start_analysis, modes0, _ = _analyze(study, d0)
+        if best.feasible:  # the continuous peak at the analysis' closure too: the larger
+            pk = measure_peaks(prob, d, analysis.stroke_rms_m, analysis.tube_velocity_rms_m_s,
+                               modes)
+            if peak["peaks"] is None or pk.max_db > peak["peaks"].max_db:
+                peak["peaks"] = pk
+    else:
+        from isodesign.table.modes import rocking_stability
+
+        stab = rocking_stability(_model(study, d))
+    violations = _violations(study, prob, best, nlp_modes, peak)
+    reports = table_constraint_reports(prob, best.g, modes=nlp_modes, stability=stab,
+                                       peaks=peak["peaks"])
     return TableOptimizationResult(
         study=study, feasible=bool(best.feasible), status=best.status, values=best.values,
         design=d, objective=prob.objective,
         objective_value=_natural(prob, best.x, best.objective), start_objective=j0,
-        starts=tuple(recs), n_reached_best=n_best, constraints=best.violations,
+        starts=tuple(recs), n_reached_best=n_best, constraints=tuple(reports),
         mode_rounds=rounds, recheck_sigma_rel=sig_rel, recheck_margin_db=margin_db,
         analysis=analysis, start_analysis=start_analysis, modes=modes, start_modes=modes0,
-        stability=stab, wall_s=time.perf_counter() - t0, hessian=HESSIAN,
+        stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
+        nlp_violations=tuple(best.violations), violations=violations, peak=peak,
     )
+
+
+def _violations(study, prob, best, modes, peak) -> tuple:
+    """What the returned design breaks (see :attr:`TableOptimizationResult.violations`)."""
+    if not best.feasible:
+        return tuple((n, v) for n, v in best.violations if v > 1e-6)
+    out = []
+    limit = peak["limit_db"]
+    pk = peak["peaks"]
+    if limit is not None and pk is not None:
+        excess = pk.max_db - limit
+        peak["excess_db"] = excess
+        peak["met"] = bool(excess <= PEAK_TOLERANCE_DB)
+        if not peak["met"]:
+            out.append((PEAK_VIOLATION, float(excess)))
+    if modes is not None:
+        out += _mode_misses(study, modes)
+    return tuple(out)
+
+
+def _mode_misses(study, modes) -> list[tuple[str, float]]:
+    """The exact modes' misses of the damping and rocking-frequency bounds: ``(name, amount)``
+    (amount: the damping deficit, or the distance to the frequency bound in Hz)."""
+    c = study.constraints
+    zmin = c.get("min_damping_ratio") or 0.0
+    f_lo = c.get("min_rocking_frequency_hz") or 0.0
+    f_hi = c.get("max_rocking_frequency_hz") or np.inf
+    f = modes.frequency_hz
+    out = []
+    low = np.isfinite(f) & (f < 5.0)
+    if zmin and np.any(low):
+        z = float(np.min(modes.damping_ratio[low]))
+        if z < zmin * (1 - 1e-3):
+            out.append(("min_damping_ratio", zmin - z))
+    rock = np.isfinite(f) & (modes.energy_fraction[:, 3:5].sum(axis=1) >= 0.3)
+    if np.any(rock):
+        fr = f[rock]
+        if f_lo and float(fr.min()) < f_lo * (1 - 1e-3):
+            out.append(("min_rocking_frequency_hz", f_lo - float(fr.min())))
+        if np.isfinite(f_hi) and float(fr.max()) > f_hi * (1 + 1e-3):
+            out.append(("max_rocking_frequency_hz", float(fr.max()) - f_hi))
+    return out
+
+
+def measure_peaks(prob, d, sigma, sigma_u, modes):
+    """The continuous peak of |T| of design ``d`` at a closure state (a :class:`TablePeaks`).
+
+    Parameters
+    ----------
+    prob : TableProblem
+        Its study's models and the top of its peak rows.
+    d : SpringDesign
+    sigma, sigma_u : ndarray (n,)
+        The closure's RMS values.
+    modes : TableModes
+        The design's modes (the fine grid starts at a fraction of the lowest).
+    """
+    lo, hi = peak_search_band(modes, prob._peak_cut_hz())
+    return continuous_peaks(_model(prob.study, d), sigma, sigma_u, lo, hi)
+
+
+def add_peak_frequencies(prob, over, used) -> tuple:
+    """Place movable peak frequencies around the peaks above the bound.
+
+    Parameters
+    ----------
+    prob : TableProblem
+        Built again with movable frequencies (:meth:`~.problem.TableProblem.with_peak_slots`)
+        if it has none.
+    over : list of (float, float)
+        ``(excess dB, frequency Hz)`` of the peaks above the bound, worst first
+        (:meth:`~isodesign.table.peaks.TablePeaks.above`).
+    used : list of float
+        The frequencies placed so far (kept).
+
+    Returns
+    -------
+    (TableProblem, list of float)
+        The NLP with ``used`` and the new frequencies set, and the new frequencies: 0.995, 1
+        and 1.005 times each of at most three distinct peak frequencies (none when every
+        movable frequency is taken).
+    """
+    new: list[float] = []
+    for _, f in over:  # the worst peaks, three frequencies around each distinct one
+        if any(abs(f / g - 1) < 2e-3 for g in new[1::3]):
+            continue
+        new += [f * r for r in _PEAK_SHIFTS]
+        if len(new) >= PEAK_SLOTS_PER_ROUND:
+            break
+    if not prob.n_slots:  # the NLP with movable peak frequencies, built when needed
+        prob = prob.with_peak_slots()
+    new = new[: max(0, prob.n_slots - len(used))]
+    f0 = float(prob.grid.frequency_hz[0])
+    prob.set_slots(list(used) + new + [f0] * (prob.n_slots - len(used) - len(new)))
+    return prob, new
+
+
+def _refine(prob, study, best):
+    """Mode refresh and continuous peak refinement of the multi-start's best solution.
+
+    Returns ``(prob, best, modes, mode_rounds, peak)``: the NLP last solved (built again
+    with movable peak frequencies if the refinement needed them) and ``peak`` the
+    refinement's record.
+    """
+    limit = study.constraints.get("max_peak_transmissibility_db")
+    if limit is False:
+        limit = None
+    peak = {"rounds": 0, "added_frequencies_hz": [], "limit_db": limit,
+            "tolerance_db": PEAK_TOLERANCE_DB, "max_rounds": TABLE_PEAK_ROUNDS,
+            "peaks": None, "met": None, "excess_db": None, "resolve_failed": None}
+    rounds = 0
+    modes = None
+    slots: list = []
+    while True:
+        if not best.feasible:
+            break
+        sigma, sigma_u = prob.sigma(best.x), prob.tube_rms(best.x)
+        modes = _modes_at(prob, study.design_at(best.values), sigma, sigma_u)
+        if rounds < _MODE_ROUNDS and _mode_misses(study, modes) and _modes_moved(prob, modes):
+            prob.set_modes(modes)  # the frozen modes moved: solve again with the exact ones
+            sol = prob.solve(best.x)
+            rounds += 1
+            if not sol.feasible:
+                peak["resolve_failed"] = f"mode refresh: {sol.status}"
+                break
+            best = sol
+            continue
+        pk = measure_peaks(prob, study.design_at(best.values), sigma, sigma_u, modes)
+        peak["peaks"] = pk
+        if limit is None:
+            break
+        over = pk.above(limit, PEAK_TOLERANCE_DB)
+        peak["met"] = not over
+        peak["excess_db"] = pk.max_db - limit
+        if not over or peak["rounds"] >= TABLE_PEAK_ROUNDS:
+            break
+        prob, new = add_peak_frequencies(prob, over, slots)
+        slots += new
+        peak["added_frequencies_hz"] += new
+        peak["rounds"] += 1
+        sol = prob.solve(best.x)
+        if not sol.feasible:  # keep the last feasible design; its peak stays a violation
+            peak["resolve_failed"] = f"peak refinement: {sol.status}"
+            break
+        best = sol
+    return prob, best, modes, rounds, peak
 
 
 def _natural(prob, x, j: float) -> float:

@@ -18,7 +18,9 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.refine import PEAK_TOLERANCE_DB
 from isodesign.results import ResultDisplay
+from isodesign.table.constraint_table import CONTINUOUS_PEAK as PEAK_VIOLATION
 
 __all__ = ["TableParetoResult", "table_pareto_front"]
 
@@ -38,6 +40,10 @@ class TableParetoResult(ResultDisplay):
         Non-dominated points.
     study : Study
     wall_s : float
+    peak_excess_db : ndarray or None
+        Continuous peak of |T| (from half the lowest mode) minus the peak bound, per point
+        after its refinement (NaN: no bound, or no feasible point); a point above
+        :data:`~isodesign.optimization.refine.PEAK_TOLERANCE_DB` says so in its status.
     """
 
     worst_margin_db: np.ndarray
@@ -47,6 +53,7 @@ class TableParetoResult(ResultDisplay):
     front: np.ndarray
     study: Any
     wall_s: float
+    peak_excess_db: Any = None
 
     def to_frame(self):
         """One row per point: margin, volume, design, status, non-dominated."""
@@ -56,6 +63,8 @@ class TableParetoResult(ResultDisplay):
         df.insert(0, "total_volume_m3", self.total_volume_m3)
         df.insert(0, "worst_margin_db", self.worst_margin_db)
         df["status"] = list(self.statuses)
+        if self.peak_excess_db is not None:
+            df["continuous_peak_excess_db"] = self.peak_excess_db
         df["nondominated"] = self.front
         return df
 
@@ -123,31 +132,88 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
     if not res_a.feasible:
         raise SolverError(f"pareto: no feasible design when maximizing the worst margin "
                           f"({res_a.status})")
+    used = list(res_a.peak["added_frequencies_hz"])
+    if used:  # the continuous peak refinement's frequencies hold along the front too
+        prob = prob.with_peak_slots()
+        prob.set_slots(used + [float(prob.grid.frequency_hz[0])] * (prob.n_slots - len(used)))
     anchor_a = prob.solve(prob.initial_guess(res_a.values))
-    anchor_b = prob.solve(anchor_a.x, prob.params(weights=[0.0, 1.0]))
+    state = {"prob": prob, "used": used}
+    anchor_b, _ = _peak_refined(st, state, anchor_a.x, prob.params(weights=[0.0, 1.0]))
     if not anchor_b.feasible:
         raise SolverError(f"pareto: minimizing the total volume failed ({anchor_b.status})")
     eps = np.linspace(float(anchor_a.objectives[1]), float(anchor_b.objectives[1]), points)
-    sols, x = [], anchor_a.x
+    sols, excess, x = [], [], anchor_a.x
     for k, e in enumerate(eps):
-        sol = anchor_a if k == 0 else prob.solve(x, prob.params(eps=[None, e + 1e-9]))
+        params = state["prob"].params(eps=[None, e + 1e-9])
+        if k == 0:
+            sol, ex = _peak_refined(st, state, anchor_a.x, params, first=anchor_a)
+        else:
+            sol, ex = _peak_refined(st, state, x, params)
         if not sol.feasible:  # the chain stalled: from the other anchor
-            sol = prob.solve(anchor_b.x, prob.params(eps=[None, e + 1e-9]))
+            sol, ex = _peak_refined(st, state, anchor_b.x,
+                                    state["prob"].params(eps=[None, e + 1e-9]))
         if sol.feasible:
             x = sol.x
         sols.append(sol)
+        excess.append(ex)
         if progress:
             progress(k + 1, points)
+    prob = state["prob"]
     margin = np.array([prob.worst_margin_db(s.x) if s.feasible else math.nan for s in sols])
     vol = np.array([math.exp(s.objectives[1]) if s.feasible else math.nan for s in sols])
+    # a point whose continuous peak stays above the bound meets the constraints on the
+    # NLP's frequencies only: neither on the front nor dominating a point of it
+    ok = np.isfinite(margin) & np.array([ex is None or ex <= PEAK_TOLERANCE_DB
+                                         for ex in excess])
     front = np.zeros(points, bool)
     for i in range(points):
-        if not np.isfinite(margin[i]):
+        if not ok[i]:
             continue
-        dominated = any(np.isfinite(margin[j]) and margin[j] >= margin[i] and vol[j] <= vol[i]
+        dominated = any(ok[j] and margin[j] >= margin[i] and vol[j] <= vol[i]
                         and (margin[j] > margin[i] or vol[j] < vol[i]) for j in range(points))
         front[i] = not dominated
+    statuses = tuple(s.status if ex is None or ex <= PEAK_TOLERANCE_DB else
+                     f"{s.status}; {PEAK_VIOLATION} +{ex:.3g} dB"
+                     for s, ex in zip(sols, excess, strict=True))
     return TableParetoResult(worst_margin_db=margin, total_volume_m3=vol,
-                             designs=tuple(s.values for s in sols),
-                             statuses=tuple(s.status for s in sols), front=front, study=st,
-                             wall_s=time.perf_counter() - t0)
+                             designs=tuple(s.values for s in sols), statuses=statuses,
+                             front=front, study=st, wall_s=time.perf_counter() - t0,
+                             peak_excess_db=np.array([math.nan if ex is None else ex
+                                                      for ex in excess]))
+
+
+def _peak_refined(study, state, x0, params, first=None):
+    """Solve from ``x0`` with ``params`` and refine the continuous peak of |T| (as
+    :func:`~isodesign.table.optimize.optimize_table` does): ``(solution, excess dB or None)``.
+
+    ``state`` holds the NLP (built again with movable frequencies when needed) and the
+    frequencies placed so far, shared by every point of the front.
+    """
+    from isodesign.table.optimize import _modes_at, add_peak_frequencies, measure_peaks
+    from isodesign.table.problem import TABLE_PEAK_ROUNDS
+
+    limit = study.constraints.get("max_peak_transmissibility_db")
+    sol = first if first is not None else state["prob"].solve(x0, params)
+    if limit is None or limit is False:
+        return sol, None
+    excess = None
+    for k in range(TABLE_PEAK_ROUNDS + 1):
+        if not sol.feasible:
+            return sol, None
+        prob = state["prob"]
+        d = study.design_at(sol.values)
+        sigma, sigma_u = prob.sigma(sol.x), prob.tube_rms(sol.x)
+        pk = measure_peaks(prob, d, sigma, sigma_u, _modes_at(prob, d, sigma, sigma_u))
+        excess = pk.max_db - limit
+        over = pk.above(limit, PEAK_TOLERANCE_DB)
+        if not over or k == TABLE_PEAK_ROUNDS:
+            break
+        w = params[: len(prob.objectives)]
+        eps = params[len(prob.objectives) + 1: 2 * len(prob.objectives) + 1]
+        prob, new = add_peak_frequencies(prob, over, state["used"])
+        if not new:
+            break  # every movable frequency taken: the excess stays reported
+        state["prob"], state["used"] = prob, state["used"] + new
+        params = prob.params(weights=w, eps=[None if e >= 1e19 else e for e in eps])
+        sol = prob.solve(sol.x, params)
+    return sol, excess

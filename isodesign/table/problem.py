@@ -64,8 +64,8 @@ from isodesign.table.assembly import dynamic_stiffness, geometry, solve_complex
 from isodesign.table.floor import table_grid
 from isodesign.table.statics import level
 
-__all__ = ["DAMPED_MODE_LIMIT_HZ", "PEAK_ROWS_MAX_HZ", "ROCKING_ENERGY_FRACTION",
-           "TABLE_OBJECTIVES", "TableProblem"]
+__all__ = ["DAMPED_MODE_LIMIT_HZ", "PEAK_ROWS_MAX_HZ", "PEAK_SLOTS_PER_ROUND",
+           "ROCKING_ENERGY_FRACTION", "TABLE_OBJECTIVES", "TABLE_PEAK_ROUNDS", "TableProblem"]
 
 #: Modes below this frequency carry the damping constraint.
 DAMPED_MODE_LIMIT_HZ = 5.0
@@ -74,6 +74,11 @@ DAMPED_MODE_LIMIT_HZ = 5.0
 PEAK_ROWS_MAX_HZ = 10.0
 #: A mode is a rocking mode when its kinetic energy in rx and ry reaches this fraction.
 ROCKING_ENERGY_FRACTION = 0.3
+#: Movable peak frequencies (NLP parameters, no rebuild) placed by the continuous peak
+#: refinement (:mod:`isodesign.table.peaks`): per round, three frequencies around each of
+#: at most three peaks, for :data:`TABLE_PEAK_ROUNDS` rounds.
+PEAK_SLOTS_PER_ROUND = 9
+TABLE_PEAK_ROUNDS = 4
 #: Objectives of the table NLP.
 TABLE_OBJECTIVES = ("worst_band_margin", "total_volume")
 _LN10 = math.log(10.0)
@@ -90,10 +95,17 @@ class TableProblem:
         ``worst_band_margin`` (default) and/or ``total_volume``.
     hessian : {'limited-memory', 'exact'}
         IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way).
+    peak_slots : int
+        Movable peak frequencies (:meth:`set_slots`; used only with a peak bound). The
+        continuous peak refinement builds the NLP again with
+        :data:`PEAK_SLOTS_PER_ROUND` x :data:`TABLE_PEAK_ROUNDS` of them
+        (:meth:`with_peak_slots`) when a peak lies above the bound between the grid's
+        frequencies: the rows cost a quarter of a solve's time, so a study that needs no
+        refinement does not carry them.
     """
 
     def __init__(self, study, objectives: tuple | None = None, *,
-                 hessian: str = "limited-memory"):
+                 hessian: str = "limited-memory", peak_slots: int = 0):
         import casadi as ca
 
         self.hessian = hessian
@@ -132,7 +144,29 @@ class TableProblem:
         # per mode [active, w, phi_re(6), phi_im(6)]; an inactive mode keeps w = 2 pi rad/s
         # damping block then rocking block, 6 modes x 14 each
         self.mode_params = np.tile(np.r_[0.0, 2 * math.pi, np.zeros(12)], 2 * self.n_modes)
+        pk = study.constraints.get("max_peak_transmissibility_db")
+        self.n_slots = int(peak_slots) if pk is not None and pk is not False else 0
+        # unused slots repeat the grid's first frequency (rows the grid already has)
+        self.set_slots(np.full(self.n_slots, float(self.grid.frequency_hz[0])))
         self._build(ca)
+
+    def with_peak_slots(self, n: int = PEAK_SLOTS_PER_ROUND * TABLE_PEAK_ROUNDS) -> TableProblem:
+        """The same NLP built with ``n`` movable peak frequencies (its frozen modes kept).
+
+        Parameters
+        ----------
+        n : int
+            Movable frequencies (default :data:`PEAK_SLOTS_PER_ROUND` x
+            :data:`TABLE_PEAK_ROUNDS`).
+
+        Returns
+        -------
+        TableProblem
+            Its decision variables are this one's (a solution's ``x`` carries over).
+        """
+        new = TableProblem(self.study, self.objectives, hessian=self.hessian, peak_slots=n)
+        new.mode_params = self.mode_params.copy()
+        return new
 
     # -- the per-frequency physics ------------------------------------------------
     def _springs(self, ca, dv, s, y, w):
@@ -147,6 +181,32 @@ class TableProblem:
             g2.append(tube_velocity_gain2(d, w, c, self.flow))
         return base, kv, g2
 
+    def _body(self, ca, dv, s, y, w, khr, khi):
+        """The table's motion per unit floor motion at one frequency: ``(q_re, q_im, g2)``."""
+        _, kv, g2 = self._springs(ca, dv, s, y, w)
+        kh = [Cx(khr[i], khi[i]) for i in range(self.n)]
+        d, b = dynamic_stiffness(self.geo, kv, kh, w)
+        q = solve_complex(d, b)
+        qr = [[q.re[0, r * 3 + a] for a in range(3)] for r in range(6)]
+        qi = [[q.im[0, r * 3 + a] for a in range(3)] for r in range(6)]
+        return qr, qi, g2
+
+    def _peak_function(self, ca):
+        """``|T_p,aa|^2`` at one (movable) frequency, per point and axis (an SX Function)."""
+        n = self.n
+        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
+        s, y, w = ca.SX.sym("s", n), ca.SX.sym("y", n), ca.SX.sym("w")
+        khr, khi = ca.SX.sym("khr", n), ca.SX.sym("khi", n)
+        qr, qi, _ = self._body(ca, dv, s, y, w, khr, khi)
+        diag = []
+        for p in range(self.k):
+            gp = self.geo.points[p]
+            for bb in range(3):
+                re = sum(gp[bb, r] * qr[r][bb] for r in range(6) if gp[bb, r] != 0)
+                im = sum(gp[bb, r] * qi[r][bb] for r in range(6) if gp[bb, r] != 0)
+                diag.append(re * re + im * im)
+        return ca.Function("table_peak", [dv, s, y, w, khr, khi], [ca.vertcat(*diag)])
+
     def _point_function(self, ca):
         """One frequency's physics and its quadrature contributions (an SX Function).
 
@@ -160,12 +220,7 @@ class TableProblem:
         s, y, w = ca.SX.sym("s", n), ca.SX.sym("y", n), ca.SX.sym("w")
         khr, khi = ca.SX.sym("khr", n), ca.SX.sym("khi", n)
         sw, bw = ca.SX.sym("sw", 3), ca.SX.sym("bw", 3 * nb)
-        _, kv, g2 = self._springs(ca, dv, s, y, w)
-        kh = [Cx(khr[i], khi[i]) for i in range(n)]
-        d, b = dynamic_stiffness(self.geo, kv, kh, w)
-        q = solve_complex(d, b)
-        qr = [[q.re[0, r * 3 + a] for a in range(3)] for r in range(6)]
-        qi = [[q.im[0, r * 3 + a] for a in range(3)] for r in range(6)]
+        qr, qi, g2 = self._body(ca, dv, s, y, w, khr, khi)
         ms, diag = [], []
         for p in range(k):
             gp = self.geo.points[p]
@@ -244,8 +299,17 @@ class TableProblem:
         judged = margins[keep] if len(keep) < 3 * k * nb else margins
         out = diag  # (3k x nf): |T_p,aa|^2
         self.n_margins = int(margins.numel())
+        ns = self.n_slots
+        p_slot = X.sym("slots", ns * (1 + 2 * n))
+        out_slots = None
+        if ns:
+            pw = ca.reshape(p_slot[:ns], 1, ns)
+            pkr = ca.reshape(p_slot[ns: ns + n * ns], n, ns)
+            pki = ca.reshape(p_slot[ns + n * ns:], n, ns)
+            out_slots = self._peak_function(ca).map("table_peak_map", "serial", ns,
+                                                    [0, 1, 2], [])(v, s, y, pw, pkr, pki)
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
-        cons = self._constraints(ca, d, v, s, y, out)
+        cons = self._constraints(ca, d, v, s, y, out, out_slots)
         j_parts = {"total_volume": ca.log(d.total_volume_m3)}
         if t.numel():
             j_parts["worst_band_margin"] = -t[0]
@@ -262,7 +326,7 @@ class TableProblem:
             j_total = j_total + p_w[i] * jk
             cons.append((f"bound_{self.objectives[i]}", jk - p_eps[i], -np.inf, 0.0))
         x = ca.vertcat(z, s, y, t)
-        pp = ca.vertcat(p_w, p_wd, p_eps, p_modes)
+        pp = ca.vertcat(p_w, p_wd, p_eps, p_modes, p_slot)
         gg = ca.vertcat(*rows_eq, *[c[1] for c in cons])
         self.n_eq = 2 * n
         lbg, ubg, self.con_rows, row = [0.0] * (2 * n), [0.0] * (2 * n), [], 2 * n
@@ -287,7 +351,7 @@ class TableProblem:
         self.solver = ca.nlpsol("isodesign_table", "ipopt",
                                 {"x": x, "f": j_total, "g": gg, "p": pp}, self.ipopt_options())
 
-    def _constraints(self, ca, d, v, s, y, out) -> list:
+    def _constraints(self, ca, d, v, s, y, out, out_slots=None) -> list:
         st, c = self.study, self.study.constraints
         table, lv = self.table, self.leveling
         cons = []
@@ -300,9 +364,9 @@ class TableProblem:
         ktot = sum(k0)
         lo, hi = c.get("min_natural_frequency_hz"), c.get("max_natural_frequency_hz")
         if lo or hi:
-            ln_f2 = ca.log(ktot / table.mass_kg / (2.0 * math.pi) ** 2)
-            cons.append(("natural_frequency_hz", ln_f2, 2 * math.log(lo) if lo else -np.inf,
-                         2 * math.log(hi) if hi else np.inf))
+            ln_f = 0.5 * ca.log(ktot / table.mass_kg / (2.0 * math.pi) ** 2)
+            cons.append(("natural_frequency_hz", ln_f, math.log(lo) if lo else -np.inf,
+                         math.log(hi) if hi else np.inf))
         mu = c.get("min_tilt_margin")
         if mu and table.cg_height_m > 0:
             r = table.vertical_points_m
@@ -318,10 +382,14 @@ class TableProblem:
             # stop at PEAK_ROWS_MAX_HZ (the analysis checks the whole grid, see
             # TableBandResponse.peak_transmissibility_db); inactive rows above only slowed
             # the quasi-Newton iterations (62 against 22 from one start)
+            # the movable frequencies of the continuous peak refinement follow the grid's
+            # rows (ln |T|^2 <= the bound's ln |T|^2: the form constraint_reports converts)
             cols = np.flatnonzero(self.grid.frequency_hz <= self._peak_cut_hz())
-            cons.append(("max_peak_transmissibility_db",
-                         ca.log(ca.vec(out[:, cols.tolist()].T)) - pk * _LN10 / 10.0,
-                         -np.inf, 0.0))
+            rows = ca.vec(out[:, cols.tolist()].T)
+            if out_slots is not None:
+                rows = ca.vertcat(rows, ca.vec(out_slots.T))
+            cons.append(("max_peak_transmissibility_db", ca.log(rows), -np.inf,
+                         pk * _LN10 / 10.0))
         return cons
 
     def _peak_cut_hz(self) -> float:
@@ -426,7 +494,8 @@ class TableProblem:
                 "error_on_fail": False}  # fmt: skip
 
     def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:
-        """Parameter vector: weights, the weight of ln D_c, epsilon bounds, frozen modes.
+        """Parameter vector: weights, the weight of ln D_c, epsilon bounds, frozen modes,
+        movable peak frequencies (:meth:`set_slots`).
 
         Parameters
         ----------
@@ -445,7 +514,30 @@ class TableProblem:
             w[:] = weights
         e = np.full(nk, 1e20) if eps is None else np.asarray(
             [1e20 if v is None else v for v in eps], float)
-        return np.concatenate([w, [diameter_weight], e, self.mode_params])
+        return np.concatenate([w, [diameter_weight], e, self.mode_params, self.slot_params])
+
+    def set_slots(self, frequencies_hz) -> None:
+        """Move the peak constraint's movable frequencies (NLP parameters, no rebuild).
+
+        Parameters
+        ----------
+        frequencies_hz : sequence of float
+            :attr:`n_slots` frequencies, Hz; each adds the peak rows ``|T_p,aa|^2`` of every
+            point and axis at that frequency (the springs at the closure's RMS values, the
+            horizontal element at that frequency).
+        """
+        f = np.asarray(frequencies_hz, float).ravel()
+        if f.size != self.n_slots:
+            raise ValueError(f"set_slots: need {self.n_slots} frequencies, got {f.size}")
+        w = 2.0 * math.pi * f
+        kh = [self.table.horizontal.stiffness(w, float(ld)) for ld in self.leveling.load_n]
+        kr = np.stack([np.broadcast_to(np.asarray(c.re, float), w.shape) for c in kh]) \
+            if self.n_slots else np.zeros((self.n, 0))
+        ki = np.stack([np.broadcast_to(np.asarray(c.im, float), w.shape) for c in kh]) \
+            if self.n_slots else np.zeros((self.n, 0))
+        self.slot_hz = f.copy()
+        # CasADi reshapes column-major: element (i, j) of the (n, n_slots) block at i + j n
+        self.slot_params = np.concatenate([w, kr.ravel(order="F"), ki.ravel(order="F")])
 
     def set_modes(self, modes) -> None:
         """Freeze the mode constraints at a solution's modes: the damping constraint on the
