@@ -129,7 +129,10 @@ class LevelingLoop(ResultDisplay):
 
     @property
     def mimo_gain_margin_db(self) -> float:
-        """``20 log10(G_c / G)``: every valve's gain scaled together."""
+        """``20 log10(G_c / G)``: every valve's gain scaled together (``-inf``: the loop is
+        unstable at the smallest gain, a statically unstable table)."""
+        if not self.critical_gain_kg_s_per_m > 0:
+            return float("-inf")
         return 20.0 * math.log10(self.critical_gain_kg_s_per_m / self.gain_kg_s_per_m)
 
     def valve_loop(self, g: int):

@@ -292,3 +292,47 @@ def test_stability_command(tmp_path, capsys):
     err = capsys.readouterr().err
     assert "table.leveling.gain_kg_s_per_m: must be a number > 0" in err
     assert len(err.strip().splitlines()) == 1
+
+
+def test_the_valves_low_frequency_transmissibility():
+    from isodesign.table.leveling_loop import leveling_transmissibility
+
+    loop = leveling_loop(_builtin(0.35), LevelingSystem())
+    f = np.geomspace(1e-3, 20.0, 4000)
+    tv, ts = leveling_transmissibility(loop, f)
+    # the table follows the floor far below the loop
+    np.testing.assert_allclose(np.abs(tv[f < 0.01]), 1.0, atol=1e-4)
+    r = np.abs(tv) / np.abs(ts)
+    assert np.all(np.abs(r[f < 1.0] - 1.0) < 2e-3)  # docs/table.md, section 12: < 0.2 %
+    # the loop's lag takes damping from the vertical resonance: its peak rises 1.6 dB
+    gain_db = 20 * np.log10(np.abs(tv).max() / np.abs(ts).max())
+    assert f"{gain_db:.1f}" == "1.6" and 1.5 < f[np.argmax(np.abs(tv))] < 1.7
+    # the sealed answer is the table model's own vertical transmissibility at low frequency
+    assert abs(ts[0]) == pytest.approx(1.0, abs=1e-6)
+
+
+def test_the_figures_docs_table_section_12_quotes():
+    from pathlib import Path
+
+    page = " ".join((Path(__file__).parents[2] / "docs" / "table.md").read_text(
+        encoding="utf-8").split())
+    lo = leveling_loop(_builtin(0.35), LevelingSystem())
+    assert (f"MIMO gain margin {lo.mimo_gain_margin_db:+.1f} dB, onset at `G_c` = "
+            f"{lo.critical_gain_kg_s_per_m:.3g} kg/s/m rocking at "
+            f"{lo.oscillation_frequency_hz:.3g} Hz") in page
+    assert f"delay margins {lo.delay_margin_s.min():.2g} to {lo.delay_margin_s.max():.2g} s" \
+        in page
+    step = load_step(leveling_loop(_builtin(0.35), LevelingSystem(
+        gain_kg_s_per_m=0.045, dead_band_m=10e-6, saturation_flow_kg_s=1e-3)), 5.0,
+        (0.5, 0.3, 0.7), 40.0, samples=4000)
+    assert (f"sags {step.peak_deviation_m * 1e3:.3g} mm at the worst sensor, overshoots "
+            f"{step.overshoot_percent:.2g} % and settles within 5 % of the sag in "
+            f"{step.settling_time_s:.2g} s") in page
+    hi = leveling_loop(_builtin(0.8), LevelingSystem(gain_kg_s_per_m=0.03, dead_band_m=20e-6,
+                                                     saturation_flow_kg_s=2e-5))
+    assert f"`G_c` is {hi.critical_gain_kg_s_per_m:.4g} kg/s/m" in page
+    assert f"predicts {limit_cycle(hi).amplitude_m * 1e3:.3g} mm" in page
+    # where the loop gives way as the CG rises (the study's figure)
+    h0 = brentq(lambda h: leveling_loop(_builtin(h), LevelingSystem()).mimo_gain_margin_db,
+                0.5, 0.8, xtol=1e-4)
+    assert f"The leveling loop gives way at `h` = {h0:.2g} m" in page
