@@ -336,3 +336,14 @@ def test_the_figures_docs_table_section_12_quotes():
     h0 = brentq(lambda h: leveling_loop(_builtin(h), LevelingSystem()).mimo_gain_margin_db,
                 0.5, 0.8, xtol=1e-4)
     assert f"The leveling loop gives way at `h` = {h0:.2g} m" in page
+
+
+def test_report_section_of_the_stability():
+    from isodesign.table.stability_report import stability_section
+
+    sec = stability_section(_builtin(0.35))
+    assert len(sec["static_rows"]) == 2 and sec["static_rows"][0][1] == "1.497"
+    assert sec["static_rows"][0][4] == "stable" and "quasi-static" in sec["static_rows"][0][0]
+    assert len(sec["loop_rows"]) == 3 and sec["loop_summary"].startswith("stable")
+    assert sec["loop_svg"].lstrip().startswith("<svg") or "<svg" in sec["loop_svg"][:500]
+    assert "self-consistent solutions" in sec["solutions"]
