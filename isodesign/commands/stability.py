@@ -52,27 +52,32 @@ def run(args) -> int:
     modes = table_modes(model)
     stab = rocking_stability(model, modes=modes)
     loop = leveling_loop(model, system)
-    at_loop = rocking_stability(model, frequency_hz=loop.crossover_hz, modes=modes,
-                                time_scale=f"sealed springs at the leveling loop's crossover "
-                                f"{loop.crossover_hz:.3g} Hz")
+    at_loop = None
+    if loop.crossover_hz > 0:  # NaN (no finite crossover) compares False
+        at_loop = rocking_stability(model, frequency_hz=loop.crossover_hz, modes=modes,
+                                    time_scale="sealed springs at the leveling loop's "
+                                    f"crossover {loop.crossover_hz:.3g} Hz")
     lowest = mode_solutions(model)
     cycle = limit_cycle(loop)
     t = study.table
     print(f"stability of the table: {label}; {t.mass_kg:g} kg on {t.n_isolators} isolators, "
           f"CG ({', '.join(f'{v:g}' for v in t.cg_m)}) m")
     print(stability_text(stab))
-    print(stability_text(at_loop))
+    if at_loop is not None:
+        print(stability_text(at_loop))
     print(lowest.text())
     print(loop.text())
-    if cycle.amplitude_m is not None:
-        print(f"  valves' limit cycle (describing function: dead band "
-              f"{system.dead_band_m * 1e6:.3g} um, saturation "
-              f"{system.saturation_flow_kg_s * 1e3:.3g} g/s): {cycle.amplitude_m * 1e6:.4g} um "
-              f"at the sensors, {cycle.frequency_hz:.3g} Hz (from disturbances above "
-              f"{cycle.threshold_m * 1e6:.3g} um)" if cycle.threshold_m is not None else "")
+    if cycle.amplitude_m is None:
+        print("  valves' limit cycle (describing function): none (the valve's slope is below "
+              "the loop's critical gain, or the loop has none)")
     else:
-        print("  valves' limit cycle (describing function): none (the linear loop is stable "
-              "at every amplitude's gain)")
+        line = (f"  valves' limit cycle (describing function: dead band "
+                f"{system.dead_band_m * 1e6:.3g} um, saturation "
+                f"{system.saturation_flow_kg_s * 1e3:.3g} g/s): {cycle.amplitude_m * 1e6:.4g} "
+                f"um at the sensors, {cycle.frequency_hz:.3g} Hz")
+        if cycle.threshold_m is not None:
+            line += f" (from disturbances above {cycle.threshold_m * 1e6:.3g} um)"
+        print(line)
     with rundir as run:
         run.record["study"] = study.source or study.name
         run.record["static_critical_height_m"] = stab.critical_height_m
@@ -81,11 +86,14 @@ def run(args) -> int:
         run.record["critical_gain_kg_s_per_m"] = loop.critical_gain_kg_s_per_m
         frame = stab.to_frame()
         frame["time_scale"] = stab.time_scale
-        frame2 = at_loop.to_frame()
-        frame2["time_scale"] = at_loop.time_scale
         import pandas as pd
 
-        run.write_csv("stability.csv", pd.concat([frame, frame2], ignore_index=True))
+        frames = [frame]
+        if at_loop is not None:
+            frame2 = at_loop.to_frame()
+            frame2["time_scale"] = at_loop.time_scale
+            frames.append(frame2)
+        run.write_csv("stability.csv", pd.concat(frames, ignore_index=True))
         run.write_csv("loop.csv", loop.to_frame())
         if args.plot:
             from isodesign.plotting.style import save_figure

@@ -342,7 +342,7 @@ def leveling_plant(model: TableModel, system: LevelingSystem | None = None) -> L
         raise InputError(f"system: expected a LevelingSystem, got {type(system).__name__}")
     t = model.table
     n = t.n_isolators
-    k = _isolator_constants(model, "poiseuille" if model.flow == "poiseuille" else model.flow)
+    k = _isolator_constants(model, model.flow)
     p0, vt0, vb0, mt0, mb0, ap, nidx, cres, kd, cd = k.T
     geo = model.geometry
     gz = geo.gz  # (n, 6)

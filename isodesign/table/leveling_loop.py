@@ -162,11 +162,18 @@ class LevelingLoop(ResultDisplay):
 
     def text(self) -> str:
         """Lines for the command line."""
-        lines = [f"  leveling loop: valve gain {self.gain_kg_s_per_m:.4g} kg/s/m; closed loop "
-                 + ("stable" if self.stable else "UNSTABLE (leveling oscillation)")
-                 + f"; onset at {self.critical_gain_kg_s_per_m:.4g} kg/s/m (MIMO gain margin "
-                 f"{self.mimo_gain_margin_db:+.2f} dB), oscillating at "
-                 f"{self.oscillation_frequency_hz:.3g} Hz"]
+        head = f"  leveling loop: valve gain {self.gain_kg_s_per_m:.4g} kg/s/m; closed loop "
+        if not self.critical_gain_kg_s_per_m > 0:
+            head += ("UNSTABLE from the smallest valve gain (the sealed table is statically "
+                     "unstable: it tips)")
+        elif math.isinf(self.critical_gain_kg_s_per_m):
+            head += ("stable" if self.stable else "UNSTABLE") + " at every valve gain tried"
+        else:
+            head += (("stable" if self.stable else "UNSTABLE (leveling oscillation)")
+                     + f"; onset at {self.critical_gain_kg_s_per_m:.4g} kg/s/m (MIMO gain "
+                     f"margin {self.mimo_gain_margin_db:+.2f} dB), oscillating at "
+                     f"{self.oscillation_frequency_hz:.3g} Hz")
+        lines = [head]
         for g in range(3):
             lines.append(f"  valve {g + 1} (others closed): gain margin "
                          f"{self.gain_margin_db[g]:.3g} dB at {self.phase_crossover_hz[g]:.3g} Hz,"
@@ -469,7 +476,8 @@ class LimitCycle(ResultDisplay):
     Attributes
     ----------
     amplitude_m : float or None
-        The stable cycle's sensor amplitude (``N`` falling through ``G_c``); None: none.
+        The stable cycle's sensor amplitude (``N`` falling through ``G_c``); None: none
+        (also when the loop has no finite, positive critical gain).
     threshold_m : float or None
         The unstable cycle's (``N`` rising through ``G_c``): smaller disturbances die out.
     frequency_hz : float
@@ -515,6 +523,9 @@ def limit_cycle(loop: LevelingLoop) -> LimitCycle:
 
     plant, sysm = loop.plant, loop.plant.system
     g_c = loop.critical_gain_kg_s_per_m
+    if not (math.isfinite(g_c) and g_c > 0):  # stable at every gain, or at none
+        return LimitCycle(amplitude_m=None, threshold_m=None, frequency_hz=float("nan"),
+                          critical_gain_kg_s_per_m=g_c, amplitude_ratio=float("nan"))
     ev, vec = np.linalg.eig(plant.closed_loop(g_c))
     i = int(np.argmax(ev.real))
     amp = np.abs(plant.c @ vec[:, i])

@@ -347,3 +347,21 @@ def test_report_section_of_the_stability():
     assert len(sec["loop_rows"]) == 3 and sec["loop_summary"].startswith("stable")
     assert sec["loop_svg"].lstrip().startswith("<svg") or "<svg" in sec["loop_svg"][:500]
     assert "self-consistent solutions" in sec["solutions"]
+
+
+def test_stability_command_on_a_table_that_tips(tmp_path, capsys):
+    from importlib import resources
+
+    from isodesign.cli import main
+
+    src = (resources.files("isodesign") / "data" / "table_study.toml").read_text()
+    src = src.replace("cg_m = [0.0, 0.0, 0.35]", "cg_m = [0.0, 0.0, 1.7]")
+    src = src.replace("cg_height_m = 0.35", "cg_height_m = 1.7")
+    study = tmp_path / "high.toml"
+    study.write_text(src)
+    assert main(["stability", str(study), "-o", str(tmp_path / "s")]) == 0
+    text = capsys.readouterr().out
+    verdicts = [ln for ln in text.splitlines() if "static stability" in ln]
+    assert verdicts and all("-> UNSTABLE" in ln for ln in verdicts)
+    assert "UNSTABLE from the smallest valve gain" in text
+    assert "limit cycle (describing function): none" in text
