@@ -488,7 +488,17 @@ def mode_solutions(model: TableModel, *, rank: int = 0, frequency_range_hz=(1e-3
         return mus[np.argsort(mus.real)[rank]]
 
     fs = np.geomspace(lo, hi, int(points))
-    mu = np.array([mu_at(f) for f in fs])
+    w = TWO_PI * fs
+    if vertical is None:  # the whole scan in one evaluation of each distinct spring
+        kv = [Cx.from_complex(k) for k in model.vertical_stiffness(fs, amplitude_m)]
+    else:
+        kv = vertical(w)
+    d, _ = dynamic_stiffness(model.geometry, kv, model.horizontal_stiffness(w),
+                             np.zeros_like(w))
+    km = (np.asarray(d.re) + 1j * np.asarray(d.im)).reshape(-1, 6, 6)
+    minv = np.linalg.inv(model.geometry.mass)
+    ev = np.linalg.eigvals(minv @ km)  # (points, 6): [K - mu M] phi = 0
+    mu = np.take_along_axis(ev, np.argsort(ev.real, axis=1)[:, [rank]], axis=1)[:, 0]
     res = mu.real - (TWO_PI * fs) ** 2
     roots, zetas = [], []
     for i in np.flatnonzero(np.sign(res[:-1]) * np.sign(res[1:]) < 0):
