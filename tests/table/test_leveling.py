@@ -307,6 +307,10 @@ def test_the_valves_low_frequency_transmissibility():
     # the loop's lag takes damping from the vertical resonance: its peak rises 1.6 dB
     gain_db = 20 * np.log10(np.abs(tv).max() / np.abs(ts).max())
     assert f"{gain_db:.1f}" == "1.6" and 1.5 < f[np.argmax(np.abs(tv))] < 1.7
+    # in the study's bands (4 to 80 Hz, edges 3.5 to 90 Hz) the valves change |T| < 0.05 dB
+    fb = np.geomspace(3.5, 90.0, 400)
+    tvb, tsb = leveling_transmissibility(loop, fb)
+    assert np.max(np.abs(20 * np.log10(np.abs(tvb) / np.abs(tsb)))) < 0.05
     # the sealed answer is the table model's own vertical transmissibility at low frequency
     assert abs(ts[0]) == pytest.approx(1.0, abs=1e-6)
 
