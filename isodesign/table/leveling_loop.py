@@ -95,6 +95,7 @@ class LevelingLoop(ResultDisplay):
         Per valve (the others closed); ``inf`` where the loop never crosses.
     gain_crossover_hz, phase_crossover_hz : ndarray (3,)
     closed_loop_poles : ndarray complex
+        Of the 3x3 loop closed by ``control.feedback`` (``eig(A - G B C)``).
     stable : bool
         Every closed-loop pole has ``Re < 0`` (the gas masses' three integrators included).
     critical_gain_kg_s_per_m : float
@@ -292,7 +293,9 @@ def leveling_loop(model, system: LevelingSystem | None = None) -> LevelingLoop:
             if err > 1e-6:
                 notes.append(f"valve {g + 1}: |L| = 1 +- {err:.2g} at the gain crossover "
                              "python-control found (margins inaccurate)")
-    poles = np.linalg.eigvals(plant.closed_loop())
+    # the 3x3 MIMO loop closed by python-control: u = -G y around the plant
+    closed = control.feedback(gain * plant.state_space(), np.eye(3))
+    poles = np.asarray(closed.poles())
     g_c, f_c = critical_gain(plant)
     return LevelingLoop(plant=plant, gain_kg_s_per_m=gain, gain_margin_db=gm,
                         phase_margin_deg=pm, delay_margin_s=dm, gain_crossover_hz=wg,
