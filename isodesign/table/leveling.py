@@ -50,6 +50,7 @@ __all__ = [
     "LevelingSimulation",
     "LevelingSystem",
     "leveling_from_dict",
+    "leveling_of_study",
     "leveling_plant",
     "orifice_flux",
     "simulate_leveling",
@@ -185,6 +186,23 @@ def leveling_from_dict(d, table=None, where: str = "<dict>") -> LevelingSystem:
                              f"0.5 m of the isolators (x {lo[0]:.3g} to {hi[0]:.3g}, y "
                              f"{lo[1]:.3g} to {hi[1]:.3g} m)")
     return lv
+
+
+def leveling_of_study(study) -> LevelingSystem:
+    """The valves of a study with a ``[table]``: its ``[table.leveling]`` (or the defaults).
+
+    The one reading every entry point uses (``isodesign stability``, the Python API).
+
+    Parameters
+    ----------
+    study : Study
+        With ``table`` (and ``raw``, the study file's tables).
+    """
+    if getattr(study, "table", None) is None:
+        raise InputError("study: has no [table]; the leveling valves belong to a table study")
+    raw = (getattr(study, "raw", None) or {}).get("table", {})
+    return leveling_from_dict(raw.get("leveling", {}), study.table,
+                              getattr(study, "source", None) or getattr(study, "name", "study"))
 
 
 # ---------------------------------------------------------------------------

@@ -177,6 +177,13 @@ def test_leveling_keys_are_validated():
             leveling_from_dict(bad, st.table, "s.toml")
 
 
+def test_the_study_s_valves():
+    from isodesign.table.leveling import leveling_of_study
+
+    st = table_study()
+    assert leveling_of_study(st) == LevelingSystem()
+
+
 def test_study_file_accepts_the_leveling_table():
     from isodesign.table.study import table_from_dict
 
