@@ -89,6 +89,10 @@ COMMANDS: dict[str, tuple[str, str]] = {
         "isodesign.commands.modes",
         "modes and rocking stability of a table in six degrees of freedom (docs/table.md)",
     ),
+    "stability": (
+        "isodesign.commands.stability",
+        "static stability and the leveling valves' loop of a table (margins, onset, plots)",
+    ),
     "floor": (
         "isodesign.commands.floor",
         "floor spectrum from a survey record (time history): band RMS statistics vs VC",

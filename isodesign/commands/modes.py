@@ -5,9 +5,12 @@ study (its optimum is analysed), or --builtin table. The table is leveled on its
 valves (each isolator's load and p0), and its six modes are solved with the isolators'
 frequency-dependent stiffness evaluated at each mode's own frequency (a nonlinear
 eigenproblem), in the linear regime (1 um). Prints the leveling, the modes (frequency,
-damping ratio, kinetic-energy fraction per direction) and the rocking stability with the
-gravity term. Writes to OUTDIR: modes.csv (frequency, damping ratio, energy fractions,
-shape), stability.csv, leveling.csv, layout.png (top view) and record.json.
+damping ratio, kinetic-energy fraction per direction), every self-consistent solution of
+the lowest mode, and the static verdict with the gravity term (vertical translation
+condensed, sealed springs at the quasi-static 1 mHz; a mode statically unstable at its own
+frequency is never "stable"), its critical CG height and weakest direction. Writes to
+OUTDIR: modes.csv (frequency, damping ratio, energy fractions, shape), stability.csv,
+leveling.csv, layout.png (top view) and record.json.
 """
 
 from __future__ import annotations
@@ -64,7 +67,7 @@ def load_table_job(args):
 def run(args) -> int:
     """Run ``isodesign modes``."""
     from isodesign.table.model import table_model
-    from isodesign.table.modes import rocking_stability, table_modes
+    from isodesign.table.modes import mode_solutions, rocking_stability, table_modes
     from isodesign.table.plots import layout_figure
     from isodesign.table.summary import leveling_text, modes_text, stability_text
 
@@ -74,13 +77,15 @@ def run(args) -> int:
     model = table_model(design, study.table, flow=m["flow"],
                         amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
     modes = table_modes(model)
-    stab = rocking_stability(model)
+    stab = rocking_stability(model, modes=modes)
+    lowest = mode_solutions(model)
     t = study.table
     print(f"modes of the table: {label}; {t.mass_kg:g} kg on {t.n_isolators} isolators, CG "
           f"({', '.join(f'{v:g}' for v in t.cg_m)}) m; springs in the linear regime (1 um), "
           "each mode at its own frequency")
     print(leveling_text(model.leveling))
     print(modes_text(modes))
+    print(lowest.text())
     print(stability_text(stab))
     with rundir as run:
         run.record["study"] = study.source or study.name
@@ -153,7 +158,8 @@ def run_table_response(args, job) -> int:
                 amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"], warn=False)
             in_force = res
     if not to_stdout:
-        print(table_summary(res, table_modes(model), rocking_stability(model), job.label))
+        md = table_modes(model)
+        print(table_summary(res, md, rocking_stability(model, modes=md), job.label))
     if args.output:
         n = write_frame(res.to_frame(), args.output)
         if not to_stdout:

@@ -11,7 +11,11 @@ One concept a module:
 * :mod:`~isodesign.table.floor`: the floor per axis and the response grid.
 * :mod:`~isodesign.table.response`: the band response, the random closure per isolator.
 * :mod:`~isodesign.table.harmonic`: harmonic floor motion, the closure per isolator.
-* :mod:`~isodesign.table.modes`: modes (nonlinear eigenproblem), rocking stability.
+* :mod:`~isodesign.table.modes`: modes (nonlinear eigenproblem, every self-consistent
+  solution), the static verdict with the gravity term.
+* :mod:`~isodesign.table.leveling`, :mod:`~isodesign.table.leveling_loop`,
+  :mod:`~isodesign.table.stability_report`: the leveling valves as a dynamic model, their
+  loop (python-control), a report section.
 * :mod:`~isodesign.table.problem`, :mod:`~isodesign.table.optimize`: the NLP in three axes.
 * :mod:`~isodesign.table.study`, :mod:`~isodesign.table.summary`,
   :mod:`~isodesign.table.plots`: study files, text, figures.

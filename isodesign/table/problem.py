@@ -22,8 +22,10 @@ Objective: the worst margin over every instrument point, axis and band (an epigr
 * ``min_natural_frequency_hz``/``max_natural_frequency_hz`` on the vertical mode,
   ``sqrt(sum K0_i / m)``;
 * ``min_tilt_margin`` on every rocking direction with the gravity term:
-  ``K_theta / (W h) - mu I`` positive semidefinite, written smoothly as its two diagonal
-  entries and its determinant ``>= 0`` (no eigenvalue, no ``min``);
+  ``A / (W h) - mu I`` positive semidefinite (``A`` the rocking stiffness with the vertical
+  translation condensed, sealed springs at the quasi-static 1 mHz: the analysis's
+  verdict), written smoothly as its two diagonal entries and its determinant ``>= 0``
+  (no eigenvalue, no ``min``);
 * ``max_peak_transmissibility_db`` on ``|T_p,aa|`` at every point and axis on the grid up
   to :data:`PEAK_ROWS_MAX_HZ` or twice the highest rigid-body frequency (the analysis
   checks the whole fine grid);
@@ -368,14 +370,14 @@ class TableProblem:
             cons.append(("natural_frequency_hz", ln_f, math.log(lo) if lo else -np.inf,
                          math.log(hi) if hi else np.inf))
         mu = c.get("min_tilt_margin")
-        if mu and table.cg_height_m > 0:
-            r = table.vertical_points_m
-            wh = table.weight_n * table.cg_height_m
-            a11 = sum(ki * r[i, 1] ** 2 for i, ki in enumerate(k0)) / wh - mu
-            a22 = sum(ki * r[i, 0] ** 2 for i, ki in enumerate(k0)) / wh - mu
-            a12 = -sum(ki * r[i, 0] * r[i, 1] for i, ki in enumerate(k0)) / wh
-            cons.append(("min_tilt_margin", ca.vertcat(a11, a22, a11 * a22 - a12 * a12),
-                         0.0, np.inf))
+        if mu and table.cg_height_m > 0:  # the analysis's verdict: z condensed, quasi-static
+            from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
+
+            kq = [sealed_stiffness(base.replace(pressure_pa=float(p)), self.dia, flow=self.flow)
+                  for p in lv.pressure_pa]
+            rows = tilt_margin_rows(kq, table.vertical_points_m,
+                                    table.weight_n * table.cg_height_m, mu)
+            cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows

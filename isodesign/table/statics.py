@@ -13,6 +13,22 @@ unknowns follow from vertical force and moment equilibrium about the table's x a
 a 3x3 system, statically determinate when the groups' centroids are not collinear. The
 solution must carry load in every group (the CG inside the triangle of the groups'
 centroids) and every p0 must stay below the supply pressure.
+
+Static stability (docs/table.md, section 7)
+-------------------------------------------
+The vertical springs and the gravity term act on ``(z, rx, ry)``; the horizontal springs
+drop out once ``x, y, rz`` are condensed. With ``a_i, b_i`` each vertical-force point's
+offset from the CG, ``k_i`` each spring's stiffness on the time scale that matters and
+``s = (sum k_i b_i, -sum k_i a_i)`` the coupling of ``z`` with ``(rx, ry)``, the vertical
+translation is condensed out::
+
+    A = K_theta - s s^T / sum k_i,      K_theta = sum k_i [[b_i^2, -a_i b_i], [-a_i b_i, a_i^2]]
+
+and the table is statically stable when ``A - W h I`` is positive definite: the critical CG
+height is ``lambda_min(A) / W`` and the margin of each principal direction
+``lambda_j(A) / (W h)``. :func:`condensed_rocking_stiffness` and :func:`tilt_margin_rows`
+evaluate on NumPy numbers and CasADi symbols alike (the analysis and the NLP share them),
+and :func:`sealed_stiffness` is a sealed spring's stiffness on a slow time scale.
 """
 
 from __future__ import annotations
@@ -22,10 +38,18 @@ from dataclasses import dataclass
 import numpy as np
 
 from isodesign.errors import InputError
+from isodesign.spring.equations import air_stiffness, spring_stiffness
+from isodesign.spring.flow_models import resistance_function
 from isodesign.spring.gas import P_ATM
 from isodesign.table.layout import Table
 
-__all__ = ["Leveling", "level"]
+__all__ = ["QUASI_STATIC_FREQUENCY_HZ", "Leveling", "condensed_rocking_stiffness", "level",
+           "sealed_stiffness", "tilt_margin_rows"]
+
+#: The quasi-static time scale of the static verdict (valves off, springs sealed): 1 mHz,
+#: a quarter of an hour. The default viscoelastic diaphragm has no static limit (its storage
+#: stiffness falls as ``f^0.02``), so the time scale is stated with every verdict.
+QUASI_STATIC_FREQUENCY_HZ = 1.0e-3
 
 
 @dataclass(frozen=True, eq=False)
@@ -169,3 +193,94 @@ def level(table: Table, piston_area_m2: float, *, p_atm_pa: float = P_ATM) -> Le
 def _shown(groups) -> str:
     """Groups as the user writes them in a study file (one-based)."""
     return str([[i + 1 for i in g] for g in groups])
+
+
+def sealed_stiffness(design, diaphragm, frequency_hz: float = QUASI_STATIC_FREQUENCY_HZ,
+                     amplitude_m: float = 1e-6, flow: str = "quasi_steady"):
+    """A sealed spring's storage stiffness on a slow time scale, any backend.
+
+    ``Re [k_air(w) + k_D(w, X)]``: the spring model's air stiffness (Eq. 38, or the
+    distributed network, which also counts the tube's own volume) for the flow model's
+    small-amplitude resistance, plus the diaphragm's storage stiffness at ``f``. At the
+    quasi-static frequency the air part is its low-frequency limit ``k_s/(N+1)`` to
+    ``O((w tau)^2)``; the diaphragm keeps softening. The same functions the analysis's
+    ``Re k*(f)`` evaluates (tests/table/test_stability_static.py holds them to 1e-9), on
+    NumPy numbers and CasADi symbols (the NLP's ``min_tilt_margin``).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring at its own p0 (fields may be CasADi symbols).
+    diaphragm : diaphragm model
+        :func:`~isodesign.spring.diaphragm.diaphragm_model`'s object.
+    frequency_hz : float
+        The time scale, Hz (default :data:`QUASI_STATIC_FREQUENCY_HZ`).
+    amplitude_m : float
+        Stroke amplitude of the diaphragm, m (the linear regime, 1 um).
+    flow : str
+        The flow model (its resistance at zero tube velocity).
+    """
+    w = 2.0 * np.pi * float(frequency_hz)
+    c = resistance_function(flow, design, w)(0.0)
+    return spring_stiffness(air_stiffness(design, w, c, flow),
+                            diaphragm.stiffness(w, amplitude_m)).re
+
+
+def condensed_rocking_stiffness(k_vertical, points_m) -> tuple:
+    """``A = K_theta - s s^T / sum k``: the rocking stiffness with ``z`` condensed out.
+
+    Any backend: ``k_vertical`` may hold floats or CasADi symbols. The vertical spring of
+    isolator ``i`` at ``(a_i, b_i, -h)`` from the CG has ``g = (0, 0, 1, b_i, -a_i, 0)``, so
+    it couples ``z`` with ``rx`` by ``k_i b_i`` and with ``ry`` by ``-k_i a_i``; minimizing
+    the energy over ``z`` at a given rotation leaves the Schur complement ``A``.
+
+    Parameters
+    ----------
+    k_vertical : sequence
+        Each isolator's vertical stiffness, N/m.
+    points_m : ndarray (n, 3)
+        The vertical-force points from the CG (:attr:`Table.vertical_points_m`), m.
+
+    Returns
+    -------
+    (a11, a12, a22)
+        The symmetric 2x2 on ``(rx, ry)``, N m/rad.
+    """
+    r = np.asarray(points_m, dtype=float)
+    k = list(k_vertical)
+    a, b = r[:, 0].tolist(), r[:, 1].tolist()
+    total = sum(k)
+    s1 = sum(ki * bi for ki, bi in zip(k, b, strict=True))
+    s2 = -sum(ki * ai for ki, ai in zip(k, a, strict=True))
+    a11 = sum(ki * bi * bi for ki, bi in zip(k, b, strict=True)) - s1 * s1 / total
+    a22 = sum(ki * ai * ai for ki, ai in zip(k, a, strict=True)) - s2 * s2 / total
+    a12 = -sum(ki * ai * bi for ki, ai, bi in zip(k, a, b, strict=True)) - s1 * s2 / total
+    return a11, a12, a22
+
+
+def tilt_margin_rows(k_vertical, points_m, overturning_n_m: float, minimum: float) -> tuple:
+    """The smooth tilt-margin condition ``A / (W h) - mu I`` positive semidefinite, any backend.
+
+    Its two diagonal entries and its determinant, each ``>= 0`` (no eigenvalue, no ``min``):
+    the NLP's ``min_tilt_margin`` rows, the same condensed ``A`` as the analysis.
+
+    Parameters
+    ----------
+    k_vertical : sequence
+        Each isolator's vertical stiffness, N/m (floats or CasADi symbols).
+    points_m : ndarray (n, 3)
+        Vertical-force points from the CG, m.
+    overturning_n_m : float
+        ``W h``, N m.
+    minimum : float
+        The bound ``mu`` on every principal margin.
+
+    Returns
+    -------
+    (d11, d22, det)
+    """
+    a11, a12, a22 = condensed_rocking_stiffness(k_vertical, points_m)
+    d11 = a11 / overturning_n_m - minimum
+    d22 = a22 / overturning_n_m - minimum
+    d12 = a12 / overturning_n_m
+    return d11, d22, d11 * d22 - d12 * d12

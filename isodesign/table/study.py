@@ -18,6 +18,13 @@ Schema (docs/table.md, section 8)::
     lateral_stiffness_n_per_m = 1.0e4
     lateral_loss_factor = 0.1
     elastic_centre_height_m = 0.0
+    [table.leveling]                   # the valves as a dynamic model (docs/table.md, s. 12)
+    gain_kg_s_per_m = 0.02             # linear region: mass flow per metre of height error
+    dead_band_m = 1.0e-5
+    saturation_flow_kg_s = 1.0e-3
+    line_resistance_pa_s_per_kg = 1.0e6
+    sensor_positions_m = [[0.0, -0.4], [0.6, 0.4], [-0.6, 0.4]]   # default the centroids
+    fed_chamber = "top"
 
 The mass and gravity are the ``[payload]``'s; ``payload.isolators`` must match.
 """
@@ -38,7 +45,7 @@ __all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection",
 TABLE_KEYS = {
     "table": {"isolators_m", "cg_m", "inertia_kg_m2", "box_m", "leveling_groups",
               "instrument_points_m", "point_names", "supply_pressure_pa", "horizontal",
-              "objective_axes", "objective_points"},
+              "objective_axes", "objective_points", "leveling"},
     "table.horizontal": {"pendulum_length_m", "lateral_stiffness_n_per_m",
                          "lateral_loss_factor", "elastic_centre_height_m"},
 }
@@ -285,7 +292,6 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
                   g_m_s2=g_m_s2, **kw)  # fmt: skip
         objective_selection(d, t)
         _check_limits(t, h, "box_m" if "box_m" in d else "inertia_kg_m2")
-        return t
     except InputError as exc:
         msg = str(exc)
         if msg.startswith(("horizontal:", "pendulum_length_m", "lateral_", "elastic_")):
@@ -294,6 +300,11 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
         if msg.startswith("box_m"):
             raise InputError(f"{where}: table.{msg}") from None
         raise InputError(f"{where}: table.{msg}") from None
+    if "leveling" in d:  # validated here (its errors name table.leveling.<key>)
+        from isodesign.table.leveling import leveling_from_dict
+
+        leveling_from_dict(d["leveling"], t, where)
+    return t
 
 
 def objective_selection(d: dict, table: Table) -> tuple[tuple[int, ...], tuple[int, ...]]:

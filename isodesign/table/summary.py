@@ -45,7 +45,7 @@ def modes_text(modes) -> str:
 
 
 def stability_text(stab) -> str:
-    """The rocking margins (with the gravity term) per principal direction.
+    """The static verdict: margins per principal direction, critical CG height, time scale.
 
     Parameters
     ----------
@@ -56,9 +56,16 @@ def stability_text(stab) -> str:
         ax = stab.directions[:, j]
         parts.append(f"{name} axis ({ax[0]:+.2f} rx, {ax[1]:+.2f} ry): margin "
                      f"{stab.margin[j]:.3g}")
-    verdict = "stable" if stab.stable else "UNSTABLE in rocking (margin < 1)"
-    return "  rocking stability with gravity (K_theta / (W h)): " + "; ".join(parts) + \
-        f" -> {verdict}"
+    if stab.stable:
+        verdict = "stable"
+    elif stab.unstable_modes and np.all(stab.margin > 1.0):
+        verdict = ("UNSTABLE: mode " + ", ".join(str(j) for j in stab.unstable_modes)
+                   + " statically unstable at its own frequency")
+    else:
+        verdict = "UNSTABLE (margin < 1)"
+    return ("  static stability with gravity (z condensed, A = K_theta - s s^T / sum k; "
+            f"{stab.time_scale}): " + "; ".join(parts)
+            + f"; critical CG height {stab.critical_height_m:.4g} m -> {verdict}")
 
 
 def band_table_text(res) -> str:

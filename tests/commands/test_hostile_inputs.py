@@ -372,6 +372,13 @@ HOSTILE: list[tuple[str, list[str], list[str]]] = [
      ["--builtin", "not both"]),
     ("modes", ["--builtin", "table", "-o", "{foreign}"], ["--output", "not empty"]),
     ("response", ["{study_table_cg_out.toml}"], ["table.cg_m"]),
+    # -- stability (a table study) -------------------------------------------------------------
+    ("stability", ["{tmp}/nope.toml", "-o", "{tmp}/m"], ["nope.toml"]),
+    ("stability", ["{study_plain.toml}", "-o", "{tmp}/m"], ["INPUT", "has no [table]"]),
+    ("stability", ["{study_table_cg_out.toml}", "-o", "{tmp}/m"],
+     ["study_table_cg_out.toml", "table.cg_m", "outside the support polygon"]),
+    ("stability", ["-o", "{tmp}/m"], ["INPUT", "--builtin table"]),
+    ("stability", ["--builtin", "table", "-o", "{foreign}"], ["--output", "not empty"]),
     # -- issue 14: unwritable and odd output paths, refused before the computation -------
     ("stiffness", ["-o", "/proc/version"], ["--output", "/proc/version"]),
     ("stiffness", ["-o", "/sys/x.csv"], ["--output", "/sys"]),

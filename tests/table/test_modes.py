@@ -55,13 +55,21 @@ def test_vertical_mode_solves_the_nonlinear_eigenproblem(ref):
 
 def test_rocking_margin_reduces_to_the_tilt_margin(ref):
     t = Table.symmetric(600.0, 1.2, 0.8, 0.35)
-    rs = rocking_stability(table_model(ref, t))
+    # with the 1-DOF figure's K0 (a symmetric table: the stiffness centre under the CG, s = 0)
+    rs = rocking_stability(table_model(ref, t), frequency_hz=None)
     s = stability_figures(ref, Payload(600.0, 4, spacing_m=0.8, cg_height_m=0.35))
     assert rs.margin[0] == pytest.approx(s.tilt_margin, rel=1e-12)
     assert rs.margin[1] == pytest.approx(s.tilt_margin * (1.2 / 0.8) ** 2, rel=1e-12)
     assert rs.stable and rs.lowest_static_eigenvalue_rad2_s2 > 0
     # the weakest direction turns about x (rocking across the narrow 0.8 m spacing)
     assert abs(rs.directions[0, 0]) == pytest.approx(1.0)
+    # the default verdict takes the sealed springs at the quasi-static 1 mHz: the same
+    # formula with that stiffness, and the critical height is the margin times h
+    qs = rocking_stability(table_model(ref, t))
+    k = qs.static_stiffness_n_per_m[0]
+    assert qs.margin[0] == pytest.approx(4 * k * 0.4**2 / (600.0 * 9.80665 * 0.35), rel=1e-12)
+    assert qs.critical_height_m == pytest.approx(qs.margin[0] * 0.35, rel=1e-12)
+    assert qs.margin[0] < rs.margin[0]
 
 
 def test_a_high_cg_is_unstable_and_its_rocking_mode_has_no_frequency(ref):

@@ -15,7 +15,9 @@ def test_modes_command_writes_its_files(tmp_path, capsys):
     out = tmp_path / "m"
     assert main(["modes", "--builtin", "table", "-o", str(out)]) == 0
     text = capsys.readouterr().out
-    assert "rocking stability with gravity" in text and "x+ry" in text
+    assert "static stability with gravity" in text and "x+ry" in text
+    assert "critical CG height 1.497 m -> stable" in text
+    assert "mode 1: self-consistent solutions 1.022 Hz" in text
     for name in ("modes.csv", "stability.csv", "leveling.csv", "layout.png", "record.json"):
         assert (out / name).is_file(), name
     modes = pd.read_csv(out / "modes.csv")
