@@ -105,7 +105,7 @@ def _outside_note(a: CaseAnalysis) -> str:
             f"where |T| amplifies the floor")
 
 
-def _job(c: Case, a: CaseAnalysis, t: dict | None = None) -> dict:
+def _job(c: Case, a: CaseAnalysis, tsec: dict | None = None) -> dict:
     st = c.study
     p = st.payload
     floor, target = st.floor, st.target
@@ -127,8 +127,8 @@ def _job(c: Case, a: CaseAnalysis, t: dict | None = None) -> dict:
                          f"{len(a.all_bands.bands)} shown)"),
         ("job from", c.job_source),
     ]
-    if t is not None:  # the table's own job, not the [payload] it reduces to
-        rows[:2] = table_job_rows(c, t)
+    if tsec is not None:  # the table's own job, not the [payload] it reduces to
+        rows[:2] = table_job_rows(c, tsec)
     sc = a.judged.scope
     if getattr(st, "table", None) is not None:  # docs/table.md
         t = st.table

@@ -50,7 +50,7 @@ from isodesign.optimization.explain import (
     limiting_summary,
 )
 from isodesign.optimization.multistart import run_starts, start_points
-from isodesign.optimization.refine import PEAK_TOLERANCE_DB
+from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
 from isodesign.results import ResultDisplay
 from isodesign.table.constraint_table import CONTINUOUS_PEAK, table_constraint_reports
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
@@ -312,7 +312,10 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     best = min(good.values(), key=lambda s: s.objective) if good else \
         min(cand, key=lambda s: s.max_violation)
     n_best = sum(1 for s in good.values() if abs(s.objective - best.objective) <= 1e-4)
+    j_first = best.objective
     prob, best, modes, rounds, peak = _refine(prob, study, best)
+    prob, best, modes, rounds, peak = _other_branches(prob, study, good, j_first, best, modes,
+                                                      rounds, peak)
     d = study.design_at(best.values)
     sig_rel = margin_db = math.nan
     if best.feasible:
@@ -378,6 +381,39 @@ def _violations(study, prob, best, modes, peak) -> tuple:
     if modes is not None:
         out += _mode_misses(study, modes)
     return tuple(out)
+
+
+def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
+    """Refine the other branches that could still win.
+
+    The refinement can only lower a branch's objective, so a distinct branch whose optimum
+    before it (J) is better than the refined winner's J may win after its own; each such
+    branch is refined in turn (the movable frequencies placed so far kept, the frozen modes
+    set at its point) and the best refined one that meets its peak bound is kept.
+    ``j_first`` is the refined branch's J before its refinement.
+    """
+    if not best.feasible or not peak["rounds"]:
+        return prob, best, modes, rounds, peak
+    seen = [j_first, best.objective]
+    for sol in sorted(good.values(), key=lambda o: o.objective):
+        if sol.objective >= best.objective - BRANCH_TOLERANCE:
+            break
+        if any(abs(sol.objective - j) <= BRANCH_TOLERANCE for j in seen):
+            continue
+        seen.append(sol.objective)
+        try:
+            prob.set_modes(_modes_at(prob, study.design_at(sol.values), prob.sigma(sol.x),
+                                     prob.tube_rms(sol.x)))
+        except InputError:
+            continue
+        slots = list(peak["added_frequencies_hz"])
+        out = _refine(prob, study, sol, slots=slots)
+        prob = out[0]
+        cand, cpeak = out[1], out[4]
+        if cand.feasible and cpeak["met"] is not False and cand.objective < best.objective:
+            best, modes, rounds, peak = cand, out[2], out[3], cpeak
+        peak["added_frequencies_hz"] = list(slots)  # every frequency the NLP now holds
+    return prob, best, modes, rounds, peak
 
 
 def _mode_misses(study, modes) -> list[tuple[str, float]]:
@@ -457,7 +493,7 @@ def add_peak_frequencies(prob, over, used) -> tuple:
     return prob, new
 
 
-def _refine(prob, study, best):
+def _refine(prob, study, best, slots=None):
     """Mode refresh and continuous peak refinement of the multi-start's best solution.
 
     Returns ``(prob, best, modes, mode_rounds, peak)``: the NLP last solved (built again
@@ -472,7 +508,7 @@ def _refine(prob, study, best):
             "peaks": None, "met": None, "excess_db": None, "resolve_failed": None}
     rounds = 0
     modes = None
-    slots: list = []
+    slots = [] if slots is None else slots  # the frequencies placed so far (extended)
     while True:
         if not best.feasible:
             break
@@ -497,6 +533,8 @@ def _refine(prob, study, best):
         if not over or peak["rounds"] >= TABLE_PEAK_ROUNDS:
             break
         prob, new = add_peak_frequencies(prob, over, slots)
+        if not new:  # every movable frequency taken: the excess stays a violation
+            break
         slots += new
         peak["added_frequencies_hz"] += new
         peak["rounds"] += 1

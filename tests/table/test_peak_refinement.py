@@ -165,3 +165,30 @@ def test_held_out_table_pareto_points_meet_their_continuous_peak(held_out_toml):
             assert not res.front[i]
         else:
             assert peak <= lim + 0.02, (i, peak)
+
+
+@pytest.mark.slow
+def test_a_branch_better_before_refinement_is_refined_too(held_out_toml):
+    """The refinement lowers a branch's objective, so a branch that looked better before it
+    is refined as well and the best refined one wins (here: the same branch again, which
+    must come back no worse and meeting its bound)."""
+    from isodesign.optimization.refine import BRANCH_TOLERANCE
+    from isodesign.table import optimize as topt
+    from isodesign.table.problem import TableProblem
+
+    st = load_study_text(held_out_toml)
+    prob = TableProblem(st)
+    start = {v.name: v.start for v in st.variables}
+    prob.set_modes(topt._modes_at(prob, st.design_at(start)))
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        sol = prob.solve(prob.initial_guess(start))
+        assert sol.feasible
+        prob2, best, modes, rounds, peak = topt._refine(prob, st, sol)
+        assert peak["rounds"] >= 1 and peak["met"]
+        assert best.objective > sol.objective + BRANCH_TOLERANCE  # the refinement cost
+        n_before = len(peak["added_frequencies_hz"])
+        out = topt._other_branches(prob2, st, {0: sol}, math.inf, best, modes, rounds, peak)
+    assert out[1].feasible and out[4]["met"]
+    assert out[1].objective <= best.objective + 1e-6
+    assert len(out[4]["added_frequencies_hz"]) >= n_before
