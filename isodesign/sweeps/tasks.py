@@ -275,6 +275,7 @@ def _response(study, run: RunDirectory, options: dict) -> dict:
     from isodesign.io.record import design_figures, resolved_study_dict, study_toml
     from isodesign.response.random_input import band_response
 
+    _check_response(study)  # a point's study never answers the nominal question
     if study.table is not None:
         return _table_response(study, run)
     m = study.models
@@ -408,6 +409,12 @@ def _check_pareto(study) -> None:
     refuse(study, PARETO_WHAT, table=False)
 
 
+def _check_response(study) -> None:
+    from isodesign.commands.response import refuse_robust_response
+
+    refuse_robust_response(study)  # the line of isodesign response
+
+
 def _check_yield(study) -> None:
     if getattr(study, "scenarios", None) is None:
         raise InputError("--task yield: the study has no [scenarios] table (the tolerance laws "
@@ -449,7 +456,9 @@ register_task(SweepTask("optimize", "optimize", _optimize, ("plots", "yield_samp
                         "freedom with [table] (the files of isodesign optimize)"))
 register_task(SweepTask("response", "response", _response, (),
                         "band response of the study's start design, in three axes at every "
-                        "point with [table] (bands.csv, response.json)"))
+                        "point with [table] (bands.csv, response.json); refuses a study "
+                        "with [scenarios] (isodesign yield answers it)",
+                        check=_check_response))
 register_task(SweepTask("pareto", "pareto", _pareto, ("objectives", "points", "plots"),
                         "the point's Pareto front (the files of isodesign pareto)",
                         check=_check_pareto))
