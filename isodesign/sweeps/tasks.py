@@ -395,7 +395,7 @@ def _table_pareto(study, run: RunDirectory, options: dict, points: int) -> dict:
     return {"feasible": True, "objective": "worst_band_margin",
             "objective_value": float(result.worst_margin_db[best]),
             **_variables(result.designs[best]), "binding": "",
-            "n_front": int(np.sum(result.front)),
+            "n_front": int(np.sum(result.front)), "hypervolume": float(result.hypervolume),
             "best_worst_band_margin": float(result.worst_margin_db[best]),
             "min_total_volume_m3": float(np.nanmin(np.where(result.front,
                                                             result.total_volume_m3,

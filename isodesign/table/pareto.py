@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.front import REFERENCE_MARGIN, front_reference, nondominated
 from isodesign.results import ResultDisplay
 
 __all__ = ["TableParetoResult", "table_pareto_front"]
@@ -38,6 +39,14 @@ class TableParetoResult(ResultDisplay):
         Non-dominated points.
     study : Study
     wall_s : float
+    reference_point, ideal_point : ndarray (2,)
+        The hypervolume's reference and ideal points, both objectives minimized (margin
+        negated, dB; volume, m^3), as a vertical front's
+        (:func:`isodesign.optimization.front.front_reference`).
+    hypervolume : float
+        The front's normalized hypervolume (ideal point -> 0, reference point -> 1).
+    settings : dict
+        Method, points, reference margin, units, starts of anchor A.
     """
 
     worst_margin_db: np.ndarray
@@ -47,6 +56,19 @@ class TableParetoResult(ResultDisplay):
     front: np.ndarray
     study: Any
     wall_s: float
+    reference_point: np.ndarray | None = None
+    ideal_point: np.ndarray | None = None
+    hypervolume: float = math.nan
+    settings: dict = field(default_factory=dict)
+
+    #: The two objectives, as a vertical front names them (A maximized, B minimized).
+    objectives = ("worst_band_margin", "total_volume")
+
+    @property
+    def values(self) -> np.ndarray:
+        """``(n, 2)``: worst margin (dB) and total volume (m^3) per point, as a vertical
+        front's ``values`` (NaN where a point failed)."""
+        return np.column_stack([self.worst_margin_db, self.total_volume_m3])
 
     def to_frame(self):
         """One row per point: margin, volume, design, status, non-dominated."""
@@ -57,10 +79,14 @@ class TableParetoResult(ResultDisplay):
         df.insert(0, "worst_margin_db", self.worst_margin_db)
         df["status"] = list(self.statuses)
         df["nondominated"] = self.front
+        df.attrs["hypervolume"] = self.hypervolume
         return df
 
     def _summary_items(self) -> list[tuple[str, str]]:
-        return [("points", str(len(self.designs))), ("non-dominated", str(int(self.front.sum()))),
+        return [("objectives", f"{self.objectives[0]} (optimized) vs {self.objectives[1]} "
+                               "(swept)"),
+                ("points", str(len(self.designs))), ("non-dominated", str(int(self.front.sum()))),
+                ("hypervolume", f"{self.hypervolume:.4f} (normalized)"),
                 ("wall", f"{self.wall_s:.3g} s")]
 
     def plot(self, ax=None):
@@ -140,14 +166,16 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
             progress(k + 1, points)
     margin = np.array([prob.worst_margin_db(s.x) if s.feasible else math.nan for s in sols])
     vol = np.array([math.exp(s.objectives[1]) if s.feasible else math.nan for s in sols])
-    front = np.zeros(points, bool)
-    for i in range(points):
-        if not np.isfinite(margin[i]):
-            continue
-        dominated = any(np.isfinite(margin[j]) and margin[j] >= margin[i] and vol[j] <= vol[i]
-                        and (margin[j] > margin[i] or vol[j] < vol[i]) for j in range(points))
-        front[i] = not dominated
+    mins = np.column_stack([-margin, vol])  # both minimized, as a vertical front's
+    front = nondominated(mins)
+    ideal, ref, hv = front_reference(mins, front) if front.any() else (None, None, math.nan)
     return TableParetoResult(worst_margin_db=margin, total_volume_m3=vol,
                              designs=tuple(s.values for s in sols),
                              statuses=tuple(s.status for s in sols), front=front, study=st,
-                             wall_s=time.perf_counter() - t0)
+                             wall_s=time.perf_counter() - t0, reference_point=ref,
+                             ideal_point=ideal, hypervolume=hv,
+                             settings={"method": "epsilon-constraint on the table NLP, "
+                                                 "warm starts",
+                                       "points": points, "reference_margin": REFERENCE_MARGIN,
+                                       "units": ("dB", "m^3"),
+                                       "starts": st.solver["starts"]})
