@@ -230,7 +230,14 @@ def execute_table_front(study, run, args, result=None) -> int:
                        "study_source": study.source})
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign pareto run (a table study).")))
-    res = pareto_front(study, DEFAULT_OBJECTIVES, args.points) if result is None else result
+    res = result
+    if res is None:
+        try:
+            res = pareto_front(study, DEFAULT_OBJECTIVES, args.points)
+        except SolverError as exc:  # as a vertical front: the record, the reason, exit 1
+            if "no feasible design" in str(exc):
+                return _infeasible(run, args, DEFAULT_OBJECTIVES, exc)
+            raise
     written = [run.write_csv("pareto.csv", res.to_frame())]
     written.append(run.write_json("pareto.json", pareto_json(res)))
     pts = [{"worst_band_margin": None if not math.isfinite(m) else float(m),

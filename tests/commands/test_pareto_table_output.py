@@ -130,3 +130,20 @@ def test_table_front_hypervolume_by_an_independent_raster(runs):
         dom = any(m[j] >= m[i] and vol[j] <= vol[i] and (m[j] > m[i] or vol[j] < vol[i])
                   for j in range(len(df)) if np.isfinite(m[j]))
         assert bool(df["nondominated"][i]) == (np.isfinite(m[i]) and not dom)
+
+
+@pytest.mark.slow
+def test_an_infeasible_table_front_is_reported_as_a_vertical_one(tmp_path):
+    """No feasible anchor: the vertical front's lines, record.json (infeasible), exit 1."""
+    raw = copy.deepcopy(small_table().raw)
+    raw["constraints"]["max_peak_transmissibility_db"] = 0.5  # no isolator does that
+    f = tmp_path / "t.toml"
+    f.write_text(study_toml(study_from_dict(raw, source="t.toml", fill_defaults=False)))
+    p = cli("pareto", str(f), "--points", "3", "--no-plots", "-o", str(tmp_path / "p"))
+    assert p.returncode == 1, p.stderr
+    assert "NO FEASIBLE DESIGN when maximizing worst_band_margin alone" in p.stdout
+    assert p.stderr.strip().splitlines()[-1].startswith(
+        "isodesign: error: pareto: no feasible design when maximizing worst_band_margin")
+    rec = json.loads((tmp_path / "p" / "record.json").read_text())
+    assert rec["run_status"] == "infeasible"
+    assert not (tmp_path / "p" / "pareto.csv").exists()
