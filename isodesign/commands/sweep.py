@@ -50,7 +50,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--yield-samples", type=_int_option, metavar="N",
                         help="task yield: draws per point (1..1000000; default 200); task "
                         "optimize of a study with [scenarios]: the robust yield's draws (0..; "
-                        "default 500, as isodesign optimize)")
+                        "default 200, vertical or [table], as isodesign optimize)")
     parser.add_argument("--starts", type=_int_option, metavar="N",
                         help="starts per optimization (sets solver.starts of the base study)")
     parser.add_argument("--seed", type=_int_option, metavar="N",

@@ -33,6 +33,13 @@ def test_the_help_states_the_one_default():
     text = " ".join(parser.format_help().split())
     assert f"default {DEFAULT_YIELD_SAMPLES}; 0: none" in text
     assert "with a [table] 0" not in text
+    from isodesign.commands import sweep as sweep_cmd
+
+    parser = argparse.ArgumentParser()
+    sweep_cmd.add_arguments(parser)
+    text = " ".join(parser.format_help().split())
+    assert (f"the robust yield's draws (0..; default {DEFAULT_YIELD_SAMPLES}, vertical or "
+            "[table], as isodesign optimize)") in text
 
 
 def small_robust():
