@@ -431,7 +431,8 @@ def _yield(study, run: RunDirectory, options: dict) -> dict:
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign sweep point (task yield: the yield of the study's\n"
         "start design under its [scenarios])")))
-    res = estimate_yield(study, values, samples=int(options.get("samples") or 200),
+    n = options.get("samples")  # default: estimate_yield's, as isodesign yield
+    res = estimate_yield(study, values, **({} if n is None else {"samples": int(n)}),
                          seed=int(options.get("seed") or 0), workers=1,
                          label="the study's start design")
     run.write_json("yield.json", res.record())

@@ -108,3 +108,26 @@ def test_a_robust_table_run_computes_the_default_yields_through_cli_sweep_and_ap
     for y, rec in zip(ys, rob_cli["yields"], strict=True):
         assert y.fraction == rec["fraction"]
         assert y.worst_margin_db() == pytest.approx(rec["worst_margin_db"], abs=1e-6)
+
+
+@pytest.mark.slow
+def test_the_sweep_yield_task_draws_what_isodesign_yield_draws(tmp_path):
+    """The yield of a design: the same default number of draws through isodesign yield,
+    estimate_yield and the sweep's yield task (it had 200, the others 1,000)."""
+    import inspect
+
+    from isodesign.commands import yield_ as yield_cmd
+
+    default = inspect.signature(estimate_yield).parameters["samples"].default
+    parser = argparse.ArgumentParser()
+    yield_cmd.add_arguments(parser)
+    assert parser.get_default("samples") == default
+    st = small_robust()
+    res = isodesign.sweep(st, vary={"payload.mass_kg": [600.0]}, output=tmp_path / "sw",
+                          scheduler="serial", charts=False, task="yield")
+    row = res.table.iloc[0]
+    assert row["status"] == "complete", row["error"]
+    assert row["samples"] == default
+    api = estimate_yield(st, {v.name: v.start for v in st.variables}, workers=1)
+    assert row["objective_value"] == api.fraction
+    assert row["worst_band_margin_db"] == pytest.approx(api.worst_margin_db(), abs=1e-9)
