@@ -217,7 +217,7 @@ def execute_robust(study, run, args, result=None) -> int:
                                         res.reoptimized_sensitivities().items()}
     run.write_json("robust.json", rec)
     run.record["robust_result"] = {k: rec[k] for k in ("worst_case_objective", "values",
-                                                         "rounds", "converged")}
+                                                         "rounds", "converged", "yields")}
     run.write_csv("scenarios.csv", res.to_frame())
     run.write_csv("rounds.csv", res.rounds_frame())
     run.write_csv("sensitivities.csv", _sens_frame(sens))

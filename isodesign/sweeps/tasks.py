@@ -200,6 +200,10 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
                 contextlib.redirect_stderr(io.StringIO()):
             execute_study(study, run, args, result)
         row = _table_row(result) if kind == "table" else _robust_row(result)
+        # the yields the command computed (robust.json), as the row's columns
+        yields = (run.record.get("robust_result") or {}).get("yields") or []
+        for y, col in zip(yields, ("yield_nominal", "yield"), strict=False):
+            row[col] = float(y["fraction"])
     if not row["feasible"]:
         run.status = "infeasible"
     return row

@@ -98,6 +98,8 @@ def test_a_robust_table_run_computes_the_default_yields_through_cli_sweep_and_ap
     row = res.table.iloc[0]
     assert row["status"] == "complete", row["error"]
     rob_sw = json.loads((tmp_path / "sw" / row["run_dir"] / "robust.json").read_text())
+    assert row["yield"] == rob_cli["yields"][1]["fraction"]
+    assert row["yield_nominal"] == rob_cli["yields"][0]["fraction"]
     for y, rec in zip(rob_sw["yields"], rob_cli["yields"], strict=True):
         assert (y["samples"], y["fraction"]) == (rec["samples"], rec["fraction"])
         assert y["worst_margin_db"] == pytest.approx(rec["worst_margin_db"], abs=1e-6)
