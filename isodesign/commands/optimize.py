@@ -100,6 +100,11 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--no-plots", action="store_true", help="write no PNG files")
 
 
+#: ``--yield-samples`` default, as the help states it (the help does not import NumPy):
+#: :data:`isodesign.optimization.yields.DEFAULT_YIELD_SAMPLES` (a test checks they agree).
+YIELD_SAMPLES_DEFAULT = 200
+
+
 def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign optimize``."""
 
@@ -109,7 +114,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         type=_int_option,
         metavar="N",
         help="a study with [scenarios]: draws of the yield estimate of the nominal and the "
-        "robust optimum (0..1000000; default 500, with a [table] 0; 0: none)",
+        f"robust optimum, vertical or [table] (0..1000000; default {YIELD_SAMPLES_DEFAULT}; "
+        "0: none)",
     )
     add_output_dir_arguments(parser)
 

@@ -230,27 +230,78 @@ def execute_table_front(study, run, args, result=None) -> int:
                        "study_source": study.source})
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign pareto run (a table study).")))
-    res = pareto_front(study, DEFAULT_OBJECTIVES, args.points) if result is None else result
-    df = res.to_frame()
-    run.write_csv("pareto.csv", df)
+    res = result
+    if res is None:
+        try:
+            res = pareto_front(study, DEFAULT_OBJECTIVES, args.points)
+        except SolverError as exc:  # as a vertical front: the record, the reason, exit 1
+            if "no feasible design" in str(exc):
+                return _infeasible(run, args, DEFAULT_OBJECTIVES, exc)
+            raise
+    written = [run.write_csv("pareto.csv", res.to_frame())]
+    written.append(run.write_json("pareto.json", pareto_json(res)))
     pts = [{"worst_band_margin": None if not math.isfinite(m) else float(m),
             "total_volume": None if not math.isfinite(v) else float(v),
             "design": d, "status": stt, "nondominated": bool(f)}
            for m, v, d, stt, f in zip(res.worst_margin_db, res.total_volume_m3, res.designs,
                                       res.statuses, res.front, strict=True)]
     run.record.update({"points": pts, "wall_s": res.wall_s,
-                       "objectives": ["worst_band_margin", "total_volume"]})
+                       "objectives": ["worst_band_margin", "total_volume"],
+                       "hypervolume": res.hypervolume})
+    written += [run.final_path("record.json"), run.final_path("study_resolved.toml")]
     if not args.no_plots:
         with run.writing("pareto.png") as tmp:
             save_figure(res.plot(), tmp)
-    if not args.quiet:
-        print(f"table study {study_label(study)}: worst margin (3 axes, every point) against "
-              f"total volume, {args.points} points; {res.wall_s:.1f} s")
-        for m, v, f in zip(res.worst_margin_db, res.total_volume_m3, res.front, strict=True):
-            print(f"  {v * 1e3:8.4g} L  {m:+8.2f} dB  {'' if f else '(dominated)'}")
-    print(f"{int(res.front.sum())} of {len(res.designs)} points non-dominated; wrote "
-          f"{run.target}")
+        written.append(run.final_path("pareto.png"))
+    print_front(study, res, args, written, run.target, kind="table",
+                what="3 axes, every instrument point")
     return 0
+
+
+def print_front(study, result, args, written, out, *, kind: str = "", what: str = "",
+                scope=None) -> None:
+    """What ``isodesign pareto`` prints of a front, vertical or table: the header, the models,
+    every point with its design variables, the scope, the hypervolume with its reference and
+    ideal points, and the files written (``--quiet``: the hypervolume lines only).
+
+    Parameters
+    ----------
+    study : Study
+    result : ParetoResult or TableParetoResult
+    args : argparse.Namespace
+        ``points``, ``quiet``.
+    written : list of Path
+        The files written.
+    out : Path
+        The run directory.
+    kind : str
+        Before "study" in the header (``table``).
+    what : str
+        What objective A covers (``3 axes, every instrument point``).
+    scope : Scope, optional
+        The study's scope (its lines follow the table).
+    """
+    a, b = result.objectives
+    nat = _natural_points(result)
+    ref = ", ".join(f"{k} {format_objective(k, v)}" for k, v in nat["reference_point"].items())
+    ideal = ", ".join(f"{k} {format_objective(k, v)}" for k, v in nat["ideal_point"].items())
+    n_front = int(sum(bool(f) for f in result.front))
+    if not args.quiet:
+        print(f"{kind + ' ' if kind else ''}study {study_label(study)}: Pareto front of {a} "
+              f"({_sense(a)}{'; ' + what if what else ''}) against {b} (epsilon-constraint, "
+              f"{args.points} points, {result.settings['starts']} starts for the anchor); "
+              f"{result.wall_s:.1f} s")
+        print(models_line(study.models, "the study"))
+        print(front_table(result))
+        if scope is not None:
+            print("\n".join(scope.lines()))
+    print(f"{n_front} of {len(result.designs)} points non-dominated; hypervolume "
+          f"{result.hypervolume:.4f} (normalized: ideal point -> 0, reference point -> 1)")
+    print(f"  reference point (nadir + {result.settings['reference_margin']:.0%} of the "
+          f"range): {ref}")
+    print(f"  ideal point: {ideal}")
+    if not args.quiet:
+        print("wrote " + ", ".join(p.name for p in written) + f" to {out}")
 
 
 def _execute(study, run, args, objectives) -> int:
@@ -282,25 +333,5 @@ def _execute(study, run, args, objectives) -> int:
         with run.writing("pareto.png") as tmp:
             pareto_plot(result, tmp)
         written.append(run.final_path("pareto.png"))
-    nat = _natural_points(result)
-
-    a, b = objectives
-    ref = ", ".join(f"{k} {format_objective(k, v)}" for k, v in nat["reference_point"].items())
-    ideal = ", ".join(f"{k} {format_objective(k, v)}" for k, v in nat["ideal_point"].items())
-    n_front = int(sum(bool(f) for f in result.front))
-    if not args.quiet:
-        print(f"study {study_label(study)}: Pareto front of {a} ({_sense(a)}) against {b} "
-              f"(epsilon-constraint, {args.points} points, {result.settings['starts']} starts "
-              f"for the anchor); {result.wall_s:.1f} s")
-
-        print(models_line(study.models, "the study"))
-        print(front_table(result))
-        print("\n".join(study_scope(study).lines()))
-    print(f"{n_front} of {len(result.designs)} points non-dominated; hypervolume "
-          f"{result.hypervolume:.4f} (normalized: ideal point -> 0, reference point -> 1)")
-    print(f"  reference point (nadir + {result.settings['reference_margin']:.0%} of the "
-          f"range): {ref}")
-    print(f"  ideal point: {ideal}")
-    if not args.quiet:
-        print("wrote " + ", ".join(p.name for p in written) + f" to {out}")
+    print_front(study, result, args, written, out, scope=study_scope(study))
     return 0

@@ -235,6 +235,37 @@ def monte_carlo_table(res, mc, in_force=None) -> str:
     return "\n".join(lines)
 
 
+#: The band response's name in its refusal of a study with ``[scenarios]`` (the CLI's and
+#: the sweep task's line) and what answers such a study instead.
+RESPONSE_WHAT = "isodesign response"
+RESPONSE_INSTEAD = ("isodesign yield DESIGN_OR_RUN --study STUDY.toml (the design judged at "
+                    "every draw of [scenarios])")
+
+
+def refuse_robust_response(study) -> None:
+    """InputError (one line naming ``[scenarios]``) for a study with ``[scenarios]``.
+
+    The band response answers one payload, one floor and one design: the nominal case. A
+    study with ``[scenarios]`` asks for the design over its scenarios, which ``isodesign
+    yield`` answers (every draw judged, the worst margin); ``isodesign response`` and the
+    sweep's ``response`` task refuse it with the same line rather than answer the nominal
+    question.
+
+    Parameters
+    ----------
+    study : Study or None
+
+    Raises
+    ------
+    InputError
+        ``[scenarios]: isodesign response does not answer a robust study ...``.
+    """
+    from isodesign.optimization.dispatch import refuse
+
+    if study is not None:
+        refuse(study, RESPONSE_WHAT, table=False, instead=RESPONSE_INSTEAD)
+
+
 #: Job when neither the input nor an option states it: the built-in default study's floor
 #: and target (tests/commands/test_cli.py checks they agree with it).
 DEFAULT_FLOOR = "VC-A"
@@ -485,6 +516,7 @@ def run(args) -> int:
     with option_names(**RESPONSE_OPTION_NAMES):
         job = resolve_job(args, extra_payload={"spacing_m": args.spacing_m,
                                                "cg_height_m": args.cg_height_m})
+    refuse_robust_response(job.study)  # the nominal answer is not the question asked
     if job.study is not None and job.study.table is not None:  # six DOFs (docs/table.md)
         from isodesign.commands.modes import run_table_response
 

@@ -22,15 +22,13 @@ from isodesign.io.record import command_line, environment, resolved_study_dict, 
 from isodesign.optimization.dispatch import optimize
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.sensitivity import design_sensitivities
-from isodesign.optimization.yields import estimate_yield
+from isodesign.optimization.yields import optimum_yields
 from isodesign.plotting.robust import robustness_plot
 
 #: Files written by a robust ``isodesign optimize`` run (besides ``nominal/``).
 ROBUST_FILES = ("robust.json", "scenarios.csv", "rounds.csv", "sensitivities.csv",
                 "yield.csv", "robustness.png", "design.toml", "record.json",
                 "study_resolved.toml")
-#: Draws of the yield estimate of an optimize run (``--yield-samples``).
-DEFAULT_YIELD_SAMPLES = 500
 
 
 def _sens_frame(rows: dict):
@@ -126,18 +124,12 @@ def _answer(study, args):
 
 def execute_robust_table(study, run, args, result=None) -> int:
     """A table study with ``[scenarios]``: the robust table optimum (docs/robust.md,
-    section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml and, with
-    ``--yield-samples N``, the table yields of the nominal and robust optima (yield.csv)."""
+    section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml and the table
+    yields of the nominal and robust optima (``--yield-samples N``, default
+    :data:`isodesign.optimization.yields.DEFAULT_YIELD_SAMPLES` as for a vertical study;
+    yield.csv)."""
     res = optimize(study) if result is None else result
-    # asked for only: 2 x 500 table draws (about 0.05 s each) would add close to a minute
-    n = getattr(args, "yield_samples", None) or 0
-    yields = []
-    if n and res.feasible:
-        seed = study.scenarios.settings["seed"]
-        yields = [estimate_yield(study, res.nominal.values, samples=n, seed=seed,
-                                 label="nominal optimum"),
-                  estimate_yield(study, res.values, samples=n, seed=seed,
-                                 label="robust optimum")]
+    yields = optimum_yields(study, res, getattr(args, "yield_samples", None))
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of a robust table isodesign optimize run. Replay: isodesign "
         f"optimize {run.final_path('study_resolved.toml')} -o NEWDIR")))
@@ -211,21 +203,13 @@ def execute_robust(study, run, args, result=None) -> int:
         print(f"study {study.name!r}: NO ROBUST DESIGN")
         print(f"isodesign: error: {res.failure_message()}", file=sys.stderr)
         return 1
-    n = getattr(args, "yield_samples", None)
-    n = DEFAULT_YIELD_SAMPLES if n is None else n
     sens = {"robust": res.sensitivities()}
     b = res.problem.block
     th = study.scenarios.nominal()
     b.select(th, b.base_slot_hz)
     sens["nominal"] = design_sensitivities(b, b.initial_guess(nominal.values), th)
     sens["active"] = active_sensitivities(res)
-    yields = []
-    if n:
-        seed = study.scenarios.settings["seed"]
-        yields = [estimate_yield(study, nominal.values, samples=n, seed=seed,
-                                 label="nominal optimum"),
-                  estimate_yield(study, res.values, samples=n, seed=seed,
-                                 label="robust optimum")]
+    yields = optimum_yields(study, res, getattr(args, "yield_samples", None))
     rec = res.record()
     rec["yields"] = [y.record() for y in yields]
     rec["sensitivities"] = {k: [s.row() for s in v] for k, v in sens.items()}
@@ -233,7 +217,7 @@ def execute_robust(study, run, args, result=None) -> int:
                                         res.reoptimized_sensitivities().items()}
     run.write_json("robust.json", rec)
     run.record["robust_result"] = {k: rec[k] for k in ("worst_case_objective", "values",
-                                                         "rounds", "converged")}
+                                                         "rounds", "converged", "yields")}
     run.write_csv("scenarios.csv", res.to_frame())
     run.write_csv("rounds.csv", res.rounds_frame())
     run.write_csv("sensitivities.csv", _sens_frame(sens))

@@ -48,9 +48,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--pareto-points", type=_int_option, metavar="K",
                         help="task pareto: epsilon values per front (2..500; default 10)")
     parser.add_argument("--yield-samples", type=_int_option, metavar="N",
-                        help="task yield: draws per point (1..1000000; default 200); task "
+                        help="task yield: draws per point (1..1000000; default 1000, as isodesign "
+                        "yield); task "
                         "optimize of a study with [scenarios]: the robust yield's draws (0..; "
-                        "default 500, as isodesign optimize)")
+                        "default 200, vertical or [table], as isodesign optimize)")
     parser.add_argument("--starts", type=_int_option, metavar="N",
                         help="starts per optimization (sets solver.starts of the base study)")
     parser.add_argument("--seed", type=_int_option, metavar="N",

@@ -18,6 +18,7 @@ One file per concept:
 ``driver``          :func:`optimize_vertical` (the vertical nominal solve)
 ``dispatch``        :func:`optimize`: the answer to the study's question (table, robust)
 ``pareto``          epsilon-constraint Pareto fronts
+``front``           non-dominance and hypervolume of a front (vertical or table)
 ``uncertainty``     the ``[scenarios]`` table: uncertain parameters, scenario studies
 ``robust``          scenario blocks stacked in one NLP (worst case by epigraph)
 ``exchange``        the exchange method: :func:`robust_optimize`, worst-case search

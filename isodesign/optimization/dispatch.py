@@ -45,7 +45,8 @@ def study_kind(study) -> str:
     return "table" if table else "vertical"
 
 
-def refuse(study, what: str, *, table: bool = True, scenarios: bool = True) -> None:
+def refuse(study, what: str, *, table: bool = True, scenarios: bool = True,
+           instead: str | None = None) -> None:
     """Raise the one-line InputError of an entry point that cannot answer this study.
 
     Parameters
@@ -55,6 +56,9 @@ def refuse(study, what: str, *, table: bool = True, scenarios: bool = True) -> N
         The entry point, as the user called it (``isodesign response``, ``stiffness``).
     table, scenarios : bool
         Refuse a study with ``[table]`` / ``[scenarios]`` (default both).
+    instead : str, optional
+        What answers a study with ``[scenarios]`` instead (default: ``isodesign optimize /
+        isodesign.optimize``).
 
     Raises
     ------
@@ -67,9 +71,10 @@ def refuse(study, what: str, *, table: bool = True, scenarios: bool = True) -> N
                          "freedom); use isodesign optimize / isodesign.optimize, or remove "
                          "[table] for the vertical question")
     if scenarios and getattr(study, "scenarios", None) is not None:
+        instead = instead or "isodesign optimize / isodesign.optimize"
         raise InputError(f"[scenarios]: {what} does not answer a robust study (its nominal "
-                         "answer would not be the question asked); use isodesign optimize / "
-                         "isodesign.optimize, or remove [scenarios] for the nominal question")
+                         f"answer would not be the question asked); use {instead}, or remove "
+                         "[scenarios] for the nominal question")
 
 
 def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool = True):

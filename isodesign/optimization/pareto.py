@@ -25,6 +25,12 @@ import numpy as np
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.constraints import constraint_reports
 from isodesign.optimization.dispatch import refuse
+from isodesign.optimization.front import (
+    REFERENCE_MARGIN,
+    front_reference,
+    hypervolume_2d,
+    nondominated,
+)
 from isodesign.optimization.grid import DEFAULT_POINT_FREQUENCY_HZ
 from isodesign.optimization.multistart import map_in_workers, run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
@@ -54,76 +60,6 @@ PARETO_WHAT = "the Pareto front"
 def _minimized(kind: str, v: np.ndarray) -> np.ndarray:
     """Natural values -> values to minimize (margins negated)."""
     return OBJECTIVES[kind].minimized(v)
-
-
-def nondominated(points: np.ndarray) -> np.ndarray:
-    """Boolean mask of the non-dominated rows of an (n, 2) array (both minimized).
-
-    Parameters
-    ----------
-    points : array_like, shape (n, 2)
-        Objective values to minimize (maximized objectives negated first).
-        Rows with a non-finite value (failed sweep points, NaN) are never kept
-        and dominate nothing.
-
-    Returns
-    -------
-    ndarray of bool, shape (n,)
-        True where no finite row is at least as good in both objectives and
-        strictly better in one. Duplicate rows are all kept.
-    """
-    p = np.asarray(points, float)
-    keep = np.ones(len(p), dtype=bool)
-    for i in range(len(p)):
-        if not np.all(np.isfinite(p[i])):
-            keep[i] = False
-            continue
-        dom = np.all(p <= p[i], axis=1) & np.any(p < p[i], axis=1)
-        keep[i] = not np.any(dom & np.all(np.isfinite(p), axis=1))
-    return keep
-
-
-def hypervolume_2d(points: np.ndarray, reference: np.ndarray) -> float:
-    """Area dominated by a set of 2-D points (both minimized) up to a reference point.
-
-    Exact sweep: sort the non-dominated points by the first objective and add
-    the rectangles they dominate. Points not better than the reference in both
-    objectives contribute nothing.
-
-    Parameters
-    ----------
-    points : array_like, shape (n, 2)
-        Objective values to minimize, in the same units as ``reference``
-        (:func:`pareto_front` passes normalized values: ideal point 0).
-    reference : array_like, shape (2,)
-        The reference point bounding the area (normalized: ``(1, 1)``).
-
-    Returns
-    -------
-    float
-        The dominated area, in the product of the two objectives' units
-        (dimensionless when normalized; 1 is the whole box from the ideal point).
-
-    Notes
-    -----
-    With the non-dominated points sorted by increasing first objective ``x_i``
-    (so decreasing second objective ``y_i``), the area is
-    ``sum_i (r_x - x_i) (y_{i-1} - y_i)`` with ``y_0 = r_y``.
-    """
-    p = np.asarray(points, float)
-    r = np.asarray(reference, float)
-    p = p[np.all(p < r, axis=1)]
-    if p.size == 0:
-        return 0.0
-    p = p[nondominated(p)]
-    p = p[np.argsort(p[:, 0])]
-    hv = 0.0
-    prev_y = r[1]
-    for x, y in p:
-        if y < prev_y:
-            hv += (r[0] - x) * (prev_y - y)
-            prev_y = y
-    return float(hv)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -307,11 +243,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     front = nondominated(mins)
     if not np.any(front):
         raise SolverError("pareto: no feasible point on the sweep")
-    ideal = np.nanmin(mins[front], axis=0)
-    nadir = np.nanmax(mins[front], axis=0)
-    span = np.where(nadir > ideal, nadir - ideal, 1.0)
-    ref = nadir + REFERENCE_MARGIN * span
-    hv = hypervolume_2d((mins[front] - ideal) / (ref - ideal), np.ones(2))
+    ideal, ref, hv = front_reference(mins, front)
     return ParetoResult(
         objectives=(a, b), values=v, designs=tuple(designs), statuses=tuple(statuses),
         front=front, reference_point=ref, ideal_point=ideal, hypervolume=hv,
@@ -656,12 +588,6 @@ def _refine_point(prob: Problem, sol: Solution, eps) -> tuple[Solution, float | 
             break
         sol = new
     return sol, f_pk
-
-
-#: The hypervolume reference point is the front's nadir pushed out by this
-#: fraction of the front's range in each (minimized) objective; the space is
-#: normalized so that the ideal point is 0 and the reference point 1.
-REFERENCE_MARGIN = 0.1
 
 
 def _objective_table(study: Study, kind: str) -> dict:

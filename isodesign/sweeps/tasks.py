@@ -200,6 +200,10 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
                 contextlib.redirect_stderr(io.StringIO()):
             execute_study(study, run, args, result)
         row = _table_row(result) if kind == "table" else _robust_row(result)
+        # the yields the command computed (robust.json), as the row's columns
+        yields = (run.record.get("robust_result") or {}).get("yields") or []
+        for y, col in zip(yields, ("yield_nominal", "yield"), strict=False):
+            row[col] = float(y["fraction"])
     if not row["feasible"]:
         run.status = "infeasible"
     return row
@@ -275,6 +279,7 @@ def _response(study, run: RunDirectory, options: dict) -> dict:
     from isodesign.io.record import design_figures, resolved_study_dict, study_toml
     from isodesign.response.random_input import band_response
 
+    _check_response(study)  # a point's study never answers the nominal question
     if study.table is not None:
         return _table_response(study, run)
     m = study.models
@@ -394,7 +399,7 @@ def _table_pareto(study, run: RunDirectory, options: dict, points: int) -> dict:
     return {"feasible": True, "objective": "worst_band_margin",
             "objective_value": float(result.worst_margin_db[best]),
             **_variables(result.designs[best]), "binding": "",
-            "n_front": int(np.sum(result.front)),
+            "n_front": int(np.sum(result.front)), "hypervolume": float(result.hypervolume),
             "best_worst_band_margin": float(result.worst_margin_db[best]),
             "min_total_volume_m3": float(np.nanmin(np.where(result.front,
                                                             result.total_volume_m3,
@@ -406,6 +411,12 @@ def _check_pareto(study) -> None:
     from isodesign.optimization.pareto import PARETO_WHAT
 
     refuse(study, PARETO_WHAT, table=False)
+
+
+def _check_response(study) -> None:
+    from isodesign.commands.response import refuse_robust_response
+
+    refuse_robust_response(study)  # the line of isodesign response
 
 
 def _check_yield(study) -> None:
@@ -424,7 +435,8 @@ def _yield(study, run: RunDirectory, options: dict) -> dict:
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign sweep point (task yield: the yield of the study's\n"
         "start design under its [scenarios])")))
-    res = estimate_yield(study, values, samples=int(options.get("samples") or 200),
+    n = options.get("samples")  # default: estimate_yield's, as isodesign yield
+    res = estimate_yield(study, values, **({} if n is None else {"samples": int(n)}),
                          seed=int(options.get("seed") or 0), workers=1,
                          label="the study's start design")
     run.write_json("yield.json", res.record())
@@ -449,7 +461,9 @@ register_task(SweepTask("optimize", "optimize", _optimize, ("plots", "yield_samp
                         "freedom with [table] (the files of isodesign optimize)"))
 register_task(SweepTask("response", "response", _response, (),
                         "band response of the study's start design, in three axes at every "
-                        "point with [table] (bands.csv, response.json)"))
+                        "point with [table] (bands.csv, response.json); refuses a study "
+                        "with [scenarios] (isodesign yield answers it)",
+                        check=_check_response))
 register_task(SweepTask("pareto", "pareto", _pareto, ("objectives", "points", "plots"),
                         "the point's Pareto front (the files of isodesign pareto)",
                         check=_check_pareto))

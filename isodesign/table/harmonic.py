@@ -60,19 +60,49 @@ class TableHarmonicResponse(ResultDisplay):
     iterations: int
     model: TableModel
 
-    def to_frame(self):
-        """One row per frequency, point and axis: amplitude, |T| and phase, convergence."""
-        import pandas as pd
+    @property
+    def direction_name(self) -> str:
+        """The floor motion's name: ``x``, ``y``, ``z``, or its direction ``(0.6, 0, 0.8)``."""
+        for a, e in zip(AXES, np.eye(3), strict=True):
+            if np.allclose(self.direction, e):
+                return a
+        return "(" + ", ".join(f"{v:.3g}" for v in self.direction) + ")"
 
-        rows = []
-        for j, f in enumerate(self.frequency_hz):
-            for p, name in enumerate(self.model.table.point_names):
-                for a, ax in enumerate(AXES):
-                    t = self.transmissibility[j, p, a]
-                    rows.append((f, name, ax, self.point_amplitude_m[j, p, a], abs(t),
-                                 float(np.degrees(np.angle(t))), bool(self.converged[j])))
-        return pd.DataFrame(rows, columns=["frequency_hz", "point", "axis", "amplitude_m",
-                                           "transmissibility_abs", "phase_deg", "converged"])
+    def to_frame(self):
+        """One row per frequency, point and axis of the point's motion.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``frequency_hz``, ``point``, ``axis_in`` (the floor motion's direction,
+            :attr:`direction_name`), ``axis_out``, ``transmissibility_abs``,
+            ``transmissibility_db``, ``phase_deg`` (:func:`~isodesign.table.frames.
+            transmissibility_frame`), then ``amplitude_m`` (the point's displacement
+            amplitude) and ``converged``.
+        """
+        from isodesign.table.frames import transmissibility_frame
+
+        df = transmissibility_frame(self.frequency_hz, self.transmissibility[..., None],
+                                    self.model.table.point_names,
+                                    axes_in=(self.direction_name,))
+        df["amplitude_m"] = self.point_amplitude_m.ravel()
+        df["converged"] = np.repeat(self.converged, self.transmissibility[0].size)
+        return df
+
+    def plot(self, ax=None):
+        """|T| (dB) of every instrument point and axis against frequency.
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from isodesign.table.plots import table_harmonic_figure
+
+        return table_harmonic_figure(self, ax=ax)
 
     def _summary_items(self) -> list[tuple[str, str]]:
         return [("frequencies", str(self.frequency_hz.size)),

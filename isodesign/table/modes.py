@@ -112,6 +112,22 @@ class TableModes(ResultDisplay):
     def _display_frame(self):
         return self.to_frame()[["mode", "name", "frequency_hz", "damping_ratio"]]
 
+    def plot(self, ax=None):
+        """Kinetic energy per degree of freedom of each mode, labelled with its frequency
+        and damping ratio (:func:`isodesign.table.plots.table_modes_figure`).
+
+        Parameters
+        ----------
+        ax : matplotlib Axes, optional
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from isodesign.table.plots import table_modes_figure
+
+        return table_modes_figure(self, ax=ax)
+
 
 def _stiffness_at(model: TableModel, amplitude_m, vertical=None):
     """``w -> (kv list Cx, kh list Cx)`` at one frequency."""

@@ -12,12 +12,13 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.front import REFERENCE_MARGIN, front_reference, nondominated
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB
 from isodesign.results import ResultDisplay
 from isodesign.table.constraint_table import CONTINUOUS_PEAK as PEAK_VIOLATION
@@ -44,6 +45,14 @@ class TableParetoResult(ResultDisplay):
         Continuous peak of |T| (from half the lowest mode) minus the peak bound, per point
         after its refinement (NaN: no bound, or no feasible point); a point above
         :data:`~isodesign.optimization.refine.PEAK_TOLERANCE_DB` says so in its status.
+    reference_point, ideal_point : ndarray (2,)
+        The hypervolume's reference and ideal points, both objectives minimized (margin
+        negated, dB; volume, m^3), as a vertical front's
+        (:func:`isodesign.optimization.front.front_reference`).
+    hypervolume : float
+        The front's normalized hypervolume (ideal point -> 0, reference point -> 1).
+    settings : dict
+        Method, points, reference margin, units, starts of anchor A.
     """
 
     worst_margin_db: np.ndarray
@@ -54,6 +63,19 @@ class TableParetoResult(ResultDisplay):
     study: Any
     wall_s: float
     peak_excess_db: Any = None
+    reference_point: np.ndarray | None = None
+    ideal_point: np.ndarray | None = None
+    hypervolume: float = math.nan
+    settings: dict = field(default_factory=dict)
+
+    #: The two objectives, as a vertical front names them (A maximized, B minimized).
+    objectives = ("worst_band_margin", "total_volume")
+
+    @property
+    def values(self) -> np.ndarray:
+        """``(n, 2)``: worst margin (dB) and total volume (m^3) per point, as a vertical
+        front's ``values`` (NaN where a point failed)."""
+        return np.column_stack([self.worst_margin_db, self.total_volume_m3])
 
     def to_frame(self):
         """One row per point: margin, volume, design, status, non-dominated."""
@@ -66,10 +88,14 @@ class TableParetoResult(ResultDisplay):
         if self.peak_excess_db is not None:
             df["continuous_peak_excess_db"] = self.peak_excess_db
         df["nondominated"] = self.front
+        df.attrs["hypervolume"] = self.hypervolume
         return df
 
     def _summary_items(self) -> list[tuple[str, str]]:
-        return [("points", str(len(self.designs))), ("non-dominated", str(int(self.front.sum()))),
+        return [("objectives", f"{self.objectives[0]} (optimized) vs {self.objectives[1]} "
+                               "(swept)"),
+                ("points", str(len(self.designs))), ("non-dominated", str(int(self.front.sum()))),
+                ("hypervolume", f"{self.hypervolume:.4f} (normalized)"),
                 ("wall", f"{self.wall_s:.3g} s")]
 
     def plot(self, ax=None):
@@ -165,13 +191,10 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
     # NLP's frequencies only: neither on the front nor dominating a point of it
     ok = np.isfinite(margin) & np.array([ex is None or ex <= PEAK_TOLERANCE_DB
                                          for ex in excess])
-    front = np.zeros(points, bool)
-    for i in range(points):
-        if not ok[i]:
-            continue
-        dominated = any(ok[j] and margin[j] >= margin[i] and vol[j] <= vol[i]
-                        and (margin[j] > margin[i] or vol[j] < vol[i]) for j in range(points))
-        front[i] = not dominated
+    mins = np.column_stack([-margin, vol])  # both minimized, as a vertical front's
+    mins[~ok] = np.nan
+    front = nondominated(mins)
+    ideal, ref, hv = front_reference(mins, front) if front.any() else (None, None, math.nan)
     statuses = tuple(s.status if ex is None or ex <= PEAK_TOLERANCE_DB else
                      f"{s.status}; {PEAK_VIOLATION} +{ex:.3g} dB"
                      for s, ex in zip(sols, excess, strict=True))
@@ -179,7 +202,13 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
                              designs=tuple(s.values for s in sols), statuses=statuses,
                              front=front, study=st, wall_s=time.perf_counter() - t0,
                              peak_excess_db=np.array([math.nan if ex is None else ex
-                                                      for ex in excess]))
+                                                      for ex in excess]),
+                             reference_point=ref, ideal_point=ideal, hypervolume=hv,
+                             settings={"method": "epsilon-constraint on the table NLP, "
+                                                 "warm starts",
+                                       "points": points, "reference_margin": REFERENCE_MARGIN,
+                                       "units": ("dB", "m^3"),
+                                       "starts": st.solver["starts"]})
 
 
 def _peak_refined(study, state, x0, params, first=None):

@@ -6,7 +6,8 @@ import numpy as np
 
 from isodesign.plotting.style import FAIL, FLOOR, LIMIT, band_axis, candidate_style, new_figure
 
-__all__ = ["layout_figure", "table_bands_figure", "table_transmissibility_figure"]
+__all__ = ["layout_figure", "table_bands_figure", "table_harmonic_figure", "table_modes_figure",
+           "table_transmissibility_figure"]
 
 _AXES = ("x", "y", "z")
 
@@ -136,4 +137,90 @@ def table_transmissibility_figure(res, *, axes=None):
         ax.grid(True, which="major", alpha=0.4)
     axes[0].set_ylabel("|T| (dB)")
     axes[0].legend(fontsize=7, loc="lower left")
+    return fig
+
+
+#: Colours of the six degrees of freedom in the mode figure (translations, then rotations).
+_DOF_COLOURS = ("C0", "C1", "C2", "C4", "C5", "C6")
+
+
+def table_modes_figure(modes, *, ax=None):
+    """The table's six modes: kinetic energy per degree of freedom, stacked per mode.
+
+    Each bar is one mode (its number, dominant DOFs, frequency and damping ratio under it);
+    its segments are the kinetic-energy fractions in x, y, z, rx, ry, rz (they sum to 1).
+
+    Parameters
+    ----------
+    modes : TableModes
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    from isodesign.table.assembly import DOFS
+
+    if ax is None:
+        ax = new_figure(7.6, 4.0).subplots()
+    fig = ax.figure
+    e = np.asarray(modes.energy_fraction, float)
+    x = np.arange(e.shape[0])
+    bottom = np.zeros(e.shape[0])
+    for i, dof in enumerate(DOFS):
+        ax.bar(x, e[:, i], 0.6, bottom=bottom, color=_DOF_COLOURS[i], label=dof,
+               edgecolor="white", lw=0.5)
+        bottom += e[:, i]
+    labels = []
+    for j, (name, f, z) in enumerate(zip(modes.names, modes.frequency_hz, modes.damping_ratio,
+                                         strict=True)):
+        freq = "unstable" if not np.isfinite(f) else f"{f:.3g} Hz"
+        labels.append(f"{j + 1}: {name}\n{freq}\nzeta {z:.2g}")
+    ax.set_xticks(x, labels, fontsize=8)
+    ax.set_ylim(0.0, 1.0)
+    ax.set_xlabel("mode: dominant motion, frequency, damping ratio")
+    ax.set_ylabel("kinetic energy fraction per DOF")
+    ax.set_title("table modes (nonlinear eigenproblem): kinetic energy per degree of freedom",
+                 fontsize=10)
+    ax.legend(fontsize=8, title="DOF", title_fontsize=8, loc="center left",
+              bbox_to_anchor=(1.01, 0.5))
+    ax.grid(True, axis="y", alpha=0.3)
+    return fig
+
+
+def table_harmonic_figure(res, *, ax=None):
+    """|T| (dB) of a harmonic table response: every instrument point and axis.
+
+    Parameters
+    ----------
+    res : TableHarmonicResponse
+    ax : matplotlib Axes, optional
+
+    Returns
+    -------
+    matplotlib.figure.Figure
+    """
+    if ax is None:
+        ax = new_figure(7.0, 4.0).subplots()
+    fig = ax.figure
+    f = res.frequency_hz
+    lines = ("-", "--", ":")
+    floor_level = 1e-6 * float(np.max(np.abs(res.transmissibility)))  # -120 dB: zero
+    for p, name in enumerate(res.model.table.point_names):
+        st = candidate_style(p)
+        for a, axis in enumerate(_AXES):
+            t = np.abs(res.transmissibility[:, p, a])
+            if not np.any(t > floor_level):  # an axis the floor motion does not reach
+                continue
+            with np.errstate(divide="ignore"):
+                ax.semilogx(f, 20 * np.log10(t), color=st["color"], ls=lines[a],
+                            lw=max(3.6 - 2.0 * p, 1.2),  # coinciding points stay visible
+                            label=f"{name}, {axis}")
+    ax.axhline(0.0, color="0.55", lw=0.9)
+    ax.set_xlabel("frequency (Hz)")
+    ax.set_ylabel(f"|T| (dB): point motion per floor motion along {res.direction_name}")
+    ax.set_title(f"harmonic floor motion {res.floor_amplitude_m:g} m along "
+                 f"{res.direction_name}", fontsize=10)
+    ax.grid(True, which="major", alpha=0.4)
+    ax.legend(fontsize=7, loc="lower left")
     return fig

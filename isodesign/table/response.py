@@ -312,6 +312,23 @@ class TableBandResponse(ResultDisplay):
                         notes="; ".join(self.notes))  # fmt: skip
         return df
 
+    def transmissibility_frame(self):
+        """The transmissibility arrays, labelled: one row per frequency, point, floor axis
+        and point axis.
+
+        Returns
+        -------
+        pandas.DataFrame
+            ``frequency_hz``, ``point``, ``axis_in`` (the floor's motion), ``axis_out`` (the
+            point's), ``transmissibility_abs``, ``transmissibility_db``, ``phase_deg`` at the
+            closure and ``transmissibility_linear_db`` (every spring at 1 um); see
+            :func:`isodesign.table.frames.transmissibility_frame`.
+        """
+        from isodesign.table.frames import transmissibility_frame
+
+        return transmissibility_frame(self.grid.frequency_hz, self.transmissibility,
+                                      self.point_names, linear=self.transmissibility_linear)
+
     def isolator_frame(self):
         """One row per isolator: group, load, p0, stroke and tube-velocity RMS."""
         df = self.model.leveling.to_frame()
