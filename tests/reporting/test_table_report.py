@@ -55,7 +55,7 @@ def table_run_report(tmp_path_factory):
     status, _, err = run_cli("report", run, "-o", tmp / "r.html")
     assert status == 0, err
     design = json.loads((run / "design.json").read_text())
-    return (tmp / "r.html").read_text(encoding="utf-8"), design
+    return (tmp / "r.html").read_text(encoding="utf-8"), design, run
 
 
 def _section(html: str, sid: str) -> str:
@@ -68,7 +68,7 @@ def _text(fragment: str) -> str:
 
 @pytest.mark.slow
 def test_report_of_a_table_run_has_one_verdict_the_table_s(table_run_report):
-    html, design = table_run_report
+    html, design, _ = table_run_report
     verdict = _section(html, "verdict")
     assert verdict.count('<div class="card') == 1  # one verdict: the table's
     word = "PASS" if design["verdict"].startswith("PASS") else "FAIL"
@@ -80,7 +80,7 @@ def test_report_of_a_table_run_has_one_verdict_the_table_s(table_run_report):
 
 @pytest.mark.slow
 def test_report_of_a_table_run_shows_the_table_s_job_modes_and_constraints(table_run_report):
-    html, design = table_run_report
+    html, design, _ = table_run_report
     job = _text(_section(html, "job"))
     for needle in ("600 kg on 4 isolators", "(0, 0, 0.35) m", "Ixx", "valve 1: isolator(s) 1, 2",
                    "bar abs", "1: (-0.6, -0.4)", "centre (0, 0, 0.7) m"):
@@ -217,3 +217,15 @@ def test_a_mode_unstable_at_its_own_frequency_is_never_stable_in_the_report(tmp_
     head = _stability_part(html).split("Leveling loop", 1)[0]
     assert "> 1" in head  # the margins alone would pass: the verdict does not
     assert " stable " not in f" {head} ".replace("(", " ").replace(")", " ").replace(";", " ")
+
+
+@pytest.mark.slow
+def test_report_of_a_table_run_shows_the_optimum_s_stability(table_run_report, tmp_path):
+    """``isodesign report RUN``: the optimum's static verdict and loop, as ``isodesign
+    stability RUN`` prints them for the same optimum."""
+    html, _, run = table_run_report
+    words = _stability_words(run, tmp_path)
+    _assert_same_verdict(html, words)
+    part = _stability_part(html)
+    assert "the default valves (the study has no [table.leveling])" in part
+    assert "Bode (magnitude, phase) and Nyquist" in part
