@@ -39,6 +39,7 @@ def run(args) -> int:
     from isodesign.table.leveling_loop import leveling_loop, limit_cycle
     from isodesign.table.model import table_model
     from isodesign.table.modes import mode_solutions, rocking_stability, table_modes
+    from isodesign.table.stability_report import limit_cycle_text
     from isodesign.table.summary import stability_text
 
     study, design, label = load_table_job(args)
@@ -65,17 +66,7 @@ def run(args) -> int:
         print(stability_text(at_loop))
     print(lowest.text())
     print(loop.text())
-    if cycle.amplitude_m is None:
-        print("  valves' limit cycle (describing function): none (the valve's slope is below "
-              "the loop's critical gain, or the loop has none)")
-    else:
-        line = (f"  valves' limit cycle (describing function: dead band "
-                f"{system.dead_band_m * 1e6:.3g} um, saturation "
-                f"{system.saturation_flow_kg_s * 1e3:.3g} g/s): {cycle.amplitude_m * 1e6:.4g} "
-                f"um at the sensors, {cycle.frequency_hz:.3g} Hz")
-        if cycle.threshold_m is not None:
-            line += f" (from disturbances above {cycle.threshold_m * 1e6:.3g} um)"
-        print(line)
+    print(limit_cycle_text(cycle, system))
     with rundir as run:
         run.record["study"] = study.source or study.name
         run.record["static_critical_height_m"] = stab.critical_height_m

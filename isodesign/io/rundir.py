@@ -30,6 +30,11 @@ The contract (``docs/cli.md``, "Output directories"):
   run, or the finished run: never a half-written one.
 * With ``overwrite``, only what an earlier run wrote (the files of its manifest) is
   replaced: other files in the target are moved into the new run directory untouched.
+* A run refused on its input (an exception the command line reports with exit status 2:
+  :class:`~isodesign.errors.InputError`, any other ``ValueError``, an ``OSError``) raised
+  inside the ``with`` block writes nothing: the staging directory is removed and the target
+  is left as it was (absent, or the previous run untouched). ``failed`` is the status of a
+  run that ends in any other exception (a solver failure, exit 1; a bug, exit 3).
 * An interrupted run (``KeyboardInterrupt``, or SIGINT/SIGTERM through the CLI's handler
   calling :func:`interrupt_active_runs`) is never moved into place: its staging directory
   is renamed to ``NAME.interrupted`` (``NAME.interrupted-2``, ... if taken) beside the
@@ -236,6 +241,15 @@ def _signals_blocked() -> Iterator[None]:
         signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
+def _refused(exc_type) -> bool:
+    """An exception the command line reports as bad input (exit 2): an
+    :class:`~isodesign.errors.InputError`, any other ``ValueError``, or an ``OSError`` (an
+    input file that cannot be read, an output that cannot be written), not a closed
+    standard output (``BrokenPipeError``, exit 141)."""
+    return issubclass(exc_type, ValueError) or (issubclass(exc_type, OSError)
+                                                and not issubclass(exc_type, BrokenPipeError))
+
+
 def _sha256(p: Path) -> str:
     h = hashlib.sha256()
     with open(p, "rb") as fh:
@@ -266,7 +280,8 @@ class RunDirectory:
     ----------
     status : str
         The run's status when the ``with`` block ends normally: ``complete`` (default)
-        or ``infeasible``; an exception makes it ``failed``, an interrupt ``interrupted``.
+        or ``infeasible``; an exception makes it ``failed`` (bad input, exit 2: nothing is
+        written), an interrupt ``interrupted``.
     record : dict
         Fields of ``record.json`` (the command adds its own).
     files : list of str
@@ -321,8 +336,8 @@ class RunDirectory:
             self.finish(self.status)
         elif issubclass(exc_type, KeyboardInterrupt):
             self.interrupt("interrupted (KeyboardInterrupt)")
-        elif issubclass(exc_type, InputError):
-            self.discard()  # refused on its input: the run writes nothing
+        elif _refused(exc_type):
+            self.discard()  # refused on its input (exit 2): the run writes nothing
         else:
             self.finish("failed", error=f"{exc_type.__name__}: {exc}")
         return False

@@ -137,7 +137,9 @@ def _job(c: Case, a: CaseAnalysis, tsec: dict | None = None) -> dict:
                            "instrument point (section 1); the vertical-only sections below "
                            "show the symmetric payload it reduces to"),
                  ("not modelled", "floor rotation; differential floor motion between "
-                                  "isolators; leveling-valve dynamics; table flexibility")]
+                                  "isolators; leveling-valve dynamics in the band response "
+                                  "(taken closed; their loop is analysed in section 1); table "
+                                  "flexibility")]
     else:
         rows += [("scope", sc.covers), ("not modelled", "; ".join(sc.leaves_out))]
     if sc.illustrative_share is not None:

@@ -31,7 +31,7 @@ def table_section(case) -> dict | None:
     st = case.study
     if getattr(st, "table", None) is None:
         return None
-    from isodesign.table.modes import rocking_stability, table_modes
+    from isodesign.table.modes import table_modes
     from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
     from isodesign.table.plots import (
         layout_figure,
@@ -51,7 +51,16 @@ def table_section(case) -> dict | None:
     model = res.model
     modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
                                                         res.tube_velocity_rms_m_s))
-    stab = rocking_stability(model)
+    from isodesign.table.leveling import leveling_of_study
+    from isodesign.table.stability_report import stability_section
+
+    # the static verdict and the loop as ``isodesign stability`` computes them (the linear
+    # regime's modes, a statically unstable one makes the verdict unstable)
+    stability = stability_section(model, leveling_of_study(st))
+    stability["source"] = ("the study's [table.leveling]" if
+                           ((getattr(st, "raw", None) or {}).get("table") or {}).get("leveling")
+                           else "the default valves (the study has no [table.leveling])")
+    stab = stability["static"][0]
     head = ["band (Hz)", "limit (um/s)"] + [f"{n} {a}" for n in res.point_names for a in _AXES]
     rows = []
     for b, lab in enumerate(res.bands.labels):
@@ -68,7 +77,7 @@ def table_section(case) -> dict | None:
                   "" if np.isnan(modes.damping_ratio[j]) else f"{modes.damping_ratio[j]:.3f}",
                   *[f"{100 * e:.0f}" for e in modes.energy_fraction[j]]] for j in range(6)]
     stab_rows = [[name, f"{stab.directions[0, j]:+.2f} rx, {stab.directions[1, j]:+.2f} ry",
-                  f"{stab.margin[j]:.3g}", "stable" if stab.margin[j] > 1 else "UNSTABLE"]
+                  f"{stab.margin[j]:.3g}", "> 1" if stab.margin[j] > 1 else "<= 1: tips"]
                  for j, name in enumerate(("weakest", "strongest"))]
     lev = model.leveling
     lev_rows = [[str(i + 1), str(lev.group_of[i] + 1), f"{lev.load_n[i]:.1f}",
@@ -106,6 +115,7 @@ def table_section(case) -> dict | None:
         "band_rows": rows,
         "mode_rows": mode_rows,
         "stability_rows": stab_rows,
+        "stability": stability,
         "leveling_rows": lev_rows,
     }
 
@@ -194,7 +204,8 @@ def table_verdict(case, t: dict) -> dict:
             "worst_margin": f"{w:+.2f} dB", "failing": int(np.sum(m < 0)), "bands": m.size,
             "target": res.target_name, "axis_margins": t["axis_margins"], "outside": "",
             "scope": "a rigid table in six degrees of freedom, floor in x, y and z, every "
-                     "instrument point", "invalid": "", "broken": broken}
+                     "instrument point", "invalid": "", "broken": broken,
+            "stability": t["stability"]}
 
 
 def table_design_rows(t: dict) -> dict:

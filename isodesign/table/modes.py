@@ -404,7 +404,12 @@ class ModeSolutions(ResultDisplay):
     scan_frequency_hz, residual_rad2_s2, eigenvalue_rad2_s2 : ndarray
         The scan: ``f``, ``r(f)`` and ``Re mu(w)``.
     unstable_below_hz : float or None
-        The highest scanned frequency with ``Re mu <= 0`` (None: positive everywhere).
+        The top of the range with ``Re mu <= 0`` that starts at the scan's lowest frequency:
+        statically unstable on every slower time scale (None: ``Re mu > 0`` there).
+    negative_ranges_hz : tuple of (float, float)
+        Other scanned ranges with ``Re mu <= 0`` (first and last scan point of each), above
+        a positive one: the springs' storage stiffness is negative there (a capillary's
+        air column above its resonance), a dynamic effect, not a static instability.
     """
 
     rank: int
@@ -414,6 +419,7 @@ class ModeSolutions(ResultDisplay):
     residual_rad2_s2: np.ndarray
     eigenvalue_rad2_s2: np.ndarray
     unstable_below_hz: float | None
+    negative_ranges_hz: tuple = ()
 
     def to_frame(self):
         """One row per self-consistent solution."""
@@ -430,6 +436,10 @@ class ModeSolutions(ResultDisplay):
         if self.unstable_below_hz is not None:
             line += (f"; Re mu <= 0 (statically unstable) on time scales slower than "
                      f"{self.unstable_below_hz:.3g} Hz")
+        if self.negative_ranges_hz:
+            line += ("; Re mu <= 0 also from " + ", ".join(
+                f"{a:.3g} to {b:.3g} Hz" for a, b in self.negative_ranges_hz)
+                + " (the springs' storage stiffness there, not a static instability)")
         return line
 
     def _summary_items(self) -> list[tuple[str, str]]:
@@ -524,8 +534,19 @@ def mode_solutions(model: TableModel, *, rank: int = 0, frequency_range_hz=(1e-3
         m0 = mu_at(f0)
         roots.append(f0)
         zetas.append(m0.imag / (2.0 * m0.real))
-    neg = np.flatnonzero(mu.real <= 0)
+    # runs of Re mu <= 0: the one from the scan's bottom is a static instability (every
+    # slower time scale); one above a positive range is the springs' dynamic stiffness
+    neg = np.r_[False, mu.real <= 0, False]
+    starts = np.flatnonzero(~neg[:-1] & neg[1:])
+    ends = np.flatnonzero(neg[:-1] & ~neg[1:]) - 1
+    below = None
+    ranges = []
+    for a, b in zip(starts, ends, strict=True):
+        if a == 0:
+            below = float(fs[b])
+        else:
+            ranges.append((float(fs[a]), float(fs[b])))
     return ModeSolutions(rank=int(rank), frequency_hz=np.array(roots),
                          damping_ratio=np.array(zetas), scan_frequency_hz=fs,
                          residual_rad2_s2=res, eigenvalue_rad2_s2=mu.real,
-                         unstable_below_hz=float(fs[neg[-1]]) if neg.size else None)  # fmt: skip
+                         unstable_below_hz=below, negative_ranges_hz=tuple(ranges))  # fmt: skip

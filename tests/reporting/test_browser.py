@@ -99,3 +99,17 @@ def test_report_opens_cleanly_in_chromium(reports, kind, tmp_path):
 def test_pareto_report_opens_cleanly_in_chromium(pareto_run, tmp_path):
     html = isodesign.report(pareto_run, tmp_path / "pareto.html")
     _check_in_browser(html, _shot_dir(tmp_path) / "report_pareto.png")
+
+
+def test_table_report_with_its_stability_opens_cleanly_in_chromium(tmp_path):
+    """A table study whose CG is above its critical height: the stability subsection, its
+    loop's Bode and Nyquist figure and the unstable verdicts render without errors."""
+    from importlib import resources
+
+    src = (resources.files("isodesign") / "data" / "table_study.toml").read_text()
+    src = src.replace("cg_m = [0.0, 0.0, 0.35]", "cg_m = [0.0, 0.0, 1.7]")
+    study = tmp_path / "high.toml"
+    study.write_text(src.replace("cg_height_m = 0.35", "cg_height_m = 1.7"), encoding="utf-8")
+    html = isodesign.report(study, tmp_path / "table.html")
+    assert 'id="table-stability"' in html.read_text(encoding="utf-8")
+    _check_in_browser(html, _shot_dir(tmp_path) / "report_table.png")

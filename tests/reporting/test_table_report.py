@@ -19,14 +19,14 @@ def test_report_of_a_table_study(tmp_path):
     with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
         shutil.copy(p, study)
     text = isodesign.report(study)
-    parsed = assert_report(text, BASE_SECTIONS, figures={**FIGS, "verdict": 3})
+    parsed = assert_report(text, BASE_SECTIONS, figures={**FIGS, "verdict": 4})
     body = " ".join(parsed.text)
     for needle in ("The table in six degrees of freedom", "every instrument point, axis and band",
-                   "corner z", "rocking direction", "K_theta/(W h)", "valve", "y+rx",
+                   "corner z", "rocking direction", "eig(A)/(W h)", "valve", "y+rx",
                    "the vertical floor 'VC-A floor' is applied to x and y",
                    "a rigid table in six degrees of freedom on 4 isolators"):
         assert needle in body, needle
-    assert parsed.tables.get("verdict", 0) >= 4  # leveling, bands, modes, rocking
+    assert parsed.tables.get("verdict", 0) >= 6  # leveling, bands, modes, rocking, static, loop
 
 
 TABLE_FAST = """
@@ -55,7 +55,7 @@ def table_run_report(tmp_path_factory):
     status, _, err = run_cli("report", run, "-o", tmp / "r.html")
     assert status == 0, err
     design = json.loads((run / "design.json").read_text())
-    return (tmp / "r.html").read_text(encoding="utf-8"), design
+    return (tmp / "r.html").read_text(encoding="utf-8"), design, run
 
 
 def _section(html: str, sid: str) -> str:
@@ -68,7 +68,7 @@ def _text(fragment: str) -> str:
 
 @pytest.mark.slow
 def test_report_of_a_table_run_has_one_verdict_the_table_s(table_run_report):
-    html, design = table_run_report
+    html, design, _ = table_run_report
     verdict = _section(html, "verdict")
     assert verdict.count('<div class="card') == 1  # one verdict: the table's
     word = "PASS" if design["verdict"].startswith("PASS") else "FAIL"
@@ -80,7 +80,7 @@ def test_report_of_a_table_run_has_one_verdict_the_table_s(table_run_report):
 
 @pytest.mark.slow
 def test_report_of_a_table_run_shows_the_table_s_job_modes_and_constraints(table_run_report):
-    html, design = table_run_report
+    html, design, _ = table_run_report
     job = _text(_section(html, "job"))
     for needle in ("600 kg on 4 isolators", "(0, 0, 0.35) m", "Ixx", "valve 1: isolator(s) 1, 2",
                    "bar abs", "1: (-0.6, -0.4)", "centre (0, 0, 0.7) m"):
@@ -107,3 +107,125 @@ def test_report_of_a_table_run_shows_the_table_s_job_modes_and_constraints(table
     # the continuous peak from below the lowest mode (the grid starts above it)
     tab = _text(_section(html, "verdict"))
     assert "continuous from 0.3" in tab or "continuous from 0.4" in tab
+
+
+# -- the static verdict and the leveling loop: the words of ``isodesign stability`` -----------
+def _stability_words(study, tmp_path) -> tuple[str, str, str]:
+    """What ``isodesign stability STUDY`` prints: the quasi-static verdict's words, its
+    critical CG height and the leveling loop's closed-loop verdict."""
+    from .conftest import run_cli
+
+    status, out, err = run_cli("stability", study, "-o", tmp_path / "stab")
+    assert status == 0, err
+    static = next(x for x in out.splitlines() if "quasi-static" in x)
+    height = static.split("critical CG height ", 1)[1].split(" m -> ", 1)[0]
+    loop = next(x for x in out.splitlines() if "leveling loop:" in x)
+    return static.rsplit(" -> ", 1)[1], height, loop.split("; closed loop ", 1)[1]
+
+
+def _table_study(tmp_path, cg_height_m=None, leveling=""):
+    src = (resources.files("isodesign") / "data" / "table_study.toml").read_text()
+    if cg_height_m is not None:
+        src = src.replace("cg_m = [0.0, 0.0, 0.35]", f"cg_m = [0.0, 0.0, {cg_height_m}]")
+        src = src.replace("cg_height_m = 0.35", f"cg_height_m = {cg_height_m}")
+    src = src.replace("[table.horizontal]", leveling + "[table.horizontal]")
+    p = tmp_path / "table.toml"
+    p.write_text(src, encoding="utf-8")
+    return p
+
+
+def _plain(fragment: str) -> str:
+    """The text of an HTML fragment as a reader sees it: tags dropped, spaces collapsed."""
+    import html as _html
+    import re
+
+    return " ".join(_html.unescape(re.sub(r"<[^>]+>", "", fragment)).split())
+
+
+def _stability_part(html: str) -> str:
+    return _plain(html.split('id="table-stability"', 1)[1].split('<section id="job">', 1)[0])
+
+
+def _assert_same_verdict(html: str, words: tuple[str, str, str]) -> None:
+    static, height, loop = words
+    card = _plain(_section(html, "verdict").split("<h3", 1)[0])
+    part = _stability_part(html)
+    assert f"Static stability: {static} (critical CG height {height} m" in card
+    assert f"Static verdict: {static}; critical CG height {height} m" in part
+    assert loop.split(";")[0] in card and loop.split(";")[0] in part
+    # every verdict cell of the static table: one of the command's words for its time scale
+    rows = _plain(html.split('id="table-stability"', 1)[1].split("</table></div>", 1)[0])
+    quasi = rows.split("quasi-static (valves off) at 0.001 Hz", 1)[1]
+    assert static in quasi.split("sealed springs at the leveling", 1)[0]
+
+
+def test_report_shows_the_stability_command_s_verdict_and_loop(tmp_path):
+    study = _table_study(tmp_path, leveling="[table.leveling]\ngain_kg_s_per_m = 0.03\n\n")
+    words = _stability_words(study, tmp_path)
+    assert words[0] == "stable" and words[2].startswith("stable")
+    html = isodesign.report(study)
+    _assert_same_verdict(html, words)
+    part = _stability_part(html)
+    assert "the study's [table.leveling]: valve gain 0.03 kg/s/m" in part
+    for needle in ("gain margin (dB)", "phase margin (deg)", "delay margin (s)",
+                   "Bode (magnitude, phase) and Nyquist", "self-consistent solutions",
+                   "valves' limit cycle (describing function)"):
+        assert needle in part, needle
+    assert 'class="unstable"' not in html.split('id="table-stability"', 1)[1].split(
+        '<section id="job">', 1)[0]
+
+
+def test_report_of_a_high_cg_table_is_unstable_as_the_command_says(tmp_path):
+    study = _table_study(tmp_path, cg_height_m=1.7)  # critical height 1.497 m
+    words = _stability_words(study, tmp_path)
+    assert words[0] == "UNSTABLE (margin < 1)" and words[2].startswith("UNSTABLE")
+    html = isodesign.report(study)
+    _assert_same_verdict(html, words)
+    part = _stability_part(html)
+    assert "Static verdict: stable" not in part and "the default valves" in part
+    # no row says "stable" where the command says unstable
+    head = part.split("Leveling loop", 1)[0]
+    assert " stable " not in f" {head} ".replace("(", " ").replace(")", " ")
+    assert "<= 1: tips" in head
+
+
+@pytest.mark.slow
+def test_a_mode_unstable_at_its_own_frequency_is_never_stable_in_the_report(tmp_path,
+                                                                           monkeypatch):
+    """Margins above 1 with a statically unstable mode: the report's rows used to say
+    "stable" per direction while ``isodesign modes`` printed the mode "unstbl"."""
+    import dataclasses
+
+    import numpy as np
+
+    import isodesign.table.modes as tm
+
+    real = tm.table_modes
+
+    def one_unstable(model, **kw):
+        m = real(model, **kw)
+        f = np.array(m.frequency_hz, float)
+        f[0] = np.nan
+        return dataclasses.replace(m, frequency_hz=f)
+
+    monkeypatch.setattr(tm, "table_modes", one_unstable)
+    study = _table_study(tmp_path)
+    words = _stability_words(study, tmp_path)
+    assert words[0] == "UNSTABLE: mode 1 statically unstable at its own frequency"
+    html = isodesign.report(study)
+    _assert_same_verdict(html, words)
+    head = _stability_part(html).split("Leveling loop", 1)[0]
+    assert "> 1" in head  # the margins alone would pass: the verdict does not
+    assert " stable " not in f" {head} ".replace("(", " ").replace(")", " ").replace(";", " ")
+
+
+@pytest.mark.slow
+def test_report_of_a_table_run_shows_the_optimum_s_stability(table_run_report, tmp_path):
+    """``isodesign report RUN``: the optimum's static verdict and loop, as ``isodesign
+    stability RUN`` prints them for the same optimum."""
+    html, _, run = table_run_report
+    words = _stability_words(run, tmp_path)
+    _assert_same_verdict(html, words)
+    part = _stability_part(html)
+    assert "the default valves (the study has no [table.leveling])" in part
+    assert "Bode (magnitude, phase) and Nyquist" in part
