@@ -52,6 +52,11 @@ LUMPED_THETA2_LIMIT = 2.0
 #: below this fraction of :data:`LUMPED_TOLERANCE`: the margin for the second-order
 #: sensitivity terms the first-order estimate leaves out (docs/acoustics.md, section 4).
 LUMPED_ESTIMATE_FRACTION = 0.9
+#: Shortest tube, in bore radii, for which the ends' correction is applied with confidence:
+#: each end's near field (the evanescent higher modes, decaying as exp(-3.83 x / a)) has
+#: decayed to 2 % within one radius, so the two ends act independently while L_c >= 4 a
+#: (docs/acoustics.md, section 1).
+TUBE_END_MIN_LENGTH_RADII = 4.0
 
 #: Name -> meaning of every validity check (the flow models' own come from
 #: :mod:`isodesign.spring.flow_models`).
@@ -70,6 +75,10 @@ CHECK_DESCRIPTIONS = {
         f"lumped model's air stiffness within {LUMPED_TOLERANCE:.0%} of the distributed model's "
         "(first-order estimate from the chambers' lengths and the tube's line; "
         "docs/acoustics.md section 4)"
+    ),
+    "tube_end_correction": (
+        f"tube at least {TUBE_END_MIN_LENGTH_RADII:g} bore radii long: the two ends' "
+        "correction (0.8216 a each) independent of each other (docs/acoustics.md section 1)"
     ),
     "chamber_plane_wave": (
         "below the first transverse mode 1.8412 c / (pi D) of both chambers (plane waves, "
@@ -269,6 +278,9 @@ def evaluate_diagnostics(
     )
     checks["passive"] = k_total.imag >= -1e-9 * np.abs(k_total)
     checks["static_pressure"] = np.asarray(d.pressure_pa <= MAX_STATIC_PRESSURE_PA)
+    if d.tube_end_correction and flow in ("quasi_steady", "womersley"):
+        checks["tube_end_correction"] = np.asarray(
+            d.capillary_length_m >= TUBE_END_MIN_LENGTH_RADII * 0.5 * d.capillary_diameter_m)
     if distributed:
         c0 = d.speed_of_sound_m_s
         f0 = omega / (2.0 * math.pi)

@@ -64,6 +64,8 @@ from isodesign.spring.capillary import (
     describing_velocity,
     kinetic_reynolds,
     poiseuille_resistance,
+    tube_end_length_m,
+    tube_end_reactance,
     womersley_number,
     womersley_zeta,
     zhao_friction,
@@ -220,8 +222,10 @@ def _quasi_steady(design, omega, *, with_slope: bool = False):
     d = design
     area = d.capillary_area_m2
     rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
-    # Eq. 17's rho du/dt, kept: inertance (4/3) L / A_c of developed laminar flow
-    c_i = QUASI_STEADY_INERTANCE_COEFFICIENT * omega * d.capillary_length_m / area
+    # Eq. 17's rho du/dt, kept: inertance (4/3) L / A_c of developed laminar flow, plus
+    # the mass at the tube's two ends (tube_end_correction)
+    c_i = (QUASI_STEADY_INERTANCE_COEFFICIENT * d.capillary_length_m
+           + tube_end_length_m(d)) * omega / area
     friction_scale = d.capillary_length_m * mu / (rho * dc * dc)
     rel_rough = d.roughness_m / dc
 
@@ -255,7 +259,8 @@ def _womersley(design, omega, *, with_slope: bool = False):
         zu = womersley_zeta(uniq)
         zeta = Cx(zu.re[inv].reshape(np.shape(alpha)), zu.im[inv].reshape(np.shape(alpha)))
     c_u = poiseuille_resistance(d)
-    c_r0, c_i = c_u * zeta.re, c_u * zeta.im
+    c_r0 = c_u * zeta.re
+    c_i = c_u * zeta.im + tube_end_reactance(d, omega).im
 
     def c_womersley(U):
         minor = d.minor_loss * describing_velocity(U) / (2.0 * area)
