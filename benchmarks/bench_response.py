@@ -117,6 +117,59 @@ def bench_band_response_equivalent_amplitude() -> dict:
     )  # fmt: skip
 
 
+#: Target: the band response with the distortion power at most this times the one without.
+TARGET_DISTORTION_RATIO = 1.5
+
+
+def bench_band_response_distortion() -> dict:
+    """The band response with ``distortion=True`` against without, interleaved, in one run.
+
+    Returns
+    -------
+    dict
+        A result row (the ratio of the medians against its target).
+    """
+    import statistics
+    import time
+
+    from run import MIN_REPEATS, repeats
+
+    from isodesign.response import band_response
+
+    design, payload = _setup()
+    holder = {}
+
+    def call(dist):
+        holder[dist] = band_response(design, payload, "VC-A", "VC-E", warn=False,
+                                     distortion=dist)
+
+    for dist in (False, True):
+        call(dist)
+    times = {False: [], True: []}
+    for _ in range(max(repeats(), MIN_REPEATS)):
+        for dist in (False, True):
+            t0 = time.perf_counter()
+            call(dist)
+            times[dist].append(time.perf_counter() - t0)
+    med = {k: statistics.median(v) for k, v in times.items()}
+    ratio = med[True] / med[False]
+    r0, r1 = holder[False], holder[True]
+    return {
+        "name": "band response with the distortion power / without (interleaved medians)",
+        "target": f"<= {TARGET_DISTORTION_RATIO:g}",
+        "unit": "ratio",
+        "median": ratio,
+        "min": min(times[True]) / min(times[False]),
+        "max": max(times[True]) / max(times[False]),
+        "repeats": len(times[True]),
+        "ratio": ratio / TARGET_DISTORTION_RATIO,
+        "passed": ratio <= TARGET_DISTORTION_RATIO,
+        "notes": (f"medians {med[True] * 1e3:.1f} ms with, {med[False] * 1e3:.1f} ms without; "
+                  f"{r1.iterations} closure evaluations (against {r0.iterations}); stroke RMS "
+                  f"{r1.stroke_rms_m * 1e6:.4g} um (without {r0.stroke_rms_m * 1e6:.4g} um)"),
+    }
+
+
 def bench_monte_carlo() -> dict:
     """The verifier's target: one 320 s realization of the reference case (no diaphragm).
 
@@ -233,6 +286,7 @@ def run() -> list[dict]:
         warnings.simplefilter("ignore")
         return [
             bench_band_response(),
+            bench_band_response_distortion(),
             bench_band_response_equivalent_amplitude(),
             bench_band_response_rayleigh(),
             bench_harmonic_response(),

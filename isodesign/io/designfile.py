@@ -15,6 +15,7 @@ Schema (SI values; see ``docs/design-file.md``)::
     acoustics = "lumped"                  # optional ("distributed": docs/acoustics.md)
     chamber_aspect_ratio = 2.0            # optional (1): chamber length / diameter
     chamber_heat_exchange = true          # optional (false): wall heat exchange
+    tube_end_correction = false           # optional (true): the tube ends' entrained mass
 
     [load]                                # instead of pressure_pa
     mass_kg = 100.0
@@ -140,6 +141,8 @@ DESIGN_KEYS: dict[str, str] = {
     "(default 1)",
     "chamber_heat_exchange": "heat exchange with the chamber walls, true or false "
     "(default false)",
+    "tube_end_correction": "the entrained mass at the tube's ends (flanged end correction), "
+    "true or false (default true)",
     "load": "table [load]: mass_kg, isolators (instead of pressure_pa)",
     "gas": "table [gas]: name, gas_constant_j_per_kg_k, heat_capacity_ratio, viscosity_pa_s",
     "diaphragm": "table [diaphragm]: model (viscoelastic, none, table:PATH, fit:PATH) and the "
@@ -172,7 +175,7 @@ GAS_KEYS: dict[str, str] = {
 }
 
 #: Keys whose values are not numbers (checked by :class:`SpringDesign` itself).
-_CHOICE_KEYS = ("acoustics", "chamber_heat_exchange")
+_CHOICE_KEYS = ("acoustics", "chamber_heat_exchange", "tube_end_correction")
 _SCALAR_KEYS = tuple(k for k in DESIGN_KEYS
                      if k not in ("load", "gas", "diaphragm", "models", *_CHOICE_KEYS))
 
@@ -338,6 +341,8 @@ def design_from_dict(d: dict, source: str = "design"):
                           "distributed model), so it is not computed; use acoustics = "
                           "\"distributed\" or chamber_heat_exchange = false",
                           ModelValidityWarning, stacklevel=3)
+    if "tube_end_correction" in d:
+        kw["tube_end_correction"] = d["tube_end_correction"]  # a bool, checked by the design
 
     # piston area: A_p directly, or from the diaphragm radii (Eq. 43)
     radii = [k for k in ("diaphragm_r1_m", "diaphragm_r2_m") if k in d]
@@ -571,6 +576,8 @@ def design_to_toml(design, *, header: str | None = None, models: dict | None = N
         lines.append(f"acoustics = {_toml_string(d['acoustics'])}")
     if "chamber_heat_exchange" in d:
         lines.append(f"chamber_heat_exchange = {'true' if d['chamber_heat_exchange'] else 'false'}")
+    if "tube_end_correction" in d:
+        lines.append(f"tube_end_correction = {'true' if d['tube_end_correction'] else 'false'}")
     if models:
         kept = {k: str(models[k]) for k in MODEL_KEYS if models.get(k) is not None}
         if kept:

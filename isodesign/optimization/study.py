@@ -130,7 +130,7 @@ _KEYS = {
     "payload": {"mass_kg", "isolators", "spacing_m", "cg_height_m"},
     "hardware": {"piston_area_m2", "diaphragm_r1_m", "diaphragm_r2_m", "temperature_k",
                  "minor_loss", "polytropic_index", "roughness_m", "gas",
-                 "chamber_aspect_ratio", "chamber_heat_exchange"},
+                 "chamber_aspect_ratio", "chamber_heat_exchange", "tube_end_correction"},
     "hardware.gas": {"name", "gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"},
     "floor": {"criterion", "csv", "quantity", "kind", "unit", "record", "statistic",
               "percentile", "axis", "sample_rate_hz", "x", "y"},
@@ -525,6 +525,9 @@ def _hardware(h: dict, where: str) -> dict:
             raise InputError(f"{where}: hardware.chamber_heat_exchange = true is exclusive with "
                              "hardware.polytropic_index (the wall heat exchange sets the "
                              "polytropic index at each frequency)")
+    if "tube_end_correction" in h:
+        hw["tube_end_correction"] = _bool(where, "hardware.tube_end_correction",
+                                          h["tube_end_correction"])
     if "gas" in h:
         try:
             hw["gas"] = Gas(**h["gas"])

@@ -59,7 +59,7 @@ from isodesign.results import ResultDisplay
 from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
 from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA, evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
-from isodesign.spring.equations import air_stiffness, spring_stiffness
+from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.spring.stiffness import StiffnessResult
 
 __all__ = [
@@ -121,6 +121,8 @@ class _Statistical:
         self.grid = grid
         self.dia = diaphragm_model(model.diaphragm)
         self.c_of = statistical_resistance_function(model.flow, model.design, grid.omega)
+        #: variances added to the linearization's (the distortion power, if carried)
+        self.offset = (0.0, 0.0)
 
     def stiffness(self, omega, sigma, sigma_u, c_of=None):
         """``(k, k_air, k_dia, C)`` as Cx at ``omega`` for the two RMS values."""
@@ -138,8 +140,8 @@ class _Statistical:
             k_dia = self.dia.stiffness(w, equivalent_amplitude(sigma))
         k = spring_stiffness(air_stiffness(d, w, c, self.model.flow), k_dia)
         rel = relative_transmissibility(k, self.model.mass, w)
-        s2 = float(stroke_variance(rel, self.grid))
-        su2 = float(tube_velocity_variance(rel, c, d, self.grid, self.model.flow))
+        s2 = float(stroke_variance(rel, self.grid)) + self.offset[0]
+        su2 = float(tube_velocity_variance(rel, c, d, self.grid, self.model.flow)) + self.offset[1]
         return s2, su2, k
 
     def tube_closure(self, sigma, y0: float, rtol: float, max_iter: int):
@@ -175,6 +177,34 @@ def _statistical_closure(st: _Statistical, x0: float, y0: float, rtol: float, ma
     ev, _, slope = _random_closure(evaluate, x0, rtol, max_iter)
     y, k = memo[ev.log_sigma_in]
     return ev.log_sigma_in, y, k, state["n"], slope
+
+
+def _distortion_at(st: _Statistical, sigma: float, sigma_u: float):
+    """The distortion power at the closure's state ``(sigma, sigma_u)``."""
+    from isodesign.response.distortion import distortion_power
+
+    m, g = st.model, st.grid
+    k, _, _, c = st.stiffness(g.omega, sigma, sigma_u, st.c_of)
+    rel = relative_transmissibility(k, m.mass, g.omega)
+    lines = g.stroke_weight * rel.abs2() * tube_velocity_gain2(m.design, g.omega, c, m.flow)
+
+    def state_at(w):
+        kk, _, _, cc = st.stiffness(w, sigma, sigma_u)
+        return kk.to_complex(), cc.to_complex()
+
+    return distortion_power(m.design, m.flow, g.frequency_hz, lines, state_at, m.mass)
+
+
+def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter: int):
+    """The closure with the distortion power added to its variances: one pass of the
+    distortion at the plain closure's state, the closure solved again with it (from there),
+    and the distortion at the new state. Returns ``(x, y, DistortionPower, evaluations)``."""
+    dist = _distortion_at(st, math.exp(x), math.exp(y))
+    st.offset = (dist.stroke_variance, dist.tube_velocity_variance)
+    x, y, _, n, _ = _statistical_closure(st, x, y, rtol, max_iter)
+    dist = _distortion_at(st, math.exp(x), math.exp(y))
+    st.offset = (dist.stroke_variance, dist.tube_velocity_variance)
+    return x, y, dist, n
 
 
 def _random_closure(evaluate, x0: float, rtol: float, max_iter: int):
@@ -563,6 +593,7 @@ def band_response(
     derive_pressure: bool = True,
     strict: bool = True,
     warn: bool = True,
+    distortion: bool = False,
 ) -> BandResponse:
     """One-third-octave band response of the payload to a random floor, and compliance.
 
@@ -624,6 +655,12 @@ def band_response(
         last iterate with ``converged=False`` and a warning.
     warn : bool
         Emit one ModelValidityWarning with the spring's validity flags.
+    distortion : bool
+        Add the minor loss's distortion power, the residual of the statistical linearization
+        carried through the system as an uncorrelated pressure-drop source in the tube
+        (:mod:`isodesign.response.distortion`, ``docs/random-response.md`` section 3a), to the
+        bands, the stroke and the tube velocity, self-consistently with the closure
+        (``random_method="statistical"`` only; NumPy only, not in the NLP).
 
     Returns
     -------
@@ -654,7 +691,10 @@ def band_response(
     f, w = grid.frequency_hz, grid.omega
     k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
     t_lin = model.transmissibility(k_lin, f)
-    converged, slope, sigma_u = True, None, None
+    converged, slope, sigma_u, dist = True, None, None, None
+    if distortion and random_method != "statistical":
+        raise InputError("distortion: the distortion power is the statistical closure's "
+                         "residual; valid with random_method='statistical' only")
     if random_method == "statistical":
         st = _Statistical(model, grid)
         # start: the linear regime (laminar tube, diaphragm at the reference amplitude)
@@ -670,12 +710,15 @@ def band_response(
                 raise
             warnings.warn(f"band_response: {exc}", ModelValidityWarning, stacklevel=2)
             converged, x, y, n_it = False, x0, y0, int(max_iter)
+        if distortion:
+            x, y, dist, n_more = _with_distortion(st, x, y, rtol, int(max_iter))
+            n_it += n_more
         sigma_in, sigma_u_in = math.exp(x), math.exp(y)
         kc, k_air_c, k_d_c, c = st.stiffness(w, sigma_in, sigma_u_in, st.c_of)
         k = kc.to_complex()
         rel = relative_transmissibility(kc, model.mass, w)
         sigma_u = math.sqrt(float(tube_velocity_variance(rel, c, model.design, grid,
-                                                         model.flow)))
+                                                         model.flow)) + st.offset[1])
         amp = equivalent_amplitude(sigma_in)
         diag = evaluate_diagnostics(
             flow, model.design, w, np.full(f.shape, amp),
@@ -733,10 +776,15 @@ def band_response(
     t = model.transmissibility(k, f)
     tc = Cx.from_complex(t)
     rel = relative_transmissibility(Cx.from_complex(k), model.mass, w)
-    sigma = math.sqrt(float(stroke_variance(rel, grid)))
+    sigma = math.sqrt(float(stroke_variance(rel, grid)) + (dist.stroke_variance if dist else 0))
     ms_v = np.asarray(band_mean_square(tc, grid, "velocity"))
     ms_x = np.asarray(band_mean_square(tc, grid, "displacement"))
     ms_a = np.asarray(band_mean_square(tc, grid, "acceleration"))
+    if dist is not None:
+        lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
+        ms_v = ms_v + dist.band_mean_square(lo, hi, 0)
+        ms_x = ms_x + dist.band_mean_square(lo, hi, -2)
+        ms_a = ms_a + dist.band_mean_square(lo, hi, 2)
     stab = stability_of_model(
         model,
         payload,

@@ -55,7 +55,9 @@ def churchill_phi(re, rel_rough):
 _P0, _VT0, _VB0, _AP, _AC, _MT0, _MB0, _RGAS, _IDX, _ADIAB = range(10)
 _MU, _DC, _RELR, _FSCALE, _INERT, _KMIN, _CU, _MASS, _KINF, _RHO0 = range(10, 20)
 _WREM = 20
-N_PARAMS = 21
+# the tube ends' entrained mass rho0 L_end (Womersley flow) and the integrated modes' gain sum
+_LEND, _GSUM = 21, 22
+N_PARAMS = 23
 
 
 @numba.njit(cache=True, fastmath=False)
@@ -109,7 +111,13 @@ def spring_rhs(y, i0, out, z, zd, p, flow, n_modes, mode_gain, mode_rate, n_bran
             u = 2.0 * wv / (1.0 + math.sqrt(1.0 + 4.0 * bk * abs(wv)))
         else:
             u = wv
-        g = (dp - kap * abs(u) * u) / p[_INERT]  # pressure gradient / rho0 (m/s^2)
+        # pressure gradient / rho0 (m/s^2); the ends' mass rho0 L_end du/dt takes its share of
+        # dp, with du/dt = G g - sum(rate_j y_j) (G the integrated modes' gain): solved for g
+        relax = 0.0
+        for j in range(n_modes):
+            relax += mode_rate[j] * y[i0 + 3 + j]
+        g = ((dp - kap * abs(u) * u + p[_LEND] * relax)
+             / (p[_INERT] + p[_LEND] * p[_GSUM]))
         for j in range(n_modes):
             out[i0 + 3 + j] = mode_gain[j] * g - mode_rate[j] * y[i0 + 3 + j]
         i_dia = i0 + 3 + n_modes

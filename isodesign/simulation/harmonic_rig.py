@@ -68,6 +68,7 @@ from isodesign.spring.capillary import (
     QUASI_STEADY_INERTANCE_COEFFICIENT,
     churchill_friction_re_product,
     poiseuille_resistance,
+    tube_end_length_m,
 )
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
@@ -406,7 +407,9 @@ class _Model:
         self.rel_rough = d.roughness_m / d.capillary_diameter_m
         # friction drop = friction_scale * Phi(Re) * u (Darcy with f = Phi / Re)
         self.friction_scale = self.lc * self.mu / (2.0 * self.dc * self.dc)
-        self.inertia = QUASI_STEADY_INERTANCE_COEFFICIENT * self.lc
+        # the slug's inertance length, the ends' entrained mass included (as in the
+        # frequency domain, capillary.tube_end_length_m)
+        self.inertia = QUASI_STEADY_INERTANCE_COEFFICIENT * self.lc + tube_end_length_m(d)
         self.c_u = poiseuille_resistance(d)
 
     # -- physical quantities from the scaled states -------------------------

@@ -64,7 +64,11 @@ from isodesign.response.model import (
     resolve_target,
     spring_model,
 )
-from isodesign.spring.capillary import QUASI_STEADY_INERTANCE_COEFFICIENT, poiseuille_resistance
+from isodesign.spring.capillary import (
+    QUASI_STEADY_INERTANCE_COEFFICIENT,
+    poiseuille_resistance,
+    tube_end_length_m,
+)
 from isodesign.spring.diaphragm import NoDiaphragm, PronyDiaphragm, diaphragm_model
 
 __all__ = [
@@ -329,17 +333,21 @@ def _parameters(design, flow: str, mass: float, k_inf: float, rate_hz: float):
     p[kern._RHO0] = rho0
     gain = rate = np.zeros(0)
     if flow == "quasi_steady":
-        p[kern._INERT] = QUASI_STEADY_INERTANCE_COEFFICIENT * d.capillary_length_m
+        p[kern._INERT] = (QUASI_STEADY_INERTANCE_COEFFICIENT * d.capillary_length_m
+                          + tube_end_length_m(d))
     elif flow == "womersley":
         from scipy.special import jn_zeros
 
         p[kern._INERT] = rho0 * d.capillary_length_m
+        # the ends' mass moves with the mean velocity (the kernel solves for its share)
+        p[kern._LEND] = rho0 * tube_end_length_m(d)
         lam = jn_zeros(0, 400)
         radius = 0.5 * d.capillary_diameter_m
         nu = d.viscosity_pa_s / rho0
         rates = nu * lam**2 / radius**2
         m = int(np.sum(rates <= rate_hz))  # modes integrated: rate * dt <= 1
         gain, rate = 4.0 / lam[:m] ** 2, rates[:m]
+        p[kern._GSUM] = float(np.sum(gain))
         # quasi-static remainder: sum_{n > m} 4 R^2/(mu L lambda_n^4); sum over all = 1/8
         p[kern._WREM] = radius**2 / (d.viscosity_pa_s * d.capillary_length_m) * (
             0.125 - float(np.sum(4.0 / lam[:m] ** 4))

@@ -38,6 +38,7 @@ from isodesign.spring.capillary import (
     STATISTICAL_FLOW_MODELS,
     linear_resistance,
     poiseuille_resistance,
+    tube_end_reactance,
     womersley_number,
     womersley_zeta,
 )
@@ -222,7 +223,9 @@ def _network(design, omega, flow) -> AcousticNetwork:
     top = chamber_line(d, d.top_volume_m3, omega)
     ch_b, _, c_b = chamber_line(d, d.bottom_volume_m3, omega)
     if flow in STATISTICAL_FLOW_MODELS:
-        c_lin = linear_resistance(flow, d, omega)
+        # the line carries the tube's own linear law; the ends' mass (part of the flow
+        # model's C) stays outside it, half at each end with the other end terms
+        c_lin = linear_resistance(flow, d, omega) - tube_end_reactance(d, omega)
     else:
         zeta = womersley_zeta(womersley_number(d, omega))
         c_u = poiseuille_resistance(d)

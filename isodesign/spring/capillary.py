@@ -53,11 +53,13 @@ from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
 
 __all__ = [
+    "FLANGED_END_CORRECTION",
     "LAMINAR_REYNOLDS_LIMIT",
     "QUASI_STEADY_INERTANCE_COEFFICIENT",
     "QUASI_STEADY_WOMERSLEY_LIMIT",
     "STATISTICAL_FLOW_MODELS",
     "TURBULENT_REYNOLDS_LIMIT",
+    "UNFLANGED_END_CORRECTION",
     "ZHAO_RANGES",
     "churchill_friction_factor",
     "churchill_friction_re_product",
@@ -70,6 +72,8 @@ __all__ = [
     "poiseuille_resistance",
     "statistical_resistance_function",
     "tube_boundary_layer_functions",
+    "tube_end_length_m",
+    "tube_end_reactance",
     "womersley_number",
     "womersley_zeta",
     "zhao_friction",
@@ -89,6 +93,13 @@ QUASI_STEADY_WOMERSLEY_LIMIT = 3.4
 #: profiles are flatter (coefficient near 1), but at turbulent speeds the
 #: resistance dominates the impedance, so the difference is small there.
 QUASI_STEADY_INERTANCE_COEFFICIENT = 4.0 / 3.0
+#: End correction of a tube opening flush into a wall much wider than its bore (a flanged
+#: end), in bore radii: the entrained gas outside each end moves like ``0.8216 a`` more of
+#: plug (``docs/acoustics.md``, section 1). The capillary ends in the chamber walls.
+FLANGED_END_CORRECTION = 0.8216
+#: The same for an end protruding into a large volume (an unflanged pipe end), in radii:
+#: the other limit, which bounds the end correction's uncertainty.
+UNFLANGED_END_CORRECTION = 0.6133
 #: Stated ranges of the Zhao correlations, Eqs. 24 and 25: (Re_w lo, hi, A0 lo, hi).
 ZHAO_RANGES = {
     "laminar": (23.0, 395.0, 0.0, 26.4),
@@ -540,6 +551,42 @@ def gaussian_equivalent_resistance(flow: str, design, velocity_rms):
     )
 
 
+def tube_end_length_m(design):
+    """The extra plug length of the tube's two ends, ``2 x 0.8216 a`` (0 if switched off).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+
+    Returns
+    -------
+    float or CasADi symbol
+        m.
+    """
+    if not getattr(design, "tube_end_correction", False):
+        return 0.0
+    return FLANGED_END_CORRECTION * design.capillary_diameter_m  # 2 ends x 0.8216 (D/2)
+
+
+def tube_end_reactance(design, omega) -> Cx:
+    """The two ends' mass as a resistance: ``j w L_end / A_c`` (Pa s/kg, any backend).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+
+    Returns
+    -------
+    Cx
+    """
+    x = omega * (tube_end_length_m(design) / design.capillary_area_m2)
+    return Cx(0.0 * x, x)
+
+
 def linear_resistance(flow: str, design, omega) -> Cx:
     """The part of ``C`` linear in the tube velocity, frequency dependent (any backend).
 
@@ -564,13 +611,13 @@ def linear_resistance(flow: str, design, omega) -> Cx:
     d = design
     c_u = poiseuille_resistance(d)
     if flow == "quasi_steady":
-        c_i = (QUASI_STEADY_INERTANCE_COEFFICIENT * omega * d.capillary_length_m
-               / d.capillary_area_m2)
+        c_i = ((QUASI_STEADY_INERTANCE_COEFFICIENT * d.capillary_length_m
+                + tube_end_length_m(d)) * omega / d.capillary_area_m2)
         return Cx(c_u + 0.0 * c_i, c_i)
     if flow == "womersley":
         alpha = womersley_number(d, omega)
         zeta = womersley_zeta(alpha)
-        return Cx(c_u * zeta.re, c_u * zeta.im)
+        return Cx(c_u * zeta.re, c_u * zeta.im) + tube_end_reactance(d, omega)
     if flow == "poiseuille":
         z = 0.0 * omega
         return Cx(c_u + z, z)

@@ -110,6 +110,12 @@ class SpringDesign:
         Heat exchange of the chamber gas with the walls (thermal boundary layer, a complex
         polytropic index between 1 and kappa with frequency). Off by default (adiabatic
         chambers, the paper's choice); exclusive with ``polytropic_index``.
+    tube_end_correction : bool
+        The mass of the gas entrained at each end of the capillary, where it opens flush
+        into the chamber wall (a flanged end: ``0.8216 a`` of extra plug length per end,
+        ``a = D_c/2``), added to the tube's inertance in both acoustic models for the
+        ``quasi_steady`` and ``womersley`` flows (``docs/acoustics.md``, section 1). On by
+        default; ``False`` gives the tube without ends (the model before the correction).
     """
 
     volume_ratio: Any
@@ -126,6 +132,7 @@ class SpringDesign:
     acoustics: str = "distributed"
     chamber_aspect_ratio: float = 1.0
     chamber_heat_exchange: bool = False
+    tube_end_correction: bool = True
 
     def __post_init__(self):
         for name in ("volume_ratio", "top_volume_m3", "capillary_length_m",
@@ -176,6 +183,11 @@ class SpringDesign:
                              f"{type(self.chamber_heat_exchange).__name__} "
                              f"{self.chamber_heat_exchange!r:.40}")
         object.__setattr__(self, "chamber_heat_exchange", bool(self.chamber_heat_exchange))
+        if not isinstance(self.tube_end_correction, bool | np.bool_):
+            raise InputError("tube_end_correction: expected true or false, got "
+                             f"{type(self.tube_end_correction).__name__} "
+                             f"{self.tube_end_correction!r:.40}")
+        object.__setattr__(self, "tube_end_correction", bool(self.tube_end_correction))
         if self.chamber_heat_exchange and self.polytropic_index is not None:
             raise InputError("chamber_heat_exchange: exclusive with polytropic_index (the wall "
                              "heat exchange sets the polytropic index at each frequency)")
@@ -310,6 +322,8 @@ class SpringDesign:
             d["chamber_aspect_ratio"] = float(self.chamber_aspect_ratio)
         if self.chamber_heat_exchange:
             d["chamber_heat_exchange"] = True
+        if not self.tube_end_correction:
+            d["tube_end_correction"] = False
         g = self.gas
         gd = {
             "name": g.name,

@@ -16,9 +16,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from isodesign.numerics.cplx import Cx
-from isodesign.spring.capillary import flow_regime, kinetic_reynolds
+from isodesign.spring.capillary import flow_regime, kinetic_reynolds, linear_resistance
 from isodesign.spring.chamber import first_transverse_mode_hz
-from isodesign.spring.equations import kinematic_velocity
+from isodesign.spring.compactness import LUMPED_TOLERANCE, lumped_error_estimate
+from isodesign.spring.equations import air_stiffness, kinematic_velocity
 from isodesign.spring.equations import tube_velocity_gain2 as velocity_gain2
 from isodesign.spring.flow_models import FlowPoint, flow_check_descriptions, flow_model
 from isodesign.spring.transmission_line import TRANSVERSE_MODE_FACTOR
@@ -39,10 +40,23 @@ KINEMATIC_MISMATCH_LIMIT = 0.1
 #: parameters independent of p0; about twice the paper's 4.93 bar) are not covered above it.
 #: See docs/spring-model.md, section 10.
 MAX_STATIC_PRESSURE_PA = 1.0e6
-#: Acoustic compactness w l / c (l the largest of the tube length and the chamber
-#: sizes V^(1/3)) above which the lumped model (uniform chamber pressures, an
-#: incompressible slug in the tube) is flagged.
+#: Acoustic compactness w l / c of the NLP's design-space guard of the lumped model
+#: (``lumped_tube``, ``lumped_top_chamber``, ``lumped_bottom_chamber``). The per-point
+#: ``lumped`` check is the first-order error estimate of :mod:`isodesign.spring.compactness`
+#: against :data:`LUMPED_TOLERANCE` instead.
 LUMPED_LIMIT = 0.3
+#: Largest |theta^2| of the tube's line for which the first-order estimate is used: beyond it
+#: the series of the line's two-port does not converge fast enough and the point is flagged.
+LUMPED_THETA2_LIMIT = 2.0
+#: The estimate (first order, times ``1 + |theta^2|/6`` for the series' next term) must stay
+#: below this fraction of :data:`LUMPED_TOLERANCE`: the margin for the second-order
+#: sensitivity terms the first-order estimate leaves out (docs/acoustics.md, section 4).
+LUMPED_ESTIMATE_FRACTION = 0.9
+#: Shortest tube, in bore radii, for which the ends' correction is applied with confidence:
+#: each end's near field (the evanescent higher modes, decaying as exp(-3.83 x / a)) has
+#: decayed to 2 % within one radius, so the two ends act independently while L_c >= 4 a
+#: (docs/acoustics.md, section 1).
+TUBE_END_MIN_LENGTH_RADII = 4.0
 
 #: Name -> meaning of every validity check (the flow models' own come from
 #: :mod:`isodesign.spring.flow_models`).
@@ -58,8 +72,13 @@ CHECK_DESCRIPTIONS = {
         "rolling-diaphragm assumptions; docs/spring-model.md, section 10)"
     ),
     "lumped": (
-        f"acoustically compact: w l / c <= {LUMPED_LIMIT} for the tube length and chamber sizes "
-        "(lumped model)"
+        f"lumped model's air stiffness within {LUMPED_TOLERANCE:.0%} of the distributed model's "
+        "(first-order estimate from the chambers' lengths and the tube's line; "
+        "docs/acoustics.md section 4)"
+    ),
+    "tube_end_correction": (
+        f"tube at least {TUBE_END_MIN_LENGTH_RADII:g} bore radii long: the two ends' "
+        "correction (0.8216 a each) independent of each other (docs/acoustics.md section 1)"
     ),
     "chamber_plane_wave": (
         "below the first transverse mode 1.8412 c / (pi D) of both chambers (plane waves, "
@@ -110,6 +129,10 @@ class Diagnostics:
         Top-chamber pressure amplitude ``|k_d*| X / A_p``.
     checks : dict of str to bool ndarray
         Named checks (True = inside validity); see :data:`CHECK_DESCRIPTIONS`.
+    lumped_error : ndarray or None
+        The lumped model's estimated relative error in ``k`` against the distributed model
+        (``acoustics="lumped"`` only; :func:`isodesign.spring.compactness.lumped_error_estimate`
+        with the series remainder), what the ``lumped`` check compares with its tolerance.
     """
 
     velocity_amplitude_m_s: np.ndarray
@@ -124,6 +147,7 @@ class Diagnostics:
     pressure_amplitude_pa: np.ndarray
     iterations: np.ndarray | None = None
     checks: dict = field(default_factory=dict)
+    lumped_error: np.ndarray | None = None
 
     @property
     def regime(self) -> np.ndarray:
@@ -145,9 +169,14 @@ class Diagnostics:
         for name, ok in self.checks.items():
             bad = int(np.size(ok) - np.count_nonzero(ok))
             if bad:
-                out.append(
-                    f"{name}: {bad} of {n} points outside ({CHECK_DESCRIPTIONS.get(name, name)})"
-                )
+                line = f"{name}: {bad} of {n} points outside ({CHECK_DESCRIPTIONS.get(name, name)})"
+                if name == "lumped" and self.lumped_error is not None:
+                    worst = float(np.max(self.lumped_error))
+                    line += ("; estimated error up to " + (
+                        f"{worst:.2%}" if np.isfinite(worst) else
+                        "an unknown amount (the tube's line is beyond the first-order "
+                        f"estimate, |theta^2| > {LUMPED_THETA2_LIMIT:g})"))
+                out.append(line)
         return tuple(out)
 
     def columns(self) -> dict[str, np.ndarray]:
@@ -167,6 +196,9 @@ class Diagnostics:
         }
         for name, ok in self.checks.items():
             cols[f"ok_{name}"] = np.broadcast_to(ok, self.mach.shape).ravel()
+        if self.lumped_error is not None:
+            cols["lumped_error_estimate"] = np.broadcast_to(self.lumped_error,
+                                                            self.mach.shape).ravel()
         cols["valid"] = self.valid.ravel()
         return cols
 
@@ -223,8 +255,6 @@ def evaluate_diagnostics(
     # frequency-only quantities on the frequency axis, then broadcast
     re_w0 = kinetic_reynolds(d, omega)
     alpha0 = 0.5 * np.sqrt(re_w0)
-    size0 = max(d.capillary_length_m, d.top_volume_m3 ** (1 / 3), d.bottom_volume_m3 ** (1 / 3))
-    lumped0 = omega * size0 / d.speed_of_sound_m_s <= LUMPED_LIMIT
     re_w = np.broadcast_to(re_w0, shape)
     alpha = np.broadcast_to(alpha0, shape)
     a0 = u * (1.0 / (omega * dc))
@@ -248,6 +278,9 @@ def evaluate_diagnostics(
     )
     checks["passive"] = k_total.imag >= -1e-9 * np.abs(k_total)
     checks["static_pressure"] = np.asarray(d.pressure_pa <= MAX_STATIC_PRESSURE_PA)
+    if d.tube_end_correction and flow in ("quasi_steady", "womersley"):
+        checks["tube_end_correction"] = np.asarray(
+            d.capillary_length_m >= TUBE_END_MIN_LENGTH_RADII * 0.5 * d.capillary_diameter_m)
     if distributed:
         c0 = d.speed_of_sound_m_s
         f0 = omega / (2.0 * math.pi)
@@ -256,10 +289,14 @@ def evaluate_diagnostics(
                             first_transverse_mode_hz(d, d.bottom_volume_m3)))
         checks["tube_plane_wave"] = (
             f0 < TRANSVERSE_MODE_FACTOR * c0 / (math.pi * d.capillary_diameter_m))
+        lumped_error = None
     else:
-        checks["lumped"] = lumped0
+        lumped_error = lumped_error_bound(d, omega, c, flow, shape)
+        checks["lumped"] = lumped_error <= LUMPED_ESTIMATE_FRACTION * LUMPED_TOLERANCE
     checks.update(model.validity(FlowPoint(
-        reynolds=re, kinetic_reynolds=re_w0, womersley_number=alpha0, dimensionless_amplitude=a0
+        reynolds=re, kinetic_reynolds=re_w0, womersley_number=alpha0, dimensionless_amplitude=a0,
+        laminar_k_error=(laminar_k_error(d, omega, c, k_air, flow)
+                         if flow == "quasi_steady" else None),
     )))
     if amplitude_mode == "kinematic" and model.amplitude_dependent:
         # u is the kinematic velocity here, so u_driven / u is the ratio itself
@@ -284,4 +321,66 @@ def evaluate_diagnostics(
         pressure_amplitude_pa=p_amp,
         iterations=iterations,
         checks=checks,
+        lumped_error=lumped_error,
     )
+
+
+def laminar_k_error(design, omega, c, k_air, flow) -> np.ndarray:
+    """``|k / k_exact - 1|``: the flow model's linear law against the exact laminar impedance.
+
+    ``k_exact`` is the air stiffness (same acoustics) for ``C - C_lin + C_u zeta(alpha)``:
+    the flow model's linear part replaced by the exact laminar oscillating impedance, its
+    nonlinear part (minor loss, turbulent friction excess) kept. Evaluated both ways, so
+    the error is the one in ``k`` itself (the impedance error propagated through the
+    spring's network, resonances included).
+
+    Parameters
+    ----------
+    design : SpringDesign
+    omega : ndarray
+        Angular frequency, rad/s.
+    c : Cx
+        The flow model's resistance at the points, Pa s/kg.
+    k_air : ndarray of complex
+        The air stiffness for ``c``, N/m.
+    flow : str
+        The flow model (``quasi_steady``).
+
+    Returns
+    -------
+    ndarray
+    """
+    exact = c - linear_resistance(flow, design, omega) + linear_resistance(
+        "womersley", design, omega)
+    k_exact = air_stiffness(design, omega, exact, "womersley")
+    k_exact = k_exact.to_complex() if isinstance(k_exact, Cx) else np.asarray(k_exact)
+    return np.abs(np.asarray(k_air) / k_exact - 1.0)
+
+
+def lumped_error_bound(design, omega, c, flow, shape) -> np.ndarray:
+    """The lumped model's estimated relative error in ``k`` (``inf`` beyond the estimate).
+
+    The first-order estimate of :func:`isodesign.spring.compactness.lumped_error_estimate`
+    times ``1 + |theta^2|/6`` (the tube series' next term relative to the first); ``inf``
+    where ``|theta^2| > LUMPED_THETA2_LIMIT`` (the expansion does not hold there).
+
+    Parameters
+    ----------
+    design : SpringDesign
+    omega : ndarray
+        Angular frequency, rad/s.
+    c : Cx
+        The flow resistance at the points, Pa s/kg.
+    flow : str
+        The flow model.
+    shape : tuple
+        The points' shape.
+
+    Returns
+    -------
+    ndarray
+    """
+    est = lumped_error_estimate(design, omega, c, flow)
+    th2 = np.broadcast_to(est["tube_theta2"], shape)
+    bound = np.broadcast_to(est["total"], shape) * (1.0 + th2 / 6.0)
+    return np.where(th2 <= LUMPED_THETA2_LIMIT, bound, np.inf)

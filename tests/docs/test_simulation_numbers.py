@@ -2,7 +2,9 @@
 
 The agreement table (section 4), its worst values and the measured figures of sections 2-4
 come from ``studies/rig_agreement.py`` (the same functions the script prints); each quoted
-number must equal the computed one at the precision it is printed with. The integrator
+number must equal the computed one at the precision it is printed with, except figures at the
+level of the integration round-off (they move between machines), which the page states as
+bounds and the tests check as bounds. The integrator
 table (section 2) and the 60-cycle drift figures (section 3) are printed by
 ``studies/rig_agreement.py --integrators`` and ``--drift`` (a minute or more each: not
 re-run here); the integrator table's rows and its default's bound are checked. If one of
@@ -149,15 +151,25 @@ def test_worst_values_and_bullets(agreement):
 
 @pytest.mark.slow
 def test_measured_figures(study):
+    """Round-off-sized figures are quoted as the bounds the page states, never as the digit one
+    machine measured (the integration error moves them between machines); the physical ones
+    (velocities, peak ratios, distortion) are printed to a precision the round-off cannot move."""
     v = study.checks(REF)
     lin = max(v["linear_limit_adiabatic"], v["linear_limit_n1"], v["linear_limit_n1_2"])
-    quoted(f"simulation and Eq. 38 agree to {lin:.0e}".replace("e-0", "e-") + " at 0.2\n  to 24 Hz")
-    quoted(f"(5e-5 asserted, {v['small_quasi_steady']:.1e} measured".replace("e-0", "e-"))
-    quoted(f"`p0\n  A_p^2/((1+N) V_t0)` to {v['isothermal']:.1e}".replace("e-0", "e-"))
-    quoted(f"differs from Eq. 38 by at most {v['gas_worst']:.1e} ({v['gas_worst_hz']:g} Hz, "
-           f"{v['gas_worst_mm']:g} mm;\n   {v['gas_small_amplitude']:.1e} at 0.05 mm)"
-           .replace("e-0", "e-"))
-    quoted(f"to {v['heating_identity']:.0e} relative".replace("e-0", "e-"))
+    assert lin < 1e-7
+    quoted("simulation and Eq. 38 agree to within 1e-7\n  at 0.2 to 24 Hz")
+    assert v["small_quasi_steady"] < 3e-5
+    quoted("(5e-5 asserted, below 3e-5 measured")
+    assert v["isothermal"] < 2e-5
+    quoted("`p0 A_p^2/((1+N) V_t0)` to within 2e-5")
+    assert v["gas_worst"] < 2e-4 and v["gas_small_amplitude"] < 2e-5
+    assert (v["gas_worst_hz"], v["gas_worst_mm"]) == (24.0, 0.5)
+    # it scales with X: ten times the amplitude, about ten times the difference
+    assert 5 < v["gas_worst"] / v["gas_small_amplitude"] < 20
+    quoted("differs from Eq. 38 by at most 2e-4 (worst at 24 Hz,\n   0.5 mm; below 2e-5 at 0.05 "
+           "mm: it scales with X)")
+    assert v["heating_identity"] < 3e-5
+    quoted("to within 3e-5 relative (a bound")
     assert v["u_self_consistent"] < 0.03
     quoted("its tube velocity amplitude `U` is within 3 % of the simulated first harmonic")
     quoted(f"overestimates `U` by the factor {v['u_kinematic_low']:.2f} = (N+1)/N at low\n  "
@@ -219,5 +231,6 @@ def test_monte_carlo_warmup_changes_little():
                                         warmup_s=warmup_s).stroke_rms_m
 
     change = abs(stroke(20.0) / stroke(60.0) - 1)
-    quoted(f"20 s against 60 s of warm-up\nchange the stroke RMS by {100 * change:.3f} % in the "
+    assert change < 5e-4
+    quoted("20 s against 60 s of warm-up\nchange the stroke RMS by less than 0.05 % in the "
            "reference case, one 320 s realization")

@@ -653,7 +653,7 @@ def test_cli_response(cli_main, tmp_path, capsys):
     text = capsys.readouterr().out
     # the default target is the built-in default study's (VC-C); peak |T| in dB (issue 14)
     assert "FAIL: VC-C exceeded" in text and "worst band 2 Hz" in text and "tilt margin" in text
-    assert "peak |T| 12.14 dB at 1.866 Hz (at A*)" in text and "scope: vertical" in text
+    assert "peak |T| 12.13 dB at 1.866 Hz (at A*)" in text and "scope: vertical" in text
     import pandas as pd
 
     df = pd.read_csv(out)

@@ -55,12 +55,12 @@ def test_band_figures_of_the_worked_example(job):
         r1 = table_band_response(d, st.table, table_floor("VC-A", x=False, y=False), st.target,
                                  bands=st.bands, flow=m["flow"])
     assert r3.worst[:3] == ("corner", "z", "4") and f"{-r3.worst[3]:.2f}" == "8.25"
-    assert f"{-r3.margin_db[0, 2].min():.2f}" == "0.61"
+    assert f"{-r3.margin_db[0, 2].min():.2f}" == "0.62"
     assert f"{-r1.worst_margin_db:.2f}" == "0.24"
     assert f"{r1.stroke_rms_m[0] * 1e6:.1f}" == "25.4" and f"{r3.stroke_rms_m[0] * 1e6:.1f}" \
         == "38.1"
     corner = np.hypot(*st.table.instrument_points_m[1, :2])
     assert f"{corner:.2f}" == "0.58"
-    for s in ("8.25 dB in z at 4 Hz", "misses by 0.61 dB", "missed by 0.24 dB", "25.4 to 38.1 um",
+    for s in ("8.25 dB in z at 4 Hz", "misses by 0.62 dB", "missed by 0.24 dB", "25.4 to 38.1 um",
               "0.58 m from the CG"):
         assert s in PAGE, s

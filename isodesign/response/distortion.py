@@ -1,0 +1,264 @@
+"""The distortion power the statistical linearization leaves out (NumPy).
+
+The statistical closure replaces the tube's quadratic minor-loss drop ``(K rho / 2) |u| u``
+by its Gaussian-equivalent linear term ``(K rho / 2) sqrt(8/pi) s u`` (``s = sigma_u``). For a
+Gaussian ``u`` the rest has a computable spectrum (``docs/random-response.md``, section 3a):
+with ``x = u / s`` and the Hermite expansion ``|x| x = sum_k c_k He_k(x)`` (odd ``k``,
+``c_k = E[|x| x He_k(x)] / k!``),
+
+    R_e(tau) = (K rho / 2)^2 s^4 sum_{k >= 3} k! c_k^2 rho_u(tau)^k,
+
+``rho_u`` the tube velocity's normalized autocorrelation: the residual is uncorrelated with
+``u`` (so with every input: its cross-spectrum is zero by construction) and its spectrum is the
+``k``-fold self-convolution of the tube velocity's normalized spectrum, weighted by
+``k! c_k^2``. It is carried through the linear system as a pressure-drop source in the tube.
+
+Here the tube velocity's spectrum is the line spectrum of the response grid (the power of each
+grid point at its frequency), the convolutions are taken on a uniform two-sided grid of bins
+by FFT, and the source's response is evaluated at the bins' centres.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = [
+    "DISTORTION_ORDERS",
+    "DistortionPower",
+    "abs_square_hermite_coefficient",
+    "distortion_power",
+]
+
+#: The Hermite orders of ``|x| x`` carried (3 and 5: 93.6 % and 4.7 % of the residual power
+#: ``(3 - 8/pi) s^4``; the orders >= 7, left out, carry the other 1.7 %).
+DISTORTION_ORDERS = (3, 5)
+#: Bin width of the convolution grid, Hz.
+DISTORTION_BIN_HZ = 0.05
+#: The distortion's response is evaluated up to this multiple of the highest frequency of the
+#: tube velocity's spectrum (the odd orders spread its power to 3 and 5 times that).
+DISTORTION_RANGE_FACTOR = 1.5
+
+
+def _abs_moment(m: int) -> float:
+    """``E|x|^m`` of a standard Gaussian."""
+    return 2.0 ** (m / 2) * math.gamma((m + 1) / 2) / math.sqrt(math.pi)
+
+
+def abs_square_hermite_coefficient(k: int) -> float:
+    """``c_k = E[|x| x He_k(x)] / k!`` for a standard Gaussian ``x`` (0 for even ``k``).
+
+    Parameters
+    ----------
+    k : int
+        The order (>= 1).
+
+    Returns
+    -------
+    float
+        ``c_1 = sqrt(8/pi)`` (the closure's gain), ``c_3 = sqrt(2/pi)/3``, ...
+    """
+    if k % 2 == 0:
+        return 0.0
+    coef = np.polynomial.hermite_e.herme2poly([0.0] * k + [1.0])  # He_k in powers of x
+    # E[|x| x x^j] = E|x|^(j+2) for odd j (0 for even j)
+    e = sum(cj * _abs_moment(j + 2) for j, cj in enumerate(coef) if j % 2 == 1)
+    return e / math.factorial(k)
+
+
+_WEIGHTS = {k: math.factorial(k) * abs_square_hermite_coefficient(k) ** 2
+            for k in DISTORTION_ORDERS}
+
+
+@dataclass(frozen=True)
+class DistortionPower:
+    """The residual's power carried through the system (one isolator's source).
+
+    Attributes
+    ----------
+    frequency_hz : ndarray
+        Bin centres (one-sided).
+    source_power : ndarray
+        Power of the pressure-drop source per bin, Pa^2.
+    stroke_variance : float
+        Added stroke variance, m^2.
+    tube_velocity_variance : float
+        Added tube velocity variance, (m/s)^2.
+    tube_power : ndarray
+        The added tube velocity power per bin, (m/s)^2 (its line spectrum).
+    payload_velocity_power : ndarray
+        The added payload velocity power per bin, (m/s)^2.
+    """
+
+    frequency_hz: np.ndarray
+    source_power: np.ndarray
+    stroke_variance: float
+    tube_velocity_variance: float
+    tube_power: np.ndarray
+    payload_velocity_power: np.ndarray
+
+    def band_mean_square(self, lower_hz, upper_hz, power: int = 0) -> np.ndarray:
+        """The added payload band mean squares (``power``: -2 displacement, 0 velocity, 2
+        acceleration)."""
+        f = self.frequency_hz
+        w = (2.0 * math.pi * f) ** power
+        out = np.zeros(len(lower_hz))
+        for i, (lo, hi) in enumerate(zip(lower_hz, upper_hz, strict=True)):
+            sel = (f >= lo) & (f < hi)
+            out[i] = float(np.sum(self.payload_velocity_power[sel] * w[sel]))
+        return out
+
+
+def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ):
+    """``sum_k k! c_k^2 (P * ... * P)_k`` of a normalized one-sided line spectrum, binned.
+
+    Parameters
+    ----------
+    freq_hz, power : ndarray
+        Line frequencies (> 0) and powers (summing to 1).
+    bin_hz : float
+        Bin width.
+
+    Returns
+    -------
+    f_bins : ndarray
+        One-sided bin centres (> 0).
+    p_bins : ndarray
+        The residual's normalized power per bin (summing to ``sum_k k! c_k^2`` less what falls
+        in the zero bin).
+    """
+    kmax = max(DISTORTION_ORDERS)
+    idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
+    imax = int(idx.max())
+    n = 1 << math.ceil(math.log2(2 * kmax * imax + 2))
+    h = np.bincount(np.concatenate([idx % n, (-idx) % n]),
+                    weights=np.concatenate([0.5 * power, 0.5 * power]), minlength=n)
+    hf = np.fft.rfft(h)
+    h2 = hf * hf
+    spec = np.zeros_like(hf)
+    hk = hf
+    for k in range(3, kmax + 1, 2):
+        hk = hk * h2
+        if k in _WEIGHTS:
+            spec += _WEIGHTS[k] * hk
+    conv = np.fft.irfft(spec, n)
+    top = kmax * imax
+    pos = conv[1:top + 1] + conv[n - top:][::-1]
+    f_bins = bin_hz * np.arange(1, top + 1)
+    return f_bins, np.clip(pos, 0.0, None)
+
+
+def source_gains(design, omega, c, k, mass_kg, flow):
+    """Per unit pressure-drop source in the tube: ``(|X|^2, |U|^2)`` at ``omega``.
+
+    The source ``dp`` (a drop along the tube, like its friction) at the tube's inlet adds
+    ``dp / D1`` to the piston pressure (``D1 = C_t Z3 + ch_t``, the network of
+    ``docs/acoustics.md`` section 3; ``1 + j w C_t Z3`` lumped), i.e. the force
+    ``A_p dp / D1``; the payload (mass per isolator ``m``, floor held) moves by
+    ``X = -A_p dp / (D1 (k - m w^2))``, and the tube's volume velocity is
+    ``Q1 = (j w A_p X - C_t dp) / D1``, ``Q2 = Q1 / den2``, ``U^2 = (|Q1|^2 + |Q2|^2)/(2 A_c^2)``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The loaded design.
+    omega : ndarray
+        Angular frequency, rad/s.
+    c : complex ndarray
+        The closure's resistance ``C`` at ``omega``, Pa s/kg.
+    k : complex ndarray
+        The spring's stiffness at ``omega`` (air and diaphragm), N/m.
+    mass_kg : float
+        Payload mass per isolator.
+    flow : str
+        The flow model.
+
+    Returns
+    -------
+    tuple of ndarray
+        ``|X/dp|^2`` (m^2/Pa^2) and ``|U/dp|^2`` ((m/s)^2/Pa^2).
+    """
+    from isodesign.numerics.cplx import Cx
+    from isodesign.spring.acoustics import acoustic_network
+
+    d = design
+    w = np.asarray(omega, dtype=float)
+    a_p, a_c = d.piston_area_m2, d.capillary_area_m2
+    if d.acoustics == "distributed":
+        net = acoustic_network(d, w, flow)
+        parts = net._numpy()
+        _, den1, den2 = net._solve_numpy(parts, Cx.from_complex(c))
+        c_t = parts[2]
+    else:
+        n, p0 = d.process_index, d.pressure_pa
+        jw = 1j * w
+        z3 = d.density_kg_m3 * c + 1.0 / (jw * d.bottom_volume_m3 / (n * p0))
+        c_t = jw * d.top_volume_m3 / (n * p0)
+        den1 = 1.0 + c_t * z3
+        den2 = np.ones_like(den1)
+    x = -a_p / (den1 * (k - mass_kg * w * w))
+    q1 = (1j * w * a_p * x - c_t) / den1
+    u2 = np.abs(q1) ** 2 * (1.0 + 1.0 / np.abs(den2) ** 2) / (2.0 * a_c * a_c)
+    return np.abs(x) ** 2, u2
+
+
+def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
+                     iterations: int = 1, bin_hz: float = DISTORTION_BIN_HZ) -> DistortionPower:
+    """The minor loss's distortion power through the system, self-consistently.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The loaded design.
+    flow : str
+        The flow model.
+    freq_hz, tube_power : ndarray
+        The linearized tube velocity's line spectrum on the response grid: each grid point's
+        share of ``sigma_u^2`` ((m/s)^2).
+    state_at : callable
+        ``omega -> (k, C)``, complex arrays: the closure's spring at other frequencies.
+    mass_kg : float
+        Payload mass per isolator.
+    iterations : int
+        Passes of the self-consistency (the distortion's own tube velocity added to the
+        spectrum it is computed from).
+    bin_hz : float
+        Bin width of the convolutions.
+
+    Returns
+    -------
+    DistortionPower
+    """
+    coeff = 0.5 * design.minor_loss * design.density_kg_m3
+    f_lines = np.asarray(freq_hz, dtype=float)
+    p_lines = np.asarray(tube_power, dtype=float)
+    keep = p_lines > 0
+    f_lines, p_lines = f_lines[keep], p_lines[keep]
+    added_u = f_bins = gains = None
+    for _ in range(max(1, int(iterations))):
+        if added_u is None:
+            f_all, p_all = f_lines, p_lines
+        else:  # the distortion's own tube velocity, within the lines' range
+            inside = f_bins <= f_lines.max()
+            f_all = np.concatenate([f_lines, f_bins[inside]])
+            p_all = np.concatenate([p_lines, added_u[inside]])
+        s2 = float(np.sum(p_all))
+        f_bins, shape = normalized_convolutions(f_all, p_all / s2, bin_hz)
+        # the response above the lines' range (the payload bands, the stroke and the tube
+        # fall off there) is left out: keep the bins up to DISTORTION_RANGE_FACTOR f_max
+        top = f_bins <= DISTORTION_RANGE_FACTOR * f_lines.max()
+        f_bins, shape = f_bins[top], shape[top]
+        if gains is None or gains[0].size != f_bins.size:
+            w = 2.0 * math.pi * f_bins
+            k, c = state_at(w)
+            gains = source_gains(design, w, c, k, mass_kg, flow)
+        src = coeff * coeff * s2 * s2 * shape
+        added_u = src * gains[1]
+    w = 2.0 * math.pi * f_bins
+    return DistortionPower(
+        frequency_hz=f_bins, source_power=src, stroke_variance=float(np.sum(src * gains[0])),
+        tube_velocity_variance=float(np.sum(added_u)), tube_power=added_u,
+        payload_velocity_power=src * gains[0] * w * w,
+    )
