@@ -50,12 +50,19 @@ from typing import Any
 import numpy as np
 
 from isodesign.domain import CONSTRAINT_DOMAIN, DESIGN_DOMAIN, FREQUENCY_DOMAIN_HZ
-from isodesign.errors import InputError, check_choice, check_range
-from isodesign.floor import FloorSpectrum, criterion, third_octave_bands
-from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
+from isodesign.errors import InputError, check_choice
+from isodesign.floor import criterion, third_octave_bands
 from isodesign.io.files import read_toml
 from isodesign.io.plausible import unit_slips, warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.study_tables import (
+    FLOOR_KEYS,
+    _check_acoustics,
+    _floor_axes,
+    _merge,
+    _num,
+    _undot,
+)
 from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
 from isodesign.response.isolator import Payload
 from isodesign.results import ResultDisplay
@@ -132,8 +139,7 @@ _KEYS = {
                  "minor_loss", "polytropic_index", "roughness_m", "gas",
                  "chamber_aspect_ratio", "chamber_heat_exchange", "tube_end_correction"},
     "hardware.gas": {"name", "gas_constant_j_per_kg_k", "heat_capacity_ratio", "viscosity_pa_s"},
-    "floor": {"criterion", "csv", "quantity", "kind", "unit", "record", "statistic",
-              "percentile", "axis", "sample_rate_hz", "x", "y"},
+    "floor": FLOOR_KEYS,
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points", "acoustics"},
@@ -286,29 +292,6 @@ class Study(ResultDisplay):
         return st
 
 
-def _undot(changes, tables: dict) -> dict:
-    """``changes`` and ``tables`` merged, dotted keys nested (``"payload.mass_kg"``)."""
-    if changes is not None and not isinstance(changes, dict):
-        raise InputError(f"with_changes: changes must be a dict of dotted keys or tables "
-                         f"({{'payload.mass_kg': 800}}), got {type(changes).__name__} "
-                         f"{changes!r:.40}")
-    out: dict = {}
-    for src in (changes or {}, tables):
-        for key, v in src.items():
-            if not isinstance(key, str):
-                raise InputError(f"with_changes: keys must be strings (dotted, e.g. "
-                                 f"'payload.mass_kg'), got {key!r:.40}")
-            parts = key.split(".")
-            if not all(p.strip() for p in parts):
-                raise InputError(f"with_changes: {key!r} is not a study key (dotted, e.g. "
-                                 "'payload.mass_kg')")
-            tree = v if not isinstance(v, dict) else copy.deepcopy(v)
-            for p in reversed(parts[1:]):
-                tree = {p: tree}
-            out = _merge(out, {parts[0]: tree})
-    return out
-
-
 def _warn_table_slips(st: Study, given: dict, where: str) -> None:
     """One :class:`~isodesign.io.plausible.UnitWarning` per implausible ``[table]`` key the
     user gave (a length in mm typed as m, an inertia that does not fit the table)."""
@@ -333,22 +316,6 @@ def _check_keys(d: dict, table: str, where: str):
             raise InputError(
                 f"{where}: unknown key {k!r} in {tname}; valid: {', '.join(sorted(allowed))}"
             )
-
-
-def _merge(base: dict, over: dict) -> dict:
-    out = copy.deepcopy(base)
-    for k, v in over.items():
-        if isinstance(v, dict) and isinstance(out.get(k), dict):
-            out[k] = _merge(out[k], v)
-        else:
-            out[k] = copy.deepcopy(v)
-    return out
-
-
-def _num(where, key, value, lo=None, hi=None, lo_open=False, unit=""):
-    if isinstance(value, bool) or not isinstance(value, int | float):
-        raise InputError(f"{where}: {key} must be a number, got {value!r}")
-    return check_range(f"{where}: {key}", value, lo, hi, lo_open=lo_open, unit=unit)
 
 
 def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = True) -> Study:
@@ -536,9 +503,6 @@ def _hardware(h: dict, where: str) -> dict:
     return hw
 
 
-_RECORD_KEYS = {"record", "statistic", "percentile", "axis", "unit", "sample_rate_hz"}
-
-
 def _table(raw: dict, payload, hw: dict, where: str):
     """``[table]`` (None without one), leveled; ``payload.isolators`` must match it."""
     if "table" not in raw:
@@ -555,113 +519,6 @@ def _table(raw: dict, payload, hw: dict, where: str):
     except InputError as exc:
         raise InputError(f"{where}: table.{exc}") from None
     return t
-
-
-def _floor_axes(fl: dict, where: str, source: str, table):
-    """``[floor]`` and, with a table, its per-axis floors (a TableFloor)."""
-    if table is None:
-        for k in ("x", "y"):
-            if k in fl:
-                raise InputError(f"{where}: floor.{k} applies only to a study with a [table]")
-        return _floor(fl, where, source), None
-    from isodesign.table.floor import table_floor
-
-    base = {k: v for k, v in fl.items() if k not in ("x", "y")}
-    z = _floor(base, where, source)
-    axes = {}
-    for k in ("x", "y"):
-        v = fl.get(k)
-        if v is False:
-            axes[k] = False
-        elif isinstance(v, dict):
-            axes[k] = _axis_floor(v, k, z, where, source)
-        elif v is not None:
-            raise InputError(f"{where}: floor.{k} must be a table or false")
-        elif "record" in base and "axis" not in base:
-            try:  # the survey's own horizontal axis, when the record has it
-                axes[k] = _floor({**base, "axis": k}, where, source)
-            except InputError:
-                pass
-    return z, table_floor(z, **axes)
-
-
-#: Keys of ``[floor.x]`` / ``[floor.y]``: those of ``[floor]`` and ``scale``.
-_AXIS_FLOOR_KEYS = (_KEYS["floor"] - {"x", "y"}) | {"scale"}
-
-
-def _axis_floor(v: dict, axis: str, z: FloorSpectrum, where: str, source: str) -> FloorSpectrum:
-    """``[floor.x]``/``[floor.y]``: a floor of its own (the keys of ``[floor]``), optionally
-    ``scale``d: ``scale = 0.3`` alone is 30 % of the vertical floor's velocity; with a
-    criterion, CSV or record, 30 % of that floor's (the PSD times ``scale^2``)."""
-    for key in v:
-        if key not in _AXIS_FLOOR_KEYS:
-            raise InputError(f"{where}: unknown key {key!r} in [floor.{axis}]; valid: "
-                             f"{', '.join(sorted(_AXIS_FLOOR_KEYS))}")
-    if "scale" not in v:
-        return _floor(v, f"{where} [floor.{axis}]", source)
-    sc = _num(where, f"floor.{axis}.scale", v["scale"], 0.0, 10.0, True)
-    rest = {k: x for k, x in v.items() if k != "scale"}
-    base = _floor(rest, f"{where} [floor.{axis}]", source) if rest else z
-    name = f"{sc:g} x {base.name or 'floor'}"
-    return dataclasses.replace(base, psd_velocity_m2_s2_per_hz=np.asarray(
-        base.psd_velocity_m2_s2_per_hz) * sc * sc, name=name,
-        source=f"floor.{axis}.scale = {sc:g} of {base.name or 'the vertical floor'}")
-
-
-def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
-    """``[floor]``: a criterion, a CSV spectrum or a survey record (paths relative to the study
-    file)."""
-    if sum(k in fl for k in ("criterion", "csv", "record")) != 1:
-        raise InputError(f"{where}: [floor] needs exactly one of criterion = \"VC-A\", "
-                         "csv = \"file.csv\" or record = \"survey.csv\"")
-    for key in ("csv", "record"):
-        if key in fl and (not isinstance(fl[key], str) or not fl[key].strip()):
-            raise InputError(f"{where}: floor.{key} must be a file name (a string), got "
-                             f"{fl[key]!r:.40}")
-    if "record" in fl:
-        extra = set(fl) - _RECORD_KEYS
-        if extra:
-            raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} do not apply to "
-                             f"a record; valid: {', '.join(sorted(_RECORD_KEYS))}")
-        stat = fl.get("statistic", "mean")
-        check_choice(f"{where}: floor.statistic", stat, SURVEY_STATISTICS)
-        kw = {}
-        if "percentile" in fl:
-            kw["percentile"] = _num(where, "floor.percentile", fl["percentile"], 0, 100)
-        if "sample_rate_hz" in fl:
-            kw["sample_rate_hz"] = _num(where, "floor.sample_rate_hz", fl["sample_rate_hz"], 0,
-                                        None, True, "Hz")
-        for key in ("axis", "unit"):
-            if key in fl and not isinstance(fl[key], str):
-                raise InputError(f"{where}: floor.{key} must be a string")
-        if "unit" in fl:
-            kw["unit"] = fl["unit"]
-        path = Path(fl["record"])
-        if not path.is_absolute() and source not in ("<dict>", "<default>"):
-            path = Path(source).parent / path
-        try:
-            return floor_from_record(path, statistic=stat, axis=fl.get("axis"), **kw)
-        except InputError as exc:
-            raise InputError(f"{where}: floor.{exc}") from None
-    if "criterion" in fl:
-        extra = set(fl) - {"criterion"}
-        if extra:
-            raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} only apply to csv "
-                             "or record")
-        try:
-            return FloorSpectrum.from_criterion(fl["criterion"])
-        except InputError as exc:
-            raise InputError(f"{where}: floor.{exc}") from None
-    path = Path(fl["csv"])
-    if not path.is_absolute() and source not in ("<dict>", "<default>"):
-        path = Path(source).parent / path
-    try:
-        return FloorSpectrum.from_csv(path, quantity=fl.get("quantity"), kind=fl.get("kind"),
-                                      unit=fl.get("unit"))
-    except InputError as exc:
-        msg = str(exc)
-        msg = msg.removeprefix("path: ")
-        raise InputError(msg if msg.startswith(where) else f"{where}: floor.csv: {msg}") from None
 
 
 def _target(tg: dict, where: str):
@@ -709,37 +566,6 @@ def _check_bands_covered(floor, target, bands, band_hz: dict, where: str) -> Non
               "centres)" if ok.any() else "")
     raise InputError(f"{where}: {' and '.join(keys) or 'target bands'} Hz: judged "
                      f"{'; '.join(bad)}{usable}")
-
-
-def _check_acoustics(raw: dict, models: dict, hw: dict, given: dict, where: str) -> None:
-    """The acoustic model in force is the one computed, and it computes what the study asks.
-
-    ``models.acoustics = "lumped"`` drops ``hardware.chamber_heat_exchange`` (the wall heat
-    exchange lives in the distributed chambers): refused, naming both. A paper's flow model
-    (``poiseuille``) is lumped by definition: ``acoustics = "distributed"`` written with it is
-    refused; left to the default it is recorded truthfully as ``"lumped"``.
-    """
-    from isodesign.spring.flow_models import flow_model
-
-    if models["acoustics"] == "lumped" and hw.get("chamber_heat_exchange"):
-        raise InputError(f"{where}: models.acoustics = \"lumped\" with "
-                         "hardware.chamber_heat_exchange = true: the lumped chambers have no "
-                         "wall heat exchange (it is part of the distributed model); use "
-                         "acoustics = \"distributed\" or chamber_heat_exchange = false")
-    if models["acoustics"] != "lumped" and not flow_model(models["flow"]).distributed:
-        written = isinstance(given.get("models"), dict) and "acoustics" in given["models"]
-        if written:
-            raise InputError(f"{where}: models.acoustics = {models['acoustics']!r} with "
-                             f"models.flow = {models['flow']!r}: the paper's flow model is lumped "
-                             "by definition and would be computed lumped; use acoustics = "
-                             "\"lumped\", or flow = \"womersley\" or \"quasi_steady\"")
-        if hw.get("chamber_heat_exchange"):
-            raise InputError(f"{where}: models.flow = {models['flow']!r} is computed with lumped "
-                             "acoustics, which drop hardware.chamber_heat_exchange = true; use "
-                             "flow = \"womersley\" or \"quasi_steady\", or chamber_heat_exchange "
-                             "= false")
-        models["acoustics"] = "lumped"  # what is computed, recorded
-        raw["models"]["acoustics"] = "lumped"
 
 
 def _int_in(where: str, key: str, value, lo: int, hi: int | None) -> int:
