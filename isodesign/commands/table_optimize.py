@@ -73,6 +73,13 @@ def table_summary_text(result) -> str:
     lines.append("  modes of the optimum (springs at its closure):")
     lines.append(modes_text(result.modes))
     lines.append(stability_text(result.stability))
+    if result.leveling is not None:  # the valves' loop (docs/table.md, section 12)
+        lines.append(result.leveling.text())
+        broken = [(n, v) for n, v in result.violations if n.startswith("leveling_")]
+        if broken:
+            lines.append("  WARNING: the leveling loop's " + ", ".join(
+                f"{n} is {v:.3g} {'dB' if n.endswith('gain_margin') else 'deg'} below its bound"
+                for n, v in broken) + ": not a design that meets the study")
     lines.append("")
     lines += result.constraint_lines()
     lines.append("")

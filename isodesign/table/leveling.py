@@ -44,12 +44,15 @@ from isodesign.table.assembly import element_vectors
 from isodesign.table.model import TableModel
 
 __all__ = [
+    "DEFAULT_MIN_GAIN_MARGIN_DB",
+    "DEFAULT_MIN_PHASE_MARGIN_DEG",
     "LEVELING_KEYS",
     "REFERENCE_FREQUENCY_HZ",
     "LevelingPlant",
     "LevelingSimulation",
     "LevelingSystem",
     "leveling_from_dict",
+    "leveling_margin_bounds",
     "leveling_of_study",
     "leveling_plant",
     "orifice_flux",
@@ -63,6 +66,14 @@ REFERENCE_FREQUENCY_HZ = 1.0
 LEVELING_KEYS = {"gain_kg_s_per_m", "dead_band_m", "saturation_flow_kg_s",
                  "line_resistance_pa_s_per_kg", "sensor_positions_m", "fed_chamber"}
 _CHAMBERS = ("top", "bottom")
+#: The optimizer's default bounds on the leveling loop's margins when the study has a
+#: ``[table.leveling]`` (``constraints.min_leveling_gain_margin_db`` and
+#: ``constraints.min_leveling_phase_margin_deg``; docs/table.md, section 12).
+DEFAULT_MIN_GAIN_MARGIN_DB = 6.0
+DEFAULT_MIN_PHASE_MARGIN_DEG = 45.0
+#: The study keys of the two bounds and their defaults.
+MARGIN_KEYS = (("min_leveling_gain_margin_db", DEFAULT_MIN_GAIN_MARGIN_DB),
+               ("min_leveling_phase_margin_deg", DEFAULT_MIN_PHASE_MARGIN_DEG))
 
 
 @dataclass(frozen=True)
@@ -203,6 +214,42 @@ def leveling_of_study(study) -> LevelingSystem:
     raw = (getattr(study, "raw", None) or {}).get("table", {})
     return leveling_from_dict(raw.get("leveling", {}), study.table,
                               getattr(study, "source", None) or getattr(study, "name", "study"))
+
+
+def leveling_margin_bounds(study) -> tuple[float | None, float | None]:
+    """The bounds the optimizer enforces on the leveling loop's gain and phase margins.
+
+    ``constraints.min_leveling_gain_margin_db`` and ``min_leveling_phase_margin_deg`` as the
+    study gives them (validated when it was loaded); ``false`` switches a bound off. A key
+    the study leaves out takes :data:`DEFAULT_MIN_GAIN_MARGIN_DB` (6 dB) and
+    :data:`DEFAULT_MIN_PHASE_MARGIN_DEG` (45 deg) when the study has a ``[table.leveling]``
+    (the valves are the study's), and no bound otherwise: the margins of the default valves
+    are then reported, not enforced (a table whose valves nobody described is not refused
+    for them).
+
+    Parameters
+    ----------
+    study : Study
+        With ``table`` and ``raw``.
+
+    Returns
+    -------
+    (gain_db, phase_deg)
+        Each a float, or None (reported, not enforced).
+    """
+    raw = getattr(study, "raw", None) or {}
+    cons = raw.get("constraints") or {}
+    has_valves = "leveling" in (raw.get("table") or {})
+    out = []
+    for key, default in MARGIN_KEYS:
+        v = cons.get(key)
+        if v is False:
+            out.append(None)
+        elif v is None:
+            out.append(default if has_valves else None)
+        else:
+            out.append(float(v))
+    return out[0], out[1]
 
 
 # ---------------------------------------------------------------------------

@@ -136,6 +136,19 @@ class LevelingLoop(ResultDisplay):
             return float("-inf")
         return 20.0 * math.log10(self.critical_gain_kg_s_per_m / self.gain_kg_s_per_m)
 
+    @property
+    def worst_gain_margin_db(self) -> float:
+        """The smallest gain margin, dB: the MIMO one (every valve's gain scaled together)
+        and each valve's with the other two closed; negative for an unstable loop (the
+        optimizer's ``leveling_gain_margin``)."""
+        return float(min(self.mimo_gain_margin_db, float(np.min(self.gain_margin_db))))
+
+    @property
+    def worst_phase_margin_deg(self) -> float:
+        """The smallest phase margin of the three valves' loops (the other two closed), deg
+        (``inf`` when no loop crosses 0 dB; the optimizer's ``leveling_phase_margin``)."""
+        return float(np.min(self.phase_margin_deg))
+
     def valve_loop(self, g: int):
         """Valve ``g``'s loop (the others closed) as a ``control.StateSpace``.
 

@@ -52,12 +52,17 @@ from isodesign.optimization.explain import (
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
 from isodesign.results import ResultDisplay
-from isodesign.table.constraint_table import CONTINUOUS_PEAK, table_constraint_reports
+from isodesign.table.constraint_table import (
+    CONTINUOUS_PEAK,
+    LEVELING_GAIN_MARGIN,
+    LEVELING_PHASE_MARGIN,
+    table_constraint_reports,
+)
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
 from isodesign.table.problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
 
-__all__ = ["HESSIAN", "PEAK_VIOLATION", "TableOptimizationResult", "closure_springs",
-           "measure_peaks", "optimize_table"]
+__all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
+           "closure_springs", "leveling_check", "measure_peaks", "optimize_table"]
 
 #: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``).
 HESSIAN = "limited-memory"
@@ -68,6 +73,11 @@ _MODE_ROUNDS = 3
 #: ``constraints.max_peak_transmissibility_db`` after the last refinement round (the
 #: vertical optimizer's :data:`isodesign.optimization.driver.PEAK_VIOLATION`).
 PEAK_VIOLATION = CONTINUOUS_PEAK
+#: Names of the violations of the leveling loop's margins (below their bounds at the
+#: returned design, python-control's margins: :func:`leveling_check`).
+LEVELING_VIOLATIONS = (LEVELING_GAIN_MARGIN, LEVELING_PHASE_MARGIN)
+_VIOLATION_UNITS = {PEAK_VIOLATION: " dB", LEVELING_GAIN_MARGIN: " dB",
+                    LEVELING_PHASE_MARGIN: " deg"}
 #: Refinement frequencies placed around each peak above the bound (relative).
 _PEAK_SHIFTS = (0.995, 1.0, 1.005)
 
@@ -100,8 +110,10 @@ class TableOptimizationResult(ResultDisplay):
     violations : tuple
         ``(name, amount)`` of every constraint the returned design breaks: for an infeasible
         run the NLP's violated groups; for a feasible one the continuous peak of |T| above
-        its limit after the last refinement round (:data:`PEAK_VIOLATION`, dB) and the exact
-        modes' damping or rocking-frequency misses. A result with violations is not a
+        its limit after the last refinement round (:data:`PEAK_VIOLATION`, dB), the exact
+        modes' damping or rocking-frequency misses, and the leveling loop's gain or phase
+        margin below its bound (:data:`LEVELING_VIOLATIONS`, the shortfall in dB or deg).
+        A result with violations is not a
         :attr:`success` and its :meth:`verdict` is never PASS.
     peak : dict
         The continuous peak refinement's record: ``rounds``, ``added_frequencies_hz``,
@@ -116,6 +128,9 @@ class TableOptimizationResult(ResultDisplay):
     modes, start_modes : TableModes or None
         At the closure state of each design.
     stability : RockingStability or None
+    leveling : LevelingLoop or None
+        The returned design's leveling loop (the study's ``[table.leveling]`` valves, or
+        the defaults), whose margins the constraint table holds.
     wall_s : float
     hessian : str
     """
@@ -144,6 +159,7 @@ class TableOptimizationResult(ResultDisplay):
     nlp_violations: tuple = ()
     violations: tuple = ()
     peak: Any = None
+    leveling: Any = None
 
     @property
     def success(self) -> bool:
@@ -173,7 +189,7 @@ class TableOptimizationResult(ResultDisplay):
             f"worst margin {self.objective_value:+.2f} dB on the NLP's grid"
         if not self.violations:
             return band
-        broken = ", ".join(f"{n} ({v:.3g}{' dB' if n == PEAK_VIOLATION else ''})"
+        broken = ", ".join(f"{n} ({v:.3g}{_VIOLATION_UNITS.get(n, '')})"
                            for n, v in self.violations)
         return f"FAIL: constraint broken: {broken}; bands: {band}"
 
@@ -350,9 +366,12 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         from isodesign.table.modes import rocking_stability
 
         stab = rocking_stability(_model(study, d))
+    loop, gm_min, pm_min = leveling_check(study, d)
     violations = _violations(study, prob, best, nlp_modes, peak)
+    if best.feasible:
+        violations += _leveling_misses(loop, gm_min, pm_min)
     reports = table_constraint_reports(prob, best.g, modes=nlp_modes, stability=stab,
-                                       peaks=peak["peaks"])
+                                       peaks=peak["peaks"], leveling=(loop, gm_min, pm_min))
     return TableOptimizationResult(
         study=study, feasible=bool(best.feasible), status=best.status, values=best.values,
         design=d, objective=prob.objective,
@@ -362,7 +381,46 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         analysis=analysis, start_analysis=start_analysis, modes=modes, start_modes=modes0,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
+        leveling=loop,
     )
+
+
+def leveling_check(study, d) -> tuple:
+    """The leveling loop of design ``d`` and the bounds on its margins.
+
+    The loop of the study's valves (``[table.leveling]``, or the defaults) around the table
+    on the design's springs, by python-control (:func:`~isodesign.table.leveling_loop.
+    leveling_loop`: what ``isodesign stability`` prints for the design), and the bounds of
+    :func:`~isodesign.table.leveling.leveling_margin_bounds`.
+
+    Parameters
+    ----------
+    study : Study
+        With a ``[table]``.
+    d : SpringDesign
+
+    Returns
+    -------
+    (LevelingLoop, float or None, float or None)
+        The loop, the gain-margin bound (dB) and the phase-margin bound (deg); None: the
+        margin is reported, not enforced.
+    """
+    from isodesign.table.leveling import leveling_margin_bounds, leveling_of_study
+    from isodesign.table.leveling_loop import leveling_loop
+
+    gm_min, pm_min = leveling_margin_bounds(study)
+    return leveling_loop(_model(study, d), leveling_of_study(study)), gm_min, pm_min
+
+
+def _leveling_misses(loop, gm_min, pm_min) -> tuple:
+    """``(name, shortfall)`` of the loop's margins below their bounds (dB, deg)."""
+    out = []
+    gm, pm = loop.worst_gain_margin_db, loop.worst_phase_margin_deg
+    if gm_min is not None and not gm >= gm_min:
+        out.append((LEVELING_GAIN_MARGIN, float(gm_min - gm)))
+    if pm_min is not None and not pm >= pm_min:
+        out.append((LEVELING_PHASE_MARGIN, float(pm_min - pm)))
+    return tuple(out)
 
 
 def _violations(study, prob, best, modes, peak) -> tuple:

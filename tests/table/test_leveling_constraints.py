@@ -1,0 +1,168 @@
+"""The leveling loop's margins as constraints of the table optimizer (docs/table.md, s. 12):
+the study keys, their defaults, the constraint table's rows, and a design whose loop misses
+its margins is a violation (FAIL, exit 1), with the margins ``isodesign stability`` prints."""
+
+from __future__ import annotations
+
+import json
+import math
+import shutil
+from importlib import resources
+
+import numpy as np
+import pytest
+
+from isodesign.errors import InputError
+from isodesign.optimization.study import study_from_dict, table_study
+
+
+def _table_dict(**constraints):
+    import tomllib
+
+    with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
+        d = tomllib.loads(p.read_text())
+    if constraints:
+        d["constraints"] = dict(constraints)
+    return d
+
+
+def _high_cg_toml(tmp_path, height_m: float, leveling: bool = True, name="hi.toml"):
+    """The built-in table with its CG (and its instrument points) raised to ``height_m``,
+    one start, bands to 20 Hz (a reduced study)."""
+    src = resources.files("isodesign") / "data" / "table_study.toml"
+    p = tmp_path / name
+    with resources.as_file(src) as f:
+        shutil.copy(f, p)
+    h, top = height_m, 2 * height_m
+    text = (p.read_text()
+            .replace("[solver]\nstarts = 4", "[solver]\nstarts = 1\nworkers = 1")
+            .replace("cg_height_m = 0.35", f"cg_height_m = {h}")
+            .replace("cg_m = [0.0, 0.0, 0.35]", f"cg_m = [0.0, 0.0, {h}]")
+            .replace("box_m = [1.5, 1.0, 0.7]", f"box_m = [1.5, 1.0, {top}]")
+            .replace("[[0.0, 0.0, 0.7], [0.5, 0.3, 0.7]]",
+                     f"[[0.0, 0.0, {top}], [0.5, 0.3, {top}]]")
+            .replace("band_max_hz = 80.0", "band_max_hz = 20.0"))
+    if leveling:
+        text += "\n[table.leveling]\ngain_kg_s_per_m = 0.02\n"
+    p.write_text(text)
+    return p
+
+
+@pytest.mark.parametrize("key,value", [
+    ("min_leveling_gain_margin_db", -3.0), ("min_leveling_gain_margin_db", "6"),
+    ("min_leveling_gain_margin_db", 500.0), ("min_leveling_phase_margin_deg", 0.0),
+    ("min_leveling_phase_margin_deg", 200.0), ("min_leveling_phase_margin_deg", True)])
+def test_bad_margin_bounds_are_refused_naming_the_key(key, value):
+    with pytest.raises(InputError, match=f"constraints.{key}"):
+        study_from_dict(_table_dict(**{key: value}))
+
+
+def test_margin_bounds_belong_to_a_table_study():
+    with pytest.raises(InputError, match="min_leveling_gain_margin_db applies only to a "
+                                         "study with a \\[table\\]"):
+        study_from_dict({"constraints": {"min_leveling_gain_margin_db": 6.0}})
+
+
+def test_margin_bounds_defaults_and_switches():
+    from isodesign.table.leveling import leveling_margin_bounds
+
+    # no [table.leveling]: the default valves' margins are reported, not enforced
+    assert leveling_margin_bounds(table_study()) == (None, None)
+    d = _table_dict()
+    d["table"]["leveling"] = {"gain_kg_s_per_m": 0.03}
+    assert leveling_margin_bounds(study_from_dict(d)) == (6.0, 45.0)
+    d["constraints"] = {"min_leveling_gain_margin_db": 10.0,
+                        "min_leveling_phase_margin_deg": False}
+    assert leveling_margin_bounds(study_from_dict(d)) == (10.0, None)
+    d = _table_dict(min_leveling_phase_margin_deg=30.0)  # without valves: as written
+    assert leveling_margin_bounds(study_from_dict(d)) == (None, 30.0)
+
+
+def test_constraint_rows_are_the_loops_margins():
+    """The rows hold the smallest gain margin (MIMO and per valve) and the smallest phase
+    margin of python-control's loop, against their bounds; without a bound, no binding."""
+    from isodesign.table.constraint_table import leveling_reports
+    from isodesign.table.leveling_loop import leveling_loop
+    from isodesign.table.model import table_model
+
+    st = table_study()
+    m = st.models
+    model = table_model(st.start_design(), st.table, flow=m["flow"],
+                        amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
+    loop = leveling_loop(model)
+    gm = min(20 * math.log10(loop.critical_gain_kg_s_per_m / loop.gain_kg_s_per_m),
+             float(np.min(loop.gain_margin_db)))
+    pm = float(np.min(loop.phase_margin_deg))
+    g_row, p_row = leveling_reports(loop, 6.0, 45.0)
+    assert g_row.name == "leveling_gain_margin" and p_row.name == "leveling_phase_margin"
+    assert g_row.value == pytest.approx(gm, abs=1e-12)
+    assert p_row.value == pytest.approx(pm, abs=1e-12)
+    # the built-in table: MIMO +10.5 dB (section 12), phase about 90 deg
+    assert g_row.value == pytest.approx(10.49, abs=0.02) and 85.0 < p_row.value < 95.0
+    assert g_row.lower == 6.0 and p_row.lower == 45.0 and not g_row.active
+    assert g_row.margin_natural == pytest.approx(gm - 6.0)
+    # at its own margin the bound binds; far below it is a violation, not binding
+    assert leveling_reports(loop, gm, None)[0].active
+    low = leveling_reports(loop, gm + 5.0, pm + 10.0)
+    assert low[0].margin_natural < 0 and not low[0].active and not low[1].active
+    free = leveling_reports(loop)
+    assert free[0].lower is None and "not enforced" in free[0].description
+
+
+def test_the_explanation_names_the_study_keys():
+    from isodesign.optimization.explain import STUDY_KEYS
+
+    assert STUDY_KEYS["leveling_gain_margin"] == "constraints.min_leveling_gain_margin_db"
+    assert STUDY_KEYS["leveling_phase_margin"] == "constraints.min_leveling_phase_margin_deg"
+
+
+@pytest.mark.slow
+def test_high_cg_table_below_its_loop_margin_is_a_violation(tmp_path, capsys):
+    """At h = 0.8 m the built-in table's optimum on its springs keeps a leveling loop
+    below 6 dB (the onset gain is within 1 dB of the valves'): the run breaks
+    leveling_gain_margin, exits 1 and is no PASS; its constraint table holds the margins
+    `isodesign stability` prints for the same design."""
+    from isodesign.cli import main
+
+    study = _high_cg_toml(tmp_path, 0.8)
+    out = tmp_path / "o"
+    assert main(["optimize", str(study), "--no-plots", "-o", str(out)]) == 1
+    cap = capsys.readouterr()
+    assert "optimum: FAIL: constraint broken: leveling_gain_margin" in cap.out
+    assert "WARNING: the leveling loop's leveling_gain_margin" in cap.out
+    assert "breaks a constraint: leveling_gain_margin" in cap.err
+    design = json.loads((out / "design.json").read_text())
+    assert design["success"] is False and not design["verdict"].startswith("PASS")
+    rows = {c["name"]: c for c in design["constraints"]}
+    g, p = rows["leveling_gain_margin"], rows["leveling_phase_margin"]
+    assert g["lower"] == 6.0 and p["lower"] == 45.0 and g["value"] < 6.0
+    assert dict(design["violations"])["leveling_gain_margin"] == pytest.approx(6.0 - g["value"])
+    rec = json.loads((out / "record.json").read_text())
+    assert rec["run_status"] == "infeasible"
+    # the same design through `isodesign stability RUN`
+    st_out = tmp_path / "s"
+    assert main(["stability", str(out), "-o", str(st_out)]) == 0
+    capsys.readouterr()
+    import pandas as pd
+
+    loop = pd.read_csv(st_out / "loop.csv")
+    rec_s = json.loads((st_out / "record.json").read_text())
+    mimo = 20 * math.log10(rec_s["critical_gain_kg_s_per_m"] / 0.02)
+    assert g["value"] == pytest.approx(min(mimo, loop["gain_margin_db"].min()), abs=1e-9)
+    assert p["value"] == pytest.approx(loop["phase_margin_deg"].min(), abs=1e-9)
+
+
+@pytest.mark.slow
+def test_without_valves_the_margins_are_reported_not_enforced(tmp_path):
+    """The same table without a [table.leveling]: the default valves' loop is in the
+    constraint table with no bound, and no leveling violation."""
+    from isodesign.optimization.study import load_study
+    from isodesign.table.optimize import optimize_table
+
+    st = load_study(_high_cg_toml(tmp_path, 0.8, leveling=False))
+    res = optimize_table(st, workers=1, analyze=False)
+    rows = {c.name: c for c in res.constraints}
+    assert rows["leveling_gain_margin"].lower is None
+    assert rows["leveling_gain_margin"].value == pytest.approx(
+        res.leveling.worst_gain_margin_db)
+    assert not [n for n, _ in res.violations if n.startswith("leveling_")]
