@@ -51,11 +51,13 @@ __all__ = [
     "LevelingPlant",
     "LevelingSimulation",
     "LevelingSystem",
+    "isolator_constants",
     "leveling_from_dict",
     "leveling_margin_bounds",
     "leveling_of_study",
     "leveling_plant",
     "orifice_flux",
+    "plant_matrix",
     "simulate_leveling",
     "valve_flow",
 ]
@@ -371,21 +373,113 @@ class LevelingPlant:
         return control.ss(self.a, self.b, self.c, np.zeros((3, 3)))
 
 
-def _isolator_constants(model: TableModel, flow: str):
-    """Per isolator: p0, V_t0, V_b0, m_t0, m_b0, A_p, n, C, k_D, c_D."""
-    dia = diaphragm_model(model.diaphragm)
+def isolator_constants(design, diaphragm, flow: str) -> tuple:
+    """One isolator's constants of the plant, any backend (the design may be symbolic).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring at its own p0 (fields may be CasADi symbols).
+    diaphragm : diaphragm model
+        :func:`~isodesign.spring.diaphragm.diaphragm_model`'s object.
+    flow : str
+        The flow model (the capillary's resistance at zero tube velocity).
+
+    Returns
+    -------
+    tuple
+        ``(p0, V_t0, V_b0, m_t0, m_b0, A_p, n, C, k_D, c_D)``: the diaphragm's storage
+        stiffness and its loss as a viscous damper, both at :data:`REFERENCE_FREQUENCY_HZ`.
+    """
     w_ref = 2.0 * math.pi * REFERENCE_FREQUENCY_HZ
-    rows = []
-    for d in model.designs:
-        c = resistance_function(flow, d, w_ref)(0.0)
-        kd = dia.stiffness(w_ref, 1e-6)
-        rho = float(d.density_kg_m3)
-        rows.append((float(d.pressure_pa), float(d.top_volume_m3), float(d.bottom_volume_m3),
-                     rho * float(d.top_volume_m3), rho * float(d.bottom_volume_m3),
-                     float(d.piston_area_m2), float(d.process_index),
-                     float(np.asarray(c.re)), float(np.asarray(kd.re)),
-                     float(np.asarray(kd.im)) / w_ref))  # fmt: skip
-    return np.array(rows)
+    c = resistance_function(flow, design, w_ref)(0.0)
+    kd = diaphragm.stiffness(w_ref, 1e-6)
+    rho = design.density_kg_m3
+    vt0, vb0 = design.top_volume_m3, design.bottom_volume_m3
+    return (design.pressure_pa, vt0, vb0, rho * vt0, rho * vb0, design.piston_area_m2,
+            design.process_index, c.re, kd.re, kd.im / w_ref)
+
+
+def _isolator_constants(model: TableModel, flow: str):
+    """Per isolator: p0, V_t0, V_b0, m_t0, m_b0, A_p, n, C, k_D, c_D (NumPy)."""
+    dia = diaphragm_model(model.diaphragm)
+    return np.array([[float(np.asarray(x)) for x in isolator_constants(d, dia, flow)]
+                     for d in model.designs])
+
+
+def plant_matrix(model: TableModel, system: LevelingSystem, consts) -> np.ndarray:
+    """The plant's ``A`` (valves closed) from the isolators' constants, any backend.
+
+    Parameters
+    ----------
+    model : TableModel
+        The table's geometry, gravity term and horizontal elements (independent of the
+        springs' design).
+    system : LevelingSystem
+        The lines' resistance and the fed chamber.
+    consts : array (n, 10)
+        :func:`isolator_constants` per isolator: floats (a float array back) or CasADi
+        symbols (an object array of symbols back).
+
+    Returns
+    -------
+    ndarray (12 + 2n, 12 + 2n)
+    """
+    t = model.table
+    n = t.n_isolators
+    k = np.asarray(consts, dtype=object if np.asarray(consts).dtype == object else float)
+    p0, vt0, _, mt0, mb0, ap, nidx, cres, kd, cd = k.T
+    geo = model.geometry
+    gz = geo.gz  # (n, 6)
+    w_ref = 2.0 * math.pi * REFERENCE_FREQUENCY_HZ
+    hs = model.horizontal_stiffness(np.array([w_ref]))
+    kh = np.array([float(np.asarray(c.re).ravel()[0]) for c in hs])
+    ch = np.array([float(np.asarray(c.im).ravel()[0]) / w_ref for c in hs])
+    gxy = np.concatenate([geo.gh[0], geo.gh[1]])  # (2n, 6)
+    khh = np.concatenate([kh, kh])
+    chh = np.concatenate([ch, ch])
+    # linear pressures: dp_t = at dm_t - bt u, dp_b = ab dm_b
+    at, ab = nidx * p0 / mt0, nidx * p0 / mb0
+    bt = nidx * p0 * ap / vt0
+    ns = 12 + 2 * n
+    a = np.zeros((ns, ns), dtype=k.dtype)
+    a[:6, 6:12] = np.eye(6)
+    minv = np.linalg.inv(geo.mass)
+    # forces: F_i = A_p dp_t - k_D u - c_D u', u = gz q
+    # D q = (sum k g g^T + K_g) q is the restoring force's negative (section 2)
+    k_q = -(gz.T * (ap * bt + kd)) @ gz - (gxy.T * khh) @ gxy - geo.gravity
+    c_v = -(gz.T * cd) @ gz - (gxy.T * chh) @ gxy
+    k_mt = gz.T * (ap * at)  # (6, n)
+    a[6:12, :6] = minv @ k_q
+    a[6:12, 6:12] = minv @ c_v
+    a[6:12, 12:12 + n] = minv @ k_mt
+    # chambers: m_c = (dp_t - dp_b)/C; dm_t' = -m_c (+ valve, lines), dm_b' = m_c
+    it, ib = np.arange(12, 12 + n), np.arange(12 + n, 12 + 2 * n)
+    for i in range(n):
+        row_c = np.zeros(ns, dtype=k.dtype)
+        row_c[it[i]] = at[i]
+        row_c[:6] = -bt[i: i + 1] * gz[i]  # array ops only: a symbol times an array
+        row_c[ib[i]] = -ab[i]  # would be a CasADi matrix, not elementwise
+        row_c = row_c / cres[i: i + 1]
+        a[it[i]] -= row_c
+        a[ib[i]] += row_c
+    fed_rows = it if system.fed_chamber == "top" else ib
+    for i, j in _lines(t):  # m_l = (p_i - p_j) / R_l from i to j (the fed chambers)
+        row = np.zeros(ns, dtype=k.dtype)
+        if system.fed_chamber == "top":
+            row[it[i]], row[:6] = at[i], -bt[i: i + 1] * gz[i]
+            row[it[j]], row[:6] = -at[j], row[:6] + bt[j: j + 1] * gz[j]
+        else:
+            row[ib[i]], row[ib[j]] = ab[i], -ab[j]
+        row = row / system.line_resistance_pa_s_per_kg
+        a[fed_rows[i]] -= row
+        a[fed_rows[j]] += row
+    return a
+
+
+def _lines(table) -> tuple:
+    """Pairs (valve's isolator, slaved isolator) a line connects."""
+    return tuple((g[0], j) for g in table.leveling_groups for j in g[1:])
 
 
 def leveling_plant(model: TableModel, system: LevelingSystem | None = None) -> LevelingPlant:
@@ -410,54 +504,21 @@ def leveling_plant(model: TableModel, system: LevelingSystem | None = None) -> L
     k = _isolator_constants(model, model.flow)
     p0, vt0, vb0, mt0, mb0, ap, nidx, cres, kd, cd = k.T
     geo = model.geometry
-    gz = geo.gz  # (n, 6)
+    gz = geo.gz
+    a = plant_matrix(model, system, k)
+    ns = a.shape[0]
     w_ref = 2.0 * math.pi * REFERENCE_FREQUENCY_HZ
-    kh = np.array([float(np.asarray(c.re).ravel()[0]) for c in
-                   model.horizontal_stiffness(np.array([w_ref]))])
-    ch = np.array([float(np.asarray(c.im).ravel()[0]) / w_ref for c in
-                   model.horizontal_stiffness(np.array([w_ref]))])
-    gxy = np.concatenate([geo.gh[0], geo.gh[1]])  # (2n, 6)
-    khh = np.concatenate([kh, kh])
-    chh = np.concatenate([ch, ch])
-    # linear pressures: dp_t = at dm_t - bt u, dp_b = ab dm_b
-    at, ab = nidx * p0 / mt0, nidx * p0 / mb0
-    bt = nidx * p0 * ap / vt0
-    ns = 12 + 2 * n
-    a = np.zeros((ns, ns))
-    a[:6, 6:12] = np.eye(6)
+    hs = model.horizontal_stiffness(np.array([w_ref]))
+    kh = np.array([float(np.asarray(c.re).ravel()[0]) for c in hs])
+    ch = np.array([float(np.asarray(c.im).ravel()[0]) / w_ref for c in hs])
+    gxy = np.concatenate([geo.gh[0], geo.gh[1]])
+    khh, chh = np.concatenate([kh, kh]), np.concatenate([ch, ch])
     minv = np.linalg.inv(geo.mass)
-    # forces: F_i = A_p dp_t - k_D u - c_D u', u = gz q
-    # D q = (sum k g g^T + K_g) q is the restoring force's negative (section 2)
-    k_q = -(gz.T * (ap * bt + kd)) @ gz - (gxy.T * khh) @ gxy - geo.gravity
-    c_v = -(gz.T * cd) @ gz - (gxy.T * chh) @ gxy
-    k_mt = gz.T * (ap * at)  # (6, n)
-    a[6:12, :6] = minv @ k_q
-    a[6:12, 6:12] = minv @ c_v
-    a[6:12, 12:12 + n] = minv @ k_mt
-    # chambers: m_c = (dp_t - dp_b)/C; dm_t' = -m_c (+ valve, lines), dm_b' = m_c
     it, ib = np.arange(12, 12 + n), np.arange(12 + n, 12 + 2 * n)
-    for i in range(n):
-        row_c = np.zeros(ns)
-        row_c[it[i]] = at[i]
-        row_c[:6] = -bt[i] * gz[i]
-        row_c[ib[i]] = -ab[i]
-        row_c /= cres[i]
-        a[it[i]] -= row_c
-        a[ib[i]] += row_c
     fed_rows = it if system.fed_chamber == "top" else ib
     groups = t.leveling_groups
     fed = np.array([g[0] for g in groups])
-    lines = tuple((g[0], j) for g in groups for j in g[1:])
-    for i, j in lines:  # m_l = (p_i - p_j) / R_l from i to j (the fed chambers)
-        row = np.zeros(ns)
-        if system.fed_chamber == "top":
-            row[it[i]], row[:6] = at[i], -bt[i] * gz[i]
-            row[it[j]], row[:6] = -at[j], row[:6] + bt[j] * gz[j]
-        else:
-            row[ib[i]], row[ib[j]] = ab[i], -ab[j]
-        row /= system.line_resistance_pa_s_per_kg
-        a[fed_rows[i]] -= row
-        a[fed_rows[j]] += row
+    lines = _lines(t)
     b = np.zeros((ns, 3))
     for g, i in enumerate(fed):
         b[fed_rows[i], g] = 1.0
