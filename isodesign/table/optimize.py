@@ -69,6 +69,13 @@ HESSIAN = "limited-memory"
 #: Agreement required of the NumPy re-check (relative on sigma, dB on the margin).
 RECHECK_TOL = 1e-6
 _MODE_ROUNDS = 3
+#: NLP solves with the leveling loop's gain-margin rows frozen again at the new design.
+LOOP_ROUNDS = 8
+#: A loop margin counts as missed when below its bound by more than this (dB, deg).
+LOOP_TOLERANCE = 0.01
+#: Frozen loop rows that bind at a design whose exact gain margin exceeds the bound by more
+#: than this (dB) are frozen again there (the first-order rows held the design back).
+LOOP_SLACK_DB = 0.03
 #: Name of the violation a result carries when its continuous peak of |T| stays above
 #: ``constraints.max_peak_transmissibility_db`` after the last refinement round (the
 #: vertical optimizer's :data:`isodesign.optimization.driver.PEAK_VIOLATION`).
@@ -416,9 +423,9 @@ def _leveling_misses(loop, gm_min, pm_min) -> tuple:
     """``(name, shortfall)`` of the loop's margins below their bounds (dB, deg)."""
     out = []
     gm, pm = loop.worst_gain_margin_db, loop.worst_phase_margin_deg
-    if gm_min is not None and not gm >= gm_min:
+    if gm_min is not None and not gm >= gm_min - LOOP_TOLERANCE:
         out.append((LEVELING_GAIN_MARGIN, float(gm_min - gm)))
-    if pm_min is not None and not pm >= pm_min:
+    if pm_min is not None and not pm >= pm_min - LOOP_TOLERANCE:
         out.append((LEVELING_PHASE_MARGIN, float(pm_min - pm)))
     return tuple(out)
 
@@ -464,6 +471,7 @@ def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
                                      prob.tube_rms(sol.x)))
         except InputError:
             continue
+        prob.clear_loop()  # the winner's frozen poles are not this branch's
         slots = list(peak["added_frequencies_hz"])
         out = _refine(prob, study, sol, slots=slots)
         prob = out[0]
@@ -563,7 +571,8 @@ def _refine(prob, study, best, slots=None):
         limit = None
     peak = {"rounds": 0, "added_frequencies_hz": [], "limit_db": limit,
             "tolerance_db": PEAK_TOLERANCE_DB, "max_rounds": TABLE_PEAK_ROUNDS,
-            "peaks": None, "met": None, "excess_db": None, "resolve_failed": None}
+            "peaks": None, "met": None, "excess_db": None, "resolve_failed": None,
+            "leveling_rounds": 0}
     rounds = 0
     modes = None
     slots = [] if slots is None else slots  # the frequencies placed so far (extended)
@@ -578,6 +587,15 @@ def _refine(prob, study, best, slots=None):
             rounds += 1
             if not sol.feasible:
                 peak["resolve_failed"] = f"mode refresh: {sol.status}"
+                break
+            best = sol
+            continue
+        if _loop_refresh_needed(prob, study, best, peak):
+            prob.set_loop(study.design_at(best.values))  # freeze the poles at this design
+            sol = prob.solve(best.x)
+            peak["leveling_rounds"] += 1
+            if not sol.feasible:  # keep the last feasible design; its margin is a violation
+                peak["resolve_failed"] = f"leveling loop: {sol.status}"
                 break
             best = sol
             continue
@@ -602,6 +620,23 @@ def _refine(prob, study, best, slots=None):
             break
         best = sol
     return prob, best, modes, rounds, peak
+
+
+def _loop_refresh_needed(prob, study, best, peak) -> bool:
+    """Whether the leveling loop's gain-margin rows should be frozen again and the NLP solved:
+    the study bounds the gain margin, rounds are left, and the exact margin at ``best``
+    misses its bound, or the frozen rows bind while the exact margin exceeds the bound by
+    more than :data:`LOOP_SLACK_DB` (the first-order rows held the design back)."""
+    if not getattr(prob, "n_loop", 0) or peak["leveling_rounds"] >= LOOP_ROUNDS:
+        return False
+    loop, gm_min, _ = leveling_check(study, study.design_at(best.values))
+    gm = loop.worst_gain_margin_db
+    if gm < gm_min - LOOP_TOLERANCE:
+        return True
+    rows = [(r, m) for n, r, m in prob.con_rows if n == "min_leveling_gain_margin_db"]
+    active = bool(rows and np.any(prob.loop_params[:: 2 + prob.n_states ** 2] > 0)
+                  and np.max(best.g[rows[0][0]: rows[0][0] + rows[0][1]]) > -1e-4)
+    return bool(active and gm > gm_min + LOOP_SLACK_DB)
 
 
 def _natural(prob, x, j: float) -> float:
