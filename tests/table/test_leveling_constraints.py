@@ -207,3 +207,55 @@ def test_a_phase_margin_out_of_reach_is_a_violation(tmp_path):
     assert "leveling_phase_margin" in v and not res.success
     assert v["leveling_phase_margin"] == pytest.approx(120.0 - res.leveling.worst_phase_margin_deg)
     assert "FAIL: constraint broken: leveling_phase_margin" in res.verdict()
+
+
+def test_nlp_loop_rows_are_the_poles_of_the_analysis_plant(tmp_path):
+    """The NLP's plant A (CasADi, the analysis' plant_matrix) equals leveling_plant's; each
+    frozen-pole row at its own design is the exact Re lambda / s + eps of the loop closed
+    at G 10^(6/20) (every valve, and each alone), and first-order exact about it."""
+    import casadi as ca
+
+    from isodesign.optimization.study import load_study
+    from isodesign.optimization.variables import DESIGN_VARIABLES
+    from isodesign.table.leveling import leveling_plant
+    from isodesign.table.optimize import _model
+    from isodesign.table.problem import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, TableProblem
+
+    st = load_study(_high_cg_toml(tmp_path, 0.8))
+    prob = TableProblem(st)
+    assert prob.n_loop == LOOP_POLES_MIMO + 3 and not np.any(prob.loop_params)
+    vals = {"volume_ratio": 8.0, "top_volume_m3": 4e-4, "capillary_length_m": 0.5,
+            "capillary_diameter_m": 2.7e-3}
+    d = st.design_at(vals)
+    plant = leveling_plant(_model(st, d), prob.loop_system)
+    a_nlp = np.array(prob._plant_function(ca)([vals[k] for k in DESIGN_VARIABLES]))
+    a_nlp = a_nlp.reshape(prob.n_states, prob.n_states, order="F")
+    assert np.max(np.abs(a_nlp - plant.a)) <= 1e-12 * np.max(np.abs(plant.a))
+    prob.set_loop(d)
+    rows = next((r, m) for n, r, m in prob.con_rows if n == "min_leveling_gain_margin_db")
+
+    def row_values(values):
+        _, g = prob.eval_fn(prob.initial_guess(values), prob.params())
+        return np.asarray(g).ravel()[rows[0]: rows[0] + rows[1]]
+
+    g_up = 0.02 * 10 ** (6.0 / 20.0)
+    want = []
+    for gains, count in [(np.full(3, g_up), LOOP_POLES_MIMO)] + [
+            (np.where(np.arange(3) == k, g_up, 0.02), 1) for k in range(3)]:
+        lam = np.linalg.eigvals(plant.a - plant.b @ np.diag(gains) @ plant.c)
+        lam = lam[lam.imag >= -1e-12 * np.abs(lam)]
+        lam = lam[np.argsort(-lam.real)][:count]
+        want += [l.real / max(abs(l), 2 * math.pi * 0.01) + LOOP_MARGIN_EPS for l in lam]
+    got = row_values(vals)
+    assert got == pytest.approx(np.array(want), abs=1e-9)
+    assert got[0] > 0  # the loop at the raised gain is unstable: the row is violated
+    # first order: a 1 % step in V_t0 moves the leading pole as the rows predict, to 5 %
+    vals2 = dict(vals, top_volume_m3=4.04e-4)
+    plant2 = leveling_plant(_model(st, st.design_at(vals2)), prob.loop_system)
+    lam2 = np.linalg.eigvals(plant2.a - g_up * plant2.b @ plant2.c)
+    lam2 = lam2[np.argmax(lam2.real)]
+    lam1 = np.linalg.eigvals(plant.a - g_up * plant.b @ plant.c)
+    lam1 = lam1[np.argmax(lam1.real)]
+    scale = max(abs(lam1), 2 * math.pi * 0.01)  # the row's frozen scale
+    assert row_values(vals2)[0] - got[0] == pytest.approx((lam2.real - lam1.real) / scale,
+                                                          rel=0.05)
