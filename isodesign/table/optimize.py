@@ -18,6 +18,11 @@ then:
    :data:`~isodesign.table.problem.TABLE_PEAK_ROUNDS` rounds, the mode refresh repeated
    after each). A peak still above the bound is a violation (:data:`PEAK_VIOLATION`): the
    result is not a success and its verdict is no PASS.
+   **Leveling loop rounds.** With a bound on the leveling loop's gain margin, while the
+   exact margin (python-control) misses it, or the frozen-pole rows bind while the margin
+   exceeds the bound, the loop's poles are frozen at the current design and the NLP is
+   solved again (at most :data:`LOOP_ROUNDS`). After the last round a gain or phase margin
+   below its bound is a violation (:data:`LEVELING_VIOLATIONS`).
 3. **Re-check.** The NumPy closure (:func:`~isodesign.table.response.solve_table_closure`)
    at the optimum on the NLP's grid must give the NLP's stroke RMS values to 1e-6 and its
    worst margin to 1e-6 dB, else :class:`~isodesign.errors.SolverError`.

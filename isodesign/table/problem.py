@@ -36,7 +36,12 @@ Objective: the worst margin over every instrument point, axis and band (an epigr
   while they move;
 * ``min_rocking_frequency_hz``/``max_rocking_frequency_hz`` on every rocking mode (rx + ry
   energy >= 30 %): the Rayleigh quotient ``phi^H K' phi`` (``phi^H M phi = 1``) of the
-  frozen mode, the same way.
+  frozen mode, the same way;
+* ``min_leveling_gain_margin_db`` (with a bound, docs/table.md section 12): the first-order
+  real part of the leveling loop's least stable poles at the raised gain ``G 10^(gm/20)``
+  (every valve, and each alone), their eigenvectors frozen (NLP parameters) and linear in
+  the plant's ``A`` (:func:`~isodesign.table.leveling.plant_matrix` on symbols); switched
+  on and frozen again by the driver (:meth:`TableProblem.set_loop`).
 """
 
 from __future__ import annotations

@@ -191,6 +191,11 @@ def test_the_optimizer_moves_a_high_cg_table_to_its_loop_margin(tmp_path):
     assert not [n for n, _ in free.violations if n.startswith("leveling_")]
     assert free.success, free.violations
     assert free.objective_value >= res.objective_value - 1e-6  # the margin costs
+    # docs/table.md, section 12
+    assert res.values["top_volume_m3"] == pytest.approx(2e-4, rel=1e-6)
+    assert res.values["capillary_diameter_m"] == pytest.approx(1.78e-3, rel=0.01)
+    assert res.objective_value == pytest.approx(-9.51, abs=0.02)
+    assert free.objective_value == pytest.approx(-9.28, abs=0.02)
 
 
 @pytest.mark.slow
