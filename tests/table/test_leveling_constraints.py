@@ -264,3 +264,26 @@ def test_nlp_loop_rows_are_the_poles_of_the_analysis_plant(tmp_path):
     scale = max(abs(lam1), 2 * math.pi * 0.01)  # the row's frozen scale
     assert row_values(vals2)[0] - got[0] == pytest.approx((lam2.real - lam1.real) / scale,
                                                           rel=0.05)
+
+
+@pytest.mark.slow
+def test_pareto_points_below_the_loop_margin_are_not_on_the_front(tmp_path, monkeypatch):
+    """The Pareto front of a table study is judged like its optimum: without loop rounds the
+    high-CG table's anchor keeps its loop below 6 dB; such a point names the margin in its
+    status and is not on the front; a point on the front meets both bounds."""
+    import isodesign.table.optimize as topt
+    from isodesign.optimization.study import load_study
+    from isodesign.table.pareto import table_pareto_front
+
+    monkeypatch.setattr(topt, "LOOP_ROUNDS", 0)
+    st = load_study(_high_cg_toml(tmp_path, 0.8))
+    res = table_pareto_front(st, points=2)
+    for dsg, status, on in zip(res.designs, res.statuses, res.front, strict=True):
+        loop, gm_min, pm_min = topt.leveling_check(st, st.design_at(dsg))
+        meets = (loop.worst_gain_margin_db >= gm_min - topt.LOOP_TOLERANCE
+                 and loop.worst_phase_margin_deg >= pm_min - topt.LOOP_TOLERANCE)
+        assert ("leveling_gain_margin" in status) == (loop.worst_gain_margin_db
+                                                      < gm_min - topt.LOOP_TOLERANCE)
+        if on:
+            assert meets
+    assert "leveling_gain_margin" in res.statuses[0] and not res.front[0]
