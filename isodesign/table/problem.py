@@ -565,13 +565,16 @@ class TableProblem:
             lam, vl, vr = eig(plant.a - bkc, left=True, right=True)
             keep = np.flatnonzero(lam.imag >= -1e-12 * np.abs(lam))
             for i in keep[np.argsort(-lam.real[keep])][:count]:
-                mm = np.outer(np.conj(vl[:, i]), vr[:, i]) / np.vdot(vl[:, i], vr[:, i])
+                den = np.vdot(vl[:, i], vr[:, i])
+                if abs(den) <= 1e-10 * np.linalg.norm(vl[:, i]) * np.linalg.norm(vr[:, i]):
+                    continue  # a defective eigenvalue has no first-order form: no row
+                mm = np.outer(np.conj(vl[:, i]), vr[:, i]) / den
                 scale = max(abs(lam[i]), 2.0 * math.pi * 0.01)
                 c0 = float(np.sum(mm.real * bkc))
                 blocks.append(np.r_[1.0, -c0 / scale + LOOP_MARGIN_EPS,
                                     (mm.real / scale).ravel(order="F")])
         p = np.zeros(self.n_loop * (2 + self.n_states ** 2))
-        flat = np.concatenate(blocks)[: p.size]
+        flat = np.concatenate(blocks)[: p.size] if blocks else np.zeros(0)
         p[: flat.size] = flat
         self.loop_params = p
 
