@@ -80,6 +80,10 @@ def table_summary_text(result) -> str:
             lines.append("  WARNING: the leveling loop's " + ", ".join(
                 f"{n} is {v:.3g} {'dB' if n.endswith('gain_margin') else 'deg'} below its bound"
                 for n, v in broken) + ": not a design that meets the study")
+            g = result.leveling_gain_hint_kg_s_per_m
+            lines.append("  the valves meet both bounds on these springs " + (
+                f"at gains up to {g:.4g} kg/s/m (table.leveling.gain_kg_s_per_m)"
+                if g is not None else "at no gain down to a thousandth of the study's"))
     lines.append("")
     lines += result.constraint_lines()
     lines.append("")

@@ -37,6 +37,7 @@ __all__ = [
     "leveling_transmissibility",
     "limit_cycle",
     "load_step",
+    "max_valve_gain",
 ]
 
 #: Closed-loop poles with a real part above this (1/s) count as unstable.
@@ -316,6 +317,54 @@ def leveling_loop(model, system: LevelingSystem | None = None) -> LevelingLoop:
                         stable=bool(np.max(poles.real) < _STABILITY_TOL),
                         critical_gain_kg_s_per_m=g_c, oscillation_frequency_hz=f_c,
                         notes=tuple(notes))
+
+
+def max_valve_gain(model, system: LevelingSystem, gain_margin_db: float | None,
+                   phase_margin_deg: float | None, *, lowest_fraction: float = 1e-3,
+                   rtol: float = 1e-3) -> float | None:
+    """The largest valve gain, at most the system's, whose loop meets both margin bounds.
+
+    Lowering every valve's gain raises the MIMO gain margin ``20 log10(G_c / G)`` (``G_c``
+    does not depend on ``G``) and, the valves' integrator dominating the slow crossover,
+    the phase margins: the bounds hold below some gain, found by bisection in ``ln G``
+    between ``lowest_fraction G`` and ``G`` (each step :func:`leveling_loop`, the margins
+    :attr:`LevelingLoop.worst_gain_margin_db` and :attr:`~LevelingLoop.worst_phase_margin_deg`).
+
+    Parameters
+    ----------
+    model : TableModel
+    system : LevelingSystem
+    gain_margin_db, phase_margin_deg : float or None
+        The bounds (None: none).
+    lowest_fraction : float
+        The smallest gain tried, as a fraction of the system's.
+    rtol : float
+        Relative tolerance on the gain.
+
+    Returns
+    -------
+    float or None
+        The gain, kg/s/m (the system's own if it meets the bounds); None if even the
+        smallest gain tried misses them.
+    """
+    def meets(g):
+        lp = leveling_loop(model, system.replace(gain_kg_s_per_m=float(g)))
+        return ((gain_margin_db is None or lp.worst_gain_margin_db >= gain_margin_db)
+                and (phase_margin_deg is None or lp.worst_phase_margin_deg >= phase_margin_deg))
+
+    hi = system.gain_kg_s_per_m
+    if meets(hi):
+        return hi
+    lo = hi * lowest_fraction
+    if not meets(lo):
+        return None
+    while hi / lo > 1.0 + rtol:
+        mid = math.sqrt(lo * hi)
+        if meets(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
 
 
 # ---------------------------------------------------------------------------

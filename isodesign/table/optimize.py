@@ -143,6 +143,10 @@ class TableOptimizationResult(ResultDisplay):
     leveling : LevelingLoop or None
         The returned design's leveling loop (the study's ``[table.leveling]`` valves, or
         the defaults), whose margins the constraint table holds.
+    leveling_gain_hint_kg_s_per_m : float or None
+        When the loop misses a margin bound: the largest valve gain whose loop on the
+        returned springs meets both (:func:`~isodesign.table.leveling_loop.max_valve_gain`;
+        None: none down to a thousandth of the study's, or no miss).
     wall_s : float
     hessian : str
     """
@@ -172,6 +176,7 @@ class TableOptimizationResult(ResultDisplay):
     violations: tuple = ()
     peak: Any = None
     leveling: Any = None
+    leveling_gain_hint_kg_s_per_m: float | None = None
 
     @property
     def success(self) -> bool:
@@ -380,8 +385,14 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         stab = rocking_stability(_model(study, d))
     loop, gm_min, pm_min = leveling_check(study, d)
     violations = _violations(study, prob, best, nlp_modes, peak)
+    gain_hint = None
     if best.feasible:
-        violations += _leveling_misses(loop, gm_min, pm_min)
+        misses = _leveling_misses(loop, gm_min, pm_min)
+        violations += misses
+        if misses:  # what the valves would need on these springs
+            from isodesign.table.leveling_loop import max_valve_gain
+
+            gain_hint = max_valve_gain(loop.plant.model, loop.plant.system, gm_min, pm_min)
     reports = table_constraint_reports(prob, best.g, modes=nlp_modes, stability=stab,
                                        peaks=peak["peaks"], leveling=(loop, gm_min, pm_min))
     return TableOptimizationResult(
@@ -393,7 +404,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         analysis=analysis, start_analysis=start_analysis, modes=modes, start_modes=modes0,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
-        leveling=loop,
+        leveling=loop, leveling_gain_hint_kg_s_per_m=gain_hint,
     )
 
 

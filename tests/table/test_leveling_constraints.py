@@ -156,6 +156,23 @@ def test_high_cg_table_below_its_loop_margin_is_a_violation(tmp_path, capsys, mo
     assert p["value"] == pytest.approx(loop["phase_margin_deg"].min(), abs=1e-9)
     assert rec_s["critical_gain_kg_s_per_m"] == pytest.approx(0.0208, rel=0.02)
     assert loop["oscillation_frequency_hz"].iloc[0] == pytest.approx(0.40, abs=0.01)
+    # the valve gain that would meet both bounds on these springs, checked on its loop
+    import re
+
+    from isodesign.optimization.study import load_study
+    from isodesign.table.leveling import leveling_of_study
+    from isodesign.table.leveling_loop import leveling_loop
+    from isodesign.table.optimize import _model
+
+    g_hint = float(re.search(r"at gains up to ([0-9.e-]+) kg/s/m", cap.out).group(1))
+    assert g_hint == pytest.approx(0.0104, rel=0.02)  # docs/table.md, section 12
+    st = load_study(study)
+    model = _model(st, st.design_at({k: v["value"] for k, v in design["variables"].items()}))
+    system = leveling_of_study(st)
+    below = leveling_loop(model, system.replace(gain_kg_s_per_m=g_hint * 0.999))
+    above = leveling_loop(model, system.replace(gain_kg_s_per_m=g_hint * 1.01))
+    assert below.worst_gain_margin_db >= 6.0 and below.worst_phase_margin_deg >= 45.0
+    assert above.worst_gain_margin_db < 6.0 or above.worst_phase_margin_deg < 45.0
 
 
 @pytest.mark.slow
