@@ -60,6 +60,7 @@ __all__ = [
     "plant_matrix",
     "simulate_leveling",
     "valve_flow",
+    "valve_gain_bounds",
 ]
 
 #: The diaphragm's and the horizontal element's storage and loss are matched here (Hz).
@@ -184,6 +185,10 @@ def leveling_from_dict(d, table=None, where: str = "<dict>") -> LevelingSystem:
         if k not in LEVELING_KEYS:
             raise InputError(f"{where}: unknown key {k!r} in [table.leveling]; valid: "
                              f"{', '.join(sorted(LEVELING_KEYS))}")
+    d = dict(d)
+    if isinstance(d.get("gain_kg_s_per_m"), dict):  # the valve gain as a design variable
+        spec = _gain_variable(d["gain_kg_s_per_m"], where)
+        d["gain_kg_s_per_m"] = spec["start"]
     try:
         lv = LevelingSystem(**d)
     except InputError as exc:
@@ -199,6 +204,61 @@ def leveling_from_dict(d, table=None, where: str = "<dict>") -> LevelingSystem:
                              f"0.5 m of the isolators (x {lo[0]:.3g} to {hi[0]:.3g}, y "
                              f"{lo[1]:.3g} to {hi[1]:.3g} m)")
     return lv
+
+
+_GAIN_VARIABLE_KEYS = ("start", "lower", "upper", "fixed")
+
+
+def _gain_variable(spec: dict, where: str) -> dict:
+    """``table.leveling.gain_kg_s_per_m`` written as a variable: start, lower, upper, fixed."""
+    key = "table.leveling.gain_kg_s_per_m"
+    for k in spec:
+        if k not in _GAIN_VARIABLE_KEYS:
+            raise InputError(f"{where}: unknown key {k!r} in {key}; valid: "
+                             f"{', '.join(_GAIN_VARIABLE_KEYS)}")
+    fixed = spec.get("fixed", False)
+    if not isinstance(fixed, bool):
+        raise InputError(f"{where}: {key}.fixed must be true or false, got {fixed!r:.40}")
+    out: dict = {"fixed": fixed}
+    for k in ("start", "lower", "upper"):
+        v = spec.get(k)
+        if v is None:
+            continue
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
+                or not v > 0:
+            raise InputError(f"{where}: {key}.{k} must be a number > 0 (kg/s per m), got "
+                             f"{v!r:.40}")
+        out[k] = float(v)
+    if not fixed:
+        for k in ("lower", "upper"):
+            if k not in out:
+                raise InputError(f"{where}: {key}.{k} is required (a free valve gain needs "
+                                 "lower and upper, or fixed = true)")
+        if not out["lower"] < out["upper"]:
+            raise InputError(f"{where}: {key}.lower must be below {key}.upper")
+    start = out.get("start", LevelingSystem.gain_kg_s_per_m)
+    if not fixed and "start" not in out:
+        start = min(max(start, out["lower"]), out["upper"])
+    if not fixed and not out["lower"] <= start <= out["upper"]:
+        raise InputError(f"{where}: {key}.start ({start:g}) must lie within lower and upper")
+    out["start"] = start
+    return out
+
+
+def valve_gain_bounds(study) -> tuple[float, float] | None:
+    """``(lower, upper)`` of the valve gain when the study makes it a design variable
+    (``[table.leveling] gain_kg_s_per_m = {lower, upper}``, kg/s/m); None when it is fixed.
+
+    Parameters
+    ----------
+    study : Study
+    """
+    raw = ((getattr(study, "raw", None) or {}).get("table") or {}).get("leveling") or {}
+    spec = raw.get("gain_kg_s_per_m")
+    if not isinstance(spec, dict):
+        return None
+    v = _gain_variable(spec, "study")
+    return None if v["fixed"] else (v["lower"], v["upper"])
 
 
 def leveling_of_study(study) -> LevelingSystem:

@@ -38,6 +38,7 @@ __all__ = [
     "limit_cycle",
     "load_step",
     "max_valve_gain",
+    "study_valves",
 ]
 
 #: Closed-loop poles with a real part above this (1/s) count as unstable.
@@ -365,6 +366,50 @@ def max_valve_gain(model, system: LevelingSystem, gain_margin_db: float | None,
         else:
             hi = mid
     return lo
+
+
+def study_valves(study, design) -> LevelingSystem:
+    """The valves of a table study for a design of its springs.
+
+    The study's ``[table.leveling]``; when it makes the valve gain a design variable
+    (``gain_kg_s_per_m = {lower, upper}``), the largest gain within its bounds whose loop
+    on the design's springs meets the study's margin bounds (:func:`max_valve_gain`; the
+    lower bound when none does, the upper one without margin bounds). The gain enters
+    nothing else the optimizer judges (the band response, the modes and the static verdict
+    take the valves closed or off), so the choice is the optimizer's and every entry point
+    that analyses the loop of a design (``isodesign stability``) makes the same one.
+
+    Parameters
+    ----------
+    study : Study
+        With a ``[table]``.
+    design : SpringDesign
+
+    Returns
+    -------
+    LevelingSystem
+    """
+    from isodesign.table.leveling import (
+        leveling_margin_bounds,
+        leveling_of_study,
+        valve_gain_bounds,
+    )
+    from isodesign.table.model import table_model
+
+    system = leveling_of_study(study)
+    bounds = valve_gain_bounds(study)
+    if bounds is None:
+        return system
+    lo, hi = bounds
+    gm, pm = leveling_margin_bounds(study)
+    if gm is None and pm is None:
+        return system.replace(gain_kg_s_per_m=hi)
+    m = study.models
+    model = table_model(design, study.table, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
+                        diaphragm=m["diaphragm"])
+    g = max_valve_gain(model, system.replace(gain_kg_s_per_m=hi), gm, pm,
+                       lowest_fraction=lo / hi)
+    return system.replace(gain_kg_s_per_m=lo if g is None else g)
 
 
 # ---------------------------------------------------------------------------

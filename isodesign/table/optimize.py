@@ -411,8 +411,9 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
 def leveling_check(study, d) -> tuple:
     """The leveling loop of design ``d`` and the bounds on its margins.
 
-    The loop of the study's valves (``[table.leveling]``, or the defaults) around the table
-    on the design's springs, by python-control (:func:`~isodesign.table.leveling_loop.
+    The loop of the study's valves (``[table.leveling]``, or the defaults; a free valve gain
+    chosen by :func:`~isodesign.table.leveling_loop.study_valves`) around the table on the
+    design's springs, by python-control (:func:`~isodesign.table.leveling_loop.
     leveling_loop`: what ``isodesign stability`` prints for the design), and the bounds of
     :func:`~isodesign.table.leveling.leveling_margin_bounds`.
 
@@ -428,11 +429,11 @@ def leveling_check(study, d) -> tuple:
         The loop, the gain-margin bound (dB) and the phase-margin bound (deg); None: the
         margin is reported, not enforced.
     """
-    from isodesign.table.leveling import leveling_margin_bounds, leveling_of_study
-    from isodesign.table.leveling_loop import leveling_loop
+    from isodesign.table.leveling import leveling_margin_bounds
+    from isodesign.table.leveling_loop import leveling_loop, study_valves
 
     gm_min, pm_min = leveling_margin_bounds(study)
-    return leveling_loop(_model(study, d), leveling_of_study(study)), gm_min, pm_min
+    return leveling_loop(_model(study, d), study_valves(study, d)), gm_min, pm_min
 
 
 def _leveling_misses(loop, gm_min, pm_min) -> tuple:

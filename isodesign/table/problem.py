@@ -551,8 +551,10 @@ class TableProblem:
         from scipy.linalg import eig
 
         from isodesign.table.leveling import leveling_plant
+        from isodesign.table.leveling_loop import study_valves
         from isodesign.table.model import table_model
 
+        self.loop_system = study_valves(self.study, d)  # a free valve gain: its choice at d
         model = table_model(d, self.table, flow=self.flow, diaphragm=self.dia)
         plant = leveling_plant(model, self.loop_system)
         g = self.loop_system.gain_kg_s_per_m

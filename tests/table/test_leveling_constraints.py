@@ -304,3 +304,69 @@ def test_pareto_points_below_the_loop_margin_are_not_on_the_front(tmp_path, monk
         if on:
             assert meets
     assert "leveling_gain_margin" in res.statuses[0] and not res.front[0]
+
+
+@pytest.mark.parametrize("spec,match", [
+    ({"lower": 0.002}, "gain_kg_s_per_m.upper is required"),
+    ({"lower": 0.05, "upper": 0.002}, "gain_kg_s_per_m.lower must be below"),
+    ({"lower": -1.0, "upper": 0.05}, "gain_kg_s_per_m.lower must be a number > 0"),
+    ({"lower": 0.002, "upper": 0.05, "start": 0.1}, "gain_kg_s_per_m.start"),
+    ({"lower": 0.002, "upper": 0.05, "fixed": "no"}, "gain_kg_s_per_m.fixed"),
+    ({"low": 0.002}, "unknown key 'low' in table.leveling.gain_kg_s_per_m")])
+def test_a_bad_valve_gain_variable_is_refused_naming_the_key(spec, match):
+    d = _table_dict()
+    d["table"]["leveling"] = {"gain_kg_s_per_m": spec}
+    with pytest.raises(InputError, match=match):
+        study_from_dict(d)
+
+
+def test_valve_gain_variable_declaration():
+    from isodesign.table.leveling import leveling_of_study, valve_gain_bounds
+
+    d = _table_dict()
+    d["table"]["leveling"] = {"gain_kg_s_per_m": {"lower": 0.002, "upper": 0.01}}
+    st = study_from_dict(d)
+    assert valve_gain_bounds(st) == (0.002, 0.01)
+    assert leveling_of_study(st).gain_kg_s_per_m == 0.01  # the default start, clipped
+    d["table"]["leveling"] = {"gain_kg_s_per_m": {"start": 0.03, "fixed": True}}
+    st = study_from_dict(d)
+    assert valve_gain_bounds(st) is None and leveling_of_study(st).gain_kg_s_per_m == 0.03
+    assert valve_gain_bounds(table_study()) is None
+
+
+@pytest.mark.slow
+def test_a_free_valve_gain_meets_the_margin_on_the_springs_optimum(tmp_path, capsys):
+    """With the valve gain a design variable the problem separates: the springs stay at
+    their optimum (the worst margin of the fixed-gain run before its loop rounds) and the
+    gain is the largest within its bounds whose loop meets both bounds; `isodesign stability
+    RUN` makes the same choice and prints the same margins."""
+    from isodesign.cli import main
+
+    study = _high_cg_toml(tmp_path, 0.8, leveling=False)
+    study.write_text(study.read_text() + "\n[table.leveling]\n"
+                     "gain_kg_s_per_m = {lower = 0.002, upper = 0.05}\n")
+    out = tmp_path / "o"
+    assert main(["optimize", str(study), "--no-plots", "-o", str(out)]) == 0
+    cap = capsys.readouterr()
+    assert "valve gain: a design variable within 0.002 to 0.05 kg/s/m; chosen" in cap.out
+    design = json.loads((out / "design.json").read_text())
+    assert design["success"] is True
+    g = design["valve_gain_kg_s_per_m"]
+    assert g == pytest.approx(0.0104, rel=0.02)  # the fixed-gain run's hint, same springs
+    assert design["variables"]["top_volume_m3"]["value"] == pytest.approx(3.8e-4, rel=0.01)
+    rows = {c["name"]: c for c in design["constraints"]}
+    assert 6.0 <= rows["leveling_gain_margin"]["value"] <= 6.05
+    assert rows["leveling_phase_margin"]["value"] >= 45.0
+    st_out = tmp_path / "s"
+    assert main(["stability", str(out), "-o", str(st_out)]) == 0
+    text = capsys.readouterr().out
+    assert f"valve gain {g:.4g} kg/s/m" in text
+    import pandas as pd
+
+    loop = pd.read_csv(st_out / "loop.csv")
+    rec_s = json.loads((st_out / "record.json").read_text())
+    mimo = 20 * math.log10(rec_s["critical_gain_kg_s_per_m"] / g)
+    assert rows["leveling_gain_margin"]["value"] == pytest.approx(
+        min(mimo, loop["gain_margin_db"].min()), abs=1e-9)
+    assert rows["leveling_phase_margin"]["value"] == pytest.approx(
+        loop["phase_margin_deg"].min(), abs=1e-9)
