@@ -370,3 +370,18 @@ def test_a_free_valve_gain_meets_the_margin_on_the_springs_optimum(tmp_path, cap
         min(mimo, loop["gain_margin_db"].min()), abs=1e-9)
     assert rows["leveling_phase_margin"]["value"] == pytest.approx(
         loop["phase_margin_deg"].min(), abs=1e-9)
+
+
+def test_the_robust_table_optimizer_refuses_loop_margins():
+    """The robust table optimizer does not hold the loop's margins over its scenarios: a
+    study that bounds them is refused with one line naming the key, not answered without."""
+    import copy
+
+    from isodesign.optimization.robust_table import robust_optimize_table
+
+    raw = copy.deepcopy(table_study().raw)
+    raw["scenarios"] = {"payload_mass_kg": {"min": 560.0, "max": 640.0}}
+    raw["table"]["leveling"] = {"gain_kg_s_per_m": 0.02}
+    st = study_from_dict(raw, source="t.toml", fill_defaults=False)
+    with pytest.raises(InputError, match=r"constraints\.min_leveling_gain_margin_db: the robust"):
+        robust_optimize_table(st)
