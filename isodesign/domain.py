@@ -63,6 +63,8 @@ CONSTRAINT_DOMAIN = {
     "max_pressure_pa": (101325.0, 1e12, "Pa"),
     "min_rocking_frequency_hz": (1e-6, 1e6, "Hz"),
     "max_rocking_frequency_hz": (1e-6, 1e6, "Hz"),
+    "min_leveling_gain_margin_db": (1e-6, 100.0, "dB"),
+    "min_leveling_phase_margin_deg": (1e-6, 180.0, "deg"),
 }
 #: Fields of a gas: (lowest, highest, unit).
 GAS_DOMAIN = {

@@ -35,15 +35,14 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 def run(args) -> int:
     """Run ``isodesign stability``."""
     from isodesign.commands.modes import load_table_job
-    from isodesign.table.leveling import leveling_of_study
-    from isodesign.table.leveling_loop import leveling_loop, limit_cycle
+    from isodesign.table.leveling_loop import leveling_loop, limit_cycle, study_valves
     from isodesign.table.model import table_model
     from isodesign.table.modes import mode_solutions, rocking_stability, table_modes
     from isodesign.table.stability_report import limit_cycle_text
     from isodesign.table.summary import stability_text
 
     study, design, label = load_table_job(args)
-    system = leveling_of_study(study)
+    system = study_valves(study, design)  # a free valve gain: the optimizer's choice
     rundir = run_directory(args, "stability", known_outputs=OUTPUT_FILES)
     m = study.models
     model = table_model(design, study.table, flow=m["flow"],

@@ -73,6 +73,24 @@ def table_summary_text(result) -> str:
     lines.append("  modes of the optimum (springs at its closure):")
     lines.append(modes_text(result.modes))
     lines.append(stability_text(result.stability))
+    if result.leveling is not None:  # the valves' loop (docs/table.md, section 12)
+        from isodesign.table.leveling import valve_gain_bounds
+
+        gb = valve_gain_bounds(st)
+        if gb is not None:
+            lines.append(f"  valve gain: a design variable within {gb[0]:.4g} to {gb[1]:.4g} "
+                         f"kg/s/m; chosen {result.leveling.gain_kg_s_per_m:.4g} kg/s/m (the "
+                         "largest whose loop meets the margin bounds on the optimum's springs)")
+        lines.append(result.leveling.text())
+        broken = [(n, v) for n, v in result.violations if n.startswith("leveling_")]
+        if broken:
+            lines.append("  WARNING: the leveling loop's " + ", ".join(
+                f"{n} is {v:.3g} {'dB' if n.endswith('gain_margin') else 'deg'} below its bound"
+                for n, v in broken) + ": not a design that meets the study")
+            g = result.leveling_gain_hint_kg_s_per_m
+            lines.append("  the valves meet both bounds on these springs " + (
+                f"at gains up to {g:.4g} kg/s/m (table.leveling.gain_kg_s_per_m)"
+                if g is not None else "at no gain down to a thousandth of the study's"))
     lines.append("")
     lines += result.constraint_lines()
     lines.append("")
@@ -232,6 +250,8 @@ def execute_table(study, run, args, result=None) -> int:
         "continuous_peak_db": (None if res.peak["peaks"] is None
                                else res.peak["peaks"].max_db),
         "hessian": res.hessian,
+        "valve_gain_kg_s_per_m": (None if res.leveling is None
+                                  else res.leveling.gain_kg_s_per_m),
         "worst_margin_per_axis_db": dict(zip("xyz", res.analysis.axis_margin_db().tolist(),
                                              strict=True)),
         "rocking_margin": res.stability.margin.tolist(),

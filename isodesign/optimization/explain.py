@@ -77,6 +77,8 @@ STUDY_KEYS = {
     "damping_ratio": "constraints.min_damping_ratio",
     "mach": "constraints.max_mach",
     "chamber_pressure": "constraints.max_pressure_pa",
+    "leveling_gain_margin": "constraints.min_leveling_gain_margin_db",
+    "leveling_phase_margin": "constraints.min_leveling_phase_margin_deg",
 }
 
 

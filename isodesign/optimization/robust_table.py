@@ -220,6 +220,13 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     """
     if study.table is None or study.scenarios is None:
         raise InputError("robust_optimize_table: the study needs a [table] and [scenarios]")
+    from isodesign.table.leveling import leveling_margin_bounds
+
+    if leveling_margin_bounds(study) != (None, None):  # not held over the scenarios yet
+        raise InputError("constraints.min_leveling_gain_margin_db: the robust table optimizer "
+                         "does not hold the leveling loop's margins over the scenarios; set "
+                         "min_leveling_gain_margin_db and min_leveling_phase_margin_deg to "
+                         "false (docs/table.md, section 12)")
     t_all = time.perf_counter()
     space = study.scenarios
     settings = space.settings

@@ -149,7 +149,8 @@ _KEYS = {
                     "min_natural_frequency_hz", "max_natural_frequency_hz",
                     "max_peak_transmissibility_db", "min_damping_ratio", "max_mach",
                     "max_pressure_pa", "model_validity", "min_rocking_frequency_hz",
-                    "max_rocking_frequency_hz"},
+                    "max_rocking_frequency_hz", "min_leveling_gain_margin_db",
+                    "min_leveling_phase_margin_deg"},
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
@@ -379,7 +380,8 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
     table = _table(raw, payload, hw, where)
-    for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz"):
+    for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz",
+              "min_leveling_gain_margin_db", "min_leveling_phase_margin_deg"):
         if table is None and raw.get("constraints", {}).get(k) not in (None, False):
             raise InputError(f"{where}: constraints.{k} applies only to a study with a [table] "
                              "(docs/table.md)")

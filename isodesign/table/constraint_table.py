@@ -7,8 +7,9 @@ under the names the vertical optimizer uses (so :mod:`isodesign.optimization.exp
 them the same way). The constraints the NLP writes in a smooth surrogate form (the rocking
 matrix, the frozen modes' Rayleigh quotients) are reported from the exact quantities at the
 optimum: the rocking margin with gravity (:func:`isodesign.table.modes.rocking_stability`),
-the damping ratio and frequency of the exact modes, and the continuous peak of |T| from
-below the lowest mode (:mod:`isodesign.table.peaks`). Binding: within
+the damping ratio and frequency of the exact modes, the continuous peak of |T| from
+below the lowest mode (:mod:`isodesign.table.peaks`), and the leveling loop's gain and
+phase margins (python-control, :mod:`isodesign.table.leveling_loop`). Binding: within
 :data:`~isodesign.optimization.constraints.BINDING_TOL` of the bound in the log of the
 quantity (0.5 %), or in ``ln |T|^2`` (0.022 dB).
 """
@@ -26,10 +27,14 @@ from isodesign.optimization.constraints import (
     constraint_reports,
 )
 
-__all__ = ["CONTINUOUS_PEAK", "NLP_ROW_NAMES", "table_constraint_reports"]
+__all__ = ["CONTINUOUS_PEAK", "LEVELING_GAIN_MARGIN", "LEVELING_PHASE_MARGIN",
+           "NLP_ROW_NAMES", "leveling_reports", "table_constraint_reports"]
 
 #: Name of the continuous peak's row (and of its violation).
 CONTINUOUS_PEAK = "continuous_peak_transmissibility"
+#: Names of the leveling loop's margin rows (and of their violations).
+LEVELING_GAIN_MARGIN = "leveling_gain_margin"
+LEVELING_PHASE_MARGIN = "leveling_phase_margin"
 #: The table NLP's constraint groups reported from their rows: NLP name -> (report name,
 #: description).
 NLP_ROW_NAMES = {
@@ -57,8 +62,56 @@ def _log_margin(value, lower=None, upper=None) -> float:
     return m
 
 
-def table_constraint_reports(prob, g, *, modes=None, stability=None,
-                             peaks=None) -> list[ConstraintReport]:
+def leveling_reports(loop, gain_bound_db=None, phase_bound_deg=None) -> list[ConstraintReport]:
+    """The leveling loop's gain and phase margin rows (docs/table.md, section 12).
+
+    ``leveling_gain_margin``: the smallest of the MIMO gain margin ``20 log10(G_c / G)`` and
+    the three valves' gain margins (the other two closed), dB; binding within 0.5 % of the
+    gain ratio (0.043 dB). ``leveling_phase_margin``: the smallest of the three valves'
+    phase margins, deg; binding within 0.5 % of the bound. The NLP holds no row of the
+    loop (the driver checks it after the solve), so a margin below its bound is a
+    violation, not a binding limit: binding means within the tolerance on either side. A
+    bound of None: the margin is reported, not enforced.
+
+    Parameters
+    ----------
+    loop : LevelingLoop
+        :func:`~isodesign.table.leveling_loop.leveling_loop` of the design.
+    gain_bound_db, phase_bound_deg : float or None
+        :func:`~isodesign.table.leveling.leveling_margin_bounds`.
+
+    Returns
+    -------
+    list of ConstraintReport
+    """
+    gm, pm = loop.worst_gain_margin_db, loop.worst_phase_margin_deg
+    m_g = (gm - gain_bound_db) * _LN10 / 20.0 if gain_bound_db is not None else math.inf
+    m_p = _log_margin(pm, lower=phase_bound_deg) if phase_bound_deg is not None \
+        and math.isfinite(pm) else math.inf
+    if phase_bound_deg is not None and pm < 0:
+        m_p = -math.inf
+    # the NLP holds no row of the loop: a margin below its bound is a violation, not a limit
+    # that stopped the design (binding only within the tolerance on either side)
+    return [_binding_either_side(r) for r in [
+        _report(LEVELING_GAIN_MARGIN, gm, gain_bound_db, None, "dB", m_g,
+                f"leveling loop, MIMO (onset {loop.critical_gain_kg_s_per_m:.4g} kg/s/m at "
+                f"{loop.oscillation_frequency_hz:.3g} Hz) and per valve, valve gain "
+                f"{loop.gain_kg_s_per_m:.4g} kg/s/m"
+                + ("" if gain_bound_db is not None else "; reported, not enforced")),
+        _report(LEVELING_PHASE_MARGIN, pm, phase_bound_deg, None, "deg", m_p,
+                "leveling loop, per valve (the other two closed)"
+                + ("" if phase_bound_deg is not None else "; reported, not enforced")),
+    ]]
+
+
+def _binding_either_side(r: ConstraintReport) -> ConstraintReport:
+    import dataclasses
+
+    return dataclasses.replace(r, active=bool(abs(r.margin) < BINDING_TOL))
+
+
+def table_constraint_reports(prob, g, *, modes=None, stability=None, peaks=None,
+                             leveling=None) -> list[ConstraintReport]:
     """The constraints of a table design, in natural units, with margins and binding flags.
 
     Parameters
@@ -73,6 +126,9 @@ def table_constraint_reports(prob, g, *, modes=None, stability=None,
         The design's rocking margins with gravity.
     peaks : TablePeaks, optional
         The design's continuous peak of |T|.
+    leveling : tuple (LevelingLoop, float or None, float or None), optional
+        The design's leveling loop and the bounds on its gain (dB) and phase (deg) margins
+        (:func:`leveling_reports`).
 
     Returns
     -------
@@ -97,7 +153,8 @@ def table_constraint_reports(prob, g, *, modes=None, stability=None,
     if stability is not None and mu:
         v = float(np.min(stability.margin))
         out.append(_report("tilt_margin", v, float(mu), None, "-", _log_margin(v, lower=mu),
-                           "rocking K_theta / (W h), weakest direction, with gravity"))
+                           "weakest rocking direction with gravity, A / (W h) (z condensed, "
+                           "sealed springs at 1 mHz)"))
     if modes is not None:
         f = np.asarray(modes.frequency_hz, float)
         zmin = c.get("min_damping_ratio")
@@ -117,4 +174,6 @@ def table_constraint_reports(prob, g, *, modes=None, stability=None,
             out.append(_report("rocking_frequency", v, float(f_lo) if f_lo else None,
                                float(f_hi) if f_hi else None, "Hz", m,
                                "exact rocking modes (rx + ry energy >= 30 %)"))
+    if leveling is not None:
+        out += leveling_reports(*leveling)
     return out

@@ -44,17 +44,23 @@ from isodesign.table.assembly import element_vectors
 from isodesign.table.model import TableModel
 
 __all__ = [
+    "DEFAULT_MIN_GAIN_MARGIN_DB",
+    "DEFAULT_MIN_PHASE_MARGIN_DEG",
     "LEVELING_KEYS",
     "REFERENCE_FREQUENCY_HZ",
     "LevelingPlant",
     "LevelingSimulation",
     "LevelingSystem",
+    "isolator_constants",
     "leveling_from_dict",
+    "leveling_margin_bounds",
     "leveling_of_study",
     "leveling_plant",
     "orifice_flux",
+    "plant_matrix",
     "simulate_leveling",
     "valve_flow",
+    "valve_gain_bounds",
 ]
 
 #: The diaphragm's and the horizontal element's storage and loss are matched here (Hz).
@@ -63,6 +69,14 @@ REFERENCE_FREQUENCY_HZ = 1.0
 LEVELING_KEYS = {"gain_kg_s_per_m", "dead_band_m", "saturation_flow_kg_s",
                  "line_resistance_pa_s_per_kg", "sensor_positions_m", "fed_chamber"}
 _CHAMBERS = ("top", "bottom")
+#: The optimizer's default bounds on the leveling loop's margins when the study has a
+#: ``[table.leveling]`` (``constraints.min_leveling_gain_margin_db`` and
+#: ``constraints.min_leveling_phase_margin_deg``; docs/table.md, section 12).
+DEFAULT_MIN_GAIN_MARGIN_DB = 6.0
+DEFAULT_MIN_PHASE_MARGIN_DEG = 45.0
+#: The study keys of the two bounds and their defaults.
+MARGIN_KEYS = (("min_leveling_gain_margin_db", DEFAULT_MIN_GAIN_MARGIN_DB),
+               ("min_leveling_phase_margin_deg", DEFAULT_MIN_PHASE_MARGIN_DEG))
 
 
 @dataclass(frozen=True)
@@ -171,6 +185,10 @@ def leveling_from_dict(d, table=None, where: str = "<dict>") -> LevelingSystem:
         if k not in LEVELING_KEYS:
             raise InputError(f"{where}: unknown key {k!r} in [table.leveling]; valid: "
                              f"{', '.join(sorted(LEVELING_KEYS))}")
+    d = dict(d)
+    if isinstance(d.get("gain_kg_s_per_m"), dict):  # the valve gain as a design variable
+        spec = _gain_variable(d["gain_kg_s_per_m"], where)
+        d["gain_kg_s_per_m"] = spec["start"]
     try:
         lv = LevelingSystem(**d)
     except InputError as exc:
@@ -188,6 +206,61 @@ def leveling_from_dict(d, table=None, where: str = "<dict>") -> LevelingSystem:
     return lv
 
 
+_GAIN_VARIABLE_KEYS = ("start", "lower", "upper", "fixed")
+
+
+def _gain_variable(spec: dict, where: str) -> dict:
+    """``table.leveling.gain_kg_s_per_m`` written as a variable: start, lower, upper, fixed."""
+    key = "table.leveling.gain_kg_s_per_m"
+    for k in spec:
+        if k not in _GAIN_VARIABLE_KEYS:
+            raise InputError(f"{where}: unknown key {k!r} in {key}; valid: "
+                             f"{', '.join(_GAIN_VARIABLE_KEYS)}")
+    fixed = spec.get("fixed", False)
+    if not isinstance(fixed, bool):
+        raise InputError(f"{where}: {key}.fixed must be true or false, got {fixed!r:.40}")
+    out: dict = {"fixed": fixed}
+    for k in ("start", "lower", "upper"):
+        v = spec.get(k)
+        if v is None:
+            continue
+        if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) \
+                or not v > 0:
+            raise InputError(f"{where}: {key}.{k} must be a number > 0 (kg/s per m), got "
+                             f"{v!r:.40}")
+        out[k] = float(v)
+    if not fixed:
+        for k in ("lower", "upper"):
+            if k not in out:
+                raise InputError(f"{where}: {key}.{k} is required (a free valve gain needs "
+                                 "lower and upper, or fixed = true)")
+        if not out["lower"] < out["upper"]:
+            raise InputError(f"{where}: {key}.lower must be below {key}.upper")
+    start = out.get("start", LevelingSystem.gain_kg_s_per_m)
+    if not fixed and "start" not in out:
+        start = min(max(start, out["lower"]), out["upper"])
+    if not fixed and not out["lower"] <= start <= out["upper"]:
+        raise InputError(f"{where}: {key}.start ({start:g}) must lie within lower and upper")
+    out["start"] = start
+    return out
+
+
+def valve_gain_bounds(study) -> tuple[float, float] | None:
+    """``(lower, upper)`` of the valve gain when the study makes it a design variable
+    (``[table.leveling] gain_kg_s_per_m = {lower, upper}``, kg/s/m); None when it is fixed.
+
+    Parameters
+    ----------
+    study : Study
+    """
+    raw = ((getattr(study, "raw", None) or {}).get("table") or {}).get("leveling") or {}
+    spec = raw.get("gain_kg_s_per_m")
+    if not isinstance(spec, dict):
+        return None
+    v = _gain_variable(spec, "study")
+    return None if v["fixed"] else (v["lower"], v["upper"])
+
+
 def leveling_of_study(study) -> LevelingSystem:
     """The valves of a study with a ``[table]``: its ``[table.leveling]`` (or the defaults).
 
@@ -203,6 +276,42 @@ def leveling_of_study(study) -> LevelingSystem:
     raw = (getattr(study, "raw", None) or {}).get("table", {})
     return leveling_from_dict(raw.get("leveling", {}), study.table,
                               getattr(study, "source", None) or getattr(study, "name", "study"))
+
+
+def leveling_margin_bounds(study) -> tuple[float | None, float | None]:
+    """The bounds the optimizer enforces on the leveling loop's gain and phase margins.
+
+    ``constraints.min_leveling_gain_margin_db`` and ``min_leveling_phase_margin_deg`` as the
+    study gives them (validated when it was loaded); ``false`` switches a bound off. A key
+    the study leaves out takes :data:`DEFAULT_MIN_GAIN_MARGIN_DB` (6 dB) and
+    :data:`DEFAULT_MIN_PHASE_MARGIN_DEG` (45 deg) when the study has a ``[table.leveling]``
+    (the valves are the study's), and no bound otherwise: the margins of the default valves
+    are then reported, not enforced (a table whose valves nobody described is not refused
+    for them).
+
+    Parameters
+    ----------
+    study : Study
+        With ``table`` and ``raw``.
+
+    Returns
+    -------
+    (gain_db, phase_deg)
+        Each a float, or None (reported, not enforced).
+    """
+    raw = getattr(study, "raw", None) or {}
+    cons = raw.get("constraints") or {}
+    has_valves = "leveling" in (raw.get("table") or {})
+    out = []
+    for key, default in MARGIN_KEYS:
+        v = cons.get(key)
+        if v is False:
+            out.append(None)
+        elif v is None:
+            out.append(default if has_valves else None)
+        else:
+            out.append(float(v))
+    return out[0], out[1]
 
 
 # ---------------------------------------------------------------------------
@@ -324,21 +433,113 @@ class LevelingPlant:
         return control.ss(self.a, self.b, self.c, np.zeros((3, 3)))
 
 
-def _isolator_constants(model: TableModel, flow: str):
-    """Per isolator: p0, V_t0, V_b0, m_t0, m_b0, A_p, n, C, k_D, c_D."""
-    dia = diaphragm_model(model.diaphragm)
+def isolator_constants(design, diaphragm, flow: str) -> tuple:
+    """One isolator's constants of the plant, any backend (the design may be symbolic).
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring at its own p0 (fields may be CasADi symbols).
+    diaphragm : diaphragm model
+        :func:`~isodesign.spring.diaphragm.diaphragm_model`'s object.
+    flow : str
+        The flow model (the capillary's resistance at zero tube velocity).
+
+    Returns
+    -------
+    tuple
+        ``(p0, V_t0, V_b0, m_t0, m_b0, A_p, n, C, k_D, c_D)``: the diaphragm's storage
+        stiffness and its loss as a viscous damper, both at :data:`REFERENCE_FREQUENCY_HZ`.
+    """
     w_ref = 2.0 * math.pi * REFERENCE_FREQUENCY_HZ
-    rows = []
-    for d in model.designs:
-        c = resistance_function(flow, d, w_ref)(0.0)
-        kd = dia.stiffness(w_ref, 1e-6)
-        rho = float(d.density_kg_m3)
-        rows.append((float(d.pressure_pa), float(d.top_volume_m3), float(d.bottom_volume_m3),
-                     rho * float(d.top_volume_m3), rho * float(d.bottom_volume_m3),
-                     float(d.piston_area_m2), float(d.process_index),
-                     float(np.asarray(c.re)), float(np.asarray(kd.re)),
-                     float(np.asarray(kd.im)) / w_ref))  # fmt: skip
-    return np.array(rows)
+    c = resistance_function(flow, design, w_ref)(0.0)
+    kd = diaphragm.stiffness(w_ref, 1e-6)
+    rho = design.density_kg_m3
+    vt0, vb0 = design.top_volume_m3, design.bottom_volume_m3
+    return (design.pressure_pa, vt0, vb0, rho * vt0, rho * vb0, design.piston_area_m2,
+            design.process_index, c.re, kd.re, kd.im / w_ref)
+
+
+def _isolator_constants(model: TableModel, flow: str):
+    """Per isolator: p0, V_t0, V_b0, m_t0, m_b0, A_p, n, C, k_D, c_D (NumPy)."""
+    dia = diaphragm_model(model.diaphragm)
+    return np.array([[float(np.asarray(x)) for x in isolator_constants(d, dia, flow)]
+                     for d in model.designs])
+
+
+def plant_matrix(model: TableModel, system: LevelingSystem, consts) -> np.ndarray:
+    """The plant's ``A`` (valves closed) from the isolators' constants, any backend.
+
+    Parameters
+    ----------
+    model : TableModel
+        The table's geometry, gravity term and horizontal elements (independent of the
+        springs' design).
+    system : LevelingSystem
+        The lines' resistance and the fed chamber.
+    consts : array (n, 10)
+        :func:`isolator_constants` per isolator: floats (a float array back) or CasADi
+        symbols (an object array of symbols back).
+
+    Returns
+    -------
+    ndarray (12 + 2n, 12 + 2n)
+    """
+    t = model.table
+    n = t.n_isolators
+    k = np.asarray(consts, dtype=object if np.asarray(consts).dtype == object else float)
+    p0, vt0, _, mt0, mb0, ap, nidx, cres, kd, cd = k.T
+    geo = model.geometry
+    gz = geo.gz  # (n, 6)
+    w_ref = 2.0 * math.pi * REFERENCE_FREQUENCY_HZ
+    hs = model.horizontal_stiffness(np.array([w_ref]))
+    kh = np.array([float(np.asarray(c.re).ravel()[0]) for c in hs])
+    ch = np.array([float(np.asarray(c.im).ravel()[0]) / w_ref for c in hs])
+    gxy = np.concatenate([geo.gh[0], geo.gh[1]])  # (2n, 6)
+    khh = np.concatenate([kh, kh])
+    chh = np.concatenate([ch, ch])
+    # linear pressures: dp_t = at dm_t - bt u, dp_b = ab dm_b
+    at, ab = nidx * p0 / mt0, nidx * p0 / mb0
+    bt = nidx * p0 * ap / vt0
+    ns = 12 + 2 * n
+    a = np.zeros((ns, ns), dtype=k.dtype)
+    a[:6, 6:12] = np.eye(6)
+    minv = np.linalg.inv(geo.mass)
+    # forces: F_i = A_p dp_t - k_D u - c_D u', u = gz q
+    # D q = (sum k g g^T + K_g) q is the restoring force's negative (section 2)
+    k_q = -(gz.T * (ap * bt + kd)) @ gz - (gxy.T * khh) @ gxy - geo.gravity
+    c_v = -(gz.T * cd) @ gz - (gxy.T * chh) @ gxy
+    k_mt = gz.T * (ap * at)  # (6, n)
+    a[6:12, :6] = minv @ k_q
+    a[6:12, 6:12] = minv @ c_v
+    a[6:12, 12:12 + n] = minv @ k_mt
+    # chambers: m_c = (dp_t - dp_b)/C; dm_t' = -m_c (+ valve, lines), dm_b' = m_c
+    it, ib = np.arange(12, 12 + n), np.arange(12 + n, 12 + 2 * n)
+    for i in range(n):
+        row_c = np.zeros(ns, dtype=k.dtype)
+        row_c[it[i]] = at[i]
+        row_c[:6] = -bt[i: i + 1] * gz[i]  # array ops only: a symbol times an array
+        row_c[ib[i]] = -ab[i]  # would be a CasADi matrix, not elementwise
+        row_c = row_c / cres[i: i + 1]
+        a[it[i]] -= row_c
+        a[ib[i]] += row_c
+    fed_rows = it if system.fed_chamber == "top" else ib
+    for i, j in _lines(t):  # m_l = (p_i - p_j) / R_l from i to j (the fed chambers)
+        row = np.zeros(ns, dtype=k.dtype)
+        if system.fed_chamber == "top":
+            row[it[i]], row[:6] = at[i], -bt[i: i + 1] * gz[i]
+            row[it[j]], row[:6] = -at[j], row[:6] + bt[j: j + 1] * gz[j]
+        else:
+            row[ib[i]], row[ib[j]] = ab[i], -ab[j]
+        row = row / system.line_resistance_pa_s_per_kg
+        a[fed_rows[i]] -= row
+        a[fed_rows[j]] += row
+    return a
+
+
+def _lines(table) -> tuple:
+    """Pairs (valve's isolator, slaved isolator) a line connects."""
+    return tuple((g[0], j) for g in table.leveling_groups for j in g[1:])
 
 
 def leveling_plant(model: TableModel, system: LevelingSystem | None = None) -> LevelingPlant:
@@ -363,54 +564,21 @@ def leveling_plant(model: TableModel, system: LevelingSystem | None = None) -> L
     k = _isolator_constants(model, model.flow)
     p0, vt0, vb0, mt0, mb0, ap, nidx, cres, kd, cd = k.T
     geo = model.geometry
-    gz = geo.gz  # (n, 6)
+    gz = geo.gz
+    a = plant_matrix(model, system, k)
+    ns = a.shape[0]
     w_ref = 2.0 * math.pi * REFERENCE_FREQUENCY_HZ
-    kh = np.array([float(np.asarray(c.re).ravel()[0]) for c in
-                   model.horizontal_stiffness(np.array([w_ref]))])
-    ch = np.array([float(np.asarray(c.im).ravel()[0]) / w_ref for c in
-                   model.horizontal_stiffness(np.array([w_ref]))])
-    gxy = np.concatenate([geo.gh[0], geo.gh[1]])  # (2n, 6)
-    khh = np.concatenate([kh, kh])
-    chh = np.concatenate([ch, ch])
-    # linear pressures: dp_t = at dm_t - bt u, dp_b = ab dm_b
-    at, ab = nidx * p0 / mt0, nidx * p0 / mb0
-    bt = nidx * p0 * ap / vt0
-    ns = 12 + 2 * n
-    a = np.zeros((ns, ns))
-    a[:6, 6:12] = np.eye(6)
+    hs = model.horizontal_stiffness(np.array([w_ref]))
+    kh = np.array([float(np.asarray(c.re).ravel()[0]) for c in hs])
+    ch = np.array([float(np.asarray(c.im).ravel()[0]) / w_ref for c in hs])
+    gxy = np.concatenate([geo.gh[0], geo.gh[1]])
+    khh, chh = np.concatenate([kh, kh]), np.concatenate([ch, ch])
     minv = np.linalg.inv(geo.mass)
-    # forces: F_i = A_p dp_t - k_D u - c_D u', u = gz q
-    # D q = (sum k g g^T + K_g) q is the restoring force's negative (section 2)
-    k_q = -(gz.T * (ap * bt + kd)) @ gz - (gxy.T * khh) @ gxy - geo.gravity
-    c_v = -(gz.T * cd) @ gz - (gxy.T * chh) @ gxy
-    k_mt = gz.T * (ap * at)  # (6, n)
-    a[6:12, :6] = minv @ k_q
-    a[6:12, 6:12] = minv @ c_v
-    a[6:12, 12:12 + n] = minv @ k_mt
-    # chambers: m_c = (dp_t - dp_b)/C; dm_t' = -m_c (+ valve, lines), dm_b' = m_c
     it, ib = np.arange(12, 12 + n), np.arange(12 + n, 12 + 2 * n)
-    for i in range(n):
-        row_c = np.zeros(ns)
-        row_c[it[i]] = at[i]
-        row_c[:6] = -bt[i] * gz[i]
-        row_c[ib[i]] = -ab[i]
-        row_c /= cres[i]
-        a[it[i]] -= row_c
-        a[ib[i]] += row_c
     fed_rows = it if system.fed_chamber == "top" else ib
     groups = t.leveling_groups
     fed = np.array([g[0] for g in groups])
-    lines = tuple((g[0], j) for g in groups for j in g[1:])
-    for i, j in lines:  # m_l = (p_i - p_j) / R_l from i to j (the fed chambers)
-        row = np.zeros(ns)
-        if system.fed_chamber == "top":
-            row[it[i]], row[:6] = at[i], -bt[i] * gz[i]
-            row[it[j]], row[:6] = -at[j], row[:6] + bt[j] * gz[j]
-        else:
-            row[ib[i]], row[ib[j]] = ab[i], -ab[j]
-        row /= system.line_resistance_pa_s_per_kg
-        a[fed_rows[i]] -= row
-        a[fed_rows[j]] += row
+    lines = _lines(t)
     b = np.zeros((ns, 3))
     for g, i in enumerate(fed):
         b[fed_rows[i], g] = 1.0

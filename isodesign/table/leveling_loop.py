@@ -37,6 +37,8 @@ __all__ = [
     "leveling_transmissibility",
     "limit_cycle",
     "load_step",
+    "max_valve_gain",
+    "study_valves",
 ]
 
 #: Closed-loop poles with a real part above this (1/s) count as unstable.
@@ -135,6 +137,19 @@ class LevelingLoop(ResultDisplay):
         if not self.critical_gain_kg_s_per_m > 0:
             return float("-inf")
         return 20.0 * math.log10(self.critical_gain_kg_s_per_m / self.gain_kg_s_per_m)
+
+    @property
+    def worst_gain_margin_db(self) -> float:
+        """The smallest gain margin, dB: the MIMO one (every valve's gain scaled together)
+        and each valve's with the other two closed; negative for an unstable loop (the
+        optimizer's ``leveling_gain_margin``)."""
+        return float(min(self.mimo_gain_margin_db, float(np.min(self.gain_margin_db))))
+
+    @property
+    def worst_phase_margin_deg(self) -> float:
+        """The smallest phase margin of the three valves' loops (the other two closed), deg
+        (``inf`` when no loop crosses 0 dB; the optimizer's ``leveling_phase_margin``)."""
+        return float(np.min(self.phase_margin_deg))
 
     def valve_loop(self, g: int):
         """Valve ``g``'s loop (the others closed) as a ``control.StateSpace``.
@@ -303,6 +318,98 @@ def leveling_loop(model, system: LevelingSystem | None = None) -> LevelingLoop:
                         stable=bool(np.max(poles.real) < _STABILITY_TOL),
                         critical_gain_kg_s_per_m=g_c, oscillation_frequency_hz=f_c,
                         notes=tuple(notes))
+
+
+def max_valve_gain(model, system: LevelingSystem, gain_margin_db: float | None,
+                   phase_margin_deg: float | None, *, lowest_fraction: float = 1e-3,
+                   rtol: float = 1e-3) -> float | None:
+    """The largest valve gain, at most the system's, whose loop meets both margin bounds.
+
+    Lowering every valve's gain raises the MIMO gain margin ``20 log10(G_c / G)`` (``G_c``
+    does not depend on ``G``) and, the valves' integrator dominating the slow crossover,
+    the phase margins: the bounds hold below some gain, found by bisection in ``ln G``
+    between ``lowest_fraction G`` and ``G`` (each step :func:`leveling_loop`, the margins
+    :attr:`LevelingLoop.worst_gain_margin_db` and :attr:`~LevelingLoop.worst_phase_margin_deg`).
+
+    Parameters
+    ----------
+    model : TableModel
+    system : LevelingSystem
+    gain_margin_db, phase_margin_deg : float or None
+        The bounds (None: none).
+    lowest_fraction : float
+        The smallest gain tried, as a fraction of the system's.
+    rtol : float
+        Relative tolerance on the gain.
+
+    Returns
+    -------
+    float or None
+        The gain, kg/s/m (the system's own if it meets the bounds); None if even the
+        smallest gain tried misses them.
+    """
+    def meets(g):
+        lp = leveling_loop(model, system.replace(gain_kg_s_per_m=float(g)))
+        return ((gain_margin_db is None or lp.worst_gain_margin_db >= gain_margin_db)
+                and (phase_margin_deg is None or lp.worst_phase_margin_deg >= phase_margin_deg))
+
+    hi = system.gain_kg_s_per_m
+    if meets(hi):
+        return hi
+    lo = hi * lowest_fraction
+    if not meets(lo):
+        return None
+    while hi / lo > 1.0 + rtol:
+        mid = math.sqrt(lo * hi)
+        if meets(mid):
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+def study_valves(study, design) -> LevelingSystem:
+    """The valves of a table study for a design of its springs.
+
+    The study's ``[table.leveling]``; when it makes the valve gain a design variable
+    (``gain_kg_s_per_m = {lower, upper}``), the largest gain within its bounds whose loop
+    on the design's springs meets the study's margin bounds (:func:`max_valve_gain`; the
+    lower bound when none does, the upper one without margin bounds). The gain enters
+    nothing else the optimizer judges (the band response, the modes and the static verdict
+    take the valves closed or off), so the choice is the optimizer's and every entry point
+    that analyses the loop of a design (``isodesign stability``) makes the same one.
+
+    Parameters
+    ----------
+    study : Study
+        With a ``[table]``.
+    design : SpringDesign
+
+    Returns
+    -------
+    LevelingSystem
+    """
+    from isodesign.table.leveling import (
+        leveling_margin_bounds,
+        leveling_of_study,
+        valve_gain_bounds,
+    )
+    from isodesign.table.model import table_model
+
+    system = leveling_of_study(study)
+    bounds = valve_gain_bounds(study)
+    if bounds is None:
+        return system
+    lo, hi = bounds
+    gm, pm = leveling_margin_bounds(study)
+    if gm is None and pm is None:
+        return system.replace(gain_kg_s_per_m=hi)
+    m = study.models
+    model = table_model(design, study.table, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
+                        diaphragm=m["diaphragm"])
+    g = max_valve_gain(model, system.replace(gain_kg_s_per_m=hi), gm, pm,
+                       lowest_fraction=lo / hi)
+    return system.replace(gain_kg_s_per_m=lo if g is None else g)
 
 
 # ---------------------------------------------------------------------------

@@ -18,6 +18,11 @@ then:
    :data:`~isodesign.table.problem.TABLE_PEAK_ROUNDS` rounds, the mode refresh repeated
    after each). A peak still above the bound is a violation (:data:`PEAK_VIOLATION`): the
    result is not a success and its verdict is no PASS.
+   **Leveling loop rounds.** With a bound on the leveling loop's gain margin, while the
+   exact margin (python-control) misses it, or the frozen-pole rows bind while the margin
+   exceeds the bound, the loop's poles are frozen at the current design and the NLP is
+   solved again (at most :data:`LOOP_ROUNDS`). After the last round a gain or phase margin
+   below its bound is a violation (:data:`LEVELING_VIOLATIONS`).
 3. **Re-check.** The NumPy closure (:func:`~isodesign.table.response.solve_table_closure`)
    at the optimum on the NLP's grid must give the NLP's stroke RMS values to 1e-6 and its
    worst margin to 1e-6 dB, else :class:`~isodesign.errors.SolverError`.
@@ -52,22 +57,39 @@ from isodesign.optimization.explain import (
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
 from isodesign.results import ResultDisplay
-from isodesign.table.constraint_table import CONTINUOUS_PEAK, table_constraint_reports
+from isodesign.table.constraint_table import (
+    CONTINUOUS_PEAK,
+    LEVELING_GAIN_MARGIN,
+    LEVELING_PHASE_MARGIN,
+    table_constraint_reports,
+)
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
 from isodesign.table.problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
 
-__all__ = ["HESSIAN", "PEAK_VIOLATION", "TableOptimizationResult", "closure_springs",
-           "measure_peaks", "optimize_table"]
+__all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
+           "closure_springs", "leveling_check", "measure_peaks", "optimize_table"]
 
 #: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``).
 HESSIAN = "limited-memory"
 #: Agreement required of the NumPy re-check (relative on sigma, dB on the margin).
 RECHECK_TOL = 1e-6
 _MODE_ROUNDS = 3
+#: NLP solves with the leveling loop's gain-margin rows frozen again at the new design.
+LOOP_ROUNDS = 8
+#: A loop margin counts as missed when below its bound by more than this (dB, deg).
+LOOP_TOLERANCE = 0.01
+#: Frozen loop rows that bind at a design whose exact gain margin exceeds the bound by more
+#: than this (dB) are frozen again there (the first-order rows held the design back).
+LOOP_SLACK_DB = 0.03
 #: Name of the violation a result carries when its continuous peak of |T| stays above
 #: ``constraints.max_peak_transmissibility_db`` after the last refinement round (the
 #: vertical optimizer's :data:`isodesign.optimization.driver.PEAK_VIOLATION`).
 PEAK_VIOLATION = CONTINUOUS_PEAK
+#: Names of the violations of the leveling loop's margins (below their bounds at the
+#: returned design, python-control's margins: :func:`leveling_check`).
+LEVELING_VIOLATIONS = (LEVELING_GAIN_MARGIN, LEVELING_PHASE_MARGIN)
+_VIOLATION_UNITS = {PEAK_VIOLATION: " dB", LEVELING_GAIN_MARGIN: " dB",
+                    LEVELING_PHASE_MARGIN: " deg"}
 #: Refinement frequencies placed around each peak above the bound (relative).
 _PEAK_SHIFTS = (0.995, 1.0, 1.005)
 
@@ -100,8 +122,10 @@ class TableOptimizationResult(ResultDisplay):
     violations : tuple
         ``(name, amount)`` of every constraint the returned design breaks: for an infeasible
         run the NLP's violated groups; for a feasible one the continuous peak of |T| above
-        its limit after the last refinement round (:data:`PEAK_VIOLATION`, dB) and the exact
-        modes' damping or rocking-frequency misses. A result with violations is not a
+        its limit after the last refinement round (:data:`PEAK_VIOLATION`, dB), the exact
+        modes' damping or rocking-frequency misses, and the leveling loop's gain or phase
+        margin below its bound (:data:`LEVELING_VIOLATIONS`, the shortfall in dB or deg).
+        A result with violations is not a
         :attr:`success` and its :meth:`verdict` is never PASS.
     peak : dict
         The continuous peak refinement's record: ``rounds``, ``added_frequencies_hz``,
@@ -116,6 +140,13 @@ class TableOptimizationResult(ResultDisplay):
     modes, start_modes : TableModes or None
         At the closure state of each design.
     stability : RockingStability or None
+    leveling : LevelingLoop or None
+        The returned design's leveling loop (the study's ``[table.leveling]`` valves, or
+        the defaults), whose margins the constraint table holds.
+    leveling_gain_hint_kg_s_per_m : float or None
+        When the loop misses a margin bound: the largest valve gain whose loop on the
+        returned springs meets both (:func:`~isodesign.table.leveling_loop.max_valve_gain`;
+        None: none down to a thousandth of the study's, or no miss).
     wall_s : float
     hessian : str
     """
@@ -144,6 +175,8 @@ class TableOptimizationResult(ResultDisplay):
     nlp_violations: tuple = ()
     violations: tuple = ()
     peak: Any = None
+    leveling: Any = None
+    leveling_gain_hint_kg_s_per_m: float | None = None
 
     @property
     def success(self) -> bool:
@@ -173,7 +206,7 @@ class TableOptimizationResult(ResultDisplay):
             f"worst margin {self.objective_value:+.2f} dB on the NLP's grid"
         if not self.violations:
             return band
-        broken = ", ".join(f"{n} ({v:.3g}{' dB' if n == PEAK_VIOLATION else ''})"
+        broken = ", ".join(f"{n} ({v:.3g}{_VIOLATION_UNITS.get(n, '')})"
                            for n, v in self.violations)
         return f"FAIL: constraint broken: {broken}; bands: {band}"
 
@@ -350,9 +383,18 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         from isodesign.table.modes import rocking_stability
 
         stab = rocking_stability(_model(study, d))
+    loop, gm_min, pm_min = leveling_check(study, d)
     violations = _violations(study, prob, best, nlp_modes, peak)
+    gain_hint = None
+    if best.feasible:
+        misses = _leveling_misses(loop, gm_min, pm_min)
+        violations += misses
+        if misses:  # what the valves would need on these springs
+            from isodesign.table.leveling_loop import max_valve_gain
+
+            gain_hint = max_valve_gain(loop.plant.model, loop.plant.system, gm_min, pm_min)
     reports = table_constraint_reports(prob, best.g, modes=nlp_modes, stability=stab,
-                                       peaks=peak["peaks"])
+                                       peaks=peak["peaks"], leveling=(loop, gm_min, pm_min))
     return TableOptimizationResult(
         study=study, feasible=bool(best.feasible), status=best.status, values=best.values,
         design=d, objective=prob.objective,
@@ -362,7 +404,47 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         analysis=analysis, start_analysis=start_analysis, modes=modes, start_modes=modes0,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
+        leveling=loop, leveling_gain_hint_kg_s_per_m=gain_hint,
     )
+
+
+def leveling_check(study, d) -> tuple:
+    """The leveling loop of design ``d`` and the bounds on its margins.
+
+    The loop of the study's valves (``[table.leveling]``, or the defaults; a free valve gain
+    chosen by :func:`~isodesign.table.leveling_loop.study_valves`) around the table on the
+    design's springs, by python-control (:func:`~isodesign.table.leveling_loop.
+    leveling_loop`: what ``isodesign stability`` prints for the design), and the bounds of
+    :func:`~isodesign.table.leveling.leveling_margin_bounds`.
+
+    Parameters
+    ----------
+    study : Study
+        With a ``[table]``.
+    d : SpringDesign
+
+    Returns
+    -------
+    (LevelingLoop, float or None, float or None)
+        The loop, the gain-margin bound (dB) and the phase-margin bound (deg); None: the
+        margin is reported, not enforced.
+    """
+    from isodesign.table.leveling import leveling_margin_bounds
+    from isodesign.table.leveling_loop import leveling_loop, study_valves
+
+    gm_min, pm_min = leveling_margin_bounds(study)
+    return leveling_loop(_model(study, d), study_valves(study, d)), gm_min, pm_min
+
+
+def _leveling_misses(loop, gm_min, pm_min) -> tuple:
+    """``(name, shortfall)`` of the loop's margins below their bounds (dB, deg)."""
+    out = []
+    gm, pm = loop.worst_gain_margin_db, loop.worst_phase_margin_deg
+    if gm_min is not None and not gm >= gm_min - LOOP_TOLERANCE:
+        out.append((LEVELING_GAIN_MARGIN, float(gm_min - gm)))
+    if pm_min is not None and not pm >= pm_min - LOOP_TOLERANCE:
+        out.append((LEVELING_PHASE_MARGIN, float(pm_min - pm)))
+    return tuple(out)
 
 
 def _violations(study, prob, best, modes, peak) -> tuple:
@@ -406,6 +488,7 @@ def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
                                      prob.tube_rms(sol.x)))
         except InputError:
             continue
+        prob.clear_loop()  # the winner's frozen poles are not this branch's
         slots = list(peak["added_frequencies_hz"])
         out = _refine(prob, study, sol, slots=slots)
         prob = out[0]
@@ -505,7 +588,8 @@ def _refine(prob, study, best, slots=None):
         limit = None
     peak = {"rounds": 0, "added_frequencies_hz": [], "limit_db": limit,
             "tolerance_db": PEAK_TOLERANCE_DB, "max_rounds": TABLE_PEAK_ROUNDS,
-            "peaks": None, "met": None, "excess_db": None, "resolve_failed": None}
+            "peaks": None, "met": None, "excess_db": None, "resolve_failed": None,
+            "leveling_rounds": 0}
     rounds = 0
     modes = None
     slots = [] if slots is None else slots  # the frequencies placed so far (extended)
@@ -520,6 +604,15 @@ def _refine(prob, study, best, slots=None):
             rounds += 1
             if not sol.feasible:
                 peak["resolve_failed"] = f"mode refresh: {sol.status}"
+                break
+            best = sol
+            continue
+        if _loop_refresh_needed(prob, study, best, peak):
+            prob.set_loop(study.design_at(best.values))  # freeze the poles at this design
+            sol = prob.solve(best.x)
+            peak["leveling_rounds"] += 1
+            if not sol.feasible:  # keep the last feasible design; its margin is a violation
+                peak["resolve_failed"] = f"leveling loop: {sol.status}"
                 break
             best = sol
             continue
@@ -544,6 +637,23 @@ def _refine(prob, study, best, slots=None):
             break
         best = sol
     return prob, best, modes, rounds, peak
+
+
+def _loop_refresh_needed(prob, study, best, peak) -> bool:
+    """Whether the leveling loop's gain-margin rows should be frozen again and the NLP solved:
+    the study bounds the gain margin, rounds are left, and the exact margin at ``best``
+    misses its bound, or the frozen rows bind while the exact margin exceeds the bound by
+    more than :data:`LOOP_SLACK_DB` (the first-order rows held the design back)."""
+    if not getattr(prob, "n_loop", 0) or peak["leveling_rounds"] >= LOOP_ROUNDS:
+        return False
+    loop, gm_min, _ = leveling_check(study, study.design_at(best.values))
+    gm = loop.worst_gain_margin_db
+    if gm < gm_min - LOOP_TOLERANCE:
+        return True
+    rows = [(r, m) for n, r, m in prob.con_rows if n == "min_leveling_gain_margin_db"]
+    active = bool(rows and np.any(prob.loop_params[:: 2 + prob.n_states ** 2] > 0)
+                  and np.max(best.g[rows[0][0]: rows[0][0] + rows[0][1]]) > -1e-4)
+    return bool(active and gm > gm_min + LOOP_SLACK_DB)
 
 
 def _natural(prob, x, j: float) -> float:

@@ -5,7 +5,9 @@ objectives: anchor A is :func:`~isodesign.table.optimize.optimize_table` (multi-
 refresh, re-check); anchor B minimizes the total volume from it; between them the worst
 margin is maximized subject to ``ln V <= eps`` for ``points`` values of eps, each solve
 warm-started from the previous one (from anchor B when that one stalls; docs/table.md,
-section 11).
+section 11). A point whose leveling loop misses a margin bound (python-control at its
+design; the gain-margin rows frozen at anchor A's design hold along the front) says so in
+its status and is not on the front (section 12).
 """
 
 from __future__ import annotations
@@ -188,16 +190,20 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
     margin = np.array([prob.worst_margin_db(s.x) if s.feasible else math.nan for s in sols])
     vol = np.array([math.exp(s.objectives[1]) if s.feasible else math.nan for s in sols])
     # a point whose continuous peak stays above the bound meets the constraints on the
-    # NLP's frequencies only: neither on the front nor dominating a point of it
-    ok = np.isfinite(margin) & np.array([ex is None or ex <= PEAK_TOLERANCE_DB
-                                         for ex in excess])
+    # NLP's frequencies only: neither on the front nor dominating a point of it; nor one
+    # whose leveling loop misses a margin bound (python-control at the point's design)
+    loop_miss = [_loop_misses(st, s) for s in sols]
+    ok = np.isfinite(margin) & np.array([(ex is None or ex <= PEAK_TOLERANCE_DB) and not lm
+                                         for ex, lm in zip(excess, loop_miss, strict=True)])
     mins = np.column_stack([-margin, vol])  # both minimized, as a vertical front's
     mins[~ok] = np.nan
     front = nondominated(mins)
     ideal, ref, hv = front_reference(mins, front) if front.any() else (None, None, math.nan)
-    statuses = tuple(s.status if ex is None or ex <= PEAK_TOLERANCE_DB else
-                     f"{s.status}; {PEAK_VIOLATION} +{ex:.3g} dB"
-                     for s, ex in zip(sols, excess, strict=True))
+    statuses = tuple((s.status if ex is None or ex <= PEAK_TOLERANCE_DB else
+                      f"{s.status}; {PEAK_VIOLATION} +{ex:.3g} dB")
+                     + "".join(f"; {n} -{v:.3g} {'dB' if 'gain' in n else 'deg'}"
+                               for n, v in lm)
+                     for s, ex, lm in zip(sols, excess, loop_miss, strict=True))
     return TableParetoResult(worst_margin_db=margin, total_volume_m3=vol,
                              designs=tuple(s.values for s in sols), statuses=statuses,
                              front=front, study=st, wall_s=time.perf_counter() - t0,
@@ -209,6 +215,17 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
                                        "points": points, "reference_margin": REFERENCE_MARGIN,
                                        "units": ("dB", "m^3"),
                                        "starts": st.solver["starts"]})
+
+
+def _loop_misses(study, sol) -> tuple:
+    """The leveling loop's margins below their bounds at a feasible point: ``(name, dB or
+    deg)`` (none without bounds; docs/table.md, section 12)."""
+    from isodesign.table.leveling import leveling_margin_bounds
+    from isodesign.table.optimize import _leveling_misses, leveling_check
+
+    if not sol.feasible or leveling_margin_bounds(study) == (None, None):
+        return ()
+    return _leveling_misses(*leveling_check(study, study.design_at(sol.values)))
 
 
 def _peak_refined(study, state, x0, params, first=None):
