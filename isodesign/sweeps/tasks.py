@@ -329,13 +329,30 @@ def _table_response(study, run: RunDirectory) -> dict:
             "peak_transmissibility_db": float(analysis.peak_transmissibility_db().max())}
 
 
+def _front_or_infeasible(study, run: RunDirectory, objectives, points: int,
+                         objective: str) -> tuple:
+    """``(front, None)``, or ``(None, row)`` with the point marked infeasible when no
+    design is feasible (a vertical or a table front: the same call, the same refusal)."""
+    from isodesign.optimization.pareto import pareto_front
+
+    try:
+        return pareto_front(study, objectives, points), None
+    except SolverError as exc:
+        if "no feasible design" not in str(exc):
+            raise
+        run.status = "infeasible"
+        run.record["error"] = str(exc)
+        return None, {"feasible": False, "objective": objective, "binding": "",
+                      "solver_status": str(exc)}
+
+
 def _pareto(study, run: RunDirectory, options: dict) -> dict:
     import numpy as np
 
     from isodesign.commands.pareto import pareto_json
     from isodesign.io.record import pareto_record, resolved_study_dict, study_toml
     from isodesign.optimization.objectives import OBJECTIVES
-    from isodesign.optimization.pareto import DEFAULT_OBJECTIVES, pareto_front
+    from isodesign.optimization.pareto import DEFAULT_OBJECTIVES
 
     objectives = tuple(options.get("objectives") or DEFAULT_OBJECTIVES)
     points = int(options.get("points") or 10)
@@ -344,15 +361,9 @@ def _pareto(study, run: RunDirectory, options: dict) -> dict:
         "Resolved study of an isodesign sweep point (task pareto)")))
     if study.table is not None:
         return _table_pareto(study, run, options, points)
-    try:
-        result = pareto_front(study, objectives, points)
-    except SolverError as exc:
-        if "no feasible design" not in str(exc):
-            raise
-        run.status = "infeasible"
-        run.record["error"] = str(exc)
-        return {"feasible": False, "objective": "hypervolume", "binding": "",
-                "solver_status": str(exc)}
+    result, infeasible = _front_or_infeasible(study, run, objectives, points, "hypervolume")
+    if result is None:
+        return infeasible
     run.write_csv("pareto.csv", result.to_frame())
     run.write_json("pareto.json", pareto_json(result))
     run.record.update(pareto_record(result, study))
@@ -379,18 +390,13 @@ def _table_pareto(study, run: RunDirectory, options: dict, points: int) -> dict:
     import numpy as np
 
     from isodesign.commands.pareto import execute_table_front
-    from isodesign.optimization.pareto import TABLE_OBJECTIVES, pareto_front
+    from isodesign.optimization.pareto import TABLE_OBJECTIVES
 
     objectives = tuple(options.get("objectives") or TABLE_OBJECTIVES)
-    try:
-        result = pareto_front(study, objectives, points)
-    except SolverError as exc:
-        if "no feasible design" not in str(exc):
-            raise
-        run.status = "infeasible"
-        run.record["error"] = str(exc)
-        return {"feasible": False, "objective": "worst_band_margin", "binding": "",
-                "solver_status": str(exc)}
+    result, infeasible = _front_or_infeasible(study, run, objectives, points,
+                                              "worst_band_margin")
+    if result is None:
+        return infeasible
     args = _args(run, plots=bool(options.get("plots", False)), points=points)
     with contextlib.redirect_stdout(io.StringIO()):
         execute_table_front(study, run, args, result)
