@@ -70,6 +70,7 @@ __all__ = [
     "kinetic_reynolds",
     "linear_resistance",
     "poiseuille_resistance",
+    "quasi_steady_reactance",
     "statistical_resistance_function",
     "tube_boundary_layer_functions",
     "tube_end_length_m",
@@ -587,6 +588,27 @@ def tube_end_reactance(design, omega) -> Cx:
     return Cx(0.0 * x, x)
 
 
+def quasi_steady_reactance(design, omega):
+    """``w`` times the quasi-steady tube's inertance: ``w ((4/3) L_c + L_end) / A_c``.
+
+    Eq. 17's ``rho du/dt`` with the developed laminar profile (the 4/3 coefficient), plus
+    the mass at the tube's two ends (:func:`tube_end_length_m`). Pa s/kg, any backend.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The spring (fields may be CasADi symbols).
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s.
+
+    Returns
+    -------
+    float, ndarray or CasADi symbol
+    """
+    return ((QUASI_STEADY_INERTANCE_COEFFICIENT * design.capillary_length_m
+             + tube_end_length_m(design)) * omega / design.capillary_area_m2)
+
+
 def linear_resistance(flow: str, design, omega) -> Cx:
     """The part of ``C`` linear in the tube velocity, frequency dependent (any backend).
 
@@ -611,8 +633,7 @@ def linear_resistance(flow: str, design, omega) -> Cx:
     d = design
     c_u = poiseuille_resistance(d)
     if flow == "quasi_steady":
-        c_i = ((QUASI_STEADY_INERTANCE_COEFFICIENT * d.capillary_length_m
-                + tube_end_length_m(d)) * omega / d.capillary_area_m2)
+        c_i = quasi_steady_reactance(d, omega)
         return Cx(c_u + 0.0 * c_i, c_i)
     if flow == "womersley":
         alpha = womersley_number(d, omega)

@@ -57,14 +57,13 @@ from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
 from isodesign.spring.capillary import (
     LAMINAR_REYNOLDS_LIMIT,
-    QUASI_STEADY_INERTANCE_COEFFICIENT,
     QUASI_STEADY_WOMERSLEY_LIMIT,
     ZHAO_RANGES,
     churchill_friction_re_product,
     describing_velocity,
     kinetic_reynolds,
     poiseuille_resistance,
-    tube_end_length_m,
+    quasi_steady_reactance,
     tube_end_reactance,
     womersley_number,
     womersley_zeta,
@@ -224,8 +223,7 @@ def _quasi_steady(design, omega, *, with_slope: bool = False):
     rho, mu, dc = d.density_kg_m3, d.viscosity_pa_s, d.capillary_diameter_m
     # Eq. 17's rho du/dt, kept: inertance (4/3) L / A_c of developed laminar flow, plus
     # the mass at the tube's two ends (tube_end_correction)
-    c_i = (QUASI_STEADY_INERTANCE_COEFFICIENT * d.capillary_length_m
-           + tube_end_length_m(d)) * omega / area
+    c_i = quasi_steady_reactance(d, omega)
     friction_scale = d.capillary_length_m * mu / (rho * dc * dc)
     rel_rough = d.roughness_m / dc
 
