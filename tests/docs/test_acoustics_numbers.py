@@ -43,16 +43,10 @@ def test_plane_wave_limits():
     quoted(f"a chamber diameter below {d_max:.1f} m at\n89 Hz")
 
 
-def test_lumped_check_counts():
+def test_lumped_check_counts(study_script):
     """Section 4: the counts of ``studies/lumped_flag_check.py`` on its main grid (the wide
     grid's, 4 times as many points, are printed by the script and not re-run here)."""
-    import importlib.util
-
-    path = Path(__file__).parents[2] / "studies" / "lumped_flag_check.py"
-    spec = importlib.util.spec_from_file_location("lumped_flag_check", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    r = mod.lumped_flag_grid("main")
+    r = study_script("lumped_flag_check").lumped_flag_grid("main")
     assert r["passed_outside"] == 0
     n = r["points"]
     quoted(f"the check passes no point outside the 1 % (the largest error it passes: "

@@ -13,7 +13,6 @@ these fails, the page and the code disagree: fix the page (or the code), never t
 
 from __future__ import annotations
 
-import importlib.util
 import re
 from decimal import Decimal
 from pathlib import Path
@@ -29,14 +28,6 @@ FLAT = " ".join(PAGE.split())
 REF = SpringDesign.reference()
 
 
-def _study():
-    path = ROOT / "studies" / "rig_agreement.py"
-    spec = importlib.util.spec_from_file_location("rig_agreement", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
 def quoted(text: str) -> None:
     """The page says ``text`` (whitespace-insensitive)."""
     assert " ".join(text.split()) in FLAT, text
@@ -49,10 +40,10 @@ def agrees(shown: str, value: float, what: str) -> None:
     assert abs(Decimal(repr(float(value))) - d) <= half * Decimal("1.000001"), (what, shown, value)
 
 
-def test_integrator_table_is_the_scripts():
+def test_integrator_table_is_the_scripts(study_script):
     """The table names the command that prints it, and the default's bound holds."""
     quoted("`python studies/rig_agreement.py --integrators`")
-    mod = _study()
+    mod = study_script("rig_agreement")
     labels = [label for label, _ in mod.INTEGRATOR_VARIANTS]
     rows = re.findall(r"^\| \**([^|*]+?)\** \| \**([0-9.e-]+)\**", PAGE, re.M)
     table = {label.strip(): float(v) for label, v in rows if label.strip() in labels}
@@ -62,8 +53,8 @@ def test_integrator_table_is_the_scripts():
 
 
 @pytest.fixture(scope="module")
-def study():
-    return _study()
+def study(study_script):
+    return study_script("rig_agreement")
 
 
 @pytest.fixture(scope="module")

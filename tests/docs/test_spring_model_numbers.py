@@ -9,7 +9,6 @@ code), never the tolerance.
 
 from __future__ import annotations
 
-import importlib.util
 import math
 from pathlib import Path
 
@@ -31,11 +30,8 @@ def quoted(text: str) -> None:
 
 
 @pytest.fixture(scope="module")
-def fig11():
-    path = ROOT / "studies" / "fig11_complex_stiffness.py"
-    spec = importlib.util.spec_from_file_location("fig11_complex_stiffness", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
+def fig11(study_script):
+    mod = study_script("fig11_complex_stiffness")
     pole = mod.pole_frequency_hz(REF)
     curves = mod.evaluate_curves(REF, mod.frequency_grids(pole_hz=pole))
     return mod, pole, curves, mod.summarize(curves, pole)

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import importlib.util
 import math
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -58,14 +56,10 @@ def test_chamber_length_comes_from_its_shape():
         "top_chamber"][0]
 
 
-def test_check_passes_only_within_tolerance_on_a_grid():
+def test_check_passes_only_within_tolerance_on_a_grid(study_script):
     """The flag is true only where the lumped k is within 1 % of the line's (main grid of
     studies/lumped_flag_check.py: 51,840 points), and is far less conservative than w l/c."""
-    path = Path(__file__).parents[2] / "studies" / "lumped_flag_check.py"
-    spec = importlib.util.spec_from_file_location("lumped_flag_check", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    r = mod.lumped_flag_grid("main")
+    r = study_script("lumped_flag_check").lumped_flag_grid("main")
     assert r["passed_outside"] == 0
     assert r["worst_passed"] <= LUMPED_TOLERANCE
     assert r["old_passed_outside"] > 1000  # the former check passed points 40 % off

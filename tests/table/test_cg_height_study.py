@@ -2,22 +2,11 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 
 
-def _load():
-    path = Path(__file__).parents[2] / "studies" / "table_cg_height.py"
-    spec = importlib.util.spec_from_file_location("table_cg_height", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def test_cg_height_study_trends(tmp_path):
-    mod = _load()
+def test_cg_height_study_trends(tmp_path, study_script):
+    mod = study_script("table_cg_height")
     assert mod.main(["-o", str(tmp_path), "--heights", "0.2:0.6:3"]) == 0
     import pandas as pd
 

@@ -2,24 +2,14 @@
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import numpy as np
 
 
-def _load():
-    path = Path(__file__).parents[2] / "studies" / "table_stability.py"
-    spec = importlib.util.spec_from_file_location("table_stability", path)
-    mod = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(mod)
-    return mod
-
-
-def test_the_loop_gives_way_before_the_statics(tmp_path, capsys):
+def test_the_loop_gives_way_before_the_statics(tmp_path, capsys, study_script):
     import pandas as pd
 
-    assert _load().main(["-o", str(tmp_path), "--heights", "0.3:0.9:3"]) == 0
+    study = study_script("table_stability")
+    assert study.main(["-o", str(tmp_path), "--heights", "0.3:0.9:3"]) == 0
     df = pd.read_csv(tmp_path / "table_stability.csv")
     assert (tmp_path / "table_stability.png").is_file()
     assert df["loop_stable"].tolist() == [True, True, False]
