@@ -66,16 +66,14 @@ def load_table_job(args):
 
 def run(args) -> int:
     """Run ``isodesign modes``."""
-    from isodesign.table.model import table_model
+    from isodesign.table.model import study_table_model
     from isodesign.table.modes import mode_solutions, rocking_stability, table_modes
     from isodesign.table.plots import layout_figure
     from isodesign.table.summary import leveling_text, modes_text, stability_text
 
     study, design, label = load_table_job(args)
     rundir = run_directory(args, "modes", known_outputs=OUTPUT_FILES)
-    m = study.models
-    model = table_model(design, study.table, flow=m["flow"],
-                        amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
+    model = study_table_model(study, design)
     modes = table_modes(model)
     stab = rocking_stability(model, modes=modes)
     lowest = mode_solutions(model)

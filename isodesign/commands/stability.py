@@ -36,7 +36,7 @@ def run(args) -> int:
     """Run ``isodesign stability``."""
     from isodesign.commands.modes import load_table_job
     from isodesign.table.leveling_loop import leveling_loop, limit_cycle, study_valves
-    from isodesign.table.model import table_model
+    from isodesign.table.model import study_table_model
     from isodesign.table.modes import mode_solutions, rocking_stability, table_modes
     from isodesign.table.stability_report import limit_cycle_text
     from isodesign.table.summary import stability_text
@@ -44,9 +44,7 @@ def run(args) -> int:
     study, design, label = load_table_job(args)
     system = study_valves(study, design)  # a free valve gain: the optimizer's choice
     rundir = run_directory(args, "stability", known_outputs=OUTPUT_FILES)
-    m = study.models
-    model = table_model(design, study.table, flow=m["flow"],
-                        amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
+    model = study_table_model(study, design)
     modes = table_modes(model)
     stab = rocking_stability(model, modes=modes)
     loop = leveling_loop(model, system)

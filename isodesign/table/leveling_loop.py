@@ -394,7 +394,7 @@ def study_valves(study, design) -> LevelingSystem:
         leveling_of_study,
         valve_gain_bounds,
     )
-    from isodesign.table.model import table_model
+    from isodesign.table.model import study_table_model
 
     system = leveling_of_study(study)
     bounds = valve_gain_bounds(study)
@@ -404,9 +404,7 @@ def study_valves(study, design) -> LevelingSystem:
     gm, pm = leveling_margin_bounds(study)
     if gm is None and pm is None:
         return system.replace(gain_kg_s_per_m=hi)
-    m = study.models
-    model = table_model(design, study.table, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
-                        diaphragm=m["diaphragm"])
+    model = study_table_model(study, design)
     g = max_valve_gain(model, system.replace(gain_kg_s_per_m=hi), gm, pm,
                        lowest_fraction=lo / hi)
     return system.replace(gain_kg_s_per_m=lo if g is None else g)

@@ -33,7 +33,7 @@ from isodesign.table.assembly import Geometry, dynamic_stiffness, geometry, solv
 from isodesign.table.layout import Table
 from isodesign.table.statics import Leveling, level
 
-__all__ = ["TableModel", "TableOutputs", "table_model"]
+__all__ = ["TableModel", "TableOutputs", "study_table_model", "table_model"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -223,3 +223,21 @@ def table_model(design, table, *, flow: str = "quasi_steady",
     return TableModel(table=table, design=design, leveling=lv, designs=lv.designs(design),
                       geometry=geo, flow=flow, amplitude_mode=amplitude_mode,
                       diaphragm=diaphragm, include_gravity=include_gravity)  # fmt: skip
+
+
+def study_table_model(study, design) -> TableModel:
+    """The table model of a study's ``[table]`` for a design, with the study's spring models.
+
+    Parameters
+    ----------
+    study : Study
+        A study with ``[table]`` (its ``models``: flow, amplitude mode, diaphragm).
+    design : SpringDesign
+
+    Returns
+    -------
+    TableModel
+    """
+    m = study.models
+    return table_model(design, study.table, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
+                       diaphragm=m["diaphragm"])
