@@ -2,11 +2,13 @@
 
 from __future__ import annotations
 
+import copy
 import importlib.util
 from pathlib import Path
 
 import pytest
 
+from isodesign.optimization.study import study_from_dict, table_study
 from isodesign.spring.design import SpringDesign
 
 
@@ -29,3 +31,19 @@ def study_script():
         return mod
 
     return load
+
+
+@pytest.fixture(scope="session")
+def small_table_study():
+    """``make(**sections)``: the built-in table study, reduced (one start, one worker, 3 points
+    per band, bands 4-20 Hz), with the given top-level sections of the study replaced."""
+
+    def make(**sections):
+        raw = copy.deepcopy(table_study().raw)
+        raw["solver"].update(starts=1, workers=1)
+        raw["models"]["points_per_band"] = 3
+        raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
+        raw.update(sections)
+        return study_from_dict(raw, source="small_table.toml", fill_defaults=False)
+
+    return make

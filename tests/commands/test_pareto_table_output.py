@@ -17,7 +17,7 @@ import pandas as pd
 import pytest
 
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import default_study, study_from_dict, table_study
+from isodesign.optimization.study import default_study, study_from_dict
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -28,24 +28,16 @@ def cli(*argv):
                           text=True, env=env, timeout=900)
 
 
-def small_table():
-    raw = copy.deepcopy(table_study().raw)
-    raw["solver"].update(starts=1, workers=1)
-    raw["models"]["points_per_band"] = 3
-    raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
-    return study_from_dict(raw, source="small_table.toml", fill_defaults=False)
-
-
 def small_vertical():
     return default_study().with_changes(models={"points_per_band": 3, "peak_points": 30},
                                         solver={"starts": 2, "workers": 1})
 
 
 @pytest.fixture(scope="module")
-def runs(tmp_path_factory):
+def runs(tmp_path_factory, small_table_study):
     d = tmp_path_factory.mktemp("pareto")
     out = {}
-    for kind, st in (("table", small_table()), ("vertical", small_vertical())):
+    for kind, st in (("table", small_table_study()), ("vertical", small_vertical())):
         f = d / f"{kind}.toml"
         f.write_text(study_toml(st))
         p = cli("pareto", str(f), "--points", "3", "--no-plots", "-o", str(d / kind))
@@ -133,9 +125,9 @@ def test_table_front_hypervolume_by_an_independent_raster(runs):
 
 
 @pytest.mark.slow
-def test_an_infeasible_table_front_is_reported_as_a_vertical_one(tmp_path):
+def test_an_infeasible_table_front_is_reported_as_a_vertical_one(tmp_path, small_table_study):
     """No feasible anchor: the vertical front's lines, record.json (infeasible), exit 1."""
-    raw = copy.deepcopy(small_table().raw)
+    raw = copy.deepcopy(small_table_study().raw)
     raw["constraints"]["max_peak_transmissibility_db"] = 0.5  # no isolator does that
     f = tmp_path / "t.toml"
     f.write_text(study_toml(study_from_dict(raw, source="t.toml", fill_defaults=False)))

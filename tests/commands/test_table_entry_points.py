@@ -10,17 +10,14 @@ import pytest
 
 from isodesign.cli import main
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import study_from_dict, table_study
+from isodesign.optimization.study import study_from_dict
 
 
-def test_yield_of_a_table_run_is_the_tables(tmp_path, capsys):
+def test_yield_of_a_table_run_is_the_tables(tmp_path, capsys, small_table_study):
     from isodesign.optimization.yields import estimate_yield
 
-    raw = copy.deepcopy(table_study().raw)
-    raw["solver"].update(starts=1, workers=1)
-    raw["models"]["points_per_band"] = 3
-    raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
-    st = study_from_dict(raw, source="t.toml", fill_defaults=False)
+    st = small_table_study()
+    raw = copy.deepcopy(st.raw)
     f = tmp_path / "t.toml"
     f.write_text(study_toml(st))
     status = main(["optimize", str(f), "--no-plots", "--quiet", "-o", str(tmp_path / "o")])

@@ -17,21 +17,10 @@ import pytest
 import isodesign
 from isodesign.errors import InputError
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import default_study, study_from_dict, table_study
+from isodesign.optimization.study import default_study, study_from_dict
 
 ROOT = Path(__file__).resolve().parents[2]
 DESIGN_KEYS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
-
-
-def small_table(**changes):
-    """The built-in table study, reduced: one start, 3 points per band, bands 4-20 Hz."""
-    raw = copy.deepcopy(table_study().raw)
-    raw["solver"].update(starts=1, workers=1)
-    raw["models"]["points_per_band"] = 3
-    raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
-    for k, v in changes.items():
-        raw[k] = v
-    return study_from_dict(raw, source="small_table.toml", fill_defaults=False)
 
 
 def small_robust():
@@ -53,29 +42,29 @@ def one_point_sweep(study, out, **kw):
                            output=out, scheduler="serial", charts=False, **kw)
 
 
-def test_the_public_optimize_is_the_dispatcher():
+def test_the_public_optimize_is_the_dispatcher(small_table_study):
     from isodesign.optimization import dispatch
 
     assert isodesign.optimize is dispatch.optimize
     assert isodesign.optimization.optimize is dispatch.optimize
     assert dispatch.study_kind(default_study()) == "vertical"
-    assert dispatch.study_kind(small_table()) == "table"
+    assert dispatch.study_kind(small_table_study()) == "table"
     assert dispatch.study_kind(small_robust()) == "robust"
 
 
-def test_the_vertical_optimizer_refuses_a_table_or_robust_study():
+def test_the_vertical_optimizer_refuses_a_table_or_robust_study(small_table_study):
     """The internal vertical solve is never reached with a table or robust study by
     accident: it refuses them by name."""
     from isodesign.optimization.driver import optimize_vertical
 
     with pytest.raises(InputError, match=r"^\[table\]: "):
-        optimize_vertical(small_table())
+        optimize_vertical(small_table_study())
     with pytest.raises(InputError, match=r"^\[scenarios\]: "):
         optimize_vertical(small_robust())
 
 
-def test_a_table_study_has_one_answer_through_cli_api_and_sweep(tmp_path):
-    st = small_table()
+def test_a_table_study_has_one_answer_through_cli_api_and_sweep(tmp_path, small_table_study):
+    st = small_table_study()
     api = isodesign.optimize(st)
     assert type(api).__name__ == "TableOptimizationResult" and api.feasible
     # the CLI, in its own process
@@ -136,21 +125,23 @@ def test_a_robust_sweep_point_is_the_robust_optimum_of_the_cli(tmp_path):
     assert api.objective_value == pytest.approx(rob_cli["worst_case_objective"], abs=1e-6)
 
 
-def table_with_scenarios(scenarios, target="VC-C"):
+def table_with_scenarios(small_table, scenarios, target="VC-C"):
     raw = copy.deepcopy(small_table().raw)
     raw["scenarios"] = scenarios
     raw["target"]["criterion"] = target
     return study_from_dict(raw, source="table_scenarios.toml", fill_defaults=False)
 
 
-def test_table_yield_of_a_failing_design_is_zero_through_api_cli_and_sweep(tmp_path):
+def test_table_yield_of_a_failing_design_is_zero_through_api_cli_and_sweep(tmp_path,
+                                                                          small_table_study):
     """The start design of the built-in table misses VC-C by about 8 dB at every draw: the
     table's yield is 0 %, the same through the API, ``isodesign yield`` and the sweep's
     ``yield`` task (the vertical analysis would judge the 1-DOF payload instead)."""
     from isodesign.io.designfile import design_to_toml
     from isodesign.optimization.yields import estimate_yield
 
-    st = table_with_scenarios({"payload_mass_kg": {"min": 540.0, "max": 660.0},
+    st = table_with_scenarios(small_table_study,
+                              {"payload_mass_kg": {"min": 540.0, "max": 660.0},
                                "cg_offset_x_m": {"absolute": 0.05},
                                "capillary_diameter_m": {"relative": 0.03}})
     start = {v.name: v.start for v in st.variables}
@@ -188,14 +179,15 @@ def test_table_yield_of_a_failing_design_is_zero_through_api_cli_and_sweep(tmp_p
     assert row["worst_band_margin_db"] == pytest.approx(api.worst_margin_db(), abs=1e-6)
 
 
-def test_table_yield_responds_to_a_cg_offset():
+def test_table_yield_responds_to_a_cg_offset(small_table_study):
     """VC-A at the instrument: the start design passes with the CG over the centroid; the
     CG 0.1 m off changes every margin; 0.3 m off leaves isolator 4 unloaded: no draw
     passes (the vertical analysis ignores the CG)."""
     from isodesign.optimization.yields import estimate_yield
 
     def y(offset):
-        st = table_with_scenarios({"payload_mass_kg": {"values": [600.0]},
+        st = table_with_scenarios(small_table_study,
+                                  {"payload_mass_kg": {"values": [600.0]},
                                    "cg_offset_x_m": {"values": [offset]}}, target="VC-A")
         return estimate_yield(st, {v.name: v.start for v in st.variables}, samples=3,
                               workers=1)
@@ -207,8 +199,8 @@ def test_table_yield_responds_to_a_cg_offset():
     assert all("leveling" in v["reason"] for v in far.verdicts)
 
 
-def test_pareto_of_a_table_study_is_the_table_front():
-    st = small_table()
+def test_pareto_of_a_table_study_is_the_table_front(small_table_study):
+    st = small_table_study()
     res = isodesign.pareto_front(st, points=2)
     assert type(res).__name__ == "TableParetoResult"
     # anchor A is the table's optimum (the worst margin over every point and axis)
@@ -241,10 +233,10 @@ def test_pareto_of_a_robust_study_is_refused_with_the_same_line_in_api_and_cli(t
     assert not (tmp_path / "sw").exists()
 
 
-def test_transmissibility_refuses_a_table_study_by_name(tmp_path):
+def test_transmissibility_refuses_a_table_study_by_name(tmp_path, small_table_study):
     from isodesign.optimization.dispatch import refuse
 
-    st = small_table()
+    st = small_table_study()
     with pytest.raises(InputError) as api:
         refuse(st, "isodesign transmissibility", scenarios=False)
     f = tmp_path / "t.toml"
@@ -255,8 +247,8 @@ def test_transmissibility_refuses_a_table_study_by_name(tmp_path):
     assert str(api.value).startswith("[table]: ")
 
 
-def test_a_table_sweep_response_point_is_the_tables_band_response(tmp_path):
-    st = small_table()
+def test_a_table_sweep_response_point_is_the_tables_band_response(tmp_path, small_table_study):
+    st = small_table_study()
     res = isodesign.sweep(st, vary={"payload.mass_kg": [600.0]}, output=tmp_path / "sw",
                           scheduler="serial", charts=False, task="response")
     row = res.table.iloc[0]
@@ -271,8 +263,9 @@ def test_a_table_sweep_response_point_is_the_tables_band_response(tmp_path):
 
 
 @pytest.mark.slow
-def test_a_robust_table_study_has_one_answer_through_api_and_sweep(tmp_path):
-    st = table_with_scenarios({"payload_mass_kg": {"min": 560.0, "max": 640.0},
+def test_a_robust_table_study_has_one_answer_through_api_and_sweep(tmp_path, small_table_study):
+    st = table_with_scenarios(small_table_study,
+                              {"payload_mass_kg": {"min": 560.0, "max": 640.0},
                                "cg_offset_y_m": {"absolute": 0.03}})
     api = isodesign.optimize(st)
     assert type(api).__name__ == "TableRobustResult" and api.feasible

@@ -5,7 +5,6 @@ before any point runs, with the API's line (issue 23)."""
 
 from __future__ import annotations
 
-import copy
 import json
 
 import pytest
@@ -14,19 +13,12 @@ import isodesign
 from isodesign.cli import main
 from isodesign.errors import InputError
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import default_study, study_from_dict, table_study
+from isodesign.optimization.study import default_study
 
 
-def _small_table():
-    raw = copy.deepcopy(table_study().raw)
-    raw["solver"].update(starts=1, workers=1)
-    raw["models"]["points_per_band"] = 3
-    raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
-    return study_from_dict(raw, source="small_table.toml", fill_defaults=False)
-
-
-def test_the_sweep_cli_optimizes_a_table_study_with_the_table_model(tmp_path, capsys):
-    st = _small_table()
+def test_the_sweep_cli_optimizes_a_table_study_with_the_table_model(tmp_path, capsys,
+                                                                    small_table_study):
+    st = small_table_study()
     f = tmp_path / "t.toml"
     f.write_text(study_toml(st))
     out = tmp_path / "sw"
