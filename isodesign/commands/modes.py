@@ -64,19 +64,38 @@ def load_table_job(args):
     return case.study, case.design, label
 
 
-def run(args) -> int:
-    """Run ``isodesign modes``."""
+def table_job_modes(study, design) -> tuple:
+    """A table job's model in the linear regime, its modes, its static stability (gravity
+    term, quasi-static springs) and the self-consistent solution of its lowest mode: what
+    ``isodesign modes`` prints and ``isodesign stability`` starts from.
+
+    Parameters
+    ----------
+    study : Study
+        A study with ``[table]``.
+    design : SpringDesign
+
+    Returns
+    -------
+    tuple
+        ``(TableModel, TableModes, RockingStability, ModeSolutions)``.
+    """
     from isodesign.table.model import study_table_model
     from isodesign.table.modes import mode_solutions, rocking_stability, table_modes
+
+    model = study_table_model(study, design)
+    modes = table_modes(model)
+    return model, modes, rocking_stability(model, modes=modes), mode_solutions(model)
+
+
+def run(args) -> int:
+    """Run ``isodesign modes``."""
     from isodesign.table.plots import layout_figure
     from isodesign.table.summary import leveling_text, modes_text, stability_text
 
     study, design, label = load_table_job(args)
     rundir = run_directory(args, "modes", known_outputs=OUTPUT_FILES)
-    model = study_table_model(study, design)
-    modes = table_modes(model)
-    stab = rocking_stability(model, modes=modes)
-    lowest = mode_solutions(model)
+    model, modes, stab, lowest = table_job_modes(study, design)
     t = study.table
     print(f"modes of the table: {label}; {t.mass_kg:g} kg on {t.n_isolators} isolators, CG "
           f"({', '.join(f'{v:g}' for v in t.cg_m)}) m; springs in the linear regime (1 um), "

@@ -34,26 +34,22 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
 
 def run(args) -> int:
     """Run ``isodesign stability``."""
-    from isodesign.commands.modes import load_table_job
+    from isodesign.commands.modes import load_table_job, table_job_modes
     from isodesign.table.leveling_loop import leveling_loop, limit_cycle, study_valves
-    from isodesign.table.model import study_table_model
-    from isodesign.table.modes import mode_solutions, rocking_stability, table_modes
+    from isodesign.table.modes import rocking_stability
     from isodesign.table.stability_report import limit_cycle_text
     from isodesign.table.summary import stability_text
 
     study, design, label = load_table_job(args)
     system = study_valves(study, design)  # a free valve gain: the optimizer's choice
     rundir = run_directory(args, "stability", known_outputs=OUTPUT_FILES)
-    model = study_table_model(study, design)
-    modes = table_modes(model)
-    stab = rocking_stability(model, modes=modes)
+    model, modes, stab, lowest = table_job_modes(study, design)
     loop = leveling_loop(model, system)
     at_loop = None
     if loop.crossover_hz > 0:  # NaN (no finite crossover) compares False
         at_loop = rocking_stability(model, frequency_hz=loop.crossover_hz, modes=modes,
                                     time_scale="sealed springs at the leveling loop's "
                                     f"crossover {loop.crossover_hz:.3g} Hz")
-    lowest = mode_solutions(model)
     cycle = limit_cycle(loop)
     t = study.table
     print(f"stability of the table: {label}; {t.mass_kg:g} kg on {t.n_isolators} isolators, "
