@@ -345,7 +345,9 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     kmax = max(DISTORTION_ORDERS)
     idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
     imax = int(idx.max())
-    n = 1 << math.ceil(math.log2(2 * kmax * imax + 2))
+    from scipy.fft import next_fast_len
+
+    n = next_fast_len(2 * kmax * imax + 2)
     p = np.asarray(cross_power, dtype=complex)
     h = np.zeros(n, dtype=complex)
     np.add.at(h, idx % n, 0.5 * p)

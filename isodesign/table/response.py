@@ -160,7 +160,8 @@ def _anderson(g, x0: np.ndarray, tol: float, max_iter: int, depth: int = 6):
     return x, n_eval, float(np.max(np.abs(f)))
 
 
-def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: int = 100):
+def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: int = 100,
+                        start=None):
     """Solve the per-isolator statistical closure; ``(sigma, sigma_u, evaluations)``.
 
     Parameters
@@ -171,6 +172,8 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
         Tolerance on ``max |ln(sigma_new / sigma)|`` over the ``2n`` RMS values.
     max_iter : int
         Iterations of the fixed point before the Newton (hybrid Powell) fallback.
+    start : tuple of ndarray, optional
+        ``(sigma, sigma_u)`` to start from (default: the linear regime).
 
     Raises
     ------
@@ -183,6 +186,8 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
     if not np.all(s2 > 0):
         raise InputError("floor: the spectrum carries no motion (PSD zero)")
     x0 = 0.5 * np.log(np.concatenate([s2, np.maximum(su2, 1e-300)]))
+    if start is not None:
+        x0 = np.log(np.concatenate([np.asarray(start[0], float), np.asarray(start[1], float)]))
 
     def g(x):
         e = np.exp(x)
@@ -692,6 +697,6 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
     dist = table_distortion(st, sigma, sigma_u)
     sigma, sigma_u, n2 = solve_table_closure(
         _WithOffset(st, dist.stroke_variance, dist.tube_velocity_variance), rtol=rtol,
-        max_iter=max_iter)  # fmt: skip
+        max_iter=max_iter, start=(sigma, sigma_u))  # fmt: skip
     dist = table_distortion(st, sigma, sigma_u)
     return sigma, sigma_u, dist, n_it + n2
