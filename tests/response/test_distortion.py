@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import numpy as np
@@ -186,3 +187,47 @@ def test_table_distortion_vanishes_without_the_minor_loss():
                                 distortion=True)
     np.testing.assert_allclose(b.velocity_rms_m_s, a.velocity_rms_m_s, rtol=1e-12)
     np.testing.assert_allclose(b.stroke_rms_m, a.stroke_rms_m, rtol=1e-12)
+
+
+def _doc_tables():
+    """The tables docs/random-response.md sections 3a and 3b print (studies/*), as rows."""
+    from pathlib import Path
+
+    page = (Path(__file__).parents[2] / "docs" / "random-response.md").read_text("utf-8")
+    sec = page[page.index("### 3a."):page.index("## 4.")]
+    rows = [[c.strip() for c in ln.strip().strip("|").split("|")]
+            for ln in sec.splitlines() if ln.startswith("| ") and "---" not in ln]
+    return " ".join(sec.split()), rows
+
+
+def test_section_3a_3b_sentences_summarize_their_tables():
+    """The prose of sections 3a and 3b against the tables the studies printed there."""
+    flat, rows = _doc_tables()
+    marg = {r[0]: r[1:] for r in rows if len(r) == 3}
+    sim, gauss = (float(v) for v in marg["residual variance / s^4"])
+    assert 0.4 < sim / gauss < 0.6 and "about half the Gaussian" in flat
+    o5 = [abs(float(r[3])) for r in rows if len(r) == 4 and r[0] != "band (Hz)"]
+    assert max(o5) <= 0.0105 and "at most about 0.01 dB" in flat
+    est = re.search(r"kurtosis estimate: ([0-9.]+) on 4x VC-A \(simulated ([0-9.]+)\)", flat)
+    assert float(est.group(1)) < float(est.group(2)) < 3.0  # right sign, overshoots
+    cases = [r for r in rows if len(r) == 8 and r[0] != "case"]
+    vec = lambda s: np.array([float(v) for v in s.split()])  # noqa: E731
+    vca, vca4 = [], []
+    for plain, dist in zip(cases[0::2], cases[1::2], strict=True):
+        assert plain[1] == "without" and dist[1] == "with distortion"
+        assert np.all(np.abs(vec(dist[5])) < np.abs(vec(plain[5])))  # every stroke closer
+        assert np.all(np.abs(vec(dist[6])) < np.abs(vec(plain[6])))  # every tube closer
+        (vca4 if "4x VC-A" in plain[0] else vca).append((plain, dist))
+    p_vca = np.concatenate([vec(p[5]) for p, _ in vca])
+    d_vca = np.concatenate([vec(d[5]) for _, d in vca])
+    assert np.max(np.abs(d_vca)) <= 1.5 and "on VC-A to within 1.5 %" in flat
+    assert f"alone {-p_vca.max():.1f}-{-p_vca.min():.1f} % low" in flat
+    k_vca = np.concatenate([vec(p[7]) for p, _ in vca])
+    assert f"kurtosis {k_vca.min():.1f}-{k_vca.max():.1f} on VC-A" in flat
+    k4 = vec(vca4[0][0][7])
+    assert f"kurtosis {k4.min():.1f}-{k4.max():.1f} in the simulation" in flat
+    d4 = vec(vca4[0][1][5])
+    assert f"strokes {-d4.max():.1f}-{-d4.min():.1f} % low" in flat
+    cost = [float(v) for v in re.search(r"with / without the distortion: ([0-9., ]+)",
+                                        flat).group(1).strip(" .").split(", ")]
+    assert f"{round(min(cost))} to {round(max(cost))} times the plain one" in flat
