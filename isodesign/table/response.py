@@ -687,6 +687,15 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
     closure's state, the closure solved again with its variances added, the distortion at
     the new state.
 
+    Parameters
+    ----------
+    st : TableStatistical
+        The linearization on its grid.
+    rtol : float
+        Closure tolerance on ``ln sigma``.
+    max_iter : int
+        Closure iterations.
+
     Returns
     -------
     tuple
