@@ -30,6 +30,7 @@ sys.path.insert(0, str(Path(__file__).parent))
 from table_monte_carlo_check import (
     F_FIT,
     LATERAL,
+    _horizontal,
     asymmetric_table,
     three_isolator_table,
 )
@@ -47,6 +48,18 @@ from isodesign.table.floor import table_floor
 from isodesign.table.response import table_band_response
 
 
+def offset_table(lateral_model=None):
+    """The asymmetric 4-isolator table with its CG moved 0.15 m in x off the isolators'
+    centroid (0.6, 0.4125) m."""
+    from isodesign.table import Table
+
+    return Table(mass_kg=600.0, isolators_m=[[0.0, 0.0], [1.2, 0.0], [1.25, 0.85], [-0.05, 0.8]],
+                 cg_m=[0.75, 0.4125, 0.35], inertia_kg_m2=[[45.0, 3.0, 0.0], [3.0, 80.0, 0.0],
+                                                           [0.0, 0.0, 110.0]],
+                 instrument_points_m=[[0.6, 0.4, 0.5], [1.1, 0.75, 0.45]],
+                 point_names=("centre", "corner"), horizontal=_horizontal(lateral_model))
+
+
 def cases():
     """(name, table builder, floor, vertical diaphragm)."""
     vca = FloorSpectrum.from_criterion("VC-A")
@@ -55,6 +68,8 @@ def cases():
     return [
         ("asymmetric 4 isolators, VC-A in z, VC-A/2 in x and y, no diaphragm",
          asymmetric_table, table_floor(x=half, y=half, z=vca), "none"),
+        ("asymmetric 4 isolators, CG 0.15 m off-centre, VC-A in z, VC-A/2 in x and y, "
+         "no diaphragm", offset_table, table_floor(x=half, y=half, z=vca), "none"),
         ("asymmetric 4 isolators, VC-A in x, y, z, no diaphragm", asymmetric_table,
          table_floor(vca), "none"),
         ("3 isolators, VC-A in x, y, z, diaphragm as a Prony series at A*",

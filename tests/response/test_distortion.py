@@ -218,6 +218,10 @@ def test_section_3a_3b_sentences_summarize_their_tables():
         assert np.all(np.abs(vec(dist[5])) < np.abs(vec(plain[5])))  # every stroke closer
         assert np.all(np.abs(vec(dist[6])) < np.abs(vec(plain[6])))  # every tube closer
         (vca4 if "4x VC-A" in plain[0] else vca).append((plain, dist))
+    worst = lambda r: max(abs(float(c.split()[0])) for c in r[2:5])  # noqa: E731
+    off = next((p, d) for p, d in vca if "CG 0.15 m" in p[0])
+    assert worst(off[1]) < worst(off[0]) and "reduces its worst band" in flat
+    assert worst(off[0]) <= worst(vca[0][0]) + 0.005  # no larger gap than the first case
     p_vca = np.concatenate([vec(p[5]) for p, _ in vca])
     d_vca = np.concatenate([vec(d[5]) for _, d in vca])
     assert np.max(np.abs(d_vca)) <= 1.5 and "on VC-A to within 1.5 %" in flat
