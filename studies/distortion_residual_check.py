@@ -156,7 +156,7 @@ def main(argv=None):
     marginal, bands, ratio_db, dist_db, order5_db, pbands = measure(a.seeds, a.duration)
     print("| quantity | simulated | Gaussian |\n|---|---|---|")
     print(f"| kurtosis of u | {marginal['kurtosis']:.2f} | 3 |")
-    print(f"| gain E|x|^3 | {marginal['gain']:.3f} | {marginal['gain_gaussian']:.3f} |")
+    print(f"| gain E abs(x)^3 | {marginal['gain']:.3f} | {marginal['gain_gaussian']:.3f} |")
     print(f"| residual variance / s^4 | {marginal['residual']:.3f} | "
           f"{marginal['residual_gaussian']:.3f} |")
     print(f"\nThe closure's first-order kurtosis estimate: {marginal['kurtosis_estimate']:.2f} "
