@@ -29,7 +29,9 @@ __all__ = [
     "DISTORTION_ORDERS",
     "DistortionPower",
     "abs_square_hermite_coefficient",
+    "cross_convolutions",
     "distortion_power",
+    "source_network",
 ]
 
 #: The Hermite orders of ``|x| x`` carried (3 and 5: 93.6 % and 4.7 % of the residual power
@@ -262,3 +264,102 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
         tube_velocity_variance=float(np.sum(added_u)), tube_power=added_u,
         payload_velocity_power=src * gains[0] * w * w,
     )
+
+
+def source_network(design, omega, c, flow):
+    """The tube's network seen by a pressure-drop source and by the stroke (complex).
+
+    The parts of :func:`source_gains` before the payload is attached: with the stroke ``X``
+    (compression) imposed and a source ``dp`` in the tube, the piston's force is
+    ``k X + A_p dp / D1`` and the tube's inlet velocity ``U1 = (j w A_p X - C_t dp)/(D1 A_c)``.
+
+    Parameters
+    ----------
+    design : SpringDesign
+        The loaded design.
+    omega : ndarray
+        Angular frequency, rad/s.
+    c : complex ndarray
+        The closure's resistance ``C`` at ``omega``.
+    flow : str
+        The flow model.
+
+    Returns
+    -------
+    force_per_dp : complex ndarray
+        ``A_p / D1`` (m^2).
+    u_per_x : complex ndarray
+        ``j w A_p / (D1 A_c)`` (1/s).
+    u_per_dp : complex ndarray
+        ``-C_t / (D1 A_c)`` ((m/s)/Pa).
+    ends : ndarray
+        ``(1 + 1/|den2|^2)/2``: the tube's mean square velocity over its two ends per
+        ``|U1|^2`` (1 for the lumped model).
+    """
+    from isodesign.numerics.cplx import Cx
+    from isodesign.spring.acoustics import acoustic_network
+
+    d = design
+    w = np.asarray(omega, dtype=float)
+    a_p, a_c = d.piston_area_m2, d.capillary_area_m2
+    if d.acoustics == "distributed":
+        net = acoustic_network(d, w, flow)
+        parts = net._numpy()
+        _, den1, den2 = net._solve_numpy(parts, Cx.from_complex(c))
+        c_t = parts[2]
+    else:
+        n, p0 = d.process_index, d.pressure_pa
+        jw = 1j * w
+        z3 = d.density_kg_m3 * c + 1.0 / (jw * d.bottom_volume_m3 / (n * p0))
+        c_t = jw * d.top_volume_m3 / (n * p0)
+        den1 = 1.0 + c_t * z3
+        den2 = np.ones_like(den1)
+    ends = 0.5 * (1.0 + 1.0 / np.abs(den2) ** 2)
+    return a_p / den1, 1j * w * a_p / (den1 * a_c), -c_t / (den1 * a_c), ends
+
+
+def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
+    """:func:`normalized_convolutions` of a normalized complex cross line spectrum.
+
+    For two jointly Gaussian unit processes with cross-correlation ``rho_ij(tau)`` (Mehler:
+    ``E[He_k(x_i) He_m(x_j)] = delta_km k! rho_ij^k``) the residuals' cross-covariance is
+    ``sum_k k! c_k^2 rho_ij(tau)^k``: its one-sided cross-spectrum is the ``k``-fold
+    self-convolution of the two-sided cross-spectrum (``S_ij(-f) = conj S_ij(f)``).
+
+    Parameters
+    ----------
+    freq_hz : ndarray
+        Line frequencies (> 0).
+    cross_power : complex ndarray
+        ``E[u_i u_j*]`` per line, divided by ``s_i s_j`` (one-sided).
+    bin_hz : float
+        Bin width.
+
+    Returns
+    -------
+    f_bins : ndarray
+        One-sided bin centres.
+    p_bins : complex ndarray
+        The residuals' normalized one-sided cross power per bin.
+    """
+    kmax = max(DISTORTION_ORDERS)
+    idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
+    imax = int(idx.max())
+    from scipy.fft import next_fast_len
+
+    n = next_fast_len(2 * kmax * imax + 2)
+    p = np.asarray(cross_power, dtype=complex)
+    h = np.zeros(n, dtype=complex)
+    np.add.at(h, idx % n, 0.5 * p)
+    np.add.at(h, (-idx) % n, 0.5 * np.conj(p))
+    hf = np.fft.fft(h)
+    h2 = hf * hf
+    spec = np.zeros_like(hf)
+    hk = hf
+    for k in range(3, kmax + 1, 2):
+        hk = hk * h2
+        if k in _WEIGHTS:
+            spec += _WEIGHTS[k] * hk
+    conv = np.fft.ifft(spec)
+    top = kmax * imax
+    return bin_hz * np.arange(1, top + 1), 2.0 * conv[1:top + 1]

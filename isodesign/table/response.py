@@ -37,17 +37,30 @@ from isodesign.results import ResultDisplay
 from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
-from isodesign.table.assembly import AXES
+from isodesign.table.assembly import AXES, dynamic_stiffness
 from isodesign.table.floor import TableGrid, table_floor, table_grid
 from isodesign.table.model import TableModel, TableOutputs, table_model
 
-__all__ = ["RIGID_FLOOR_NOTE", "TableBandResponse", "TableStatistical", "solve_table_closure",
-           "table_band_response"]
+__all__ = [
+    "RIGID_FLOOR_NOTE",
+    "TableBandResponse",
+    "TableDistortion",
+    "TableStatistical",
+    "solve_table_closure",
+    "solve_table_closure_with_distortion",
+    "table_band_response",
+    "table_distortion",
+]
 
 #: What every table result says about its floor model.
 RIGID_FLOOR_NOTE = ("rigid floor: the same x, y, z translation under every isolator, axes "
                     "uncorrelated; no floor rotation, no differential floor motion, no "
                     "leveling-valve dynamics")
+
+
+#: What a table result with the distortion power says.
+DISTORTION_NOTE = ("distortion power: each tube's residual of the statistical linearization "
+                   "(Hermite orders 3 and 5, Gaussian tube velocity) added as a source")
 
 
 class TableStatistical:
@@ -147,7 +160,8 @@ def _anderson(g, x0: np.ndarray, tol: float, max_iter: int, depth: int = 6):
     return x, n_eval, float(np.max(np.abs(f)))
 
 
-def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: int = 100):
+def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: int = 100,
+                        start=None):
     """Solve the per-isolator statistical closure; ``(sigma, sigma_u, evaluations)``.
 
     Parameters
@@ -158,6 +172,8 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
         Tolerance on ``max |ln(sigma_new / sigma)|`` over the ``2n`` RMS values.
     max_iter : int
         Iterations of the fixed point before the Newton (hybrid Powell) fallback.
+    start : tuple of ndarray, optional
+        ``(sigma, sigma_u)`` to start from (default: the linear regime).
 
     Raises
     ------
@@ -170,6 +186,8 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
     if not np.all(s2 > 0):
         raise InputError("floor: the spectrum carries no motion (PSD zero)")
     x0 = 0.5 * np.log(np.concatenate([s2, np.maximum(su2, 1e-300)]))
+    if start is not None:
+        x0 = np.log(np.concatenate([np.asarray(start[0], float), np.asarray(start[1], float)]))
 
     def g(x):
         e = np.exp(x)
@@ -389,6 +407,7 @@ def table_band_response(
     include_gravity: bool = True,
     strict: bool = True,
     warn: bool = True,
+    distortion: bool = False,
 ) -> TableBandResponse:
     """One-third-octave band response of a rigid table on n isolators, in three axes.
 
@@ -418,6 +437,11 @@ def table_band_response(
         Raise if the closure fails (else return the linear-regime response, flagged).
     warn : bool
         Emit one ModelValidityWarning with the validity flags and notes.
+    distortion : bool
+        Add the tubes' distortion power, the residual of each isolator's statistical
+        linearization carried through the table as a pressure-drop source in its tube
+        (:func:`table_distortion`, ``docs/random-response.md`` section 3b), to the band
+        response, the strokes and the tube velocities, self-consistently (default off).
 
     Returns
     -------
@@ -436,8 +460,13 @@ def table_band_response(
     grid = table_grid(table_floor(floor), bands, target=tg, points_per_band=points_per_band)
     st = TableStatistical(model, grid)
     flags: list[str] = []
+    dist = None
     try:
-        sigma, sigma_u, n_it = solve_table_closure(st, rtol=rtol, max_iter=max_iter)
+        if distortion:
+            sigma, sigma_u, dist, n_it = solve_table_closure_with_distortion(
+                st, rtol=rtol, max_iter=max_iter)  # fmt: skip
+        else:
+            sigma, sigma_u, n_it = solve_table_closure(st, rtol=rtol, max_iter=max_iter)
     except SolverError as exc:
         if strict:
             raise
@@ -447,8 +476,16 @@ def table_band_response(
         sigma = np.full(n, LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR)
         sigma_u, n_it = np.full(n, 1e-9), max_iter
     s2, su2, out, ks, _ = st.variances(sigma, sigma_u)
-    return _result(model, grid, tg.name, out, ks, st.kh, np.sqrt(s2), np.sqrt(su2), n_it,
-                   flags, warn)  # fmt: skip
+    if dist is None:
+        return _result(model, grid, tg.name, out, ks, st.kh, np.sqrt(s2), np.sqrt(su2), n_it,
+                       flags, warn)  # fmt: skip
+    import dataclasses
+
+    res = _result(model, grid, tg.name, out, ks, st.kh, np.sqrt(s2 + dist.stroke_variance),
+                  np.sqrt(su2 + dist.tube_velocity_variance), n_it, flags, warn)  # fmt: skip
+    return dataclasses.replace(
+        res, velocity_rms_m_s=np.sqrt(res.velocity_rms_m_s**2 + dist.band_mean_square),
+        notes=(*res.notes, DISTORTION_NOTE))  # fmt: skip
 
 
 def _result(model, grid, target_name, out: TableOutputs, ks, kh, sigma, sigma_u, n_it, flags,
@@ -507,3 +544,168 @@ def _spring_flags(model, grid, sigma, sigma_u) -> list[str]:
                               diaphragm=dia.name, design=d)  # fmt: skip
         out.extend(f"isolator {i + 1}: {line}" for line in res.warnings)
     return out
+
+
+@dataclass(frozen=True)
+class TableDistortion:
+    """The tubes' distortion power through the table (``docs/random-response.md``, 3b).
+
+    Attributes
+    ----------
+    frequency_hz : ndarray
+        Bin centres of the residuals' spectra.
+    stroke_variance : ndarray (n,)
+        Added vertical stroke variance per isolator, m^2.
+    tube_velocity_variance : ndarray (n,)
+        Added tube velocity variance per isolator, (m/s)^2.
+    band_mean_square : ndarray (k, 3, n_bands)
+        Added velocity mean square per instrument point, axis and band, (m/s)^2.
+    """
+
+    frequency_hz: np.ndarray
+    stroke_variance: np.ndarray
+    tube_velocity_variance: np.ndarray
+    band_mean_square: np.ndarray
+
+
+def _springs_at(st: TableStatistical, omega, sigma, sigma_u):
+    """Per isolator ``(k, C)`` (Cx) at arbitrary ``omega`` for the closure's RMS values."""
+    model = st.model
+    ks, cs = [], []
+    for i in range(model.n_isolators):
+        d = model.designs[i]
+        c = statistical_resistance_function(model.flow, d, omega)(float(sigma_u[i]))
+        k_air = air_stiffness(d, omega, c, model.flow)
+        ks.append(spring_stiffness(k_air, st.dia.stiffness(omega,
+                                                           equivalent_amplitude(float(sigma[i])))))
+        cs.append(c)
+    return ks, cs
+
+
+def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
+    """The tubes' distortion power carried through the table at the closure's state.
+
+    Each isolator's residual ``e_i = (K rho_i/2) s_i^2 (|x_i| x_i - c_1 x_i)`` is a
+    pressure-drop source in its tube, uncorrelated with the floor; the residuals of two
+    isolators are correlated through their tube velocities (Mehler, cross-spectra from
+    :func:`~isodesign.response.distortion.cross_convolutions`). The sources drive the table
+    (force ``A_p dp_i / D1_i`` along isolator ``i``'s vertical element, floor held), its
+    strokes, its tubes and its instrument points.
+
+    Parameters
+    ----------
+    st : TableStatistical
+    sigma, sigma_u : ndarray (n,)
+        The closure's stroke and tube velocity RMS.
+
+    Returns
+    -------
+    TableDistortion
+    """
+    from isodesign.response.distortion import (
+        DISTORTION_RANGE_FACTOR,
+        cross_convolutions,
+        source_network,
+    )
+
+    model, grid = st.model, st.grid
+    n, w, geo = model.n_isolators, grid.omega, model.geometry
+    ks, cs = st.springs(sigma, sigma_u)
+    out = model.outputs(ks, w, st.kh, strokes_only=True)
+    sw = grid.stroke_weight  # (3, f)
+    # the floor-driven tube velocities, complex, per unit floor displacement (f, n, axis)
+    u = np.empty(out.strokes.shape, dtype=complex)
+    for i in range(n):
+        _, g, _, ends = source_network(model.designs[i], w, cs[i].to_complex(), model.flow)
+        u[:, i, :] = -out.strokes[:, i, :] * (g * np.sqrt(ends))[:, None]
+    cross = np.einsum("af,fia,fja->fij", sw, u, u.conj(), optimize=True)  # (f, n, n)
+    s2 = np.real(np.einsum("fii->i", cross))
+    keep = np.real(np.einsum("fii->f", cross)) > 0
+    f_lines, cross = grid.frequency_hz[keep], cross[keep]
+    s = np.sqrt(s2)
+    coeff = np.array([0.5 * d.minor_loss * d.density_kg_m3 for d in model.designs])
+    amp = coeff * s2  # (K rho/2) s^2 per isolator
+    f_bins = None
+    g_e = None
+    for i in range(n):
+        for j in range(i, n):
+            fb, pij = cross_convolutions(f_lines, cross[:, i, j] / (s[i] * s[j]))
+            if g_e is None:
+                top = fb <= DISTORTION_RANGE_FACTOR * f_lines.max()
+                f_bins = fb[top]
+                g_e = np.zeros((f_bins.size, n, n), dtype=complex)
+            g_e[:, i, j] = amp[i] * amp[j] * pij[: f_bins.size]
+            g_e[:, j, i] = np.conj(g_e[:, i, j])
+    wb = 2.0 * math.pi * f_bins
+    kb, cb = _springs_at(st, wb, sigma, sigma_u)
+    d_flat, _ = dynamic_stiffness(geo, kb, model.horizontal_stiffness(wb), wb)
+    dyn = (np.asarray(d_flat.re) + 1j * np.asarray(d_flat.im)).reshape(-1, 6, 6)
+    net = [source_network(model.designs[i], wb, cb[i].to_complex(), model.flow) for i in range(n)]
+    force = np.stack([net[i][0] for i in range(n)], axis=-1)  # (f, n)
+    rhs = geo.gz.T[None, :, :] * force[:, None, :]  # (f, 6, n): the sources' generalized forces
+    q = np.linalg.solve(dyn, rhs)  # (f, 6, n_src)
+    x = -np.einsum("ik,fks->fis", geo.gz, q)  # compression of isolator i per source s
+    ut = np.stack([net[i][1] for i in range(n)], axis=-1)[:, :, None] * x
+    ut[:, np.arange(n), np.arange(n)] += np.stack([net[i][2] for i in range(n)], axis=-1)
+    ends = np.stack([net[i][3] for i in range(n)], axis=-1)
+
+    def power(h):  # diag(H G_e H^H) per frequency: (f, r)
+        return np.real(np.einsum("fri,fij,frj->fr", h, g_e, h.conj(), optimize=True))
+
+    ds2 = power(x).sum(axis=0)
+    dsu2 = (power(ut) * ends).sum(axis=0)
+    pts = np.einsum("pbk,fks->fpbs", geo.points, q) * (1j * wb)[:, None, None, None]
+    k_pts, _, _ = geo.points.shape
+    pv = power(pts.reshape(wb.size, 3 * k_pts, n)).reshape(wb.size, k_pts, 3)
+    lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
+    band = np.zeros((k_pts, 3, len(lo)))
+    for b, (fl, fh) in enumerate(zip(lo, hi, strict=True)):
+        sel = (f_bins >= fl) & (f_bins < fh)
+        band[:, :, b] = pv[sel].sum(axis=0)
+    return TableDistortion(frequency_hz=f_bins, stroke_variance=ds2,
+                           tube_velocity_variance=dsu2, band_mean_square=band)
+
+
+class _WithOffset:
+    """A :class:`TableStatistical` whose variances carry the distortion's (the closure solved
+    again with it)."""
+
+    def __init__(self, st: TableStatistical, ds2, dsu2):
+        self.st, self.model, self.grid = st, st.model, st.grid
+        self.ds2, self.dsu2 = np.asarray(ds2), np.asarray(dsu2)
+
+    def variances(self, sigma, sigma_u, *, strokes_only: bool = False):
+        s2, su2, out, ks, cs = self.st.variances(sigma, sigma_u, strokes_only=strokes_only)
+        return s2 + self.ds2, su2 + self.dsu2, out, ks, cs
+
+
+def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1e-10,
+                                        max_iter: int = 100):
+    """The per-isolator closure with the tubes' distortion power, self-consistently.
+
+    As the vertical payload's (``docs/random-response.md`` 3a): the distortion at the plain
+    closure's state, the closure solved again with its variances added, the distortion at
+    the new state.
+
+    Parameters
+    ----------
+    st : TableStatistical
+        The linearization on its grid.
+    rtol : float
+        Closure tolerance on ``ln sigma``.
+    max_iter : int
+        Closure iterations.
+
+    Returns
+    -------
+    tuple
+        ``(sigma, sigma_u, TableDistortion, evaluations)``: the RMS values include the
+        distortion's.
+    """
+    sigma, sigma_u, n_it = solve_table_closure(st, rtol=rtol, max_iter=max_iter)
+    dist = table_distortion(st, sigma, sigma_u)
+    sigma, sigma_u, n2 = solve_table_closure(
+        _WithOffset(st, dist.stroke_variance, dist.tube_velocity_variance), rtol=rtol,
+        max_iter=max_iter, start=(sigma, sigma_u))  # fmt: skip
+    dist = table_distortion(st, sigma, sigma_u)
+    return sigma, sigma_u, dist, n_it + n2

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import re
 import warnings
 
 import numpy as np
@@ -118,3 +119,119 @@ def test_distortion_against_monte_carlo_four_times_vc_a():
     assert eb < ea - 0.005 and ub < ua - 0.01
     assert eb < 0.03 and ub < 0.025
     assert np.max(np.abs(mc.error_db(b))) < 0.4
+
+
+def test_cross_convolutions_of_an_auto_spectrum_are_the_normalized_ones():
+    from isodesign.response.distortion import cross_convolutions
+
+    f = np.array([1.0, 2.5, 4.0])
+    p = np.array([0.2, 0.5, 0.3])
+    fa, pa = normalized_convolutions(f, p)
+    fc, pc = cross_convolutions(f, p.astype(complex))
+    np.testing.assert_allclose(fc, fa)
+    np.testing.assert_allclose(pc.real, pa, atol=1e-15)
+    np.testing.assert_allclose(pc.imag, 0.0, atol=1e-15)
+    # a pure delay between two unit processes: rho_ij(tau) = cos(w0 (tau - t0)), so the
+    # residuals' cross-spectrum is the auto one with the phase of k t0 at k f0
+    fd, pd = cross_convolutions(np.array([2.0]), np.array([np.exp(-1j * 0.3)]))
+    _, pa1 = normalized_convolutions(np.array([2.0]), np.array([1.0]))
+    i6 = np.argmin(np.abs(fd - 6.0))
+    w3 = 6 * abs_square_hermite_coefficient(3) ** 2
+    w5 = 120 * abs_square_hermite_coefficient(5) ** 2
+    expect6 = 0.25 * w3 * np.exp(-3j * 0.3) + 5 / 16 * w5 * np.exp(-3j * 0.3)
+    assert pd[i6] == pytest.approx(expect6, rel=1e-12)
+    np.testing.assert_allclose(np.abs(pd), pa1, rtol=1e-12, atol=1e-15)
+
+
+def _symmetric_table():
+    from isodesign.table import Table
+
+    return Table.symmetric(600.0, 1.2, 0.8, 0.35, size_m=(1.5, 1.0, 0.7),
+                           instrument_points_m=[[0.0, 0.0, 0.7]])  # fmt: skip
+
+
+def test_table_distortion_reduces_to_the_payload():
+    """A symmetric table on a vertical floor heaves like the 1-DOF payload (m/4 per
+    isolator): its four tube velocities are coherent, so are their residuals, and the
+    table's distortion (cross-spectra, the 6x6 solve) equals the payload's
+    (``source_gains``) in the strokes, the tube velocities and every band."""
+    from isodesign.table.floor import table_floor
+    from isodesign.table.response import table_band_response
+
+    fl = table_floor(x=False, y=False, z="VC-A")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        t0 = table_band_response(REF, _symmetric_table(), fl, "VC-E", diaphragm="none")
+        t1 = table_band_response(REF, _symmetric_table(), fl, "VC-E", diaphragm="none",
+                                 distortion=True)
+        v1 = band_response(REF, Payload(600.0, 4), "VC-A", "VC-E", flow="quasi_steady",
+                           diaphragm="none", distortion=True)
+    assert np.all(t1.stroke_rms_m > t0.stroke_rms_m)
+    np.testing.assert_allclose(t1.stroke_rms_m, v1.stroke_rms_m, rtol=1e-6)
+    np.testing.assert_allclose(t1.tube_velocity_rms_m_s, v1.tube_velocity_rms_m_s, rtol=1e-6)
+    np.testing.assert_allclose(t1.velocity_rms_m_s[0, 2], v1.payload_velocity_rms_m_s,
+                               rtol=1e-5)
+    assert any("distortion" in n for n in t1.notes)
+
+
+def test_table_distortion_vanishes_without_the_minor_loss():
+    from isodesign.table.floor import table_floor
+    from isodesign.table.response import table_band_response
+
+    d0 = REF.replace(minor_loss=0.0)
+    fl = table_floor(x="VC-A", y="VC-A", z="VC-A")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        a = table_band_response(d0, _symmetric_table(), fl, "VC-E", diaphragm="none")
+        b = table_band_response(d0, _symmetric_table(), fl, "VC-E", diaphragm="none",
+                                distortion=True)
+    np.testing.assert_allclose(b.velocity_rms_m_s, a.velocity_rms_m_s, rtol=1e-12)
+    np.testing.assert_allclose(b.stroke_rms_m, a.stroke_rms_m, rtol=1e-12)
+
+
+def _doc_tables():
+    """The tables docs/random-response.md sections 3a and 3b print (studies/*), as rows."""
+    from pathlib import Path
+
+    page = (Path(__file__).parents[2] / "docs" / "random-response.md").read_text("utf-8")
+    sec = page[page.index("### 3a."):page.index("## 4.")]
+    rows = [[c.strip() for c in ln.strip().strip("|").split("|")]
+            for ln in sec.splitlines() if ln.startswith("| ") and "---" not in ln]
+    return " ".join(sec.split()), rows
+
+
+def test_section_3a_3b_sentences_summarize_their_tables():
+    """The prose of sections 3a and 3b against the tables the studies printed there."""
+    flat, rows = _doc_tables()
+    marg = {r[0]: r[1:] for r in rows if len(r) == 3}
+    sim, gauss = (float(v) for v in marg["residual variance / s^4"])
+    assert 0.4 < sim / gauss < 0.6 and "about half the Gaussian" in flat
+    o5 = [abs(float(r[3])) for r in rows if len(r) == 4 and r[0] != "band (Hz)"]
+    assert max(o5) <= 0.0105 and "at most about 0.01 dB" in flat
+    est = re.search(r"kurtosis estimate: ([0-9.]+) on 4x VC-A \(simulated ([0-9.]+)\)", flat)
+    assert float(est.group(1)) < float(est.group(2)) < 3.0  # right sign, overshoots
+    cases = [r for r in rows if len(r) == 8 and r[0] != "case"]
+    vec = lambda s: np.array([float(v) for v in s.split()])  # noqa: E731
+    vca, vca4 = [], []
+    for plain, dist in zip(cases[0::2], cases[1::2], strict=True):
+        assert plain[1] == "without" and dist[1] == "with distortion"
+        assert np.all(np.abs(vec(dist[5])) < np.abs(vec(plain[5])))  # every stroke closer
+        assert np.all(np.abs(vec(dist[6])) < np.abs(vec(plain[6])))  # every tube closer
+        (vca4 if "4x VC-A" in plain[0] else vca).append((plain, dist))
+    worst = lambda r: max(abs(float(c.split()[0])) for c in r[2:5])  # noqa: E731
+    off = next((p, d) for p, d in vca if "CG 0.15 m" in p[0])
+    assert worst(off[1]) < worst(off[0]) and "reduces its worst band" in flat
+    assert worst(off[0]) <= worst(vca[0][0]) + 0.005  # no larger gap than the first case
+    p_vca = np.concatenate([vec(p[5]) for p, _ in vca])
+    d_vca = np.concatenate([vec(d[5]) for _, d in vca])
+    assert np.max(np.abs(d_vca)) <= 1.5 and "on VC-A to within 1.5 %" in flat
+    assert f"alone {-p_vca.max():.1f}-{-p_vca.min():.1f} % low" in flat
+    k_vca = np.concatenate([vec(p[7]) for p, _ in vca])
+    assert f"kurtosis {k_vca.min():.1f}-{k_vca.max():.1f} on VC-A" in flat
+    k4 = vec(vca4[0][0][7])
+    assert f"kurtosis {k4.min():.1f}-{k4.max():.1f} in the simulation" in flat
+    d4 = vec(vca4[0][1][5])
+    assert f"strokes {-d4.max():.1f}-{-d4.min():.1f} % low" in flat
+    cost = [float(v) for v in re.search(r"with / without the distortion: ([0-9., ]+)",
+                                        flat).group(1).strip(" .").split(", ")]
+    assert f"{round(min(cost))} to {round(max(cost))} times the plain one" in flat
