@@ -56,7 +56,12 @@ from isodesign.floor.survey import SURVEY_STATISTICS, floor_from_record
 from isodesign.io.files import read_toml
 from isodesign.io.plausible import unit_slips, warn_unit_slips
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
+from isodesign.optimization.variables import (
+    DESIGN_VARIABLES,
+    TABLE_LEVERS,
+    VariableSpec,
+    parse_levers,
+)
 from isodesign.response.isolator import Payload
 from isodesign.results import ResultDisplay
 from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign, piston_area_from_diaphragm
@@ -137,7 +142,7 @@ _KEYS = {
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points", "acoustics"},
-    "variables": set(DESIGN_VARIABLES),
+    "variables": set(DESIGN_VARIABLES) | set(TABLE_LEVERS),
     "variable": {"start", "lower", "upper", "fixed"},
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
                     "min_natural_frequency_hz", "max_natural_frequency_hz",
@@ -180,12 +185,14 @@ class Study(ResultDisplay):
     floor_axes: Any = None
     #: The ``[scenarios]`` table (:class:`~.uncertainty.UncertaintySpace`), None: nominal only.
     scenarios: Any = None
+    #: A table study's levers (:data:`~.variables.TABLE_LEVERS`, fixed unless freed).
+    levers: tuple[VariableSpec, ...] = ()
 
     def _summary_items(self) -> list[tuple[str, str]]:
         """Name, job, models, variables, constraints, objective (for repr and notebooks)."""
         p = self.payload
         tg = self.raw.get("target", {})
-        free = [v.name for v in self.variables if not v.fixed]
+        free = [v.name for v in (*self.variables, *self.levers) if not v.fixed]
         on = [f"{k} = {self.constraints[k]:g}" for k in _DEFAULT["constraints"]
               if k != "model_validity" and self.constraints.get(k) is not None]
         src = "built-in" if self.source == "<default>" else self.source
@@ -217,6 +224,29 @@ class Study(ResultDisplay):
             if v.name == name:
                 return v
         raise KeyError(name)
+
+    def table_at(self, values: dict | None = None):
+        """The table with its levers at ``values`` (fixed or missing ones at their start).
+
+        Parameters
+        ----------
+        values : dict, optional
+            Lever values by name (:data:`~.variables.TABLE_LEVERS`), SI.
+
+        Returns
+        -------
+        Table or None
+            ``self.table`` itself when every lever keeps the table's value.
+        """
+        if self.table is None or not self.levers:
+            return self.table
+        h = self.table.horizontal
+        vals = {v.name: (v.start if v.fixed else (values or {}).get(v.name, v.start))
+                for v in self.levers}
+        change = {k: float(v) for k, v in vals.items() if getattr(h, k) != v}
+        if not change:
+            return self.table
+        return dataclasses.replace(self.table, horizontal=dataclasses.replace(h, **change))
 
     def start_design(self):
         """The spring at the variables' start values, p0 from the payload."""
@@ -434,7 +464,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source, table=table,
-               floor_axes=floor_axes)
+               floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where))
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
         warn_unit_slips(d, where)

@@ -207,7 +207,7 @@ class TableOptimizationResult(ResultDisplay):
         """
         import pandas as pd
 
-        start = {v.name: v.start for v in self.study.variables}
+        start = {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
         rows = [{"quantity": k, "start": start[k], "optimum": v, "unit": "", "note": ""}
                 for k, v in self.values.items()]
         for c in self.constraints:
@@ -219,7 +219,7 @@ class TableOptimizationResult(ResultDisplay):
     def _display_frame(self):
         import pandas as pd
 
-        start = {v.name: v.start for v in self.study.variables}
+        start = {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
         return pd.DataFrame({"variable": list(self.values),
                              "start": [start[k] for k in self.values],
                              "optimum": list(self.values.values())})  # fmt: skip
@@ -319,7 +319,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     d = study.design_at(best.values)
     sig_rel = margin_db = math.nan
     if best.feasible:
-        sigma, sigma_u = prob.closure(d)
+        sigma, sigma_u = prob.closure(d, best.values)
         sig_rel = float(max(np.max(np.abs(sigma / prob.sigma(best.x) - 1)),
                             np.max(np.abs(sigma_u / prob.tube_rms(best.x) - 1))))
         x = best.x.copy()
@@ -339,17 +339,17 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     analysis = start_analysis = stab = None
     nlp_modes = modes
     if analyze:
-        analysis, modes, stab = _analyze(study, d)
-        start_analysis, modes0, _ = _analyze(study, d0)
+        analysis, modes, stab = _analyze(study, d, best.values)
+        start_analysis, modes0, _ = _analyze(study, d0, starts[0])
         if best.feasible:  # the continuous peak at the analysis' closure too: the larger
             pk = measure_peaks(prob, d, analysis.stroke_rms_m, analysis.tube_velocity_rms_m_s,
-                               modes)
+                               modes, values=best.values)
             if peak["peaks"] is None or pk.max_db > peak["peaks"].max_db:
                 peak["peaks"] = pk
     else:
         from isodesign.table.modes import rocking_stability
 
-        stab = rocking_stability(_model(study, d))
+        stab = rocking_stability(_model(study, d, best.values))
     violations = _violations(study, prob, best, nlp_modes, peak)
     reports = table_constraint_reports(prob, best.g, modes=nlp_modes, stability=stab,
                                        peaks=peak["peaks"])
@@ -403,7 +403,7 @@ def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
         seen.append(sol.objective)
         try:
             prob.set_modes(_modes_at(prob, study.design_at(sol.values), prob.sigma(sol.x),
-                                     prob.tube_rms(sol.x)))
+                                     prob.tube_rms(sol.x), values=sol.values))
         except InputError:
             continue
         slots = list(peak["added_frequencies_hz"])
@@ -440,7 +440,7 @@ def _mode_misses(study, modes) -> list[tuple[str, float]]:
     return out
 
 
-def measure_peaks(prob, d, sigma, sigma_u, modes):
+def measure_peaks(prob, d, sigma, sigma_u, modes, values=None):
     """The continuous peak of |T| of design ``d`` at a closure state (a :class:`TablePeaks`).
 
     Parameters
@@ -452,9 +452,11 @@ def measure_peaks(prob, d, sigma, sigma_u, modes):
         The closure's RMS values.
     modes : TableModes
         The design's modes (the fine grid starts at a fraction of the lowest).
+    values : dict, optional
+        The design's lever values (a co-designed table; default their starts).
     """
     lo, hi = peak_search_band(modes, prob._peak_cut_hz())
-    return continuous_peaks(_model(prob.study, d), sigma, sigma_u, lo, hi)
+    return continuous_peaks(_model(prob.study, d, values), sigma, sigma_u, lo, hi)
 
 
 def add_peak_frequencies(prob, over, used) -> tuple:
@@ -513,7 +515,8 @@ def _refine(prob, study, best, slots=None):
         if not best.feasible:
             break
         sigma, sigma_u = prob.sigma(best.x), prob.tube_rms(best.x)
-        modes = _modes_at(prob, study.design_at(best.values), sigma, sigma_u)
+        modes = _modes_at(prob, study.design_at(best.values), sigma, sigma_u,
+                          values=best.values)
         if rounds < _MODE_ROUNDS and _mode_misses(study, modes) and _modes_moved(prob, modes):
             prob.set_modes(modes)  # the frozen modes moved: solve again with the exact ones
             sol = prob.solve(best.x)
@@ -523,7 +526,8 @@ def _refine(prob, study, best, slots=None):
                 break
             best = sol
             continue
-        pk = measure_peaks(prob, study.design_at(best.values), sigma, sigma_u, modes)
+        pk = measure_peaks(prob, study.design_at(best.values), sigma, sigma_u, modes,
+                           values=best.values)
         peak["peaks"] = pk
         if limit is None:
             break
@@ -552,20 +556,20 @@ def _natural(prob, x, j: float) -> float:
     return math.exp(j)
 
 
-def _model(study, d):
+def _model(study, d, values=None):
     from isodesign.table.model import table_model
 
     m = study.models
-    return table_model(d, study.table, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
-                       diaphragm=m["diaphragm"])
+    return table_model(d, study.table_at(values), flow=m["flow"],
+                       amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
 
 
-def _modes_at(prob, d, sigma=None, sigma_u=None):
+def _modes_at(prob, d, sigma=None, sigma_u=None, values=None):
     from isodesign.table.modes import table_modes
 
     if sigma is None:
-        sigma, sigma_u = prob.closure(d)
-    model = _model(prob.study, d)
+        sigma, sigma_u = prob.closure(d, values)
+    model = _model(prob.study, d, values)
     return table_modes(model, vertical=closure_springs(model, sigma, sigma_u))
 
 
@@ -590,7 +594,7 @@ def _modes_moved(prob, modes) -> bool:
     return False
 
 
-def _analyze(study, d):
+def _analyze(study, d, values=None):
     """Fine-grid band response, modes at its closure and rocking stability of a design."""
     import warnings
 
@@ -600,7 +604,7 @@ def _analyze(study, d):
     m = study.models
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = table_band_response(d, study.table, study.floor_axes, study.target,
+        res = table_band_response(d, study.table_at(values), study.floor_axes, study.target,
                                   bands=study.bands, flow=m["flow"],
                                   amplitude_mode=m["amplitude_mode"],
                                   diaphragm=m["diaphragm"], warn=False)  # fmt: skip
