@@ -88,12 +88,14 @@ def lever_lines(result) -> list[str]:
     from isodesign.optimization.variables import TABLE_LEVER_UNITS
 
     out = []
+    notes = result.lever_notes()
     for v in result.study.levers:
         if v.fixed:
             continue
         unit = TABLE_LEVER_UNITS[v.name]
-        label = f"{v.name.removesuffix('_m').removesuffix('_n_per_m')} ({unit})"
-        out.append(f"  {label:<24}{v.start:>10.4g}{result.values[v.name]:>10.4g}")
+        label = f"{v.name.removesuffix('_n_per_m').removesuffix('_m')} ({unit})"
+        out.append(f"  {label:<24}{v.start:>10.4g}{result.values[v.name]:>10.4g}"
+                   + (f"  {notes[v.name]}" if v.name in notes else ""))
     return out
 
 
@@ -222,8 +224,11 @@ def execute_table(study, run, args, result=None) -> int:
             continue
         val, tol = res.values[v.name], 1e-6 * (v.upper - v.lower)
         at = "lower" if val - v.lower < tol else "upper" if v.upper - val < tol else None
+        sens = next((x for x in res.lever_sensitivity if x["name"] == v.name), None)
         variables[v.name] = {"value": val, "lower": v.lower, "upper": v.upper,
-                             "fixed": False, "at_bound": at}
+                             "fixed": False, "at_bound": at,
+                             "margin_db_per_unit_of_bound": None if sens is None
+                             else sens["db_per_unit"]}
     def derived(analysis, modes, values):
         # the vertical mode: the one with the most kinetic energy in z (an off-centre CG
         # couples it, so its name need not be "z")

@@ -144,6 +144,10 @@ class TableOptimizationResult(ResultDisplay):
     nlp_violations: tuple = ()
     violations: tuple = ()
     peak: Any = None
+    #: Per free lever of a co-designed table: its value, bounds, active bound and the
+    #: worst margin's exact sensitivity to that bound, dB per SI unit
+    #: (:meth:`~isodesign.table.problem.TableProblem.lever_sensitivities`).
+    lever_sensitivity: tuple = ()
 
     @property
     def success(self) -> bool:
@@ -208,13 +212,30 @@ class TableOptimizationResult(ResultDisplay):
         import pandas as pd
 
         start = {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
-        rows = [{"quantity": k, "start": start[k], "optimum": v, "unit": "", "note": ""}
-                for k, v in self.values.items()]
+        notes = self.lever_notes()
+        rows = [{"quantity": k, "start": start[k], "optimum": v, "unit": "",
+                 "note": notes.get(k, "")} for k, v in self.values.items()]
         for c in self.constraints:
             rows.append({"quantity": f"constraint: {c.name}", "start": None, "optimum": c.value,
                          "unit": c.unit, "note": ("BINDING " if c.active else "")
                          + f"margin {c.margin_natural:.3g} {c.unit}"})
         return pd.DataFrame(rows)
+
+    def lever_notes(self) -> dict:
+        """Per free lever, one phrase: its active bound and the worst margin's exact
+        sensitivity to it (``at upper bound 0.6 m: +9.1 dB per m``), or ``inside its
+        bounds``."""
+        from isodesign.optimization.variables import TABLE_LEVER_UNITS
+
+        out = {}
+        for s in self.lever_sensitivity:
+            unit = TABLE_LEVER_UNITS[s["name"]]
+            if s["at_bound"] is None:
+                out[s["name"]] = "inside its bounds (sensitivity 0)"
+            else:
+                out[s["name"]] = (f"at {s['at_bound']} bound {s[s['at_bound']]:g} {unit}: "
+                                  f"{s['db_per_unit']:+.3g} dB per {unit} of the bound")
+        return out
 
     def _display_frame(self):
         import pandas as pd
@@ -253,6 +274,9 @@ class TableOptimizationResult(ResultDisplay):
                  ("starts at best", f"{self.n_reached_best} of {len(self.starts)}"),
                  ("Hessian", self.hessian),
                  ("wall", f"{self.wall_s:.3g} s")]
+        if self.lever_sensitivity:
+            items.append(("levers", "; ".join(f"{k} {self.values[k]:.4g} ({v})" for k, v in
+                                              self.lever_notes().items())))
         if self.violations:
             items.insert(2, ("violations", ", ".join(f"{n} {v:.3g}"
                                                      for n, v in self.violations)))
@@ -353,6 +377,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     violations = _violations(study, prob, best, nlp_modes, peak)
     reports = table_constraint_reports(prob, best.g, modes=nlp_modes, stability=stab,
                                        peaks=peak["peaks"])
+    lever_sens = prob.lever_sensitivities(best.x) if best.feasible else ()
     return TableOptimizationResult(
         study=study, feasible=bool(best.feasible), status=best.status, values=best.values,
         design=d, objective=prob.objective,
@@ -362,6 +387,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         analysis=analysis, start_analysis=start_analysis, modes=modes, start_modes=modes0,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
+        lever_sensitivity=lever_sens,
     )
 
 

@@ -690,6 +690,48 @@ class TableProblem:
                         iterations=int(stats.get("iter_count", -1)),
                         wall_s=time.perf_counter() - t0)  # fmt: skip
 
+    def lever_sensitivities(self, x: np.ndarray) -> tuple:
+        """The re-optimized sensitivity of the worst margin to each free lever's bounds.
+
+        IPOPT solves again from the optimum ``x`` (default parameters: the worst margin
+        alone) and its bound multipliers ``lam_x`` give, by the envelope theorem, the
+        derivative of the optimal objective ``J = -t`` with respect to each bound of the
+        scaled lever ``z = (v - c) / h``: ``dJ*/dbound = -lam_x``, so the worst margin
+        moves by ``lam_x / h`` dB per unit of the lever's active bound (zero for a lever
+        inside its bounds; docs/table.md, "Co-design levers").
+
+        Parameters
+        ----------
+        x : ndarray
+            The optimum.
+
+        Returns
+        -------
+        tuple of dict
+            Per free lever: ``name``, ``value``, ``lower``, ``upper``, ``at_bound``
+            (``"lower"``, ``"upper"`` or None), ``db_per_unit`` (dB of worst margin per
+            unit of the active bound, SI), ``status`` of the solve.
+        """
+        if not self.n_levers or "worst_band_margin" != self.objective:
+            return ()
+        res = self.solver(x0=x, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg,
+                          p=self.params())
+        status = self.solver.stats().get("return_status", "unknown")
+        lam = np.asarray(res["lam_x"]).ravel()
+        xs = np.asarray(res["x"]).ravel()
+        nzs = len(self.scaling.names)
+        ls = self.lever_scaling
+        vals = ls.to_values(np.clip(xs[nzs: self.nz], -1.0, 1.0))
+        out = []
+        for i, name in enumerate(ls.names):
+            zi = xs[nzs + i]
+            at = "upper" if zi > 1 - 1e-6 else "lower" if zi < -1 + 1e-6 else None
+            spec = next(v for v in self.study.levers if v.name == name)
+            out.append({"name": name, "value": vals[name], "lower": spec.lower,
+                        "upper": spec.upper, "at_bound": at,
+                        "db_per_unit": float(lam[nzs + i] / ls.half[i]), "status": status})
+        return tuple(out)
+
     def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
         """Worst violation of each constraint group (equalities as ``implicit_equations``).
 
