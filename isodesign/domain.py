@@ -63,6 +63,7 @@ CONSTRAINT_DOMAIN = {
     "max_pressure_pa": (101325.0, 1e12, "Pa"),
     "min_rocking_frequency_hz": (1e-6, 1e6, "Hz"),
     "max_rocking_frequency_hz": (1e-6, 1e6, "Hz"),
+    "max_stroke_m": (1e-9, 10.0, "m"),
 }
 #: Fields of a gas: (lowest, highest, unit).
 GAS_DOMAIN = {

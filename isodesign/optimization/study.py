@@ -148,7 +148,7 @@ _KEYS = {
                     "min_natural_frequency_hz", "max_natural_frequency_hz",
                     "max_peak_transmissibility_db", "min_damping_ratio", "max_mach",
                     "max_pressure_pa", "model_validity", "min_rocking_frequency_hz",
-                    "max_rocking_frequency_hz"},
+                    "max_rocking_frequency_hz", "max_stroke_m", "stroke_peak_factor"},
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
@@ -442,7 +442,8 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
     table = _table(raw, payload, hw, where)
-    for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz"):
+    for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz", "max_stroke_m",
+              "stroke_peak_factor"):
         if table is None and raw.get("constraints", {}).get(k) not in (None, False):
             raise InputError(f"{where}: constraints.{k} applies only to a study with a [table] "
                              "(docs/table.md)")
@@ -878,7 +879,7 @@ def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
 def _constraints(c: dict, where: str, variables, payload) -> dict:
     """``[constraints]``: each numeric one a positive number or false (off)."""
     cons: dict[str, Any] = {}
-    for k in _KEYS["constraints"] - {"model_validity"}:
+    for k in _KEYS["constraints"] - {"model_validity", "stroke_peak_factor"}:
         v = c.get(k, False)
         if v is False or v is None:
             cons[k] = None
@@ -900,6 +901,9 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
     if dmin and not dvar.fixed and dvar.upper <= dmin:
         raise InputError(f"{where}: variables.capillary_diameter_m.upper ({dvar.upper:g} m) "
                          f"must exceed constraints.min_capillary_diameter_m ({dmin:g} m)")
+    # a table's stroke: peak factor x RMS vertical stroke <= max_stroke_m (docs/table.md)
+    cons["stroke_peak_factor"] = _num(where, "constraints.stroke_peak_factor",
+                                      c.get("stroke_peak_factor", 3.0), 1.0, 100.0)
     cons["model_validity"] = _bool(where, "constraints.model_validity",
                                    c.get("model_validity", True))
     if cons["min_tilt_margin"] and (payload.spacing_m is None or payload.cg_height_m is None):

@@ -432,6 +432,10 @@ class TableProblem:
             ln_f = 0.5 * ca.log(ktot / table.mass_kg / (2.0 * math.pi) ** 2)
             cons.append(("natural_frequency_hz", ln_f, math.log(lo) if lo else -np.inf,
                          math.log(hi) if hi else np.inf))
+        smax = c.get("max_stroke_m")
+        if smax:  # peak factor x RMS vertical stroke of every isolator: ln, linear in s
+            cons.append(("max_stroke_m", s + math.log(c.get("stroke_peak_factor") or 3.0),
+                         -np.inf, math.log(smax)))
         mu = c.get("min_tilt_margin")
         if mu and table.cg_height_m > 0:  # the analysis's verdict: z condensed, quasi-static
             from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
