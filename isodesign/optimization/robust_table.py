@@ -220,6 +220,9 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     """
     if study.table is None or study.scenarios is None:
         raise InputError("robust_optimize_table: the study needs a [table] and [scenarios]")
+    from isodesign.optimization.variables import refuse_free_levers
+
+    refuse_free_levers(study, "robust design")
     t_all = time.perf_counter()
     space = study.scenarios
     settings = space.settings

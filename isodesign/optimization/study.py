@@ -24,11 +24,16 @@ Tables and keys
                    peak_points; ``diaphragm`` a name (``fit:PATH.toml`` too) or a
                    ``[models.diaphragm]`` table (model + viscoelastic parameters)
 ``[variables.<name>]`` for volume_ratio, top_volume_m3, capillary_length_m,
-                   capillary_diameter_m: start, lower, upper, fixed
+                   capillary_diameter_m: start, lower, upper, fixed; a table study's
+                   levers pendulum_length_m, elastic_centre_height_m,
+                   lateral_stiffness_n_per_m, lateral_loss_factor (fixed by default;
+                   docs/table.md, section 13)
 ``[constraints]``  max_total_volume_m3, min_capillary_diameter_m, min_tilt_margin,
                    min_natural_frequency_hz, max_natural_frequency_hz,
                    max_peak_transmissibility_db, min_damping_ratio, max_mach,
-                   model_validity (each numeric one may be ``false`` to switch it off)
+                   model_validity (each numeric one may be ``false`` to switch it off);
+                   table studies also min/max_rocking_frequency_hz, max_stroke_m and
+                   stroke_peak_factor
 ``[objective]``    kind, frequency_hz (for ``transmissibility_at``), band_min_hz,
                    band_max_hz (for ``rms_velocity``)
 ``[solver]``       starts, seed, max_iter, tol, tie_break, workers (forked processes

@@ -27,6 +27,7 @@ __all__ = [
     "lever_scaling",
     "log_scaling",
     "parse_levers",
+    "refuse_free_levers",
 ]
 
 #: Design variables of the optimizer, in order.
@@ -264,3 +265,24 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
                              f"[{lo:g}, {hi:g}]")
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
     return tuple(out)
+
+
+def refuse_free_levers(study, what: str) -> None:
+    """Refuse a question not yet answered with a table's levers free (one line, the key).
+
+    Parameters
+    ----------
+    study : Study
+    what : str
+        The entry point (``"yield"``, ``"robust design"``).
+
+    Raises
+    ------
+    InputError
+        Naming the first free lever's ``variables.<name>.fixed``.
+    """
+    free = [v.name for v in getattr(study, "levers", ()) if v.free]
+    if free:
+        raise InputError(f"variables.{free[0]}.fixed: {what} of a table with free co-design "
+                         "levers is not available yet (docs/table.md, section 13); fix the "
+                         "levers at the co-designed values (fixed = true, start = value)")

@@ -232,7 +232,9 @@ def _peak_refined(study, state, x0, params, first=None):
         prob = state["prob"]
         d = study.design_at(sol.values)
         sigma, sigma_u = prob.sigma(sol.x), prob.tube_rms(sol.x)
-        pk = measure_peaks(prob, d, sigma, sigma_u, _modes_at(prob, d, sigma, sigma_u))
+        pk = measure_peaks(prob, d, sigma, sigma_u,
+                           _modes_at(prob, d, sigma, sigma_u, values=sol.values),
+                           values=sol.values)  # a co-designed table's levers
         excess = pk.max_db - limit
         over = pk.above(limit, PEAK_TOLERANCE_DB)
         if not over or k == TABLE_PEAK_ROUNDS:

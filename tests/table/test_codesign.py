@@ -270,3 +270,17 @@ def test_the_codesign_study_script(tmp_path):
         assert lo < df.loc["all", n] < hi
     # the fine-grid analysis and the NLP's grid agree within 0.1 dB in every case
     assert (df["analysis_margin_db"] - df["nlp_margin_db"]).abs().max() < 0.1
+
+
+def test_yield_and_robust_design_refuse_free_levers_naming_the_key():
+    """One question, one answer: the entry points not yet co-designed refuse in one line."""
+    from isodesign.optimization.robust_table import robust_optimize_table
+    from isodesign.optimization.yields import estimate_yield
+
+    st = _free("pendulum_length_m").with_changes(
+        scenarios={"payload_mass_kg": {"relative": 0.1}})
+    vals = {v.name: v.start for v in st.variables}
+    with pytest.raises(InputError, match=r"variables\.pendulum_length_m\.fixed: yield"):
+        estimate_yield(st, vals, samples=4)
+    with pytest.raises(InputError, match=r"variables\.pendulum_length_m\.fixed: robust"):
+        robust_optimize_table(st)
