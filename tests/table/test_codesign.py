@@ -284,3 +284,27 @@ def test_yield_and_robust_design_refuse_free_levers_naming_the_key():
         estimate_yield(st, vals, samples=4)
     with pytest.raises(InputError, match=r"variables\.pendulum_length_m\.fixed: robust"):
         robust_optimize_table(st)
+
+
+def test_a_codesigned_study_runs_its_starts_again_with_the_levers_drawn():
+    from isodesign.optimization.multistart import start_points
+    from isodesign.table.optimize import _lever_starts
+    from isodesign.table.problem import TableProblem
+
+    st = _free("pendulum_length_m", "lateral_loss_factor")
+    p = TableProblem(st)
+    base = start_points(st, p.scaling)
+    starts = _lever_starts(st, p, base)
+    n = len(base)
+    assert len(starts) == 2 * n - 1
+    assert starts[:n] == base  # the study's own starts first, levers at their starts
+    for s, b in zip(starts[n:], base[1:], strict=True):
+        assert {k: s[k] for k in b} == b  # the same springs
+        assert 0.05 < s["pendulum_length_m"] < 0.6 and 0.01 < s["lateral_loss_factor"] < 0.5
+    lp = sorted(s["pendulum_length_m"] for s in starts[n:])
+    edges = np.linspace(0.05, 0.6, n)  # one start per stratum of the hypercube
+    assert all(lo <= v <= hi for v, lo, hi in zip(lp, edges[:-1], edges[1:], strict=True))
+    fixed = table_study()
+    pf = TableProblem(fixed)
+    assert _lever_starts(fixed, pf, start_points(fixed, pf.scaling)) == \
+        start_points(fixed, pf.scaling)
