@@ -253,6 +253,23 @@ class Study(ResultDisplay):
             return self.table
         return dataclasses.replace(self.table, horizontal=dataclasses.replace(h, **change))
 
+    def with_levers_fixed(self, values: dict) -> Study:
+        """The study with its free levers fixed at ``values`` and written into its
+        ``[table.horizontal]`` (a co-designed optimum's table; self when none is free).
+
+        Parameters
+        ----------
+        values : dict
+            Lever values by name, SI (an optimum's ``values``).
+        """
+        free = [v.name for v in self.levers if v.free]
+        if not free:
+            return self
+        return self.with_changes(
+            name=self.name, description=str(self.raw.get("description", "")),
+            table={"horizontal": {k: float(values[k]) for k in free}},
+            variables={k: {"fixed": True, "start": float(values[k])} for k in free})
+
     def start_design(self):
         """The spring at the variables' start values, p0 from the payload."""
         return self.design_at({v.name: v.start for v in self.variables})

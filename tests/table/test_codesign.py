@@ -308,3 +308,30 @@ def test_a_codesigned_study_runs_its_starts_again_with_the_levers_drawn():
     pf = TableProblem(fixed)
     assert _lever_starts(fixed, pf, start_points(fixed, pf.scaling)) == \
         start_points(fixed, pf.scaling)
+
+
+@pytest.mark.slow
+def test_a_codesigned_run_on_the_command_line_and_its_run_directory(tmp_path, capsys):
+    """optimize prints and writes the levers; modes and response of the run directory
+    answer for the co-designed table (its levers at the optimum), not the start table."""
+    import json
+    from importlib import resources
+
+    from isodesign.cli import main
+
+    src = (resources.files("isodesign") / "data" / "table_study.toml").read_text("utf-8")
+    study = tmp_path / "levers.toml"
+    study.write_text(src + "\n[variables.pendulum_length_m]\nfixed = false\n"
+                     "[variables.elastic_centre_height_m]\nfixed = false\n", "utf-8")
+    out = tmp_path / "o"
+    assert main(["optimize", str(study), "--starts", "2", "--workers", "1", "--no-plots",
+                 "-o", str(out)]) == 0
+    text = capsys.readouterr().out
+    assert "pendulum_length (m)" in text and "at upper bound 0.6 m" in text
+    var = json.loads((out / "design.json").read_text("utf-8"))["variables"]
+    assert var["pendulum_length_m"]["value"] == pytest.approx(0.6)
+    assert var["pendulum_length_m"]["at_bound"] == "upper"
+    assert var["pendulum_length_m"]["margin_db_per_unit_of_bound"] > 0
+    assert main(["response", str(out), "--points-per-band", "6"]) == 0
+    assert "PASS" in capsys.readouterr().out  # the start table fails (-8.25 dB in z)
+    assert main(["modes", str(out), "-o", str(tmp_path / "m")]) == 0
