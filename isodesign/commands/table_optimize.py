@@ -63,6 +63,7 @@ def table_summary_text(result) -> str:
         f"  {'D_c (mm)':<24}{v0['capillary_diameter_m'] * 1e3:>10.4g}"
         f"{v1['capillary_diameter_m'] * 1e3:>10.4g}",
     ]
+    lines += lever_lines(result)
     for i, ax in enumerate(AXES):
         lines.append(f"  {'worst margin ' + ax + ' (dB)':<24}{a0.axis_margin_db()[i]:>+10.2f}"
                      f"{a1.axis_margin_db()[i]:>+10.2f}")
@@ -98,6 +99,22 @@ def table_summary_text(result) -> str:
     lines.append(f"optimum: {result.verdict()}")
     lines += [f"  note: {n}" for n in a1.notes]
     return "\n".join(lines)
+
+
+def lever_lines(result) -> list[str]:
+    """The table's free levers, start and optimum (none with every lever fixed)."""
+    from isodesign.optimization.variables import TABLE_LEVER_UNITS
+
+    out = []
+    notes = result.lever_notes()
+    for v in result.study.levers:
+        if v.fixed:
+            continue
+        unit = TABLE_LEVER_UNITS[v.name]
+        label = f"{v.name.removesuffix('_n_per_m').removesuffix('_m')} ({unit})"
+        out.append(f"  {label:<24}{v.start:>10.4g}{result.values[v.name]:>10.4g}"
+                   + (f"  {notes[v.name]}" if v.name in notes else ""))
+    return out
 
 
 def peak_text(result) -> str:
@@ -220,6 +237,16 @@ def execute_table(study, run, args, result=None) -> int:
               "upper" if abs(val / v.upper - 1) < 1e-6 else None) if not v.fixed else None
         variables[v.name] = {"value": val, "lower": v.lower, "upper": v.upper,
                              "fixed": v.fixed, "at_bound": at}
+    for v in study.levers:  # a table's free levers (docs/table.md, "Co-design levers")
+        if v.fixed:
+            continue
+        val, tol = res.values[v.name], 1e-6 * (v.upper - v.lower)
+        at = "lower" if val - v.lower < tol else "upper" if v.upper - val < tol else None
+        sens = next((x for x in res.lever_sensitivity if x["name"] == v.name), None)
+        variables[v.name] = {"value": val, "lower": v.lower, "upper": v.upper,
+                             "fixed": False, "at_bound": at,
+                             "margin_db_per_unit_of_bound": None if sens is None
+                             else sens["db_per_unit"]}
     def derived(analysis, modes, values):
         # the vertical mode: the one with the most kinetic energy in z (an off-centre CG
         # couples it, so its name need not be "z")
@@ -264,7 +291,8 @@ def execute_table(study, run, args, result=None) -> int:
         with run.writing("response.png") as tmp:
             save_figure(res.analysis.plot(), tmp)
         with run.writing("layout.png") as tmp:
-            save_figure(layout_figure(study.table, res.analysis.model.leveling), tmp)
+            save_figure(layout_figure(study.table_at(res.values), res.analysis.model.leveling),
+                        tmp)
     if args.quiet:
         print(f"{study.name}: worst margin {res.objective_value:+.2f} dB (NLP grid); "
               f"{res.verdict()}")

@@ -220,8 +220,10 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     """
     if study.table is None or study.scenarios is None:
         raise InputError("robust_optimize_table: the study needs a [table] and [scenarios]")
+    from isodesign.optimization.variables import refuse_free_levers
     from isodesign.table.leveling import leveling_margin_bounds
 
+    refuse_free_levers(study, "robust design")
     if leveling_margin_bounds(study) != (None, None):  # not held over the scenarios yet
         raise InputError("constraints.min_leveling_gain_margin_db: the robust table optimizer "
                          "does not hold the leveling loop's margins over the scenarios; set "

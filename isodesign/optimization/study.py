@@ -24,11 +24,16 @@ Tables and keys
                    peak_points; ``diaphragm`` a name (``fit:PATH.toml`` too) or a
                    ``[models.diaphragm]`` table (model + viscoelastic parameters)
 ``[variables.<name>]`` for volume_ratio, top_volume_m3, capillary_length_m,
-                   capillary_diameter_m: start, lower, upper, fixed
+                   capillary_diameter_m: start, lower, upper, fixed; a table study's
+                   levers pendulum_length_m, elastic_centre_height_m,
+                   lateral_stiffness_n_per_m, lateral_loss_factor (fixed by default;
+                   docs/table.md, section 13)
 ``[constraints]``  max_total_volume_m3, min_capillary_diameter_m, min_tilt_margin,
                    min_natural_frequency_hz, max_natural_frequency_hz,
                    max_peak_transmissibility_db, min_damping_ratio, max_mach,
-                   model_validity (each numeric one may be ``false`` to switch it off)
+                   model_validity (each numeric one may be ``false`` to switch it off);
+                   table studies also min/max_rocking_frequency_hz, max_stroke_m and
+                   stroke_peak_factor
 ``[objective]``    kind, frequency_hz (for ``transmissibility_at``), band_min_hz,
                    band_max_hz (for ``rms_velocity``)
 ``[solver]``       starts, seed, max_iter, tol, tie_break, workers (forked processes
@@ -63,7 +68,12 @@ from isodesign.optimization.study_tables import (
     _num,
     _undot,
 )
-from isodesign.optimization.variables import DESIGN_VARIABLES, VariableSpec
+from isodesign.optimization.variables import (
+    DESIGN_VARIABLES,
+    TABLE_LEVERS,
+    VariableSpec,
+    parse_levers,
+)
 from isodesign.response.isolator import Payload
 from isodesign.results import ResultDisplay
 from isodesign.spring.design import ACOUSTIC_MODELS, SpringDesign, piston_area_from_diaphragm
@@ -143,14 +153,14 @@ _KEYS = {
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points", "acoustics"},
-    "variables": set(DESIGN_VARIABLES),
+    "variables": set(DESIGN_VARIABLES) | set(TABLE_LEVERS),
     "variable": {"start", "lower", "upper", "fixed"},
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
                     "min_natural_frequency_hz", "max_natural_frequency_hz",
                     "max_peak_transmissibility_db", "min_damping_ratio", "max_mach",
                     "max_pressure_pa", "model_validity", "min_rocking_frequency_hz",
                     "max_rocking_frequency_hz", "min_leveling_gain_margin_db",
-                    "min_leveling_phase_margin_deg"},
+                    "min_leveling_phase_margin_deg", "max_stroke_m", "stroke_peak_factor"},
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
@@ -187,12 +197,14 @@ class Study(ResultDisplay):
     floor_axes: Any = None
     #: The ``[scenarios]`` table (:class:`~.uncertainty.UncertaintySpace`), None: nominal only.
     scenarios: Any = None
+    #: A table study's levers (:data:`~.variables.TABLE_LEVERS`, fixed unless freed).
+    levers: tuple[VariableSpec, ...] = ()
 
     def _summary_items(self) -> list[tuple[str, str]]:
         """Name, job, models, variables, constraints, objective (for repr and notebooks)."""
         p = self.payload
         tg = self.raw.get("target", {})
-        free = [v.name for v in self.variables if not v.fixed]
+        free = [v.name for v in (*self.variables, *self.levers) if not v.fixed]
         on = [f"{k} = {self.constraints[k]:g}" for k in _DEFAULT["constraints"]
               if k != "model_validity" and self.constraints.get(k) is not None]
         src = "built-in" if self.source == "<default>" else self.source
@@ -224,6 +236,46 @@ class Study(ResultDisplay):
             if v.name == name:
                 return v
         raise KeyError(name)
+
+    def table_at(self, values: dict | None = None):
+        """The table with its levers at ``values`` (fixed or missing ones at their start).
+
+        Parameters
+        ----------
+        values : dict, optional
+            Lever values by name (:data:`~.variables.TABLE_LEVERS`), SI.
+
+        Returns
+        -------
+        Table or None
+            ``self.table`` itself when every lever keeps the table's value.
+        """
+        if self.table is None or not self.levers:
+            return self.table
+        h = self.table.horizontal
+        vals = {v.name: (v.start if v.fixed else (values or {}).get(v.name, v.start))
+                for v in self.levers}
+        change = {k: float(v) for k, v in vals.items() if getattr(h, k) != v}
+        if not change:
+            return self.table
+        return dataclasses.replace(self.table, horizontal=dataclasses.replace(h, **change))
+
+    def with_levers_fixed(self, values: dict) -> Study:
+        """The study with its free levers fixed at ``values`` and written into its
+        ``[table.horizontal]`` (a co-designed optimum's table; self when none is free).
+
+        Parameters
+        ----------
+        values : dict
+            Lever values by name, SI (an optimum's ``values``).
+        """
+        free = [v.name for v in self.levers if v.free]
+        if not free:
+            return self
+        return self.with_changes(
+            name=self.name, description=str(self.raw.get("description", "")),
+            table={"horizontal": {k: float(values[k]) for k in free}},
+            variables={k: {"fixed": True, "start": float(values[k])} for k in free})
 
     def start_design(self):
         """The spring at the variables' start values, p0 from the payload."""
@@ -381,7 +433,8 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     hw = _hardware(raw["hardware"], where)
     table = _table(raw, payload, hw, where)
     for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz",
-              "min_leveling_gain_margin_db", "min_leveling_phase_margin_deg"):
+              "min_leveling_gain_margin_db", "min_leveling_phase_margin_deg", "max_stroke_m",
+              "stroke_peak_factor"):
         if table is None and raw.get("constraints", {}).get(k) not in (None, False):
             raise InputError(f"{where}: constraints.{k} applies only to a study with a [table] "
                              "(docs/table.md)")
@@ -403,7 +456,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source, table=table,
-               floor_axes=floor_axes)
+               floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where))
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
         warn_unit_slips(d, where)
@@ -679,7 +732,7 @@ def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
 def _constraints(c: dict, where: str, variables, payload) -> dict:
     """``[constraints]``: each numeric one a positive number or false (off)."""
     cons: dict[str, Any] = {}
-    for k in _KEYS["constraints"] - {"model_validity"}:
+    for k in _KEYS["constraints"] - {"model_validity", "stroke_peak_factor"}:
         v = c.get(k, False)
         if v is False or v is None:
             cons[k] = None
@@ -701,6 +754,9 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
     if dmin and not dvar.fixed and dvar.upper <= dmin:
         raise InputError(f"{where}: variables.capillary_diameter_m.upper ({dvar.upper:g} m) "
                          f"must exceed constraints.min_capillary_diameter_m ({dmin:g} m)")
+    # a table's stroke: peak factor x RMS vertical stroke <= max_stroke_m (docs/table.md)
+    cons["stroke_peak_factor"] = _num(where, "constraints.stroke_peak_factor",
+                                      c.get("stroke_peak_factor", 3.0), 1.0, 100.0)
     cons["model_validity"] = _bool(where, "constraints.model_validity",
                                    c.get("model_validity", True))
     if cons["min_tilt_margin"] and (payload.spacing_m is None or payload.cg_height_m is None):

@@ -17,10 +17,17 @@ from isodesign.errors import InputError
 __all__ = [
     "DESIGN_VARIABLES",
     "DESIGN_VARIABLE_UNITS",
+    "TABLE_LEVERS",
+    "TABLE_LEVER_BOUNDS",
+    "TABLE_LEVER_UNITS",
+    "LinearScaling",
     "LogScaling",
     "VariableSpec",
     "effective_bounds",
+    "lever_scaling",
     "log_scaling",
+    "parse_levers",
+    "refuse_free_levers",
 ]
 
 #: Design variables of the optimizer, in order.
@@ -128,3 +135,154 @@ def log_scaling(study) -> LogScaling:
         half=np.array([0.5 * (math.log(bnds[v.name][1]) - math.log(bnds[v.name][0]))
                        for v in free]),
     )
+
+
+#: The horizontal element's levers: optional design variables of a table study
+#: (docs/table.md, section "Co-design levers"), each fixed at the table's value unless its
+#: ``[variables.<name>]`` says ``fixed = false``.
+TABLE_LEVERS = ("pendulum_length_m", "elastic_centre_height_m", "lateral_stiffness_n_per_m",
+                "lateral_loss_factor")
+#: Unit of each lever (SI).
+TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
+                     "lateral_stiffness_n_per_m": "N/m", "lateral_loss_factor": "-"}
+#: Practical bounds of each lever (the defaults of a free lever's lower and upper): a
+#: pendulum of 5-60 cm, an elastic centre 0.2 m below to 0.5 m above the support plane
+#: (re-entrant or pedestal mounts), a diaphragm shear stiffness of 1-100 kN/m and loss
+#: factor 0.01-0.5.
+TABLE_LEVER_BOUNDS = {"pendulum_length_m": (0.05, 0.6), "elastic_centre_height_m": (-0.2, 0.5),
+                      "lateral_stiffness_n_per_m": (1.0e3, 1.0e5),
+                      "lateral_loss_factor": (0.01, 0.5)}
+
+
+@dataclass(frozen=True)
+class LinearScaling:
+    """Linear scaling of the free levers: ``x = c + h z``, z in [-1, 1]."""
+
+    names: tuple[str, ...]
+    center: np.ndarray
+    half: np.ndarray
+
+    def to_values(self, z) -> dict:
+        """Lever values (SI) at scaled coordinates ``z``."""
+        return {n: float(c + h * zi) for n, c, h, zi in
+                zip(self.names, self.center, self.half, np.asarray(z, float), strict=True)}
+
+    def to_z(self, values: dict) -> np.ndarray:
+        """Scaled coordinates of lever values (SI)."""
+        return np.array([(values[n] - c) / h for n, c, h in
+                         zip(self.names, self.center, self.half, strict=True)])
+
+
+def lever_scaling(study) -> LinearScaling:
+    """The linear scaling of a study's free levers (``study.levers``) over their bounds.
+
+    Parameters
+    ----------
+    study : Study
+
+    Returns
+    -------
+    LinearScaling
+        Names in :data:`TABLE_LEVERS` order; ``z = -1`` and ``z = 1`` are the bounds.
+    """
+    free = [v for v in getattr(study, "levers", ()) if v.free]
+    return LinearScaling(names=tuple(v.name for v in free),
+                         center=np.array([0.5 * (v.lower + v.upper) for v in free]),
+                         half=np.array([0.5 * (v.upper - v.lower) for v in free]))
+
+
+def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]:
+    """``[variables.<lever>]`` of a table study: one spec per :data:`TABLE_LEVERS` entry.
+
+    A lever the study does not name, or names with ``fixed = true``, is fixed at the
+    table's value (``[table.horizontal]``) or its own ``start``. A free lever takes
+    ``lower``/``upper`` (default :data:`TABLE_LEVER_BOUNDS`) and ``start`` (default the
+    table's value).
+
+    Parameters
+    ----------
+    variables : dict
+        The study's ``[variables]`` table.
+    table : Table or None
+        The study's table (None: a vertical study, which may name no lever).
+    where : str
+        The study's source, for errors.
+
+    Returns
+    -------
+    tuple of VariableSpec
+        Empty for a vertical study.
+
+    Raises
+    ------
+    InputError
+        A lever in a study without ``[table]``, or bounds that do not hold the start.
+    """
+    named = [n for n in TABLE_LEVERS if n in (variables or {})]
+    if table is None:
+        if named:
+            raise InputError(f"{where}: variables.{named[0]} is a lever of a table study; this "
+                             "study has no [table] (docs/table.md)")
+        return ()
+    h = table.horizontal
+    out = []
+    for name in TABLE_LEVERS:
+        spec = (variables or {}).get(name) or {}
+        if not isinstance(spec, dict):
+            raise InputError(f"{where}: [variables.{name}] must be a table (start, lower, "
+                             f"upper, fixed), got {spec!r:.40}")
+        key = f"{where}: variables.{name}"
+        fixed = spec.get("fixed", True)
+        if not isinstance(fixed, bool):
+            raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
+        table_value = getattr(h, name)
+        if not fixed and name != "elastic_centre_height_m" and name != "pendulum_length_m" \
+                and h.lateral_model is not None:
+            raise InputError(f"{key}: the table's horizontal element has a lateral_model; "
+                             "its lateral stiffness and loss factor are not levers")
+        vals = {}
+        for k in ("start", "lower", "upper"):
+            if k in spec:
+                v = spec[k]
+                if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                    raise InputError(f"{key}.{k}: expected a finite number, got {v!r:.40}")
+                vals[k] = float(v)
+        start = vals.get("start", table_value)
+        if start is None:
+            raise InputError(f"{key}.start: the table has no pendulum "
+                             "(table.horizontal.pendulum_length_m = false); give a start")
+        lo_d, hi_d = TABLE_LEVER_BOUNDS[name]
+        if fixed:
+            out.append(VariableSpec(name, float(start), float(start), float(start), True))
+            continue
+        lo, hi = vals.get("lower", lo_d), vals.get("upper", hi_d)
+        pos_lo = 0.0 if name != "elastic_centre_height_m" else -math.inf
+        if not pos_lo < lo < hi:
+            raise InputError(f"{key}: need {'0 < ' if pos_lo == 0 else ''}lower < upper, got "
+                             f"lower = {lo:g}, upper = {hi:g}")
+        if not lo <= start <= hi:
+            raise InputError(f"{key}.start ({start:g}) must lie in [lower, upper] = "
+                             f"[{lo:g}, {hi:g}]")
+        out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
+    return tuple(out)
+
+
+def refuse_free_levers(study, what: str) -> None:
+    """Refuse a question not yet answered with a table's levers free (one line, the key).
+
+    Parameters
+    ----------
+    study : Study
+    what : str
+        The entry point (``"yield"``, ``"robust design"``).
+
+    Raises
+    ------
+    InputError
+        Naming the first free lever's ``variables.<name>.fixed``.
+    """
+    free = [v.name for v in getattr(study, "levers", ()) if v.free]
+    if free:
+        raise InputError(f"variables.{free[0]}.fixed: {what} of a table with free co-design "
+                         "levers is not available yet (docs/table.md, section 13); fix the "
+                         "levers at the co-designed values (fixed = true, start = value)")

@@ -324,6 +324,9 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
     values = check_design_values(values, "values")
     if study.scenarios is None:
         raise InputError("yield: the study has no [scenarios] table (the laws to draw from)")
+    from isodesign.optimization.variables import refuse_free_levers
+
+    refuse_free_levers(study, "yield")
     if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 10**6:
         raise InputError(f"samples: must be an integer in [1, 1000000], got {samples!r:.30}")
     if not 0 < confidence < 1:

@@ -198,6 +198,7 @@ def _optimize_case(p: Path, label: str | None) -> Case:
         raise InputError(f"{p}: the optimize run found no feasible design; nothing to report "
                          "(see its record.json)")
     values = rec["design"]
+    st = st.with_levers_fixed(values)  # a co-designed table: the optimum's levers
     design = st.design_at(values)
     dj = _read_json(p / "design.json") if (p / "design.json").is_file() else None
     models = _study_models(st)

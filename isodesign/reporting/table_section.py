@@ -44,7 +44,9 @@ def table_section(case) -> dict | None:
     m = case.models
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = table_band_response(case.design, st.table, st.floor_axes, st.target,
+        # a co-designed run's table: the levers at the optimum's values (record.json)
+        table = st.table_at((case.record or {}).get("design"))
+        res = table_band_response(case.design, table, st.floor_axes, st.target,
                                   bands=st.bands, flow=m["flow"],
                                   amplitude_mode=m["amplitude_mode"],
                                   diaphragm=m["diaphragm"], warn=False)  # fmt: skip
@@ -108,7 +110,7 @@ def table_section(case) -> dict | None:
         "axis_margins": ", ".join(f"{ax} {v:+.2f} dB" for ax, v in
                                   zip(_AXES, res.axis_margin_db(), strict=True)),
         "notes": list(res.notes),
-        "layout_svg": figure_svg(layout_figure(st.table, lev)),
+        "layout_svg": figure_svg(layout_figure(model.table, lev)),
         "bands_svg": figure_svg(table_bands_figure(res)),
         "transmissibility_svg": figure_svg(table_transmissibility_figure(res)),
         "band_head": head,

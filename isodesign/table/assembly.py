@@ -36,6 +36,7 @@ __all__ = [
     "DOFS",
     "Geometry",
     "dynamic_stiffness",
+    "elastic_centre_terms",
     "element_vectors",
     "floor_input",
     "geometry",
@@ -189,7 +190,39 @@ def _stack(ks) -> Cx:
     return Cx(re, im)
 
 
-def dynamic_stiffness(geo: Geometry, k_vertical, k_horizontal, omega) -> tuple[Cx, Cx]:
+def elastic_centre_terms(geo: Geometry) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The terms of the assembly in a shift ``delta`` of every elastic centre's height.
+
+    A horizontal element's vector is linear in its height, ``g = g_0 + delta c`` (x: ``c =
+    e_ry``; y: ``c = -e_rx``), so ``g g^T = g_0 g_0^T + delta (g_0 c^T + c g_0^T) + delta^2
+    c c^T`` and ``g e^T = g_0 e^T + delta c e^T``: exact and polynomial (docs/table.md,
+    section "Co-design levers").
+
+    Parameters
+    ----------
+    geo : Geometry
+
+    Returns
+    -------
+    (gg1, gg2, gb1) : ndarray
+        Shapes ``(3n, 36)``, ``(3n, 36)``, ``(3n, 18)`` (zero rows for the vertical
+        elements): ``gg = gg0 + delta gg1 + delta^2 gg2`` and ``gb = gb0 + delta gb1``.
+    """
+    n = geo.n_isolators
+    c = np.zeros((3 * n, 6))
+    c[n: 2 * n, 4] = 1.0    # x elements: r x e_x = (0, r_z, -r_y)
+    c[2 * n:, 3] = -1.0     # y elements: r x e_y = (-r_z, 0, r_x)
+    g = geo.g
+    gg1 = (np.einsum("ei,ej->eij", g, c) + np.einsum("ei,ej->eij", c, g)).reshape(3 * n, 36)
+    gg2 = np.einsum("ei,ej->eij", c, c).reshape(3 * n, 36)
+    axis = np.repeat([2, 0, 1], n)
+    gb1 = np.zeros((3 * n, 6, 3))
+    gb1[np.arange(3 * n), :, axis] = c
+    return gg1, gg2, gb1.reshape(3 * n, 18)
+
+
+def dynamic_stiffness(geo: Geometry, k_vertical, k_horizontal, omega,
+                      centre_shift_m=None) -> tuple[Cx, Cx]:
     """``D(w)`` and ``B(w)`` flattened, any backend.
 
     Parameters
@@ -202,6 +235,9 @@ def dynamic_stiffness(geo: Geometry, k_vertical, k_horizontal, omega) -> tuple[C
         Horizontal complex stiffness of each isolator (the same in x and y).
     omega : ndarray (n_freq,) or CasADi column
         Angular frequency, rad/s.
+    centre_shift_m : float or CasADi symbol, optional
+        Raise every elastic centre by this much above ``geo``'s (the co-design lever,
+        :func:`elastic_centre_terms`); None: ``geo`` as built.
 
     Returns
     -------
@@ -216,6 +252,13 @@ def dynamic_stiffness(geo: Geometry, k_vertical, k_horizontal, omega) -> tuple[C
     k = _stack(list(k_vertical) + list(k_horizontal) * 2)
     d_re = _matmul(k.re, geo.gg)
     d_im = _matmul(k.im, geo.gg)
+    b_re, b_im = _matmul(k.re, geo.gb), _matmul(k.im, geo.gb)
+    if centre_shift_m is not None:
+        gg1, gg2, gb1 = elastic_centre_terms(geo)
+        dl = centre_shift_m
+        d_re = d_re + dl * _matmul(k.re, gg1) + dl * dl * _matmul(k.re, gg2)
+        d_im = d_im + dl * _matmul(k.im, gg1) + dl * dl * _matmul(k.im, gg2)
+        b_re, b_im = b_re + dl * _matmul(k.re, gb1), b_im + dl * _matmul(k.im, gb1)
     const = geo.gravity.reshape(1, 36)
     mass = geo.mass.reshape(1, 36)
     if bk.is_casadi(d_re):
@@ -226,7 +269,7 @@ def dynamic_stiffness(geo: Geometry, k_vertical, k_horizontal, omega) -> tuple[C
     else:
         w2 = np.asarray(omega, dtype=float) ** 2
         d_re = d_re + const - w2[:, None] * mass
-    return Cx(d_re, d_im), Cx(_matmul(k.re, geo.gb), _matmul(k.im, geo.gb))
+    return Cx(d_re, d_im), Cx(b_re, b_im)
 
 
 def floor_input(geo: Geometry, k_vertical, k_horizontal) -> Cx:

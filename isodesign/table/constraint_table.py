@@ -149,6 +149,14 @@ def table_constraint_reports(prob, g, *, modes=None, stability=None, peaks=None,
         out.append(_report(CONTINUOUS_PEAK, v, None, float(pk), "dB", (pk - v) * _LN10 / 10.0,
                            f"|T| between the grid's frequencies, {peaks.f_low_hz:.3g}-"
                            f"{peaks.f_high_hz:.3g} Hz (worst {p} {a} at {f:.3g} Hz)"))
+    smax = c.get("max_stroke_m")
+    for name, row, m in prob.con_rows if smax else ():
+        if name == "max_stroke_m":  # ln(peak factor x sigma_i) <= ln max_stroke_m
+            gi = np.asarray(g, float)[row: row + m]
+            v = float(np.exp(np.max(gi)))
+            out.append(_report("stroke", v, None, float(smax), "m", math.log(smax / v),
+                               f"{c.get('stroke_peak_factor'):g} x RMS vertical stroke, "
+                               "worst isolator, against its travel"))
     mu = c.get("min_tilt_margin")
     if stability is not None and mu:
         v = float(np.min(stability.margin))

@@ -33,6 +33,7 @@ __all__ = [
     "box_inertia",
     "check_numbers",
     "default_leveling_groups",
+    "horizontal_stiffness",
 ]
 
 #: Default supply pressure of the leveling valves: 6 bar gauge (absolute, Pa).
@@ -178,6 +179,35 @@ def default_leveling_groups(isolators_xy) -> tuple[tuple[int, ...], ...]:
     return tuple(tuple(sorted(int(i) for i in p)) for p in parts)
 
 
+def horizontal_stiffness(omega, load_n, pendulum_length_m, lateral_stiffness_n_per_m,
+                         lateral_loss_factor):
+    """``W_i / L_p + k_lat (1 + j eta)`` of one isolator, any backend (levers as symbols).
+
+    The one formula of :class:`HorizontalElement` without a lateral model; the table NLP
+    evaluates it on CasADi symbols when the levers are design variables.
+
+    Parameters
+    ----------
+    omega : float, ndarray or CasADi symbol
+        Angular frequency, rad/s (the result is constant in it).
+    load_n : float
+        The isolator's static load, N.
+    pendulum_length_m : float, CasADi symbol or None
+        Pendulum length, m (None: no pendulum).
+    lateral_stiffness_n_per_m, lateral_loss_factor : float or CasADi symbol
+        The diaphragm's lateral storage stiffness (N/m) and loss factor.
+
+    Returns
+    -------
+    Cx
+    """
+    from isodesign.numerics.cplx import Cx
+
+    k = lateral_stiffness_n_per_m
+    lat = Cx(k + 0.0 * omega, k * lateral_loss_factor + 0.0 * omega)
+    return lat + (0.0 if pendulum_length_m is None else load_n / pendulum_length_m)
+
+
 @dataclass(frozen=True)
 class HorizontalElement:
     """Horizontal stiffness of one isolator: a pendulum in parallel with the diaphragm.
@@ -266,6 +296,10 @@ class HorizontalElement:
         load_n : float
             The isolator's static load, N.
         """
+        if self.lateral_model is None:
+            return horizontal_stiffness(omega, float(load_n), self.pendulum_length_m,
+                                        self.lateral_stiffness_n_per_m,
+                                        self.lateral_loss_factor)
         return self.lateral_stiffness(omega) + float(self.pendulum_stiffness(load_n))
 
     def to_dict(self) -> dict:

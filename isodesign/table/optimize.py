@@ -177,6 +177,10 @@ class TableOptimizationResult(ResultDisplay):
     peak: Any = None
     leveling: Any = None
     leveling_gain_hint_kg_s_per_m: float | None = None
+    #: Per free lever of a co-designed table: its value, bounds, active bound and the
+    #: worst margin's exact sensitivity to that bound, dB per SI unit
+    #: (:meth:`~isodesign.table.problem.TableProblem.lever_sensitivities`).
+    lever_sensitivity: tuple = ()
 
     @property
     def success(self) -> bool:
@@ -240,19 +244,36 @@ class TableOptimizationResult(ResultDisplay):
         """
         import pandas as pd
 
-        start = {v.name: v.start for v in self.study.variables}
-        rows = [{"quantity": k, "start": start[k], "optimum": v, "unit": "", "note": ""}
-                for k, v in self.values.items()]
+        start = {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
+        notes = self.lever_notes()
+        rows = [{"quantity": k, "start": start[k], "optimum": v, "unit": "",
+                 "note": notes.get(k, "")} for k, v in self.values.items()]
         for c in self.constraints:
             rows.append({"quantity": f"constraint: {c.name}", "start": None, "optimum": c.value,
                          "unit": c.unit, "note": ("BINDING " if c.active else "")
                          + f"margin {c.margin_natural:.3g} {c.unit}"})
         return pd.DataFrame(rows)
 
+    def lever_notes(self) -> dict:
+        """Per free lever, one phrase: its active bound and the worst margin's exact
+        sensitivity to it (``at upper bound 0.6 m: +9.1 dB per m``), or ``inside its
+        bounds``."""
+        from isodesign.optimization.variables import TABLE_LEVER_UNITS
+
+        out = {}
+        for s in self.lever_sensitivity:
+            unit = TABLE_LEVER_UNITS[s["name"]]
+            if s["at_bound"] is None:
+                out[s["name"]] = "inside its bounds (sensitivity 0)"
+            else:
+                out[s["name"]] = (f"at {s['at_bound']} bound {s[s['at_bound']]:g} {unit}: "
+                                  f"{s['db_per_unit']:+.3g} dB per {unit} of the bound")
+        return out
+
     def _display_frame(self):
         import pandas as pd
 
-        start = {v.name: v.start for v in self.study.variables}
+        start = {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
         return pd.DataFrame({"variable": list(self.values),
                              "start": [start[k] for k in self.values],
                              "optimum": list(self.values.values())})  # fmt: skip
@@ -286,6 +307,9 @@ class TableOptimizationResult(ResultDisplay):
                  ("starts at best", f"{self.n_reached_best} of {len(self.starts)}"),
                  ("Hessian", self.hessian),
                  ("wall", f"{self.wall_s:.3g} s")]
+        if self.lever_sensitivity:
+            items.append(("levers", "; ".join(f"{k} {self.values[k]:.4g} ({v})" for k, v in
+                                              self.lever_notes().items())))
         if self.violations:
             items.insert(2, ("violations", ", ".join(f"{n} {v:.3g}"
                                                      for n, v in self.violations)))
@@ -323,9 +347,10 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
 
     if getattr(study, "table", None) is None:
         raise InputError("study: has no [table]; use isodesign.optimize")
+    _refuse_levers_with_loop_bounds(study)
     t0 = time.perf_counter()
     prob = problem if problem is not None else TableProblem(study, hessian=HESSIAN)
-    starts = start_points(study, prob.scaling)
+    starts = _lever_starts(study, prob, start_points(study, prob.scaling))
     d0 = study.design_at(starts[0])
     modes0 = _modes_at(prob, d0)
     prob.set_modes(modes0)
@@ -352,7 +377,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     d = study.design_at(best.values)
     sig_rel = margin_db = math.nan
     if best.feasible:
-        sigma, sigma_u = prob.closure(d)
+        sigma, sigma_u = prob.closure(d, best.values)
         sig_rel = float(max(np.max(np.abs(sigma / prob.sigma(best.x) - 1)),
                             np.max(np.abs(sigma_u / prob.tube_rms(best.x) - 1))))
         x = best.x.copy()
@@ -372,18 +397,18 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     analysis = start_analysis = stab = None
     nlp_modes = modes
     if analyze:
-        analysis, modes, stab = _analyze(study, d)
-        start_analysis, modes0, _ = _analyze(study, d0)
+        analysis, modes, stab = _analyze(study, d, best.values)
+        start_analysis, modes0, _ = _analyze(study, d0, starts[0])
         if best.feasible:  # the continuous peak at the analysis' closure too: the larger
             pk = measure_peaks(prob, d, analysis.stroke_rms_m, analysis.tube_velocity_rms_m_s,
-                               modes)
+                               modes, values=best.values)
             if peak["peaks"] is None or pk.max_db > peak["peaks"].max_db:
                 peak["peaks"] = pk
     else:
         from isodesign.table.modes import rocking_stability
 
-        stab = rocking_stability(_model(study, d))
-    loop, gm_min, pm_min = leveling_check(study, d)
+        stab = rocking_stability(_model(study, d, best.values))
+    loop, gm_min, pm_min = leveling_check(study, d, best.values)
     violations = _violations(study, prob, best, nlp_modes, peak)
     gain_hint = None
     if best.feasible:
@@ -395,6 +420,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
             gain_hint = max_valve_gain(loop.plant.model, loop.plant.system, gm_min, pm_min)
     reports = table_constraint_reports(prob, best.g, modes=nlp_modes, stability=stab,
                                        peaks=peak["peaks"], leveling=(loop, gm_min, pm_min))
+    lever_sens = prob.lever_sensitivities(best.x) if best.feasible else ()
     return TableOptimizationResult(
         study=study, feasible=bool(best.feasible), status=best.status, values=best.values,
         design=d, objective=prob.objective,
@@ -404,11 +430,11 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         analysis=analysis, start_analysis=start_analysis, modes=modes, start_modes=modes0,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
-        leveling=loop, leveling_gain_hint_kg_s_per_m=gain_hint,
+        leveling=loop, leveling_gain_hint_kg_s_per_m=gain_hint, lever_sensitivity=lever_sens,
     )
 
 
-def leveling_check(study, d) -> tuple:
+def leveling_check(study, d, values=None) -> tuple:
     """The leveling loop of design ``d`` and the bounds on its margins.
 
     The loop of the study's valves (``[table.leveling]``, or the defaults; a free valve gain
@@ -422,6 +448,8 @@ def leveling_check(study, d) -> tuple:
     study : Study
         With a ``[table]``.
     d : SpringDesign
+    values : dict, optional
+        The design's values, with a co-designed table's levers (the table at them).
 
     Returns
     -------
@@ -433,7 +461,26 @@ def leveling_check(study, d) -> tuple:
     from isodesign.table.leveling_loop import leveling_loop, study_valves
 
     gm_min, pm_min = leveling_margin_bounds(study)
-    return leveling_loop(_model(study, d), study_valves(study, d)), gm_min, pm_min
+    return (leveling_loop(_model(study, d, values), study_valves(study, d)), gm_min,
+            pm_min)
+
+
+def _refuse_levers_with_loop_bounds(study) -> None:
+    """Refuse free co-design levers together with bounds on the leveling loop's margins.
+
+    The NLP's frozen-pole gain-margin rows (docs/table.md, section 12) are built on the
+    table's fixed horizontal element: with a lever free they would hold the bound on
+    another table than the one optimized, so the combination is refused by its keys.
+    """
+    from isodesign.table.leveling import leveling_margin_bounds
+
+    free = [v.name for v in getattr(study, "levers", ()) if v.free]
+    if free and leveling_margin_bounds(study) != (None, None):
+        raise InputError(f"variables.{free[0]}.fixed: the leveling loop's margin bounds "
+                         "(constraints.min_leveling_gain_margin_db, "
+                         "min_leveling_phase_margin_deg) are not yet held with free co-design "
+                         "levers; fix the levers, or set both margin keys to false "
+                         "(docs/table.md, sections 12 and 13)")
 
 
 def _leveling_misses(loop, gm_min, pm_min) -> tuple:
@@ -445,6 +492,27 @@ def _leveling_misses(loop, gm_min, pm_min) -> tuple:
     if pm_min is not None and not pm >= pm_min - LOOP_TOLERANCE:
         out.append((LEVELING_PHASE_MARGIN, float(pm_min - pm)))
     return tuple(out)
+
+
+def _lever_starts(study, prob, starts: list) -> list:
+    """The starts of a co-designed table: the study's starts (levers at their starts),
+    then the Latin-hypercube starts again with the free levers drawn in their own
+    hypercube (each lever's range cut into ``n`` strata, one start in each at a random
+    place, seeded by ``solver.seed``, 2 % inside the bounds): the levers make the worst
+    margin multimodal (four free levers from four starts reach four local optima).
+    Unchanged when every lever is fixed."""
+    n = len(starts) - 1
+    if not prob.n_levers or n <= 0:
+        return starts
+    ls = prob.lever_scaling
+    rng = np.random.default_rng([int(study.solver["seed"]), 24])
+    d = len(ls.names)
+    strata = np.column_stack([rng.permutation(n) for _ in range(d)])
+    z = 2.0 * (strata + rng.random((n, d))) / n - 1.0
+    out = [dict(s) for s in starts]
+    for s, zi in zip(starts[1:], z, strict=True):
+        out.append({**s, **ls.to_values(0.98 * zi)})
+    return out
 
 
 def _violations(study, prob, best, modes, peak) -> tuple:
@@ -485,7 +553,7 @@ def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
         seen.append(sol.objective)
         try:
             prob.set_modes(_modes_at(prob, study.design_at(sol.values), prob.sigma(sol.x),
-                                     prob.tube_rms(sol.x)))
+                                     prob.tube_rms(sol.x), values=sol.values))
         except InputError:
             continue
         prob.clear_loop()  # the winner's frozen poles are not this branch's
@@ -523,7 +591,7 @@ def _mode_misses(study, modes) -> list[tuple[str, float]]:
     return out
 
 
-def measure_peaks(prob, d, sigma, sigma_u, modes):
+def measure_peaks(prob, d, sigma, sigma_u, modes, values=None):
     """The continuous peak of |T| of design ``d`` at a closure state (a :class:`TablePeaks`).
 
     Parameters
@@ -535,9 +603,11 @@ def measure_peaks(prob, d, sigma, sigma_u, modes):
         The closure's RMS values.
     modes : TableModes
         The design's modes (the fine grid starts at a fraction of the lowest).
+    values : dict, optional
+        The design's lever values (a co-designed table; default their starts).
     """
     lo, hi = peak_search_band(modes, prob._peak_cut_hz())
-    return continuous_peaks(_model(prob.study, d), sigma, sigma_u, lo, hi)
+    return continuous_peaks(_model(prob.study, d, values), sigma, sigma_u, lo, hi)
 
 
 def add_peak_frequencies(prob, over, used) -> tuple:
@@ -597,7 +667,8 @@ def _refine(prob, study, best, slots=None):
         if not best.feasible:
             break
         sigma, sigma_u = prob.sigma(best.x), prob.tube_rms(best.x)
-        modes = _modes_at(prob, study.design_at(best.values), sigma, sigma_u)
+        modes = _modes_at(prob, study.design_at(best.values), sigma, sigma_u,
+                          values=best.values)
         if rounds < _MODE_ROUNDS and _mode_misses(study, modes) and _modes_moved(prob, modes):
             prob.set_modes(modes)  # the frozen modes moved: solve again with the exact ones
             sol = prob.solve(best.x)
@@ -616,7 +687,8 @@ def _refine(prob, study, best, slots=None):
                 break
             best = sol
             continue
-        pk = measure_peaks(prob, study.design_at(best.values), sigma, sigma_u, modes)
+        pk = measure_peaks(prob, study.design_at(best.values), sigma, sigma_u, modes,
+                           values=best.values)
         peak["peaks"] = pk
         if limit is None:
             break
@@ -646,7 +718,7 @@ def _loop_refresh_needed(prob, study, best, peak) -> bool:
     more than :data:`LOOP_SLACK_DB` (the first-order rows held the design back)."""
     if not getattr(prob, "n_loop", 0) or peak["leveling_rounds"] >= LOOP_ROUNDS:
         return False
-    loop, gm_min, _ = leveling_check(study, study.design_at(best.values))
+    loop, gm_min, _ = leveling_check(study, study.design_at(best.values), best.values)
     gm = loop.worst_gain_margin_db
     if gm < gm_min - LOOP_TOLERANCE:
         return True
@@ -662,20 +734,20 @@ def _natural(prob, x, j: float) -> float:
     return math.exp(j)
 
 
-def _model(study, d):
+def _model(study, d, values=None):
     from isodesign.table.model import table_model
 
     m = study.models
-    return table_model(d, study.table, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
-                       diaphragm=m["diaphragm"])
+    return table_model(d, study.table_at(values), flow=m["flow"],
+                       amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
 
 
-def _modes_at(prob, d, sigma=None, sigma_u=None):
+def _modes_at(prob, d, sigma=None, sigma_u=None, values=None):
     from isodesign.table.modes import table_modes
 
     if sigma is None:
-        sigma, sigma_u = prob.closure(d)
-    model = _model(prob.study, d)
+        sigma, sigma_u = prob.closure(d, values)
+    model = _model(prob.study, d, values)
     return table_modes(model, vertical=closure_springs(model, sigma, sigma_u))
 
 
@@ -700,7 +772,7 @@ def _modes_moved(prob, modes) -> bool:
     return False
 
 
-def _analyze(study, d):
+def _analyze(study, d, values=None):
     """Fine-grid band response, modes at its closure and rocking stability of a design."""
     import warnings
 
@@ -710,7 +782,7 @@ def _analyze(study, d):
     m = study.models
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        res = table_band_response(d, study.table, study.floor_axes, study.target,
+        res = table_band_response(d, study.table_at(values), study.floor_axes, study.target,
                                   bands=study.bands, flow=m["flow"],
                                   amplitude_mode=m["amplitude_mode"],
                                   diaphragm=m["diaphragm"], warn=False)  # fmt: skip

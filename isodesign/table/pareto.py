@@ -225,7 +225,7 @@ def _loop_misses(study, sol) -> tuple:
 
     if not sol.feasible or leveling_margin_bounds(study) == (None, None):
         return ()
-    return _leveling_misses(*leveling_check(study, study.design_at(sol.values)))
+    return _leveling_misses(*leveling_check(study, study.design_at(sol.values), sol.values))
 
 
 def _peak_refined(study, state, x0, params, first=None):
@@ -249,7 +249,9 @@ def _peak_refined(study, state, x0, params, first=None):
         prob = state["prob"]
         d = study.design_at(sol.values)
         sigma, sigma_u = prob.sigma(sol.x), prob.tube_rms(sol.x)
-        pk = measure_peaks(prob, d, sigma, sigma_u, _modes_at(prob, d, sigma, sigma_u))
+        pk = measure_peaks(prob, d, sigma, sigma_u,
+                           _modes_at(prob, d, sigma, sigma_u, values=sol.values),
+                           values=sol.values)  # a co-designed table's levers
         excess = pk.max_db - limit
         over = pk.above(limit, PEAK_TOLERANCE_DB)
         if not over or k == TABLE_PEAK_ROUNDS:

@@ -61,7 +61,12 @@ from isodesign.optimization.problem import (
     VELOCITY_BOUNDS_M_S,
 )
 from isodesign.optimization.solution import Solution
-from isodesign.optimization.variables import DESIGN_VARIABLES, log_scaling
+from isodesign.optimization.variables import (
+    DESIGN_VARIABLES,
+    TABLE_LEVERS,
+    lever_scaling,
+    log_scaling,
+)
 from isodesign.response.isolator import static_stiffness
 from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
 from isodesign.spring.capillary import statistical_resistance_function
@@ -69,6 +74,7 @@ from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.table.assembly import dynamic_stiffness, geometry, solve_complex
 from isodesign.table.floor import table_grid
+from isodesign.table.layout import horizontal_stiffness
 from isodesign.table.statics import level
 
 __all__ = ["DAMPED_MODE_LIMIT_HZ", "LOOP_MARGIN_EPS", "LOOP_POLES_MIMO", "PEAK_ROWS_MAX_HZ",
@@ -140,17 +146,19 @@ class TableProblem:
         self.flow = m["flow"]
         self.dia = diaphragm_model(m["diaphragm"])
         self.scaling = log_scaling(study)
-        self.table = study.table
+        # the horizontal element's free levers (docs/table.md, "Co-design levers"): linear
+        # scaled variables after the spring's, evaluated through horizontal_stiffness and
+        # the assembly's elastic-centre terms; the NLP's table holds their start values
+        self.lever_scaling = lever_scaling(study)
+        self.n_levers = len(self.lever_scaling.names)
+        self.table = study.table_at(None)
         self.grid = table_grid(study.floor_axes, study.bands, target=study.target,
                                points_per_band=m["points_per_band"])
         self.leveling = level(self.table, study.hardware["piston_area_m2"])
         self.geo = geometry(self.table, self.leveling.load_n)
         self.n = self.table.n_isolators
         self.k = self.table.instrument_points_m.shape[0]
-        w = self.grid.omega
-        kh = [self.table.horizontal.stiffness(w, float(ld)) for ld in self.leveling.load_n]
-        self.kh_re = np.stack([np.broadcast_to(np.asarray(c.re, float), w.shape) for c in kh])
-        self.kh_im = np.stack([np.broadcast_to(np.asarray(c.im, float), w.shape) for c in kh])
+        self.kh_re, self.kh_im = self._kh_params(self.grid.omega)
         self.n_modes = 6
         from isodesign.table.study import objective_selection
 
@@ -191,6 +199,51 @@ class TableProblem:
         new.loop_params = self.loop_params.copy()
         return new
 
+    # -- the horizontal element ---------------------------------------------------
+    def _kh_params(self, w):
+        """The horizontal stiffness the NLP takes as parameters, ``(re, im)`` (n, len(w)):
+        all of it with the levers fixed; with free levers only a lateral model's (else 0),
+        the rest is symbolic (:meth:`_kh`)."""
+        w = np.asarray(w, float)
+        h = self.table.horizontal
+        if self.n_levers and h.lateral_model is None:
+            z = np.zeros((self.n, w.size))
+            return z, z.copy()
+        if self.n_levers:
+            kh = [h.lateral_stiffness(w) for _ in range(self.n)]
+        else:
+            kh = [h.stiffness(w, float(ld)) for ld in self.leveling.load_n]
+        re = np.stack([np.broadcast_to(np.asarray(c.re, float), w.shape) for c in kh])
+        im = np.stack([np.broadcast_to(np.asarray(c.im, float), w.shape) for c in kh])
+        return re, im
+
+    def _lever_free(self, name: str) -> bool:
+        return name in self.lever_scaling.names
+
+    def _kh(self, dv, w, khr, khi):
+        """Each isolator's horizontal stiffness (list of Cx) and the elastic-centre shift
+        (None with the lever fixed) from the design vector ``dv`` (spring, then the four
+        levers when any is free) and the parameters ``khr``, ``khi``."""
+        if not self.n_levers:
+            return [Cx(khr[i], khi[i]) for i in range(self.n)], None
+        nd = len(DESIGN_VARIABLES)
+        lp, ec, kl, eta = (dv[nd + j] for j in range(len(TABLE_LEVERS)))  # TABLE_LEVERS order
+        h = self.table.horizontal
+        if h.pendulum_length_m is None and not self._lever_free("pendulum_length_m"):
+            lp = None
+        out = []
+        for i, ld in enumerate(self.leveling.load_n):
+            if h.lateral_model is None:
+                out.append(horizontal_stiffness(w, float(ld), lp, kl, eta))
+            else:
+                out.append(Cx(khr[i], khi[i]) + (0.0 if lp is None else float(ld) / lp))
+        shift = (ec - h.elastic_centre_height_m) if self._lever_free(
+            "elastic_centre_height_m") else None
+        return out, shift
+
+    def _n_dv(self) -> int:
+        return len(DESIGN_VARIABLES) + (len(TABLE_LEVERS) if self.n_levers else 0)
+
     # -- the per-frequency physics ------------------------------------------------
     def _springs(self, ca, dv, s, y, w):
         base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
@@ -207,8 +260,8 @@ class TableProblem:
     def _body(self, ca, dv, s, y, w, khr, khi):
         """The table's motion per unit floor motion at one frequency: ``(q_re, q_im, g2)``."""
         _, kv, g2 = self._springs(ca, dv, s, y, w)
-        kh = [Cx(khr[i], khi[i]) for i in range(self.n)]
-        d, b = dynamic_stiffness(self.geo, kv, kh, w)
+        kh, shift = self._kh(dv, w, khr, khi)
+        d, b = dynamic_stiffness(self.geo, kv, kh, w, shift)
         q = solve_complex(d, b)
         qr = [[q.re[0, r * 3 + a] for a in range(3)] for r in range(6)]
         qi = [[q.im[0, r * 3 + a] for a in range(3)] for r in range(6)]
@@ -217,7 +270,7 @@ class TableProblem:
     def _peak_function(self, ca):
         """``|T_p,aa|^2`` at one (movable) frequency, per point and axis (an SX Function)."""
         n = self.n
-        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
+        dv = ca.SX.sym("design", self._n_dv())
         s, y, w = ca.SX.sym("s", n), ca.SX.sym("y", n), ca.SX.sym("w")
         khr, khi = ca.SX.sym("khr", n), ca.SX.sym("khi", n)
         qr, qi, _ = self._body(ca, dv, s, y, w, khr, khi)
@@ -239,7 +292,7 @@ class TableProblem:
         over the grid by the map), and ``|T_p,aa|^2`` (per point, for the peak).
         """
         n, k, nb = self.n, self.k, self.grid.n_bands
-        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
+        dv = ca.SX.sym("design", self._n_dv())
         s, y, w = ca.SX.sym("s", n), ca.SX.sym("y", n), ca.SX.sym("w")
         khr, khi = ca.SX.sym("khr", n), ca.SX.sym("khi", n)
         sw, bw = ca.SX.sym("sw", 3), ca.SX.sym("bw", 3 * nb)
@@ -273,12 +326,12 @@ class TableProblem:
 
     def _stiffness_function(self, ca):
         """``(design, s, y, w) -> (K' flat, K'' flat)``: the isolators' 6x6 stiffness."""
-        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
+        dv = ca.SX.sym("design", self._n_dv())
         s, y, w = ca.SX.sym("s", self.n), ca.SX.sym("y", self.n), ca.SX.sym("w")
         khr, khi = ca.SX.sym("khr", self.n), ca.SX.sym("khi", self.n)
         _, kv, _ = self._springs(ca, dv, s, y, w)
-        kh = [Cx(khr[i], khi[i]) for i in range(self.n)]
-        d, _ = dynamic_stiffness(self.geo, kv, kh, w)
+        kh, shift = self._kh(dv, w, khr, khi)
+        d, _ = dynamic_stiffness(self.geo, kv, kh, w, shift)
         mass = ca.DM(self.geo.mass.reshape(1, 36))
         return ca.Function("table_k", [dv, s, y, w, khr, khi],
                            [(d.re + w * w * mass).T, d.im.T])
@@ -290,7 +343,8 @@ class TableProblem:
         # MX outside, the SX point function mapped inside: the derivatives are built on one
         # point's graph (an unrolled SX map of ~100 copies took a minute to differentiate)
         X = ca.MX
-        z = X.sym("z", len(self.scaling.names))
+        nzs = len(self.scaling.names)
+        z = X.sym("z", nzs + self.n_levers)
         s, y = X.sym("s", n), X.sym("y", n)
         t = X.sym("t", 1 if self.objective == "worst_band_margin" or
                   "worst_band_margin" in self.objectives else 0)
@@ -301,6 +355,15 @@ class TableProblem:
                 vals.append(ca.exp(self.scaling.center[i] + self.scaling.half[i] * z[i]))
             else:
                 vals.append(X(st.variable(name).start))
+        if self.n_levers:
+            ls = self.lever_scaling
+            for name in TABLE_LEVERS:
+                if name in ls.names:
+                    i = ls.names.index(name)
+                    vals.append(ls.center[i] + ls.half[i] * z[nzs + i])
+                else:
+                    start = next(lv.start for lv in st.levers if lv.name == name)
+                    vals.append(X(0.0 if start is None else start))
         v = ca.vertcat(*vals)
         point = self._point_function(ca)
         nb = g.n_bands
@@ -392,6 +455,10 @@ class TableProblem:
             ln_f = 0.5 * ca.log(ktot / table.mass_kg / (2.0 * math.pi) ** 2)
             cons.append(("natural_frequency_hz", ln_f, math.log(lo) if lo else -np.inf,
                          math.log(hi) if hi else np.inf))
+        smax = c.get("max_stroke_m")
+        if smax:  # peak factor x RMS vertical stroke of every isolator: ln, linear in s
+            cons.append(("max_stroke_m", s + math.log(c.get("stroke_peak_factor") or 3.0),
+                         -np.inf, math.log(smax)))
         mu = c.get("min_tilt_margin")
         if mu and table.cg_height_m > 0:  # the analysis's verdict: z condensed, quasi-static
             from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
@@ -442,7 +509,11 @@ class TableProblem:
         phr, phi = blk[2:8], blk[8:14]
         # horizontal stiffness at the (parametric) mode frequency: pendulum + lateral
         pend = [float(h.pendulum_stiffness(ld)) for ld in self.leveling.load_n]
-        if h.lateral_model is not None:
+        if self.n_levers:  # the levers' part is symbolic (_kh): a lateral model's here
+            lat = h.lateral_stiffness(w) if h.lateral_model is not None else Cx(0.0, 0.0)
+            khr = ca.vertcat(*[lat.re for _ in range(self.n)])
+            khi = ca.vertcat(*[lat.im for _ in range(self.n)])
+        elif h.lateral_model is not None:
             lat = h.lateral_stiffness(w)
             khr = ca.vertcat(*[pk + lat.re for pk in pend])
             khi = ca.vertcat(*[lat.im for _ in range(self.n)])
@@ -581,18 +652,21 @@ class TableProblem:
         self.loop_params = p
 
     # -- references, starts, solving ---------------------------------------------------
-    def closure(self, d):
+    def closure(self, d, values: dict | None = None):
         """NumPy closure of the design on the NLP's grid: ``(sigma (n,), sigma_u (n,))``.
 
         Parameters
         ----------
         d : SpringDesign
+        values : dict, optional
+            Lever values (the table at :meth:`Study.table_at`); default their starts.
         """
         from isodesign.table.model import table_model
         from isodesign.table.response import TableStatistical, solve_table_closure
 
         m = self.study.models
-        model = table_model(d, self.table, flow=self.flow, amplitude_mode=m["amplitude_mode"],
+        table = self.table if values is None else self.study.table_at(values)
+        model = table_model(d, table, flow=self.flow, amplitude_mode=m["amplitude_mode"],
                             diaphragm=self.dia)  # fmt: skip
         sigma, sigma_u, _ = solve_table_closure(TableStatistical(model, self.grid))
         return sigma, sigma_u
@@ -647,11 +721,7 @@ class TableProblem:
         if f.size != self.n_slots:
             raise ValueError(f"set_slots: need {self.n_slots} frequencies, got {f.size}")
         w = 2.0 * math.pi * f
-        kh = [self.table.horizontal.stiffness(w, float(ld)) for ld in self.leveling.load_n]
-        kr = np.stack([np.broadcast_to(np.asarray(c.re, float), w.shape) for c in kh]) \
-            if self.n_slots else np.zeros((self.n, 0))
-        ki = np.stack([np.broadcast_to(np.asarray(c.im, float), w.shape) for c in kh]) \
-            if self.n_slots else np.zeros((self.n, 0))
+        kr, ki = self._kh_params(w) if self.n_slots else (np.zeros((self.n, 0)),) * 2
         self.slot_hz = f.copy()
         # CasADi reshapes column-major: element (i, j) of the (n, n_slots) block at i + j n
         self.slot_params = np.concatenate([w, kr.ravel(order="F"), ki.ravel(order="F")])
@@ -680,8 +750,11 @@ class TableProblem:
                 p[off + 14 * j: off + 14 * (j + 1)] = blk
             if f >= DAMPED_MODE_LIMIT_HZ:
                 continue
-            if np.max(np.abs(kz @ phi)) <= 1e-9 * np.max(np.abs(phi)):
+            if np.max(np.abs(kz @ phi)) <= 1e-9 * np.max(np.abs(phi)) and not any(
+                    self._lever_free(k) for k in ("pendulum_length_m", "lateral_loss_factor",
+                                                  "lateral_stiffness_n_per_m")):
                 # no vertical spring moves: the horizontal element alone damps this mode
+                # (a free lever of its stiffness is a design variable: the mode keeps its row)
                 if modes.damping_ratio[j] < zmin:
                     raise InputError(
                         f"constraints.min_damping_ratio: mode {j + 1} ({modes.names[j]}, "
@@ -702,9 +775,13 @@ class TableProblem:
             Design-variable values (SI).
         """
         d = self.study.design_at(values)
-        sigma, sigma_u = self.closure(d)
+        sigma, sigma_u = self.closure(d, values)
         x0 = np.zeros(self.nx)
-        x0[: self.nz] = np.clip(self.scaling.to_z(values), -1.0, 1.0)
+        nzs = len(self.scaling.names)
+        x0[:nzs] = np.clip(self.scaling.to_z(values), -1.0, 1.0)
+        if self.n_levers:
+            lev = {v.name: values.get(v.name, v.start) for v in self.study.levers}
+            x0[nzs: self.nz] = np.clip(self.lever_scaling.to_z(lev), -1.0, 1.0)
         x0[self.nz: self.nz + self.n] = np.log(sigma)
         x0[self.nz + self.n: self.nz + 2 * self.n] = np.log(sigma_u)
         if self.nx > self.nz + 2 * self.n:
@@ -735,6 +812,48 @@ class TableProblem:
                         iterations=int(stats.get("iter_count", -1)),
                         wall_s=time.perf_counter() - t0)  # fmt: skip
 
+    def lever_sensitivities(self, x: np.ndarray) -> tuple:
+        """The re-optimized sensitivity of the worst margin to each free lever's bounds.
+
+        IPOPT solves again from the optimum ``x`` (default parameters: the worst margin
+        alone) and its bound multipliers ``lam_x`` give, by the envelope theorem, the
+        derivative of the optimal objective ``J = -t`` with respect to each bound of the
+        scaled lever ``z = (v - c) / h``: ``dJ*/dbound = -lam_x``, so the worst margin
+        moves by ``lam_x / h`` dB per unit of the lever's active bound (zero for a lever
+        inside its bounds; docs/table.md, "Co-design levers").
+
+        Parameters
+        ----------
+        x : ndarray
+            The optimum.
+
+        Returns
+        -------
+        tuple of dict
+            Per free lever: ``name``, ``value``, ``lower``, ``upper``, ``at_bound``
+            (``"lower"``, ``"upper"`` or None), ``db_per_unit`` (dB of worst margin per
+            unit of the active bound, SI), ``status`` of the solve.
+        """
+        if not self.n_levers or "worst_band_margin" != self.objective:
+            return ()
+        res = self.solver(x0=x, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg,
+                          p=self.params())
+        status = self.solver.stats().get("return_status", "unknown")
+        lam = np.asarray(res["lam_x"]).ravel()
+        xs = np.asarray(res["x"]).ravel()
+        nzs = len(self.scaling.names)
+        ls = self.lever_scaling
+        vals = ls.to_values(np.clip(xs[nzs: self.nz], -1.0, 1.0))
+        out = []
+        for i, name in enumerate(ls.names):
+            zi = xs[nzs + i]
+            at = "upper" if zi > 1 - 1e-6 else "lower" if zi < -1 + 1e-6 else None
+            spec = next(v for v in self.study.levers if v.name == name)
+            out.append({"name": name, "value": vals[name], "lower": spec.lower,
+                        "upper": spec.upper, "at_bound": at,
+                        "db_per_unit": float(lam[nzs + i] / ls.half[i]), "status": status})
+        return tuple(out)
+
     def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
         """Worst violation of each constraint group (equalities as ``implicit_equations``).
 
@@ -759,7 +878,10 @@ class TableProblem:
         x : ndarray
         """
         vals = {v.name: v.start for v in self.study.variables}
-        vals.update(self.scaling.to_values(np.clip(x[: self.nz], -1.0, 1.0)))
+        nzs = len(self.scaling.names)
+        vals.update(self.scaling.to_values(np.clip(x[:nzs], -1.0, 1.0)))
+        if self.n_levers:  # the free levers' values (fixed ones: the study's table)
+            vals.update(self.lever_scaling.to_values(np.clip(x[nzs: self.nz], -1.0, 1.0)))
         return vals
 
     def worst_margin_db(self, x: np.ndarray) -> float:
