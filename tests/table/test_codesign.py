@@ -335,3 +335,20 @@ def test_a_codesigned_run_on_the_command_line_and_its_run_directory(tmp_path, ca
     assert main(["response", str(out), "--points-per-band", "6"]) == 0
     assert "PASS" in capsys.readouterr().out  # the start table fails (-8.25 dB in z)
     assert main(["modes", str(out), "-o", str(tmp_path / "m")]) == 0
+
+
+def test_free_levers_with_leveling_loop_bounds_are_refused_naming_the_key():
+    """The loop's frozen-pole rows are built on the fixed horizontal element: a study that
+    frees a lever and bounds the loop's margins is refused before any solve, by its keys."""
+    from isodesign.table.optimize import optimize_table
+
+    st = _free("pendulum_length_m").with_changes(
+        constraints={"min_leveling_gain_margin_db": 6.0})
+    with pytest.raises(InputError, match=r"variables\.pendulum_length_m\.fixed: the leveling "
+                                         r"loop's margin bounds"):
+        optimize_table(st, workers=1, analyze=False)
+    # without the bounds (the default valves' margins reported, not enforced) it is accepted
+    free = _free("pendulum_length_m")
+    from isodesign.table.leveling import leveling_margin_bounds
+
+    assert leveling_margin_bounds(free) == (None, None)
