@@ -289,7 +289,7 @@ class Study(ResultDisplay):
                                                          self.source),
                              _hardware(raw["hardware"], self.source), tables, self.source)
         st = study_from_dict(raw, source=self.source, fill_defaults=False)
-        warn_unit_slips(tables, self.source)
+        warn_unit_slips(tables, self.source, isolators=st.payload.isolators)
         _warn_table_slips(st, tables, self.source)
         return st
 
@@ -424,7 +424,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
                floor_axes=floor_axes)
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
-        warn_unit_slips(d, where)
+        warn_unit_slips(d, where, isolators=payload.isolators)
         _warn_table_slips(st, d, where)
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
