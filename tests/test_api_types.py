@@ -116,3 +116,15 @@ def test_load_step_position(parts, position):
 @pytest.mark.parametrize("margins", [("x", 45.0), (6.0, [1]), (-3.0, 45.0)])
 def test_max_valve_gain_margins(parts, margins):
     _refused(lambda: ll.max_valve_gain(parts["model"], parts["system"], *margins), "margin")
+
+
+def test_stability_module_refuses_wrong_objects_by_name():
+    from isodesign.response.stability import stability_figures, stability_of_model
+    from isodesign.table.stability_report import stability_section, static_verdict
+
+    st = default_study()
+    _refused(lambda: stability_of_model("x", st.payload), "model:", "SpringModel")
+    _refused(lambda: stability_figures("x", st.payload), "design:")
+    _refused(lambda: stability_figures(st.start_design(), 5), "payload:")
+    _refused(lambda: stability_section("x"), "model:", "TableModel")
+    _refused(lambda: static_verdict("x"), "stab:", "RockingStability")
