@@ -367,6 +367,9 @@ def _on_signal(signum, frame) -> None:  # pragma: no cover - exercised by subpro
             if kept:
                 where = "; partial run kept in " + ", ".join(str(p) for p in kept) + \
                     " (run_status interrupted)"
+                tables = [str(t) for p in kept for t in rundir.partial_tables(p)]
+                if tables:  # named only when written
+                    where += "; finished work in " + ", ".join(tables)
         else:
             files = sys.modules.get("isodesign.io.files")
             if files is not None:

@@ -18,6 +18,7 @@ __all__ = [
     "check_choice",
     "check_domain",
     "check_finite_array",
+    "check_instance",
     "check_positive",
     "check_range",
 ]
@@ -65,7 +66,10 @@ def check_positive(name: str, value: Any, *, unit: str = "", allow_array: bool =
         return value
     u = f" {unit}" if unit else ""
     if allow_array:
-        arr = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+        try:
+            arr = np.asarray(value, dtype=float) if not isinstance(value, str) else None
+        except (TypeError, ValueError):
+            arr = None
         if arr is None or arr.size == 0:
             raise InputError(f"{name}: expected at least one finite value > 0{u}, got {value!r}")
         if not np.all(np.isfinite(arr)):
@@ -208,4 +212,24 @@ def check_choice(name: str, value: Any, choices) -> str:
     choices = tuple(choices)
     if value not in choices:
         raise InputError(f"{name}: unknown value {value!r}; valid: {', '.join(map(str, choices))}")
+    return value
+
+
+def check_instance(name: str, value: Any, types, expected: str):
+    """Require an instance of ``types`` (an object the public API passes on, not a number).
+
+    Parameters
+    ----------
+    name : str
+        The parameter's name as the user wrote it (it starts the error message).
+    value : object
+        The value given.
+    types : type or tuple of types
+        The accepted types.
+    expected : str
+        What to pass, for the message (``"a TableModel (table_model(design, table))"``).
+    """
+    if not isinstance(value, types):
+        raise InputError(f"{name}: expected {expected}, got {type(value).__name__} "
+                         f"{_shown(value)}")
     return value

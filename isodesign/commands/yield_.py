@@ -19,6 +19,9 @@ from isodesign.commands import add_output_dir_arguments, run_directory
 from isodesign.commands import int_option as _int_option
 
 OUTPUT_FILES = ("yield.json", "yield.csv", "yield.png", "record.json")
+#: The table an interrupted ``isodesign yield`` leaves: the draws judged so far (the
+#: columns of yield.csv), in the set-aside ``OUTDIR.interrupted``.
+PARTIAL_TABLE = "yield_partial.csv"
 
 
 def add_arguments(parser: argparse.ArgumentParser) -> None:
@@ -74,6 +77,25 @@ def _design_values(path: Path) -> tuple[dict, str, Path | None]:
     return {n: float(getattr(d, n)) for n in DESIGN_VARIABLES}, str(path), None
 
 
+def _write_partial(path: Path, study, values: dict, finished: dict, args, label: str):
+    """Write the finished draws (in draw order) as ``yield_partial.csv``; its name, or None
+    when no draw had finished."""
+    if not finished:
+        return None
+    import numpy as np
+
+    from isodesign.io.files import atomic_write_text
+    from isodesign.optimization.yields import YieldResult
+
+    order = sorted(finished)
+    part = YieldResult(study=study, values=dict(values),
+                       draws=np.concatenate([finished[i][0] for i in order]),
+                       verdicts=tuple(v for i in order for v in finished[i][1]),
+                       confidence=args.confidence, seed=args.seed, label=label)
+    atomic_write_text(path / PARTIAL_TABLE, part.to_frame().to_csv(index=False))
+    return PARTIAL_TABLE
+
+
 def run(args) -> int:
     """Run ``isodesign yield``."""
     from isodesign.commands import check_count
@@ -106,8 +128,18 @@ def run(args) -> int:
                                                             "--samples", str(args.samples),
                                                             "--seed", str(args.seed),
                                                             "-o", str(args.output)])})
+        finished: dict = {}  # first draw's index -> (draws, verdicts), as they complete
+
+        def keep(first, draws, verdicts):
+            finished[first] = (draws, verdicts)
+
+        def partial_table(path):  # an interrupt: the draws judged so far, as yield.csv is
+            return _write_partial(path, study, values, dict(finished), args, label)
+
+        rundir.interrupt_hooks.append(partial_table)
         res = estimate_yield(study, values, samples=args.samples, seed=args.seed,
-                             confidence=args.confidence, workers=args.workers, label=label)
+                             confidence=args.confidence, workers=args.workers, label=label,
+                             progress=keep)
         rundir.record["yield"] = res.record()
         rundir.write_json("yield.json", res.record())
         rundir.write_csv("yield.csv", res.to_frame())

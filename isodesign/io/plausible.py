@@ -14,7 +14,8 @@ from __future__ import annotations
 
 import warnings
 
-__all__ = ["PLAUSIBLE", "UnitWarning", "unit_slips", "warn_unit_slips"]
+__all__ = ["MIN_LOAD_PER_ISOLATOR_KG", "PLAUSIBLE", "UnitWarning", "unit_slips",
+           "warn_unit_slips"]
 
 
 class UnitWarning(UserWarning):
@@ -48,6 +49,37 @@ PLAUSIBLE = {
 }
 
 
+#: Smallest plausible payload per pneumatic isolator, kg: below it the spring's gauge pressure
+#: (m g / (n A_p), a few kPa on the reference piston) is far below any air spring's working
+#: range. A payload in tonnes typed as kg (``mass_kg = 0.6`` for 600 kg) falls below it.
+MIN_LOAD_PER_ISOLATOR_KG = 2.0
+
+
+def _load_slips(values: dict, head: str, isolators) -> list[str]:
+    """The payload per isolator (``[payload]`` of a study, ``[load]`` of a design file)."""
+    out = []
+    for table in ("payload", "load"):
+        p = values.get(table)
+        if not isinstance(p, dict) or "mass_kg" not in p:
+            continue
+        m, n = p["mass_kg"], p.get("isolators", isolators)
+        if (isinstance(m, bool) or not isinstance(m, int | float) or isinstance(n, bool)
+                or not isinstance(n, int) or n < 1):
+            continue
+        try:
+            m = float(m)
+        except OverflowError:
+            continue
+        lo = PLAUSIBLE["mass_kg"][0]
+        if not (lo <= m < float("inf")) or m / n >= MIN_LOAD_PER_ISOLATOR_KG:
+            continue  # below the mass's own range: that message names it
+        out.append(f"{head}{table}.mass_kg = {m:g} kg on {n} isolators is {m / n:.3g} kg per "
+                   f"isolator, below the plausible minimum of a pneumatic isolator "
+                   f"({MIN_LOAD_PER_ISOLATOR_KG:g} kg); a unit slip? mass_kg is in kg, and "
+                   f"{_meant(m, _T_KG)}")
+    return out
+
+
 def _meant(value: float, slip) -> str:
     unit, factor, si = slip
     if factor is None:  # degrees Celsius
@@ -55,8 +87,11 @@ def _meant(value: float, slip) -> str:
     return f"{value:g} {unit} would be {value * factor:g} {si}"
 
 
-def unit_slips(values: dict, where: str = "") -> list[str]:
+def unit_slips(values: dict, where: str = "", *, isolators: int | None = None) -> list[str]:
     """Messages for the values of ``values`` far outside their key's plausible range.
+
+    Also the payload per isolator (``payload.mass_kg`` / ``isolators``, and a design file's
+    ``[load]``) below :data:`MIN_LOAD_PER_ISOLATOR_KG`: tonnes typed as kg.
 
     Parameters
     ----------
@@ -66,6 +101,9 @@ def unit_slips(values: dict, where: str = "") -> list[str]:
         plausible range (:data:`PLAUSIBLE`), booleans and non-numbers are skipped.
     where : str
         Prefix of each message (the file), e.g. ``"study.toml"``.
+    isolators : int, optional
+        The number of isolators when ``values`` does not give it (the study's, for a
+        change of ``payload.mass_kg`` alone).
 
     Returns
     -------
@@ -105,10 +143,10 @@ def unit_slips(values: dict, where: str = "") -> list[str]:
                 out.append(msg)
 
     walk(values, "")
-    return out
+    return out + _load_slips(values, f"{where}: " if where else "", isolators)
 
 
-def warn_unit_slips(values: dict, where: str = "") -> list[str]:
+def warn_unit_slips(values: dict, where: str = "", *, isolators: int | None = None) -> list[str]:
     """Emit one :class:`UnitWarning` per message of :func:`unit_slips`; return them.
 
     Parameters
@@ -117,13 +155,15 @@ def warn_unit_slips(values: dict, where: str = "") -> list[str]:
         As for :func:`unit_slips`.
     where : str
         As for :func:`unit_slips`.
+    isolators : int, optional
+        As for :func:`unit_slips`.
 
     Returns
     -------
     list of str
         The messages warned.
     """
-    msgs = unit_slips(values, where)
+    msgs = unit_slips(values, where, isolators=isolators)
     for m in msgs:
         warnings.warn(m, UnitWarning, stacklevel=3)
     return msgs

@@ -77,6 +77,7 @@ __all__ = [
     "RunDirectory",
     "check_run_target",
     "interrupt_active_runs",
+    "partial_tables",
     "read_run_record",
 ]
 
@@ -310,6 +311,11 @@ class RunDirectory:
         self.path: Path | None = None
         self.final: Path | None = None
         self._pid = os.getpid()
+        #: Called with the staging directory when the run is interrupted; each may write a
+        #: table of the work finished so far (whole, atomically) and return its file name.
+        self.interrupt_hooks: list = []
+        #: The tables the hooks wrote, in the set-aside directory (after an interrupt).
+        self.partial_tables: list[Path] = []
 
     # -- lifecycle -----------------------------------------------------------------
     def __enter__(self) -> RunDirectory:
@@ -428,6 +434,17 @@ class RunDirectory:
             return self.final
         discard_pending_writes()
         self.status, self.error = "interrupted", reason
+        written = []
+        for hook in list(self.interrupt_hooks):  # the finished work, as a readable table
+            with contextlib.suppress(Exception):
+                name = hook(self.path)
+                if name and (self.path / name).is_file():
+                    written.append(name)
+                    if name not in self.files:
+                        self.files.append(name)
+        discard_pending_writes()
+        if written:
+            self.record["partial_tables"] = written
         with contextlib.suppress(OSError):
             self._write_record("interrupted", reason)
             make_durable(self.path)  # what the run wrote, kept for inspection
@@ -442,6 +459,8 @@ class RunDirectory:
             dest = self.path
         self._deactivate()
         self.final = dest
+        self.partial_tables = [dest / n for n in written if (dest / n).is_file()]
+        _PARTIAL_TABLES[str(dest)] = list(self.partial_tables)
         return dest
 
     def discard(self) -> None:
@@ -515,6 +534,21 @@ def _sync_parent(path: Path) -> None:
             os.fsync(fd)
         finally:
             os.close(fd)
+
+
+#: Set-aside directory -> the partial tables its interrupt hooks wrote (this process).
+_PARTIAL_TABLES: dict[str, list[Path]] = {}
+
+
+def partial_tables(path) -> list[Path]:
+    """The tables of finished work an interrupted run wrote into ``path`` (existing files).
+
+    Parameters
+    ----------
+    path : str or Path
+        Where :meth:`RunDirectory.interrupt` set the run aside.
+    """
+    return [p for p in _PARTIAL_TABLES.get(str(path), []) if p.is_file()]
 
 
 def interrupt_active_runs(reason: str = "interrupted") -> list[Path]:

@@ -108,6 +108,9 @@ def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool 
     if not isinstance(study, Study):
         raise InputError(f"study: expected a Study (load_study(path) or default_study()), "
                          f"got {type(study).__name__} {study!r:.40}")
+    if progress is not None and not callable(progress):
+        raise InputError(f"progress: expected a callable progress(done, total, solution) or "
+                         f"None, got {type(progress).__name__} {progress!r:.40}")
     kind = study_kind(study)
     if kind == "robust table":
         from isodesign.optimization.robust_table import robust_optimize_table

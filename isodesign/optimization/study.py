@@ -334,15 +334,30 @@ class Study(ResultDisplay):
             note = f"Changed from study {self.name!r}: [{'], ['.join(changed)}]."
             tables["description"] = f"{old} {note}".strip()
         raw = _merge(self.raw, tables)  # nested tables merge like a study file's
+        _follow_table(raw, tables)
         if isinstance(tables.get("models"), dict) and "acoustics" in tables["models"]:
             _check_all_keys(raw, self.source)
             _check_acoustics(copy.deepcopy(raw), _models(raw["models"], self.source,
                                                          self.source),
                              _hardware(raw["hardware"], self.source), tables, self.source)
         st = study_from_dict(raw, source=self.source, fill_defaults=False)
-        warn_unit_slips(tables, self.source)
+        warn_unit_slips(tables, self.source, isolators=st.payload.isolators)
         _warn_table_slips(st, tables, self.source)
         return st
+
+
+def _follow_table(raw: dict, tables: dict) -> None:
+    """A change of the ``[table]``'s geometry without the matching ``[payload]`` key: the
+    payload key follows the table (it is taken from it again, not compared)."""
+    tt, pp = tables.get("table"), tables.get("payload")
+    if not isinstance(tt, dict) or not isinstance(raw.get("payload"), dict):
+        return
+    pp = pp if isinstance(pp, dict) else {}
+    for tkey, pkeys in (("isolators_m", ("isolators", "spacing_m")), ("cg_m", ("cg_height_m",))):
+        if tkey in tt:
+            for k in pkeys:
+                if k not in pp:
+                    raw["payload"].pop(k, None)
 
 
 def _warn_table_slips(st: Study, given: dict, where: str) -> None:
@@ -431,7 +446,10 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     raw = _resolve(d, fill_defaults)
     payload = _payload(raw["payload"], where)
     hw = _hardware(raw["hardware"], where)
-    table = _table(raw, payload, hw, where)
+    given = d.get("payload") if fill_defaults else raw.get("payload")
+    table = _table(raw, payload, hw, where, set(given) if isinstance(given, dict) else set())
+    if table is not None:  # the payload's geometry is the table's (checked or taken)
+        payload = _payload(raw["payload"], where)
     for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz",
               "min_leveling_gain_margin_db", "min_leveling_phase_margin_deg", "max_stroke_m",
               "stroke_peak_factor"):
@@ -459,7 +477,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
                floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where))
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
-        warn_unit_slips(d, where)
+        warn_unit_slips(d, where, isolators=payload.isolators)
         _warn_table_slips(st, d, where)
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
@@ -558,17 +576,16 @@ def _hardware(h: dict, where: str) -> dict:
     return hw
 
 
-def _table(raw: dict, payload, hw: dict, where: str):
-    """``[table]`` (None without one), leveled; ``payload.isolators`` must match it."""
+def _table(raw: dict, payload, hw: dict, where: str, given: set):
+    """``[table]`` (None without one), leveled; the ``[payload]``'s geometry keys the user
+    gave (``given``) must agree with it, the others take its values (in ``raw``)."""
     if "table" not in raw:
         return None
     from isodesign.table.statics import level
-    from isodesign.table.study import table_from_dict
+    from isodesign.table.study import payload_from_table, table_from_dict
 
     t = table_from_dict(raw["table"], payload.mass_kg, payload.g_m_s2, where)
-    if payload.isolators != t.n_isolators:
-        raise InputError(f"{where}: payload.isolators = {payload.isolators} but "
-                         f"table.isolators_m lists {t.n_isolators} isolators")
+    raw["payload"] = payload_from_table(raw["payload"], given, t, where)
     try:
         level(t, hw["piston_area_m2"])
     except InputError as exc:

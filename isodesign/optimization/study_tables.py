@@ -106,42 +106,43 @@ def _axis_floor(v: dict, axis: str, z: FloorSpectrum, where: str, source: str) -
             raise InputError(f"{where}: unknown key {key!r} in [floor.{axis}]; valid: "
                              f"{', '.join(sorted(_AXIS_FLOOR_KEYS))}")
     if "scale" not in v:
-        return _floor(v, f"{where} [floor.{axis}]", source)
+        return _floor(v, where, source, f"floor.{axis}")
     sc = _num(where, f"floor.{axis}.scale", v["scale"], 0.0, 10.0, True)
     rest = {k: x for k, x in v.items() if k != "scale"}
-    base = _floor(rest, f"{where} [floor.{axis}]", source) if rest else z
+    base = _floor(rest, where, source, f"floor.{axis}") if rest else z
     name = f"{sc:g} x {base.name or 'floor'}"
     return dataclasses.replace(base, psd_velocity_m2_s2_per_hz=np.asarray(
         base.psd_velocity_m2_s2_per_hz) * sc * sc, name=name,
         source=f"floor.{axis}.scale = {sc:g} of {base.name or 'the vertical floor'}")
 
 
-def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
+def _floor(fl: dict, where: str, source: str, key_: str = "floor") -> FloorSpectrum:
     """``[floor]``: a criterion, a CSV spectrum or a survey record (paths relative to the study
-    file)."""
+    file). ``key_`` is the table as the user typed it (``floor``, ``floor.x``): errors name
+    its keys (``floor.x.csv``)."""
     if sum(k in fl for k in ("criterion", "csv", "record")) != 1:
-        raise InputError(f"{where}: [floor] needs exactly one of criterion = \"VC-A\", "
+        raise InputError(f"{where}: [{key_}] needs exactly one of criterion = \"VC-A\", "
                          "csv = \"file.csv\" or record = \"survey.csv\"")
     for key in ("csv", "record"):
         if key in fl and (not isinstance(fl[key], str) or not fl[key].strip()):
-            raise InputError(f"{where}: floor.{key} must be a file name (a string), got "
+            raise InputError(f"{where}: {key_}.{key} must be a file name (a string), got "
                              f"{fl[key]!r:.40}")
     if "record" in fl:
         extra = set(fl) - _RECORD_KEYS
         if extra:
-            raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} do not apply to "
+            raise InputError(f"{where}: [{key_}] keys {', '.join(sorted(extra))} do not apply to "
                              f"a record; valid: {', '.join(sorted(_RECORD_KEYS))}")
         stat = fl.get("statistic", "mean")
-        check_choice(f"{where}: floor.statistic", stat, SURVEY_STATISTICS)
+        check_choice(f"{where}: {key_}.statistic", stat, SURVEY_STATISTICS)
         kw = {}
         if "percentile" in fl:
-            kw["percentile"] = _num(where, "floor.percentile", fl["percentile"], 0, 100)
+            kw["percentile"] = _num(where, f"{key_}.percentile", fl["percentile"], 0, 100)
         if "sample_rate_hz" in fl:
-            kw["sample_rate_hz"] = _num(where, "floor.sample_rate_hz", fl["sample_rate_hz"], 0,
+            kw["sample_rate_hz"] = _num(where, f"{key_}.sample_rate_hz", fl["sample_rate_hz"], 0,
                                         None, True, "Hz")
         for key in ("axis", "unit"):
             if key in fl and not isinstance(fl[key], str):
-                raise InputError(f"{where}: floor.{key} must be a string")
+                raise InputError(f"{where}: {key_}.{key} must be a string")
         if "unit" in fl:
             kw["unit"] = fl["unit"]
         path = Path(fl["record"])
@@ -150,16 +151,16 @@ def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
         try:
             return floor_from_record(path, statistic=stat, axis=fl.get("axis"), **kw)
         except InputError as exc:
-            raise InputError(f"{where}: floor.{exc}") from None
+            raise InputError(f"{where}: {key_}.{exc}") from None
     if "criterion" in fl:
         extra = set(fl) - {"criterion"}
         if extra:
-            raise InputError(f"{where}: [floor] keys {', '.join(sorted(extra))} only apply to csv "
+            raise InputError(f"{where}: [{key_}] keys {', '.join(sorted(extra))} only apply to csv "
                              "or record")
         try:
             return FloorSpectrum.from_criterion(fl["criterion"])
         except InputError as exc:
-            raise InputError(f"{where}: floor.{exc}") from None
+            raise InputError(f"{where}: {key_}.{exc}") from None
     path = Path(fl["csv"])
     if not path.is_absolute() and source not in ("<dict>", "<default>"):
         path = Path(source).parent / path
@@ -169,7 +170,7 @@ def _floor(fl: dict, where: str, source: str) -> FloorSpectrum:
     except InputError as exc:
         msg = str(exc)
         msg = msg.removeprefix("path: ")
-        raise InputError(msg if msg.startswith(where) else f"{where}: floor.csv: {msg}") from None
+        raise InputError(msg if msg.startswith(where) else f"{where}: {key_}.csv: {msg}") from None
 
 
 def _check_acoustics(raw: dict, models: dict, hw: dict, given: dict, where: str) -> None:

@@ -26,6 +26,7 @@ cross).
 
 from __future__ import annotations
 
+import itertools
 import math
 import time
 from dataclasses import dataclass, field
@@ -158,9 +159,11 @@ def _judge_table(theta) -> dict:
             "peak_excess_db": peak}
 
 
-def _judge_chunk(chunk):
+def _judge_chunk(item):
+    """``(first draw's index, draws)`` -> ``(index, draws, verdicts)``."""
+    i0, chunk = item
     judge = _judge_table if getattr(_CTX[0], "table", None) is not None else _judge
-    return [judge(th) for th in chunk]
+    return i0, chunk, [judge(th) for th in chunk]
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -287,7 +290,7 @@ class YieldResult(ResultDisplay):
 
 def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
                    confidence: float = 0.95, workers: int | None = None,
-                   label: str = "") -> YieldResult:
+                   label: str = "", progress=None) -> YieldResult:
     """Sample the tolerance distributions and judge every draw with the NumPy analysis.
 
     A study with ``[table]`` judges every draw with the table's analysis (payload, CG
@@ -310,6 +313,10 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
         Worker processes (default ``study.solver["workers"]``), capped by the cores.
     label : str
         What the design is (for the summary).
+    progress : callable, optional
+        ``progress(first, draws, verdicts)`` after each chunk of draws is judged (in
+        completion order): the index of its first draw, its draws and their verdicts
+        (``isodesign yield`` keeps them for the table an interrupt leaves).
 
     Returns
     -------
@@ -339,9 +346,15 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
     _CTX = (study, dict(values), grid)
     try:
         # the optimizer's one forked map (the workers inherit the study through fork)
-        chunks = np.array_split(draws, workers * 4) if workers > 1 else [draws]
-        parts = map_in_workers(_judge_chunk, chunks, workers=workers)
-        verdicts = [v for part in parts for v in part]
+        # chunks of at most 50 draws (the work an interrupt can keep), 4 per worker at least
+        n_chunks = min(samples, max(workers * 4, -(-samples // 50)))
+        bounds = np.linspace(0, samples, n_chunks + 1).astype(int)
+        chunks = [(int(a), draws[a:b]) for a, b in itertools.pairwise(bounds)]
+        if progress is not None and not callable(progress):
+            raise InputError(f"progress: expected a callable or None, got {progress!r:.40}")
+        report = None if progress is None else (lambda _d, _n, out: progress(*out))
+        parts = map_in_workers(_judge_chunk, chunks, workers=workers, progress=report)
+        verdicts = [v for part in parts for v in part[2]]
     finally:
         _CTX = None
     return YieldResult(study=study, values=dict(values), draws=draws, verdicts=tuple(verdicts),

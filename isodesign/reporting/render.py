@@ -81,6 +81,10 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
     """
     if isinstance(inputs, str | Path):
         inputs = [inputs]
+    if not isinstance(inputs, list | tuple) or not all(isinstance(p, str | Path)
+                                                     for p in inputs):
+        raise InputError("inputs: expected a design file, study file or run directory (a path) "
+                         f"or a list of them, got {type(inputs).__name__} {inputs!r:.40}")
     inputs = list(inputs)
     if not inputs:
 

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from isodesign.errors import check_instance
 from isodesign.response.control import (
     dominant_pole_pair,
     transfer_function_polynomials,
@@ -176,6 +177,8 @@ def stability_of_model(
     linear_coarse : tuple of ndarray, optional
         ``(f, T)`` of the linear transmissibility, to start the peak search.
     """
+    check_instance("model", model, SpringModel, "a SpringModel (response.model.spring_model)")
+    check_instance("payload", payload, Payload, "an isodesign.Payload")
     d = model.design
     x_ref = LINEAR_REFERENCE_AMPLITUDE_M
     fn, k0 = linear_natural_frequency(model, x_ref)

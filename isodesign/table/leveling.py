@@ -36,11 +36,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isodesign.errors import InputError
+from isodesign.errors import InputError, check_instance, check_positive
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.flow_models import resistance_function
 from isodesign.spring.gas import P_ATM
 from isodesign.table.assembly import element_vectors
+from isodesign.table.layout import Table
 from isodesign.table.model import TableModel
 
 __all__ = [
@@ -179,6 +180,8 @@ def leveling_from_dict(d, table=None, where: str = "<dict>") -> LevelingSystem:
     InputError
         Naming ``table.leveling.<key>`` and its valid range.
     """
+    if table is not None:
+        check_instance("table", table, Table, "an isodesign Table or None")
     if not isinstance(d, dict):
         raise InputError(f"{where}: [table.leveling] must be a table")
     for k in d:
@@ -253,6 +256,9 @@ def valve_gain_bounds(study) -> tuple[float, float] | None:
     ----------
     study : Study
     """
+    if not (hasattr(study, "raw") and hasattr(study, "table")):
+        raise InputError(f"study: expected a Study (load_study(path)), got "
+                         f"{type(study).__name__} {study!r:.40}")
     raw = ((getattr(study, "raw", None) or {}).get("table") or {}).get("leveling") or {}
     spec = raw.get("gain_kg_s_per_m")
     if not isinstance(spec, dict):
@@ -271,6 +277,9 @@ def leveling_of_study(study) -> LevelingSystem:
     study : Study
         With ``table`` (and ``raw``, the study file's tables).
     """
+    if not (hasattr(study, "raw") and hasattr(study, "table")):
+        raise InputError(f"study: expected a Study (load_study(path)), got "
+                         f"{type(study).__name__} {study!r:.40}")
     if getattr(study, "table", None) is None:
         raise InputError("study: has no [table]; the leveling valves belong to a table study")
     raw = (getattr(study, "raw", None) or {}).get("table", {})
@@ -299,6 +308,9 @@ def leveling_margin_bounds(study) -> tuple[float | None, float | None]:
     (gain_db, phase_deg)
         Each a float, or None (reported, not enforced).
     """
+    if not (hasattr(study, "raw") and hasattr(study, "table")):
+        raise InputError(f"study: expected a Study (load_study(path)), got "
+                         f"{type(study).__name__} {study!r:.40}")
     raw = getattr(study, "raw", None) or {}
     cons = raw.get("constraints") or {}
     has_valves = "leveling" in (raw.get("table") or {})
@@ -556,6 +568,11 @@ def leveling_plant(model: TableModel, system: LevelingSystem | None = None) -> L
     -------
     LevelingPlant
     """
+    check_instance("model", model, TableModel,
+                   "a TableModel (isodesign.table.model.table_model(design, table))")
+    if system is not None:
+        check_instance("system", system, LevelingSystem,
+                       "a LevelingSystem (leveling_of_study(study)) or None")
     system = LevelingSystem() if system is None else system
     if not isinstance(system, LevelingSystem):
         raise InputError(f"system: expected a LevelingSystem, got {type(system).__name__}")
@@ -663,6 +680,9 @@ def simulate_leveling(plant: LevelingPlant, duration_s: float, *, x0=None, force
     -------
     LevelingSimulation
     """
+    check_instance("plant", plant, LevelingPlant,
+                   "a LevelingPlant (leveling_plant(model, system))")
+    check_positive("duration_s", duration_s, unit="s")
     from scipy.integrate import solve_ivp
 
     sysm = plant.system if gain_kg_s_per_m is None else plant.system.replace(

@@ -24,9 +24,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isodesign.errors import InputError
+from isodesign.errors import InputError, check_instance, check_positive, check_range
 from isodesign.results import ResultDisplay
+from isodesign.spring.design import SpringDesign
 from isodesign.table.leveling import LevelingPlant, LevelingSystem, leveling_plant
+from isodesign.table.model import TableModel
 
 __all__ = [
     "LevelingLoop",
@@ -282,6 +284,11 @@ def leveling_loop(model, system: LevelingSystem | None = None) -> LevelingLoop:
     -------
     LevelingLoop
     """
+    check_instance("model", model, TableModel,
+                   "a TableModel (isodesign.table.model.table_model(design, table))")
+    if system is not None:
+        check_instance("system", system, LevelingSystem,
+                       "a LevelingSystem (leveling_of_study(study)) or None")
     import control
 
     plant = leveling_plant(model, system)
@@ -348,6 +355,14 @@ def max_valve_gain(model, system: LevelingSystem, gain_margin_db: float | None,
         The gain, kg/s/m (the system's own if it meets the bounds); None if even the
         smallest gain tried misses them.
     """
+    check_instance("model", model, TableModel,
+                   "a TableModel (isodesign.table.model.table_model(design, table))")
+    check_instance("system", system, LevelingSystem,
+                   "a LevelingSystem (leveling_of_study(study)) or None")
+    if gain_margin_db is not None and gain_margin_db is not False:
+        check_range("gain_margin_db", gain_margin_db, 0.0, None, unit="dB")
+    if phase_margin_deg is not None and phase_margin_deg is not False:
+        check_range("phase_margin_deg", phase_margin_deg, 0.0, None, unit="deg")
     def meets(g):
         lp = leveling_loop(model, system.replace(gain_kg_s_per_m=float(g)))
         return ((gain_margin_db is None or lp.worst_gain_margin_db >= gain_margin_db)
@@ -389,6 +404,10 @@ def study_valves(study, design) -> LevelingSystem:
     -------
     LevelingSystem
     """
+    if not (hasattr(study, "raw") and hasattr(study, "table")):
+        raise InputError(f"study: expected a Study (load_study(path)), got "
+                         f"{type(study).__name__} {study!r:.40}")
+    check_instance("design", design, SpringDesign, "a SpringDesign (study.start_design())")
     from isodesign.table.leveling import (
         leveling_margin_bounds,
         leveling_of_study,
@@ -520,6 +539,17 @@ def load_step(loop: LevelingLoop, mass_kg: float, position_m, duration_s: float 
     -------
     LoadStep
     """
+    check_instance("loop", loop, LevelingLoop,
+                   "a LevelingLoop (leveling_loop(model, system))")
+    check_positive("mass_kg", mass_kg, unit="kg")
+    check_positive("duration_s", duration_s, unit="s")
+    pos = (np.asarray(position_m, dtype=float)
+           if isinstance(position_m, list | tuple | np.ndarray)
+           and all(isinstance(v, int | float | np.number) and not isinstance(v, bool)
+                   for v in np.ravel(np.asarray(position_m, dtype=object))) else None)
+    if pos is None or pos.shape != (3,) or not np.all(np.isfinite(pos)):
+        raise InputError(f"position_m: expected (x, y, z), three finite numbers in m (the "
+                         f"table frame), got {position_m!r:.60}")
     import control
 
     if not mass_kg > 0:
@@ -563,6 +593,9 @@ def describing_function(amplitude_m, system: LevelingSystem, gain_kg_s_per_m=Non
     gain_kg_s_per_m : float, optional
         Default the system's.
     """
+    check_positive("amplitude_m", amplitude_m, unit="m", allow_array=True)
+    check_instance("system", system, LevelingSystem,
+                   "a LevelingSystem (leveling_of_study(study)) or None")
     g = system.gain_kg_s_per_m if gain_kg_s_per_m is None else float(gain_kg_s_per_m)
     d = system.dead_band_m
     es = d + system.saturation_flow_kg_s / g
@@ -627,6 +660,8 @@ def limit_cycle(loop: LevelingLoop) -> LimitCycle:
     -------
     LimitCycle
     """
+    check_instance("loop", loop, LevelingLoop,
+                   "a LevelingLoop (leveling_loop(model, system))")
     from scipy.optimize import brentq
 
     plant, sysm = loop.plant, loop.plant.system
@@ -670,6 +705,9 @@ def leveling_transmissibility(loop: LevelingLoop, frequency_hz) -> tuple:
     loop : LevelingLoop
     frequency_hz : ndarray
     """
+    check_instance("loop", loop, LevelingLoop,
+                   "a LevelingLoop (leveling_loop(model, system))")
+    check_positive("frequency_hz", frequency_hz, unit="Hz", allow_array=True)
     plant = loop.plant
     n = plant.n_states
     forced = plant.a.copy()

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isodesign.errors import InputError, SolverError
+from isodesign.errors import InputError, SolverError, check_instance, check_positive
 from isodesign.numerics.cplx import Cx
 from isodesign.response.isolator import static_stiffness
 from isodesign.response.model import LINEAR_REFERENCE_AMPLITUDE_M, TWO_PI
@@ -186,6 +186,9 @@ def table_modes(model: TableModel, *, amplitude_m: float = LINEAR_REFERENCE_AMPL
         A mode's iteration diverges (not raised for statically unstable modes: those get
         NaN frequency).
     """
+    check_instance("model", model, TableModel,
+                   "a TableModel (isodesign.table.model.table_model(design, table))")
+    check_positive("amplitude_m", amplitude_m, unit="m")
     at = _stiffness_at(model, amplitude_m, vertical)
     m = model.geometry.mass
     mu0, vec0 = _eig(model, at, TWO_PI * 1.0)
@@ -342,6 +345,10 @@ def rocking_stability(model: TableModel, *, frequency_hz: float | None = QUASI_S
     -------
     RockingStability
     """
+    check_instance("model", model, TableModel,
+                   "a TableModel (isodesign.table.model.table_model(design, table))")
+    if frequency_hz is not None:
+        check_positive("frequency_hz", frequency_hz, unit="Hz")
     from scipy.linalg import eigh
 
     if frequency_hz is None:
@@ -500,6 +507,20 @@ def mode_solutions(model: TableModel, *, rank: int = 0, frequency_range_hz=(1e-3
     -------
     ModeSolutions
     """
+    check_instance("model", model, TableModel,
+                   "a TableModel (isodesign.table.model.table_model(design, table))")
+    if isinstance(rank, bool) or not isinstance(rank, int | np.integer) or rank < 0:
+        raise InputError(f"rank: expected an integer >= 0 (0: the lowest solution), "
+                         f"got {rank!r:.40}")
+    if (not isinstance(frequency_range_hz, list | tuple | np.ndarray)
+            or len(frequency_range_hz) != 2):
+        raise InputError(f"frequency_range_hz: expected (low, high) in Hz, 0 < low < high, got "
+                         f"{frequency_range_hz!r:.40}")
+    lo_hz, hi_hz = check_positive("frequency_range_hz", frequency_range_hz, unit="Hz",
+                                  allow_array=True)
+    if not lo_hz < hi_hz:
+        raise InputError(f"frequency_range_hz: expected (low, high) with low < high, got "
+                         f"{tuple(frequency_range_hz)}")
     from scipy.optimize import brentq
 
     if not 0 <= int(rank) < 6:

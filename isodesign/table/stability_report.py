@@ -23,8 +23,11 @@ def static_verdict(stab) -> str:
     ----------
     stab : RockingStability
     """
+    from isodesign.errors import check_instance
+    from isodesign.table.modes import RockingStability
     from isodesign.table.summary import stability_text
 
+    check_instance("stab", stab, RockingStability, "a RockingStability (rocking_stability(model))")
     return stability_text(stab).rsplit(" -> ", 1)[1]
 
 

@@ -37,7 +37,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isodesign.errors import InputError
+from isodesign.errors import InputError, check_positive
 from isodesign.spring.equations import air_stiffness, spring_stiffness
 from isodesign.spring.flow_models import resistance_function
 from isodesign.spring.gas import P_ATM
@@ -135,9 +135,8 @@ def level(table: Table, piston_area_m2: float, *, p_atm_pa: float = P_ATM) -> Le
     """
     if not isinstance(table, Table):
         raise InputError(f"table: expected an isodesign Table, got {type(table).__name__}")
-    a_p = float(piston_area_m2)
-    if not a_p > 0:
-        raise InputError(f"piston_area_m2: must be > 0, got {piston_area_m2!r}")
+    a_p = check_positive("piston_area_m2", piston_area_m2, unit="m^2")
+    check_positive("p_atm_pa", p_atm_pa, unit="Pa")
     xy = table.isolators_m
     cx, cy = table.cg_m[:2]
     if not table.cg_inside_support():

@@ -39,7 +39,7 @@ from isodesign.errors import InputError
 from isodesign.table.layout import HorizontalElement, Table, box_inertia, check_numbers
 
 __all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection",
-           "table_from_dict", "table_unit_slips"]
+           "payload_from_table", "table_from_dict", "table_unit_slips"]
 
 #: Keys of ``[table]`` and ``[table.horizontal]``.
 TABLE_KEYS = {
@@ -339,3 +339,79 @@ def narrowest_spacing_m(table: Table) -> float:
     xy = table.isolators_m
     d = np.linalg.norm(xy[:, None] - xy[None], axis=-1)
     return float(np.min(d[np.triu_indices(len(xy), 1)]))
+
+
+#: Relative tolerance within which a ``[payload]`` length agrees with the ``[table]``'s.
+PAYLOAD_AGREEMENT = 0.01
+
+
+def payload_from_table(payload: dict, given, table: Table, where: str = "") -> dict:
+    """The ``[payload]``'s geometry keys checked against the ``[table]``, or taken from it.
+
+    The table model uses the ``[table]``'s geometry (and the ``[payload]``'s mass and
+    gravity). A ``[payload]`` geometry key the user gave must agree with it:
+    ``isolators`` with the number of ``table.isolators_m``, ``cg_height_m`` with the height
+    in ``table.cg_m`` and ``spacing_m`` with a distance between two isolators (within 1 %).
+    A key not given (a default) never conflicts: it takes the table's value (``spacing_m``
+    the narrowest distance between two isolators). A table whose lengths are implausible
+    (a unit slip, warned by :func:`table_unit_slips`) is not compared on its lengths.
+
+    Parameters
+    ----------
+    payload : dict
+        The resolved ``[payload]`` table.
+    given : collection of str
+        The ``[payload]`` keys the user gave.
+    table : Table
+        The validated table.
+    where : str
+        Prefix of the error (the study file).
+
+    Returns
+    -------
+    dict
+        ``payload`` with ``isolators``, ``spacing_m`` and ``cg_height_m`` set.
+
+    Raises
+    ------
+    InputError
+        A given key that disagrees with the table, naming both keys.
+    """
+    head = f"{where}: " if where else ""
+    out = dict(payload)
+    xy = table.isolators_m
+    dist = np.linalg.norm(xy[:, None] - xy[None], axis=-1)[np.triu_indices(len(xy), 1)]
+    slipped = (float(np.max(np.abs(xy))) > LENGTH_PLAUSIBLE_M
+               or float(np.ptp(xy, axis=0).max()) < SPAN_PLAUSIBLE_M)
+    n = payload.get("isolators")
+    if "isolators" in given and n != table.n_isolators:
+        raise InputError(f"{head}payload.isolators = {n} but table.isolators_m lists "
+                         f"{table.n_isolators} isolators: [payload] and [table] disagree "
+                         "(the table model uses table.isolators_m; drop payload.isolators "
+                         "or make them agree)")
+    out["isolators"] = table.n_isolators
+    h = payload.get("cg_height_m")
+    tz = float(table.cg_height_m)
+    if ("cg_height_m" in given and h is not None and abs(tz) <= LENGTH_PLAUSIBLE_M
+            and _num_ok(h) and abs(h - tz) > PAYLOAD_AGREEMENT * max(abs(tz), 1e-3)):
+        raise InputError(f"{head}payload.cg_height_m = {h:g} m but table.cg_m puts the centre "
+                         f"of gravity {tz:g} m above the support plane: [payload] and [table] "
+                         "disagree (the table model uses table.cg_m; drop "
+                         "payload.cg_height_m or make them agree)")
+    if "cg_height_m" not in given and tz > 0:
+        out["cg_height_m"] = tz
+    s = payload.get("spacing_m")
+    if ("spacing_m" in given and s is not None and not slipped and _num_ok(s)
+            and not np.any(np.abs(dist - s) <= PAYLOAD_AGREEMENT * dist)):
+        raise InputError(f"{head}payload.spacing_m = {s:g} m is no distance between two "
+                         f"isolators of table.isolators_m (narrowest {float(dist.min()):.4g} m, "
+                         f"widest {float(dist.max()):.4g} m): [payload] and [table] disagree "
+                         "(the table model uses table.isolators_m; drop payload.spacing_m "
+                         "or make them agree)")
+    if "spacing_m" not in given:
+        out["spacing_m"] = float(dist.min())
+    return out
+
+
+def _num_ok(v) -> bool:
+    return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)

@@ -338,6 +338,23 @@ def test_design_file_lumped_with_heat_exchange_warns(tmp_path):
         load_design(p)
 
 
+def test_stiffness_of_a_lumped_design_file_with_heat_exchange_is_one_line(tmp_path, capsys):
+    """The file's warning and the refusal said the same thing twice: one line (the error)."""
+    design = tmp_path / "d.toml"
+    design.write_text(DESIGN_HX + 'acoustics = "lumped"\n')
+    out = tmp_path / "k.csv"
+    rc = main(["stiffness", str(design), "--freq", "1,10", "--amplitude", "1um", "-o", str(out)])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert rc == 2 and len(err) == 1 and err[0].startswith("isodesign: error: "), err
+    assert "acoustics = 'lumped'" in err[0] and "chamber_heat_exchange" in err[0]
+    assert not out.exists()
+    # --acoustics distributed computes the heat exchange: the file's warning is moot
+    rc = main(["stiffness", str(design), "--freq", "1,10", "--amplitude", "1um", "-o", str(out),
+               "--acoustics", "distributed"])
+    err = capsys.readouterr().err
+    assert rc == 0 and "chamber_heat_exchange" not in err, err
+
+
 @pytest.mark.parametrize("study, fragments", [
     ({"models": {"acoustics": "lumped"}, "hardware": {"chamber_heat_exchange": True}},
      ["models.acoustics", "hardware.chamber_heat_exchange"]),
@@ -401,9 +418,10 @@ FLOOR_X = TABLE_TOML + 'cg_m = [0.0, 0.0, 0.35]\n[floor]\ncriterion = "VC-A"\n[f
 @pytest.mark.parametrize("case, fragments", [
     ("points_binary", ["--points-file", "not a UTF-8 text file"]),
     ("points_latin1", ["--points-file", "not a UTF-8 text file"]),
-    ("floor_x_csv_number", ["[floor.x]", "floor.csv must be a file name"]),
-    ("floor_x_record_binary", ["[floor.x]", "floor.record", "not a UTF-8 text file"]),
-    ("floor_x_csv_binary", ["[floor.x]", "floor.csv", "bin.csv"]),
+    # the key as the user typed it: floor.x.csv, not "[floor.x]: floor.csv"
+    ("floor_x_csv_number", ["floor.x.csv must be a file name"]),
+    ("floor_x_record_binary", ["floor.x.record", "not a UTF-8 text file"]),
+    ("floor_x_csv_binary", ["floor.x.csv", "bin.csv"]),
     ("run_record_list", ["record.json", "JSON object"]),
     ("run_record_binary", ["record.json", "cannot read the run record"]),
 ])
@@ -432,5 +450,5 @@ def test_codec_and_json_errors_name_the_file(tmp_path, capsys, case, fragments):
     assert len(err) == 1 and err[0].startswith("isodesign: error: "), err
     for f in fragments:
         assert f in err[0], err[0]
-    assert "internal error" not in err[0]
+    assert "internal error" not in err[0] and "[floor.x]: floor." not in err[0]
     assert not out.exists()

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pytest
 
@@ -54,6 +56,48 @@ def test_isolator_count_must_match_and_axes_need_a_table():
         study_from_dict({"table": TABLE, "payload": {"isolators": 3}})
     with pytest.raises(InputError, match=r"floor\.x applies only to a study with a \[table\]"):
         study_from_dict({"floor": {"criterion": "VC-A", "x": {"criterion": "VC-B"}}})
+
+
+# -- issue 23: a [payload] and a [table] that disagree on geometry --------------------------
+@pytest.mark.parametrize("payload, keys", [
+    ({"isolators": 6}, ("payload.isolators", "table.isolators_m")),
+    ({"cg_height_m": 0.5}, ("payload.cg_height_m", "table.cg_m")),
+    ({"spacing_m": 1.0}, ("payload.spacing_m", "table.isolators_m")),
+])  # fmt: skip
+def test_payload_disagreeing_with_table_names_both_keys(payload, keys):
+    with pytest.raises(InputError) as exc:
+        study_from_dict({"table": TABLE, "payload": {"mass_kg": 600.0, **payload}},
+                        source="s.toml")
+    msg = str(exc.value)
+    assert msg.startswith("s.toml: ") and "\n" not in msg
+    for k in keys:
+        assert k in msg, msg
+
+
+def test_payload_defaults_never_conflict_and_take_the_tables_geometry():
+    six = {**TABLE, "isolators_m": [[-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4],
+                                    [0.0, 0.45], [0.0, -0.45]],
+           "cg_m": [0.0, 0.0, 0.5], "leveling_groups": [[1, 2], [3, 5], [4, 6]]}
+    st = study_from_dict({"table": six, "payload": {"mass_kg": 900.0}}, source="s.toml")
+    p = st.payload  # the defaults (4 isolators, 1.2 m, 0.35 m) are not the user's
+    assert (p.mass_kg, p.isolators, p.cg_height_m) == (900.0, 6, 0.5)
+    assert p.spacing_m == pytest.approx(math.hypot(0.6, 0.05))  # the narrowest distance
+    assert st.raw["payload"]["isolators"] == 6 and st.raw["payload"]["cg_height_m"] == 0.5
+    # agreeing keys given by the user are kept (any distance between two isolators)
+    agree = {"mass_kg": 900.0, "isolators": 6, "spacing_m": 1.2, "cg_height_m": 0.5}
+    assert study_from_dict({"table": six, "payload": agree}).payload.spacing_m == 1.2
+
+
+def test_with_changes_refuses_a_payload_change_the_table_model_would_ignore():
+    st = table_study()
+    with pytest.raises(InputError, match=r"payload\.cg_height_m = 0\.5.*table\.cg_m"):
+        st.with_changes({"payload.cg_height_m": 0.5})
+    with pytest.raises(InputError, match=r"payload\.isolators = 5.*table\.isolators_m"):
+        st.with_changes({"payload.isolators": 5})
+    # a change of the table's geometry carries the payload keys it does not give
+    moved = st.with_changes({"table.cg_m": [0.0, 0.0, 0.5]})
+    assert moved.payload.cg_height_m == 0.5 and moved.table.cg_height_m == 0.5
+    assert st.with_changes({"payload.mass_kg": 700.0}).table.mass_kg == 700.0
 
 
 # -- issue 23: per-axis floors, relative paths and scale -----------------------------------
