@@ -75,6 +75,7 @@ from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_vel
 from isodesign.table.assembly import dynamic_stiffness, geometry, solve_complex
 from isodesign.table.floor import table_grid
 from isodesign.table.layout import horizontal_stiffness
+from isodesign.table.loop_rows import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, frozen_poles, loop_rows
 from isodesign.table.statics import level
 
 __all__ = ["DAMPED_MODE_LIMIT_HZ", "LOOP_MARGIN_EPS", "LOOP_POLES_MIMO", "PEAK_ROWS_MAX_HZ",
@@ -93,13 +94,6 @@ ROCKING_ENERGY_FRACTION = 0.3
 #: at most three peaks, for :data:`TABLE_PEAK_ROUNDS` rounds.
 PEAK_SLOTS_PER_ROUND = 9
 TABLE_PEAK_ROUNDS = 4
-#: The leveling loop's gain-margin rows freeze the least stable poles of the loop closed at
-#: the raised gain ``G 10^(gm/20)``: this many with every valve raised, and one with each
-#: valve raised alone (the other two at ``G``).
-LOOP_POLES_MIMO = 3
-#: The rows ask ``Re lambda <= -LOOP_MARGIN_EPS |lambda|`` of each frozen pole at the raised
-#: gain (a small cushion for the first-order error; the exact margins are checked after).
-LOOP_MARGIN_EPS = 1e-4
 #: Objectives of the table NLP.
 TABLE_OBJECTIVES = ("worst_band_margin", "total_volume")
 _LN10 = math.log(10.0)
@@ -560,58 +554,18 @@ class TableProblem:
                 out.append(("max_rocking_frequency_hz", ca.vertcat(*hi_rows), 0.0, np.inf))
         return out
 
-    # -- the leveling loop's gain margin ------------------------------------------------
-    def _plant_function(self, ca):
-        """``design -> vec(A)``: the leveling plant's ``A`` (valves closed), an SX Function
-        of :func:`~isodesign.table.leveling.plant_matrix`, the analysis' own assembly."""
-        from isodesign.table.leveling import isolator_constants, plant_matrix
-        from isodesign.table.model import table_model
-
-        dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
-        base = self.study.design_at({nm: dv[i] for i, nm in enumerate(DESIGN_VARIABLES)})
-        consts = np.empty((self.n, 10), dtype=object)
-        for i, p in enumerate(self.leveling.pressure_pa):
-            for j, val in enumerate(isolator_constants(base.replace(pressure_pa=float(p)),
-                                                       self.dia, self.flow)):
-                consts[i, j] = val
-        model = table_model(self.study.start_design(), self.table, flow=self.flow,
-                            diaphragm=self.dia)  # its geometry and horizontal elements
-        a = plant_matrix(model, self.loop_system, consts)
-        ns = self.n_states
-        out = ca.SX(ns, ns)
-        for r in range(ns):
-            for c in range(ns):
-                e = a[r, c]
-                if not (isinstance(e, int | float | np.number) and e == 0):
-                    out[r, c] = e
-        return ca.Function("leveling_a", [dv], [ca.vec(out)])
-
+    # -- the leveling loop's gain margin (isodesign.table.loop_rows) -------------------
     def _loop_rows(self, ca, v, p_loop) -> list:
-        """The gain-margin rows: per frozen pole ``(sum R o A(x) - c0) / s + eps <= 0``."""
-        if not self.n_loop:
-            return []
-        a = self._plant_function(ca)(v)
-        m = 2 + self.n_states ** 2
-        rows = [p_loop[j * m] * (ca.dot(p_loop[j * m + 2: (j + 1) * m], a) + p_loop[j * m + 1])
-                for j in range(self.n_loop)]
-        return [("min_leveling_gain_margin_db", ca.vertcat(*rows), -np.inf, 0.0)]
+        """The gain-margin rows (:func:`~isodesign.table.loop_rows.loop_rows`)."""
+        return loop_rows(self, ca, v, p_loop)
 
     def clear_loop(self) -> None:
         """Switch the gain-margin rows off (every frozen pole inactive)."""
         self.loop_params = np.zeros(self.n_loop * (2 + self.n_states ** 2))
 
     def set_loop(self, d) -> None:
-        """Freeze the leveling loop's gain-margin rows at design ``d``'s poles.
-
-        The loop closed at the raised gain ``G* = G 10^(gm/20)`` (``gm`` the study's
-        ``min_leveling_gain_margin_db``) by every valve, and by each valve alone with the
-        other two at ``G``, must be stable. For the :data:`LOOP_POLES_MIMO` least stable
-        poles of the first and the least stable one of each of the others (one of each
-        complex pair), with right and left eigenvectors ``v``, ``w`` frozen, the first-order
-        pole ``Re (w^H A_cl(x) v) / (w^H v)`` is linear in the plant's ``A(x)``:
-        ``sum_jk R_jk A_jk(x) - c0`` with ``R = Re(conj(w) v^T) / (w^H v)`` and ``c0`` the
-        valves' part. Exact at ``d`` and to first order about it (the eigenvalue's
-        derivative); the driver freezes again at each new design.
+        """Freeze the leveling loop's gain-margin rows at design ``d``'s poles
+        (:func:`~isodesign.table.loop_rows.frozen_poles`).
 
         Parameters
         ----------
@@ -619,37 +573,7 @@ class TableProblem:
         """
         if not self.n_loop:
             return
-        from scipy.linalg import eig
-
-        from isodesign.table.leveling import leveling_plant
-        from isodesign.table.leveling_loop import study_valves
-        from isodesign.table.model import table_model
-
-        self.loop_system = study_valves(self.study, d)  # a free valve gain: its choice at d
-        model = table_model(d, self.table, flow=self.flow, diaphragm=self.dia)
-        plant = leveling_plant(model, self.loop_system)
-        g = self.loop_system.gain_kg_s_per_m
-        g_up = g * 10.0 ** (self.loop_bound_db / 20.0)
-        patterns = [(np.full(3, g_up), LOOP_POLES_MIMO)]
-        patterns += [(np.where(np.arange(3) == k, g_up, g), 1) for k in range(3)]
-        blocks = []
-        for gains, count in patterns:
-            bkc = plant.b @ np.diag(gains) @ plant.c
-            lam, vl, vr = eig(plant.a - bkc, left=True, right=True)
-            keep = np.flatnonzero(lam.imag >= -1e-12 * np.abs(lam))
-            for i in keep[np.argsort(-lam.real[keep])][:count]:
-                den = np.vdot(vl[:, i], vr[:, i])
-                if abs(den) <= 1e-10 * np.linalg.norm(vl[:, i]) * np.linalg.norm(vr[:, i]):
-                    continue  # a defective eigenvalue has no first-order form: no row
-                mm = np.outer(np.conj(vl[:, i]), vr[:, i]) / den
-                scale = max(abs(lam[i]), 2.0 * math.pi * 0.01)
-                c0 = float(np.sum(mm.real * bkc))
-                blocks.append(np.r_[1.0, -c0 / scale + LOOP_MARGIN_EPS,
-                                    (mm.real / scale).ravel(order="F")])
-        p = np.zeros(self.n_loop * (2 + self.n_states ** 2))
-        flat = np.concatenate(blocks)[: p.size] if blocks else np.zeros(0)
-        p[: flat.size] = flat
-        self.loop_params = p
+        self.loop_system, self.loop_params = frozen_poles(self, d)
 
     # -- references, starts, solving ---------------------------------------------------
     def closure(self, d, values: dict | None = None):

@@ -240,6 +240,7 @@ def test_nlp_loop_rows_are_the_poles_of_the_analysis_plant(tmp_path):
     from isodesign.optimization.study import load_study
     from isodesign.optimization.variables import DESIGN_VARIABLES
     from isodesign.table.leveling import leveling_plant
+    from isodesign.table.loop_rows import plant_function
     from isodesign.table.optimize import _model
     from isodesign.table.problem import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, TableProblem
 
@@ -250,7 +251,7 @@ def test_nlp_loop_rows_are_the_poles_of_the_analysis_plant(tmp_path):
             "capillary_diameter_m": 2.7e-3}
     d = st.design_at(vals)
     plant = leveling_plant(_model(st, d), prob.loop_system)
-    a_nlp = np.array(prob._plant_function(ca)([vals[k] for k in DESIGN_VARIABLES]))
+    a_nlp = np.array(plant_function(prob, ca)([vals[k] for k in DESIGN_VARIABLES]))
     a_nlp = a_nlp.reshape(prob.n_states, prob.n_states, order="F")
     assert np.max(np.abs(a_nlp - plant.a)) <= 1e-12 * np.max(np.abs(plant.a))
     prob.set_loop(d)
