@@ -191,6 +191,33 @@ BINDING_NOTE = ("* binding: within 0.5 % of its bound (0.022 dB for the peak tra
                 "values and margins in the unit shown (L, mm)")
 
 
+def constraint_table_lines(result, title: str) -> list[str]:
+    """The constraint table as aligned text lines under ``title``, then (for a feasible
+    result) the sentence naming what stopped the design and its limiting factors.
+
+    Parameters
+    ----------
+    result : OptimizationResult or TableOptimizationResult
+    title : str
+        The heading (``"constraints"``, ``"constraints at the optimum"``).
+
+    Returns
+    -------
+    list of str
+    """
+    lines = [f"{title} (" + BINDING_NOTE + "):"]
+    rows = constraint_table_rows(result)
+    head = ["", "constraint", "value", "bound", "margin", "unit"]
+    w = [max(len(r[i]) for r in [head, *rows]) for i in range(6)]
+    for r in [head, *rows]:
+        lines.append("  " + "  ".join(f"{r[i]:{'>' if i in (2, 4) else '<'}{w[i]}}"
+                                      for i in range(6)).rstrip())
+    if result.feasible:
+        lines += ["", limiting_summary(result) + ":"]
+        lines += [f"  - {t}" for t in result.limited_by]
+    return lines
+
+
 def constraint_table_rows(result) -> list[list[str]]:
     """The constraints of ``result`` as text cells in display units (L, mm).
 

@@ -9,6 +9,7 @@ from isodesign.errors import SolverError
 from isodesign.optimization.constraints import ConstraintReport
 from isodesign.optimization.explain import (
     BINDING_NOTE,
+    constraint_table_lines,
     constraint_table_rows,
     limiting_factors,
     limiting_summary,
@@ -173,16 +174,7 @@ class OptimizationResult(ResultDisplay):
         return pd.DataFrame(rows)
 
     def _extra_lines(self) -> list[str]:
-        lines = ["", "constraints (" + BINDING_NOTE + "):"]
-        rows = constraint_table_rows(self)
-        head = ["", "constraint", "value", "bound", "margin", "unit"]
-        w = [max(len(r[i]) for r in [head, *rows]) for i in range(6)]
-        for r in [head, *rows]:
-            lines.append("  " + "  ".join(f"{r[i]:{'>' if i in (2, 4) else '<'}{w[i]}}"
-                                          for i in range(6)).rstrip())
-        if self.feasible:
-            lines += ["", limiting_summary(self) + ":"]
-            lines += [f"  - {t}" for t in self.limited_by]
+        lines = ["", *constraint_table_lines(self, "constraints")]
         if self.scope is not None:
             lines += ["", *self.scope.lines()]
         return lines

@@ -182,28 +182,10 @@ def source_gains(design, omega, c, k, mass_kg, flow):
     tuple of ndarray
         ``|X/dp|^2`` (m^2/Pa^2) and ``|U/dp|^2`` ((m/s)^2/Pa^2).
     """
-    from isodesign.numerics.cplx import Cx
-    from isodesign.spring.acoustics import acoustic_network
-
-    d = design
     w = np.asarray(omega, dtype=float)
-    a_p, a_c = d.piston_area_m2, d.capillary_area_m2
-    if d.acoustics == "distributed":
-        net = acoustic_network(d, w, flow)
-        parts = net._numpy()
-        _, den1, den2 = net._solve_numpy(parts, Cx.from_complex(c))
-        c_t = parts[2]
-    else:
-        n, p0 = d.process_index, d.pressure_pa
-        jw = 1j * w
-        z3 = d.density_kg_m3 * c + 1.0 / (jw * d.bottom_volume_m3 / (n * p0))
-        c_t = jw * d.top_volume_m3 / (n * p0)
-        den1 = 1.0 + c_t * z3
-        den2 = np.ones_like(den1)
-    x = -a_p / (den1 * (k - mass_kg * w * w))
-    q1 = (1j * w * a_p * x - c_t) / den1
-    u2 = np.abs(q1) ** 2 * (1.0 + 1.0 / np.abs(den2) ** 2) / (2.0 * a_c * a_c)
-    return np.abs(x) ** 2, u2
+    force_per_dp, u_per_x, u_per_dp, ends = source_network(design, w, c, flow)
+    x = -force_per_dp / (k - mass_kg * w * w)
+    return np.abs(x) ** 2, np.abs(u_per_x * x + u_per_dp) ** 2 * ends
 
 
 def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,

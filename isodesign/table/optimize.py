@@ -49,10 +49,8 @@ import numpy as np
 
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.explain import (
-    BINDING_NOTE,
-    constraint_table_rows,
+    constraint_table_lines,
     limiting_factors,
-    limiting_summary,
 )
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
@@ -281,16 +279,7 @@ class TableOptimizationResult(ResultDisplay):
     def constraint_lines(self) -> list[str]:
         """The constraint table, the binding sentence and the Hessian, as text lines."""
         where = "the optimum" if self.feasible else "the best point found (not a design)"
-        lines = [f"constraints at {where} (" + BINDING_NOTE + "):"]
-        rows = constraint_table_rows(self)
-        head = ["", "constraint", "value", "bound", "margin", "unit"]
-        w = [max(len(r[i]) for r in [head, *rows]) for i in range(6)]
-        for r in [head, *rows]:
-            lines.append("  " + "  ".join(f"{r[i]:{'>' if i in (2, 4) else '<'}{w[i]}}"
-                                          for i in range(6)).rstrip())
-        if self.feasible:
-            lines += ["", limiting_summary(self) + ":"]
-            lines += [f"  - {t}" for t in self.limited_by]
+        lines = constraint_table_lines(self, f"constraints at {where}")
         lines.append(f"Hessian: {self.hessian} (IPOPT's quasi-Newton approximation of the "
                      "Lagrangian's; gradient and Jacobian exact)" if self.hessian !=
                      "exact" else "Hessian: exact (CasADi)")
