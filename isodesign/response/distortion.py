@@ -113,6 +113,20 @@ class DistortionPower:
         return out
 
 
+def _odd_orders(hf, kmax: int):
+    """``sum_k w_k hf^k`` over the odd orders ``k = 3 .. kmax`` with a Hermite weight
+    (:data:`_WEIGHTS`): the residual's spectrum in the transform domain, where the
+    ``k``-fold self-convolution of the spectrum is the ``k``-th power of its transform."""
+    h2 = hf * hf
+    spec = np.zeros_like(hf)
+    hk = hf
+    for k in range(3, kmax + 1, 2):
+        hk = hk * h2
+        if k in _WEIGHTS:
+            spec += _WEIGHTS[k] * hk
+    return spec
+
+
 def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ):
     """``sum_k k! c_k^2 (P * ... * P)_k`` of a normalized one-sided line spectrum, binned.
 
@@ -138,13 +152,7 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ):
     h = np.bincount(np.concatenate([idx % n, (-idx) % n]),
                     weights=np.concatenate([0.5 * power, 0.5 * power]), minlength=n)
     hf = np.fft.rfft(h)
-    h2 = hf * hf
-    spec = np.zeros_like(hf)
-    hk = hf
-    for k in range(3, kmax + 1, 2):
-        hk = hk * h2
-        if k in _WEIGHTS:
-            spec += _WEIGHTS[k] * hk
+    spec = _odd_orders(hf, kmax)
     conv = np.fft.irfft(spec, n)
     top = kmax * imax
     pos = conv[1:top + 1] + conv[n - top:][::-1]
@@ -335,13 +343,7 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     np.add.at(h, idx % n, 0.5 * p)
     np.add.at(h, (-idx) % n, 0.5 * np.conj(p))
     hf = np.fft.fft(h)
-    h2 = hf * hf
-    spec = np.zeros_like(hf)
-    hk = hf
-    for k in range(3, kmax + 1, 2):
-        hk = hk * h2
-        if k in _WEIGHTS:
-            spec += _WEIGHTS[k] * hk
+    spec = _odd_orders(hf, kmax)
     conv = np.fft.ifft(spec)
     top = kmax * imax
     return bin_hz * np.arange(1, top + 1), 2.0 * conv[1:top + 1]

@@ -554,6 +554,22 @@ def _lines(table) -> tuple:
     return tuple((g[0], j) for g in table.leveling_groups for j in g[1:])
 
 
+def check_model_and_system(model, system) -> None:
+    """Refuse a ``model`` that is not a :class:`TableModel` or a ``system`` that is neither
+    a :class:`LevelingSystem` nor None (an InputError naming the parameter).
+
+    Parameters
+    ----------
+    model : object
+    system : object
+    """
+    check_instance("model", model, TableModel,
+                   "a TableModel (isodesign.table.model.table_model(design, table))")
+    if system is not None:
+        check_instance("system", system, LevelingSystem,
+                       "a LevelingSystem (leveling_of_study(study)) or None")
+
+
 def leveling_plant(model: TableModel, system: LevelingSystem | None = None) -> LevelingPlant:
     """The linearized table with its chambers and valve paths (see :class:`LevelingPlant`).
 
@@ -568,11 +584,7 @@ def leveling_plant(model: TableModel, system: LevelingSystem | None = None) -> L
     -------
     LevelingPlant
     """
-    check_instance("model", model, TableModel,
-                   "a TableModel (isodesign.table.model.table_model(design, table))")
-    if system is not None:
-        check_instance("system", system, LevelingSystem,
-                       "a LevelingSystem (leveling_of_study(study)) or None")
+    check_model_and_system(model, system)
     system = LevelingSystem() if system is None else system
     if not isinstance(system, LevelingSystem):
         raise InputError(f"system: expected a LevelingSystem, got {type(system).__name__}")

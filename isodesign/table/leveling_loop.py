@@ -27,7 +27,12 @@ import numpy as np
 from isodesign.errors import InputError, check_instance, check_positive, check_range
 from isodesign.results import ResultDisplay
 from isodesign.spring.design import SpringDesign
-from isodesign.table.leveling import LevelingPlant, LevelingSystem, leveling_plant
+from isodesign.table.leveling import (
+    LevelingPlant,
+    LevelingSystem,
+    check_model_and_system,
+    leveling_plant,
+)
 from isodesign.table.model import TableModel
 
 __all__ = [
@@ -284,11 +289,7 @@ def leveling_loop(model, system: LevelingSystem | None = None) -> LevelingLoop:
     -------
     LevelingLoop
     """
-    check_instance("model", model, TableModel,
-                   "a TableModel (isodesign.table.model.table_model(design, table))")
-    if system is not None:
-        check_instance("system", system, LevelingSystem,
-                       "a LevelingSystem (leveling_of_study(study)) or None")
+    check_model_and_system(model, system)
     import control
 
     plant = leveling_plant(model, system)
