@@ -89,6 +89,7 @@ __all__ = [
     "load_study",
     "study_from_dict",
     "table_study",
+    "vertical_study",
 ]
 
 _DEFAULT = {
@@ -875,6 +876,17 @@ def load_study(path) -> Study:
 
 def default_study() -> Study:
     """The built-in default study (see ``docs/optimization.md``)."""
+    return study_from_dict({}, source="<default>")
+
+
+def vertical_study() -> Study:
+    """The built-in vertical study: the vertical payload of ``[payload]`` with every key at its
+    default (``isodesign/data/default_study.toml``, docs/optimization.md).
+
+    Returns
+    -------
+    Study
+    """
     return study_from_dict({}, source="<default>")
 
 
