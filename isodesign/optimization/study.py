@@ -880,13 +880,7 @@ def default_study() -> Study:
 
 
 def vertical_study() -> Study:
-    """The built-in vertical study: the vertical payload of ``[payload]`` with every key at its
-    default (``isodesign/data/default_study.toml``, docs/optimization.md).
-
-    Returns
-    -------
-    Study
-    """
+    """The built-in vertical study: every key at its default (``data/default_study.toml``)."""
     return study_from_dict({}, source="<default>")
 
 
