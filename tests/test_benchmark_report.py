@@ -1,0 +1,48 @@
+"""benchmarks/run.py: the report, and ``--update`` keeping the sections it does not rerun."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+ROOT = Path(__file__).parents[1]
+
+
+def _run_module():
+    spec = importlib.util.spec_from_file_location("bench_run", ROOT / "benchmarks" / "run.py")
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    return mod
+
+
+def _info(date: str, commit: str) -> dict:
+    return {"date (UTC)": date, "nproc": "2", "load average (1, 5, 15 min) at start": "0.1, 0.2, 0.3",
+            "git commit": commit}
+
+
+def test_update_keeps_other_sections_with_their_own_run():
+    run = _run_module()
+    first = run.render(_info("2026-01-01 00:00:00", "aaa"),
+                       [(Path("bench_a.py"), "A.", [{"name": "a1", "median": 1.0, "unit": "s"}]),
+                        (Path("bench_b.py"), "B.", [{"name": "b1", "median": 2.0, "unit": "s"}])],
+                       "python benchmarks/run.py")
+    kept = run.split_sections(first)
+    assert set(kept) == {"bench_a.py", "bench_b.py"}
+    second = run.render(_info("2026-02-02 00:00:00", "bbb"),
+                        [(Path("bench_b.py"), "B.", [{"name": "b2", "median": 3.0, "unit": "s"}])],
+                        "python benchmarks/run.py b --update", kept)
+    a = second[second.index("## bench_a.py"):second.index("## bench_b.py")]
+    b = second[second.index("## bench_b.py"):second.index("## Reproduce")]
+    assert "| a1 |" in a and "commit aaa" in a and "2026-01-01" in a
+    assert "| b2 |" in b and "| b1 |" not in b and "commit bbb" in b and "2026-02-02" in b
+
+
+def test_a_report_without_run_lines_gets_the_header_run():
+    run = _run_module()
+    old = ("# Benchmarks\n\n## Machine\n\n| item | value |\n|---|---|\n"
+           "| date (UTC) | 2025-05-05 05:05:05 |\n| load average (1, 5, 15 min) at start | 1, 2, 3 |\n"
+           "| git commit | ccc |\n\n## bench_c.py\n\nC.\n\n| benchmark | target |\n|---|---|\n"
+           "| c1 | < 1 |\n\n## Reproduce\n")
+    c = run.split_sections(old)["bench_c.py"]
+    assert "Run: 2025-05-05 05:05:05 UTC, commit ccc, load average 1, 2, 3 at start." in c
+    assert "| c1 | < 1 |" in c
