@@ -225,19 +225,27 @@ def table_model(design, table, *, flow: str = "quasi_steady",
                       diaphragm=diaphragm, include_gravity=include_gravity)  # fmt: skip
 
 
-def study_table_model(study, design) -> TableModel:
-    """The table model of a study's ``[table]`` for a design, with the study's spring models.
+def study_table_model(study, design, values: dict | None = None) -> TableModel:
+    """The table model of a study for a design, with the study's spring models.
+
+    A study with ``[table]`` is that table (its levers at ``values``); a study without it
+    is the symmetric table of its ``[payload]``
+    (:func:`~isodesign.table.study.study_table`, docs/table.md section 14).
 
     Parameters
     ----------
     study : Study
-        A study with ``[table]`` (its ``models``: flow, amplitude mode, diaphragm).
+        A study (its ``models``: flow, amplitude mode, diaphragm).
     design : SpringDesign
+    values : dict, optional
+        Lever values of a ``[table]`` study.
 
     Returns
     -------
     TableModel
     """
+    from isodesign.table.study import study_table
+
     m = study.models
-    return table_model(design, study.table, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
-                       diaphragm=m["diaphragm"])
+    return table_model(design, study_table(study, values), flow=m["flow"],
+                       amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
