@@ -104,11 +104,28 @@ class TableModel:
         return SpringModel(self.designs[i], float(self.leveling.mass_per_isolator_kg[i]),
                            self.flow, self.amplitude_mode, self.diaphragm)  # fmt: skip
 
+    #: Relative difference of two isolators' p0 below which they share one spring
+    #: evaluation (the leveling's 3x3 solve leaves equal loads equal to about 1e-16).
+    P0_SHARE_RTOL = 1e-12
+
     def unique_isolators(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(first, inverse)``: one representative per distinct p0, and each isolator's."""
-        _, first, inv = np.unique(self.leveling.pressure_pa, return_index=True,
-                                  return_inverse=True)  # fmt: skip
-        return first, inv
+        """``(first, inverse)``: one representative per distinct p0, and each isolator's.
+
+        p0 values within :attr:`P0_SHARE_RTOL` of each other are one (a symmetric table's
+        isolators, leveled equal up to rounding, share one spring evaluation).
+        """
+        p = np.asarray(self.leveling.pressure_pa, dtype=float)
+        first: list[int] = []
+        inv = np.empty(p.size, dtype=int)
+        for i, pi in enumerate(p):
+            for j, r in enumerate(first):
+                if abs(pi - p[r]) <= self.P0_SHARE_RTOL * abs(p[r]):
+                    inv[i] = j
+                    break
+            else:
+                inv[i] = len(first)
+                first.append(i)
+        return np.array(first, dtype=int), inv
 
     def vertical_stiffness(self, frequency_hz, amplitude_m) -> list[np.ndarray]:
         """Each isolator's harmonic ``k*(X, f)`` (complex arrays), one evaluation per p0.
@@ -122,12 +139,14 @@ class TableModel:
         """
         f = np.asarray(frequency_hz, dtype=float)
         amp = np.broadcast_to(np.asarray(amplitude_m, dtype=float), (self.n_isolators,))
+        first, inv = self.unique_isolators()
         cache: dict = {}
         out = []
         for i in range(self.n_isolators):
-            key = (float(self.leveling.pressure_pa[i]), float(amp[i]))
+            rep = int(first[inv[i]])
+            key = (rep, float(amp[i]))
             if key not in cache:
-                cache[key] = self.spring(i).k(f, amp[i])
+                cache[key] = self.spring(rep).k(f, amp[i])
             out.append(cache[key])
         return out
 

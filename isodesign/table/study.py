@@ -47,7 +47,8 @@ from isodesign.table.layout import (
 
 __all__ = ["DEFAULT_PAYLOAD_CG_HEIGHT_M", "DEFAULT_PAYLOAD_SPACING_M", "TABLE_KEYS",
            "narrowest_spacing_m", "objective_selection", "payload_from_table", "payload_table",
-           "study_floor_axes", "study_table", "symmetric_layout", "table_from_dict", "table_unit_slips"]
+           "study_floor_axes", "study_table", "symmetric_layout", "table_from_dict",
+           "table_unit_slips"]
 
 #: Keys of ``[table]`` and ``[table.horizontal]``.
 TABLE_KEYS = {
