@@ -46,6 +46,7 @@ class TableDescribing:
                  nodes: int = RAYLEIGH_NODES):
         self.model, self.grid, self.method = model, grid, method
         self.kh = model.horizontal_stiffness(grid.omega)
+        self.axes = tuple(a for a in range(3) if np.any(grid.stroke_weight[a] != 0))
         self.rule = rayleigh_rule(nodes) if method == "rayleigh" else None
 
     def spring_result(self, i: int, sigma: float):
@@ -99,7 +100,8 @@ class TableDescribing:
             Outputs with the strokes only.
         """
         ks = self.springs(sigma)
-        out = self.model.outputs(ks, self.grid.omega, self.kh, strokes_only=strokes_only)
+        out = self.model.outputs(ks, self.grid.omega, self.kh, strokes_only=strokes_only,
+                                 axes=self.axes if strokes_only else None)
         a2 = out.strokes.real ** 2 + out.strokes.imag ** 2
         s2 = np.einsum("fna,af->n", a2, self.grid.stroke_weight, optimize=True)
         return s2, np.zeros_like(s2), out, ks, None
@@ -128,7 +130,7 @@ def solve_describing_closure(st: TableDescribing, *, rtol: float = 1e-10,
     model = st.model
     ks = [Cx.from_complex(k) for k in model.vertical_stiffness(st.grid.frequency_hz,
                                                                 LINEAR_REFERENCE_AMPLITUDE_M)]
-    out = model.outputs(ks, st.grid.omega, st.kh, strokes_only=True)
+    out = model.outputs(ks, st.grid.omega, st.kh, strokes_only=True, axes=st.axes)
     s2 = np.einsum("fna,af->n", np.abs(out.strokes) ** 2, st.grid.stroke_weight)
     if not np.all(s2 > 0):
         raise InputError("floor: the spectrum carries no motion (PSD zero)")

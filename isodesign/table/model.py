@@ -162,8 +162,18 @@ class TableModel:
         h = self.table.horizontal
         return [h.stiffness(w, float(load)) for load in self.leveling.load_n]
 
+    @property
+    def z_reducible(self) -> bool:
+        """Every isolator has one p0 (hence one load and, with one state, one spring).
+
+        The leveling's equilibrium then puts the isolators' centroid under the CG, so the
+        stiffness and damping terms coupling z with rx and ry vanish and a vertical floor
+        moves the table in z alone (docs/table.md, section 14).
+        """
+        return len(self.unique_isolators()[0]) == 1
+
     def outputs(self, k_vertical, omega, k_horizontal=None, *,
-                strokes_only: bool = False) -> TableOutputs:
+                strokes_only: bool = False, axes=None) -> TableOutputs:
         """Transfer functions for given vertical (and horizontal) isolator stiffnesses.
 
         Parameters
@@ -177,16 +187,35 @@ class TableModel:
         strokes_only : bool
             Compute the vertical strokes only (``points`` and ``horizontal_strokes`` are
             ``None``): what the closure iterates on.
+        axes : sequence of int, optional
+            With ``strokes_only``: the floor axes to solve for (0, 1, 2 for x, y, z; default
+            all); the other axes' columns are zero (a closure whose floor does not move in
+            them). ``(2,)`` on a :attr:`z_reducible` table with one vertical stiffness for
+            every isolator solves the z DOF alone, ``z = n k / (n k - m w^2)`` (exact:
+            docs/table.md, section 14).
         """
         w = np.asarray(omega, dtype=float)
         kv = [k if isinstance(k, Cx) else Cx.from_complex(k) for k in k_vertical]
+        if strokes_only and axes is not None and tuple(axes) == (2,) and self.z_reducible \
+                and all(k is kv[0] or (np.array_equal(k.re, kv[0].re)
+                                       and np.array_equal(k.im, kv[0].im)) for k in kv):
+            return self._z_outputs(kv[0], w)
         kh = self.horizontal_stiffness(w) if k_horizontal is None else k_horizontal
         d, b = dynamic_stiffness(self.geometry, kv, kh, w)
-        q = solve_complex(d, b)
+        cols = None if not strokes_only or axes is None else sorted({int(a) for a in axes})
+        if cols is None or len(cols) == 3:
+            q = solve_complex(d, b)
+        else:
+            bm = (np.asarray(b.re) + 1j * np.asarray(b.im)).reshape(-1, 6, 3)
+            dm = (np.asarray(d.re) + 1j * np.asarray(d.im)).reshape(-1, 6, 6)
+            q = np.zeros(bm.shape, dtype=complex)
+            q[:, :, cols] = np.linalg.solve(dm, bm[:, :, cols])
         geo = self.geometry
         s = np.matmul(geo.gz, q)  # (f, n, 3)
         s[:, :, 2] -= 1.0
         if strokes_only:
+            if cols is not None and 2 not in cols:
+                s[:, :, 2] = 0.0
             return TableOutputs(body=q, points=None, strokes=s, horizontal_strokes=None)
         pts = np.matmul(geo.points[None], q[:, None])  # (f, k, 3, 3)
         n = self.n_isolators
@@ -194,6 +223,17 @@ class TableModel:
         hs[:, 0, :, 0] -= 1.0
         hs[:, 1, :, 1] -= 1.0
         return TableOutputs(body=q, points=pts, strokes=s, horizontal_strokes=hs)
+
+    def _z_outputs(self, k: Cx, w: np.ndarray) -> TableOutputs:
+        """The strokes under a vertical floor of a z-reducible table: the z DOF alone."""
+        n = self.n_isolators
+        kz = k.to_complex() * n
+        z = kz / (kz - self.table.mass_kg * w * w)
+        q = np.zeros((w.size, 6, 3), dtype=complex)
+        q[:, 2, 2] = z
+        s = np.zeros((w.size, n, 3), dtype=complex)
+        s[:, :, 2] = (z - 1.0)[:, None]
+        return TableOutputs(body=q, points=None, strokes=s, horizontal_strokes=None)
 
     def linear_outputs(self, frequency_hz, amplitude_m: float = 1e-6) -> TableOutputs:
         """Transfer functions with every spring at one fixed amplitude (linear regime).

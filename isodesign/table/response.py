@@ -50,6 +50,7 @@ __all__ = [
     "TableBandResponse",
     "TableDistortion",
     "TableStatistical",
+    "excited_axes",
     "solve_table_closure",
     "solve_table_closure_with_distortion",
     "table_band_response",
@@ -72,6 +73,16 @@ DISTORTION_NOTE = ("distortion power: each tube's residual of the statistical li
                    "(Hermite orders 3 and 5, Gaussian tube velocity) added as a source")
 
 
+def excited_axes(grid: TableGrid) -> tuple[int, ...]:
+    """The floor axes of a grid that carry motion (a nonzero stroke weight).
+
+    Parameters
+    ----------
+    grid : TableGrid
+    """
+    return tuple(a for a in range(3) if np.any(grid.stroke_weight[a] != 0))
+
+
 class TableStatistical:
     """The statistical linearization of every isolator on a :class:`TableGrid` (NumPy).
 
@@ -89,6 +100,8 @@ class TableStatistical:
         self.c_of = {int(i): statistical_resistance_function(model.flow, model.designs[i], w)
                      for i in self.first}  # fmt: skip
         self.kh = model.horizontal_stiffness(w)
+        #: the floor axes that move (the closure's strokes need no other)
+        self.axes = excited_axes(grid)
 
     def springs(self, sigma, sigma_u):
         """Per isolator ``(k, C)`` (Cx on the grid) at the RMS values ``sigma``, ``sigma_u``.
@@ -125,7 +138,8 @@ class TableStatistical:
             Outputs with the strokes only (the closure's iterations).
         """
         ks, cs = self.springs(sigma, sigma_u)
-        out = self.model.outputs(ks, self.grid.omega, self.kh, strokes_only=strokes_only)
+        out = self.model.outputs(ks, self.grid.omega, self.kh, strokes_only=strokes_only,
+                                 axes=self.axes if strokes_only else None)
         a2 = out.strokes.real ** 2 + out.strokes.imag ** 2  # (f, n, 3)
         sw = self.grid.stroke_weight  # (3, f)
         s2 = np.einsum("fna,af->n", a2, sw, optimize=True)

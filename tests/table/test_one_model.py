@@ -283,3 +283,24 @@ def test_at_the_vertical_studys_optimum():
     b, t = _both(st, res.values)
     _assert_same(b, t)
     assert _db(t.velocity_rms_m_s[0, 2], res.analysis.payload_velocity_rms_m_s) < TOL_DB
+
+
+def test_the_z_reduction_inside_the_table_path_is_the_full_solve(ref):
+    """A z-reducible table under a vertical floor: the z DOF alone gives the 6-DOF solve's
+    strokes; an asymmetric table is never reduced."""
+    from isodesign.table.model import table_model
+
+    f = np.geomspace(0.5, 80.0, 60)
+    w = 2 * np.pi * f
+    for n in (3, 4, 6):
+        model = table_model(ref, payload_table(Payload(600.0, n, 1.0, 0.5),
+                                               piston_area_m2=ref.piston_area_m2))
+        assert model.z_reducible
+        ks = model.vertical_stiffness(f, 1e-6)
+        full = model.outputs(ks, w, strokes_only=True).strokes[:, :, 2]
+        red = model.outputs(ks, w, strokes_only=True, axes=(2,))
+        assert not np.any(red.body[:, [0, 1, 3, 4, 5]])
+        np.testing.assert_allclose(red.strokes[:, :, 2], full, rtol=1e-12, atol=1e-15)
+    asym = Table(700.0, [(0.0, 0.0), (1.2, 0.0), (1.2, 0.8), (0.0, 0.8)], (0.5, 0.45, 0.4),
+                 [70.0, 90.0, 130.0])
+    assert not table_model(ref, asym).z_reducible
