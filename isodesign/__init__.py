@@ -51,7 +51,7 @@ _EXPORTS = {
     "loaded_design": "response.isolator",
     "linear_transmissibility": "response.model",
     "band_response": "response.random_input",
-    "BandResponse": "response.random_input",
+    "BandResponse": "response.band",
     "RANDOM_METHODS": "response.random_input",
     "harmonic_response": "response.harmonic",
     "HarmonicResponse": "response.harmonic",
