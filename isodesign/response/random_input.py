@@ -480,9 +480,11 @@ def band_response(
         if distortion:
             x, y, dist, n_more = _with_distortion(st, x, y, rtol, int(max_iter))
             n_it += n_more
-        return _result_at(model, payload, grid, fl.name, tg.name, random_method,
-                          (math.exp(x), math.exp(y)), n_it, converged, slope, warn, t_lin,
-                          st=st, dist=dist)
+        res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
+                                (math.exp(x), math.exp(y)), n_it, converged, slope, warn,
+                                t_lin, st=st, dist=dist)
+        emit_flags(lines, "band_response", warn)
+        return res
     else:
         evaluate = _random_evaluator(model, grid, random_method, rayleigh_nodes)
         if stroke_amplitude_m is not None:
@@ -506,9 +508,12 @@ def band_response(
                 converged = False
                 ev = evaluate(0.5 * math.log(s2_lin))
                 n_it = int(max_iter)
-        return _result_at(model, payload, grid, fl.name, tg.name, random_method,
-                          (math.exp(ev.log_sigma_in), None), n_it, converged, slope, warn,
-                          t_lin, evaluated=(ev.k, ev.result), rayleigh_nodes=rayleigh_nodes)
+        res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
+                                (math.exp(ev.log_sigma_in), None), n_it, converged, slope,
+                                warn, t_lin, evaluated=(ev.k, ev.result),
+                                rayleigh_nodes=rayleigh_nodes)
+        emit_flags(lines, "band_response", warn)
+        return res
 
 
 def band_response_at(design, payload, floor, target, sigma_m: float,
@@ -518,7 +523,7 @@ def band_response_at(design, payload, floor, target, sigma_m: float,
                      random_method: str = "statistical", rayleigh_nodes: int = RAYLEIGH_NODES,
                      derive_pressure: bool = True, iterations: int = 0,
                      converged: bool = True, closure_slope: float | None = None,
-                     warn: bool = True) -> BandResponse:
+                     warn: bool = True, grid: ResponseGrid | None = None) -> BandResponse:
     """The band response at a given closure state (the closure solved elsewhere).
 
     :func:`band_response` solves the closure and calls the same assembly; a caller that
@@ -540,6 +545,9 @@ def band_response_at(design, payload, floor, target, sigma_m: float,
     converged : bool
     closure_slope : float, optional
         ``d ln sigma_new / d ln sigma`` at the solution, when known.
+    grid : ResponseGrid, optional
+        The response grid of ``floor``, ``target``, ``bands`` and ``points_per_band``,
+        when the caller built it already.
 
     Returns
     -------
@@ -548,7 +556,8 @@ def band_response_at(design, payload, floor, target, sigma_m: float,
     check_choice("random_method", random_method, RANDOM_METHODS)
     model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
     fl, tg = resolve_floor(floor), resolve_target(target)
-    grid = response_grid(fl, bands, target=tg, points_per_band=points_per_band)
+    if grid is None:
+        grid = response_grid(fl, bands, target=tg, points_per_band=points_per_band)
     sigma = check_positive("sigma_m", sigma_m, unit="m")
     st = None
     if random_method == "statistical":
@@ -558,16 +567,19 @@ def band_response_at(design, payload, floor, target, sigma_m: float,
         st = _Statistical(model, grid)
     t_lin = model.transmissibility(model.k(grid.frequency_hz, LINEAR_REFERENCE_AMPLITUDE_M),
                                    grid.frequency_hz)
-    return _result_at(model, payload, grid, fl.name, tg.name, random_method,
-                      (sigma, tube_velocity_rms_m_s), int(iterations), bool(converged),
-                      closure_slope, warn, t_lin, st=st, rayleigh_nodes=rayleigh_nodes)
+    res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
+                            (sigma, tube_velocity_rms_m_s), int(iterations), bool(converged),
+                            closure_slope, warn, t_lin, st=st, rayleigh_nodes=rayleigh_nodes)
+    emit_flags(lines, "band_response", warn)
+    return res
 
 
 def _result_at(model, payload, grid, floor_name, target_name, random_method, state, n_it,
                converged, slope, warn, t_lin, *, st=None, dist=None, evaluated=None,
-               rayleigh_nodes: int = RAYLEIGH_NODES) -> BandResponse:
+               rayleigh_nodes: int = RAYLEIGH_NODES) -> tuple[BandResponse, list]:
     """The :class:`BandResponse` at the closure state ``(sigma, sigma_u)``: the spring
-    linearized there, T, the bands, the stroke, the stability figures and the flags."""
+    linearized there, T, the bands, the stroke, the stability figures; and its flags (the
+    caller emits them, so that the warning names the user's call)."""
     f, w = grid.frequency_hz, grid.omega
     sigma_in, sigma_u_in = state
     sigma_u = None
@@ -661,5 +673,4 @@ def _result_at(model, payload, grid, floor_name, target_name, random_method, sta
             f"closure: d ln sigma_new/d ln sigma = {slope:.3g} >= 1 at the solution; the "
             "stroke RMS may not be unique"
         )
-    emit_flags(lines, "band_response", warn)
-    return res
+    return res, lines

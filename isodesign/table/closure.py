@@ -108,7 +108,7 @@ class TableDescribing:
 
 
 def solve_describing_closure(st: TableDescribing, *, rtol: float = 1e-10,
-                             max_iter: int = 100):
+                             max_iter: int = 100, reduce: bool = True):
     """Solve the harmonic closures per isolator; ``(sigma, evaluations)``.
 
     A fixed point in ``ln sigma`` (Anderson mixing, then hybrid Powell), from every spring
@@ -121,12 +121,21 @@ def solve_describing_closure(st: TableDescribing, *, rtol: float = 1e-10,
         Tolerance on ``max |ln(sigma_new / sigma)|``.
     max_iter : int
         Iterations before the fallback.
+    reduce : bool
+        ``equivalent_amplitude`` on a z-reducible table under a vertical floor alone:
+        its z DOF alone (default; exact, :func:`~isodesign.table.response.z_closure`).
 
     Raises
     ------
     SolverError
         No convergence.
     """
+    if reduce and st.method == "equivalent_amplitude":
+        from isodesign.table.response import z_closure, z_only
+
+        if z_only(st):
+            sigma, _, n_it = z_closure(st.model, st.grid, st.method, rtol, max_iter)
+            return sigma, n_it
     model = st.model
     ks = [Cx.from_complex(k) for k in model.vertical_stiffness(st.grid.frequency_hz,
                                                                 LINEAR_REFERENCE_AMPLITUDE_M)]

@@ -17,6 +17,7 @@ Outputs per floor axis ``a`` (unit floor displacement ``u_f = e_a``):
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -28,6 +29,7 @@ from isodesign.response.model import TWO_PI, SpringModel
 from isodesign.spring.design import SpringDesign
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.flow_models import model_design
+from isodesign.spring.gas import P_ATM
 from isodesign.spring.stiffness import check_models
 from isodesign.table.assembly import Geometry, dynamic_stiffness, geometry, solve_complex
 from isodesign.table.layout import Table
@@ -82,11 +84,16 @@ class TableModel:
     design: SpringDesign
     leveling: Leveling
     designs: tuple
-    geometry: Geometry
     flow: str
     amplitude_mode: str
     diaphragm: Any
     include_gravity: bool = True
+
+    @functools.cached_property
+    def geometry(self) -> Geometry:
+        """The assembly's constant matrices (built on first use: a z-reducible table under
+        a vertical floor never needs them)."""
+        return geometry(self.table, self.leveling.load_n, include_gravity=self.include_gravity)
 
     @property
     def n_isolators(self) -> int:
@@ -251,7 +258,7 @@ class TableModel:
 
 def table_model(design, table, *, flow: str = "quasi_steady",
                 amplitude_mode: str = "self_consistent", diaphragm="viscoelastic",
-                include_gravity: bool = True) -> TableModel:
+                include_gravity: bool = True, p_atm_pa: float = P_ATM) -> TableModel:
     """Level the table and bind its springs.
 
     Parameters
@@ -265,6 +272,9 @@ def table_model(design, table, *, flow: str = "quasi_steady",
         The vertical diaphragm.
     include_gravity : bool
         The overturning term (default on).
+    p_atm_pa : float
+        Ambient pressure the leveling's gauge pressures are above (a scenario's
+        ``ambient_pressure_pa``), Pa.
 
     Returns
     -------
@@ -277,11 +287,15 @@ def table_model(design, table, *, flow: str = "quasi_steady",
     check_models(flow, amplitude_mode)
     diaphragm_model(diaphragm)
     design = model_design(flow, design)  # the paper's flow models are lumped by definition
-    lv = level(table, design.piston_area_m2)
-    geo = geometry(table, lv.load_n, include_gravity=include_gravity)
-    return TableModel(table=table, design=design, leveling=lv, designs=lv.designs(design),
-                      geometry=geo, flow=flow, amplitude_mode=amplitude_mode,
-                      diaphragm=diaphragm, include_gravity=include_gravity)  # fmt: skip
+    lv = level(table, design.piston_area_m2, p_atm_pa=p_atm_pa)
+    designs: list = []  # one design per distinct p0 (equal within P0_SHARE_RTOL)
+    for i, p in enumerate(lv.pressure_pa):
+        same = [j for j in range(i) if abs(p - lv.pressure_pa[j])
+                <= TableModel.P0_SHARE_RTOL * lv.pressure_pa[j]]
+        designs.append(designs[same[0]] if same else design.replace(pressure_pa=float(p)))
+    return TableModel(table=table, design=design, leveling=lv, designs=tuple(designs), flow=flow,
+                      amplitude_mode=amplitude_mode, diaphragm=diaphragm,
+                      include_gravity=include_gravity)  # fmt: skip
 
 
 def study_table_model(study, design, values: dict | None = None) -> TableModel:

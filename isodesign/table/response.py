@@ -55,6 +55,8 @@ __all__ = [
     "solve_table_closure_with_distortion",
     "table_band_response",
     "table_distortion",
+    "z_closure",
+    "z_only",
 ]
 
 #: What every table result says about its floor model.
@@ -71,6 +73,49 @@ TABLE_RANDOM_METHODS = ("statistical", "equivalent_amplitude", "rayleigh")
 #: What a table result with the distortion power says.
 DISTORTION_NOTE = ("distortion power: each tube's residual of the statistical linearization "
                    "(Hermite orders 3 and 5, Gaussian tube velocity) added as a source")
+
+
+def z_only(st) -> bool:
+    """A closure whose table is z-reducible and whose floor moves in z alone (its state is
+    one isolator's: docs/table.md, section 14).
+
+    Parameters
+    ----------
+    st : TableStatistical or TableDescribing
+    """
+    return getattr(st, "axes", None) == (2,) and st.model.z_reducible
+
+
+def z_closure(model: TableModel, grid: TableGrid, random_method: str, rtol: float,
+              max_iter: int, *, with_slope: bool = False):
+    """The closure of a z-reducible table under a vertical floor: its z DOF alone, mass
+    ``m`` on ``n`` equal springs, is the 1-DOF payload's closure
+    (:func:`~isodesign.response.random_input.solve_stroke_rms`); every isolator has its
+    state. Returns ``(sigma, sigma_u, evaluations)`` (``sigma_u`` NaN for a harmonic closure)
+    and, ``with_slope``, the closure's slope ``d ln sigma_new / d ln sigma`` (or None).
+
+    Parameters
+    ----------
+    model : TableModel
+        A z-reducible table (:attr:`~isodesign.table.model.TableModel.z_reducible`).
+    grid : TableGrid
+        A floor moving in z alone.
+    random_method : {'statistical', 'equivalent_amplitude'}
+    rtol : float
+    max_iter : int
+    with_slope : bool
+    """
+    from isodesign.response.isolator import Payload
+    from isodesign.response.random_input import solve_stroke_rms
+
+    n, t = model.n_isolators, model.table
+    sigma, info = solve_stroke_rms(
+        model.designs[0], Payload(t.mass_kg, n, g_m_s2=t.g_m_s2), grid.axis_grids[2],
+        flow=model.flow, amplitude_mode=model.amplitude_mode, diaphragm=model.diaphragm,
+        derive_pressure=False, rtol=rtol, max_iter=max_iter, random_method=random_method)
+    su = info.get("tube_velocity_rms_m_s", np.nan)
+    out = (np.full(n, sigma), np.full(n, su), int(info["iterations"]))
+    return (*out, info.get("closure_slope")) if with_slope else out
 
 
 def excited_axes(grid: TableGrid) -> tuple[int, ...]:
@@ -157,7 +202,7 @@ class TableStatistical:
 
 
 def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: int = 100,
-                        start=None):
+                        start=None, reduce: bool = True):
     """Solve the per-isolator statistical closure; ``(sigma, sigma_u, evaluations)``.
 
     Parameters
@@ -170,12 +215,17 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
         Iterations of the fixed point before the Newton (hybrid Powell) fallback.
     start : tuple of ndarray, optional
         ``(sigma, sigma_u)`` to start from (default: the linear regime).
+    reduce : bool
+        A z-reducible table under a vertical floor alone solves its z DOF alone (default;
+        exact, :func:`z_closure`); False: the ``2n`` RMS values together, always.
 
     Raises
     ------
     SolverError
         No convergence.
     """
+    if reduce and start is None and z_only(st):
+        return z_closure(st.model, st.grid, "statistical", rtol, max_iter)
     n = st.model.n_isolators
     sigma0 = np.full(n, LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR)
     s2, su2, _, _, _ = st.variances(sigma0, np.full(n, 1e-9), strokes_only=True)

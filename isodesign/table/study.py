@@ -31,6 +31,7 @@ The mass and gravity are the ``[payload]``'s; ``payload.isolators`` must match.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -517,10 +518,25 @@ def payload_table(payload, *, piston_area_m2: float | None = None, horizontal=No
         on them has no rocking stiffness about it) or above the table's limit.
     """
     from isodesign.response.isolator import Payload
-    from isodesign.spring.gas import P_ATM
 
     if not isinstance(payload, Payload):
         raise InputError(f"payload: expected an isodesign Payload, got {type(payload).__name__}")
+    if horizontal is None and instrument_points_m is None and point_names is None:
+        return _payload_table(payload, piston_area_m2, supply_pressure_pa)
+    return _build_payload_table(payload, piston_area_m2, horizontal, instrument_points_m,
+                                point_names, supply_pressure_pa)
+
+
+@functools.lru_cache(maxsize=64)
+def _payload_table(payload, piston_area_m2, supply_pressure_pa) -> Table:
+    """:func:`payload_table` of the defaults, built once per payload (a Table is immutable)."""
+    return _build_payload_table(payload, piston_area_m2, None, None, None, supply_pressure_pa)
+
+
+def _build_payload_table(payload, piston_area_m2, horizontal, instrument_points_m, point_names,
+                         supply_pressure_pa) -> Table:
+    from isodesign.spring.gas import P_ATM
+
     n = payload.isolators
     if n < 3:
         raise InputError(f"payload.isolators = {n}: a rigid table needs at least 3 isolators "

@@ -9,7 +9,7 @@ import pytest
 from isodesign.errors import InputError
 from isodesign.optimization.study import table_study, vertical_study
 from isodesign.response.isolator import Payload
-from isodesign.response.linearization import rayleigh_rule
+from isodesign.response.linearization import equivalent_amplitude, rayleigh_rule
 from isodesign.table.layout import Table
 from isodesign.table.statics import level
 from isodesign.table.study import (
@@ -304,3 +304,128 @@ def test_the_z_reduction_inside_the_table_path_is_the_full_solve(ref):
     asym = Table(700.0, [(0.0, 0.0), (1.2, 0.0), (1.2, 0.8), (0.0, 0.8)], (0.5, 0.45, 0.4),
                  [70.0, 90.0, 130.0])
     assert not table_model(ref, asym).z_reducible
+
+
+# ---------------------------------------------------------------------------
+# one analysis path: analyze(study, values) through the table model
+# ---------------------------------------------------------------------------
+def _vertical(study, values=None, **over):
+    import warnings
+
+    from isodesign.response.random_input import band_response
+
+    m = study.models
+    kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"],
+          "diaphragm": m["diaphragm"], "random_method": m["random_method"], **over}
+    vals = values or {v.name: v.start for v in study.variables}
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return band_response(study.design_at(vals), study.payload, study.floor, study.target,
+                             bands=study.bands, derive_pressure=False, warn=False, **kw)
+
+
+def _assert_same_band_response(a, b):
+    assert type(a) is type(b)
+    for name in ("payload_velocity_rms_m_s", "payload_displacement_rms_m",
+                 "payload_acceleration_rms_m_s2", "transmissibility",
+                 "transmissibility_linear"):
+        assert _db(getattr(a, name), getattr(b, name)) < TOL_DB, name
+    assert _db(a.stroke_rms_m, b.stroke_rms_m) < TOL_DB
+    if b.tube_velocity_rms_m_s is None:
+        assert a.tube_velocity_rms_m_s is None
+    else:
+        assert _db(a.tube_velocity_rms_m_s, b.tube_velocity_rms_m_s) < TOL_DB
+    assert a.verdict() == b.verdict()
+    assert a.stability.natural_frequency_hz == pytest.approx(b.stability.natural_frequency_hz,
+                                                             rel=1e-12)
+    assert a.stability.excited_peak_transmissibility == pytest.approx(
+        b.stability.excited_peak_transmissibility, rel=1e-7)
+    assert a.warnings == b.warnings and a.converged and b.converged
+
+
+@pytest.mark.parametrize("change", [
+    {},
+    {"payload": {"isolators": 6, "mass_kg": 1200.0}},
+    {"payload": {"isolators": 2}},
+    {"payload": {"isolators": 100, "mass_kg": 20000.0}},
+    {"models": {"random_method": "equivalent_amplitude"}},
+    {"models": {"acoustics": "lumped", "flow": "quasi_steady"}},
+], ids=["default", "n6", "n2", "n100", "equivalent_amplitude", "lumped"])  # fmt: skip
+def test_analyze_a_vertical_study_is_the_vertical_analysis(change):
+    from isodesign.optimization.analyze import analyze
+
+    st = vertical_study().with_changes(**change) if change else vertical_study()
+    a, b = analyze(st), _vertical(st)
+    _assert_same_band_response(a, b)
+    assert a.iterations == b.iterations and a.closure_slope == b.closure_slope
+
+
+def test_vertical_band_response_takes_band_responses_arguments(ref):
+    """The Rayleigh closure, all bands, and a design at its own p0 that no leveling gives
+    (the z DOF alone at that p0)."""
+    import warnings
+
+    from isodesign.optimization.analyze import vertical_band_response
+    from isodesign.response.random_input import band_response
+
+    p = Payload(600.0, 4, 1.2, 0.35)
+    d = ref.with_load(600.0, 4)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        for kw in ({"random_method": "rayleigh"}, {"bands": None},
+                   {"derive_pressure": False}):
+            design = d.replace(pressure_pa=3.0e5) if kw.get("derive_pressure") is False else d
+            _assert_same_band_response(
+                vertical_band_response(design, p, "VC-A", "VC-C", flow="quasi_steady",
+                                       **{"bands": (4, 80), **kw}),
+                band_response(design, p, "VC-A", "VC-C", flow="quasi_steady",
+                              **{"bands": (4, 80), **kw}))
+
+
+def test_analyze_a_scenario_of_a_vertical_study():
+    """Under a scenario (payload mass, a tolerance): the symmetric table of the scenario's
+    payload, the same answer as the 1-DOF analysis of the scenario's study."""
+    from isodesign.optimization.analyze import analyze
+    from isodesign.optimization.uncertainty import ScenarioStudy
+
+    st = vertical_study().with_changes(scenarios={
+        "payload_mass_kg": {"min": 480.0, "max": 720.0},
+        "capillary_diameter_m": {"relative": 0.05}})
+    theta = [700.0, -0.04] if st.scenarios.names[0] == "payload_mass_kg" else [-0.04, 700.0]
+    a = analyze(st, None, theta)
+    b = _vertical(ScenarioStudy(st, st.scenarios, theta))
+    _assert_same_band_response(a, b)
+    with pytest.raises(InputError, match="scenario"):
+        analyze(vertical_study(), None, [1.0])
+
+
+def test_analyze_a_table_study_is_the_tables_analysis():
+    from isodesign.optimization.analyze import analyze
+    from isodesign.table.response import TableBandResponse
+
+    st = table_study().with_changes(models={"points_per_band": 4})
+    r = analyze(st, points_per_band=8)
+    assert isinstance(r, TableBandResponse)
+    assert r.velocity_rms_m_s.shape[1] == 3 and r.grid.floor.x is not None
+
+
+@pytest.mark.parametrize("method", ["statistical", "equivalent_amplitude"])
+def test_the_six_dof_closure_without_the_reduction_is_the_vertical_closure(method):
+    """The closures per isolator solved on the whole table (no z reduction): the same state
+    as the 1-DOF closure, to 1e-6 dB."""
+    from isodesign.table.closure import TableDescribing, solve_describing_closure
+    from isodesign.table.floor import table_grid
+    from isodesign.table.model import study_table_model
+    from isodesign.table.response import TableStatistical, solve_table_closure
+
+    st = vertical_study()
+    b = _vertical(st, random_method=method)
+    model = study_table_model(st, st.start_design())
+    grid = table_grid(study_floor_axes(st), st.bands, target=st.target, points_per_band=50)
+    if method == "statistical":
+        sigma, sigma_u, _ = solve_table_closure(TableStatistical(model, grid), reduce=False)
+        assert _db(sigma_u, b.tube_velocity_rms_m_s) < TOL_DB
+    else:
+        sigma, _ = solve_describing_closure(TableDescribing(model, grid, method), reduce=False)
+    # the band response's stroke is recomputed from T at the state; A* is the state's
+    assert _db(equivalent_amplitude(sigma), b.equivalent_amplitude_m) < TOL_DB
