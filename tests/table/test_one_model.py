@@ -429,3 +429,30 @@ def test_the_six_dof_closure_without_the_reduction_is_the_vertical_closure(metho
         sigma, _ = solve_describing_closure(TableDescribing(model, grid, method), reduce=False)
     # the band response's stroke is recomputed from T at the state; A* is the state's
     assert _db(equivalent_amplitude(sigma), b.equivalent_amplitude_m) < TOL_DB
+
+
+@pytest.mark.parametrize("n", [3, 4, 5, 6, 8])
+def test_the_tilt_margin_is_the_symmetric_tables_rocking_margin_for_two_rows(ref, n):
+    """The 1-DOF tilt margin ``n K0 (s/2)^2 / (m g h)`` puts every isolator s/2 from the
+    tilt axis: exactly the two rows of an even layout (its weak direction). An odd layout
+    (the regular polygon) has ``sum b_i^2 = n R^2 / 2`` about its weak axis, R its
+    circumradius: the table's margin is that fraction of the 1-DOF figure
+    (docs/table.md, section 14)."""
+    import math
+
+    from isodesign.response.stability import stability_figures
+    from isodesign.table.model import table_model
+    from isodesign.table.modes import rocking_stability
+
+    p = Payload(600.0, n, 0.9, 0.35)
+    t = payload_table(p, piston_area_m2=ref.piston_area_m2)
+    rs = rocking_stability(table_model(ref, t), frequency_hz=None)
+    tilt = stability_figures(ref, p).tilt_margin
+    if n % 2 == 0:
+        assert rs.margin[0] == pytest.approx(tilt, rel=1e-9)
+    else:
+        r = 0.9 / (2 * math.sin(math.pi / n))
+        assert rs.margin[0] == pytest.approx(tilt * (n * r * r / 2) / (n * 0.45 ** 2),
+                                             rel=1e-9)
+        # the triangle: 2/3 of the 1-DOF figure (optimistic); the pentagon: 1.45x
+        assert (rs.margin[0] < tilt) == (n == 3)
