@@ -127,8 +127,8 @@ def vertical_band_response(design, payload, floor, target, *, bands=None,
                              points_per_band=points_per_band, derive_pressure=derive_pressure,
                              warn=warn, strict=strict, **kw)  # fmt: skip
     try:
-        sigma, sigma_u, n_it, slope, grid = _z_closure(design, payload, floor, target, bands,
-                                                       points_per_band, p_atm_pa, kw)
+        sigma, sigma_u, n_it, info, grid = _z_closure(design, payload, floor, target, bands,
+                                                      points_per_band, p_atm_pa, kw)
     except SolverError:
         if strict:
             raise
@@ -138,7 +138,9 @@ def vertical_band_response(design, payload, floor, target, *, bands=None,
                              warn=warn, strict=False, **kw)  # fmt: skip
     return band_response_at(design, payload, floor, target, sigma, sigma_u, bands=bands,
                             points_per_band=points_per_band, derive_pressure=derive_pressure,
-                            iterations=n_it, closure_slope=slope, warn=warn, grid=grid, **kw)
+                            iterations=n_it, closure_slope=info.get("closure_slope"),
+                            warn=warn, grid=grid, linearization=info.get("linearization"),
+                            **kw)
 
 
 def _under(study, scenario):
@@ -162,8 +164,9 @@ def _under(study, scenario):
 
 
 def _z_closure(design, payload, floor, target, bands, points_per_band, p_atm, kw):
-    """The closure of a payload's symmetric table: ``(sigma, sigma_u, evaluations, slope,
-    z grid)`` of its isolators (one state: the table is z-reducible)."""
+    """The closure of a payload's symmetric table: ``(sigma, sigma_u, evaluations, info,
+    z grid)`` of its isolators (one state: the table is z-reducible; ``info`` the z DOF's
+    closure slope and linearization)."""
     from isodesign.table.closure import TableDescribing, solve_describing_closure
     from isodesign.table.floor import table_floor, table_grid
     from isodesign.table.model import table_model
@@ -181,9 +184,9 @@ def _z_closure(design, payload, floor, target, bands, points_per_band, p_atm, kw
     if method == "rayleigh":  # no z-DOF closure of its own: the isolators' together
         sigma, n_it = solve_describing_closure(TableDescribing(model, grid, method),
                                                rtol=ANALYSIS_RTOL)
-        return float(sigma[0]), None, n_it, None, grid.axis_grids[2]
+        return float(sigma[0]), None, n_it, {}, grid.axis_grids[2]
     # z-reducible under a vertical floor: the z DOF alone (exact)
-    sigma, sigma_u, n_it, slope = z_closure(model, grid, method, ANALYSIS_RTOL,
-                                            ANALYSIS_MAX_ITER, with_slope=True)
+    sigma, sigma_u, n_it, info = z_closure(model, grid, method, ANALYSIS_RTOL,
+                                           ANALYSIS_MAX_ITER, with_info=True)
     su = float(sigma_u[0]) if method == "statistical" else None
-    return float(sigma[0]), su, n_it, slope, grid.axis_grids[2]
+    return float(sigma[0]), su, n_it, info, grid.axis_grids[2]

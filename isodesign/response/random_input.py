@@ -311,7 +311,8 @@ def solve_stroke_rms(
         RMS stroke, m.
     info : dict
         ``iterations`` and ``closure_slope``; for ``statistical`` also
-        ``tube_velocity_rms_m_s`` (``sigma_u``).
+        ``tube_velocity_rms_m_s`` (``sigma_u``) and ``linearization`` (the closure's state
+        on ``grid``, which :func:`band_response_at` reuses).
     """
     check_choice("random_method", random_method, ("equivalent_amplitude", "statistical"))
     model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
@@ -329,7 +330,8 @@ def solve_stroke_rms(
             st, 0.5 * math.log(s2_lin), 0.5 * math.log(max(su2_lin, 1e-300)), rtol,
             int(max_iter))  # fmt: skip
         return math.exp(x), {"iterations": n_it, "closure_slope": slope,
-                             "tube_velocity_rms_m_s": math.exp(y)}  # fmt: skip
+                             "tube_velocity_rms_m_s": math.exp(y),
+                             "linearization": st}  # fmt: skip
     k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
     s2_lin = float(
         stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w), grid)
@@ -523,7 +525,8 @@ def band_response_at(design, payload, floor, target, sigma_m: float,
                      random_method: str = "statistical", rayleigh_nodes: int = RAYLEIGH_NODES,
                      derive_pressure: bool = True, iterations: int = 0,
                      converged: bool = True, closure_slope: float | None = None,
-                     warn: bool = True, grid: ResponseGrid | None = None) -> BandResponse:
+                     warn: bool = True, grid: ResponseGrid | None = None,
+                     linearization=None) -> BandResponse:
     """The band response at a given closure state (the closure solved elsewhere).
 
     :func:`band_response` solves the closure and calls the same assembly; a caller that
@@ -548,6 +551,9 @@ def band_response_at(design, payload, floor, target, sigma_m: float,
     grid : ResponseGrid, optional
         The response grid of ``floor``, ``target``, ``bands`` and ``points_per_band``,
         when the caller built it already.
+    linearization : optional
+        ``solve_stroke_rms(...)[1]["linearization"]`` of the same design, payload, models
+        and ``grid`` (reused instead of rebuilt; ignored on another grid).
 
     Returns
     -------
@@ -564,7 +570,8 @@ def band_response_at(design, payload, floor, target, sigma_m: float,
         if tube_velocity_rms_m_s is None:
             raise InputError("tube_velocity_rms_m_s: the statistical closure's state needs "
                              "the tube velocity RMS")
-        st = _Statistical(model, grid)
+        st = linearization if _reusable(linearization, model, grid) \
+            else _Statistical(model, grid)
     t_lin = model.transmissibility(model.k(grid.frequency_hz, LINEAR_REFERENCE_AMPLITUDE_M),
                                    grid.frequency_hz)
     res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
@@ -572,6 +579,18 @@ def band_response_at(design, payload, floor, target, sigma_m: float,
                             closure_slope, warn, t_lin, st=st, rayleigh_nodes=rayleigh_nodes)
     emit_flags(lines, "band_response", warn)
     return res
+
+
+def _reusable(lin, model: SpringModel, grid) -> bool:
+    """A closure's linearization is that of ``model`` on ``grid`` (its p0 within 1e-12:
+    a leveled table's rounding)."""
+    if not isinstance(lin, _Statistical) or lin.grid is not grid:
+        return False
+    m = lin.model
+    p, q = float(m.design.pressure_pa), float(model.design.pressure_pa)
+    return (abs(p - q) <= 1e-12 * q and m.mass == model.mass and m.flow == model.flow
+            and m.diaphragm == model.diaphragm
+            and m.design.replace(pressure_pa=q) == model.design)
 
 
 def _result_at(model, payload, grid, floor_name, target_name, random_method, state, n_it,

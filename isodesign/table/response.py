@@ -87,12 +87,13 @@ def z_only(st) -> bool:
 
 
 def z_closure(model: TableModel, grid: TableGrid, random_method: str, rtol: float,
-              max_iter: int, *, with_slope: bool = False):
+              max_iter: int, *, with_info: bool = False):
     """The closure of a z-reducible table under a vertical floor: its z DOF alone, mass
     ``m`` on ``n`` equal springs, is the 1-DOF payload's closure
     (:func:`~isodesign.response.random_input.solve_stroke_rms`); every isolator has its
     state. Returns ``(sigma, sigma_u, evaluations)`` (``sigma_u`` NaN for a harmonic closure)
-    and, ``with_slope``, the closure's slope ``d ln sigma_new / d ln sigma`` (or None).
+    and, ``with_info``, the 1-DOF closure's ``info`` (its slope ``closure_slope`` and its
+    ``linearization``, :func:`~isodesign.response.random_input.solve_stroke_rms`).
 
     Parameters
     ----------
@@ -103,7 +104,7 @@ def z_closure(model: TableModel, grid: TableGrid, random_method: str, rtol: floa
     random_method : {'statistical', 'equivalent_amplitude'}
     rtol : float
     max_iter : int
-    with_slope : bool
+    with_info : bool
     """
     from isodesign.response.isolator import Payload
     from isodesign.response.random_input import solve_stroke_rms
@@ -115,7 +116,7 @@ def z_closure(model: TableModel, grid: TableGrid, random_method: str, rtol: floa
         derive_pressure=False, rtol=rtol, max_iter=max_iter, random_method=random_method)
     su = info.get("tube_velocity_rms_m_s", np.nan)
     out = (np.full(n, sigma), np.full(n, su), int(info["iterations"]))
-    return (*out, info.get("closure_slope")) if with_slope else out
+    return (*out, info) if with_info else out
 
 
 def excited_axes(grid: TableGrid) -> tuple[int, ...]:
