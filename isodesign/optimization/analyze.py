@@ -2,7 +2,7 @@
 
 Every study's physics is the table model (docs/table.md, section 14): a study with
 ``[table]`` is that table, a study without it the symmetric table of its ``[payload]``
-(:func:`~isodesign.table.study.study_table`). :func:`analyze` solves the closure of
+(:func:`~isodesign.table.symmetric.study_table`). :func:`analyze` solves the closure of
 either on the table model; for a study without ``[table]`` the symmetric table under its
 vertical floor is z-reducible, so the closure solves the z DOF alone (exact), and the
 answer is given in the vertical result type, :class:`~isodesign.response.band.BandResponse`
@@ -84,7 +84,7 @@ def vertical_band_response(design, payload, floor, target, *, bands=None,
                            warn: bool = True, strict: bool = True, p_atm_pa: float = P_ATM):
     """The vertical band response of a payload, through its symmetric table.
 
-    The payload's symmetric table (:func:`~isodesign.table.study.payload_table`) is
+    The payload's symmetric table (:func:`~isodesign.table.symmetric.payload_table`) is
     leveled and bound to ``design``; under the vertical floor it is z-reducible, so its
     closure is its z DOF alone (exact), and the answer is given as a
     :class:`~isodesign.response.band.BandResponse` at that closure state
@@ -167,11 +167,10 @@ def _z_closure(design, payload, floor, target, bands, points_per_band, p_atm, kw
     """The closure of a payload's symmetric table: ``(sigma, sigma_u, evaluations, info,
     z grid)`` of its isolators (one state: the table is z-reducible; ``info`` the z DOF's
     closure slope and linearization)."""
-    from isodesign.table.closure import TableDescribing, solve_describing_closure
+    from isodesign.table.closure import TableDescribing, solve_describing_closure, z_closure
     from isodesign.table.floor import table_floor, table_grid
     from isodesign.table.model import table_model
-    from isodesign.table.response import z_closure
-    from isodesign.table.study import payload_table
+    from isodesign.table.symmetric import payload_table
 
     model = table_model(design, payload_table(payload, piston_area_m2=design.piston_area_m2),
                         flow=kw["flow"], amplitude_mode=kw["amplitude_mode"],

@@ -5,8 +5,9 @@ both closures iterate.
 ``A* = 1.880 sigma_i`` of its own stroke RMS (``equivalent_amplitude``) or its Rayleigh
 average (``rayleigh``), as the vertical model's harmonic closures
 (docs/random-response.md); :func:`solve_describing_closure` solves the ``n`` stroke RMS
-values together (docs/table.md, section 5). The statistical closure per isolator is in
-:mod:`isodesign.table.response`.
+values together (docs/table.md, section 5). :func:`z_closure` is the exact reduction both
+closures take on a z-reducible table under a vertical floor (docs/table.md, section 14).
+The statistical closure per isolator is in :mod:`isodesign.table.response`.
 """
 
 from __future__ import annotations
@@ -24,7 +25,64 @@ from isodesign.response.model import LINEAR_REFERENCE_AMPLITUDE_M
 from isodesign.table.floor import TableGrid
 from isodesign.table.model import TableModel
 
-__all__ = ["TableDescribing", "anderson", "solve_describing_closure"]
+__all__ = ["TableDescribing", "anderson", "excited_axes", "solve_describing_closure",
+           "z_closure", "z_only"]
+
+
+def z_only(st) -> bool:
+    """A closure whose table is z-reducible and whose floor moves in z alone (its state is
+    one isolator's: docs/table.md, section 14).
+
+    Parameters
+    ----------
+    st : TableStatistical or TableDescribing
+    """
+    return getattr(st, "axes", None) == (2,) and st.model.z_reducible
+
+
+def z_closure(model: TableModel, grid: TableGrid, random_method: str, rtol: float,
+              max_iter: int, *, with_info: bool = False):
+    """The closure of a z-reducible table under a vertical floor: its z DOF alone, mass
+    ``m`` on ``n`` equal springs, is the 1-DOF payload's closure
+    (:func:`~isodesign.response.random_input.solve_stroke_rms`); every isolator has its
+    state. Returns ``(sigma, sigma_u, evaluations)`` (``sigma_u`` NaN for a harmonic closure)
+    and, ``with_info``, the 1-DOF closure's ``info`` (its slope ``closure_slope`` and its
+    ``linearization``, :func:`~isodesign.response.random_input.solve_stroke_rms`).
+
+    Parameters
+    ----------
+    model : TableModel
+        A z-reducible table (:attr:`~isodesign.table.model.TableModel.z_reducible`).
+    grid : TableGrid
+        A floor moving in z alone.
+    random_method : {'statistical', 'equivalent_amplitude'}
+    rtol : float
+    max_iter : int
+    with_info : bool
+    """
+    from isodesign.response.isolator import Payload
+    from isodesign.response.random_input import solve_stroke_rms
+
+    n, t = model.n_isolators, model.table
+    sigma, info = solve_stroke_rms(
+        model.designs[0], Payload(t.mass_kg, n, g_m_s2=t.g_m_s2), grid.axis_grids[2],
+        flow=model.flow, amplitude_mode=model.amplitude_mode, diaphragm=model.diaphragm,
+        derive_pressure=False, rtol=rtol, max_iter=max_iter, random_method=random_method)
+    su = info.get("tube_velocity_rms_m_s", np.nan)
+    out = (np.full(n, sigma), np.full(n, su), int(info["iterations"]))
+    return (*out, info) if with_info else out
+
+
+def excited_axes(grid: TableGrid) -> tuple[int, ...]:
+    """The floor axes of a grid that carry motion (a nonzero stroke weight; every axis for
+    an object with frequencies alone).
+
+    Parameters
+    ----------
+    grid : TableGrid
+    """
+    sw = getattr(grid, "stroke_weight", None)  # a grid of frequencies alone: every axis
+    return (0, 1, 2) if sw is None else tuple(a for a in range(3) if np.any(sw[a] != 0))
 
 
 class TableDescribing:
@@ -46,7 +104,7 @@ class TableDescribing:
                  nodes: int = RAYLEIGH_NODES):
         self.model, self.grid, self.method = model, grid, method
         self.kh = model.horizontal_stiffness(grid.omega)
-        self.axes = tuple(a for a in range(3) if np.any(grid.stroke_weight[a] != 0))
+        self.axes = excited_axes(grid)
         self.rule = rayleigh_rule(nodes) if method == "rayleigh" else None
 
     def spring_result(self, i: int, sigma: float):
@@ -130,12 +188,9 @@ def solve_describing_closure(st: TableDescribing, *, rtol: float = 1e-10,
     SolverError
         No convergence.
     """
-    if reduce and st.method == "equivalent_amplitude":
-        from isodesign.table.response import z_closure, z_only
-
-        if z_only(st):
-            sigma, _, n_it = z_closure(st.model, st.grid, st.method, rtol, max_iter)
-            return sigma, n_it
+    if reduce and st.method == "equivalent_amplitude" and z_only(st):
+        sigma, _, n_it = z_closure(st.model, st.grid, st.method, rtol, max_iter)
+        return sigma, n_it
     model = st.model
     ks = [Cx.from_complex(k) for k in model.vertical_stiffness(st.grid.frequency_hz,
                                                                 LINEAR_REFERENCE_AMPLITUDE_M)]

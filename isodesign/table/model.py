@@ -303,7 +303,7 @@ def study_table_model(study, design, values: dict | None = None) -> TableModel:
 
     A study with ``[table]`` is that table (its levers at ``values``); a study without it
     is the symmetric table of its ``[payload]``
-    (:func:`~isodesign.table.study.study_table`, docs/table.md section 14).
+    (:func:`~isodesign.table.symmetric.study_table`, docs/table.md section 14).
 
     Parameters
     ----------
@@ -317,7 +317,7 @@ def study_table_model(study, design, values: dict | None = None) -> TableModel:
     -------
     TableModel
     """
-    from isodesign.table.study import study_table
+    from isodesign.table.symmetric import study_table
 
     m = study.models
     return table_model(design, study_table(study, values), flow=m["flow"],

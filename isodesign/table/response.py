@@ -39,7 +39,13 @@ from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resi
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.table.assembly import AXES, dynamic_stiffness
-from isodesign.table.closure import TableDescribing, solve_describing_closure
+from isodesign.table.closure import (
+    TableDescribing,
+    excited_axes,
+    solve_describing_closure,
+    z_closure,
+    z_only,
+)
 from isodesign.table.closure import anderson as _anderson
 from isodesign.table.floor import TableGrid, table_floor, table_grid
 from isodesign.table.model import TableModel, TableOutputs, table_model
@@ -50,13 +56,10 @@ __all__ = [
     "TableBandResponse",
     "TableDistortion",
     "TableStatistical",
-    "excited_axes",
     "solve_table_closure",
     "solve_table_closure_with_distortion",
     "table_band_response",
     "table_distortion",
-    "z_closure",
-    "z_only",
 ]
 
 #: What every table result says about its floor model.
@@ -73,60 +76,6 @@ TABLE_RANDOM_METHODS = ("statistical", "equivalent_amplitude", "rayleigh")
 #: What a table result with the distortion power says.
 DISTORTION_NOTE = ("distortion power: each tube's residual of the statistical linearization "
                    "(Hermite orders 3 and 5, Gaussian tube velocity) added as a source")
-
-
-def z_only(st) -> bool:
-    """A closure whose table is z-reducible and whose floor moves in z alone (its state is
-    one isolator's: docs/table.md, section 14).
-
-    Parameters
-    ----------
-    st : TableStatistical or TableDescribing
-    """
-    return getattr(st, "axes", None) == (2,) and st.model.z_reducible
-
-
-def z_closure(model: TableModel, grid: TableGrid, random_method: str, rtol: float,
-              max_iter: int, *, with_info: bool = False):
-    """The closure of a z-reducible table under a vertical floor: its z DOF alone, mass
-    ``m`` on ``n`` equal springs, is the 1-DOF payload's closure
-    (:func:`~isodesign.response.random_input.solve_stroke_rms`); every isolator has its
-    state. Returns ``(sigma, sigma_u, evaluations)`` (``sigma_u`` NaN for a harmonic closure)
-    and, ``with_info``, the 1-DOF closure's ``info`` (its slope ``closure_slope`` and its
-    ``linearization``, :func:`~isodesign.response.random_input.solve_stroke_rms`).
-
-    Parameters
-    ----------
-    model : TableModel
-        A z-reducible table (:attr:`~isodesign.table.model.TableModel.z_reducible`).
-    grid : TableGrid
-        A floor moving in z alone.
-    random_method : {'statistical', 'equivalent_amplitude'}
-    rtol : float
-    max_iter : int
-    with_info : bool
-    """
-    from isodesign.response.isolator import Payload
-    from isodesign.response.random_input import solve_stroke_rms
-
-    n, t = model.n_isolators, model.table
-    sigma, info = solve_stroke_rms(
-        model.designs[0], Payload(t.mass_kg, n, g_m_s2=t.g_m_s2), grid.axis_grids[2],
-        flow=model.flow, amplitude_mode=model.amplitude_mode, diaphragm=model.diaphragm,
-        derive_pressure=False, rtol=rtol, max_iter=max_iter, random_method=random_method)
-    su = info.get("tube_velocity_rms_m_s", np.nan)
-    out = (np.full(n, sigma), np.full(n, su), int(info["iterations"]))
-    return (*out, info) if with_info else out
-
-
-def excited_axes(grid: TableGrid) -> tuple[int, ...]:
-    """The floor axes of a grid that carry motion (a nonzero stroke weight).
-
-    Parameters
-    ----------
-    grid : TableGrid
-    """
-    return tuple(a for a in range(3) if np.any(grid.stroke_weight[a] != 0))
 
 
 class TableStatistical:

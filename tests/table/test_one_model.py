@@ -12,7 +12,7 @@ from isodesign.response.isolator import Payload
 from isodesign.response.linearization import equivalent_amplitude, rayleigh_rule
 from isodesign.table.layout import Table
 from isodesign.table.statics import level
-from isodesign.table.study import (
+from isodesign.table.symmetric import (
     payload_table,
     study_floor_axes,
     study_table,
