@@ -38,8 +38,8 @@ import numpy as np
 from isodesign.errors import InputError
 from isodesign.table.layout import HorizontalElement, Table, box_inertia, check_numbers
 
-__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection", "payload_from_table",
-           "table_from_dict", "table_unit_slips"]
+__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection",
+           "payload_from_table", "table_from_dict", "table_unit_slips"]
 
 #: Keys of ``[table]`` and ``[table.horizontal]``.
 TABLE_KEYS = {
