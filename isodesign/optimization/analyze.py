@@ -18,10 +18,10 @@ import numpy as np
 
 from isodesign.errors import InputError, SolverError
 from isodesign.response.model import resolve_floor
-from isodesign.response.random_input import band_response, band_response_at
+from isodesign.response.random_input import band_response, band_response_at, solve_stroke_rms
 from isodesign.spring.gas import P_ATM
 
-__all__ = ["analyze", "vertical_band_response"]
+__all__ = ["analyze", "vertical_band_response", "vertical_stroke_rms"]
 
 #: Closure tolerance on ``ln sigma`` and iterations of the analysis (``band_response``'s).
 ANALYSIS_RTOL = 1e-10
@@ -112,17 +112,9 @@ def vertical_band_response(design, payload, floor, target, *, bands=None,
     -------
     BandResponse
     """
-    from isodesign.response.isolator import Payload
-    from isodesign.table.layout import MAX_TABLE_ISOLATORS
-
     kw = {"flow": flow, "amplitude_mode": amplitude_mode, "diaphragm": diaphragm,
           "random_method": random_method}
-    one_dof = not isinstance(payload, Payload) or not 3 <= payload.isolators \
-        <= MAX_TABLE_ISOLATORS
-    if not one_dof and not derive_pressure:
-        p0 = p_atm_pa + payload.load_per_isolator_n / design.piston_area_m2
-        one_dof = abs(design.pressure_pa - p0) > 1e-9 * p0
-    if one_dof:
+    if not _table_able(design, payload, derive_pressure, p_atm_pa):
         return band_response(design, payload, floor, target, bands=bands,
                              points_per_band=points_per_band, derive_pressure=derive_pressure,
                              warn=warn, strict=strict, **kw)  # fmt: skip
@@ -141,6 +133,61 @@ def vertical_band_response(design, payload, floor, target, *, bands=None,
                             iterations=n_it, closure_slope=info.get("closure_slope"),
                             warn=warn, grid=grid, linearization=info.get("linearization"),
                             **kw)
+
+
+def _table_able(design, payload, derive_pressure: bool, p_atm_pa: float) -> bool:
+    """The payload is a table (3 to 64 isolators) leveled at the design's p0."""
+    from isodesign.response.isolator import Payload
+    from isodesign.table.layout import MAX_TABLE_ISOLATORS
+
+    if not isinstance(payload, Payload) or not 3 <= payload.isolators <= MAX_TABLE_ISOLATORS:
+        return False
+    if derive_pressure:
+        return True
+    p0 = p_atm_pa + payload.load_per_isolator_n / design.piston_area_m2
+    return abs(design.pressure_pa - p0) <= 1e-9 * p0
+
+
+def vertical_stroke_rms(design, payload, grid, *, flow: str = "quasi_steady",
+                        amplitude_mode: str = "self_consistent", diaphragm="viscoelastic",
+                        random_method: str = "equivalent_amplitude",
+                        derive_pressure: bool = False, p_atm_pa: float = P_ATM,
+                        rtol: float = 1e-12, max_iter: int = 50):
+    """:func:`~isodesign.response.random_input.solve_stroke_rms` of a payload through its
+    symmetric table: the table leveled and bound to ``design``, its closure the z DOF
+    alone (exact; docs/table.md, section 14). The same arguments and answer.
+
+    Parameters
+    ----------
+    design : SpringDesign
+    payload : Payload
+    grid : ResponseGrid
+        The vertical floor's frequencies and quadrature weights.
+    flow, amplitude_mode, diaphragm, random_method, derive_pressure, rtol, max_iter :
+        As in :func:`~isodesign.response.random_input.solve_stroke_rms`.
+    p_atm_pa : float
+        Ambient pressure of the leveling, Pa (a scenario's ``ambient_pressure_pa``).
+
+    Returns
+    -------
+    tuple
+        ``(sigma, info)``.
+    """
+    if not _table_able(design, payload, derive_pressure, p_atm_pa):
+        return solve_stroke_rms(design, payload, grid, flow=flow, amplitude_mode=amplitude_mode,
+                                diaphragm=diaphragm, derive_pressure=derive_pressure,
+                                rtol=rtol, max_iter=max_iter, random_method=random_method)
+    from isodesign.table.closure import z_closure
+    from isodesign.table.model import table_model
+    from isodesign.table.symmetric import payload_table
+
+    d = design.with_load(payload.mass_kg, payload.isolators, g_m_s2=payload.g_m_s2) \
+        if derive_pressure else design
+    model = table_model(d, payload_table(payload, piston_area_m2=d.piston_area_m2),
+                        flow=flow, amplitude_mode=amplitude_mode, diaphragm=diaphragm,
+                        p_atm_pa=p_atm_pa)  # fmt: skip
+    sigma, _, _, info = z_closure(model, grid, random_method, rtol, max_iter, with_info=True)
+    return float(sigma[0]), info
 
 
 def _under(study, scenario):

@@ -53,8 +53,8 @@ def z_closure(model: TableModel, grid: TableGrid, random_method: str, rtol: floa
     ----------
     model : TableModel
         A z-reducible table (:attr:`~isodesign.table.model.TableModel.z_reducible`).
-    grid : TableGrid
-        A floor moving in z alone.
+    grid : TableGrid or ResponseGrid
+        A floor moving in z alone (or the vertical floor's response grid).
     random_method : {'statistical', 'equivalent_amplitude'}
     rtol : float
     max_iter : int
@@ -64,8 +64,9 @@ def z_closure(model: TableModel, grid: TableGrid, random_method: str, rtol: floa
     from isodesign.response.random_input import solve_stroke_rms
 
     n, t = model.n_isolators, model.table
+    rg = grid.axis_grids[2] if isinstance(grid, TableGrid) else grid
     sigma, info = solve_stroke_rms(
-        model.designs[0], Payload(t.mass_kg, n, g_m_s2=t.g_m_s2), grid.axis_grids[2],
+        model.designs[0], Payload(t.mass_kg, n, g_m_s2=t.g_m_s2), rg,
         flow=model.flow, amplitude_mode=model.amplitude_mode, diaphragm=model.diaphragm,
         derive_pressure=False, rtol=rtol, max_iter=max_iter, random_method=random_method)
     su = info.get("tube_velocity_rms_m_s", np.nan)

@@ -256,6 +256,13 @@ class TableModel:
         return self.outputs(self.vertical_stiffness(f, amplitude_m), TWO_PI * f)
 
 
+@functools.lru_cache(maxsize=64)
+def _leveled(table: Table, piston_area_m2: float, p_atm_pa: float) -> Leveling:
+    """:func:`~isodesign.table.statics.level` once per table, piston and ambient (a Table
+    and its Leveling are immutable; a design's analyses and a yield's draws reuse it)."""
+    return level(table, piston_area_m2, p_atm_pa=p_atm_pa)
+
+
 def table_model(design, table, *, flow: str = "quasi_steady",
                 amplitude_mode: str = "self_consistent", diaphragm="viscoelastic",
                 include_gravity: bool = True, p_atm_pa: float = P_ATM) -> TableModel:
@@ -287,12 +294,17 @@ def table_model(design, table, *, flow: str = "quasi_steady",
     check_models(flow, amplitude_mode)
     diaphragm_model(diaphragm)
     design = model_design(flow, design)  # the paper's flow models are lumped by definition
-    lv = level(table, design.piston_area_m2, p_atm_pa=p_atm_pa)
+    lv = _leveled(table, float(design.piston_area_m2), float(p_atm_pa))
     designs: list = []  # one design per distinct p0 (equal within P0_SHARE_RTOL)
+    tol = TableModel.P0_SHARE_RTOL
     for i, p in enumerate(lv.pressure_pa):
-        same = [j for j in range(i) if abs(p - lv.pressure_pa[j])
-                <= TableModel.P0_SHARE_RTOL * lv.pressure_pa[j]]
-        designs.append(designs[same[0]] if same else design.replace(pressure_pa=float(p)))
+        same = [j for j in range(i) if abs(p - lv.pressure_pa[j]) <= tol * lv.pressure_pa[j]]
+        if same:
+            designs.append(designs[same[0]])
+        elif abs(p - design.pressure_pa) <= tol * p:  # already at it (a payload's p0)
+            designs.append(design)
+        else:
+            designs.append(design.replace(pressure_pa=float(p)))
     return TableModel(table=table, design=design, leveling=lv, designs=tuple(designs), flow=flow,
                       amplitude_mode=amplitude_mode, diaphragm=diaphragm,
                       include_gravity=include_gravity)  # fmt: skip

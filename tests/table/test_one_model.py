@@ -456,3 +456,28 @@ def test_the_tilt_margin_is_the_symmetric_tables_rocking_margin_for_two_rows(ref
                                              rel=1e-9)
         # the triangle: 2/3 of the 1-DOF figure (optimistic); the pentagon: 1.45x
         assert (rs.margin[0] < tilt) == (n == 3)
+
+
+def test_the_numpy_evaluation_of_a_design_closes_on_the_symmetric_table():
+    """evaluate_design (the re-check's and yield's per-draw NumPy path) solves its closure on
+    the study's symmetric table: the same sigma and sigma_u as the 1-DOF closure, to 1e-9,
+    under a scenario too."""
+    from isodesign.optimization.grid import build_grid
+    from isodesign.optimization.recheck import evaluate_design
+    from isodesign.optimization.uncertainty import ScenarioStudy
+    from isodesign.response.random_input import solve_stroke_rms
+
+    st = vertical_study().with_changes(scenarios={
+        "payload_mass_kg": {"min": 480.0, "max": 720.0},
+        "ambient_pressure_pa": {"min": 9.0e4, "max": 1.02e5}})
+    vals = {v.name: v.start for v in st.variables}
+    grid = build_grid(st)
+    th = {"payload_mass_kg": 700.0, "ambient_pressure_pa": 9.2e4}
+    for study in (st, ScenarioStudy(st, st.scenarios, [th[n] for n in st.scenarios.names])):
+        ev = evaluate_design(study, vals, grid=grid)
+        m = study.models
+        sigma, info = solve_stroke_rms(study.design_at(vals), study.payload, grid.response,
+                                       flow=m["flow"], amplitude_mode=m["amplitude_mode"],
+                                       diaphragm=m["diaphragm"], random_method="statistical")
+        assert ev["sigma"] == pytest.approx(sigma, rel=1e-9)
+        assert ev["tube_rms"] == pytest.approx(info["tube_velocity_rms_m_s"], rel=1e-9)
