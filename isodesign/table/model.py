@@ -260,7 +260,9 @@ class TableModel:
 def _leveled(table: Table, piston_area_m2: float, p_atm_pa: float) -> Leveling:
     """:func:`~isodesign.table.statics.level` once per table, piston and ambient (a Table
     and its Leveling are immutable; a design's analyses and a yield's draws reuse it)."""
-    return level(table, piston_area_m2, p_atm_pa=p_atm_pa)
+    lv = level(table, piston_area_m2, p_atm_pa=p_atm_pa)
+    lv.group_of.flags.writeable = False  # shared by every model of this table
+    return lv
 
 
 def table_model(design, table, *, flow: str = "quasi_steady",
