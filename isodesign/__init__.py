@@ -9,7 +9,7 @@ The public API, importable from the top level (``isodesign.complex_stiffness``, 
 * the floor: :func:`criterion`, :func:`criterion_names`, :class:`FloorSpectrum`,
   :func:`third_octave_bands`;
 * design studies: :func:`load_study`, :func:`default_study`, :func:`optimize`,
-  :func:`pareto_front` (the subpackage is :mod:`isodesign.optimization`);
+  :func:`analyze`, :func:`pareto_front` (the subpackage is :mod:`isodesign.optimization`);
 * sweeps of many studies on Dask: :func:`sweep` (:mod:`isodesign.sweeps`);
 * verification: :func:`simulate_stiffness` (time-domain rig);
 * errors: :class:`InputError`, :class:`SolverError`, :class:`ModelValidityWarning`.
@@ -51,7 +51,7 @@ _EXPORTS = {
     "loaded_design": "response.isolator",
     "linear_transmissibility": "response.model",
     "band_response": "response.random_input",
-    "BandResponse": "response.random_input",
+    "BandResponse": "response.band",
     "RANDOM_METHODS": "response.random_input",
     "harmonic_response": "response.harmonic",
     "HarmonicResponse": "response.harmonic",
@@ -72,6 +72,7 @@ _EXPORTS = {
     "load_study": "optimization.study",
     "default_study": "optimization.study",
     "optimize": "optimization.dispatch",
+    "analyze": "optimization.analyze",
     "OptimizationResult": "optimization.result",
     "pareto_front": "optimization.pareto",
     "ParetoResult": "optimization.pareto",

@@ -30,9 +30,9 @@ from isodesign.commands import int_option as _int_option
 from isodesign.errors import InputError, ModelValidityWarning
 from isodesign.io.designfile import load_design as _load
 from isodesign.io.designfile import load_design_models
+from isodesign.optimization.analyze import vertical_band_response
 from isodesign.plotting.style import save_figure
 from isodesign.reporting.inputs import MODEL_DEFAULTS, input_kind, load_case
-from isodesign.response import band_response
 from isodesign.response.isolator import Payload
 
 # The model choices come from the library's registries (declared once there). Loading them
@@ -530,8 +530,8 @@ def run(args) -> int:
           "warn": False}
     try:
         with option_names(**RESPONSE_OPTION_NAMES):
-            res = band_response(job.design, job.payload, job.floor, job.target,
-                                bands=job.bands, **kw)
+            res = vertical_band_response(job.design, job.payload, job.floor, job.target,
+                                         bands=job.bands, **kw)
     except InputError as exc:  # name the user's input with the option
         msg = str(exc)
         if args.bands and msg.startswith("--bands: "):
@@ -557,8 +557,8 @@ def run(args) -> int:
         mc_closure, in_force = res, None
         if twin is not None:
             with option_names(**RESPONSE_OPTION_NAMES):
-                mc_closure = band_response(twin, job.payload, job.floor, job.target,
-                                           bands=res.bands, **kw)
+                mc_closure = vertical_band_response(twin, job.payload, job.floor, job.target,
+                                                    bands=res.bands, **kw)
             in_force = res
     status = write_result(res, without_plot(args), "" if to_stdout else summary(
         res, job.label, not args.design_pressure, job.models_source))
@@ -567,8 +567,8 @@ def run(args) -> int:
         shown = res
         if job.judged_hz is not None:
             try:
-                shown = band_response(job.design, job.payload, job.floor, job.target,
-                                      bands=None, **kw)
+                shown = vertical_band_response(job.design, job.payload, job.floor,
+                                               job.target, bands=None, **kw)
             except ValueError:  # the judged bands are all the floor has
                 shown = res
         peak = job.study.constraints.get("max_peak_transmissibility_db") if job.study else None

@@ -14,6 +14,7 @@ One file per concept:
 ``multistart``      space-filling starts, solved in forked workers
 ``refine``          peak refinement (exchange method), tie-break, branch choice
 ``recheck``         the NumPy re-check of the optimum, :func:`evaluate_design`
+``analyze``         :func:`analyze`: every study's NumPy band response, through the table
 ``result``          :class:`OptimizationResult`
 ``driver``          :func:`optimize_vertical` (the vertical nominal solve)
 ``dispatch``        :func:`optimize`: the answer to the study's question (table, robust)
@@ -50,6 +51,8 @@ _EXPORTS = {
     "FEASIBILITY_TOLERANCE": "solution",
     "Solution": "solution",
     "evaluate_design": "recheck",
+    "analyze": "analyze",
+    "vertical_band_response": "analyze",
     "OptimizationResult": "result",
     "StartRecord": "result",
     "optimize": "dispatch",

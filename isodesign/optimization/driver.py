@@ -21,6 +21,7 @@ import math
 import time
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.analyze import vertical_band_response
 from isodesign.optimization.constraints import constraint_reports
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.objectives import OBJECTIVES
@@ -35,7 +36,6 @@ from isodesign.optimization.refine import (
 from isodesign.optimization.result import OptimizationResult, StartRecord
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.study import Study
-from isodesign.response.random_input import band_response
 
 __all__ = ["PEAK_VIOLATION", "optimize", "optimize_vertical", "solver_settings"]
 
@@ -174,14 +174,16 @@ def _infeasible_result(study, prob, start_vals, records, sols, t_all) -> Optimiz
 
 
 def _analyses(study, prob, d, start_vals):
-    """Fine-grid band responses of the optimum and of the start design."""
+    """Fine-grid band responses of the optimum and of the start design, through the study's
+    symmetric table (:func:`~.analyze.vertical_band_response`, :func:`~.analyze.analyze`'s
+    answer for a study without ``[table]``)."""
     kw = {"flow": study.models["flow"], "amplitude_mode": study.models["amplitude_mode"],
           "diaphragm": prob.dia, "random_method": study.models["random_method"]}
-    analysis = band_response(d, study.payload, study.floor, study.target,
-                             bands=study.bands, derive_pressure=False, warn=False, **kw)
-    start_analysis = band_response(study.design_at(start_vals), study.payload, study.floor,
-                                   study.target, bands=study.bands, derive_pressure=False,
-                                   warn=False, **kw)
+    analysis = vertical_band_response(d, study.payload, study.floor, study.target,
+                                      bands=study.bands, derive_pressure=False, warn=False, **kw)
+    start_analysis = vertical_band_response(study.design_at(start_vals), study.payload,
+                                            study.floor, study.target, bands=study.bands,
+                                            derive_pressure=False, warn=False, **kw)
     return analysis, start_analysis
 
 

@@ -5,15 +5,16 @@ from __future__ import annotations
 import numpy as np
 
 from isodesign.errors import SolverError
+from isodesign.optimization.analyze import vertical_stroke_rms
 from isodesign.optimization.constraints import build_constraints
 from isodesign.optimization.grid import build_grid
 from isodesign.optimization.metrics import metrics, statistical
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
-from isodesign.response.random_input import solve_stroke_rms
 from isodesign.spring.amplitude import solve_velocity_amplitude
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import kinematic_velocity
+from isodesign.spring.gas import P_ATM
 
 __all__ = ["RECHECK_RTOL", "evaluate_design", "recheck"]
 
@@ -149,8 +150,9 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
 
     Notes
     -----
-    sigma solves ``sigma^2 = sum_j w_j |T_j - 1|^2``
-    (:func:`isodesign.response.random_input.solve_stroke_rms`). With the statistical
+    sigma solves ``sigma^2 = sum_j w_j |T_j - 1|^2`` on the study's symmetric table
+    (:func:`.analyze.vertical_stroke_rms`: its z DOF,
+    :func:`isodesign.response.random_input.solve_stroke_rms`). With the statistical
     closure (``models.random_method``, the default) ``sigma_u`` is solved with it and the
     capillary's nonlinear drop is its Gaussian-equivalent resistance there; with
     ``equivalent_amplitude`` the stiffness is at ``A* = 1.880 sigma`` and the tube velocity
@@ -165,10 +167,13 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
     d = study.design_at(values)
     dia = diaphragm_model(study.models["diaphragm"])
     stat = statistical(study)
-    sigma, info = solve_stroke_rms(
+    # the closure of the study's symmetric table (its z DOF; docs/table.md, section 14)
+    theta = getattr(study, "theta", None) or {}
+    sigma, info = vertical_stroke_rms(
         d, study.payload, grid.response, flow=study.models["flow"],
         amplitude_mode=study.models["amplitude_mode"], diaphragm=dia,
-        random_method="statistical" if stat else "equivalent_amplitude")
+        random_method="statistical" if stat else "equivalent_amplitude",
+        p_atm_pa=float(theta.get("ambient_pressure_pa", P_ATM)))
     a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
     if stat:
         u = None

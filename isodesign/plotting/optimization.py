@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
+from isodesign.optimization.analyze import vertical_band_response
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.plotting.response import (
     design_caption,
@@ -24,7 +25,6 @@ from isodesign.plotting.style import (
     save_figure,
     with_breaks,
 )
-from isodesign.response.random_input import band_response
 
 __all__ = [
     "all_bands_response",
@@ -72,9 +72,11 @@ def all_bands_response(study, design):
     -------
     BandResponse
     """
-    return band_response(design, study.payload, study.floor, study.target, bands=None,
-                         flow=study.models["flow"], amplitude_mode=study.models["amplitude_mode"],
-                         diaphragm=study.models["diaphragm"], derive_pressure=False, warn=False)
+    return vertical_band_response(design, study.payload, study.floor, study.target, bands=None,
+                                  flow=study.models["flow"],
+                                  amplitude_mode=study.models["amplitude_mode"],
+                                  diaphragm=study.models["diaphragm"], derive_pressure=False,
+                                  warn=False)
 
 
 #: Size of :func:`optimization_figure`'s own figure, inches.

@@ -8,10 +8,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from isodesign.optimization.analyze import vertical_band_response
 from isodesign.plotting.response import judged_mask
 from isodesign.reporting.inputs import Case
 from isodesign.response.harmonic import harmonic_response
-from isodesign.response.random_input import band_response
 from isodesign.spring.diagnostics import CHECK_DESCRIPTIONS
 from isodesign.spring.flow_models import FLOW_MODELS, flow_model
 from isodesign.spring.stiffness import complex_stiffness
@@ -164,13 +164,13 @@ def analyse(case: Case) -> CaseAnalysis:
     m = case.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"],
           "diaphragm": m["diaphragm"]}
-    judged = band_response(case.design, st.payload, st.floor, st.target, bands=st.bands,
-                           random_method=m["random_method"], derive_pressure=False,
-                           warn=False, **kw)
+    judged = vertical_band_response(case.design, st.payload, st.floor, st.target,
+                                    bands=st.bands, random_method=m["random_method"],
+                                    derive_pressure=False, warn=False, **kw)
     try:
-        all_b = band_response(case.design, st.payload, st.floor, st.target, bands=None,
-                              random_method=m["random_method"], derive_pressure=False,
-                              warn=False, **kw)
+        all_b = vertical_band_response(case.design, st.payload, st.floor, st.target,
+                                       bands=None, random_method=m["random_method"],
+                                       derive_pressure=False, warn=False, **kw)
     except Exception:  # a floor narrower than the target's bands: the judged ones only
         all_b = judged
     lo, hi = case.judged_hz

@@ -16,6 +16,7 @@ import numpy as np
 
 from isodesign import __version__
 from isodesign.io.record import PEAK_EXCESS_DB, dumps_toml, environment, resolved_study_dict
+from isodesign.optimization.analyze import vertical_band_response
 from isodesign.optimization.constraints import DISPLAY_UNITS
 from isodesign.plotting.optimization import (
     objective_display,
@@ -47,7 +48,6 @@ from isodesign.reporting.table_section import (
     table_section,
     table_verdict,
 )
-from isodesign.response.random_input import band_response
 
 __all__ = ["SECTIONS", "build_context"]
 
@@ -358,8 +358,10 @@ def _start_vs_optimum_svg(a: CaseAnalysis) -> str:
     m = c.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
           "random_method": m["random_method"], "derive_pressure": False, "warn": False}
-    start = band_response(start_design, st.payload, st.floor, st.target, bands=st.bands, **kw)
-    start_all = band_response(start_design, st.payload, st.floor, st.target, bands=None, **kw)
+    start = vertical_band_response(start_design, st.payload, st.floor, st.target,
+                                   bands=st.bands, **kw)
+    start_all = vertical_band_response(start_design, st.payload, st.floor, st.target,
+                                       bands=None, **kw)
     run = SimpleNamespace(analysis=a.judged, start_analysis=start, study=st, design=c.design,
                           start_values=c.record["start_design"])
     return _svg(optimization_figure(run, start_all=start_all, optimum_all=a.all_bands))

@@ -7,11 +7,13 @@ One concept a module:
 * :mod:`~isodesign.response.linearization`: the response grid and its quadratures (NumPy
   and CasADi alike: the optimizer uses the same functions).
 * :mod:`~isodesign.response.harmonic`: the response to a sine floor motion.
-* :mod:`~isodesign.response.random_input`: the band response to a random floor.
+* :mod:`~isodesign.response.random_input`: the band response to a random floor (its result
+  type :class:`~isodesign.response.band.BandResponse` in :mod:`~isodesign.response.band`).
 * :mod:`~isodesign.response.stability`: natural frequency, damping, peak |T|, tilt margin.
 * :mod:`~isodesign.response.control`: python-control interop (FRD, transfer functions).
 """
 
+from isodesign.response.band import BandResponse
 from isodesign.response.control import (
     StepMetrics,
     dominant_pole_pair,
@@ -45,8 +47,8 @@ from isodesign.response.model import (
 )
 from isodesign.response.random_input import (
     RANDOM_METHODS,
-    BandResponse,
     band_response,
+    band_response_at,
     solve_stroke_rms,
 )
 from isodesign.response.stability import StabilityFigures, stability_figures
@@ -66,6 +68,7 @@ __all__ = [
     "band_margin_db",
     "band_mean_square",
     "band_response",
+    "band_response_at",
     "dominant_pole_pair",
     "equivalent_amplitude",
     "harmonic_response",

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -26,10 +26,8 @@ from isodesign.errors import (
     check_positive,
 )
 from isodesign.numerics.cplx import Cx
-from isodesign.plotting.response import band_response_figure, draw_bands, judged_mask
-from isodesign.plotting.style import OPTIMUM
+from isodesign.response.band import BandResponse
 from isodesign.response.isolator import (
-    Payload,
     relative_transmissibility,
 )
 from isodesign.response.linearization import (
@@ -42,7 +40,6 @@ from isodesign.response.linearization import (
     response_grid,
     stroke_variance,
     tube_velocity_variance,
-    velocity_margin_db,
 )
 from isodesign.response.model import (
     LINEAR_REFERENCE_AMPLITUDE_M,
@@ -53,11 +50,9 @@ from isodesign.response.model import (
     resolve_target,
     spring_model,
 )
-from isodesign.response.scope import response_scope
-from isodesign.response.stability import StabilityFigures, stability_of_model
-from isodesign.results import ResultDisplay
+from isodesign.response.stability import stability_of_model
 from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resistance_function
-from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA, evaluate_diagnostics
+from isodesign.spring.diagnostics import evaluate_diagnostics
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.spring.stiffness import StiffnessResult
@@ -66,6 +61,7 @@ __all__ = [
     "RANDOM_METHODS",
     "BandResponse",
     "band_response",
+    "band_response_at",
     "solve_stroke_rms",
 ]
 
@@ -315,7 +311,8 @@ def solve_stroke_rms(
         RMS stroke, m.
     info : dict
         ``iterations`` and ``closure_slope``; for ``statistical`` also
-        ``tube_velocity_rms_m_s`` (``sigma_u``).
+        ``tube_velocity_rms_m_s`` (``sigma_u``) and ``linearization`` (the closure's state
+        on ``grid``, which :func:`band_response_at` reuses).
     """
     check_choice("random_method", random_method, ("equivalent_amplitude", "statistical"))
     model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
@@ -333,7 +330,8 @@ def solve_stroke_rms(
             st, 0.5 * math.log(s2_lin), 0.5 * math.log(max(su2_lin, 1e-300)), rtol,
             int(max_iter))  # fmt: skip
         return math.exp(x), {"iterations": n_it, "closure_slope": slope,
-                             "tube_velocity_rms_m_s": math.exp(y)}  # fmt: skip
+                             "tube_velocity_rms_m_s": math.exp(y),
+                             "linearization": st}  # fmt: skip
     k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
     s2_lin = float(
         stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w), grid)
@@ -343,235 +341,6 @@ def solve_stroke_rms(
     evaluate = _random_evaluator(model, grid, "equivalent_amplitude", RAYLEIGH_NODES)
     ev, n_it, slope = _random_closure(evaluate, 0.5 * math.log(s2_lin), rtol, int(max_iter))
     return math.exp(ev.log_sigma_in), {"iterations": n_it, "closure_slope": slope}
-
-
-@dataclass(frozen=True, eq=False, repr=False)
-class BandResponse(ResultDisplay):
-    """Payload band response to a random floor, with the compliance verdict.
-
-    Attributes
-    ----------
-    grid : ResponseGrid
-        Frequencies and quadrature weights (``grid.bands`` the bands).
-    transmissibility : ndarray of complex (n_points,)
-        ``T`` on ``grid.frequency_hz`` at the final linearization.
-    transmissibility_linear : ndarray of complex (n_points,)
-        ``T`` at :data:`LINEAR_REFERENCE_AMPLITUDE_M` (the starting point).
-    floor_velocity_rms_m_s : ndarray (n_bands,)
-    payload_velocity_rms_m_s, payload_displacement_rms_m, payload_acceleration_rms_m_s2 :
-        ndarray (n_bands,)
-    limit_velocity_rms_m_s : ndarray (n_bands,)
-        The target curve.
-    stroke_rms_m : float
-        RMS stroke ``sigma`` computed from the final ``T``.
-    equivalent_amplitude_m : float
-        ``A* = 1.880 sigma`` (the amplitude the spring sees with the default method).
-    stability : StabilityFigures
-        With the excited peak at the final linearization.
-    spring_diagnostics : StiffnessResult
-        The spring at the final linearization (shape (n_points,), or (n_points, nodes) for
-        ``random_method='rayleigh'``); ``.warnings`` lists validity flags.
-    iterations : int
-        Evaluations of the closure, the linear start excluded: one spring evaluation each
-        for the harmonic closures; for ``statistical`` the evaluations of the inner (tube
-        velocity) iteration, one vectorized expression on the grid each.
-    converged : bool
-    closure_slope : float or None
-        ``d ln sigma_new / d ln sigma`` at the solution (< 1: a stable, locally unique fixed
-        point).
-    random_method, flow, amplitude_mode, diaphragm, floor_name, target_name : str
-    design : SpringDesign
-    payload : Payload
-    tube_velocity_rms_m_s : float or None
-        RMS ``sigma_u`` of the capillary's mean velocity at the final linearization
-        (``random_method='statistical'``; ``None`` for the harmonic closures).
-    """
-
-    grid: ResponseGrid
-    transmissibility: np.ndarray
-    transmissibility_linear: np.ndarray
-    floor_velocity_rms_m_s: np.ndarray
-    payload_velocity_rms_m_s: np.ndarray
-    payload_displacement_rms_m: np.ndarray
-    payload_acceleration_rms_m_s2: np.ndarray
-    limit_velocity_rms_m_s: np.ndarray
-    stroke_rms_m: float
-    equivalent_amplitude_m: float
-    stability: StabilityFigures
-    spring_diagnostics: Any
-    iterations: int
-    converged: bool
-    closure_slope: float | None
-    random_method: str
-    flow: str
-    amplitude_mode: str
-    diaphragm: str
-    floor_name: str = ""
-    target_name: str = ""
-    design: Any = field(repr=False, default=None)
-    payload: Payload | None = None
-    tube_velocity_rms_m_s: float | None = None
-
-    @property
-    def bands(self):
-        """The one-third-octave bands."""
-        return self.grid.bands
-
-    @property
-    def margin_db(self) -> np.ndarray:
-        """``20 log10(limit / payload)`` per band (positive: below the limit)."""
-        return velocity_margin_db(self.limit_velocity_rms_m_s, self.payload_velocity_rms_m_s)
-
-    @property
-    def band_passes(self) -> np.ndarray:
-        """Payload band RMS velocity <= limit, per band."""
-        return self.payload_velocity_rms_m_s <= self.limit_velocity_rms_m_s
-
-    @property
-    def passes(self) -> bool:
-        """True when every band meets the target and the design is inside the model's
-        hard validity limits (:attr:`outside_validity` empty)."""
-        return bool(np.all(self.band_passes)) and not self.outside_validity
-
-    @property
-    def outside_validity(self) -> tuple[str, ...]:
-        """Why the answer cannot be trusted at all, whatever the bands say (empty: none).
-
-        Today the static chamber pressure: a payload that needs p0 above
-        :data:`~isodesign.spring.diagnostics.MAX_STATIC_PRESSURE_PA` is outside the ideal
-        gas and rolling-diaphragm assumptions, so its verdict is FAIL, not a PASS with a
-        warning.
-        """
-        p0 = self.stability.pressure_pa
-        if p0 is not None and p0 > MAX_STATIC_PRESSURE_PA:
-            return (f"p0 = {p0 / 1e5:.4g} bar abs exceeds the model's validity limit "
-                    f"{MAX_STATIC_PRESSURE_PA / 1e5:g} bar (static_pressure: ideal gas and "
-                    "rolling diaphragm); more isolators or a larger piston area lower it",)
-        return ()
-
-    @property
-    def worst_band_hz(self) -> float:
-        """Nominal centre of the band with the smallest margin."""
-        return float(self.bands.nominal_hz[int(np.argmin(self.margin_db))])
-
-    @property
-    def worst_band_label(self) -> str:
-        """Label of that band."""
-        return self.bands.labels[int(np.argmin(self.margin_db))]
-
-    @property
-    def worst_margin_db(self) -> float:
-        """Smallest margin over the bands, dB."""
-        return float(np.min(self.margin_db))
-
-    @property
-    def warnings(self) -> tuple[str, ...]:
-        """Validity warnings of the spring model at the final linearization."""
-        return tuple(self.spring_diagnostics.warnings)
-
-    def verdict(self) -> str:
-        """One line: PASS/FAIL, worst band and margin."""
-        n = len(self.bands)
-        nfail = int(np.sum(~self.band_passes))
-        head = (
-            f"{self.target_name} met in all {n} bands"
-            if nfail == 0
-            else f"{self.target_name} exceeded in {nfail} of {n} bands"
-        )
-        tail = f"; worst band {self.worst_band_label} Hz, margin {self.worst_margin_db:+.2f} dB"
-        if self.outside_validity:
-            return ("FAIL: outside the model's validity: " + "; ".join(self.outside_validity)
-                    + f" (bands, not to be trusted: {head}{tail})")
-        return ("PASS: " if nfail == 0 else "FAIL: ") + head + tail
-
-    def to_frame(self):
-        """One row per band: floor, payload (v, x, a), target, margin and pass."""
-        df = self.bands.to_frame()
-        df["floor_velocity_rms_m_s"] = self.floor_velocity_rms_m_s
-        df["payload_velocity_rms_m_s"] = self.payload_velocity_rms_m_s
-        df["payload_displacement_rms_m"] = self.payload_displacement_rms_m
-        df["payload_acceleration_rms_m_s2"] = self.payload_acceleration_rms_m_s2
-        df["limit_velocity_rms_m_s"] = self.limit_velocity_rms_m_s
-        df["margin_db"] = self.margin_db
-        df["passes"] = self.band_passes
-        df.attrs.update(
-            floor=self.floor_name,
-            target=self.target_name,
-            stroke_rms_m=self.stroke_rms_m,
-            equivalent_amplitude_m=self.equivalent_amplitude_m,
-            random_method=self.random_method,
-            flow=self.flow,
-            amplitude_mode=self.amplitude_mode,
-            diaphragm=self.diaphragm,
-            verdict=self.verdict(),
-        )
-        return df
-
-    def transmissibility_frame(self):
-        """``T`` on the grid: final linearization and linear regime."""
-        import pandas as pd
-
-        t, tl = self.transmissibility, self.transmissibility_linear
-        return pd.DataFrame(
-            {
-                "frequency_hz": self.grid.frequency_hz,
-                "transmissibility_abs": np.abs(t),
-                "transmissibility_phase_deg": np.degrees(np.angle(t)),
-                "linear_transmissibility_abs": np.abs(tl),
-            }
-        )
-
-    def _summary_items(self) -> list[tuple[str, str]]:
-        """Verdict, worst band, operating amplitude and models (for repr and notebooks)."""
-        return [
-            ("", "PASS" if self.passes else "FAIL"),
-            ("worst band", f"{self.worst_band_label} Hz {self.worst_margin_db:+.2f} dB"),
-            ("bands", f"{len(self.bands)} ({self.bands.labels[0]}-{self.bands.labels[-1]} Hz)"),
-            ("floor", self.floor_name),
-            ("limit", self.target_name),
-            ("stroke A*", f"{self.equivalent_amplitude_m * 1e6:.4g} um"),
-            ("natural frequency", f"{self.stability.natural_frequency_hz:.4g} Hz"),
-            ("models", f"{self.flow} flow, {self.amplitude_mode}, {self.diaphragm} diaphragm"),
-            ("validity flags", str(len(self.warnings))),
-            ("scope", self.scope.short()),
-        ]
-
-    @property
-    def scope(self):
-        """What this answer covers and leaves out (:class:`~isodesign.response.scope.Scope`)."""
-        s = self.stability
-        return response_scope(self.payload, self.diaphragm, s.static_stiffness_n_per_m,
-                              s.air_static_stiffness_n_per_m, self.floor_name)
-
-    def plot(self, ax=None, *, judged=None, title=None, peak_limit_db=None):
-        """Floor, payload and limit per band; |T| in dB and its phase.
-
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-            Draw the band panel only, into this axes. Default: a new figure with the
-            band panel and the transmissibility (dB and phase) at the operating
-            amplitude and in the linear regime.
-        judged : ndarray of bool or (lo, hi), optional
-            Judged bands (shaded; failing ones circled); default all.
-        title : str, optional
-        peak_limit_db : float, optional
-            A peak-|T| limit line.
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-            Made with an Agg canvas; the global Matplotlib backend is not touched.
-        """
-        if ax is not None:
-            mask = judged if judged is None or not isinstance(judged, tuple) \
-                else judged_mask(self.bands, judged)
-            draw_bands(ax, [("payload", self, OPTIMUM)], judged=mask)
-            if title:
-                ax.set_title(title, fontsize=10)
-            return ax.figure
-        return band_response_figure(self, judged=judged, title=title,
-                                    peak_limit_db=peak_limit_db)
 
 
 def band_response(
@@ -691,7 +460,7 @@ def band_response(
     f, w = grid.frequency_hz, grid.omega
     k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
     t_lin = model.transmissibility(k_lin, f)
-    converged, slope, sigma_u, dist = True, None, None, None
+    converged, slope, dist = True, None, None
     if distortion and random_method != "statistical":
         raise InputError("distortion: the distortion power is the statistical closure's "
                          "residual; valid with random_method='statistical' only")
@@ -713,29 +482,11 @@ def band_response(
         if distortion:
             x, y, dist, n_more = _with_distortion(st, x, y, rtol, int(max_iter))
             n_it += n_more
-        sigma_in, sigma_u_in = math.exp(x), math.exp(y)
-        kc, k_air_c, k_d_c, c = st.stiffness(w, sigma_in, sigma_u_in, st.c_of)
-        k = kc.to_complex()
-        rel = relative_transmissibility(kc, model.mass, w)
-        sigma_u = math.sqrt(float(tube_velocity_variance(rel, c, model.design, grid,
-                                                         model.flow)) + st.offset[1])
-        amp = equivalent_amplitude(sigma_in)
-        diag = evaluate_diagnostics(
-            flow, model.design, w, np.full(f.shape, amp),
-            np.full(f.shape, math.sqrt(2.0) * sigma_u), c, k_air_c.to_complex(), k,
-            st.dia, "self_consistent",
-        )  # fmt: skip
-        spring_res = StiffnessResult(
-            frequency_hz=f, amplitude_m=np.full(f.shape, amp), k=k,
-            k_air=k_air_c.to_complex(), k_diaphragm=np.broadcast_to(k_d_c.to_complex(), f.shape),
-            diagnostics=diag, flow=flow, amplitude_mode="statistical", diaphragm=st.dia.name,
-            design=model.design,
-        )  # fmt: skip
-
-        def t_exc(ff):
-            kk = st.stiffness(TWO_PI * np.asarray(ff), sigma_in, sigma_u_in)[0]
-            return model.transmissibility(kk.to_complex(), ff)
-
+        res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
+                                (math.exp(x), math.exp(y)), n_it, converged, slope, warn,
+                                t_lin, st=st, dist=dist)
+        emit_flags(lines, "band_response", warn)
+        return res
     else:
         evaluate = _random_evaluator(model, grid, random_method, rayleigh_nodes)
         if stroke_amplitude_m is not None:
@@ -759,9 +510,127 @@ def band_response(
                 converged = False
                 ev = evaluate(0.5 * math.log(s2_lin))
                 n_it = int(max_iter)
-        k = ev.k
-        spring_res = ev.result
-        sigma_in = math.exp(ev.log_sigma_in)
+        res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
+                                (math.exp(ev.log_sigma_in), None), n_it, converged, slope,
+                                warn, t_lin, evaluated=(ev.k, ev.result),
+                                rayleigh_nodes=rayleigh_nodes)
+        emit_flags(lines, "band_response", warn)
+        return res
+
+
+def band_response_at(design, payload, floor, target, sigma_m: float,
+                     tube_velocity_rms_m_s: float | None = None, *, bands=None,
+                     points_per_band: int = 50, flow: str = "quasi_steady",
+                     amplitude_mode: str = "self_consistent", diaphragm="viscoelastic",
+                     random_method: str = "statistical", rayleigh_nodes: int = RAYLEIGH_NODES,
+                     derive_pressure: bool = True, iterations: int = 0,
+                     converged: bool = True, closure_slope: float | None = None,
+                     warn: bool = True, grid: ResponseGrid | None = None,
+                     linearization=None) -> BandResponse:
+    """The band response at a given closure state (the closure solved elsewhere).
+
+    :func:`band_response` solves the closure and calls the same assembly; a caller that
+    solved it otherwise (the table model's z DOF, :func:`isodesign.analyze`) passes the
+    state: the stroke RMS ``sigma`` (and, for ``statistical``, the tube velocity RMS
+    ``sigma_u``) that the spring is linearized at.
+
+    Parameters
+    ----------
+    design, payload, floor, target, bands, points_per_band, flow, amplitude_mode, diaphragm,
+    random_method, rayleigh_nodes, derive_pressure, warn :
+        As in :func:`band_response`.
+    sigma_m : float
+        The closure's stroke RMS, m.
+    tube_velocity_rms_m_s : float, optional
+        The statistical closure's tube velocity RMS ``sigma_u`` (required for it).
+    iterations : int
+        Evaluations the closure took (reported).
+    converged : bool
+    closure_slope : float, optional
+        ``d ln sigma_new / d ln sigma`` at the solution, when known.
+    grid : ResponseGrid, optional
+        The response grid of ``floor``, ``target``, ``bands`` and ``points_per_band``,
+        when the caller built it already.
+    linearization : optional
+        ``solve_stroke_rms(...)[1]["linearization"]`` of the same design, payload, models
+        and ``grid`` (reused instead of rebuilt; ignored on another grid).
+
+    Returns
+    -------
+    BandResponse
+    """
+    check_choice("random_method", random_method, RANDOM_METHODS)
+    model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
+    fl, tg = resolve_floor(floor), resolve_target(target)
+    if grid is None:
+        grid = response_grid(fl, bands, target=tg, points_per_band=points_per_band)
+    sigma = check_positive("sigma_m", sigma_m, unit="m")
+    st = None
+    if random_method == "statistical":
+        if tube_velocity_rms_m_s is None:
+            raise InputError("tube_velocity_rms_m_s: the statistical closure's state needs "
+                             "the tube velocity RMS")
+        st = linearization if _reusable(linearization, model, grid) \
+            else _Statistical(model, grid)
+    t_lin = model.transmissibility(model.k(grid.frequency_hz, LINEAR_REFERENCE_AMPLITUDE_M),
+                                   grid.frequency_hz)
+    res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
+                            (sigma, tube_velocity_rms_m_s), int(iterations), bool(converged),
+                            closure_slope, warn, t_lin, st=st, rayleigh_nodes=rayleigh_nodes)
+    emit_flags(lines, "band_response", warn)
+    return res
+
+
+def _reusable(lin, model: SpringModel, grid) -> bool:
+    """A closure's linearization is that of ``model`` on ``grid`` (its p0 within 1e-12:
+    a leveled table's rounding)."""
+    if not isinstance(lin, _Statistical) or lin.grid is not grid:
+        return False
+    m = lin.model
+    p, q = float(m.design.pressure_pa), float(model.design.pressure_pa)
+    return (abs(p - q) <= 1e-12 * q and m.mass == model.mass and m.flow == model.flow
+            and m.diaphragm == model.diaphragm
+            and m.design.replace(pressure_pa=q) == model.design)
+
+
+def _result_at(model, payload, grid, floor_name, target_name, random_method, state, n_it,
+               converged, slope, warn, t_lin, *, st=None, dist=None, evaluated=None,
+               rayleigh_nodes: int = RAYLEIGH_NODES) -> tuple[BandResponse, list]:
+    """The :class:`BandResponse` at the closure state ``(sigma, sigma_u)``: the spring
+    linearized there, T, the bands, the stroke, the stability figures; and its flags (the
+    caller emits them, so that the warning names the user's call)."""
+    f, w = grid.frequency_hz, grid.omega
+    sigma_in, sigma_u_in = state
+    sigma_u = None
+    if random_method == "statistical":
+        kc, k_air_c, k_d_c, c = st.stiffness(w, sigma_in, sigma_u_in, st.c_of)
+        k = kc.to_complex()
+        rel = relative_transmissibility(kc, model.mass, w)
+        sigma_u = math.sqrt(float(tube_velocity_variance(rel, c, model.design, grid,
+                                                         model.flow)) + st.offset[1])
+        amp = equivalent_amplitude(sigma_in)
+        diag = evaluate_diagnostics(
+            model.flow, model.design, w, np.full(f.shape, amp),
+            np.full(f.shape, math.sqrt(2.0) * sigma_u), c, k_air_c.to_complex(), k,
+            st.dia, "self_consistent",
+        )  # fmt: skip
+        spring_res = StiffnessResult(
+            frequency_hz=f, amplitude_m=np.full(f.shape, amp), k=k,
+            k_air=k_air_c.to_complex(), k_diaphragm=np.broadcast_to(k_d_c.to_complex(), f.shape),
+            diagnostics=diag, flow=model.flow, amplitude_mode="statistical",
+            diaphragm=st.dia.name, design=model.design,
+        )  # fmt: skip
+
+        def t_exc(ff):
+            kk = st.stiffness(TWO_PI * np.asarray(ff), sigma_in, sigma_u_in)[0]
+            return model.transmissibility(kk.to_complex(), ff)
+
+    else:
+        if evaluated is None:
+            evaluated = _random_evaluator(model, grid, random_method, rayleigh_nodes)(
+                math.log(sigma_in))
+            evaluated = (evaluated.k, evaluated.result)
+        k, spring_res = evaluated
         if random_method == "equivalent_amplitude":
 
             def t_exc(ff):
@@ -808,11 +677,11 @@ def band_response(
         converged=converged,
         closure_slope=slope,
         random_method=random_method,
-        flow=flow,
-        amplitude_mode=amplitude_mode,
+        flow=model.flow,
+        amplitude_mode=model.amplitude_mode,
         diaphragm=stab.diaphragm,
-        floor_name=fl.name,
-        target_name=tg.name,
+        floor_name=floor_name,
+        target_name=target_name,
         design=model.design,
         payload=payload,
         tube_velocity_rms_m_s=sigma_u,
@@ -823,5 +692,4 @@ def band_response(
             f"closure: d ln sigma_new/d ln sigma = {slope:.3g} >= 1 at the solution; the "
             "stroke RMS may not be unique"
         )
-    emit_flags(lines, "band_response", warn)
-    return res
+    return res, lines

@@ -9,7 +9,10 @@ One concept a module:
   and CasADi alike).
 * :mod:`~isodesign.table.model`: the table bound to its springs, transfer functions.
 * :mod:`~isodesign.table.floor`: the floor per axis and the response grid.
-* :mod:`~isodesign.table.response`: the band response, the random closure per isolator.
+* :mod:`~isodesign.table.response`: the band response, the random closure per isolator;
+  :mod:`~isodesign.table.closure`: the harmonic closures, the z reduction.
+* :mod:`~isodesign.table.symmetric`: the symmetric table of a ``[payload]`` (a study
+  without ``[table]``).
 * :mod:`~isodesign.table.harmonic`: harmonic floor motion, the closure per isolator.
 * :mod:`~isodesign.table.modes`: modes (nonlinear eigenproblem, every self-consistent
   solution), the static verdict with the gravity term.
@@ -21,7 +24,7 @@ One concept a module:
   :mod:`~isodesign.table.plots`: study files, text, figures.
 
 The vertical-only :class:`~isodesign.response.isolator.Payload` is the symmetric special
-case (docs/table.md).
+case (:func:`~isodesign.table.symmetric.payload_table`, docs/table.md section 14).
 """
 
 from isodesign.table.assembly import DOFS, dynamic_stiffness, geometry, gravity_stiffness

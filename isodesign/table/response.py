@@ -29,6 +29,7 @@ import numpy as np
 from isodesign.errors import InputError, ModelValidityWarning, SolverError, check_positive
 from isodesign.response.linearization import (
     EQUIVALENT_AMPLITUDE_FACTOR,
+    RAYLEIGH_NODES,
     equivalent_amplitude,
     velocity_margin_db,
 )
@@ -38,11 +39,20 @@ from isodesign.spring.capillary import STATISTICAL_FLOW_MODELS, statistical_resi
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.table.assembly import AXES, dynamic_stiffness
+from isodesign.table.closure import (
+    TableDescribing,
+    excited_axes,
+    solve_describing_closure,
+    z_closure,
+    z_only,
+)
+from isodesign.table.closure import anderson as _anderson
 from isodesign.table.floor import TableGrid, table_floor, table_grid
 from isodesign.table.model import TableModel, TableOutputs, table_model
 
 __all__ = [
     "RIGID_FLOOR_NOTE",
+    "TABLE_RANDOM_METHODS",
     "TableBandResponse",
     "TableDistortion",
     "TableStatistical",
@@ -57,6 +67,11 @@ RIGID_FLOOR_NOTE = ("rigid floor: the same x, y, z translation under every isola
                     "uncorrelated; no floor rotation, no differential floor motion, no "
                     "leveling-valve dynamics")
 
+
+#: Closures of the table's random response: ``statistical`` (per isolator, the default) and
+#: the harmonic closures on each isolator's stroke RMS, as the vertical model's
+#: (:data:`isodesign.response.random_input.RANDOM_METHODS`).
+TABLE_RANDOM_METHODS = ("statistical", "equivalent_amplitude", "rayleigh")
 
 #: What a table result with the distortion power says.
 DISTORTION_NOTE = ("distortion power: each tube's residual of the statistical linearization "
@@ -80,6 +95,8 @@ class TableStatistical:
         self.c_of = {int(i): statistical_resistance_function(model.flow, model.designs[i], w)
                      for i in self.first}  # fmt: skip
         self.kh = model.horizontal_stiffness(w)
+        #: the floor axes that move (the closure's strokes need no other)
+        self.axes = excited_axes(grid)
 
     def springs(self, sigma, sigma_u):
         """Per isolator ``(k, C)`` (Cx on the grid) at the RMS values ``sigma``, ``sigma_u``.
@@ -116,52 +133,26 @@ class TableStatistical:
             Outputs with the strokes only (the closure's iterations).
         """
         ks, cs = self.springs(sigma, sigma_u)
-        out = self.model.outputs(ks, self.grid.omega, self.kh, strokes_only=strokes_only)
+        out = self.model.outputs(ks, self.grid.omega, self.kh, strokes_only=strokes_only,
+                                 axes=self.axes if strokes_only else None)
         a2 = out.strokes.real ** 2 + out.strokes.imag ** 2  # (f, n, 3)
         sw = self.grid.stroke_weight  # (3, f)
         s2 = np.einsum("fna,af->n", a2, sw, optimize=True)
         su2 = np.empty_like(s2)
+        gains: dict = {}
         for i in range(self.model.n_isolators):
-            g2 = np.asarray(tube_velocity_gain2(self.model.designs[i], self.grid.omega, cs[i],
-                                                self.model.flow))
-            su2[i] = float(np.sum(sw.T * a2[:, i, :] * g2[:, None]))
+            rep = int(self.first[self.inv[i]])
+            key = (rep, float(sigma[i]), float(sigma_u[i]))
+            if key not in gains:  # the isolators sharing a spring share its tube's gain
+                gains[key] = np.asarray(tube_velocity_gain2(self.model.designs[rep],
+                                                            self.grid.omega, cs[i],
+                                                            self.model.flow))
+            su2[i] = float(np.sum(sw.T * a2[:, i, :] * gains[key][:, None]))
         return s2, su2, out, ks, cs
 
 
-def _anderson(g, x0: np.ndarray, tol: float, max_iter: int, depth: int = 6):
-    """Fixed point ``x = g(x)`` by Anderson mixing; returns ``(x, evaluations, residual)``."""
-    x = x0.copy()
-    gx = g(x)
-    n_eval = 1
-    xs, gs = [x], [gx]
-    for _ in range(max_iter):
-        f = gx - x
-        res = float(np.max(np.abs(f)))
-        if res <= tol:
-            return x, n_eval, res
-        if len(xs) >= 2:
-            hist = zip(xs[-depth - 1:], gs[-depth - 1:], strict=True)
-            fs = np.array([gi - xi for xi, gi in hist])
-            df = np.diff(fs, axis=0).T
-            dg = np.diff(np.array(gs[-depth - 1:]), axis=0).T
-            gamma = np.linalg.lstsq(df, f, rcond=None)[0]
-            x_new = gx - dg @ gamma
-        else:
-            x_new = gx
-        step = np.clip(x_new - x, -2.0, 2.0)
-        x = x + step
-        if not np.all(np.isfinite(x)):
-            break
-        gx = g(x)
-        n_eval += 1
-        xs.append(x)
-        gs.append(gx)
-    f = gx - x
-    return x, n_eval, float(np.max(np.abs(f)))
-
-
 def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: int = 100,
-                        start=None):
+                        start=None, reduce: bool = True):
     """Solve the per-isolator statistical closure; ``(sigma, sigma_u, evaluations)``.
 
     Parameters
@@ -174,12 +165,17 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
         Iterations of the fixed point before the Newton (hybrid Powell) fallback.
     start : tuple of ndarray, optional
         ``(sigma, sigma_u)`` to start from (default: the linear regime).
+    reduce : bool
+        A z-reducible table under a vertical floor alone solves its z DOF alone (default;
+        exact, :func:`z_closure`); False: the ``2n`` RMS values together, always.
 
     Raises
     ------
     SolverError
         No convergence.
     """
+    if reduce and start is None and z_only(st):
+        return z_closure(st.model, st.grid, "statistical", rtol, max_iter)
     n = st.model.n_isolators
     sigma0 = np.full(n, LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR)
     s2, su2, _, _, _ = st.variances(sigma0, np.full(n, 1e-9), strokes_only=True)
@@ -402,6 +398,7 @@ def table_band_response(
     amplitude_mode: str = "self_consistent",
     diaphragm="viscoelastic",
     random_method: str = "statistical",
+    rayleigh_nodes: int = RAYLEIGH_NODES,
     rtol: float = 1e-10,
     max_iter: int = 100,
     include_gravity: bool = True,
@@ -425,8 +422,12 @@ def table_band_response(
     points_per_band : int
     flow, amplitude_mode, diaphragm : str
         Spring models (the vertical diaphragm may be any model object).
-    random_method : {'statistical'}
-        The closure (statistical linearization per isolator).
+    random_method : {'statistical', 'equivalent_amplitude', 'rayleigh'}
+        The closure per isolator: the statistical linearization (default), or a harmonic
+        closure on each isolator's stroke RMS (:class:`TableDescribing`; the result's
+        ``tube_velocity_rms_m_s`` is NaN, as the vertical model's is None).
+    rayleigh_nodes : int
+        Nodes of the Rayleigh rule (``random_method='rayleigh'``).
     rtol : float
         Closure tolerance on ``ln sigma``.
     max_iter : int
@@ -447,17 +448,24 @@ def table_band_response(
     -------
     TableBandResponse
     """
-    if random_method != "statistical":
-        raise InputError(f"random_method: the table response supports 'statistical', got "
-                         f"{random_method!r}")
-    if flow not in STATISTICAL_FLOW_MODELS:
+    if random_method not in TABLE_RANDOM_METHODS:
+        raise InputError(f"random_method: expected one of {', '.join(TABLE_RANDOM_METHODS)}, "
+                         f"got {random_method!r}")
+    if random_method == "statistical" and flow not in STATISTICAL_FLOW_MODELS:
         raise InputError(f"flow: {flow!r} has no time-domain law to linearize statistically; "
-                         f"valid: {', '.join(STATISTICAL_FLOW_MODELS)}")
+                         f"valid: {', '.join(STATISTICAL_FLOW_MODELS)} (or "
+                         "random_method='equivalent_amplitude')")
+    if distortion and random_method != "statistical":
+        raise InputError("distortion: the distortion power is the statistical closure's "
+                         "residual; valid with random_method='statistical' only")
     rtol = check_positive("rtol", rtol)
     model = table_model(design, table, flow=flow, amplitude_mode=amplitude_mode,
                         diaphragm=diaphragm, include_gravity=include_gravity)  # fmt: skip
     tg = resolve_target(target)
     grid = table_grid(table_floor(floor), bands, target=tg, points_per_band=points_per_band)
+    if random_method != "statistical":
+        return _describing_response(model, grid, tg.name, random_method, rayleigh_nodes,
+                                    rtol, max_iter, strict, warn)
     st = TableStatistical(model, grid)
     flags: list[str] = []
     dist = None
@@ -488,8 +496,36 @@ def table_band_response(
         notes=(*res.notes, DISTORTION_NOTE))  # fmt: skip
 
 
+def _describing_response(model, grid, target_name, method, nodes, rtol, max_iter, strict,
+                         warn) -> TableBandResponse:
+    """The band response with a harmonic closure per isolator (:class:`TableDescribing`)."""
+    st = TableDescribing(model, grid, method, nodes)
+    flags: list[str] = []
+    try:
+        sigma, n_it = solve_describing_closure(st, rtol=rtol, max_iter=max_iter)
+    except SolverError as exc:
+        if strict:
+            raise
+        warnings.warn(f"table_band_response: {exc}", ModelValidityWarning, stacklevel=3)
+        flags.append(str(exc))
+        sigma = np.full(model.n_isolators,
+                        LINEAR_REFERENCE_AMPLITUDE_M / EQUIVALENT_AMPLITUDE_FACTOR)
+        n_it = max_iter
+    s2, _, out, ks, _ = st.variances(sigma)
+    first, inv = model.unique_isolators()
+    seen: dict = {}
+    for i in range(model.n_isolators):
+        key = (int(first[inv[i]]), float(sigma[i]))
+        if key not in seen:
+            seen[key] = i
+            flags.extend(f"isolator {i + 1}: {line}"
+                         for line in st.spring_result(key[0], float(sigma[i]))[0].warnings)
+    return _result(model, grid, target_name, out, ks, st.kh, np.sqrt(s2),
+                   np.full(model.n_isolators, np.nan), n_it, flags, warn, spring_flags=False)
+
+
 def _result(model, grid, target_name, out: TableOutputs, ks, kh, sigma, sigma_u, n_it, flags,
-            warn) -> TableBandResponse:
+            warn, spring_flags: bool = True) -> TableBandResponse:
     bw = grid.band_weight
     t = out.points
     t2 = t.real ** 2 + t.imag ** 2
@@ -498,7 +534,7 @@ def _result(model, grid, target_name, out: TableOutputs, ks, kh, sigma, sigma_u,
     hs2 = np.einsum("af,fcna->nc", grid.stroke_weight, h2, optimize=True)
     lin = model.linear_outputs(grid.frequency_hz)
     notes = [*grid.floor.notes, RIGID_FLOOR_NOTE]
-    lines = list(flags) + _spring_flags(model, grid, sigma, sigma_u)
+    lines = list(flags) + (_spring_flags(model, grid, sigma, sigma_u) if spring_flags else [])
     res = TableBandResponse(
         grid=grid, velocity_rms_m_s=np.sqrt(ms), floor_velocity_rms_m_s=grid.floor_velocity_rms_m_s,
         limit_velocity_rms_m_s=grid.limit_velocity_m_s, stroke_rms_m=np.asarray(sigma),
@@ -522,9 +558,10 @@ def _spring_flags(model, grid, sigma, sigma_u) -> list[str]:
     f, w = grid.frequency_hz, grid.omega
     dia = diaphragm_model(model.diaphragm)
     out: list[str] = []
+    first, inv = model.unique_isolators()
     seen: dict = {}
     for i in range(model.n_isolators):
-        d = model.designs[i]
+        d = model.designs[int(first[inv[i]])]
         key = (float(d.pressure_pa), float(sigma[i]), float(sigma_u[i]))
         if key in seen:
             continue

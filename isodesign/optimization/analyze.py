@@ -1,0 +1,238 @@
+"""One analysis for every study: the NumPy band response of a design, through the table.
+
+Every study's physics is the table model (docs/table.md, section 14): a study with
+``[table]`` is that table, a study without it the symmetric table of its ``[payload]``
+(:func:`~isodesign.table.symmetric.study_table`). :func:`analyze` solves the closure of
+either on the table model; for a study without ``[table]`` the symmetric table under its
+vertical floor is z-reducible, so the closure solves the z DOF alone (exact), and the
+answer is given in the vertical result type, :class:`~isodesign.response.band.BandResponse`
+(:func:`~isodesign.response.random_input.band_response_at` at the table's closure state).
+A payload on one or two isolators is no table (it has no rocking stiffness about their
+line): its z DOF alone is the 1-DOF closure of
+:func:`~isodesign.response.random_input.band_response`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from isodesign.errors import InputError, SolverError
+from isodesign.response.model import resolve_floor
+from isodesign.response.random_input import band_response, band_response_at, solve_stroke_rms
+from isodesign.spring.gas import P_ATM
+
+__all__ = ["analyze", "vertical_band_response", "vertical_stroke_rms"]
+
+#: Closure tolerance on ``ln sigma`` and iterations of the analysis (``band_response``'s).
+ANALYSIS_RTOL = 1e-10
+ANALYSIS_MAX_ITER = 50
+
+
+def analyze(study, values: dict | None = None, scenario=None, *, bands="study",
+            points_per_band: int = 50, warn: bool = False, strict: bool = True):
+    """The NumPy analysis of a study's design at ``values``, through the table model.
+
+    Parameters
+    ----------
+    study : Study
+        Any study: with ``[table]`` (the table's answer over points, axes and bands) or
+        without (its symmetric table's z DOF: the vertical answer).
+    values : dict, optional
+        Design-variable (and lever) values by name, SI; default the start values.
+    scenario : sequence of float, optional
+        A point of the study's ``[scenarios]`` (in ``study.scenarios.names`` order): the
+        study under it (payload mass, temperature, ambient pressure, tolerances, CG
+        offsets of a table).
+    bands : Bands, (f_min_hz, f_max_hz), None or "study"
+        The judged bands (default the study's); None: every band of the floor and target.
+    points_per_band : int
+        Trapezoid points per band.
+    warn : bool
+        Emit the validity flags as one warning.
+    strict : bool
+        Raise if the closure fails (else the linear-regime state, flagged).
+
+    Returns
+    -------
+    TableBandResponse or BandResponse
+        A ``[table]`` study's :class:`~isodesign.table.response.TableBandResponse`; a
+        vertical study's :class:`~isodesign.response.band.BandResponse` (its symmetric
+        table's z answer, to 1e-6 dB the 1-DOF's: ``tests/table/test_one_model.py``).
+    """
+    st, p_atm = _under(study, scenario)
+    vals = {v.name: v.start for v in study.variables} if values is None else dict(values)
+    b = st.bands if isinstance(bands, str) and bands == "study" else bands
+    m = st.models
+    kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
+          "random_method": m["random_method"]}
+    d = st.design_at(vals)
+    if study.table is not None:
+        from isodesign.table.response import table_band_response
+
+        return table_band_response(d, st.table_at(vals), st.floor_axes, st.target, bands=b,
+                                   points_per_band=points_per_band, warn=warn, strict=strict,
+                                   **kw)  # fmt: skip
+    return vertical_band_response(d, st.payload, st.floor, st.target, bands=b,
+                                  points_per_band=points_per_band, derive_pressure=False,
+                                  warn=warn, strict=strict, p_atm_pa=p_atm, **kw)
+
+
+def vertical_band_response(design, payload, floor, target, *, bands=None,
+                           points_per_band: int = 50, flow: str = "quasi_steady",
+                           amplitude_mode: str = "self_consistent", diaphragm="viscoelastic",
+                           random_method: str = "statistical", derive_pressure: bool = True,
+                           warn: bool = True, strict: bool = True, p_atm_pa: float = P_ATM):
+    """The vertical band response of a payload, through its symmetric table.
+
+    The payload's symmetric table (:func:`~isodesign.table.symmetric.payload_table`) is
+    leveled and bound to ``design``; under the vertical floor it is z-reducible, so its
+    closure is its z DOF alone (exact), and the answer is given as a
+    :class:`~isodesign.response.band.BandResponse` at that closure state
+    (:func:`~isodesign.response.random_input.band_response_at`). The same arguments as
+    :func:`~isodesign.response.random_input.band_response`; the same answer to 1e-6 dB.
+    A payload on one or two isolators (or more than a table takes) is no table, and a
+    design whose own p0
+    (``derive_pressure=False``) is not the payload's leveled p0 is no leveled table: both
+    are the z DOF alone at that p0, :func:`~isodesign.response.random_input.band_response`.
+
+    Parameters
+    ----------
+    design : SpringDesign
+    payload : Payload
+    floor, target, bands, points_per_band, flow, amplitude_mode, diaphragm, random_method :
+        As in :func:`~isodesign.response.random_input.band_response`.
+    derive_pressure : bool
+        p0 from the payload (Eq. 1, the leveling's) or the design's own.
+    warn, strict : bool
+        As in :func:`~isodesign.response.random_input.band_response`.
+    p_atm_pa : float
+        Ambient pressure of the leveling, Pa.
+
+    Returns
+    -------
+    BandResponse
+    """
+    kw = {"flow": flow, "amplitude_mode": amplitude_mode, "diaphragm": diaphragm,
+          "random_method": random_method}
+    if not _table_able(design, payload, derive_pressure, p_atm_pa):
+        return band_response(design, payload, floor, target, bands=bands,
+                             points_per_band=points_per_band, derive_pressure=derive_pressure,
+                             warn=warn, strict=strict, **kw)  # fmt: skip
+    try:
+        sigma, sigma_u, n_it, info, grid = _z_closure(design, payload, floor, target, bands,
+                                                      points_per_band, p_atm_pa, kw)
+    except SolverError:
+        if strict:
+            raise
+        # no closure: the z DOF's own flagged fallback (the linear-regime state)
+        return band_response(design, payload, floor, target, bands=bands,
+                             points_per_band=points_per_band, derive_pressure=derive_pressure,
+                             warn=warn, strict=False, **kw)  # fmt: skip
+    return band_response_at(design, payload, floor, target, sigma, sigma_u, bands=bands,
+                            points_per_band=points_per_band, derive_pressure=derive_pressure,
+                            iterations=n_it, closure_slope=info.get("closure_slope"),
+                            warn=warn, grid=grid, linearization=info.get("linearization"),
+                            **kw)
+
+
+def _table_able(design, payload, derive_pressure: bool, p_atm_pa: float) -> bool:
+    """The payload is a table (3 to 64 isolators) leveled at the design's p0."""
+    from isodesign.response.isolator import Payload
+    from isodesign.table.layout import MAX_TABLE_ISOLATORS
+
+    if not isinstance(payload, Payload) or not 3 <= payload.isolators <= MAX_TABLE_ISOLATORS:
+        return False
+    if derive_pressure:
+        return True
+    p0 = p_atm_pa + payload.load_per_isolator_n / design.piston_area_m2
+    return abs(design.pressure_pa - p0) <= 1e-9 * p0
+
+
+def vertical_stroke_rms(design, payload, grid, *, flow: str = "quasi_steady",
+                        amplitude_mode: str = "self_consistent", diaphragm="viscoelastic",
+                        random_method: str = "equivalent_amplitude",
+                        derive_pressure: bool = False, p_atm_pa: float = P_ATM,
+                        rtol: float = 1e-12, max_iter: int = 50):
+    """:func:`~isodesign.response.random_input.solve_stroke_rms` of a payload through its
+    symmetric table: the table leveled and bound to ``design``, its closure the z DOF
+    alone (exact; docs/table.md, section 14). The same arguments and answer.
+
+    Parameters
+    ----------
+    design : SpringDesign
+    payload : Payload
+    grid : ResponseGrid
+        The vertical floor's frequencies and quadrature weights.
+    flow, amplitude_mode, diaphragm, random_method, derive_pressure, rtol, max_iter :
+        As in :func:`~isodesign.response.random_input.solve_stroke_rms`.
+    p_atm_pa : float
+        Ambient pressure of the leveling, Pa (a scenario's ``ambient_pressure_pa``).
+
+    Returns
+    -------
+    tuple
+        ``(sigma, info)``.
+    """
+    if not _table_able(design, payload, derive_pressure, p_atm_pa):
+        return solve_stroke_rms(design, payload, grid, flow=flow, amplitude_mode=amplitude_mode,
+                                diaphragm=diaphragm, derive_pressure=derive_pressure,
+                                rtol=rtol, max_iter=max_iter, random_method=random_method)
+    from isodesign.table.closure import z_closure
+    from isodesign.table.model import table_model
+    from isodesign.table.symmetric import payload_table
+
+    d = design.with_load(payload.mass_kg, payload.isolators, g_m_s2=payload.g_m_s2) \
+        if derive_pressure else design
+    model = table_model(d, payload_table(payload, piston_area_m2=d.piston_area_m2),
+                        flow=flow, amplitude_mode=amplitude_mode, diaphragm=diaphragm,
+                        p_atm_pa=p_atm_pa)  # fmt: skip
+    sigma, _, _, info = z_closure(model, grid, random_method, rtol, max_iter, with_info=True)
+    return float(sigma[0]), info
+
+
+def _under(study, scenario):
+    """The study under ``scenario`` and its ambient pressure."""
+    if scenario is None:
+        return study, P_ATM
+    if study.scenarios is None:
+        raise InputError("scenario: the study has no [scenarios]")
+    theta = np.asarray(scenario, dtype=float)
+    if theta.shape != (study.scenarios.size,):
+        raise InputError(f"scenario: expected {study.scenarios.size} values "
+                         f"({', '.join(study.scenarios.names)}), got shape {theta.shape}")
+    if study.table is not None:
+        from isodesign.optimization.robust_table import table_scenario
+
+        return table_scenario(study, theta), P_ATM
+    from isodesign.optimization.uncertainty import ScenarioStudy
+
+    sc = ScenarioStudy(study, study.scenarios, theta)
+    return sc, float(sc.theta.get("ambient_pressure_pa", P_ATM))
+
+
+def _z_closure(design, payload, floor, target, bands, points_per_band, p_atm, kw):
+    """The closure of a payload's symmetric table: ``(sigma, sigma_u, evaluations, info,
+    z grid)`` of its isolators (one state: the table is z-reducible; ``info`` the z DOF's
+    closure slope and linearization)."""
+    from isodesign.table.closure import TableDescribing, solve_describing_closure, z_closure
+    from isodesign.table.floor import table_floor, table_grid
+    from isodesign.table.model import table_model
+    from isodesign.table.symmetric import payload_table
+
+    model = table_model(design, payload_table(payload, piston_area_m2=design.piston_area_m2),
+                        flow=kw["flow"], amplitude_mode=kw["amplitude_mode"],
+                        diaphragm=kw["diaphragm"], p_atm_pa=p_atm)  # fmt: skip
+    if not model.z_reducible:  # the constructor's layout and leveling guarantee it
+        raise SolverError("analyze: the symmetric table of the [payload] is not z-reducible")
+    grid = table_grid(table_floor(resolve_floor(floor), x=False, y=False), bands,
+                      target=target, points_per_band=points_per_band)
+    method = kw["random_method"]
+    if method == "rayleigh":  # no z-DOF closure of its own: the isolators' together
+        sigma, n_it = solve_describing_closure(TableDescribing(model, grid, method),
+                                               rtol=ANALYSIS_RTOL)
+        return float(sigma[0]), None, n_it, {}, grid.axis_grids[2]
+    # z-reducible under a vertical floor: the z DOF alone (exact)
+    sigma, sigma_u, n_it, info = z_closure(model, grid, method, ANALYSIS_RTOL,
+                                           ANALYSIS_MAX_ITER, with_info=True)
+    su = float(sigma_u[0]) if method == "statistical" else None
+    return float(sigma[0]), su, n_it, info, grid.axis_grids[2]
