@@ -190,7 +190,7 @@ def _values(rec: dict) -> str:
 
 
 def measure(rounds: int = ROUNDS) -> dict:
-    """Run the arms interleaved, ``rounds`` times; the like-for-like arms once.
+    """Run the arms interleaved, ``rounds`` times (the order reversed every other round).
 
     Returns
     -------
@@ -200,22 +200,18 @@ def measure(rounds: int = ROUNDS) -> dict:
     old = old_tree()
     new = ROOT
     scen = json.dumps(SCENARIOS)
-    plan = [("vertical-old", old, ()), ("vertical-new", new, ()),
-            ("table-old", old, ()), ("table-new", new, ()),
-            ("robust-new", new, ("on", scen))]
-    once = [("vertical-new-noend", "vertical-new", new, ("off",)),
-            ("table-new-noend", "table-new", new, ("off",))]
+    plan = [("vertical-old", "vertical-old", old, ()), ("vertical-new", "vertical-new", new, ()),
+            ("vertical-new-noend", "vertical-new", new, ("off",)),
+            ("table-old", "table-old", old, ()), ("table-new", "table-new", new, ()),
+            ("table-new-noend", "table-new", new, ("off",)),
+            ("robust-new", "robust-new", new, ("on", scen))]
     recs: dict[str, list] = {"load_before": _load()}
     for i in range(rounds):
         order = plan if i % 2 == 0 else plan[::-1]  # alternate the order within a round
-        for arm, tree, extra in order:
-            recs.setdefault(arm, []).append(run_arm(arm, tree, *extra))
-            print(f"  {arm}: {recs[arm][-1]['wall_s']:.3g} s (load {recs[arm][-1]['load']})",
+        for name, arm, tree, extra in order:
+            recs.setdefault(name, []).append(run_arm(arm, tree, *extra))
+            print(f"  {name}: {recs[name][-1]['wall_s']:.3g} s (load {recs[name][-1]['load']})",
                   flush=True)
-        if i == 0:
-            for name, arm, tree, extra in once:
-                recs.setdefault(name, []).append(run_arm(arm, tree, *extra))
-                print(f"  {name}: {recs[name][-1]['wall_s']:.3g} s", flush=True)
     recs["load_after"] = _load()
     return recs
 
@@ -257,8 +253,8 @@ def rows_from(recs: dict) -> list[dict]:
         "target": "", "unit": "s", **arms["vertical-new"],
         "notes": f"process "
                  f"{statistics.median(r['process_s'] for r in recs['vertical-new']):.3g} s; "
-                 f"optimum {_values(vn)}; with hardware.tube_end_correction = false (once, "
-                 f"round 1): {arms['vertical-new-noend']['median']:.3g} s"})
+                 f"optimum {_values(vn)}; with hardware.tube_end_correction = false "
+                 f"(median, same rounds): {arms['vertical-new-noend']['median']:.3g} s"})
     out.append({
         "name": f"vertical optimize, today / {OLD_COMMIT}",
         "target": f"<= {TARGET_VERTICAL:g}", "unit": "ratio", "median": ratio,
@@ -268,8 +264,7 @@ def rows_from(recs: dict) -> list[dict]:
                  f"today with the tube end corrections off (d3fcd31 added them, on by "
                  f"default) against {OLD_COMMIT}: {'yes' if same_like else 'no'} "
                  f"({cmp_like}); like-for-like time ratio "
-                 f"{arms['vertical-new-noend']['median'] / arms['vertical-old']['median']:.2f}"
-                 f" (one run)"})
+                 f"{arms['vertical-new-noend']['median'] / arms['vertical-old']['median']:.2f}"})
 
     # table
     to, tn, tx = recs["table-old"][0], recs["table-new"][0], recs["table-new-noend"][0]
@@ -289,7 +284,8 @@ def rows_from(recs: dict) -> list[dict]:
                  f"rounds, continuous peak {tn['peak_db']:.3f} dB), {tn['constraints']} "
                  f"constraint rows; process "
                  f"{statistics.median(r['process_s'] for r in recs['table-new']):.3g} s; "
-                 f"optimum {_values(tn)}; with the tube end corrections off (once): "
+                 f"optimum {_values(tn)}; with the tube end corrections off (median, same "
+                 f"rounds): "
                  f"{arms['table-new-noend']['median']:.3g} s"})
     out.append({
         "name": f"built-in table optimize, today / {OLD_COMMIT}",
@@ -299,8 +295,7 @@ def rows_from(recs: dict) -> list[dict]:
                  f"Same optimum: default physics {'yes' if same_def else 'no'} ({cmp_def}); "
                  f"end corrections off: {'yes' if same_like else 'no'} ({cmp_like}); "
                  f"like-for-like time ratio "
-                 f"{arms['table-new-noend']['median'] / arms['table-old']['median']:.2f} "
-                 f"(one run)"})
+                 f"{arms['table-new-noend']['median'] / arms['table-old']['median']:.2f}"})
 
     # robust table
     ro = recs["robust-new"][0]
