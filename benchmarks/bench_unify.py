@@ -9,11 +9,13 @@ The old commit runs from a git worktree (``BENCH23_OLD_TREE``, default
 a fresh process of the same Python (``PYTHONPATH`` pointing at its tree), the arms
 interleaved round by round so that both trees see the same machine load; the rows quote
 medians of the rounds and the load average before and after. The timed span is the
-optimize call only (imports and study loading excluded). The optimum of each pair is
-compared (margin and design variables); where the physics changed since d765a8c (the
-tube end corrections, ``hardware.tube_end_correction``), the new tree also runs with it
-switched off, to compare like with like. About 10-20 min on the shared 2-core machine:
-run it alone with ``python benchmarks/run.py unify -o /tmp/b.md`` or
+optimize call only (the package's import and the study's loading excluded; modules the
+call imports lazily, e.g. python-control for the table's leveling-loop check, included).
+The optimum of each pair is compared (margin and design variables); where the physics
+changed since d765a8c (the tube end corrections, ``hardware.tube_end_correction``), the
+new tree also runs with it switched off, to compare like with like. 5 rounds
+(``BENCH23_ROUNDS``), about 10 min on an idle 2-core machine and 25 min at load 15: run it
+alone with ``python benchmarks/run.py unify -o /tmp/b.md`` or
 ``python benchmarks/bench_unify.py``.
 """
 
@@ -299,12 +301,14 @@ def rows_from(recs: dict) -> list[dict]:
 
     # robust table
     ro = recs["robust-new"][0]
+    nom = [r["nominal_wall_s"] for r in recs["robust-new"] if r.get("nominal_wall_s")]
+    nom_s = statistics.median(nom) if nom else None
     ratio = arms["robust-new"]["median"] / arms["table-new"]["median"]
     out.append({
         "name": "robust built-in table optimize: today (isodesign.optimize, payload +-20 %, "
                 "D_c +-5 %, CG offsets +-50 mm)",
         "target": "", "unit": "s", **arms["robust-new"],
-        "notes": f"nominal optimize included (inside it: {_num(ro.get('nominal_wall_s'))} s, "
+        "notes": f"nominal optimize included (inside it, median: {_num(nom_s)} s, "
                  f"analyze=False); {n} interleaved rounds; exchange rounds {ro.get('rounds')}, "
                  f"scenarios {ro.get('scenarios')}; worst case "
                  f"{_num(ro.get('objective_value'))} dB; feasible {ro['feasible']}; robust "
