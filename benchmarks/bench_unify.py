@@ -75,6 +75,8 @@ else:
         study = study.with_changes({"hardware.tube_end_correction": False})
     if arm.startswith("robust"):
         study = study.with_changes(scenarios=json.loads(sys.argv[3]))
+if "preimport" in sys.argv[2:]:
+    import control  # noqa: F401  (python-control, imported lazily by the leveling check)
 t0 = time.perf_counter()
 r = run(study)
 wall = time.perf_counter() - t0
@@ -206,6 +208,7 @@ def measure(rounds: int = ROUNDS) -> dict:
             ("vertical-new-noend", "vertical-new", new, ("off",)),
             ("table-old", "table-old", old, ()), ("table-new", "table-new", new, ()),
             ("table-new-noend", "table-new", new, ("off",)),
+            ("table-new-preimport", "table-new", new, ("on", "{}", "preimport")),
             ("robust-new", "robust-new", new, ("on", scen))]
     recs: dict[str, list] = {"load_before": _load()}
     for i in range(rounds):
@@ -235,7 +238,7 @@ def rows_from(recs: dict) -> list[dict]:
     out = []
     arms = {}
     for arm in ("vertical-old", "vertical-new", "table-old", "table-new", "robust-new",
-                "vertical-new-noend", "table-new-noend"):
+                "vertical-new-noend", "table-new-noend", "table-new-preimport"):
         arms[arm] = _stats(recs[arm])
     n = arms["vertical-old"]["repeats"]
 
@@ -297,7 +300,12 @@ def rows_from(recs: dict) -> list[dict]:
                  f"Same optimum: default physics {'yes' if same_def else 'no'} ({cmp_def}); "
                  f"end corrections off: {'yes' if same_like else 'no'} ({cmp_like}); "
                  f"like-for-like time ratio "
-                 f"{arms['table-new-noend']['median'] / arms['table-old']['median']:.2f}"})
+                 f"{arms['table-new-noend']['median'] / arms['table-old']['median']:.2f}. "
+                 f"Today's call with python-control imported before the clock starts (its "
+                 f"one-time import inside the leveling-loop check, new since {OLD_COMMIT}, "
+                 f"taken out; median, same rounds): "
+                 f"{arms['table-new-preimport']['median']:.3g} s, ratio "
+                 f"{arms['table-new-preimport']['median'] / arms['table-old']['median']:.2f}"})
 
     # robust table
     ro = recs["robust-new"][0]
