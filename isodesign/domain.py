@@ -66,6 +66,7 @@ CONSTRAINT_DOMAIN = {
     "min_leveling_gain_margin_db": (1e-6, 100.0, "dB"),
     "min_leveling_phase_margin_deg": (1e-6, 180.0, "deg"),
     "max_stroke_m": (1e-9, 10.0, "m"),
+    "min_isolator_distance_m": (1e-4, 100.0, "m"),
 }
 #: Fields of a gas: (lowest, highest, unit).
 GAS_DOMAIN = {

@@ -34,6 +34,8 @@ __all__ = [
     "check_numbers",
     "default_leveling_groups",
     "horizontal_stiffness",
+    "layout_extent",
+    "stretch_layout",
 ]
 
 #: Default supply pressure of the leveling valves: 6 bar gauge (absolute, Pa).
@@ -206,6 +208,62 @@ def horizontal_stiffness(omega, load_n, pendulum_length_m, lateral_stiffness_n_p
     k = lateral_stiffness_n_per_m
     lat = Cx(k + 0.0 * omega, k * lateral_loss_factor + 0.0 * omega)
     return lat + (0.0 if pendulum_length_m is None else load_n / pendulum_length_m)
+
+
+def layout_extent(table) -> tuple[float, float]:
+    """The isolators' extent along x and y, m: the layout levers' table values.
+
+    ``max x_i - min x_i`` and ``max y_i - min y_i`` (a rectangle's spacings; two rows' length
+    and the distance between the rows).
+
+    Parameters
+    ----------
+    table : Table
+    """
+    xy = table.isolators_m
+    return float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1]))
+
+
+def layout_scale(table, length_m, width_m) -> tuple:
+    """The stretch ``(s_x, s_y)`` of the layout levers, any backend: ``length / extent_x``.
+
+    Parameters
+    ----------
+    table : Table
+        The table the stretch starts from.
+    length_m, width_m : float or CasADi symbol
+        The layout levers (the isolators' extent along x and y), m.
+    """
+    ex, ey = layout_extent(table)
+    return length_m / ex, width_m / ey
+
+
+def stretch_layout(table, length_m: float, width_m: float):
+    """The table with its isolators stretched about the CG's plan position to an extent of
+    ``length_m`` x ``width_m`` (docs/table.md, "The layout as design variables").
+
+    ``x_i = c_x + s_x (x_i0 - c_x)``, ``y_i = c_y + s_y (y_i0 - c_y)``: the leveling groups,
+    the CG, the instrument points and the inertia stay; so does every isolator's load (the
+    moment equations of the leveling are homogeneous in the offsets from the CG).
+
+    Parameters
+    ----------
+    table : Table
+    length_m, width_m : float
+        The isolators' extent along x and y, m (> 0).
+
+    Returns
+    -------
+    Table
+    """
+    import dataclasses
+
+    for name, v in (("layout_length_m", length_m), ("layout_width_m", width_m)):
+        check_range(name, _real(name, v), 0.0, None, lo_open=True, unit="m")
+    sx, sy = layout_scale(table, float(length_m), float(width_m))
+    c = table.cg_m[:2]
+    xy = c + (table.isolators_m - c) * np.array([sx, sy])
+    return dataclasses.replace(table, isolators_m=xy)
 
 
 @dataclass(frozen=True)

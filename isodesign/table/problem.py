@@ -62,8 +62,8 @@ from isodesign.optimization.problem import (
 )
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
     DESIGN_VARIABLES,
-    TABLE_LEVERS,
     lever_scaling,
     log_scaling,
 )
@@ -74,7 +74,13 @@ from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.table.assembly import dynamic_stiffness, geometry, solve_complex
 from isodesign.table.floor import table_grid
-from isodesign.table.layout import horizontal_stiffness
+from isodesign.table.layout import horizontal_stiffness, layout_scale
+from isodesign.table.lever_geometry import (
+    layout_rows,
+    lever_directions,
+    lever_stiffness,
+    vertical_vectors,
+)
 from isodesign.table.loop_rows import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, frozen_poles, loop_rows
 from isodesign.table.statics import level
 
@@ -150,6 +156,7 @@ class TableProblem:
                                points_per_band=m["points_per_band"])
         self.leveling = level(self.table, study.hardware["piston_area_m2"])
         self.geo = geometry(self.table, self.leveling.load_n)
+        self.lever_dirs = lever_directions(self.geo, self.table)
         self.n = self.table.n_isolators
         self.k = self.table.instrument_points_m.shape[0]
         self.kh_re, self.kh_im = self._kh_params(self.grid.omega)
@@ -214,14 +221,40 @@ class TableProblem:
     def _lever_free(self, name: str) -> bool:
         return name in self.lever_scaling.names
 
+    def _layout_free(self) -> bool:
+        return self._lever_free("layout_length_m") or self._lever_free("layout_width_m")
+
+    def _scale(self, dv) -> tuple:
+        """The layout's stretch ``(s_x, s_y)`` from the design vector (1.0 when fixed)."""
+        if not self._layout_free():
+            return 1.0, 1.0
+        nd = len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index("layout_length_m")
+        return layout_scale(self.table, dv[nd], dv[nd + 1])
+
+    def _terms(self, dv, shift) -> list:
+        """The geometric levers' ``(t_k, C_k)`` (:mod:`~isodesign.table.lever_geometry`)."""
+        terms = [] if shift is None else [(shift, self.lever_dirs["elastic_centre_height_m"])]
+        sx, sy = self._scale(dv)
+        for name, sk in (("layout_length_m", sx), ("layout_width_m", sy)):
+            if self._lever_free(name):
+                terms.append((sk - 1.0, self.lever_dirs[name]))
+        return terms
+
+    def _assemble(self, dv, kv, kh, w, shift):
+        """``D(w)``, ``B(w)`` with the free geometric levers (today's path without a free
+        layout lever)."""
+        if not self._layout_free():
+            return dynamic_stiffness(self.geo, kv, kh, w, shift)
+        return lever_stiffness(self.geo, self._terms(dv, shift), kv, kh, w)
+
     def _kh(self, dv, w, khr, khi):
         """Each isolator's horizontal stiffness (list of Cx) and the elastic-centre shift
-        (None with the lever fixed) from the design vector ``dv`` (spring, then the four
-        levers when any is free) and the parameters ``khr``, ``khi``."""
+        (None with the lever fixed) from the design vector ``dv`` (spring, then every
+        co-design lever when any is free) and the parameters ``khr``, ``khi``."""
         if not self.n_levers:
             return [Cx(khr[i], khi[i]) for i in range(self.n)], None
         nd = len(DESIGN_VARIABLES)
-        lp, ec, kl, eta = (dv[nd + j] for j in range(len(TABLE_LEVERS)))  # TABLE_LEVERS order
+        lp, ec, kl, eta = (dv[nd + j] for j in range(4))  # CODESIGN_LEVERS order
         h = self.table.horizontal
         if h.pendulum_length_m is None and not self._lever_free("pendulum_length_m"):
             lp = None
@@ -236,7 +269,7 @@ class TableProblem:
         return out, shift
 
     def _n_dv(self) -> int:
-        return len(DESIGN_VARIABLES) + (len(TABLE_LEVERS) if self.n_levers else 0)
+        return len(DESIGN_VARIABLES) + (len(CODESIGN_LEVERS) if self.n_levers else 0)
 
     # -- the per-frequency physics ------------------------------------------------
     def _springs(self, ca, dv, s, y, w):
@@ -255,7 +288,7 @@ class TableProblem:
         """The table's motion per unit floor motion at one frequency: ``(q_re, q_im, g2)``."""
         _, kv, g2 = self._springs(ca, dv, s, y, w)
         kh, shift = self._kh(dv, w, khr, khi)
-        d, b = dynamic_stiffness(self.geo, kv, kh, w, shift)
+        d, b = self._assemble(dv, kv, kh, w, shift)
         q = solve_complex(d, b)
         qr = [[q.re[0, r * 3 + a] for a in range(3)] for r in range(6)]
         qi = [[q.im[0, r * 3 + a] for a in range(3)] for r in range(6)]
@@ -305,12 +338,14 @@ class TableProblem:
                         diag.append(t2)
                 ms.append(acc)
         s2, u2 = [], []
+        gzs = vertical_vectors(self.geo, self._terms(dv, None))
         for i in range(n):
-            gz = self.geo.gz[i]
+            gz = gzs[i]
+            nz = [r for r in range(6) if not (isinstance(gz[r], float) and gz[r] == 0)]
             si, ui = 0, 0
             for a in range(3):
-                re = sum(gz[r] * qr[r][a] for r in range(6) if gz[r] != 0) - (a == 2)
-                im = sum(gz[r] * qi[r][a] for r in range(6) if gz[r] != 0)
+                re = sum(gz[r] * qr[r][a] for r in nz) - (a == 2)
+                im = sum(gz[r] * qi[r][a] for r in nz)
                 si = si + sw[a] * (re * re + im * im)
                 ui = ui + sw[a] * (re * re + im * im) * g2[i]
             s2.append(si)
@@ -325,7 +360,7 @@ class TableProblem:
         khr, khi = ca.SX.sym("khr", self.n), ca.SX.sym("khi", self.n)
         _, kv, _ = self._springs(ca, dv, s, y, w)
         kh, shift = self._kh(dv, w, khr, khi)
-        d, _ = dynamic_stiffness(self.geo, kv, kh, w, shift)
+        d, _ = self._assemble(dv, kv, kh, w, shift)
         mass = ca.DM(self.geo.mass.reshape(1, 36))
         return ca.Function("table_k", [dv, s, y, w, khr, khi],
                            [(d.re + w * w * mass).T, d.im.T])
@@ -351,7 +386,7 @@ class TableProblem:
                 vals.append(X(st.variable(name).start))
         if self.n_levers:
             ls = self.lever_scaling
-            for name in TABLE_LEVERS:
+            for name in CODESIGN_LEVERS:
                 if name in ls.names:
                     i = ls.names.index(name)
                     vals.append(ls.center[i] + ls.half[i] * z[nzs + i])
@@ -460,8 +495,9 @@ class TableProblem:
             kq = [sealed_stiffness(base.replace(pressure_pa=float(p)), self.dia, flow=self.flow)
                   for p in lv.pressure_pa]
             rows = tilt_margin_rows(kq, table.vertical_points_m,
-                                    table.weight_n * table.cg_height_m, mu)
+                                    table.weight_n * table.cg_height_m, mu, self._scale(v))
             cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
+        cons += layout_rows(self.table, c, self._scale(v), self._layout_free())
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows

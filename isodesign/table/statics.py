@@ -257,7 +257,8 @@ def condensed_rocking_stiffness(k_vertical, points_m) -> tuple:
     return a11, a12, a22
 
 
-def tilt_margin_rows(k_vertical, points_m, overturning_n_m: float, minimum: float) -> tuple:
+def tilt_margin_rows(k_vertical, points_m, overturning_n_m: float, minimum: float,
+                     scale_xy=(1.0, 1.0)) -> tuple:
     """The smooth tilt-margin condition ``A / (W h) - mu I`` positive semidefinite, any backend.
 
     Its two diagonal entries and its determinant, each ``>= 0`` (no eigenvalue, no ``min``):
@@ -273,12 +274,18 @@ def tilt_margin_rows(k_vertical, points_m, overturning_n_m: float, minimum: floa
         ``W h``, N m.
     minimum : float
         The bound ``mu`` on every principal margin.
+    scale_xy : (float or symbol, float or symbol)
+        The layout's stretch ``(s_x, s_y)`` about the CG (docs/table.md, section 14): the
+        offsets ``a_i, b_i`` scale, so ``A`` scales as ``(s_y^2, s_x s_y, s_x^2)``.
 
     Returns
     -------
     (d11, d22, det)
     """
     a11, a12, a22 = condensed_rocking_stiffness(k_vertical, points_m)
+    sx, sy = scale_xy
+    if not (isinstance(sx, float) and isinstance(sy, float) and sx == sy == 1.0):
+        a11, a12, a22 = a11 * sy * sy, a12 * sx * sy, a22 * sx * sx
     d11 = a11 / overturning_n_m - minimum
     d22 = a22 / overturning_n_m - minimum
     d12 = a12 / overturning_n_m

@@ -13,9 +13,14 @@ import pytest
 from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization.study import default_study, table_study
-from isodesign.optimization.variables import TABLE_LEVER_BOUNDS, TABLE_LEVERS
+from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
+    LAYOUT_LEVERS,
+    TABLE_LEVER_BOUNDS,
+    TABLE_LEVERS,
+)
 from isodesign.table.assembly import dynamic_stiffness, geometry
-from isodesign.table.layout import horizontal_stiffness
+from isodesign.table.layout import horizontal_stiffness, layout_extent
 from isodesign.table.statics import level
 
 TWO_LEVERS = {"pendulum_length_m": {"fixed": False}, "elastic_centre_height_m": {"fixed": False}}
@@ -31,9 +36,11 @@ def _free(*names, **specs):
 def test_levers_are_fixed_at_the_tables_values_by_default():
     st = table_study()
     h = st.table.horizontal
-    assert [v.name for v in st.levers] == list(TABLE_LEVERS)
+    assert [v.name for v in st.levers] == list(CODESIGN_LEVERS)
+    extent = dict(zip(LAYOUT_LEVERS, layout_extent(st.table), strict=True))
     for v in st.levers:
-        assert v.fixed and v.start == getattr(h, v.name)
+        assert v.fixed and v.start == (extent[v.name] if v.name in extent
+                                       else getattr(h, v.name))
     assert st.table_at({"pendulum_length_m": 0.4}) is st.table  # fixed: the table's value
 
 

@@ -1,0 +1,198 @@
+"""The layout as design variables (docs/table.md, section 14): the isolators' extent along
+x and y, the layout stretched about the CG, the footprint and the minimum distance."""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+import pytest
+
+from isodesign.errors import InputError
+from isodesign.numerics.cplx import Cx
+from isodesign.optimization.study import load_study, table_study, vertical_study
+from isodesign.optimization.variables import LAYOUT_LEVER_RANGE, LAYOUT_LEVERS
+from isodesign.table.assembly import dynamic_stiffness, geometry
+from isodesign.table.layout import layout_extent, stretch_layout
+from isodesign.table.lever_geometry import lever_directions, lever_stiffness, vertical_vectors
+from isodesign.table.statics import level, tilt_margin_rows
+
+LAYOUT = {"layout_length_m": {"fixed": False}, "layout_width_m": {"fixed": False}}
+
+
+def _held_out(held_out_toml, **changes):
+    """The held-out-like five-isolator table (off-centre CG), with ``changes``."""
+    import pathlib
+    import tempfile
+
+    with tempfile.TemporaryDirectory() as tmp:
+        p = pathlib.Path(tmp) / "five.toml"
+        p.write_text(held_out_toml)
+        st = load_study(p)
+    return st.with_changes(**changes) if changes else st
+
+
+def test_layout_levers_are_fixed_at_the_isolators_extent_by_default():
+    st = table_study()
+    spec = {v.name: v for v in st.levers}
+    assert layout_extent(st.table) == pytest.approx((1.2, 0.8))
+    assert spec["layout_length_m"].fixed and spec["layout_length_m"].start == pytest.approx(1.2)
+    assert spec["layout_width_m"].fixed and spec["layout_width_m"].start == pytest.approx(0.8)
+    free = st.with_changes(variables=LAYOUT)
+    spec = {v.name: v for v in free.levers}
+    lo, hi = LAYOUT_LEVER_RANGE
+    assert (spec["layout_length_m"].lower, spec["layout_length_m"].upper) == pytest.approx(
+        (lo * 1.2, hi * 1.2))
+    assert "layout_length_m" in str(free)
+
+
+@pytest.mark.parametrize("changes, key", [
+    ({"variables": {"layout_length_m": {"fixed": False, "lower": 1.5, "upper": 1.0}}},
+     "variables.layout_length_m"),
+    ({"variables": {"layout_width_m": {"fixed": False, "start": 2.0}}},
+     "variables.layout_width_m.start"),
+    ({"variables": {"layout_width_m": {"fixed": False, "lower": -1.0}}},
+     "variables.layout_width_m"),
+    ({"constraints": {"footprint_m": [0.0, 1.0]}}, "constraints.footprint_m"),
+    ({"constraints": {"footprint_m": [[1.0, -1.0], [0.0, 1.0]]}}, "constraints.footprint_m"),
+    ({"constraints": {"footprint_m": "big"}}, "constraints.footprint_m"),
+    ({"constraints": {"min_isolator_distance_m": -0.1}}, "constraints.min_isolator_distance_m"),
+    ({"constraints": {"min_isolator_distance_m": 1e3}}, "constraints.min_isolator_distance_m"),
+])
+def test_bad_layout_keys_name_the_key(changes, key):
+    with pytest.raises(InputError, match=re.escape(key)):
+        table_study().with_changes(**changes)
+
+
+def test_a_vertical_study_refuses_the_layout_keys():
+    with pytest.raises(InputError, match=r"variables\.layout_length_m"):
+        vertical_study().with_changes(variables={"layout_length_m": {"fixed": False}})
+    with pytest.raises(InputError, match=r"constraints\.footprint_m"):
+        vertical_study().with_changes(constraints={"footprint_m": [[0, 0], [1, 1]]})
+    with pytest.raises(InputError, match=r"constraints\.min_isolator_distance_m"):
+        vertical_study().with_changes(constraints={"min_isolator_distance_m": 0.3})
+
+
+def test_the_stretch_keeps_the_loads_the_cg_and_the_groups(held_out_toml):
+    """An off-centre CG on five isolators: stretched about the CG, every isolator's load and
+    p0 stay (the leveling's moment equations are homogeneous in the offsets)."""
+    st = _held_out(held_out_toml)
+    t = st.table
+    t2 = stretch_layout(t, 2.0, 0.9)
+    assert layout_extent(t2) == pytest.approx((2.0, 0.9), rel=1e-12)
+    a_p = st.hardware["piston_area_m2"]
+    np.testing.assert_allclose(level(t2, a_p).load_n, level(t, a_p).load_n, rtol=1e-12)
+    np.testing.assert_allclose(level(t2, a_p).pressure_pa, level(t, a_p).pressure_pa,
+                               rtol=1e-12)
+    assert t2.leveling_groups == t.leveling_groups
+    np.testing.assert_array_equal(t2.cg_m, t.cg_m)
+    off, off2 = t.isolators_m - t.cg_m[:2], t2.isolators_m - t.cg_m[:2]
+    np.testing.assert_allclose(off2, off * [2.0 / 1.6, 0.9 / 1.05], rtol=1e-12)
+
+
+def test_lever_stiffness_equals_the_rebuilt_geometry(held_out_toml):
+    """The polynomial in (elastic-centre shift, s_x - 1, s_y - 1) is exact, strokes too."""
+    st = _held_out(held_out_toml)
+    t = st.table
+    lv = level(t, st.hardware["piston_area_m2"])
+    t2 = stretch_layout(dataclasses.replace(t, horizontal=dataclasses.replace(
+        t.horizontal, elastic_centre_height_m=0.25)), 2.1, 0.8)
+    geo, geo2 = geometry(t, lv.load_n), geometry(t2, lv.load_n)
+    w = np.array([3.0, 25.0, 140.0])
+    kv = [Cx(np.array([1e5, 2e5, 3e5]) * (1 + 0.1 * i), np.array([1e4, 3e4, 2e4]))
+          for i in range(5)]
+    kh = [t.horizontal.stiffness(w, ld) for ld in lv.load_n]
+    c = lever_directions(geo, t)
+    ex, ey = layout_extent(t)
+    terms = [(0.25, c["elastic_centre_height_m"]), (2.1 / ex - 1, c["layout_length_m"]),
+             (0.8 / ey - 1, c["layout_width_m"])]
+    d1, b1 = lever_stiffness(geo, terms, kv, kh, w)
+    d2, b2 = dynamic_stiffness(geo2, kv, kh, w)
+    for a, b in ((d1.re, d2.re), (d1.im, d2.im), (b1.re, b2.re), (b1.im, b2.im)):
+        np.testing.assert_allclose(a, b, rtol=1e-12, atol=1e-12 * np.abs(b).max())
+    np.testing.assert_allclose(np.array(vertical_vectors(geo, terms), float), geo2.gz,
+                               atol=1e-14)
+    np.testing.assert_allclose(geo2.gravity, geo.gravity, atol=1e-9 * np.abs(geo.gravity).max())
+
+
+def test_tilt_rows_scale_with_the_stretch(held_out_toml):
+    st = _held_out(held_out_toml)
+    t = st.table
+    t2 = stretch_layout(t, 2.0, 0.9)
+    ex, ey = layout_extent(t)
+    k = [1.1e5, 0.9e5, 1.3e5, 1.0e5, 1.2e5]
+    wh = t.weight_n * t.cg_height_m
+    r1 = tilt_margin_rows(k, t.vertical_points_m, wh, 0.5, (2.0 / ex, 0.9 / ey))
+    r2 = tilt_margin_rows(k, t2.vertical_points_m, wh, 0.5)
+    np.testing.assert_allclose(r1, r2, rtol=1e-12)
+
+
+def test_the_nlp_with_a_free_layout_equals_the_nlp_of_the_stretched_table(held_out_toml):
+    """At layout values V (with the elastic centre free too), the NLP's symbolic path gives
+    the closure, the margins and the constraint rows of the NLP built on the table with V
+    fixed (the table the NumPy re-check and the analysis use)."""
+    from isodesign.table.problem import TableProblem
+
+    st = _held_out(held_out_toml, constraints={"min_tilt_margin": 1.5})
+    free = st.with_changes(variables={**LAYOUT, "elastic_centre_height_m": {"fixed": False}})
+    lev = {"layout_length_m": 1.9, "layout_width_m": 0.85, "elastic_centre_height_m": 0.2}
+    fixed = free.with_levers_fixed(lev)
+    assert fixed.table.isolators_m[0] == pytest.approx(free.table_at(lev).isolators_m[0])
+    p1, p2 = TableProblem(free), TableProblem(fixed)
+    vals = {v.name: v.start for v in free.variables}
+    x1, x2 = p1.initial_guess({**vals, **lev}), p2.initial_guess(vals)
+    assert p1.values(x1)["layout_length_m"] == pytest.approx(1.9)
+    np.testing.assert_allclose(p1.sigma(x1), p2.sigma(x2), rtol=1e-10)
+    np.testing.assert_allclose(np.asarray(p1._all_margins_fn(x1)).ravel(),
+                               np.asarray(p2._all_margins_fn(x2)).ravel(), atol=1e-9)
+    g1 = np.asarray(p1.eval_fn(x1, p1.params())[1]).ravel()
+    g2 = np.asarray(p2.eval_fn(x2, p2.params())[1]).ravel()
+    np.testing.assert_allclose(g1, g2, rtol=1e-9, atol=1e-9)
+    assert "min_tilt_margin" in [r[0] for r in p1.con_rows]
+
+
+def test_footprint_and_distance_rows(held_out_toml):
+    """The rows against the stretched table's positions computed in NumPy."""
+    from isodesign.table.problem import TableProblem
+
+    fp = [[-1.2, -0.7], [1.1, 0.75]]
+    st = _held_out(held_out_toml, variables=LAYOUT,
+                   constraints={"footprint_m": fp, "min_isolator_distance_m": 0.4})
+    p = TableProblem(st)
+    lev = {"layout_length_m": 1.9, "layout_width_m": 1.2}
+    x = p.initial_guess({**{v.name: v.start for v in st.variables}, **lev})
+    g = np.asarray(p.eval_fn(x, p.params())[1]).ravel()
+    rows = {name: (row, m) for name, row, m in p.con_rows}
+    xy = st.table_at(lev).isolators_m
+    row, m = rows["footprint_m"]
+    want = np.column_stack([xy[:, 0] - fp[0][0], fp[1][0] - xy[:, 0], xy[:, 1] - fp[0][1],
+                            fp[1][1] - xy[:, 1]]).ravel()
+    np.testing.assert_allclose(g[row: row + m], want, atol=1e-12)
+    row, m = rows["min_isolator_distance_m"]
+    d = [np.hypot(*(xy[i] - xy[j])) for i in range(5) for j in range(i + 1, 5)]
+    np.testing.assert_allclose(np.exp(g[row: row + m]), d, rtol=1e-12)
+    assert p.lbg[row] == pytest.approx(np.log(0.4))
+
+
+def test_a_fixed_layout_outside_the_footprint_is_refused_naming_the_key(held_out_toml):
+    from isodesign.table.problem import TableProblem
+
+    st = _held_out(held_out_toml, constraints={"footprint_m": [[-0.5, -0.6], [0.9, 0.6]]})
+    with pytest.raises(InputError, match=r"constraints\.footprint_m: isolator 1"):
+        TableProblem(st)
+    st = _held_out(held_out_toml, constraints={"min_isolator_distance_m": 0.9})
+    with pytest.raises(InputError, match=r"constraints\.min_isolator_distance_m: isolators 3 "
+                                         r"and 5"):
+        TableProblem(st)
+
+
+def test_with_levers_fixed_writes_the_stretched_layout():
+    st = table_study().with_changes(variables=LAYOUT)
+    fixed = st.with_levers_fixed({"layout_length_m": 1.4, "layout_width_m": 0.6})
+    np.testing.assert_allclose(fixed.table.isolators_m, [[-0.7, -0.3], [0.7, -0.3],
+                                                         [0.7, 0.3], [-0.7, 0.3]], atol=1e-12)
+    assert fixed.payload.spacing_m == pytest.approx(0.6)
+    assert all(v.fixed for v in fixed.levers)
+    assert fixed.table_at(None) is fixed.table
+    assert [n for n in LAYOUT_LEVERS if n in fixed.raw["variables"]] == list(LAYOUT_LEVERS)
