@@ -71,7 +71,9 @@ from isodesign.optimization.study_tables import (
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     DESIGN_VARIABLES,
+    LAYOUT_CONSTRAINTS,
     VariableSpec,
+    check_load_range,
     fixed_lever_changes,
     footprint_bounds,
     parse_levers,
@@ -165,7 +167,7 @@ _KEYS = {
                     "max_pressure_pa", "model_validity", "min_rocking_frequency_hz",
                     "max_rocking_frequency_hz", "min_leveling_gain_margin_db",
                     "min_leveling_phase_margin_deg", "max_stroke_m", "stroke_peak_factor",
-                    "footprint_m", "min_isolator_distance_m"},
+                    *LAYOUT_CONSTRAINTS},
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
@@ -449,7 +451,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
         payload = _payload(raw["payload"], where)
     for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz",
               "min_leveling_gain_margin_db", "min_leveling_phase_margin_deg", "max_stroke_m",
-              "stroke_peak_factor", "footprint_m", "min_isolator_distance_m"):
+              "stroke_peak_factor", *LAYOUT_CONSTRAINTS):
         if table is None and raw.get("constraints", {}).get(k) not in (None, False):
             raise InputError(f"{where}: constraints.{k} applies only to a study with a [table] "
                              "(docs/table.md)")
@@ -756,6 +758,7 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
         cons[k] = _num(where, f"constraints.{k}", v, 0.0, None, lo_open)
         lo, hi, unit = CONSTRAINT_DOMAIN[k]  # the models' numeric domain
         _num(where, f"constraints.{k}", v, lo, hi, False, unit)
+    check_load_range(where, cons)
     if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
         if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
             raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "

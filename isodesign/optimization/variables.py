@@ -18,6 +18,7 @@ __all__ = [
     "CODESIGN_LEVERS",
     "DESIGN_VARIABLES",
     "DESIGN_VARIABLE_UNITS",
+    "LAYOUT_CONSTRAINTS",
     "LAYOUT_LEVERS",
     "LAYOUT_LEVER_RANGE",
     "TABLE_LEVERS",
@@ -26,6 +27,7 @@ __all__ = [
     "LinearScaling",
     "LogScaling",
     "VariableSpec",
+    "check_load_range",
     "effective_bounds",
     "fixed_lever_changes",
     "footprint_bounds",
@@ -154,6 +156,9 @@ TABLE_LEVERS = ("pendulum_length_m", "elastic_centre_height_m", "lateral_stiffne
 LAYOUT_LEVERS = ("layout_length_m", "layout_width_m")
 #: Every co-design lever of a table study, in the order of ``Study.levers`` and the NLP.
 CODESIGN_LEVERS = TABLE_LEVERS + LAYOUT_LEVERS
+#: A table study's constraints on its layout, loads and supply (docs/table.md, section 14).
+LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_load_n",
+                      "max_isolator_load_n", "supply_margin_pa")
 #: Default bounds of a free layout lever, as fractions of the table's own extent.
 LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
@@ -349,6 +354,21 @@ def fixed_lever_changes(table, levers, values: dict) -> dict:
         out["table"]["isolators_m"] = t.isolators_m.tolist()
         out["payload"] = {"spacing_m": narrowest_spacing_m(t)}
     return out
+
+
+def check_load_range(where: str, constraints: dict) -> None:
+    """``constraints.min_isolator_load_n`` below ``max_isolator_load_n`` when both are given.
+
+    Parameters
+    ----------
+    where : str
+    constraints : dict
+        The parsed constraints.
+    """
+    lo, hi = constraints.get("min_isolator_load_n"), constraints.get("max_isolator_load_n")
+    if lo and hi and not lo < hi:
+        raise InputError(f"{where}: constraints.min_isolator_load_n ({lo:g} N) must be below "
+                         f"max_isolator_load_n ({hi:g} N)")
 
 
 def footprint_bounds(where: str, value):

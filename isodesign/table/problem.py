@@ -155,6 +155,9 @@ class TableProblem:
         self.grid = table_grid(study.floor_axes, study.bands, target=study.target,
                                points_per_band=m["points_per_band"])
         self.leveling = level(self.table, study.hardware["piston_area_m2"])
+        from isodesign.table.statics import check_load_constraints
+
+        check_load_constraints(self.leveling, study.constraints)
         self.geo = geometry(self.table, self.leveling.load_n)
         self.lever_dirs = lever_directions(self.geo, self.table)
         self.n = self.table.n_isolators

@@ -173,6 +173,12 @@ def test_footprint_and_distance_rows(held_out_toml):
     d = [np.hypot(*(xy[i] - xy[j])) for i in range(5) for j in range(i + 1, 5)]
     np.testing.assert_allclose(np.exp(g[row: row + m]), d, rtol=1e-12)
     assert p.lbg[row] == pytest.approx(np.log(0.4))
+    from isodesign.table.constraint_table import table_constraint_reports
+
+    rep = {r.name: r for r in table_constraint_reports(p, g)}
+    assert rep["footprint"].value == pytest.approx(want.min())
+    assert rep["isolator_distance"].value == pytest.approx(min(d))
+    assert rep["isolator_distance"].lower == pytest.approx(0.4)
 
 
 def test_a_fixed_layout_outside_the_footprint_is_refused_naming_the_key(held_out_toml):
@@ -196,3 +202,55 @@ def test_with_levers_fixed_writes_the_stretched_layout():
     assert all(v.fixed for v in fixed.levers)
     assert fixed.table_at(None) is fixed.table
     assert [n for n in LAYOUT_LEVERS if n in fixed.raw["variables"]] == list(LAYOUT_LEVERS)
+
+
+def test_layout_levers_declared_but_fixed_build_todays_nlp_exactly():
+    """A symmetric layout with its levers declared but fixed: the NLP is today's, bit for bit
+    (the same rows at the same point), alone and with a horizontal lever free."""
+    from isodesign.table.problem import TableProblem
+
+    st = table_study()
+    fixed = {n: {"fixed": True} for n in LAYOUT_LEVERS}
+    for extra in ({}, {"pendulum_length_m": {"fixed": False}}):
+        p0 = TableProblem(st.with_changes(variables=extra) if extra else st)
+        p1 = TableProblem(st.with_changes(variables={**fixed, **extra}))
+        assert p1.nx == p0.nx and p1.con_rows == p0.con_rows
+        vals = {v.name: v.start for v in st.variables}
+        x0 = p0.initial_guess(vals)
+        x1 = p1.initial_guess(vals)
+        np.testing.assert_array_equal(x1, x0)
+        np.testing.assert_array_equal(np.asarray(p1.eval_fn(x1, p1.params())[1]),
+                                      np.asarray(p0.eval_fn(x0, p0.params())[1]))
+
+
+def test_load_range_and_supply_margin_are_checked_naming_the_key(held_out_toml):
+    """No variable moves the loads: a load or p0 outside the study's range is refused naming
+    the key; inside it, the constraint table reports the worst isolator and group."""
+    from isodesign.table.constraint_table import table_constraint_reports
+    from isodesign.table.problem import TableProblem
+
+    st = _held_out(held_out_toml)
+    lv = level(st.table, st.hardware["piston_area_m2"])
+    lo, hi = float(lv.load_n.min()), float(lv.load_n.max())
+    with pytest.raises(InputError, match=r"constraints\.max_isolator_load_n: isolator \d"):
+        TableProblem(st.with_changes(constraints={"max_isolator_load_n": hi - 1.0}))
+    with pytest.raises(InputError, match=r"constraints\.min_isolator_load_n: isolator \d"):
+        TableProblem(st.with_changes(constraints={"min_isolator_load_n": lo + 1.0}))
+    gap = st.table.supply_pressure_pa - float(lv.group_pressure_pa.max())
+    with pytest.raises(InputError, match=r"constraints\.supply_margin_pa: group \d"):
+        TableProblem(st.with_changes(constraints={"supply_margin_pa": gap + 1.0}))
+    with pytest.raises(InputError, match=r"constraints\.min_isolator_load_n .* must be below"):
+        st.with_changes(constraints={"min_isolator_load_n": 3000.0,
+                                     "max_isolator_load_n": 2000.0})
+    ok = st.with_changes(constraints={"min_isolator_load_n": lo - 10.0,
+                                      "max_isolator_load_n": hi + 5.0,
+                                      "supply_margin_pa": gap - 1000.0})
+    p = TableProblem(ok)
+    x = p.initial_guess({v.name: v.start for v in ok.variables})
+    g = np.asarray(p.eval_fn(x, p.params())[1]).ravel()
+    rep = {r.name: r for r in table_constraint_reports(p, g)}
+    assert rep["isolator_load"].value == pytest.approx(hi)  # 5 N from its bound: the worst
+    assert rep["isolator_load"].upper == pytest.approx(hi + 5.0)
+    assert rep["supply_pressure"].value == pytest.approx(float(lv.group_pressure_pa.max()))
+    assert rep["supply_pressure"].upper == pytest.approx(float(lv.group_pressure_pa.max())
+                                                         + 1000.0)
