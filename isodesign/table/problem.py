@@ -74,7 +74,7 @@ from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.table.assembly import dynamic_stiffness, geometry, solve_complex
 from isodesign.table.floor import table_grid
-from isodesign.table.layout import horizontal_stiffness, layout_scale
+from isodesign.table.layout import horizontal_stiffness, layout_extent, layout_scale
 from isodesign.table.lever_geometry import (
     layout_rows,
     lever_directions,
@@ -101,7 +101,7 @@ ROCKING_ENERGY_FRACTION = 0.3
 PEAK_SLOTS_PER_ROUND = 9
 TABLE_PEAK_ROUNDS = 4
 #: Objectives of the table NLP.
-TABLE_OBJECTIVES = ("worst_band_margin", "total_volume")
+TABLE_OBJECTIVES = ("worst_band_margin", "total_volume", "footprint_area")
 _LN10 = math.log(10.0)
 
 
@@ -113,7 +113,8 @@ class TableProblem:
     study : Study
         With ``table`` and ``floor_axes``.
     objectives : tuple of str, optional
-        ``worst_band_margin`` (default) and/or ``total_volume``.
+        ``worst_band_margin`` (default), ``total_volume`` and/or ``footprint_area`` (a free
+        layout's ``L W``).
     hessian : {'limited-memory', 'exact'}
         IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way).
     peak_slots : int
@@ -151,6 +152,10 @@ class TableProblem:
         # the assembly's elastic-centre terms; the NLP's table holds their start values
         self.lever_scaling = lever_scaling(study)
         self.n_levers = len(self.lever_scaling.names)
+        if "footprint_area" in self.objectives and not self._layout_free():
+            raise InputError("objectives: footprint_area needs a free layout "
+                             "(variables.layout_length_m or layout_width_m, fixed = false; "
+                             "docs/table.md section 14)")
         self.table = study.table_at(None)
         self.grid = table_grid(study.floor_axes, study.bands, target=study.target,
                                points_per_band=m["points_per_band"])
@@ -429,6 +434,10 @@ class TableProblem:
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
         cons = self._constraints(ca, d, v, s, y, out, out_slots)
         j_parts = {"total_volume": ca.log(d.total_volume_m3)}
+        if "footprint_area" in self.objectives:  # ln (L W) of the stretched layout
+            sx, sy = self._scale(v)
+            ex, ey = layout_extent(self.table)
+            j_parts["footprint_area"] = ca.log(sx * sy * (ex * ey))
         if t.numel():
             j_parts["worst_band_margin"] = -t[0]
             cons.insert(0, ("worst_band_margin_epigraph", t[0] - judged, -np.inf, 0.0))

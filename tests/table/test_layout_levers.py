@@ -279,3 +279,66 @@ def test_layout_sensitivity_against_a_finite_difference_of_the_reoptimized_desig
     assert fd > 0
     assert s["db_per_unit"] == pytest.approx(fd, rel=0.05)
     assert s["db_per_unit"] == pytest.approx(1.42, abs=0.05)
+
+
+def test_the_footprint_area_objective_is_the_stretched_layouts_area():
+    """The cost of the footprint front: ln (L W) of the layout levers; refused without a free
+    layout and for a vertical study (one line naming the key)."""
+    from isodesign.optimization.pareto import pareto_front
+    from isodesign.table.problem import TableProblem
+
+    st = table_study().with_changes(variables=LAYOUT)
+    p = TableProblem(st, objectives=("worst_band_margin", "footprint_area"))
+    lev = {"layout_length_m": 1.4, "layout_width_m": 0.7}
+    x = p.initial_guess({**{v.name: v.start for v in st.variables}, **lev})
+    j = np.asarray(p._j_fn(x)).ravel()
+    assert np.exp(j[1]) == pytest.approx(1.4 * 0.7, rel=1e-12)
+    with pytest.raises(InputError, match=r"footprint_area needs a free layout.*"
+                                         r"variables\.layout_length_m"):
+        TableProblem(table_study(), objectives=("worst_band_margin", "footprint_area"))
+    with pytest.raises(InputError, match=r"objective\.kind: footprint_area"):
+        pareto_front(vertical_study(), ("worst_band_margin", "footprint_area"), 3)
+    with pytest.raises(InputError, match=r"objectives: a study with a \[table\] has the "
+                                         r"fronts"):
+        pareto_front(st, ("worst_band_margin", "rms_velocity"), 3)
+
+
+@pytest.mark.slow
+def test_a_pareto_front_of_the_margin_against_the_footprint_area(tmp_path):
+    """The table's epsilon-constraint front with the footprint area as the cost (the
+    machinery of the volume front): anchor A the margin's optimum, anchor B the smallest
+    footprint the constraints allow (0.6 x 0.5 m: the length on its 0.5 x 1.2 m bound, the
+    width on the 0.5 m minimum distance), every point's area from its own layout levers, the
+    non-dominated points' margin falling with the area."""
+    from isodesign.optimization.pareto import pareto_front
+
+    st = table_study().with_changes(variables=LAYOUT, solver={"starts": 1},
+                                    constraints={"min_isolator_distance_m": 0.5})
+    res = pareto_front(st, ("worst_band_margin", "footprint_area"), 3)
+    assert res.objectives == ("worst_band_margin", "footprint_area")
+    assert res.cost == "footprint_area"
+    ok = np.isfinite(res.worst_margin_db)
+    assert ok.sum() >= 2
+    area = np.array([d["layout_length_m"] * d["layout_width_m"] for d in res.designs])
+    np.testing.assert_allclose(res.costs[ok], area[ok], rtol=1e-9)
+    assert np.nanmin(res.costs) == pytest.approx(0.6 * 0.5, rel=1e-4)
+    front = np.flatnonzero(res.front)
+    order = front[np.argsort(res.costs[front])]
+    assert np.all(np.diff(res.worst_margin_db[order]) >= -1e-6)
+    df = res.to_frame()
+    assert "footprint_area_m2" in df and "total_volume_m3" in df
+    assert res.plot().axes[0].get_xlabel().startswith("footprint")
+
+
+def test_the_command_line_refuses_a_footprint_front_without_a_free_layout(tmp_path, capsys):
+    from isodesign.cli import main
+
+    out = tmp_path / "p"
+    assert main(["pareto", "--builtin", "table", "--objectives",
+                 "worst_band_margin,footprint_area", "--points", "3", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "variables.layout_length_m" in err[0]
+    assert not out.exists()
+    assert main(["pareto", "--builtin", "table", "--objectives",
+                 "worst_band_margin,rms_velocity", "--points", "3", "-o", str(out)]) == 2
+    assert "worst_band_margin,footprint_area" in capsys.readouterr().err
