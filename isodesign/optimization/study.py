@@ -71,6 +71,7 @@ from isodesign.optimization.study_tables import (
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     DESIGN_VARIABLES,
+    GROUP_SPRING_LEVERS,
     LAYOUT_CONSTRAINTS,
     VariableSpec,
     check_load_range,
@@ -159,7 +160,7 @@ _KEYS = {
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points", "acoustics"},
-    "variables": set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS),
+    "variables": set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS) | set(GROUP_SPRING_LEVERS),
     "variable": {"start", "lower", "upper", "fixed"},
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
                     "min_natural_frequency_hz", "max_natural_frequency_hz",

@@ -18,6 +18,7 @@ __all__ = [
     "CODESIGN_LEVERS",
     "DESIGN_VARIABLES",
     "DESIGN_VARIABLE_UNITS",
+    "GROUP_SPRING_LEVERS",
     "LAYOUT_CONSTRAINTS",
     "LAYOUT_LEVERS",
     "LAYOUT_LEVER_RANGE",
@@ -156,6 +157,9 @@ TABLE_LEVERS = ("pendulum_length_m", "elastic_centre_height_m", "lateral_stiffne
 LAYOUT_LEVERS = ("layout_length_m", "layout_width_m")
 #: Every co-design lever of a table study, in the order of ``Study.levers`` and the NLP.
 CODESIGN_LEVERS = TABLE_LEVERS + LAYOUT_LEVERS
+#: Per-group spring levers (docs/table.md, section 14): ``<variable>_group<k>``, the design
+#: variable of leveling group ``k`` (1..3); a group the study does not name shares the spring.
+GROUP_SPRING_LEVERS = tuple(f"{v}_group{k}" for k in (1, 2, 3) for v in DESIGN_VARIABLES)
 #: A table study's constraints on its layout, loads and supply (docs/table.md, section 14).
 LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_load_n",
                       "max_isolator_load_n", "supply_margin_pa")
@@ -163,7 +167,9 @@ LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_lo
 LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
                      "lateral_stiffness_n_per_m": "N/m", "lateral_loss_factor": "-",
-                     "layout_length_m": "m", "layout_width_m": "m"}
+                     "layout_length_m": "m", "layout_width_m": "m",
+                     **{f"{v}_group{k}": DESIGN_VARIABLE_UNITS[v] for k in (1, 2, 3)
+                        for v in DESIGN_VARIABLES}}
 #: Practical bounds of each lever (the defaults of a free lever's lower and upper): a
 #: pendulum of 5-60 cm, an elastic centre 0.2 m below to 0.5 m above the support plane
 #: (re-entrant or pedestal mounts), a diaphragm shear stiffness of 1-100 kN/m and loss
@@ -175,21 +181,31 @@ TABLE_LEVER_BOUNDS = {"pendulum_length_m": (0.05, 0.6), "elastic_centre_height_m
 
 @dataclass(frozen=True)
 class LinearScaling:
-    """Linear scaling of the free levers: ``x = c + h z``, z in [-1, 1]."""
+    """Linear scaling of the free levers: ``x = c + h z``, z in [-1, 1]; a per-group spring
+    lever (``log`` true) is log-scaled like the spring's variables, ``ln x = c + h z``."""
 
     names: tuple[str, ...]
     center: np.ndarray
     half: np.ndarray
+    log: tuple[bool, ...] = ()
+
+    def is_log(self, i: int) -> bool:
+        """Lever ``i`` is log-scaled."""
+        return bool(self.log[i]) if self.log else False
 
     def to_values(self, z) -> dict:
         """Lever values (SI) at scaled coordinates ``z``."""
-        return {n: float(c + h * zi) for n, c, h, zi in
-                zip(self.names, self.center, self.half, np.asarray(z, float), strict=True)}
+        out = {}
+        for i, (n, c, h, zi) in enumerate(zip(self.names, self.center, self.half,
+                                              np.asarray(z, float), strict=True)):
+            out[n] = float(math.exp(c + h * zi) if self.is_log(i) else c + h * zi)
+        return out
 
     def to_z(self, values: dict) -> np.ndarray:
         """Scaled coordinates of lever values (SI)."""
-        return np.array([(values[n] - c) / h for n, c, h in
-                         zip(self.names, self.center, self.half, strict=True)])
+        return np.array([((math.log(values[n]) if self.is_log(i) else values[n]) - c) / h
+                         for i, (n, c, h) in enumerate(zip(self.names, self.center, self.half,
+                                                           strict=True))])
 
 
 def lever_scaling(study) -> LinearScaling:
@@ -202,12 +218,24 @@ def lever_scaling(study) -> LinearScaling:
     Returns
     -------
     LinearScaling
-        Names in :data:`TABLE_LEVERS` order; ``z = -1`` and ``z = 1`` are the bounds.
+        Names in ``study.levers`` order; ``z = -1`` and ``z = 1`` are the bounds (a
+        per-group capillary diameter's lower bound raised to
+        ``constraints.min_capillary_diameter_m``, as the shared one's).
     """
     free = [v for v in getattr(study, "levers", ()) if v.free]
-    return LinearScaling(names=tuple(v.name for v in free),
-                         center=np.array([0.5 * (v.lower + v.upper) for v in free]),
-                         half=np.array([0.5 * (v.upper - v.lower) for v in free]))
+    dmin = (getattr(study, "constraints", None) or {}).get("min_capillary_diameter_m")
+    lo, hi, log = [], [], []
+    for v in free:
+        is_log = v.name in GROUP_SPRING_LEVERS
+        low = v.lower
+        if is_log and dmin and v.name.startswith("capillary_diameter_m"):
+            low = max(low, dmin)
+        lo.append(math.log(low) if is_log else low)
+        hi.append(math.log(v.upper) if is_log else v.upper)
+        log.append(is_log)
+    lo_a, hi_a = np.array(lo), np.array(hi)
+    return LinearScaling(names=tuple(v.name for v in free), center=0.5 * (lo_a + hi_a),
+                         half=0.5 * (hi_a - lo_a), log=tuple(log))
 
 
 def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]:
@@ -238,7 +266,7 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
     InputError
         A lever in a study without ``[table]``, or bounds that do not hold the start.
     """
-    named = [n for n in CODESIGN_LEVERS if n in (variables or {})]
+    named = [n for n in (*CODESIGN_LEVERS, *GROUP_SPRING_LEVERS) if n in (variables or {})]
     if table is None:
         if named:
             raise InputError(f"{where}: variables.{named[0]} is a lever of a table study; this "
@@ -293,6 +321,58 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
             raise InputError(f"{key}.start ({start:g}) must lie in [lower, upper] = "
                              f"[{lo:g}, {hi:g}]")
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
+    return tuple(out) + _group_levers(variables or {}, table, where)
+
+
+def group_lever(name: str) -> tuple[int, str]:
+    """``(group, variable)`` of a per-group spring lever (group zero-based)."""
+    base, k = name.rsplit("_group", 1)
+    return int(k) - 1, base
+
+
+def _group_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]:
+    """The per-group spring levers the study names (:data:`GROUP_SPRING_LEVERS`)."""
+    from isodesign.domain import DESIGN_DOMAIN
+
+    out = []
+    for name in GROUP_SPRING_LEVERS:
+        if name not in variables:
+            continue
+        spec, key = variables[name], f"{where}: variables.{name}"
+        if not isinstance(spec, dict):
+            raise InputError(f"{key}: must be a table (start, lower, upper, fixed), got "
+                             f"{spec!r:.40}")
+        g, base = group_lever(name)
+        shared = variables.get(base) if isinstance(variables.get(base), dict) else {}
+        fixed = spec.get("fixed", True)
+        if not isinstance(fixed, bool):
+            raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
+        vals = {}
+        for k in ("start", "lower", "upper"):
+            v = spec.get(k, table.group_springs[g].get(base, shared.get("start"))
+                         if k == "start" else shared.get(k))
+            if v is None:
+                raise InputError(f"{key}.{k}: give it (variables.{base} has no {k}: it is "
+                                 "fixed)")
+            if isinstance(v, bool) or not isinstance(v, int | float) or not \
+                    math.isfinite(v) or v <= 0:
+                raise InputError(f"{key}.{k}: expected a number > 0, got {v!r:.40}")
+            vals[k] = float(v)
+        dlo, dhi, unit = DESIGN_DOMAIN[base]
+        for k in ("start",) if fixed else ("start", "lower", "upper"):
+            if not dlo <= vals[k] <= dhi:
+                raise InputError(f"{key}.{k} = {vals[k]:g} is outside the models' domain "
+                                 f"[{dlo:g}, {dhi:g}]{' ' + unit if unit else ''}")
+        if fixed:
+            out.append(VariableSpec(name, vals["start"], vals["start"], vals["start"], True))
+            continue
+        if not vals["lower"] < vals["upper"]:
+            raise InputError(f"{key}: lower ({vals['lower']:g}) must be below upper "
+                             f"({vals['upper']:g})")
+        if not vals["lower"] <= vals["start"] <= vals["upper"]:
+            raise InputError(f"{key}.start ({vals['start']:g}) must lie in [lower, upper] = "
+                             f"[{vals['lower']:g}, {vals['upper']:g}]")
+        out.append(VariableSpec(name, vals["start"], vals["lower"], vals["upper"], False))
     return tuple(out)
 
 
@@ -329,6 +409,13 @@ def table_with_levers(table, levers, values: dict | None = None):
     lay = [float(vals.get(k, e)) for k, e in zip(LAYOUT_LEVERS, ext, strict=True)]
     if any(abs(v - e) > 1e-12 * e for v, e in zip(lay, ext, strict=True)):
         out = stretch_layout(out, *lay)
+    groups = [dict(g) for g in table.group_springs]
+    for k, v in vals.items():
+        if k in GROUP_SPRING_LEVERS:
+            g, base = group_lever(k)
+            groups[g][base] = float(v)
+    if groups != list(table.group_springs):
+        out = dataclasses.replace(out, group_springs=groups)
     return out
 
 
@@ -350,6 +437,8 @@ def fixed_lever_changes(table, levers, values: dict) -> dict:
     t = table_with_levers(table, levers, values)
     out = {"table": {"horizontal": {k: float(values[k]) for k in free if k in TABLE_LEVERS}},
            "variables": {k: {"fixed": True, "start": float(values[k])} for k in free}}
+    if t.group_springs != table.group_springs:  # each group's own spring
+        out["table"]["group_springs"] = [dict(g) for g in t.group_springs]
     if t.isolators_m is not table.isolators_m:
         out["table"]["isolators_m"] = t.isolators_m.tolist()
         out["payload"] = {"spacing_m": narrowest_spacing_m(t)}

@@ -28,6 +28,7 @@ from isodesign.spring.gas import G_STANDARD, P_ATM
 
 __all__ = [
     "DEFAULT_SUPPLY_PRESSURE_PA",
+    "SPRING_FIELDS",
     "HorizontalElement",
     "Table",
     "box_inertia",
@@ -40,6 +41,9 @@ __all__ = [
 
 #: Default supply pressure of the leveling valves: 6 bar gauge (absolute, Pa).
 DEFAULT_SUPPLY_PRESSURE_PA = P_ATM + 6.0e5
+
+#: The spring fields a leveling group may hold of its own (``Table.group_springs``).
+SPRING_FIELDS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
 
 #: Most isolators a table may stand on.
 MAX_TABLE_ISOLATORS = 64
@@ -402,6 +406,9 @@ class Table:
         below it.
     g_m_s2 : float
         Gravity, m/s^2.
+    group_springs : sequence of 3 dicts, optional
+        Per leveling group, the spring fields (:data:`SPRING_FIELDS`) in which its isolators
+        differ from the shared spring (docs/table.md, section 14); default none.
     """
 
     mass_kg: float
@@ -414,6 +421,7 @@ class Table:
     horizontal: HorizontalElement = field(default_factory=HorizontalElement)
     supply_pressure_pa: float = DEFAULT_SUPPLY_PRESSURE_PA
     g_m_s2: float = G_STANDARD
+    group_springs: Any = None
 
     def __post_init__(self):
         s = object.__setattr__
@@ -484,6 +492,7 @@ class Table:
         s(self, "supply_pressure_pa", check_range(
             "supply_pressure_pa", _real("supply_pressure_pa", self.supply_pressure_pa), P_ATM,
             None, lo_open=True, unit="Pa"))  # fmt: skip
+        s(self, "group_springs", _group_springs(self.group_springs))
         s(self, "g_m_s2", check_range("g_m_s2", _real("g_m_s2", self.g_m_s2), 0.0, 100.0,
                                       lo_open=True, unit="m/s^2"))  # fmt: skip
 
@@ -615,7 +624,28 @@ class Table:
             "point_names": list(self.point_names),
             "supply_pressure_pa": self.supply_pressure_pa,
             "horizontal": self.horizontal.to_dict(),
-        }
+        } | ({"group_springs": [dict(g) for g in self.group_springs]}
+             if any(self.group_springs) else {})
+
+
+def _group_springs(value) -> tuple:
+    """``group_springs``: three dicts of spring fields, each value a number > 0."""
+    if value is None:
+        return ({}, {}, {})
+    if not isinstance(value, list | tuple) or len(value) != 3 or \
+            not all(isinstance(g, dict) for g in value):
+        raise InputError("group_springs: expected three tables (one per leveling group) of "
+                         f"spring fields, got {value!r:.60}")
+    out = []
+    for k, g in enumerate(value):
+        for name, v in g.items():
+            if name not in SPRING_FIELDS:
+                raise InputError(f"group_springs: group {k + 1}: unknown field {name!r}; "
+                                 f"valid: {', '.join(SPRING_FIELDS)}")
+            check_range(f"group_springs: group {k + 1}: {name}", _real(name, v), 0.0, None,
+                        lo_open=True)
+        out.append({n: float(g[n]) for n in SPRING_FIELDS if n in g})
+    return tuple(out)
 
 
 def _check_not_collinear(xy: np.ndarray) -> None:

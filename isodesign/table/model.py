@@ -105,7 +105,14 @@ class TableModel:
                            self.flow, self.amplitude_mode, self.diaphragm)  # fmt: skip
 
     def unique_isolators(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(first, inverse)``: one representative per distinct p0, and each isolator's."""
+        """``(first, inverse)``: one representative per distinct p0 (and spring: a leveling
+        group's own spring, docs/table.md section 14), and each isolator's."""
+        lv = self.leveling
+        if any(lv.group_springs):
+            own = [g if lv.group_springs[g] else -1 for g in lv.group_of]
+            key = np.column_stack([lv.pressure_pa, np.asarray(own, float)])
+            _, first, inv = np.unique(key, axis=0, return_index=True, return_inverse=True)
+            return first, np.asarray(inv).ravel()
         _, first, inv = np.unique(self.leveling.pressure_pa, return_index=True,
                                   return_inverse=True)  # fmt: skip
         return first, inv

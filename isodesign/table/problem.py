@@ -64,6 +64,7 @@ from isodesign.optimization.solution import Solution
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     DESIGN_VARIABLES,
+    GROUP_SPRING_LEVERS,
     lever_scaling,
     log_scaling,
 )
@@ -157,6 +158,10 @@ class TableProblem:
                              "(variables.layout_length_m or layout_width_m, fixed = false; "
                              "docs/table.md section 14)")
         self.table = study.table_at(None)
+        # per-group springs (docs/table.md, section 14): each group's four variables after
+        # the levers, when the study names one or its table holds a group's own spring
+        self.grouped = any(v.name in GROUP_SPRING_LEVERS for v in study.levers) or \
+            any(self.table.group_springs)
         self.grid = table_grid(study.floor_axes, study.bands, target=study.target,
                                points_per_band=m["points_per_band"])
         self.leveling = level(self.table, study.hardware["piston_area_m2"])
@@ -183,6 +188,11 @@ class TableProblem:
         from isodesign.table.leveling import leveling_margin_bounds, leveling_of_study
 
         self.loop_bound_db = leveling_margin_bounds(study)[0]
+        if self.grouped and leveling_margin_bounds(study) != (None, None):
+            raise InputError("constraints.min_leveling_gain_margin_db: the leveling loop's "
+                             "margin bounds are not yet held with per-group springs; set "
+                             "min_leveling_gain_margin_db and min_leveling_phase_margin_deg "
+                             "to false (docs/table.md, sections 12 and 14)")
         self.loop_system = leveling_of_study(study)
         self.n_states = 12 + 2 * self.n
         self.n_loop = LOOP_POLES_MIMO + 3 if self.loop_bound_db is not None else 0
@@ -277,14 +287,30 @@ class TableProblem:
         return out, shift
 
     def _n_dv(self) -> int:
+        return self._group_off() + (3 * len(DESIGN_VARIABLES) if self.grouped else 0)
+
+    def _group_off(self) -> int:
         return len(DESIGN_VARIABLES) + (len(CODESIGN_LEVERS) if self.n_levers else 0)
+
+    def _designs(self, dv) -> tuple:
+        """The shared spring and each isolator's (its p0; its group's own variables when
+        grouped: ``dv`` holds every group's four after the levers)."""
+        base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        lv = self.leveling
+        if not self.grouped:
+            return base, [base.replace(pressure_pa=float(p)) for p in lv.pressure_pa]
+        off, nd = self._group_off(), len(DESIGN_VARIABLES)
+        own = [{n: dv[off + nd * g + j] for j, n in enumerate(DESIGN_VARIABLES)}
+               for g in range(3)]
+        return base, [base.replace(pressure_pa=float(p), **own[int(g)])
+                      for p, g in zip(lv.pressure_pa, lv.group_of, strict=True)]
 
     # -- the per-frequency physics ------------------------------------------------
     def _springs(self, ca, dv, s, y, w):
-        base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        base, designs = self._designs(dv)
         kv, g2 = [], []
         for i in range(self.n):
-            d = base.replace(pressure_pa=float(self.leveling.pressure_pa[i]))
+            d = designs[i]
             c = statistical_resistance_function(self.flow, d, w)(ca.exp(y[i]))
             k = spring_stiffness(air_stiffness(d, w, c, self.flow),
                                  self.dia.stiffness(w, EQUIVALENT_AMPLITUDE_FACTOR * ca.exp(s[i])))
@@ -401,6 +427,10 @@ class TableProblem:
                 else:
                     start = next(lv.start for lv in st.levers if lv.name == name)
                     vals.append(X(0.0 if start is None else start))
+        if self.grouped:  # each group's four: its free lever, its own value, or the shared
+            from isodesign.table.lever_nlp import group_values
+
+            vals += group_values(self, ca, z[nzs:], vals)
         v = ca.vertcat(*vals)
         point = self._point_function(ca)
         nb = g.n_bands
@@ -433,7 +463,10 @@ class TableProblem:
                                                     [0, 1, 2], [])(v, s, y, pw, pkr, pki)
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
         cons = self._constraints(ca, d, v, s, y, out, out_slots)
-        j_parts = {"total_volume": ca.log(d.total_volume_m3)}
+        _, designs = self._designs(v)
+        # the total volume per isolator: the mean over the isolators with per-group springs
+        j_parts = {"total_volume": ca.log(d.total_volume_m3) if not self.grouped else
+                   ca.log(sum(di.total_volume_m3 for di in designs) / n)}
         if "footprint_area" in self.objectives:  # ln (L W) of the stretched layout
             sx, sy = self._scale(v)
             ex, ey = layout_extent(self.table)
@@ -481,15 +514,17 @@ class TableProblem:
                                 {"x": x, "f": j_total, "g": gg, "p": pp}, self.ipopt_options())
 
     def _constraints(self, ca, d, v, s, y, out, out_slots=None) -> list:
-        st, c = self.study, self.study.constraints
+        c = self.study.constraints
         table, lv = self.table, self.leveling
         cons = []
-        if c.get("max_total_volume_m3"):
-            cons.append(("max_total_volume_m3", ca.log(d.total_volume_m3),
-                         -np.inf, math.log(c["max_total_volume_m3"])))
-        base = st.design_at({nm: v[i] for i, nm in enumerate(DESIGN_VARIABLES)})
-        k0 = [static_stiffness(base.replace(pressure_pa=float(p)), self.dia, float(mi))
-              for p, mi in zip(lv.pressure_pa, lv.mass_per_isolator_kg, strict=True)]
+        _, designs = self._designs(v)
+        if c.get("max_total_volume_m3"):  # every group's spring with per-group springs
+            vol = ca.log(d.total_volume_m3) if not self.grouped else ca.vertcat(*[
+                ca.log(designs[list(lv.group_of).index(g)].total_volume_m3) for g in range(3)])
+            cons.append(("max_total_volume_m3", vol, -np.inf,
+                         math.log(c["max_total_volume_m3"])))
+        k0 = [static_stiffness(di, self.dia, float(mi))
+              for di, mi in zip(designs, lv.mass_per_isolator_kg, strict=True)]
         ktot = sum(k0)
         lo, hi = c.get("min_natural_frequency_hz"), c.get("max_natural_frequency_hz")
         if lo or hi:
@@ -504,8 +539,7 @@ class TableProblem:
         if mu and table.cg_height_m > 0:  # the analysis's verdict: z condensed, quasi-static
             from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
 
-            kq = [sealed_stiffness(base.replace(pressure_pa=float(p)), self.dia, flow=self.flow)
-                  for p in lv.pressure_pa]
+            kq = [sealed_stiffness(di, self.dia, flow=self.flow) for di in designs]
             rows = tilt_margin_rows(kq, table.vertical_points_m,
                                     table.weight_n * table.cg_height_m, mu, self._scale(v))
             cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
@@ -785,46 +819,17 @@ class TableProblem:
                         wall_s=time.perf_counter() - t0)  # fmt: skip
 
     def lever_sensitivities(self, x: np.ndarray) -> tuple:
-        """The re-optimized sensitivity of the worst margin to each free lever's bounds.
-
-        IPOPT solves again from the optimum ``x`` (default parameters: the worst margin
-        alone) and its bound multipliers ``lam_x`` give, by the envelope theorem, the
-        derivative of the optimal objective ``J = -t`` with respect to each bound of the
-        scaled lever ``z = (v - c) / h``: ``dJ*/dbound = -lam_x``, so the worst margin
-        moves by ``lam_x / h`` dB per unit of the lever's active bound (zero for a lever
-        inside its bounds; docs/table.md, "Co-design levers").
+        """The re-optimized sensitivity of the worst margin to each free lever's bounds
+        (:func:`~isodesign.table.lever_nlp.lever_sensitivities`).
 
         Parameters
         ----------
         x : ndarray
             The optimum.
-
-        Returns
-        -------
-        tuple of dict
-            Per free lever: ``name``, ``value``, ``lower``, ``upper``, ``at_bound``
-            (``"lower"``, ``"upper"`` or None), ``db_per_unit`` (dB of worst margin per
-            unit of the active bound, SI), ``status`` of the solve.
         """
-        if not self.n_levers or "worst_band_margin" != self.objective:
-            return ()
-        res = self.solver(x0=x, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg,
-                          p=self.params())
-        status = self.solver.stats().get("return_status", "unknown")
-        lam = np.asarray(res["lam_x"]).ravel()
-        xs = np.asarray(res["x"]).ravel()
-        nzs = len(self.scaling.names)
-        ls = self.lever_scaling
-        vals = ls.to_values(np.clip(xs[nzs: self.nz], -1.0, 1.0))
-        out = []
-        for i, name in enumerate(ls.names):
-            zi = xs[nzs + i]
-            at = "upper" if zi > 1 - 1e-6 else "lower" if zi < -1 + 1e-6 else None
-            spec = next(v for v in self.study.levers if v.name == name)
-            out.append({"name": name, "value": vals[name], "lower": spec.lower,
-                        "upper": spec.upper, "at_bound": at,
-                        "db_per_unit": float(lam[nzs + i] / ls.half[i]), "status": status})
-        return tuple(out)
+        from isodesign.table.lever_nlp import lever_sensitivities
+
+        return lever_sensitivities(self, x)
 
     def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
         """Worst violation of each constraint group (equalities as ``implicit_equations``).

@@ -79,6 +79,9 @@ class Leveling:
     piston_area_m2 : float
     supply_pressure_pa : float
     g_m_s2 : float
+    group_springs : tuple of 3 dicts
+        The table's per-group spring fields (``Table.group_springs``; empty: the shared
+        spring).
     """
 
     group_of: np.ndarray
@@ -89,6 +92,7 @@ class Leveling:
     piston_area_m2: float
     supply_pressure_pa: float
     g_m_s2: float
+    group_springs: tuple = ({}, {}, {})
 
     @property
     def mass_per_isolator_kg(self) -> np.ndarray:
@@ -96,14 +100,16 @@ class Leveling:
         return self.load_n / self.g_m_s2
 
     def designs(self, design) -> tuple:
-        """The isolators' designs: ``design`` with each isolator's own p0.
+        """The isolators' designs: ``design`` with each isolator's own p0 and its leveling
+        group's own spring fields (``group_springs``, docs/table.md section 14).
 
         Parameters
         ----------
         design : SpringDesign
-            The (identical) isolators' spring; its ``pressure_pa`` is replaced.
+            The isolators' shared spring; its ``pressure_pa`` is replaced.
         """
-        return tuple(design.replace(pressure_pa=float(p)) for p in self.pressure_pa)
+        return tuple(design.replace(pressure_pa=float(p), **self.group_springs[int(g)])
+                     for p, g in zip(self.pressure_pa, self.group_of, strict=True))
 
     def to_frame(self):
         """One row per isolator: group (one-based, as in study files), load, p0."""
@@ -194,7 +200,7 @@ def level(table: Table, piston_area_m2: float, *, p_atm_pa: float = P_ATM) -> Le
     return Leveling(group_of=table.group_of, group_pressure_pa=p_g, group_load_n=p,
                     pressure_pa=pressure, load_n=load, piston_area_m2=a_p,
                     supply_pressure_pa=table.supply_pressure_pa,
-                    g_m_s2=table.g_m_s2)  # fmt: skip
+                    g_m_s2=table.g_m_s2, group_springs=table.group_springs)  # fmt: skip
 
 
 def load_constraint_values(leveling: Leveling, constraints: dict) -> list:
