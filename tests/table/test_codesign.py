@@ -253,7 +253,7 @@ def test_a_mode_the_horizontal_element_alone_damps_keeps_its_row_with_a_free_lev
 
 @pytest.mark.slow
 def test_the_codesign_study_script(tmp_path):
-    """studies/table_codesign.py on three of its cases: the figures docs/table.md quotes
+    """studies/table_codesign.py on four of its cases: the figures docs/table.md quotes
     (fine-grid analysis, tolerance 0.05 dB)."""
     import importlib.util
     from pathlib import Path
@@ -264,7 +264,8 @@ def test_the_codesign_study_script(tmp_path):
     spec = importlib.util.spec_from_file_location("table_codesign", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    assert mod.main(["-o", str(tmp_path), "--cases", "springs,pendulum_length_m,all"]) == 0
+    assert mod.main(["-o", str(tmp_path), "--cases",
+                     "springs,pendulum_length_m,all,layout"]) == 0
     assert (tmp_path / "table_codesign.png").is_file()
     df = pd.read_csv(tmp_path / "table_codesign.csv").set_index("case")
     assert df["success"].all()
@@ -275,6 +276,10 @@ def test_the_codesign_study_script(tmp_path):
     assert df.loc["all", "analysis_margin_db"] == pytest.approx(7.83, abs=0.05)
     for n, (lo, hi) in TABLE_LEVER_BOUNDS.items():  # all four inside their bounds
         assert lo < df.loc["all", n] < hi
+    # the layout alone (docs/table.md, section 14): -4.25 dB, its length on the lower bound
+    assert df.loc["layout", "analysis_margin_db"] == pytest.approx(-4.25, abs=0.05)
+    assert df.loc["layout", "layout_length_m_at_bound"] == "lower"
+    assert df.loc["layout", "layout_length_m"] == pytest.approx(0.6)
     # the fine-grid analysis and the NLP's grid agree within 0.1 dB in every case
     assert (df["analysis_margin_db"] - df["nlp_margin_db"]).abs().max() < 0.1
 
