@@ -32,6 +32,7 @@ __all__ = [
     "effective_bounds",
     "fixed_lever_changes",
     "footprint_bounds",
+    "group_lever",
     "lever_scaling",
     "log_scaling",
     "parse_levers",

@@ -149,3 +149,17 @@ def test_group_springs_with_leveling_loop_bounds_are_refused_naming_the_key():
         "min_leveling_gain_margin_db": 6.0})
     with pytest.raises(InputError, match=r"constraints\.min_leveling_gain_margin_db"):
         TableProblem(st)
+
+
+def test_the_command_lines_lever_lines_name_a_group_lever_by_its_group():
+    from types import SimpleNamespace
+
+    from isodesign.commands.table_optimize import lever_lines
+
+    st = table_study().with_changes(variables=FREE)
+    res = SimpleNamespace(study=st, values={**VALUES},
+                          lever_notes=lambda: {"volume_ratio_group2": "inside its bounds"})
+    lines = lever_lines(res)
+    assert lines[0].split()[:3] == ["N", "group", "2"] and "inside its bounds" in lines[0]
+    assert lines[1].split()[:4] == ["D_c", "group", "3", "(m)"]
+    assert float(lines[1].split()[-1]) == pytest.approx(1.3e-3)
