@@ -8,10 +8,11 @@ rocking driven by the horizontal floor), then with each lever of the horizontal 
 free within its practical bounds (docs/table.md, "Co-design levers") and the others at the
 table's values, then with all four free; then the layout (the isolators' extent along x and
 y, docs/table.md section 14) alone and with the four levers, the isolators inside the table
-top's 1.5 x 1.0 m footprint and at least 0.5 m apart. Each case reports the worst margin of the NLP
-(its grid) and of the fine-grid NumPy analysis of the optimum, every free lever's value,
-its active bound and the worst margin's exact sensitivity to that bound (IPOPT's bound
-multiplier), and the run's wall time.
+top's 1.5 x 1.0 m footprint and at least 0.5 m apart; and (case ``groups``) each leveling
+group's own spring, its four variables free within the shared bounds. Each case reports
+the worst margin of the NLP (its grid) and of the fine-grid NumPy analysis of the optimum,
+every free lever's value, its active bound and the worst margin's exact sensitivity to
+that bound (IPOPT's bound multiplier), and the run's wall time.
 
 Usage::
 
@@ -31,13 +32,19 @@ from pathlib import Path
 import pandas as pd
 
 from isodesign.optimization.study import table_study
-from isodesign.optimization.variables import CODESIGN_LEVERS, LAYOUT_LEVERS, TABLE_LEVERS
+from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
+    GROUP_SPRING_LEVERS,
+    LAYOUT_LEVERS,
+    TABLE_LEVERS,
+)
 from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.optimize import optimize_table
 
 #: The cases: a name and the levers it frees.
 CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS,
-         "layout": LAYOUT_LEVERS, "all_and_layout": CODESIGN_LEVERS}
+         "layout": LAYOUT_LEVERS, "all_and_layout": CODESIGN_LEVERS,
+         "groups": GROUP_SPRING_LEVERS}
 #: The layout's constraints in the layout cases: the table top's footprint (box_m 1.5 x 1.0
 #: m about the CG) and a minimum distance between isolators.
 LAYOUT_CONSTRAINTS = {"footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
