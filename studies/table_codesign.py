@@ -39,6 +39,7 @@ from isodesign.optimization.variables import (
     TABLE_LEVERS,
 )
 from isodesign.plotting.style import new_figure, save_figure
+from isodesign.table.layout import layout_extent
 from isodesign.table.optimize import optimize_table
 
 #: The cases: a name and the levers it frees.
@@ -72,8 +73,7 @@ def row(name: str, levers, workers: int = 1) -> dict:
     table = st.table_at(r.values)
     for n in TABLE_LEVERS:
         out[n] = getattr(table.horizontal, n)
-    for n in LAYOUT_LEVERS:
-        out[n] = r.values[n]
+    out.update(zip(LAYOUT_LEVERS, layout_extent(table), strict=True))
     bounds = {v.name: (v.lower, v.upper) for v in case_study(CODESIGN_LEVERS).levers}
     for n in CODESIGN_LEVERS:  # each lever within its (default) bounds, 0 to 1
         out[f"{n}_in_bounds"] = (out[n] - bounds[n][0]) / (bounds[n][1] - bounds[n][0])
