@@ -66,6 +66,10 @@ CONSTRAINT_DOMAIN = {
     "min_leveling_gain_margin_db": (1e-6, 100.0, "dB"),
     "min_leveling_phase_margin_deg": (1e-6, 180.0, "deg"),
     "max_stroke_m": (1e-9, 10.0, "m"),
+    "min_isolator_distance_m": (1e-4, 100.0, "m"),
+    "min_isolator_load_n": (1e-3, 1e8, "N"),
+    "max_isolator_load_n": (1e-3, 1e8, "N"),
+    "supply_margin_pa": (1.0, 1e8, "Pa"),
 }
 #: Fields of a gas: (lowest, highest, unit).
 GAS_DOMAIN = {

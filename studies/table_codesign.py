@@ -1,15 +1,18 @@
 """The built-in table study co-designed: its springs, then each lever of the horizontal
-element, then all of them.
+element, then all of them, then the layout alone and with them.
 
 The built-in table study (:func:`isodesign.optimization.study.table_study`: 600 kg on four
 isolators 1.2 x 0.8 m apart, CG 0.35 m above them, VC-A floor in three axes, VC-C target)
 is optimized with the springs alone (its documented -4.44 dB at the corner, z, 4 Hz:
 rocking driven by the horizontal floor), then with each lever of the horizontal element
 free within its practical bounds (docs/table.md, "Co-design levers") and the others at the
-table's values, then with all four free. Each case reports the worst margin of the NLP
-(its grid) and of the fine-grid NumPy analysis of the optimum, every free lever's value,
-its active bound and the worst margin's exact sensitivity to that bound (IPOPT's bound
-multiplier), and the run's wall time.
+table's values, then with all four free; then the layout (the isolators' extent along x and
+y, docs/table.md section 15) alone and with the four levers, the isolators inside the table
+top's 1.5 x 1.0 m footprint and at least 0.5 m apart; and (case ``groups``) each leveling
+group's own spring, its four variables free within the shared bounds. Each case reports
+the worst margin of the NLP (its grid) and of the fine-grid NumPy analysis of the optimum,
+every free lever's value, its active bound and the worst margin's exact sensitivity to
+that bound (IPOPT's bound multiplier), and the run's wall time.
 
 Usage::
 
@@ -29,20 +32,34 @@ from pathlib import Path
 import pandas as pd
 
 from isodesign.optimization.study import table_study
-from isodesign.optimization.variables import TABLE_LEVER_BOUNDS, TABLE_LEVERS
+from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
+    GROUP_SPRING_LEVERS,
+    LAYOUT_LEVERS,
+    TABLE_LEVERS,
+)
 from isodesign.plotting.style import new_figure, save_figure
+from isodesign.table.layout import layout_extent
 from isodesign.table.optimize import optimize_table
 
 #: The cases: a name and the levers it frees.
-CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS}
+CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS,
+         "layout": LAYOUT_LEVERS, "all_and_layout": CODESIGN_LEVERS,
+         "groups": GROUP_SPRING_LEVERS}
+#: The layout's constraints in the layout cases: the table top's footprint (box_m 1.5 x 1.0
+#: m about the CG) and a minimum distance between isolators.
+LAYOUT_CONSTRAINTS = {"footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
+                      "min_isolator_distance_m": 0.5}
 
 
 def case_study(levers):
-    """The built-in table study with ``levers`` free (default bounds and starts)."""
+    """The built-in table study with ``levers`` free (default bounds and starts), the layout
+    constraints with a free layout lever."""
     st = table_study()
     if not levers:
         return st
-    return st.with_changes(variables={n: {"fixed": False} for n in levers})
+    cons = LAYOUT_CONSTRAINTS if set(levers) & set(LAYOUT_LEVERS) else {}
+    return st.with_changes(variables={n: {"fixed": False} for n in levers}, constraints=cons)
 
 
 def row(name: str, levers, workers: int = 1) -> dict:
@@ -56,6 +73,10 @@ def row(name: str, levers, workers: int = 1) -> dict:
     table = st.table_at(r.values)
     for n in TABLE_LEVERS:
         out[n] = getattr(table.horizontal, n)
+    out.update(zip(LAYOUT_LEVERS, layout_extent(table), strict=True))
+    bounds = {v.name: (v.lower, v.upper) for v in case_study(CODESIGN_LEVERS).levers}
+    for n in CODESIGN_LEVERS:  # each lever within its (default) bounds, 0 to 1
+        out[f"{n}_in_bounds"] = (out[n] - bounds[n][0]) / (bounds[n][1] - bounds[n][0])
     for s in r.lever_sensitivity:
         out[f"{s['name']}_at_bound"] = s["at_bound"] or ""
         out[f"{s['name']}_db_per_unit"] = s["db_per_unit"]
@@ -77,11 +98,9 @@ def figure(df: pd.DataFrame):
     a1.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
                   ha="right", fontsize=7)
     a1.set_ylabel("worst margin to VC-C (dB, fine-grid analysis)")
-    a1.set_title("built-in table: springs, one lever at a time, all", fontsize=10)
-    for j, n in enumerate(TABLE_LEVERS):
-        lo, hi = TABLE_LEVER_BOUNDS[n]
-        a2.plot(x, (df[n] - lo) / (hi - lo), marker="o", ms=4, color=f"C{j}",
-                label=f"{n} [{lo:g}, {hi:g}]")
+    a1.set_title("built-in table: springs, one lever at a time, all, layout", fontsize=10)
+    for j, n in enumerate(CODESIGN_LEVERS):
+        a2.plot(x, df[f"{n}_in_bounds"], marker="o", ms=4, color=f"C{j}", label=n)
     a2.axhline(0.0, color="k", lw=0.6, ls=":")
     a2.axhline(1.0, color="k", lw=0.6, ls=":")
     a2.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,

@@ -49,6 +49,9 @@ from isodesign.response.scope import study_scope
 #: Objective names: the objective registry's.
 OBJECTIVE_CHOICES = tuple(OBJECTIVES)
 DEFAULT_POINTS = 20
+#: The fronts of a table study: the worst margin against the total volume or, with a free
+#: layout, the isolators' footprint area (docs/table.md, section 15).
+TABLE_FRONTS = (("worst_band_margin", "total_volume"), ("worst_band_margin", "footprint_area"))
 #: Range of --points (each point is an IPOPT solve of a few tenths of a second).
 POINTS_RANGE = (2, 500)
 #: Files written by ``isodesign pareto``.
@@ -204,21 +207,23 @@ def run(args) -> int:
     study = load_study_from_args(args)
     refuse(study, PARETO_WHAT, table=False)  # the API's line: no robust front
     if study.table is not None:  # six degrees of freedom (docs/table.md, section 11)
-        if tuple(objectives) != ("worst_band_margin", "total_volume"):
-            raise InputError("--objectives: a study with a [table] has the front "
-                             "worst_band_margin,total_volume")
+        if tuple(objectives) not in TABLE_FRONTS:
+            raise InputError("--objectives: a study with a [table] has the fronts "
+                             + " and ".join(",".join(f) for f in TABLE_FRONTS))
         with open_run(args, "pareto", known_outputs=OUTPUT_FILES) as rundir:
-            return execute_table_front(study, rundir, args)
+            return execute_table_front(study, rundir, args, objectives=tuple(objectives))
     rundir = open_run(args, "pareto", known_outputs=(*OUTPUT_FILES, *OPTIMIZE_FILES))
     with rundir:
         return _execute(study, rundir, args, objectives)
 
 
-def execute_table_front(study, run, args, result=None) -> int:
-    """The front of a table study: worst margin over points and axes against volume.
+def execute_table_front(study, run, args, result=None, *,
+                        objectives=DEFAULT_OBJECTIVES) -> int:
+    """The front of a table study: worst margin over points and axes against a cost.
 
     ``result``: the study's front when already computed (a sweep point), else computed
-    here by :func:`isodesign.pareto_front`; either way the same files are written.
+    here by :func:`isodesign.pareto_front` for ``objectives`` (one of
+    :data:`TABLE_FRONTS`); either way the same files are written.
     """
     import math
 
@@ -233,20 +238,20 @@ def execute_table_front(study, run, args, result=None) -> int:
     res = result
     if res is None:
         try:
-            res = pareto_front(study, DEFAULT_OBJECTIVES, args.points)
+            res = pareto_front(study, objectives, args.points)
         except SolverError as exc:  # as a vertical front: the record, the reason, exit 1
             if "no feasible design" in str(exc):
-                return _infeasible(run, args, DEFAULT_OBJECTIVES, exc)
+                return _infeasible(run, args, objectives, exc)
             raise
     written = [run.write_csv("pareto.csv", res.to_frame())]
     written.append(run.write_json("pareto.json", pareto_json(res)))
     pts = [{"worst_band_margin": None if not math.isfinite(m) else float(m),
-            "total_volume": None if not math.isfinite(v) else float(v),
+            res.cost: None if not math.isfinite(v) else float(v),
             "design": d, "status": stt, "nondominated": bool(f)}
-           for m, v, d, stt, f in zip(res.worst_margin_db, res.total_volume_m3, res.designs,
+           for m, v, d, stt, f in zip(res.worst_margin_db, res.costs, res.designs,
                                       res.statuses, res.front, strict=True)]
     run.record.update({"points": pts, "wall_s": res.wall_s,
-                       "objectives": ["worst_band_margin", "total_volume"],
+                       "objectives": list(res.objectives),
                        "hypervolume": res.hypervolume})
     written += [run.final_path("record.json"), run.final_path("study_resolved.toml")]
     if not args.no_plots:

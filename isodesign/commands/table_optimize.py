@@ -101,9 +101,18 @@ def table_summary_text(result) -> str:
     return "\n".join(lines)
 
 
+#: Short names of the spring's variables (a per-group lever's label).
+_SHORT = {"volume_ratio": "N", "top_volume_m3": "V_t0", "capillary_length_m": "L_c",
+          "capillary_diameter_m": "D_c"}
+
+
 def lever_lines(result) -> list[str]:
     """The table's free levers, start and optimum (none with every lever fixed)."""
-    from isodesign.optimization.variables import TABLE_LEVER_UNITS
+    from isodesign.optimization.variables import (
+        GROUP_SPRING_LEVERS,
+        TABLE_LEVER_UNITS,
+        group_lever,
+    )
 
     out = []
     notes = result.lever_notes()
@@ -112,6 +121,9 @@ def lever_lines(result) -> list[str]:
             continue
         unit = TABLE_LEVER_UNITS[v.name]
         label = f"{v.name.removesuffix('_n_per_m').removesuffix('_m')} ({unit})"
+        if v.name in GROUP_SPRING_LEVERS:  # N group 2 (-), D_c group 3 (m)
+            g, base = group_lever(v.name)
+            label = f"{_SHORT[base]} group {g + 1} ({unit})"
         out.append(f"  {label:<24}{v.start:>10.4g}{result.values[v.name]:>10.4g}"
                    + (f"  {notes[v.name]}" if v.name in notes else ""))
     return out

@@ -79,6 +79,10 @@ STUDY_KEYS = {
     "chamber_pressure": "constraints.max_pressure_pa",
     "leveling_gain_margin": "constraints.min_leveling_gain_margin_db",
     "leveling_phase_margin": "constraints.min_leveling_phase_margin_deg",
+    "footprint": "constraints.footprint_m",
+    "isolator_distance": "constraints.min_isolator_distance_m",
+    "isolator_load": "constraints.min/max_isolator_load_n",
+    "supply_pressure": "constraints.supply_margin_pa",
 }
 
 

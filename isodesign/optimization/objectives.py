@@ -223,6 +223,12 @@ def _nlp_total_volume(mt, study, grid, sym):
     return mt["ln_total_volume"], [], []
 
 
+def _table_only(mt, study, grid, *args):
+    raise InputError("objective.kind: footprint_area is the footprint of a table's isolators "
+                     "(a study with a [table] and a free layout, docs/table.md section 15); "
+                     "this study has no [table]")
+
+
 # -- values on NumPy metrics ----------------------------------------------------------
 def _value_worst_band_margin(mt, study, grid) -> float:
     return float(np.min(_DB * (mt["ln_limit2"] - mt["ln_ms_band"])))
@@ -278,5 +284,12 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
               value=_value_total_volume, to_natural=math.exp,
               from_natural=_positive_log("total_volume"), epigraph=None, display_scale=1e3,
               display_unit="L", label="total volume per isolator, V_t0 (1 + N)",
+              display_format=".4g"),
+    Objective(name="footprint_area",
+              description="the isolators' footprint, layout length x width, m^2 (min; a table "
+                          "study with a free layout)", unit="m^2", sense="min", db=False,
+              nlp=_table_only, value=_table_only, to_natural=math.exp,
+              from_natural=_positive_log("footprint_area"), epigraph=None, display_scale=1.0,
+              display_unit="m^2", label="footprint of the isolators, length x width",
               display_format=".4g"),
 )}

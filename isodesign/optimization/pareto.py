@@ -193,15 +193,16 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
                          f"got {type(study).__name__} {study!r:.40}")
     refuse(study, PARETO_WHAT, table=False)  # no robust front (docs/robust.md)
     a, b = _check_objectives(objectives)
+    table_fronts = (TABLE_OBJECTIVES, ("worst_band_margin", "footprint_area"))
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
     if study.table is not None:  # the table's front (docs/table.md, section 11)
         from isodesign.table.pareto import table_pareto_front
 
-        if (a, b) != TABLE_OBJECTIVES:
-            raise InputError(f"objectives: a study with a [table] has the front "
-                             f"{','.join(TABLE_OBJECTIVES)}, got {a},{b}")
-        return table_pareto_front(study, points, progress=progress)
+        if (a, b) not in table_fronts:
+            raise InputError(f"objectives: a study with a [table] has the fronts "
+                             f"{' and '.join(','.join(f) for f in table_fronts)}, got {a},{b}")
+        return table_pareto_front(study, points, progress=progress, cost=b)
     t0 = time.perf_counter()
     st = study.with_changes(objective=_objective_table(study, a))
     total = points + 1

@@ -69,10 +69,16 @@ from isodesign.optimization.study_tables import (
     _undot,
 )
 from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
     DESIGN_VARIABLES,
-    TABLE_LEVERS,
+    GROUP_SPRING_LEVERS,
+    LAYOUT_CONSTRAINTS,
     VariableSpec,
+    check_load_range,
+    fixed_lever_changes,
+    footprint_bounds,
     parse_levers,
+    table_with_levers,
 )
 from isodesign.response.isolator import Payload
 from isodesign.results import ResultDisplay
@@ -154,14 +160,15 @@ _KEYS = {
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points", "acoustics"},
-    "variables": set(DESIGN_VARIABLES) | set(TABLE_LEVERS),
+    "variables": set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS) | set(GROUP_SPRING_LEVERS),
     "variable": {"start", "lower", "upper", "fixed"},
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
                     "min_natural_frequency_hz", "max_natural_frequency_hz",
                     "max_peak_transmissibility_db", "min_damping_ratio", "max_mach",
                     "max_pressure_pa", "model_validity", "min_rocking_frequency_hz",
                     "max_rocking_frequency_hz", "min_leveling_gain_margin_db",
-                    "min_leveling_phase_margin_deg", "max_stroke_m", "stroke_peak_factor"},
+                    "min_leveling_phase_margin_deg", "max_stroke_m", "stroke_peak_factor",
+                    *LAYOUT_CONSTRAINTS},
     "objective": {"kind", "frequency_hz", "band_min_hz", "band_max_hz"},
     "solver": {"starts", "seed", "max_iter", "tol", "tie_break", "workers"},
 }
@@ -198,7 +205,7 @@ class Study(ResultDisplay):
     floor_axes: Any = None
     #: The ``[scenarios]`` table (:class:`~.uncertainty.UncertaintySpace`), None: nominal only.
     scenarios: Any = None
-    #: A table study's levers (:data:`~.variables.TABLE_LEVERS`, fixed unless freed).
+    #: A table study's levers (:data:`~.variables.CODESIGN_LEVERS`, fixed unless freed).
     levers: tuple[VariableSpec, ...] = ()
 
     def _summary_items(self) -> list[tuple[str, str]]:
@@ -244,7 +251,7 @@ class Study(ResultDisplay):
         Parameters
         ----------
         values : dict, optional
-            Lever values by name (:data:`~.variables.TABLE_LEVERS`), SI.
+            Lever values by name (:data:`~.variables.CODESIGN_LEVERS`), SI.
 
         Returns
         -------
@@ -253,13 +260,7 @@ class Study(ResultDisplay):
         """
         if self.table is None or not self.levers:
             return self.table
-        h = self.table.horizontal
-        vals = {v.name: (v.start if v.fixed else (values or {}).get(v.name, v.start))
-                for v in self.levers}
-        change = {k: float(v) for k, v in vals.items() if getattr(h, k) != v}
-        if not change:
-            return self.table
-        return dataclasses.replace(self.table, horizontal=dataclasses.replace(h, **change))
+        return table_with_levers(self.table, self.levers, values)
 
     def with_levers_fixed(self, values: dict) -> Study:
         """The study with its free levers fixed at ``values`` and written into its
@@ -273,10 +274,8 @@ class Study(ResultDisplay):
         free = [v.name for v in self.levers if v.free]
         if not free:
             return self
-        return self.with_changes(
-            name=self.name, description=str(self.raw.get("description", "")),
-            table={"horizontal": {k: float(values[k]) for k in free}},
-            variables={k: {"fixed": True, "start": float(values[k])} for k in free})
+        return self.with_changes(name=self.name, description=str(self.raw.get("description", "")),
+                                 **fixed_lever_changes(self.table, self.levers, values))
 
     def start_design(self):
         """The spring at the variables' start values, p0 from the payload."""
@@ -453,7 +452,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
         payload = _payload(raw["payload"], where)
     for k in ("min_rocking_frequency_hz", "max_rocking_frequency_hz",
               "min_leveling_gain_margin_db", "min_leveling_phase_margin_deg", "max_stroke_m",
-              "stroke_peak_factor"):
+              "stroke_peak_factor", *LAYOUT_CONSTRAINTS):
         if table is None and raw.get("constraints", {}).get(k) not in (None, False):
             raise InputError(f"{where}: constraints.{k} applies only to a study with a [table] "
                              "(docs/table.md)")
@@ -750,7 +749,8 @@ def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
 def _constraints(c: dict, where: str, variables, payload) -> dict:
     """``[constraints]``: each numeric one a positive number or false (off)."""
     cons: dict[str, Any] = {}
-    for k in _KEYS["constraints"] - {"model_validity", "stroke_peak_factor"}:
+    cons["footprint_m"] = footprint_bounds(where, c.get("footprint_m", False))
+    for k in _KEYS["constraints"] - {"model_validity", "stroke_peak_factor", "footprint_m"}:
         v = c.get(k, False)
         if v is False or v is None:
             cons[k] = None
@@ -759,6 +759,7 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
         cons[k] = _num(where, f"constraints.{k}", v, 0.0, None, lo_open)
         lo, hi, unit = CONSTRAINT_DOMAIN[k]  # the models' numeric domain
         _num(where, f"constraints.{k}", v, lo, hi, False, unit)
+    check_load_range(where, cons)
     if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
         if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
             raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "

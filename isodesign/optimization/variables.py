@@ -15,19 +15,29 @@ import numpy as np
 from isodesign.errors import InputError
 
 __all__ = [
+    "CODESIGN_LEVERS",
     "DESIGN_VARIABLES",
     "DESIGN_VARIABLE_UNITS",
+    "GROUP_SPRING_LEVERS",
+    "LAYOUT_CONSTRAINTS",
+    "LAYOUT_LEVERS",
+    "LAYOUT_LEVER_RANGE",
     "TABLE_LEVERS",
     "TABLE_LEVER_BOUNDS",
     "TABLE_LEVER_UNITS",
     "LinearScaling",
     "LogScaling",
     "VariableSpec",
+    "check_load_range",
     "effective_bounds",
+    "fixed_lever_changes",
+    "footprint_bounds",
+    "group_lever",
     "lever_scaling",
     "log_scaling",
     "parse_levers",
     "refuse_free_levers",
+    "table_with_levers",
 ]
 
 #: Design variables of the optimizer, in order.
@@ -143,8 +153,24 @@ def log_scaling(study) -> LogScaling:
 TABLE_LEVERS = ("pendulum_length_m", "elastic_centre_height_m", "lateral_stiffness_n_per_m",
                 "lateral_loss_factor")
 #: Unit of each lever (SI).
+#: The layout's levers (docs/table.md, "The layout as design variables"): the isolators'
+#: extent along x and y, the layout stretched about the CG's plan position.
+LAYOUT_LEVERS = ("layout_length_m", "layout_width_m")
+#: Every co-design lever of a table study, in the order of ``Study.levers`` and the NLP.
+CODESIGN_LEVERS = TABLE_LEVERS + LAYOUT_LEVERS
+#: Per-group spring levers (docs/table.md, section 15): ``<variable>_group<k>``, the design
+#: variable of leveling group ``k`` (1..3); a group the study does not name shares the spring.
+GROUP_SPRING_LEVERS = tuple(f"{v}_group{k}" for k in (1, 2, 3) for v in DESIGN_VARIABLES)
+#: A table study's constraints on its layout, loads and supply (docs/table.md, section 15).
+LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_load_n",
+                      "max_isolator_load_n", "supply_margin_pa")
+#: Default bounds of a free layout lever, as fractions of the table's own extent.
+LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
-                     "lateral_stiffness_n_per_m": "N/m", "lateral_loss_factor": "-"}
+                     "lateral_stiffness_n_per_m": "N/m", "lateral_loss_factor": "-",
+                     "layout_length_m": "m", "layout_width_m": "m",
+                     **{f"{v}_group{k}": DESIGN_VARIABLE_UNITS[v] for k in (1, 2, 3)
+                        for v in DESIGN_VARIABLES}}
 #: Practical bounds of each lever (the defaults of a free lever's lower and upper): a
 #: pendulum of 5-60 cm, an elastic centre 0.2 m below to 0.5 m above the support plane
 #: (re-entrant or pedestal mounts), a diaphragm shear stiffness of 1-100 kN/m and loss
@@ -156,21 +182,31 @@ TABLE_LEVER_BOUNDS = {"pendulum_length_m": (0.05, 0.6), "elastic_centre_height_m
 
 @dataclass(frozen=True)
 class LinearScaling:
-    """Linear scaling of the free levers: ``x = c + h z``, z in [-1, 1]."""
+    """Linear scaling of the free levers: ``x = c + h z``, z in [-1, 1]; a per-group spring
+    lever (``log`` true) is log-scaled like the spring's variables, ``ln x = c + h z``."""
 
     names: tuple[str, ...]
     center: np.ndarray
     half: np.ndarray
+    log: tuple[bool, ...] = ()
+
+    def is_log(self, i: int) -> bool:
+        """Lever ``i`` is log-scaled."""
+        return bool(self.log[i]) if self.log else False
 
     def to_values(self, z) -> dict:
         """Lever values (SI) at scaled coordinates ``z``."""
-        return {n: float(c + h * zi) for n, c, h, zi in
-                zip(self.names, self.center, self.half, np.asarray(z, float), strict=True)}
+        out = {}
+        for i, (n, c, h, zi) in enumerate(zip(self.names, self.center, self.half,
+                                              np.asarray(z, float), strict=True)):
+            out[n] = float(math.exp(c + h * zi) if self.is_log(i) else c + h * zi)
+        return out
 
     def to_z(self, values: dict) -> np.ndarray:
         """Scaled coordinates of lever values (SI)."""
-        return np.array([(values[n] - c) / h for n, c, h in
-                         zip(self.names, self.center, self.half, strict=True)])
+        return np.array([((math.log(values[n]) if self.is_log(i) else values[n]) - c) / h
+                         for i, (n, c, h) in enumerate(zip(self.names, self.center, self.half,
+                                                           strict=True))])
 
 
 def lever_scaling(study) -> LinearScaling:
@@ -183,21 +219,34 @@ def lever_scaling(study) -> LinearScaling:
     Returns
     -------
     LinearScaling
-        Names in :data:`TABLE_LEVERS` order; ``z = -1`` and ``z = 1`` are the bounds.
+        Names in ``study.levers`` order; ``z = -1`` and ``z = 1`` are the bounds (a
+        per-group capillary diameter's lower bound raised to
+        ``constraints.min_capillary_diameter_m``, as the shared one's).
     """
     free = [v for v in getattr(study, "levers", ()) if v.free]
-    return LinearScaling(names=tuple(v.name for v in free),
-                         center=np.array([0.5 * (v.lower + v.upper) for v in free]),
-                         half=np.array([0.5 * (v.upper - v.lower) for v in free]))
+    dmin = (getattr(study, "constraints", None) or {}).get("min_capillary_diameter_m")
+    lo, hi, log = [], [], []
+    for v in free:
+        is_log = v.name in GROUP_SPRING_LEVERS
+        low = v.lower
+        if is_log and dmin and v.name.startswith("capillary_diameter_m"):
+            low = max(low, dmin)
+        lo.append(math.log(low) if is_log else low)
+        hi.append(math.log(v.upper) if is_log else v.upper)
+        log.append(is_log)
+    lo_a, hi_a = np.array(lo), np.array(hi)
+    return LinearScaling(names=tuple(v.name for v in free), center=0.5 * (lo_a + hi_a),
+                         half=0.5 * (hi_a - lo_a), log=tuple(log))
 
 
 def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]:
-    """``[variables.<lever>]`` of a table study: one spec per :data:`TABLE_LEVERS` entry.
+    """``[variables.<lever>]`` of a table study: one spec per :data:`CODESIGN_LEVERS` entry.
 
     A lever the study does not name, or names with ``fixed = true``, is fixed at the
-    table's value (``[table.horizontal]``) or its own ``start``. A free lever takes
-    ``lower``/``upper`` (default :data:`TABLE_LEVER_BOUNDS`) and ``start`` (default the
-    table's value).
+    table's value (``[table.horizontal]``; for a layout lever the isolators' extent) or its
+    own ``start``. A free lever takes ``lower``/``upper`` (default
+    :data:`TABLE_LEVER_BOUNDS`; a layout lever :data:`LAYOUT_LEVER_RANGE` times the table's
+    extent) and ``start`` (default the table's value).
 
     Parameters
     ----------
@@ -218,15 +267,18 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
     InputError
         A lever in a study without ``[table]``, or bounds that do not hold the start.
     """
-    named = [n for n in TABLE_LEVERS if n in (variables or {})]
+    named = [n for n in (*CODESIGN_LEVERS, *GROUP_SPRING_LEVERS) if n in (variables or {})]
     if table is None:
         if named:
             raise InputError(f"{where}: variables.{named[0]} is a lever of a table study; this "
                              "study has no [table] (docs/table.md)")
         return ()
+    from isodesign.table.layout import layout_extent
+
     h = table.horizontal
+    extent = dict(zip(LAYOUT_LEVERS, layout_extent(table), strict=True))
     out = []
-    for name in TABLE_LEVERS:
+    for name in CODESIGN_LEVERS:
         spec = (variables or {}).get(name) or {}
         if not isinstance(spec, dict):
             raise InputError(f"{where}: [variables.{name}] must be a table (start, lower, "
@@ -235,8 +287,8 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
         fixed = spec.get("fixed", True)
         if not isinstance(fixed, bool):
             raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
-        table_value = getattr(h, name)
-        if not fixed and name != "elastic_centre_height_m" and name != "pendulum_length_m" \
+        table_value = extent[name] if name in extent else getattr(h, name)
+        if not fixed and name in ("lateral_stiffness_n_per_m", "lateral_loss_factor") \
                 and h.lateral_model is not None:
             raise InputError(f"{key}: the table's horizontal element has a lateral_model; "
                              "its lateral stiffness and loss factor are not levers")
@@ -251,7 +303,13 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
         if start is None:
             raise InputError(f"{key}.start: the table has no pendulum "
                              "(table.horizontal.pendulum_length_m = false); give a start")
-        lo_d, hi_d = TABLE_LEVER_BOUNDS[name]
+        if name in extent:
+            lo_d, hi_d = (f * table_value for f in LAYOUT_LEVER_RANGE)
+            if not start > 0:
+                raise InputError(f"{key}.start: the isolators' extent must be > 0 m, got "
+                                 f"{start:g}")
+        else:
+            lo_d, hi_d = TABLE_LEVER_BOUNDS[name]
         if fixed:
             out.append(VariableSpec(name, float(start), float(start), float(start), True))
             continue
@@ -264,7 +322,175 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
             raise InputError(f"{key}.start ({start:g}) must lie in [lower, upper] = "
                              f"[{lo:g}, {hi:g}]")
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
+    return tuple(out) + _group_levers(variables or {}, table, where)
+
+
+def group_lever(name: str) -> tuple[int, str]:
+    """``(group, variable)`` of a per-group spring lever (group zero-based)."""
+    base, k = name.rsplit("_group", 1)
+    return int(k) - 1, base
+
+
+def _group_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]:
+    """The per-group spring levers the study names (:data:`GROUP_SPRING_LEVERS`)."""
+    from isodesign.domain import DESIGN_DOMAIN
+
+    out = []
+    for name in GROUP_SPRING_LEVERS:
+        if name not in variables:
+            continue
+        spec, key = variables[name], f"{where}: variables.{name}"
+        if not isinstance(spec, dict):
+            raise InputError(f"{key}: must be a table (start, lower, upper, fixed), got "
+                             f"{spec!r:.40}")
+        g, base = group_lever(name)
+        shared = variables.get(base) if isinstance(variables.get(base), dict) else {}
+        fixed = spec.get("fixed", True)
+        if not isinstance(fixed, bool):
+            raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
+        vals = {}
+        for k in ("start", "lower", "upper"):
+            v = spec.get(k, table.group_springs[g].get(base, shared.get("start"))
+                         if k == "start" else shared.get(k))
+            if v is None:
+                raise InputError(f"{key}.{k}: give it (variables.{base} has no {k}: it is "
+                                 "fixed)")
+            if isinstance(v, bool) or not isinstance(v, int | float) or not \
+                    math.isfinite(v) or v <= 0:
+                raise InputError(f"{key}.{k}: expected a number > 0, got {v!r:.40}")
+            vals[k] = float(v)
+        dlo, dhi, unit = DESIGN_DOMAIN[base]
+        for k in ("start",) if fixed else ("start", "lower", "upper"):
+            if not dlo <= vals[k] <= dhi:
+                raise InputError(f"{key}.{k} = {vals[k]:g} is outside the models' domain "
+                                 f"[{dlo:g}, {dhi:g}]{' ' + unit if unit else ''}")
+        if fixed:
+            out.append(VariableSpec(name, vals["start"], vals["start"], vals["start"], True))
+            continue
+        if not vals["lower"] < vals["upper"]:
+            raise InputError(f"{key}: lower ({vals['lower']:g}) must be below upper "
+                             f"({vals['upper']:g})")
+        if not vals["lower"] <= vals["start"] <= vals["upper"]:
+            raise InputError(f"{key}.start ({vals['start']:g}) must lie in [lower, upper] = "
+                             f"[{vals['lower']:g}, {vals['upper']:g}]")
+        out.append(VariableSpec(name, vals["start"], vals["lower"], vals["upper"], False))
     return tuple(out)
+
+
+def table_with_levers(table, levers, values: dict | None = None):
+    """The table with its levers at ``values`` (fixed or missing ones at their start).
+
+    Parameters
+    ----------
+    table : Table
+    levers : sequence of VariableSpec
+        ``Study.levers``.
+    values : dict, optional
+        Lever values by name, SI.
+
+    Returns
+    -------
+    Table
+        ``table`` itself when every lever keeps the table's value; else the horizontal
+        element's levers replaced and the layout stretched about the CG
+        (:func:`~isodesign.table.layout.stretch_layout`).
+    """
+    import dataclasses
+
+    from isodesign.table.layout import layout_extent, stretch_layout
+
+    h = table.horizontal
+    vals = {v.name: (v.start if v.fixed else (values or {}).get(v.name, v.start))
+            for v in levers}
+    change = {k: float(v) for k, v in vals.items() if k in TABLE_LEVERS and getattr(h, k) != v}
+    out = table
+    if change:
+        out = dataclasses.replace(table, horizontal=dataclasses.replace(h, **change))
+    ext = layout_extent(table)
+    lay = [float(vals.get(k, e)) for k, e in zip(LAYOUT_LEVERS, ext, strict=True)]
+    if any(abs(v - e) > 1e-12 * e for v, e in zip(lay, ext, strict=True)):
+        out = stretch_layout(out, *lay)
+    groups = [dict(g) for g in table.group_springs]
+    for k, v in vals.items():
+        if k in GROUP_SPRING_LEVERS:
+            g, base = group_lever(k)
+            groups[g][base] = float(v)
+    if groups != list(table.group_springs):
+        out = dataclasses.replace(out, group_springs=groups)
+    return out
+
+
+def fixed_lever_changes(table, levers, values: dict) -> dict:
+    """The ``Study.with_changes`` tables that fix the free levers at ``values``: the
+    horizontal element's in ``[table.horizontal]``, a stretched layout's isolators in
+    ``table.isolators_m`` (and ``payload.spacing_m``), every free lever ``fixed = true``.
+
+    Parameters
+    ----------
+    table : Table
+    levers : sequence of VariableSpec
+    values : dict
+        Lever values by name, SI.
+    """
+    from isodesign.table.study import narrowest_spacing_m
+
+    free = [v.name for v in levers if v.free]
+    t = table_with_levers(table, levers, values)
+    out = {"table": {"horizontal": {k: float(values[k]) for k in free if k in TABLE_LEVERS}},
+           "variables": {k: {"fixed": True, "start": float(values[k])} for k in free}}
+    if t.group_springs != table.group_springs:  # each group's own spring
+        out["table"]["group_springs"] = [dict(g) for g in t.group_springs]
+    if t.isolators_m is not table.isolators_m:
+        out["table"]["isolators_m"] = t.isolators_m.tolist()
+        out["payload"] = {"spacing_m": narrowest_spacing_m(t)}
+    return out
+
+
+def check_load_range(where: str, constraints: dict) -> None:
+    """``constraints.min_isolator_load_n`` below ``max_isolator_load_n`` when both are given.
+
+    Parameters
+    ----------
+    where : str
+    constraints : dict
+        The parsed constraints.
+    """
+    lo, hi = constraints.get("min_isolator_load_n"), constraints.get("max_isolator_load_n")
+    if lo and hi and not lo < hi:
+        raise InputError(f"{where}: constraints.min_isolator_load_n ({lo:g} N) must be below "
+                         f"max_isolator_load_n ({hi:g} N)")
+
+
+def footprint_bounds(where: str, value):
+    """``constraints.footprint_m``: the rectangle ``[[x_min, y_min], [x_max, y_max]]`` (m,
+    table frame) every isolator stands in; false or absent: none.
+
+    Parameters
+    ----------
+    where : str
+        The study's source, for errors.
+    value : object
+        The key's value.
+
+    Returns
+    -------
+    tuple of 4 float or None
+        ``(x_min, y_min, x_max, y_max)``.
+    """
+    if value is False or value is None:
+        return None
+    key = f"{where}: constraints.footprint_m"
+    try:
+        a = np.array(value, dtype=float)
+    except (TypeError, ValueError):
+        a = None
+    if isinstance(value, str) or a is None or a.shape != (2, 2) or \
+            not np.all(np.isfinite(a)):
+        raise InputError(f"{key}: expected [[x_min, y_min], [x_max, y_max]] in m (the "
+                         f"rectangle the isolators stand in), got {value!r:.60}")
+    if not (a[0, 0] < a[1, 0] and a[0, 1] < a[1, 1]):
+        raise InputError(f"{key}: need x_min < x_max and y_min < y_max, got {a.tolist()}")
+    return tuple(float(v) for v in a.ravel())
 
 
 def refuse_free_levers(study, what: str) -> None:

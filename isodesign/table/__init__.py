@@ -19,7 +19,9 @@ One concept a module:
 * :mod:`~isodesign.table.leveling`, :mod:`~isodesign.table.leveling_loop`,
   :mod:`~isodesign.table.stability_report`: the leveling valves as a dynamic model, their
   loop (python-control), a report section.
-* :mod:`~isodesign.table.problem`, :mod:`~isodesign.table.optimize`: the NLP in three axes.
+* :mod:`~isodesign.table.problem`, :mod:`~isodesign.table.optimize`: the NLP in three axes;
+  :mod:`~isodesign.table.lever_geometry`, :mod:`~isodesign.table.lever_nlp`: its co-design
+  levers (layout, per-group springs, sensitivities).
 * :mod:`~isodesign.table.study`, :mod:`~isodesign.table.summary`,
   :mod:`~isodesign.table.plots`: study files, text, figures.
 

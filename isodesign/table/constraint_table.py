@@ -157,6 +157,29 @@ def table_constraint_reports(prob, g, *, modes=None, stability=None, peaks=None,
             out.append(_report("stroke", v, None, float(smax), "m", math.log(smax / v),
                                f"{c.get('stroke_peak_factor'):g} x RMS vertical stroke, "
                                "worst isolator, against its travel"))
+    for name, row, m in prob.con_rows:  # the layout's rows (docs/table.md, section 15)
+        gi = np.asarray(g, float)[row: row + m]
+        if name == "footprint_m":  # clearances x_i - x_min, x_max - x_i, ... (m)
+            fp = c["footprint_m"]
+            v = float(np.min(gi))
+            out.append(_report("footprint", v, 0.0, None, "m",
+                               v / max(fp[2] - fp[0], fp[3] - fp[1]),
+                               "smallest clearance of an isolator inside the footprint"))
+        elif name == "min_isolator_distance_m":  # ln d_ij >= ln d_min
+            v = float(np.exp(np.min(gi)))
+            dmin = float(c["min_isolator_distance_m"])
+            out.append(_report("isolator_distance", v, dmin, None, "m", math.log(v / dmin),
+                               "closest two isolators"))
+    from isodesign.table.statics import load_constraint_values
+
+    for _, name, vals, lo, hi, unit in load_constraint_values(prob.leveling, c):
+        worst = float(np.min(vals)) if lo is not None and (
+            hi is None or math.log(np.min(vals) / lo) < math.log(hi / np.max(vals))) \
+            else float(np.max(vals))
+        out.append(_report(name, worst, lo, hi, unit, _log_margin(worst, lower=lo, upper=hi),
+                           "static load of the worst isolator" if unit == "N" else
+                           "p0 of the worst leveling group, absolute, against the supply "
+                           "pressure minus its margin"))
     mu = c.get("min_tilt_margin")
     if stability is not None and mu:
         v = float(np.min(stability.margin))

@@ -28,16 +28,22 @@ from isodesign.spring.gas import G_STANDARD, P_ATM
 
 __all__ = [
     "DEFAULT_SUPPLY_PRESSURE_PA",
+    "SPRING_FIELDS",
     "HorizontalElement",
     "Table",
     "box_inertia",
     "check_numbers",
     "default_leveling_groups",
     "horizontal_stiffness",
+    "layout_extent",
+    "stretch_layout",
 ]
 
 #: Default supply pressure of the leveling valves: 6 bar gauge (absolute, Pa).
 DEFAULT_SUPPLY_PRESSURE_PA = P_ATM + 6.0e5
+
+#: The spring fields a leveling group may hold of its own (``Table.group_springs``).
+SPRING_FIELDS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
 
 #: Most isolators a table may stand on.
 MAX_TABLE_ISOLATORS = 64
@@ -208,6 +214,62 @@ def horizontal_stiffness(omega, load_n, pendulum_length_m, lateral_stiffness_n_p
     return lat + (0.0 if pendulum_length_m is None else load_n / pendulum_length_m)
 
 
+def layout_extent(table) -> tuple[float, float]:
+    """The isolators' extent along x and y, m: the layout levers' table values.
+
+    ``max x_i - min x_i`` and ``max y_i - min y_i`` (a rectangle's spacings; two rows' length
+    and the distance between the rows).
+
+    Parameters
+    ----------
+    table : Table
+    """
+    xy = table.isolators_m
+    return float(np.ptp(xy[:, 0])), float(np.ptp(xy[:, 1]))
+
+
+def layout_scale(table, length_m, width_m) -> tuple:
+    """The stretch ``(s_x, s_y)`` of the layout levers, any backend: ``length / extent_x``.
+
+    Parameters
+    ----------
+    table : Table
+        The table the stretch starts from.
+    length_m, width_m : float or CasADi symbol
+        The layout levers (the isolators' extent along x and y), m.
+    """
+    ex, ey = layout_extent(table)
+    return length_m / ex, width_m / ey
+
+
+def stretch_layout(table, length_m: float, width_m: float):
+    """The table with its isolators stretched about the CG's plan position to an extent of
+    ``length_m`` x ``width_m`` (docs/table.md, "The layout as design variables").
+
+    ``x_i = c_x + s_x (x_i0 - c_x)``, ``y_i = c_y + s_y (y_i0 - c_y)``: the leveling groups,
+    the CG, the instrument points and the inertia stay; so does every isolator's load (the
+    moment equations of the leveling are homogeneous in the offsets from the CG).
+
+    Parameters
+    ----------
+    table : Table
+    length_m, width_m : float
+        The isolators' extent along x and y, m (> 0).
+
+    Returns
+    -------
+    Table
+    """
+    import dataclasses
+
+    for name, v in (("layout_length_m", length_m), ("layout_width_m", width_m)):
+        check_range(name, _real(name, v), 0.0, None, lo_open=True, unit="m")
+    sx, sy = layout_scale(table, float(length_m), float(width_m))
+    c = table.cg_m[:2]
+    xy = c + (table.isolators_m - c) * np.array([sx, sy])
+    return dataclasses.replace(table, isolators_m=xy)
+
+
 @dataclass(frozen=True)
 class HorizontalElement:
     """Horizontal stiffness of one isolator: a pendulum in parallel with the diaphragm.
@@ -344,6 +406,9 @@ class Table:
         below it.
     g_m_s2 : float
         Gravity, m/s^2.
+    group_springs : sequence of 3 dicts, optional
+        Per leveling group, the spring fields (:data:`SPRING_FIELDS`) in which its isolators
+        differ from the shared spring (docs/table.md, section 15); default none.
     """
 
     mass_kg: float
@@ -356,6 +421,7 @@ class Table:
     horizontal: HorizontalElement = field(default_factory=HorizontalElement)
     supply_pressure_pa: float = DEFAULT_SUPPLY_PRESSURE_PA
     g_m_s2: float = G_STANDARD
+    group_springs: Any = None
 
     def __post_init__(self):
         s = object.__setattr__
@@ -426,6 +492,7 @@ class Table:
         s(self, "supply_pressure_pa", check_range(
             "supply_pressure_pa", _real("supply_pressure_pa", self.supply_pressure_pa), P_ATM,
             None, lo_open=True, unit="Pa"))  # fmt: skip
+        s(self, "group_springs", _group_springs(self.group_springs))
         s(self, "g_m_s2", check_range("g_m_s2", _real("g_m_s2", self.g_m_s2), 0.0, 100.0,
                                       lo_open=True, unit="m/s^2"))  # fmt: skip
 
@@ -557,7 +624,28 @@ class Table:
             "point_names": list(self.point_names),
             "supply_pressure_pa": self.supply_pressure_pa,
             "horizontal": self.horizontal.to_dict(),
-        }
+        } | ({"group_springs": [dict(g) for g in self.group_springs]}
+             if any(self.group_springs) else {})
+
+
+def _group_springs(value) -> tuple:
+    """``group_springs``: three dicts of spring fields, each value a number > 0."""
+    if value is None:
+        return ({}, {}, {})
+    if not isinstance(value, list | tuple) or len(value) != 3 or \
+            not all(isinstance(g, dict) for g in value):
+        raise InputError("group_springs: expected three tables (one per leveling group) of "
+                         f"spring fields, got {value!r:.60}")
+    out = []
+    for k, g in enumerate(value):
+        for name, v in g.items():
+            if name not in SPRING_FIELDS:
+                raise InputError(f"group_springs: group {k + 1}: unknown field {name!r}; "
+                                 f"valid: {', '.join(SPRING_FIELDS)}")
+            check_range(f"group_springs: group {k + 1}: {name}", _real(name, v), 0.0, None,
+                        lo_open=True)
+        out.append({n: float(g[n]) for n in SPRING_FIELDS if n in g})
+    return tuple(out)
 
 
 def _check_not_collinear(xy: np.ndarray) -> None:

@@ -116,17 +116,21 @@ class TableModel:
     P0_SHARE_RTOL = 1e-12
 
     def unique_isolators(self) -> tuple[np.ndarray, np.ndarray]:
-        """``(first, inverse)``: one representative per distinct p0, and each isolator's.
+        """``(first, inverse)``: one representative per distinct p0 and spring (a leveling
+        group's own spring, docs/table.md section 15), and each isolator's.
 
         p0 values within :attr:`P0_SHARE_RTOL` of each other are one (a symmetric table's
         isolators, leveled equal up to rounding, share one spring evaluation).
         """
-        p = np.asarray(self.leveling.pressure_pa, dtype=float)
+        lv = self.leveling
+        p = np.asarray(lv.pressure_pa, dtype=float)
+        own = ([g if lv.group_springs[g] else -1 for g in lv.group_of]
+               if any(lv.group_springs) else [-1] * p.size)
         first: list[int] = []
         inv = np.empty(p.size, dtype=int)
         for i, pi in enumerate(p):
             for j, r in enumerate(first):
-                if abs(pi - p[r]) <= self.P0_SHARE_RTOL * abs(p[r]):
+                if own[i] == own[r] and abs(pi - p[r]) <= self.P0_SHARE_RTOL * abs(p[r]):
                     inv[i] = j
                     break
             else:

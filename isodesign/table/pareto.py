@@ -1,4 +1,7 @@
-"""Pareto front of a table study: worst margin (three axes, every point) against volume.
+"""Pareto front of a table study: worst margin (three axes, every point) against a cost.
+
+The cost is the total volume (default) or, with a free layout, the isolators' footprint
+area ``L W`` (docs/table.md, section 15).
 
 Epsilon constraint on the :class:`~isodesign.table.problem.TableProblem` with both
 objectives: anchor A is :func:`~isodesign.table.optimize.optimize_table` (multi-start, mode
@@ -30,13 +33,14 @@ __all__ = ["TableParetoResult", "table_pareto_front"]
 
 @dataclass(frozen=True, eq=False, repr=False)
 class TableParetoResult(ResultDisplay):
-    """Points of a table study's Pareto front (worst margin against total volume).
+    """Points of a table study's Pareto front (worst margin against a cost).
 
     Attributes
     ----------
     worst_margin_db : ndarray
         Worst margin over points, axes and bands (NLP grid), per point; NaN if infeasible.
     total_volume_m3 : ndarray
+        Per point (whatever the cost).
     designs : tuple of dict
     statuses : tuple of str
     front : ndarray of bool
@@ -55,6 +59,10 @@ class TableParetoResult(ResultDisplay):
         The front's normalized hypervolume (ideal point -> 0, reference point -> 1).
     settings : dict
         Method, points, reference margin, units, starts of anchor A.
+    cost : str
+        Objective B: ``total_volume`` or ``footprint_area``.
+    cost_value : ndarray or None
+        Objective B per point in its natural unit (m^3 or m^2; None: the total volume).
     """
 
     worst_margin_db: np.ndarray
@@ -69,15 +77,24 @@ class TableParetoResult(ResultDisplay):
     ideal_point: np.ndarray | None = None
     hypervolume: float = math.nan
     settings: dict = field(default_factory=dict)
+    cost: str = "total_volume"
+    cost_value: Any = None
 
-    #: The two objectives, as a vertical front names them (A maximized, B minimized).
-    objectives = ("worst_band_margin", "total_volume")
+    @property
+    def objectives(self) -> tuple[str, str]:
+        """The two objectives, as a vertical front names them (A maximized, B minimized)."""
+        return ("worst_band_margin", self.cost)
+
+    @property
+    def costs(self) -> np.ndarray:
+        """Objective B per point, natural unit (the total volume unless ``cost`` says)."""
+        return self.total_volume_m3 if self.cost_value is None else self.cost_value
 
     @property
     def values(self) -> np.ndarray:
-        """``(n, 2)``: worst margin (dB) and total volume (m^3) per point, as a vertical
+        """``(n, 2)``: worst margin (dB) and the cost (m^3 or m^2) per point, as a vertical
         front's ``values`` (NaN where a point failed)."""
-        return np.column_stack([self.worst_margin_db, self.total_volume_m3])
+        return np.column_stack([self.worst_margin_db, self.costs])
 
     def to_frame(self):
         """One row per point: margin, volume, design, status, non-dominated."""
@@ -85,6 +102,8 @@ class TableParetoResult(ResultDisplay):
 
         df = pd.DataFrame(list(self.designs))
         df.insert(0, "total_volume_m3", self.total_volume_m3)
+        if self.cost == "footprint_area":
+            df.insert(0, "footprint_area_m2", self.costs)
         df.insert(0, "worst_margin_db", self.worst_margin_db)
         df["status"] = list(self.statuses)
         if self.peak_excess_db is not None:
@@ -101,7 +120,8 @@ class TableParetoResult(ResultDisplay):
                 ("wall", f"{self.wall_s:.3g} s")]
 
     def plot(self, ax=None):
-        """Worst margin against total volume (L), the non-dominated points joined.
+        """Worst margin against the cost (total volume in L, or footprint area in m^2), the
+        non-dominated points joined.
 
         Parameters
         ----------
@@ -115,20 +135,24 @@ class TableParetoResult(ResultDisplay):
 
         if ax is None:
             ax = new_figure(6.0, 4.0).subplots()
-        v, m = self.total_volume_m3 * 1e3, self.worst_margin_db
+        area = self.cost == "footprint_area"
+        v, m = self.costs * (1.0 if area else 1e3), self.worst_margin_db
         ax.plot(v[self.front], m[self.front], "C0-o", ms=4, label="non-dominated")
         ax.plot(v[~self.front], m[~self.front], "x", color="0.5", label="dominated")
         ax.axhline(0.0, color="C3", lw=0.8)
-        ax.set_xlabel("total volume per isolator V_t0 (1 + N) (L)")
+        ax.set_xlabel("footprint of the isolators, length x width (m^2)" if area else
+                      "total volume per isolator V_t0 (1 + N) (L)")
         ax.set_ylabel("worst margin, 3 axes, every point (dB)")
-        ax.set_title(f"table study {self.study.name!r}: margin against volume", fontsize=10)
+        ax.set_title(f"table study {self.study.name!r}: margin against "
+                     f"{'footprint' if area else 'volume'}", fontsize=10)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
         return ax.figure
 
 
-def table_pareto_front(study, points: int = 10, *, progress=None) -> TableParetoResult:
-    """Worst margin (maximized) against total volume (minimized) of a table study.
+def table_pareto_front(study, points: int = 10, *, progress=None,
+                       cost: str = "total_volume") -> TableParetoResult:
+    """Worst margin (maximized) against a cost (minimized) of a table study.
 
     Parameters
     ----------
@@ -138,6 +162,9 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
         Epsilon values (>= 2), anchors included.
     progress : callable, optional
         ``progress(done, total)`` after each point.
+    cost : {'total_volume', 'footprint_area'}
+        Objective B: the total volume per isolator, or the isolators' footprint ``L W``
+        (a free layout, docs/table.md section 15).
 
     Returns
     -------
@@ -153,9 +180,12 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
 
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
+    if cost not in ("total_volume", "footprint_area"):
+        raise InputError(f"cost: a table's front is against total_volume or footprint_area, "
+                         f"got {cost!r}")
     t0 = time.perf_counter()
     st = study.with_changes(objective={"kind": "worst_band_margin"})
-    prob = TableProblem(st, objectives=("worst_band_margin", "total_volume"))
+    prob = TableProblem(st, objectives=("worst_band_margin", cost))
     res_a = optimize_table(st, problem=prob, analyze=False)
     if not res_a.feasible:
         raise SolverError(f"pareto: no feasible design when maximizing the worst margin "
@@ -168,7 +198,8 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
     state = {"prob": prob, "used": used}
     anchor_b, _ = _peak_refined(st, state, anchor_a.x, prob.params(weights=[0.0, 1.0]))
     if not anchor_b.feasible:
-        raise SolverError(f"pareto: minimizing the total volume failed ({anchor_b.status})")
+        raise SolverError(f"pareto: minimizing the {cost.replace('_', ' ')} failed "
+                          f"({anchor_b.status})")
     eps = np.linspace(float(anchor_a.objectives[1]), float(anchor_b.objectives[1]), points)
     sols, excess, x = [], [], anchor_a.x
     for k, e in enumerate(eps):
@@ -188,14 +219,16 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
             progress(k + 1, points)
     prob = state["prob"]
     margin = np.array([prob.worst_margin_db(s.x) if s.feasible else math.nan for s in sols])
-    vol = np.array([math.exp(s.objectives[1]) if s.feasible else math.nan for s in sols])
+    costs = np.array([math.exp(s.objectives[1]) if s.feasible else math.nan for s in sols])
+    vol = costs if cost == "total_volume" else np.array(
+        [st.design_at(s.values).total_volume_m3 if s.feasible else math.nan for s in sols])
     # a point whose continuous peak stays above the bound meets the constraints on the
     # NLP's frequencies only: neither on the front nor dominating a point of it; nor one
     # whose leveling loop misses a margin bound (python-control at the point's design)
     loop_miss = [_loop_misses(st, s) for s in sols]
     ok = np.isfinite(margin) & np.array([(ex is None or ex <= PEAK_TOLERANCE_DB) and not lm
                                          for ex, lm in zip(excess, loop_miss, strict=True)])
-    mins = np.column_stack([-margin, vol])  # both minimized, as a vertical front's
+    mins = np.column_stack([-margin, costs])  # both minimized, as a vertical front's
     mins[~ok] = np.nan
     front = nondominated(mins)
     ideal, ref, hv = front_reference(mins, front) if front.any() else (None, None, math.nan)
@@ -213,8 +246,10 @@ def table_pareto_front(study, points: int = 10, *, progress=None) -> TablePareto
                              settings={"method": "epsilon-constraint on the table NLP, "
                                                  "warm starts",
                                        "points": points, "reference_margin": REFERENCE_MARGIN,
-                                       "units": ("dB", "m^3"),
-                                       "starts": st.solver["starts"]})
+                                       "units": ("dB", "m^3" if cost == "total_volume"
+                                                 else "m^2"),
+                                       "starts": st.solver["starts"]},
+                             cost=cost, cost_value=None if cost == "total_volume" else costs)
 
 
 def _loop_misses(study, sol) -> tuple:

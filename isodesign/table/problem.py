@@ -62,8 +62,9 @@ from isodesign.optimization.problem import (
 )
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
     DESIGN_VARIABLES,
-    TABLE_LEVERS,
+    GROUP_SPRING_LEVERS,
     lever_scaling,
     log_scaling,
 )
@@ -74,7 +75,13 @@ from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
 from isodesign.table.assembly import dynamic_stiffness, geometry, solve_complex
 from isodesign.table.floor import table_grid
-from isodesign.table.layout import horizontal_stiffness
+from isodesign.table.layout import horizontal_stiffness, layout_extent, layout_scale
+from isodesign.table.lever_geometry import (
+    layout_rows,
+    lever_directions,
+    lever_stiffness,
+    vertical_vectors,
+)
 from isodesign.table.loop_rows import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, frozen_poles, loop_rows
 from isodesign.table.statics import level
 
@@ -95,7 +102,7 @@ ROCKING_ENERGY_FRACTION = 0.3
 PEAK_SLOTS_PER_ROUND = 9
 TABLE_PEAK_ROUNDS = 4
 #: Objectives of the table NLP.
-TABLE_OBJECTIVES = ("worst_band_margin", "total_volume")
+TABLE_OBJECTIVES = ("worst_band_margin", "total_volume", "footprint_area")
 _LN10 = math.log(10.0)
 
 
@@ -107,7 +114,8 @@ class TableProblem:
     study : Study
         With ``table`` and ``floor_axes``.
     objectives : tuple of str, optional
-        ``worst_band_margin`` (default) and/or ``total_volume``.
+        ``worst_band_margin`` (default), ``total_volume`` and/or ``footprint_area`` (a free
+        layout's ``L W``).
     hessian : {'limited-memory', 'exact'}
         IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way).
     peak_slots : int
@@ -145,11 +153,23 @@ class TableProblem:
         # the assembly's elastic-centre terms; the NLP's table holds their start values
         self.lever_scaling = lever_scaling(study)
         self.n_levers = len(self.lever_scaling.names)
+        if "footprint_area" in self.objectives and not self._layout_free():
+            raise InputError("objectives: footprint_area needs a free layout "
+                             "(variables.layout_length_m or layout_width_m, fixed = false; "
+                             "docs/table.md section 15)")
         self.table = study.table_at(None)
+        # per-group springs (docs/table.md, section 15): each group's four variables after
+        # the levers, when the study names one or its table holds a group's own spring
+        self.grouped = any(v.name in GROUP_SPRING_LEVERS for v in study.levers) or \
+            any(self.table.group_springs)
         self.grid = table_grid(study.floor_axes, study.bands, target=study.target,
                                points_per_band=m["points_per_band"])
         self.leveling = level(self.table, study.hardware["piston_area_m2"])
+        from isodesign.table.statics import check_load_constraints
+
+        check_load_constraints(self.leveling, study.constraints)
         self.geo = geometry(self.table, self.leveling.load_n)
+        self.lever_dirs = lever_directions(self.geo, self.table)
         self.n = self.table.n_isolators
         self.k = self.table.instrument_points_m.shape[0]
         self.kh_re, self.kh_im = self._kh_params(self.grid.omega)
@@ -168,6 +188,11 @@ class TableProblem:
         from isodesign.table.leveling import leveling_margin_bounds, leveling_of_study
 
         self.loop_bound_db = leveling_margin_bounds(study)[0]
+        if self.grouped and leveling_margin_bounds(study) != (None, None):
+            raise InputError("constraints.min_leveling_gain_margin_db: the leveling loop's "
+                             "margin bounds are not yet held with per-group springs; set "
+                             "min_leveling_gain_margin_db and min_leveling_phase_margin_deg "
+                             "to false (docs/table.md, sections 12 and 14)")
         self.loop_system = leveling_of_study(study)
         self.n_states = 12 + 2 * self.n
         self.n_loop = LOOP_POLES_MIMO + 3 if self.loop_bound_db is not None else 0
@@ -214,14 +239,40 @@ class TableProblem:
     def _lever_free(self, name: str) -> bool:
         return name in self.lever_scaling.names
 
+    def _layout_free(self) -> bool:
+        return self._lever_free("layout_length_m") or self._lever_free("layout_width_m")
+
+    def _scale(self, dv) -> tuple:
+        """The layout's stretch ``(s_x, s_y)`` from the design vector (1.0 when fixed)."""
+        if not self._layout_free():
+            return 1.0, 1.0
+        nd = len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index("layout_length_m")
+        return layout_scale(self.table, dv[nd], dv[nd + 1])
+
+    def _terms(self, dv, shift) -> list:
+        """The geometric levers' ``(t_k, C_k)`` (:mod:`~isodesign.table.lever_geometry`)."""
+        terms = [] if shift is None else [(shift, self.lever_dirs["elastic_centre_height_m"])]
+        sx, sy = self._scale(dv)
+        for name, sk in (("layout_length_m", sx), ("layout_width_m", sy)):
+            if self._lever_free(name):
+                terms.append((sk - 1.0, self.lever_dirs[name]))
+        return terms
+
+    def _assemble(self, dv, kv, kh, w, shift):
+        """``D(w)``, ``B(w)`` with the free geometric levers (today's path without a free
+        layout lever)."""
+        if not self._layout_free():
+            return dynamic_stiffness(self.geo, kv, kh, w, shift)
+        return lever_stiffness(self.geo, self._terms(dv, shift), kv, kh, w)
+
     def _kh(self, dv, w, khr, khi):
         """Each isolator's horizontal stiffness (list of Cx) and the elastic-centre shift
-        (None with the lever fixed) from the design vector ``dv`` (spring, then the four
-        levers when any is free) and the parameters ``khr``, ``khi``."""
+        (None with the lever fixed) from the design vector ``dv`` (spring, then every
+        co-design lever when any is free) and the parameters ``khr``, ``khi``."""
         if not self.n_levers:
             return [Cx(khr[i], khi[i]) for i in range(self.n)], None
         nd = len(DESIGN_VARIABLES)
-        lp, ec, kl, eta = (dv[nd + j] for j in range(len(TABLE_LEVERS)))  # TABLE_LEVERS order
+        lp, ec, kl, eta = (dv[nd + j] for j in range(4))  # CODESIGN_LEVERS order
         h = self.table.horizontal
         if h.pendulum_length_m is None and not self._lever_free("pendulum_length_m"):
             lp = None
@@ -236,14 +287,30 @@ class TableProblem:
         return out, shift
 
     def _n_dv(self) -> int:
-        return len(DESIGN_VARIABLES) + (len(TABLE_LEVERS) if self.n_levers else 0)
+        return self._group_off() + (3 * len(DESIGN_VARIABLES) if self.grouped else 0)
+
+    def _group_off(self) -> int:
+        return len(DESIGN_VARIABLES) + (len(CODESIGN_LEVERS) if self.n_levers else 0)
+
+    def _designs(self, dv) -> tuple:
+        """The shared spring and each isolator's (its p0; its group's own variables when
+        grouped: ``dv`` holds every group's four after the levers)."""
+        base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        lv = self.leveling
+        if not self.grouped:
+            return base, [base.replace(pressure_pa=float(p)) for p in lv.pressure_pa]
+        off, nd = self._group_off(), len(DESIGN_VARIABLES)
+        own = [{n: dv[off + nd * g + j] for j, n in enumerate(DESIGN_VARIABLES)}
+               for g in range(3)]
+        return base, [base.replace(pressure_pa=float(p), **own[int(g)])
+                      for p, g in zip(lv.pressure_pa, lv.group_of, strict=True)]
 
     # -- the per-frequency physics ------------------------------------------------
     def _springs(self, ca, dv, s, y, w):
-        base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        base, designs = self._designs(dv)
         kv, g2 = [], []
         for i in range(self.n):
-            d = base.replace(pressure_pa=float(self.leveling.pressure_pa[i]))
+            d = designs[i]
             c = statistical_resistance_function(self.flow, d, w)(ca.exp(y[i]))
             k = spring_stiffness(air_stiffness(d, w, c, self.flow),
                                  self.dia.stiffness(w, EQUIVALENT_AMPLITUDE_FACTOR * ca.exp(s[i])))
@@ -255,7 +322,7 @@ class TableProblem:
         """The table's motion per unit floor motion at one frequency: ``(q_re, q_im, g2)``."""
         _, kv, g2 = self._springs(ca, dv, s, y, w)
         kh, shift = self._kh(dv, w, khr, khi)
-        d, b = dynamic_stiffness(self.geo, kv, kh, w, shift)
+        d, b = self._assemble(dv, kv, kh, w, shift)
         q = solve_complex(d, b)
         qr = [[q.re[0, r * 3 + a] for a in range(3)] for r in range(6)]
         qi = [[q.im[0, r * 3 + a] for a in range(3)] for r in range(6)]
@@ -305,12 +372,14 @@ class TableProblem:
                         diag.append(t2)
                 ms.append(acc)
         s2, u2 = [], []
+        gzs = vertical_vectors(self.geo, self._terms(dv, None))
         for i in range(n):
-            gz = self.geo.gz[i]
+            gz = gzs[i]
+            nz = [r for r in range(6) if not (isinstance(gz[r], float) and gz[r] == 0)]
             si, ui = 0, 0
             for a in range(3):
-                re = sum(gz[r] * qr[r][a] for r in range(6) if gz[r] != 0) - (a == 2)
-                im = sum(gz[r] * qi[r][a] for r in range(6) if gz[r] != 0)
+                re = sum(gz[r] * qr[r][a] for r in nz) - (a == 2)
+                im = sum(gz[r] * qi[r][a] for r in nz)
                 si = si + sw[a] * (re * re + im * im)
                 ui = ui + sw[a] * (re * re + im * im) * g2[i]
             s2.append(si)
@@ -325,7 +394,7 @@ class TableProblem:
         khr, khi = ca.SX.sym("khr", self.n), ca.SX.sym("khi", self.n)
         _, kv, _ = self._springs(ca, dv, s, y, w)
         kh, shift = self._kh(dv, w, khr, khi)
-        d, _ = dynamic_stiffness(self.geo, kv, kh, w, shift)
+        d, _ = self._assemble(dv, kv, kh, w, shift)
         mass = ca.DM(self.geo.mass.reshape(1, 36))
         return ca.Function("table_k", [dv, s, y, w, khr, khi],
                            [(d.re + w * w * mass).T, d.im.T])
@@ -351,13 +420,17 @@ class TableProblem:
                 vals.append(X(st.variable(name).start))
         if self.n_levers:
             ls = self.lever_scaling
-            for name in TABLE_LEVERS:
+            for name in CODESIGN_LEVERS:
                 if name in ls.names:
                     i = ls.names.index(name)
                     vals.append(ls.center[i] + ls.half[i] * z[nzs + i])
                 else:
                     start = next(lv.start for lv in st.levers if lv.name == name)
                     vals.append(X(0.0 if start is None else start))
+        if self.grouped:  # each group's four: its free lever, its own value, or the shared
+            from isodesign.table.lever_nlp import group_values
+
+            vals += group_values(self, ca, z[nzs:], vals)
         v = ca.vertcat(*vals)
         point = self._point_function(ca)
         nb = g.n_bands
@@ -390,7 +463,14 @@ class TableProblem:
                                                     [0, 1, 2], [])(v, s, y, pw, pkr, pki)
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
         cons = self._constraints(ca, d, v, s, y, out, out_slots)
-        j_parts = {"total_volume": ca.log(d.total_volume_m3)}
+        _, designs = self._designs(v)
+        # the total volume per isolator: the mean over the isolators with per-group springs
+        j_parts = {"total_volume": ca.log(d.total_volume_m3) if not self.grouped else
+                   ca.log(sum(di.total_volume_m3 for di in designs) / n)}
+        if "footprint_area" in self.objectives:  # ln (L W) of the stretched layout
+            sx, sy = self._scale(v)
+            ex, ey = layout_extent(self.table)
+            j_parts["footprint_area"] = ca.log(sx * sy * (ex * ey))
         if t.numel():
             j_parts["worst_band_margin"] = -t[0]
             cons.insert(0, ("worst_band_margin_epigraph", t[0] - judged, -np.inf, 0.0))
@@ -434,15 +514,17 @@ class TableProblem:
                                 {"x": x, "f": j_total, "g": gg, "p": pp}, self.ipopt_options())
 
     def _constraints(self, ca, d, v, s, y, out, out_slots=None) -> list:
-        st, c = self.study, self.study.constraints
+        c = self.study.constraints
         table, lv = self.table, self.leveling
         cons = []
-        if c.get("max_total_volume_m3"):
-            cons.append(("max_total_volume_m3", ca.log(d.total_volume_m3),
-                         -np.inf, math.log(c["max_total_volume_m3"])))
-        base = st.design_at({nm: v[i] for i, nm in enumerate(DESIGN_VARIABLES)})
-        k0 = [static_stiffness(base.replace(pressure_pa=float(p)), self.dia, float(mi))
-              for p, mi in zip(lv.pressure_pa, lv.mass_per_isolator_kg, strict=True)]
+        _, designs = self._designs(v)
+        if c.get("max_total_volume_m3"):  # every group's spring with per-group springs
+            vol = ca.log(d.total_volume_m3) if not self.grouped else ca.vertcat(*[
+                ca.log(designs[list(lv.group_of).index(g)].total_volume_m3) for g in range(3)])
+            cons.append(("max_total_volume_m3", vol, -np.inf,
+                         math.log(c["max_total_volume_m3"])))
+        k0 = [static_stiffness(di, self.dia, float(mi))
+              for di, mi in zip(designs, lv.mass_per_isolator_kg, strict=True)]
         ktot = sum(k0)
         lo, hi = c.get("min_natural_frequency_hz"), c.get("max_natural_frequency_hz")
         if lo or hi:
@@ -457,11 +539,11 @@ class TableProblem:
         if mu and table.cg_height_m > 0:  # the analysis's verdict: z condensed, quasi-static
             from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
 
-            kq = [sealed_stiffness(base.replace(pressure_pa=float(p)), self.dia, flow=self.flow)
-                  for p in lv.pressure_pa]
+            kq = [sealed_stiffness(di, self.dia, flow=self.flow) for di in designs]
             rows = tilt_margin_rows(kq, table.vertical_points_m,
-                                    table.weight_n * table.cg_height_m, mu)
+                                    table.weight_n * table.cg_height_m, mu, self._scale(v))
             cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
+        cons += layout_rows(self.table, c, self._scale(v), self._layout_free())
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows
@@ -737,46 +819,17 @@ class TableProblem:
                         wall_s=time.perf_counter() - t0)  # fmt: skip
 
     def lever_sensitivities(self, x: np.ndarray) -> tuple:
-        """The re-optimized sensitivity of the worst margin to each free lever's bounds.
-
-        IPOPT solves again from the optimum ``x`` (default parameters: the worst margin
-        alone) and its bound multipliers ``lam_x`` give, by the envelope theorem, the
-        derivative of the optimal objective ``J = -t`` with respect to each bound of the
-        scaled lever ``z = (v - c) / h``: ``dJ*/dbound = -lam_x``, so the worst margin
-        moves by ``lam_x / h`` dB per unit of the lever's active bound (zero for a lever
-        inside its bounds; docs/table.md, "Co-design levers").
+        """The re-optimized sensitivity of the worst margin to each free lever's bounds
+        (:func:`~isodesign.table.lever_nlp.lever_sensitivities`).
 
         Parameters
         ----------
         x : ndarray
             The optimum.
-
-        Returns
-        -------
-        tuple of dict
-            Per free lever: ``name``, ``value``, ``lower``, ``upper``, ``at_bound``
-            (``"lower"``, ``"upper"`` or None), ``db_per_unit`` (dB of worst margin per
-            unit of the active bound, SI), ``status`` of the solve.
         """
-        if not self.n_levers or "worst_band_margin" != self.objective:
-            return ()
-        res = self.solver(x0=x, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg,
-                          p=self.params())
-        status = self.solver.stats().get("return_status", "unknown")
-        lam = np.asarray(res["lam_x"]).ravel()
-        xs = np.asarray(res["x"]).ravel()
-        nzs = len(self.scaling.names)
-        ls = self.lever_scaling
-        vals = ls.to_values(np.clip(xs[nzs: self.nz], -1.0, 1.0))
-        out = []
-        for i, name in enumerate(ls.names):
-            zi = xs[nzs + i]
-            at = "upper" if zi > 1 - 1e-6 else "lower" if zi < -1 + 1e-6 else None
-            spec = next(v for v in self.study.levers if v.name == name)
-            out.append({"name": name, "value": vals[name], "lower": spec.lower,
-                        "upper": spec.upper, "at_bound": at,
-                        "db_per_unit": float(lam[nzs + i] / ls.half[i]), "status": status})
-        return tuple(out)
+        from isodesign.table.lever_nlp import lever_sensitivities
+
+        return lever_sensitivities(self, x)
 
     def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
         """Worst violation of each constraint group (equalities as ``implicit_equations``).

@@ -43,8 +43,16 @@ from isodesign.spring.flow_models import resistance_function
 from isodesign.spring.gas import P_ATM
 from isodesign.table.layout import Table
 
-__all__ = ["QUASI_STATIC_FREQUENCY_HZ", "Leveling", "condensed_rocking_stiffness", "level",
-           "sealed_stiffness", "tilt_margin_rows"]
+__all__ = [
+    "QUASI_STATIC_FREQUENCY_HZ",
+    "Leveling",
+    "check_load_constraints",
+    "condensed_rocking_stiffness",
+    "level",
+    "load_constraint_values",
+    "sealed_stiffness",
+    "tilt_margin_rows",
+]
 
 #: The quasi-static time scale of the static verdict (valves off, springs sealed): 1 mHz,
 #: a quarter of an hour. The default viscoelastic diaphragm has no static limit (its storage
@@ -71,6 +79,9 @@ class Leveling:
     piston_area_m2 : float
     supply_pressure_pa : float
     g_m_s2 : float
+    group_springs : tuple of 3 dicts
+        The table's per-group spring fields (``Table.group_springs``; empty: the shared
+        spring).
     """
 
     group_of: np.ndarray
@@ -81,6 +92,7 @@ class Leveling:
     piston_area_m2: float
     supply_pressure_pa: float
     g_m_s2: float
+    group_springs: tuple = ({}, {}, {})
 
     @property
     def mass_per_isolator_kg(self) -> np.ndarray:
@@ -88,14 +100,16 @@ class Leveling:
         return self.load_n / self.g_m_s2
 
     def designs(self, design) -> tuple:
-        """The isolators' designs: ``design`` with each isolator's own p0.
+        """The isolators' designs: ``design`` with each isolator's own p0 and its leveling
+        group's own spring fields (``group_springs``, docs/table.md section 15).
 
         Parameters
         ----------
         design : SpringDesign
-            The (identical) isolators' spring; its ``pressure_pa`` is replaced.
+            The isolators' shared spring; its ``pressure_pa`` is replaced.
         """
-        return tuple(design.replace(pressure_pa=float(p)) for p in self.pressure_pa)
+        return tuple(design.replace(pressure_pa=float(p), **self.group_springs[int(g)])
+                     for p, g in zip(self.pressure_pa, self.group_of, strict=True))
 
     def to_frame(self):
         """One row per isolator: group (one-based, as in study files), load, p0."""
@@ -186,7 +200,73 @@ def level(table: Table, piston_area_m2: float, *, p_atm_pa: float = P_ATM) -> Le
     return Leveling(group_of=table.group_of, group_pressure_pa=p_g, group_load_n=p,
                     pressure_pa=pressure, load_n=load, piston_area_m2=a_p,
                     supply_pressure_pa=table.supply_pressure_pa,
-                    g_m_s2=table.g_m_s2)  # fmt: skip
+                    g_m_s2=table.g_m_s2, group_springs=table.group_springs)  # fmt: skip
+
+
+def load_constraint_values(leveling: Leveling, constraints: dict) -> list:
+    """The load and supply constraints of a study on a leveled table, per isolator or group.
+
+    ``min_isolator_load_n <= W_i <= max_isolator_load_n`` on every isolator's static load and
+    ``p_g <= p_supply - supply_margin_pa`` on every group's absolute p0 (docs/table.md,
+    section 14). Written on the leveling's arrays, so the same rows evaluate on the loads of
+    any table (the layout's levers keep them: the stretch about the CG leaves the leveling's
+    moment equations unchanged).
+
+    Parameters
+    ----------
+    leveling : Leveling
+    constraints : dict
+        The study's constraints.
+
+    Returns
+    -------
+    list of (key, report name, values, lower, upper, unit)
+        One per constraint the study sets; ``values`` per isolator (loads) or per group
+        (pressures).
+    """
+    out = []
+    lo, hi = constraints.get("min_isolator_load_n"), constraints.get("max_isolator_load_n")
+    if lo or hi:
+        key = "min_isolator_load_n" if lo else "max_isolator_load_n"
+        out.append((key, "isolator_load", np.asarray(leveling.load_n, float), lo or None,
+                    hi or None, "N"))
+    margin = constraints.get("supply_margin_pa")
+    if margin:
+        out.append(("supply_margin_pa", "supply_pressure",
+                    np.asarray(leveling.group_pressure_pa, float), None,
+                    float(leveling.supply_pressure_pa - margin), "Pa"))
+    return out
+
+
+def check_load_constraints(leveling: Leveling, constraints: dict) -> None:
+    """Refuse a study whose loads or p0 break its load and supply constraints, naming the key.
+
+    No design variable moves an isolator's load yet (the springs do not, the layout's levers
+    keep it), so a violated row is the study's, not the optimizer's to fix.
+
+    Parameters
+    ----------
+    leveling : Leveling
+    constraints : dict
+
+    Raises
+    ------
+    InputError
+    """
+    for key, _, vals, lo, hi, unit in load_constraint_values(leveling, constraints):
+        what = "isolator" if unit == "N" else "group"
+        for i, v in enumerate(vals):
+            if lo is not None and v < lo:
+                raise InputError(f"constraints.min_isolator_load_n: isolator {i + 1} (from 1) "
+                                 f"carries {v:.5g} N, below {lo:g} N; no design variable moves "
+                                 "the loads (the CG, the mass and the leveling groups do)")
+            if hi is not None and v > hi:
+                k = "max_isolator_load_n" if unit == "N" else key
+                raise InputError(f"constraints.{k}: {what} {i + 1} (from 1) needs {v:.5g} "
+                                 f"{unit}, above {hi:.5g} {unit}"
+                                 + (" (the supply pressure minus the margin); use larger "
+                                    "pistons or more isolators" if unit == "Pa" else
+                                    "; no design variable moves the loads"))
 
 
 def _shown(groups) -> str:
@@ -257,7 +337,8 @@ def condensed_rocking_stiffness(k_vertical, points_m) -> tuple:
     return a11, a12, a22
 
 
-def tilt_margin_rows(k_vertical, points_m, overturning_n_m: float, minimum: float) -> tuple:
+def tilt_margin_rows(k_vertical, points_m, overturning_n_m: float, minimum: float,
+                     scale_xy=(1.0, 1.0)) -> tuple:
     """The smooth tilt-margin condition ``A / (W h) - mu I`` positive semidefinite, any backend.
 
     Its two diagonal entries and its determinant, each ``>= 0`` (no eigenvalue, no ``min``):
@@ -273,12 +354,18 @@ def tilt_margin_rows(k_vertical, points_m, overturning_n_m: float, minimum: floa
         ``W h``, N m.
     minimum : float
         The bound ``mu`` on every principal margin.
+    scale_xy : (float or symbol, float or symbol)
+        The layout's stretch ``(s_x, s_y)`` about the CG (docs/table.md, section 15): the
+        offsets ``a_i, b_i`` scale, so ``A`` scales as ``(s_y^2, s_x s_y, s_x^2)``.
 
     Returns
     -------
     (d11, d22, det)
     """
     a11, a12, a22 = condensed_rocking_stiffness(k_vertical, points_m)
+    sx, sy = scale_xy
+    if not (isinstance(sx, float) and isinstance(sy, float) and sx == sy == 1.0):
+        a11, a12, a22 = a11 * sy * sy, a12 * sx * sy, a22 * sx * sx
     d11 = a11 / overturning_n_m - minimum
     d22 = a22 / overturning_n_m - minimum
     d12 = a12 / overturning_n_m

@@ -45,7 +45,7 @@ __all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection",
 TABLE_KEYS = {
     "table": {"isolators_m", "cg_m", "inertia_kg_m2", "box_m", "leveling_groups",
               "instrument_points_m", "point_names", "supply_pressure_pa", "horizontal",
-              "objective_axes", "objective_points", "leveling"},
+              "objective_axes", "objective_points", "leveling", "group_springs"},
     "table.horizontal": {"pendulum_length_m", "lateral_stiffness_n_per_m",
                          "lateral_loss_factor", "elastic_centre_height_m"},
 }
@@ -284,7 +284,7 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
             elastic_centre_height_m=h.get("elastic_centre_height_m", 0.0),
         )
         kw = {}
-        for k in ("supply_pressure_pa", "instrument_points_m", "point_names"):
+        for k in ("supply_pressure_pa", "instrument_points_m", "point_names", "group_springs"):
             if k in d:
                 kw[k] = d[k]
         t = Table(mass_kg=mass_kg, isolators_m=d["isolators_m"], cg_m=d["cg_m"],

@@ -32,11 +32,11 @@ def test_feasible_is_judged_by_the_one_tolerance():
 
 def test_every_study_objective_is_registered_with_its_sense_and_unit():
     assert list(OBJECTIVES) == ["worst_band_margin", "rms_velocity", "peak_transmissibility",
-                                "transmissibility_at", "total_volume"]
+                                "transmissibility_at", "total_volume", "footprint_area"]
     assert [k for k, o in OBJECTIVES.items() if o.maximized] == ["worst_band_margin"]
     assert {k: o.unit for k, o in OBJECTIVES.items()} == {
         "worst_band_margin": "dB", "rms_velocity": "m/s", "peak_transmissibility": "dB",
-        "transmissibility_at": "dB", "total_volume": "m^3"}
+        "transmissibility_at": "dB", "total_volume": "m^3", "footprint_area": "m^2"}
     for kind in OBJECTIVES:  # every registered objective is a valid study objective
         st = default_study().with_changes(objective={"kind": kind, "frequency_hz": 10.0})
         assert st.objective["kind"] == kind

@@ -15,7 +15,7 @@ from isodesign.optimization.study import (
     load_study,
     study_from_dict,
 )
-from isodesign.optimization.variables import DESIGN_VARIABLES, TABLE_LEVERS
+from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
 from isodesign.spring.gas import G_STANDARD, P_ATM
 
 SRC = "bad_study.toml"
@@ -85,11 +85,12 @@ def test_default_study_file_loads(tmp_path):
           "max_peak_transmissibility_db", "min_damping_ratio", "max_mach", "max_pressure_pa",
           "model_validity", "min_rocking_frequency_hz", "max_rocking_frequency_hz",
           "min_leveling_gain_margin_db", "min_leveling_phase_margin_deg",
-          "max_stroke_m", "stroke_peak_factor"}),
+          "max_stroke_m", "stroke_peak_factor", "footprint_m", "min_isolator_distance_m",
+          "min_isolator_load_n", "max_isolator_load_n", "supply_margin_pa"}),
         ({"solver": {"iterations": 10}}, "iterations", "[solver]",
          {"starts", "seed", "max_iter", "tol", "tie_break", "workers"}),
         ({"variables": {"n": {"start": 1.0}}}, "n", "[variables]",
-         set(DESIGN_VARIABLES) | set(TABLE_LEVERS)),
+         set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS)),
         ({"variables": {"volume_ratio": {"begin": 1.0}}}, "begin", "variables.volume_ratio",
          {"start", "lower", "upper", "fixed"}),
         ({"hardware": {"gas": {"gamma": 1.4}}}, "gamma", "[hardware.gas]",

@@ -13,9 +13,14 @@ import pytest
 from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization.study import default_study, table_study
-from isodesign.optimization.variables import TABLE_LEVER_BOUNDS, TABLE_LEVERS
+from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
+    LAYOUT_LEVERS,
+    TABLE_LEVER_BOUNDS,
+    TABLE_LEVERS,
+)
 from isodesign.table.assembly import dynamic_stiffness, geometry
-from isodesign.table.layout import horizontal_stiffness
+from isodesign.table.layout import horizontal_stiffness, layout_extent
 from isodesign.table.statics import level
 
 TWO_LEVERS = {"pendulum_length_m": {"fixed": False}, "elastic_centre_height_m": {"fixed": False}}
@@ -31,9 +36,11 @@ def _free(*names, **specs):
 def test_levers_are_fixed_at_the_tables_values_by_default():
     st = table_study()
     h = st.table.horizontal
-    assert [v.name for v in st.levers] == list(TABLE_LEVERS)
+    assert [v.name for v in st.levers] == list(CODESIGN_LEVERS)
+    extent = dict(zip(LAYOUT_LEVERS, layout_extent(st.table), strict=True))
     for v in st.levers:
-        assert v.fixed and v.start == getattr(h, v.name)
+        assert v.fixed and v.start == (extent[v.name] if v.name in extent
+                                       else getattr(h, v.name))
     assert st.table_at({"pendulum_length_m": 0.4}) is st.table  # fixed: the table's value
 
 
@@ -246,7 +253,7 @@ def test_a_mode_the_horizontal_element_alone_damps_keeps_its_row_with_a_free_lev
 
 @pytest.mark.slow
 def test_the_codesign_study_script(tmp_path):
-    """studies/table_codesign.py on three of its cases: the figures docs/table.md quotes
+    """studies/table_codesign.py on four of its cases: the figures docs/table.md quotes
     (fine-grid analysis, tolerance 0.05 dB)."""
     import importlib.util
     from pathlib import Path
@@ -257,7 +264,8 @@ def test_the_codesign_study_script(tmp_path):
     spec = importlib.util.spec_from_file_location("table_codesign", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    assert mod.main(["-o", str(tmp_path), "--cases", "springs,pendulum_length_m,all"]) == 0
+    assert mod.main(["-o", str(tmp_path), "--cases",
+                     "springs,pendulum_length_m,all,layout"]) == 0
     assert (tmp_path / "table_codesign.png").is_file()
     df = pd.read_csv(tmp_path / "table_codesign.csv").set_index("case")
     assert df["success"].all()
@@ -266,8 +274,12 @@ def test_the_codesign_study_script(tmp_path):
     assert df.loc["pendulum_length_m", "pendulum_length_m"] == pytest.approx(0.6)
     assert df.loc["pendulum_length_m", "pendulum_length_m_at_bound"] == "upper"
     assert df.loc["all", "analysis_margin_db"] == pytest.approx(7.83, abs=0.05)
-    for n, (lo, hi) in mod.TABLE_LEVER_BOUNDS.items():  # all four inside their bounds
+    for n, (lo, hi) in TABLE_LEVER_BOUNDS.items():  # all four inside their bounds
         assert lo < df.loc["all", n] < hi
+    # the layout alone (docs/table.md, section 15): -4.25 dB, its length on the lower bound
+    assert df.loc["layout", "analysis_margin_db"] == pytest.approx(-4.25, abs=0.05)
+    assert df.loc["layout", "layout_length_m_at_bound"] == "lower"
+    assert df.loc["layout", "layout_length_m"] == pytest.approx(0.6)
     # the fine-grid analysis and the NLP's grid agree within 0.1 dB in every case
     assert (df["analysis_margin_db"] - df["nlp_margin_db"]).abs().max() < 0.1
 

@@ -1,0 +1,99 @@
+"""The co-design levers in the table NLP: per-group springs and the levers' sensitivities.
+
+:func:`group_values` writes each leveling group's four spring variables into the NLP's
+design vector (docs/table.md, section 15); :func:`lever_sensitivities` reads the worst
+margin's exact sensitivity to every free lever's active bound from IPOPT's bound
+multipliers (section 13).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from isodesign.optimization.variables import DESIGN_VARIABLES
+
+__all__ = ["group_values", "lever_sensitivities"]
+
+
+def group_values(prob, ca, z_levers, shared: list) -> list:
+    """Each group's four spring variables, groups 1..3: its free lever (log-scaled), the
+    study's fixed value of its lever, the table's own value (``Table.group_springs``) or
+    the shared variable.
+
+    Parameters
+    ----------
+    prob : TableProblem
+    ca : module
+        CasADi.
+    z_levers : MX
+        The scaled free levers (``prob.lever_scaling`` order).
+    shared : list
+        The design vector so far (the shared spring's four first).
+
+    Returns
+    -------
+    list
+        12 entries, group by group in :data:`DESIGN_VARIABLES` order.
+    """
+    ls = prob.lever_scaling
+    named = {lv.name: lv for lv in prob.study.levers}
+    out = []
+    for g in range(3):
+        for j, field in enumerate(DESIGN_VARIABLES):
+            name = f"{field}_group{g + 1}"
+            if name in ls.names:
+                i = ls.names.index(name)
+                out.append(ca.exp(ls.center[i] + ls.half[i] * z_levers[i]))
+            elif name in named:
+                out.append(ca.MX(named[name].start))
+            elif field in prob.table.group_springs[g]:
+                out.append(ca.MX(prob.table.group_springs[g][field]))
+            else:
+                out.append(shared[j])
+    return out
+
+
+def lever_sensitivities(prob, x: np.ndarray) -> tuple:
+    """The re-optimized sensitivity of the worst margin to each free lever's bounds.
+
+    IPOPT solves again from the optimum ``x`` (default parameters: the worst margin alone)
+    and its bound multipliers ``lam_x`` give, by the envelope theorem, the derivative of
+    the optimal objective ``J = -t`` with respect to each bound of the scaled lever ``z``:
+    ``dJ*/dbound = -lam_x``, so the worst margin moves by ``lam_x / (dv/dz)`` dB per unit of
+    the lever's active bound, ``dv/dz = h`` for a linear lever (``v = c + h z``) and
+    ``h v`` for a log-scaled per-group spring lever (``ln v = c + h z``); zero for a lever
+    inside its bounds (docs/table.md, sections 13 and 14).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    x : ndarray
+        The optimum.
+
+    Returns
+    -------
+    tuple of dict
+        Per free lever: ``name``, ``value``, ``lower``, ``upper``, ``at_bound``
+        (``"lower"``, ``"upper"`` or None), ``db_per_unit`` (dB of worst margin per unit
+        of the active bound, SI), ``status`` of the solve.
+    """
+    if not prob.n_levers or "worst_band_margin" != prob.objective:
+        return ()
+    res = prob.solver(x0=x, lbx=prob.lbx, ubx=prob.ubx, lbg=prob.lbg, ubg=prob.ubg,
+                      p=prob.params())
+    status = prob.solver.stats().get("return_status", "unknown")
+    lam = np.asarray(res["lam_x"]).ravel()
+    xs = np.asarray(res["x"]).ravel()
+    nzs = len(prob.scaling.names)
+    ls = prob.lever_scaling
+    vals = ls.to_values(np.clip(xs[nzs: prob.nz], -1.0, 1.0))
+    out = []
+    for i, name in enumerate(ls.names):
+        zi = xs[nzs + i]
+        at = "upper" if zi > 1 - 1e-6 else "lower" if zi < -1 + 1e-6 else None
+        spec = next(v for v in prob.study.levers if v.name == name)
+        dv_dz = ls.half[i] * (vals[name] if ls.is_log(i) else 1.0)
+        out.append({"name": name, "value": vals[name], "lower": spec.lower,
+                    "upper": spec.upper, "at_bound": at,
+                    "db_per_unit": float(lam[nzs + i] / dv_dz), "status": status})
+    return tuple(out)
