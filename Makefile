@@ -23,9 +23,10 @@ bytecode:
 demo: $(STAMP)
 	$(BIN)/isodesign demo -o out/demo --overwrite
 
+# The suite on every core (pytest-xdist: one worker per core; the tests share no files)
 test: $(STAMP)
 	$(BIN)/ruff check isodesign tests studies benchmarks
-	$(BIN)/python -m pytest -q
+	$(BIN)/python -m pytest -q -n auto
 
 # The browser tests of the HTML report (headless Chromium; installs Debian's chromium if missing).
 # `make test` runs them too whenever chromium is installed (they skip without it).
@@ -35,7 +36,7 @@ test-browser: $(STAMP)
 	$(BIN)/python -m pytest -q -m browser tests/reporting/test_browser.py
 
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q -m "not slow"
+	$(BIN)/python -m pytest -q -n auto -m "not slow"
 
 lint: $(STAMP)
 	$(BIN)/ruff check isodesign tests studies benchmarks
