@@ -73,6 +73,7 @@ _EXPORTS = {
     "default_study": "optimization.study",
     "optimize": "optimization.dispatch",
     "OptimizationResult": "optimization.result",
+    "StudyResult": "optimization.result",
     "pareto_front": "optimization.pareto",
     "ParetoResult": "optimization.pareto",
     # sweeps (Dask)

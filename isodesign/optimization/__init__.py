@@ -52,6 +52,7 @@ _EXPORTS = {
     "evaluate_design": "recheck",
     "OptimizationResult": "result",
     "StartRecord": "result",
+    "StudyResult": "result",
     "optimize": "dispatch",
     "optimize_vertical": "driver",
     "study_kind": "dispatch",
