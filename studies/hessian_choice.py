@@ -10,9 +10,9 @@ the optimum (dB, the NLP grid) and the starts that reached the best design. The 
 written from these rows is :func:`isodesign.optimization.hessian.hessian_choice`
 (docs/optimization.md, section "The Hessian").
 
-The vertical NLP is forced to the limited-memory Hessian here by a subclass of its
-``Problem`` that asks IPOPT for it and builds no Hessian function (the product builds the
-vertical NLP's exact Hessian, as the rule says).
+Each NLP is given the Hessian asked for here, whatever the rule would choose (the
+vertical ``Problem`` through a subclass that states it; the table's ``TableProblem`` takes
+it as an argument).
 
 Usage::
 
@@ -29,7 +29,6 @@ The load of the machine (``os.getloadavg``) is printed before and after.
 from __future__ import annotations
 
 import argparse
-import contextlib
 import copy
 import os
 import statistics
@@ -54,35 +53,16 @@ def six_isolator_table():
     return study_from_dict(raw, source="six_isolators.toml", fill_defaults=False)
 
 
-@contextlib.contextmanager
-def _vertical_without_hessian():
-    """The vertical NLP built without its exact Hessian function (IPOPT's L-BFGS)."""
-    import isodesign.optimization.problem as pm
-
-    orig = pm.derivative_functions
-
-    def jac_only(nlp, threads=True):
-        return {"jac_g": orig(nlp, False)["jac_g"]}
-
-    pm.derivative_functions = jac_only
-    try:
-        yield
-    finally:
-        pm.derivative_functions = orig
-
-
 def _vertical_problem(study, hessian):
+    """The vertical NLP with the given Hessian, whatever the rule would choose."""
     from isodesign.optimization.problem import Problem
 
-    if hessian == "exact":
-        return Problem(study)
+    class Forced(Problem):
+        @property
+        def hessian_info(self):
+            return {"hessian": hessian, "reason": "forced by studies/hessian_choice.py"}
 
-    class LimitedMemory(Problem):
-        def ipopt_options(self):
-            return {**super().ipopt_options(), "ipopt.hessian_approximation": "limited-memory"}
-
-    with _vertical_without_hessian():
-        return LimitedMemory(study)
+    return Forced(study)
 
 
 def run_one(study, hessian):

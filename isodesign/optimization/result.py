@@ -205,7 +205,8 @@ class StudyResult(ResultDisplay):
     def hessian_choice(self) -> dict:
         """IPOPT's Hessian of the run: ``{"hessian": "exact" | "limited-memory",
         "reason": str}`` (:func:`isodesign.optimization.hessian.hessian_choice`)."""
-        h = getattr(self, "hessian_info", None)
+        h = getattr(self, "hessian_info", None) or getattr(getattr(self, "problem", None),
+                                                           "hessian_info", None)
         if h:
             return dict(h)
         nominal = getattr(self, "nominal", None)
@@ -544,10 +545,6 @@ def worst_constraint_reports(per_scenario, descriptions) -> tuple:
                  for c, d in best.values())
 
 
-#: The vertical optimizer's Hessian record (until a run records its own choice).
-_EXACT = {"hessian": "exact", "reason": "CasADi's exact Hessian of the Lagrangian"}
-
-
 @dataclass(frozen=True, eq=False, repr=False)
 class OptimizationResult(StudyResult):
     """The answer to a ``vertical`` study (:func:`isodesign.optimization.driver.optimize_vertical`).
@@ -590,7 +587,7 @@ class OptimizationResult(StudyResult):
     settings: dict = field(default_factory=dict)
     peak: dict | None = None
     branches: tuple[tuple[int, float], ...] = ()
-    hessian_info: dict = field(default_factory=lambda: dict(_EXACT))
+    hessian_info: dict = field(default_factory=dict)
 
     def _checked(self) -> bool:
         return self.recheck_max_rel_diff is not None

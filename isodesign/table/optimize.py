@@ -33,9 +33,10 @@ then:
    the rocking stability of the optimum and of the start.
 
 Derivatives: the gradient and the constraint Jacobian are exact (CasADi AD); the Hessian of
-the Lagrangian is IPOPT's limited-memory quasi-Newton approximation (:data:`HESSIAN`): the
-exact Hessian through the mapped 6x6 solve gives the same optimum at several times the cost
-(``benchmarks/bench_table.py`` times both).
+the Lagrangian is chosen by :func:`isodesign.optimization.hessian.hessian_choice` (for a
+table: IPOPT's limited-memory quasi-Newton approximation, :data:`HESSIAN`; the exact Hessian
+through the mapped 6x6 solve gives the same optimum at about three times the cost,
+docs/optimization.md, "The Hessian"), and stated in the result.
 """
 
 from __future__ import annotations
@@ -64,7 +65,8 @@ from isodesign.table.problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
 __all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
            "closure_springs", "leveling_check", "measure_peaks", "optimize_table"]
 
-#: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``).
+#: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``): what
+#: :func:`~isodesign.optimization.hessian.hessian_choice` gives a table study.
 HESSIAN = "limited-memory"
 #: Agreement required of the NumPy re-check (relative on sigma, dB on the margin).
 RECHECK_TOL = 1e-6

@@ -130,3 +130,38 @@ def test_every_kind_plots_a_figure_or_into_an_axes(kind):
     fig2 = new_figure(5, 3)
     ax = fig2.add_subplot()
     assert res.plot(ax) is fig2 and (ax.lines or ax.patches)
+
+
+def test_the_hessian_rule_by_model_and_size():
+    from isodesign.optimization.hessian import VERTICAL_EXACT_MAX_VARIABLES, hessian_choice
+
+    vert, table = _vertical(), _table()
+    assert hessian_choice(table)["hessian"] == "limited-memory"
+    assert hessian_choice(table, 10_000)["hessian"] == "limited-memory"
+    assert hessian_choice(vert, 89)["hessian"] == "exact"
+    assert hessian_choice(vert, VERTICAL_EXACT_MAX_VARIABLES)["hessian"] == "exact"
+    assert hessian_choice(vert, 209)["hessian"] == "limited-memory"
+    assert hessian_choice(vert, 209, scenarios=3)["hessian"] == "exact"
+    for h in (hessian_choice(vert, 89), hessian_choice(vert, 209), hessian_choice(table)):
+        assert "docs/optimization.md" in h["reason"]
+
+
+@pytest.mark.parametrize("kind", KINDS)
+def test_every_kind_states_the_hessian_its_nlp_used(kind):
+    from isodesign.optimization.hessian import hessian_choice
+
+    st, res = answer(kind)
+    h = res.hessian_choice()
+    if kind == "vertical":  # the small grid: the exact Hessian, by the NLP's size
+        from isodesign.optimization.problem import Problem
+
+        prob = Problem(st)
+        assert prob.ipopt_options()["ipopt.hessian_approximation"] == h["hessian"] == "exact"
+        assert h == hessian_choice(st, prob.nx)
+    elif kind == "robust":  # the scenario stack keeps the exact Hessian
+        assert h == res.problem.hessian_info and h["hessian"] == "exact"
+        assert res.nominal.hessian_choice()["hessian"] == "exact"
+    else:  # a table NLP, nominal or stacked
+        assert h == hessian_choice(st) and h["hessian"] == "limited-memory"
+        nominal = res if kind == "table" else res.nominal
+        assert nominal.hessian == "limited-memory"
