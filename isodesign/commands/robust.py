@@ -124,7 +124,8 @@ def _answer(study, args):
 
 def execute_robust_table(study, run, args, result=None) -> int:
     """A table study with ``[scenarios]``: the robust table optimum (docs/robust.md,
-    section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml and the table
+    section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml, robustness.png
+    (unless ``--no-plots``) and the table
     yields of the nominal and robust optima (``--yield-samples N``, default
     :data:`isodesign.optimization.yields.DEFAULT_YIELD_SAMPLES` as for a vertical study;
     yield.csv), the design-held sensitivities of the worst margin (sensitivities.csv) and
@@ -188,6 +189,9 @@ def execute_robust_table(study, run, args, result=None) -> int:
               f"   {x.effect:+.3f} {x.unit} over the half-width")
     if yields:
         run.write_csv("yield.csv", yields[1].to_frame())
+    if not getattr(args, "no_plots", False):
+        with run.writing("robustness.png") as tmp:
+            robustness_plot(res, tmp, sens=sens.get("active") or sens["robust"], yields=yields)
     for y in yields:
         lo, hi = y.interval
         print(f"yield of the {y.label} (table analysis): {100 * y.fraction:.1f} % "

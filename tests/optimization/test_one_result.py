@@ -165,3 +165,13 @@ def test_every_kind_states_the_hessian_its_nlp_used(kind):
         assert h == hessian_choice(st) and h["hessian"] == "limited-memory"
         nominal = res if kind == "table" else res.nominal
         assert nominal.hessian == "limited-memory"
+
+
+def test_the_robust_table_figure_names_how_its_sensitivities_were_found():
+    from isodesign.plotting.robust import robustness_figure
+
+    _, res = answer("robust table")
+    sens = res.sensitivities()
+    assert [s.parameter for s in sens] == ["payload_mass_kg"]
+    fig = robustness_figure(res, sens=sens)
+    assert "central differences" in fig.axes[1].get_title()
