@@ -14,7 +14,9 @@ One file per concept:
 ``multistart``      space-filling starts, solved in forked workers
 ``refine``          peak refinement (exchange method), tie-break, branch choice
 ``recheck``         the NumPy re-check of the optimum, :func:`evaluate_design`
-``result``          :class:`OptimizationResult`
+``result``          :class:`StudyResult` (the one result type of every study kind) and
+                    :class:`OptimizationResult` (the vertical kind)
+``hessian``         :func:`~.hessian.hessian_choice`: exact or limited-memory, one rule
 ``driver``          :func:`optimize_vertical` (the vertical nominal solve)
 ``dispatch``        :func:`optimize`: the answer to the study's question (table, robust)
 ``pareto``          epsilon-constraint Pareto fronts
@@ -23,6 +25,7 @@ One file per concept:
 ``robust``          scenario blocks stacked in one NLP (worst case by epigraph)
 ``exchange``        the exchange method: :func:`robust_optimize`, worst-case search
 ``robust_result``   :class:`RobustResult`
+``robust_table``    the robust table design (:class:`~.robust_table.TableRobustResult`)
 ``sensitivity``     parametric sensitivities from the NLP (design held; ``lam_p``)
 ``yields``          yield by sampling, Clopper-Pearson and Wilson intervals
 ==================  =====================================================================
