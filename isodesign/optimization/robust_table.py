@@ -75,16 +75,20 @@ def table_sensitivities(study, values: dict, theta=None) -> list:
     -------
     list of Sensitivity
         One per continuous parameter (a discrete one has no derivative): ``quantity``
-        ``"objective"`` for a worst-margin objective (else ``"worst_band_margin"``),
+        ``"objective"`` for a worst-margin objective over every point and axis (else
+        ``"worst_band_margin"``),
         ``per_unit`` dB per unit of the parameter (per % of a relative deviation),
         ``effect`` over the parameter's half-width; ``binding`` False (no constraint).
     """
     from isodesign.optimization.sensitivity import Sensitivity
     from isodesign.optimization.yields import table_draw_response
+    from isodesign.table.study import objective_selection
 
     space = study.scenarios
     th0 = np.asarray(space.nominal() if theta is None else theta, float)
-    quantity = ("objective" if study.objective["kind"] == "worst_band_margin"
+    axes, points = objective_selection(study.raw["table"], study.table)
+    every = len(axes) == 3 and len(points) == len(study.table.point_names)
+    quantity = ("objective" if study.objective["kind"] == "worst_band_margin" and every
                 else "worst_band_margin")
     out = []
     for k, p in enumerate(space.parameters):
