@@ -175,3 +175,12 @@ def test_the_robust_table_figure_names_how_its_sensitivities_were_found():
     assert [s.parameter for s in sens] == ["payload_mass_kg"]
     fig = robustness_figure(res, sens=sens)
     assert "central differences" in fig.axes[1].get_title()
+
+
+def test_design_json_states_the_hessian_and_why():
+    from isodesign.io.record import optimization_design
+
+    _, res = answer("vertical")
+    d = optimization_design(res)
+    assert (d["hessian"], d["hessian_reason"]) == (res.hessian_choice()["hessian"],
+                                                   res.hessian_choice()["reason"])
