@@ -74,6 +74,7 @@ _EXPORTS = {
     "optimize": "optimization.dispatch",
     "analyze": "optimization.analyze",
     "OptimizationResult": "optimization.result",
+    "StudyResult": "optimization.result",
     "pareto_front": "optimization.pareto",
     "ParetoResult": "optimization.pareto",
     # sweeps (Dask)

@@ -399,6 +399,7 @@ def summary(result, design: dict) -> str:
         f"flow {st.models['flow']}, {st.models['amplitude_mode']}, diaphragm "
         f"{st.models['diaphragm']}, acoustics {st.models.get('acoustics', 'distributed')}",
         f"  {starts_text(result)}; {result.wall_s:.1f} s",
+        "  Hessian: {hessian} ({reason})".format(**result.hessian_choice()),
         "",
         table(design_rows(result, design["derived"], design["start_derived"]),
               ["", "start", "optimum"], align="<>>"),

@@ -9,6 +9,7 @@ scenario that no design can meet.
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 
 from isodesign.commands.optimize import (
@@ -43,8 +44,6 @@ def _sens_frame(rows: dict):
 def active_sensitivities(res) -> list:
     """Sensitivities where they shape the robust design: the objective in the worst
     scenario and each binding constraint in the scenario where it binds (design held)."""
-    import dataclasses
-
     out = []
     for r in res.active_scenarios():
         k = r["index"]
@@ -92,6 +91,7 @@ def robust_summary(res, sens, yields) -> str:
             ("; " if r["worst"] and r["binding"] else "") + "binding: " + ", ".join(r["binding"])
             if r["binding"] else "")
         lines.append(f"  {r['description']}: {o.format(r['objective'])} ({why})")
+    lines += ["", f"verdict: {res.verdict()}", "", *res.constraint_lines()]
     top = sorted((s for s in sens["robust"] if s.quantity == "objective"),
                  key=lambda s: -abs(s.effect))
     lines.append("")
@@ -124,34 +124,45 @@ def _answer(study, args):
 
 def execute_robust_table(study, run, args, result=None) -> int:
     """A table study with ``[scenarios]``: the robust table optimum (docs/robust.md,
-    section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml and the table
+    section 7); writes robust.json, scenarios.csv, rounds.csv, design.toml, robustness.png
+    (unless ``--no-plots``) and the table
     yields of the nominal and robust optima (``--yield-samples N``, default
     :data:`isodesign.optimization.yields.DEFAULT_YIELD_SAMPLES` as for a vertical study;
-    yield.csv)."""
+    yield.csv), the design-held sensitivities of the worst margin (sensitivities.csv) and
+    the constraint table with the sentence naming what stopped the design."""
+    from isodesign.optimization.robust_table import table_sensitivities
+
+    run.record.update({"kind": "isodesign optimize",
+                       "command_line": command_line(canonical_command(args, "optimize")[1:]),
+                       "environment": environment(), "study": resolved_study_dict(study),
+                       "study_source": study.source, "robust": True, "table": True})
     res = optimize(study) if result is None else result
     yields = optimum_yields(study, res, getattr(args, "yield_samples", None))
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of a robust table isodesign optimize run. Replay: isodesign "
         f"optimize {run.final_path('study_resolved.toml')} -o NEWDIR")))
-    rec = {"feasible": res.feasible, "converged": res.converged, "status": res.status,
-           "objective": res.objective, "worst_case_objective": res.objective_value,
-           "values": res.values, "nominal_values": res.nominal.values,
-           "nominal_objective": res.nominal.objective_value, "rounds": list(res.rounds),
-           "scenarios": [{k: v for k, v in r.items()} for r in res.scenarios],
-           "parameters": [p.label() for p in study.scenarios.parameters],
-           "infeasible_scenario": res.infeasible_scenario, "wall_s": res.wall_s, "table": True,
-           "yields": [y.record() for y in yields]}
+    rec = {**res.record(), "yields": [y.record() for y in yields]}
+    sens = {}
+    if res.feasible:
+        sens = {"robust": res.sensitivities(),
+                "nominal": table_sensitivities(study, res.nominal.values)}
+        worst = next((r for r in res.scenarios if r["worst"]), None)
+        if worst is not None:  # the objective where it is worst, as the vertical run's
+            sens["active"] = [dataclasses.replace(x, quantity=f"{x.quantity} (scenario "
+                                                  f"{worst['index']})")
+                              for x in res.sensitivities(scenario=worst["index"])]
+        rec["sensitivities"] = {k: [x.row() for x in v] for k, v in sens.items()}
     run.write_json("robust.json", rec)
-    run.record["robust_result"] = rec
+    run.record["robust_result"] = {k: rec[k] for k in ("worst_case_objective", "values",
+                                                         "rounds", "converged", "yields",
+                                                         "table")}
     if not res.feasible:
         run.status = "infeasible"
         print(f"study {study.name!r}: NO ROBUST DESIGN")
         print(f"isodesign: error: {res.failure_message()}", file=sys.stderr)
         return 1
-    run.write_csv("scenarios.csv", res.to_frame())
-    import pandas as pd
-
-    run.write_csv("rounds.csv", pd.DataFrame(list(res.rounds)))
+    run.write_csv("scenarios.csv", res.scenarios_frame())
+    run.write_csv("rounds.csv", res.rounds_frame())
     run.write_text("design.toml", design_to_toml(study.design_at(res.values), header=(
         f"Robust table optimum of study {study.name!r} (isodesign optimize with [scenarios]).")))
     v, nv = res.values, res.nominal.values
@@ -168,8 +179,19 @@ def execute_robust_table(study, run, args, result=None) -> int:
     for r in res.scenarios:
         print(f"  scenario {r['description']}: {r['objective']:+.4g}"
               + ("  (worst)" if r["worst"] else ""))
+    print(f"verdict: {res.verdict()}")
+    print("\n".join(["", *res.constraint_lines(), ""]))
+    run.write_csv("sensitivities.csv", _sens_frame(sens))
+    print("sensitivities of the robust design's worst margin (nominal parameters, design "
+          "held; central differences of the table's analysis):")
+    for x in sorted(sens["robust"], key=lambda x: -abs(x.effect)):
+        print(f"  {x.parameter:24s} {x.per_unit:+.4g} {x.unit}/{x.parameter_unit}"
+              f"   {x.effect:+.3f} {x.unit} over the half-width")
     if yields:
         run.write_csv("yield.csv", yields[1].to_frame())
+    if not getattr(args, "no_plots", False):
+        with run.writing("robustness.png") as tmp:
+            robustness_plot(res, tmp, sens=sens.get("active") or sens["robust"], yields=yields)
     for y in yields:
         lo, hi = y.interval
         print(f"yield of the {y.label} (table analysis): {100 * y.fraction:.1f} % "
@@ -218,7 +240,7 @@ def execute_robust(study, run, args, result=None) -> int:
     run.write_json("robust.json", rec)
     run.record["robust_result"] = {k: rec[k] for k in ("worst_case_objective", "values",
                                                          "rounds", "converged", "yields")}
-    run.write_csv("scenarios.csv", res.to_frame())
+    run.write_csv("scenarios.csv", res.scenarios_frame())
     run.write_csv("rounds.csv", res.rounds_frame())
     run.write_csv("sensitivities.csv", _sens_frame(sens))
     if yields:

@@ -20,13 +20,6 @@ TABLE_OUTPUT_FILES = ("design.json", "design.toml", "bands.csv", "modes.csv", "s
                       "record.json", "study_resolved.toml", "response.png", "layout.png")
 
 
-def _starts_frame(result):
-    import pandas as pd
-
-    return pd.DataFrame(list(result.starts), columns=["start", "status", "feasible",
-                                                      "iterations", "wall_s", "objective_nlp"])
-
-
 def _bands_frame(result):
     df = result.analysis.to_frame()
     s = result.start_analysis
@@ -53,8 +46,8 @@ def table_summary_text(result) -> str:
         f"table study {st.name!r} ({st.source}): maximize the worst margin over "
         f"{len(st.table.point_names)} point(s) x 3 axes x {len(st.bands)} bands",
         f"  {len(result.starts)} starts: {sum(1 for s in result.starts if s[2])} feasible, "
-        f"{result.n_reached_best} reached the best design; {result.wall_s:.1f} s; Hessian "
-        f"{result.hessian} (exact gradients and Jacobian)",
+        f"{result.n_reached_best} reached the best design; {result.wall_s:.1f} s",
+        "  Hessian: {hessian} ({reason})".format(**result.hessian_choice()),
         f"  {'':<24}{'start':>10}{'optimum':>10}",
         f"  {'N = V_b0/V_t0':<24}{v0['volume_ratio']:>10.4g}{v1['volume_ratio']:>10.4g}",
         f"  {'V_t0 (L)':<24}{v0['top_volume_m3'] * 1e3:>10.4g}{v1['top_volume_m3'] * 1e3:>10.4g}",
@@ -225,7 +218,7 @@ def execute_table(study, run, args, result=None) -> int:
                        "limited_by": res.limited_by if res.feasible else [],
                        "success": res.success, "verdict": res.verdict(),
                        "peak_refinement": _peak_record(res)})
-    run.write_csv("starts.csv", _starts_frame(res))
+    run.write_csv("starts.csv", res.starts_frame())
     run.write_text("study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign optimize run (a table study).\n"
         f"Replay: isodesign optimize {run.final_path('study_resolved.toml')} -o NEWDIR")))
@@ -288,7 +281,7 @@ def execute_table(study, run, args, result=None) -> int:
         "limited_by": res.limited_by, "limiting_summary": limiting_summary(res),
         "continuous_peak_db": (None if res.peak["peaks"] is None
                                else res.peak["peaks"].max_db),
-        "hessian": res.hessian,
+        "hessian": res.hessian, "hessian_reason": res.hessian_choice()["reason"],
         "valve_gain_kg_s_per_m": (None if res.leveling is None
                                   else res.leveling.gain_kg_s_per_m),
         "worst_margin_per_axis_db": dict(zip("xyz", res.analysis.axis_margin_db().tolist(),

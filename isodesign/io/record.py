@@ -498,6 +498,8 @@ def optimization_design(result) -> dict:
         "scope": result.analysis.scope.to_dict() if result.analysis is not None else None,
         "variables_at_bounds": at,
         "constraints": constraint_rows(result),
+        "hessian": result.hessian_choice()["hessian"],
+        "hessian_reason": result.hessian_choice()["reason"],
         "spring": result.design.to_dict(),
     }
 

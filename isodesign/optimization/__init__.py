@@ -15,7 +15,9 @@ One file per concept:
 ``refine``          peak refinement (exchange method), tie-break, branch choice
 ``recheck``         the NumPy re-check of the optimum, :func:`evaluate_design`
 ``analyze``         :func:`analyze`: every study's NumPy band response, through the table
-``result``          :class:`OptimizationResult`
+``result``          :class:`StudyResult` (the one result type of every study kind) and
+                    :class:`OptimizationResult` (the vertical kind)
+``hessian``         :func:`~.hessian.hessian_choice`: exact or limited-memory, one rule
 ``driver``          :func:`optimize_vertical` (the vertical nominal solve)
 ``dispatch``        :func:`optimize`: the answer to the study's question (table, robust)
 ``pareto``          epsilon-constraint Pareto fronts
@@ -24,6 +26,7 @@ One file per concept:
 ``robust``          scenario blocks stacked in one NLP (worst case by epigraph)
 ``exchange``        the exchange method: :func:`robust_optimize`, worst-case search
 ``robust_result``   :class:`RobustResult`
+``robust_table``    the robust table design (:class:`~.robust_table.TableRobustResult`)
 ``sensitivity``     parametric sensitivities from the NLP (design held; ``lam_p``)
 ``yields``          yield by sampling, Clopper-Pearson and Wilson intervals
 ==================  =====================================================================
@@ -55,6 +58,7 @@ _EXPORTS = {
     "vertical_band_response": "analyze",
     "OptimizationResult": "result",
     "StartRecord": "result",
+    "StudyResult": "result",
     "optimize": "dispatch",
     "optimize_vertical": "driver",
     "study_kind": "dispatch",

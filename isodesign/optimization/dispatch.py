@@ -12,7 +12,10 @@ kind              the study has               answered by
 ================  ==========================  ===============================================
 
 ``isodesign.optimize``, ``isodesign optimize`` and a sweep's ``optimize`` task all call
-:func:`optimize`, so the same study gives the same answer through each of them. An entry
+:func:`optimize`, so the same study gives the same answer through each of them. Every kind's
+answer is a :class:`~.result.StudyResult` (one interface: verdict, worst margin, constraint
+table with binding flags and the sentence naming what stopped the design, starts,
+``to_frame``, ``plot``, text and HTML; its ``kind`` names the question answered). An entry
 point that cannot answer a kind refuses it with one line naming the study key
 (:func:`refuse`), never by answering another question.
 """
@@ -94,9 +97,13 @@ def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool 
 
     Returns
     -------
-    OptimizationResult, TableOptimizationResult, RobustResult or TableRobustResult
-        ``vertical``, ``table``, ``robust`` and ``robust table`` studies respectively.
-        Check ``.feasible``.
+    StudyResult
+        Its ``kind`` is the study's (:func:`study_kind`): an :class:`~.result.OptimizationResult`,
+        :class:`~isodesign.table.optimize.TableOptimizationResult`,
+        :class:`~.robust_result.RobustResult` or
+        :class:`~.robust_table.TableRobustResult` for a ``vertical``, ``table``, ``robust``
+        and ``robust table`` study respectively. Check ``.success`` (or call
+        ``.raise_for_status()``).
 
     Examples
     --------
@@ -112,6 +119,16 @@ def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool 
         raise InputError(f"progress: expected a callable progress(done, total, solution) or "
                          f"None, got {type(progress).__name__} {progress!r:.40}")
     kind = study_kind(study)
+    res = _answer(kind, study, progress, problem, nominal, analyze)
+    if res.kind != kind:  # never the answer to another question
+        from isodesign.errors import SolverError
+
+        raise SolverError(f"optimize: a {kind} study was answered by a {res.kind} result")
+    return res
+
+
+def _answer(kind, study, progress, problem, nominal, analyze):
+    """The optimizer of ``kind`` on ``study`` (see :func:`optimize`)."""
     if kind == "robust table":
         from isodesign.optimization.robust_table import robust_optimize_table
         from isodesign.table.optimize import optimize_table

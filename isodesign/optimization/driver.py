@@ -125,6 +125,7 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
         recheck_max_rel_diff=diff, analysis=analysis, start_analysis=start_analysis,
         peak=win.peak, wall_s=time.perf_counter() - t_all, settings=solver_settings(study),
         branches=tuple((i, obj.to_natural(j)) for i, j in win.branches),
+        hessian_info=prob.hessian_info,
     )
 
 
@@ -170,6 +171,7 @@ def _infeasible_result(study, prob, start_vals, records, sols, t_all) -> Optimiz
         n_reached_best=0, violations=sol.violated(),
         flat_direction=None, recheck_max_rel_diff=None,
         wall_s=time.perf_counter() - t_all, settings=solver_settings(study),
+        hessian_info=prob.hessian_info,
     )
 
 
@@ -208,7 +210,7 @@ def solver_settings(study) -> dict:
         ``record.json`` so that a run can be replayed.
     """
     return {
-        "solver": "ipopt (CasADi nlpsol, exact Hessian)",
+        "solver": "ipopt (CasADi nlpsol; the Hessian by hessian.hessian_choice)",
         "options": {"max_iter": study.solver["max_iter"], "tol": study.solver["tol"],
                     "constr_viol_tol": CONSTRAINT_VIOLATION_TOL,
                     **{k.removeprefix("ipopt."): v for k, v in IPOPT_OPTIONS.items()}},

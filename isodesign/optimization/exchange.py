@@ -43,7 +43,11 @@ from isodesign.optimization.refine import (
     peak_slots,
 )
 from isodesign.optimization.robust import RobustProblem, ScenarioBlock
-from isodesign.optimization.robust_result import RobustResult, scenario_rows
+from isodesign.optimization.robust_result import (
+    RobustResult,
+    scenario_constraints,
+    scenario_rows,
+)
 from isodesign.optimization.scenario_check import scenario_check
 
 __all__ = ["CONSTRAINT_TOLERANCE", "robust_optimize", "scenario_check", "worst_case"]
@@ -237,7 +241,8 @@ def robust_optimize(study, *, nominal=None, progress=None):
         objective=kind, objective_value=OBJECTIVES[kind].to_natural(sol.objective),
         feasible=True, converged=converged, status=sol.status, rounds=tuple(rounds),
         scenarios=tuple(rows), first_search=first, last_search=last, problem=prob,
-        solution=sol, wall_s=time.perf_counter() - t_all)
+        solution=sol, wall_s=time.perf_counter() - t_all,
+        constraints=scenario_constraints(study, prob, sol))
 
 
 def _best_solve(prob, starts: list, study):

@@ -143,7 +143,7 @@ def hoisted_map(point, n: int, shared: tuple):
     return call
 
 
-def derivative_functions(nlp, threads: bool = True) -> dict:
+def derivative_functions(nlp, threads: bool = True, hessian: bool = True) -> dict:
     """IPOPT's Jacobian and Hessian functions, generated side by side in two threads.
 
     What ``nlpsol`` would generate itself, one after the other: the constraint Jacobian
@@ -160,6 +160,9 @@ def derivative_functions(nlp, threads: bool = True) -> dict:
         Build the two in two threads (default); ``False``: one after the other, in this
         thread (a sweep point or a one-worker run, where no second core is the run's to
         take: :func:`isodesign.optimization.executor.parallel_allowed`).
+    hessian : bool
+        Build the Hessian (default); ``False``: the Jacobian only (IPOPT's limited-memory
+        approximation, :func:`isodesign.optimization.hessian.hessian_choice`).
 
     Returns
     -------
@@ -179,6 +182,8 @@ def derivative_functions(nlp, threads: bool = True) -> dict:
         return ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
                            ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
 
+    if not hessian:
+        return {"jac_g": jac_g()}
     if not threads:
         return {"jac_g": jac_g(), "hess_lag": hess_lag()}
     with ThreadPoolExecutor(max_workers=2) as pool:
@@ -430,10 +435,12 @@ class Problem:
         self._aux_fn_p = ca.Function("aux_quantities", [x_core, nlp.p_slot],
                                      [mt["ln_ms_band"] - mt["ln_limit2"], mt["ln_T2_peak"],
                                       mt["ms_all"]])
+        exact = self.hessian_info["hessian"] == "exact"
         self.solver = ca.nlpsol("isodesign", "ipopt",
                                 {"x": nlp.x, "f": nlp.j_total, "g": nlp.g, "p": nlp.p},
                                 {**self.ipopt_options(), **derivative_functions(
-                                    nlp, parallel_allowed(self.study.solver["workers"]))})
+                                    nlp, parallel_allowed(self.study.solver["workers"]),
+                                    hessian=exact)})
 
     def ipopt_options(self) -> dict:
         """The options given to CasADi's nlpsol."""
@@ -445,8 +452,17 @@ class Problem:
             "ipopt.tol": self.study.solver["tol"],
             "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL,
             **IPOPT_OPTIONS,
+            "ipopt.hessian_approximation": self.hessian_info["hessian"],
             "error_on_fail": False,
         }
+
+    @property
+    def hessian_info(self) -> dict:
+        """IPOPT's Hessian of this NLP and why
+        (:func:`isodesign.optimization.hessian.hessian_choice` of its size)."""
+        from isodesign.optimization.hessian import hessian_choice
+
+        return hessian_choice(self.study, getattr(self, "nx", None))
 
     # -- parameters and grid -------------------------------------------------------
     def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:

@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from isodesign.numerics.cplx import Cx
+from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.metrics import combine, design_quantities, point_quantities
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import (
@@ -269,9 +270,11 @@ class RobustProblem:
         self.ubx = np.concatenate([b.ubx[: b.nz], *[b.ubx[b.nz:]] * self.K, [EPIGRAPH_BOUND]])
         self.nx = int(x.numel())
         self.j_fn = ca.Function("scenario_objectives", [x, p], [j_vec])
+        self.hessian_info = hessian_choice(b.study, b.nx, scenarios=self.K)
         opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
                 "ipopt.max_iter": b.study.solver["max_iter"], "ipopt.tol": b.study.solver["tol"],
                 "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL, **IPOPT_OPTIONS,
+                "ipopt.hessian_approximation": self.hessian_info["hessian"],
                 "error_on_fail": False}
         self.solver = ca.nlpsol("isodesign_robust", "ipopt",
                                 {"x": x, "f": f, "g": g, "p": p}, opts)

@@ -9,12 +9,11 @@ import numpy as np
 
 from isodesign.optimization.constraints import constraint_reports
 from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
 from isodesign.optimization.scenario_check import scenario_check
 from isodesign.optimization.sensitivity import design_sensitivities, reoptimized_sensitivities
-from isodesign.plotting.robust import scenario_bars
-from isodesign.results import ResultDisplay
 
-__all__ = ["RobustResult", "scenario_rows"]
+__all__ = ["RobustResult", "scenario_constraints", "scenario_rows"]
 
 
 def scenario_rows(study, prob, sol, grid, nominal_values=None) -> list[dict]:
@@ -34,9 +33,10 @@ def scenario_rows(study, prob, sol, grid, nominal_values=None) -> list[dict]:
     -------
     list of dict
         ``index``, ``theta`` ({parameter: value}), ``description``, ``objective``
-        (natural), ``worst`` (the objective sets the worst case there, within the
-        tolerance), ``binding`` (constraints binding in that scenario), ``active``
-        (worst or binding: the scenarios that shape the design).
+        (natural), ``margin_db`` (the worst target band's margin there, dB), ``worst``
+        (the objective sets the worst case there, within the tolerance), ``binding``
+        (constraints binding in that scenario), ``active`` (worst or binding: the
+        scenarios that shape the design).
     """
     space = study.scenarios
     obj = OBJECTIVES[prob.block.objective]
@@ -47,19 +47,47 @@ def scenario_rows(study, prob, sol, grid, nominal_values=None) -> list[dict]:
         binding = [c.name for c in reps if c.active]
         # the epigraph variable of a scenario that does not set the worst case is slack in
         # the stacked NLP: its objective is evaluated afresh (NumPy analysis)
-        j = obj.from_natural(scenario_check(study, sol.values, th, grid=grid)["objective"])
+        chk = scenario_check(study, sol.values, th, grid=grid)
+        j = obj.from_natural(chk["objective"])
         worst = j >= sol.objective - tol
         nom = None if nominal_values is None else scenario_check(
             study, nominal_values, th, grid=grid)["objective"]
         rows.append({"index": k, "theta": space.as_dict(th), "description": space.describe(th),
                      "objective": obj.to_natural(j), "nominal_objective": nom,
+                     "margin_db": float(chk["criterion_margin_db"]),
                      "worst": bool(worst), "binding": binding, "active": bool(worst or binding)})
     return rows
 
 
+def scenario_constraints(study, prob, sol) -> tuple:
+    """The robust design's constraint table: each constraint in the scenario of the final
+    set where its margin is smallest (:func:`.result.worst_constraint_reports`).
+
+    Parameters
+    ----------
+    study : Study
+        With ``scenarios`` (their descriptions).
+    prob : RobustProblem
+        The stacked NLP of the final scenario set.
+    sol : RobustSolution
+        Its solution (each scenario's constraint rows).
+
+    Returns
+    -------
+    tuple of ConstraintReport
+    """
+    per = [constraint_reports(prob.block.con_rows, prob.block_g(sol, k))
+           for k in range(len(prob.thetas))]
+    return worst_constraint_reports(per, [study.scenarios.describe(th) for th in prob.thetas])
+
+
 @dataclass(frozen=True, eq=False, repr=False)
-class RobustResult(ResultDisplay):
-    """Outcome of :func:`isodesign.optimization.exchange.robust_optimize`.
+class RobustResult(RobustStudyResult):
+    """The answer to a ``robust`` study (:func:`isodesign.optimization.exchange.robust_optimize`).
+
+    The common interface is :class:`~.result.StudyResult`'s (and
+    :class:`~.result.RobustStudyResult`'s): ``constraints`` holds each constraint in the
+    scenario where its margin is smallest (:func:`scenario_constraints`).
 
     ``values`` is the robust (drawn) design, ``objective_value`` its stated worst case
     over the scenario box (natural units), ``nominal`` the nominal optimum
@@ -71,6 +99,8 @@ class RobustResult(ResultDisplay):
     An infeasible result names the scenario that cannot be met
     (``infeasible_scenario``).
     """
+
+    KIND = "robust"
 
     study: Any
     nominal: Any
@@ -90,6 +120,7 @@ class RobustResult(ResultDisplay):
     wall_s: float = 0.0
     infeasible_scenario: dict | None = None
     extra: dict = field(default_factory=dict)
+    constraints: tuple = ()
 
     # -- construction of failures ---------------------------------------------------------
     @classmethod
@@ -98,12 +129,12 @@ class RobustResult(ResultDisplay):
         return cls(study=study, nominal=nominal, values=dict(nominal.values),
                    design=nominal.design, objective=nominal.objective, objective_value=None,
                    feasible=False, converged=False, status="nominal study infeasible",
-                   wall_s=wall_s, infeasible_scenario={"description": "the nominal scenario",
-                                                       "constraint": ", ".join(
-                                                           n for n, _ in nominal.violations[:3]),
-                                                       "violation": float(max(
-                                                           (v for _, v in nominal.violations),
-                                                           default=0.0))})
+                   wall_s=wall_s, constraints=tuple(nominal.constraints),
+                   infeasible_scenario={
+                       "description": "the nominal scenario",
+                       "constraint": ", ".join(n for n, _ in nominal.violations[:3]),
+                       "violation": float(max((v for _, v in nominal.violations),
+                                              default=0.0))})
 
     @classmethod
     def infeasible(cls, study, nominal, prob, sol, k, cname, amount, rounds, wall_s):
@@ -113,35 +144,10 @@ class RobustResult(ResultDisplay):
                    design=study.design_at(sol.values), objective=prob.block.objective,
                    objective_value=None, feasible=False, converged=False, status=sol.status,
                    rounds=tuple(rounds), problem=prob, solution=sol, wall_s=wall_s,
+                   constraints=scenario_constraints(study, prob, sol),
                    infeasible_scenario={"index": k, "theta": study.scenarios.as_dict(th),
                                         "description": study.scenarios.describe(th),
                                         "constraint": cname, "violation": float(amount)})
-
-    # -- figures -------------------------------------------------------------------------------
-    @property
-    def success(self) -> bool:
-        """Feasible and converged (nothing in the box beyond the tolerances)."""
-        return self.feasible and self.converged
-
-    def raise_for_status(self) -> RobustResult:
-        """Raise :class:`~isodesign.errors.SolverError` naming the scenario that cannot be
-        met unless a robust design was found; return self (as the nominal results do)."""
-        from isodesign.errors import SolverError
-
-        if not self.feasible:
-            raise SolverError(self.failure_message())
-        return self
-
-    def failure_message(self) -> str:
-        """One line naming the scenario that cannot be met."""
-        s = self.infeasible_scenario or {}
-        return (f"no design meets every constraint in the scenario {s.get('description')} "
-                f"({self.status}); most violated there: {s.get('constraint')} "
-                f"({s.get('violation', 0.0):.3g} in the NLP's units)")
-
-    def active_scenarios(self) -> list[dict]:
-        """The scenarios that shape the robust design (worst objective or binding)."""
-        return [r for r in self.scenarios if r["active"]]
 
     def nominal_at_robust(self) -> float:
         """The robust design's objective in the nominal scenario (natural units)."""
@@ -171,51 +177,6 @@ class RobustResult(ResultDisplay):
     def reoptimized_sensitivities(self) -> dict:
         """lam_p of the final robust solve (:func:`.sensitivity.reoptimized_sensitivities`)."""
         return reoptimized_sensitivities(self.problem, self.solution)
-
-    def to_frame(self):
-        """One row per scenario of the final set."""
-        import pandas as pd
-
-        rows = []
-        for r in self.scenarios:
-            row = {"scenario": r["index"], **r["theta"], "objective": r["objective"],
-                   "worst": r["worst"], "binding": ", ".join(r["binding"]),
-                   "active": r["active"]}
-            rows.append(row)
-        return pd.DataFrame(rows)
-
-    def rounds_frame(self):
-        """One row per exchange round."""
-        import pandas as pd
-
-        return pd.DataFrame(list(self.rounds))
-
-    def _summary_items(self) -> list[tuple[str, str]]:
-        o = OBJECTIVES[self.objective]
-        v = self.values
-        items = [("study", self.study.name),
-                 ("", "robust" if self.feasible else "NO ROBUST DESIGN")]
-        if self.feasible:
-            items.append((f"worst-case {self.objective}", o.format(self.objective_value)))
-        items.append(("design", f"N {v['volume_ratio']:.4g}, V_t0 "
-                                f"{v['top_volume_m3'] * 1e3:.4g} L, L_c "
-                                f"{v['capillary_length_m'] * 1e3:.4g} mm, D_c "
-                                f"{v['capillary_diameter_m'] * 1e3:.4g} mm"))
-        items.append(("rounds", f"{len(self.rounds)}, {len(self.scenarios)} scenarios"))
-        return items
-
-    def plot(self, ax=None):
-        """The objective in each scenario of the final set (bars; the worst case a line).
-
-        Parameters
-        ----------
-        ax : matplotlib Axes, optional
-
-        Returns
-        -------
-        matplotlib.figure.Figure
-        """
-        return scenario_bars(self, ax=ax)
 
     def record(self) -> dict:
         """JSON-ready summary (robust.json)."""

@@ -28,6 +28,8 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError
+from isodesign.optimization.hessian import hessian_choice
+from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.study import study_from_dict
 from isodesign.optimization.uncertainty import (
@@ -35,14 +37,75 @@ from isodesign.optimization.uncertainty import (
     ScenarioStudy,
     UncertaintySpace,
 )
-from isodesign.results import ResultDisplay
-from isodesign.table.optimize import HESSIAN, _modes_at, optimize_table
+from isodesign.table.constraint_table import table_constraint_reports
+from isodesign.table.optimize import _modes_at, optimize_table
 from isodesign.table.problem import TableProblem
 
-__all__ = ["MAX_CORNERS", "TableRobustResult", "robust_optimize_table", "table_scenario"]
+__all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "robust_optimize_table",
+           "table_scenario", "table_sensitivities"]
 
 #: Most corners of the box scored per round (a random subset beyond).
 MAX_CORNERS = 16
+#: Central-difference step of :func:`table_sensitivities`, relative to each parameter's
+#: half-width.
+FD_STEP = 1e-3
+
+
+def table_sensitivities(study, values: dict, theta=None) -> list:
+    """Design-held sensitivities of a table design's worst margin to each parameter.
+
+    The worst margin (dB, over every point, axis and band) of the table study under a
+    scenario, the design held (a built table does not re-optimize itself), by central
+    differences of the table's NumPy band response
+    (:func:`.yields.table_draw_response`, the yield's analysis) with a step of
+    :data:`FD_STEP` times the parameter's half-width. The worst margin is the minimum over
+    the point-axis-bands: where two of them tie the difference is the mean of the two
+    one-sided slopes.
+
+    Parameters
+    ----------
+    study : Study
+        With ``[table]`` and ``[scenarios]``.
+    values : dict
+        The design (SI).
+    theta : array, optional
+        The scenario (default the nominal values of the parameters).
+
+    Returns
+    -------
+    list of Sensitivity
+        One per continuous parameter (a discrete one has no derivative): ``quantity``
+        ``"objective"`` for a worst-margin objective over every point and axis (else
+        ``"worst_band_margin"``),
+        ``per_unit`` dB per unit of the parameter (per % of a relative deviation),
+        ``effect`` over the parameter's half-width; ``binding`` False (no constraint).
+    """
+    from isodesign.optimization.sensitivity import Sensitivity
+    from isodesign.optimization.yields import table_draw_response
+    from isodesign.table.study import objective_selection
+
+    space = study.scenarios
+    th0 = np.asarray(space.nominal() if theta is None else theta, float)
+    axes, points = objective_selection(study.raw["table"], study.table)
+    every = len(axes) == 3 and len(points) == len(study.table.point_names)
+    quantity = ("objective" if study.objective["kind"] == "worst_band_margin" and every
+                else "worst_band_margin")
+    out = []
+    for k, p in enumerate(space.parameters):
+        if p.discrete or not p.half_width > 0:
+            continue
+        h = FD_STEP * p.half_width
+        m = []
+        for sign in (1.0, -1.0):
+            th = th0.copy()
+            th[k] += sign * h
+            m.append(float(table_draw_response(study, values, th)[0].worst_margin_db))
+        d = (m[0] - m[1]) / (2.0 * h)
+        pct = 0.01 if p.mode == "relative" else 1.0
+        out.append(Sensitivity(quantity, p.name, d * pct, "dB",
+                               "%" if p.mode == "relative" else p.unit,
+                               d * p.half_width, False))
+    return out
 
 
 def table_scenario(study, theta):
@@ -90,7 +153,8 @@ class _Scenarios:
     def problem(self, theta):
         key = tuple(np.round(np.asarray(theta, float), 12))
         if key not in self.cache:
-            self.cache[key] = TableProblem(table_scenario(self.study, theta), hessian=HESSIAN)
+            st = table_scenario(self.study, theta)
+            self.cache[key] = TableProblem(st, hessian=hessian_choice(self.study)["hessian"])
         return self.cache[key]
 
     def check(self, theta, values: dict, reference: float | None) -> dict:
@@ -103,11 +167,12 @@ class _Scenarios:
         _, g = prob.eval_fn(x, prob.params())
         viol = [(n, v) for n, v in prob.violations(np.asarray(g).ravel())
                 if not n.startswith(("bound_", "worst_band_margin_epigraph"))]
+        margin = prob.worst_margin_db(x)
         j = float(np.asarray(prob._j_fn(x)).ravel()[0])
         if prob.objective == "worst_band_margin":
-            j = -prob.worst_margin_db(x)
+            j = -margin
         return {"j": j, "violations": viol, "max_violation": max(v for _, v in viol),
-                "gap": None if reference is None else j - reference}
+                "gap": None if reference is None else j - reference, "margin_db": margin}
 
 
 def _stack(probs, study):
@@ -143,14 +208,21 @@ def _stack(probs, study):
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class TableRobustResult(ResultDisplay):
-    """Outcome of :func:`robust_optimize_table`.
+class TableRobustResult(RobustStudyResult):
+    """The answer to a ``robust table`` study (:func:`robust_optimize_table`).
 
-    ``values`` the robust design, ``objective_value`` its worst case (the worst margin in
-    dB, or the total volume in m^3), ``nominal`` the nominal table optimum, ``rounds`` and
-    ``scenarios`` (each: ``description``, ``theta``, ``objective``, ``worst``), and for an
-    infeasible run ``infeasible_scenario`` (the scenario and its most violated constraint).
+    The common interface is :class:`~.result.StudyResult`'s (and
+    :class:`~.result.RobustStudyResult`'s). ``values`` the robust design,
+    ``objective_value`` its worst case (the worst margin in dB, or the total volume in
+    m^3), ``nominal`` the nominal table optimum, ``rounds`` and ``scenarios`` (each:
+    ``index``, ``description``, ``theta``, ``objective``, ``nominal_objective``,
+    ``margin_db``, ``worst``, ``binding``, ``active``), ``constraints`` each constraint in
+    the scenario where its margin is smallest, ``first_worst_case`` the nominal optimum's
+    worst case over the scored scenarios, and for an infeasible run
+    ``infeasible_scenario`` (the scenario and its most violated constraint).
     """
+
+    KIND = "robust table"
 
     study: Any
     nominal: Any
@@ -165,39 +237,65 @@ class TableRobustResult(ResultDisplay):
     wall_s: float = 0.0
     infeasible_scenario: dict | None = None
     extra: dict = field(default_factory=dict)
+    constraints: tuple = ()
+    first_worst_case: float | None = None
+    first_worst_scenario: str | None = None
+    last_search_score: float | None = None
+    robust_at_nominal: float | None = None
 
-    def raise_for_status(self) -> TableRobustResult:
-        """Raise :class:`~isodesign.errors.SolverError` naming the scenario that cannot be
-        met unless a robust design was found; return self (as the nominal results do)."""
-        from isodesign.errors import SolverError
+    @property
+    def design(self):
+        """The robust spring (a :class:`~isodesign.spring.design.SpringDesign`)."""
+        return self.study.design_at(self.values)
 
-        if not self.feasible:
-            raise SolverError(self.failure_message())
-        return self
+    def nominal_worst_case(self) -> float | None:
+        """The nominal optimum's worst case over the box's corners and centre."""
+        return self.first_worst_case
 
-    def failure_message(self) -> str:
-        """One line naming the scenario that cannot be met."""
-        s = self.infeasible_scenario or {}
-        return (f"no design meets every constraint in the scenario {s.get('description')} "
-                f"({self.status}); most violated there: {s.get('constraint')} "
-                f"({s.get('violation', 0.0):.3g} in the NLP's units)")
+    def sensitivities(self, scenario: int | None = None) -> list:
+        """Design-held sensitivities of the robust design's worst margin in a scenario of
+        the final set (default: the nominal values of the parameters);
+        :func:`table_sensitivities`."""
+        th = None
+        if scenario is not None:
+            row = self.scenarios[scenario]["theta"]
+            th = np.array([row[n] for n in self.study.scenarios.names], float)
+        return table_sensitivities(self.study, self.values, th)
 
-    def to_frame(self):
-        """One row per scenario of the final set."""
-        import pandas as pd
+    def nominal_at_robust(self) -> float | None:
+        """The robust design's objective in the nominal scenario (natural units)."""
+        return self.robust_at_nominal
 
-        return pd.DataFrame([{**r["theta"], "objective": r["objective"], "worst": r["worst"]}
-                             for r in self.scenarios])
+    def record(self) -> dict:
+        """JSON-ready summary (robust.json), with the keys of the vertical robust record
+        (:meth:`.robust_result.RobustResult.record`) and ``table`` True."""
+        from isodesign.optimization.objectives import OBJECTIVES
 
-    def _summary_items(self):
-        v = self.values
-        return [("study", self.study.name), ("", "robust" if self.feasible else "NO ROBUST"),
-                ("worst case", "n/a" if self.objective_value is None
-                 else f"{self.objective_value:+.3f}"),
-                ("design", f"N {v['volume_ratio']:.4g}, V_t0 {v['top_volume_m3'] * 1e3:.4g} L, "
-                           f"L_c {v['capillary_length_m'] * 1e3:.4g} mm, D_c "
-                           f"{v['capillary_diameter_m'] * 1e3:.4g} mm"),
-                ("rounds", f"{len(self.rounds)}, {len(self.scenarios)} scenarios")]
+        out = {"feasible": self.feasible, "converged": self.converged, "status": self.status,
+               "objective": self.objective, "unit": OBJECTIVES[self.objective].unit,
+               "worst_case_objective": self.objective_value,
+               "worst_margin_db": self.worst_margin_db, "values": self.values,
+               "nominal_values": self.nominal.values,
+               "nominal_objective": self.nominal.objective_value,
+               "nominal_worst_case": self.first_worst_case, "rounds": list(self.rounds),
+               "scenarios": [dict(r) for r in self.scenarios],
+               "parameters": [p.label() for p in self.study.scenarios.parameters],
+               "settings": dict(self.study.scenarios.settings),
+               "constraints": [c.display() for c in self.constraints],
+               "limited_by": self.limited_by if self.feasible else [],
+               "verdict": self.verdict(), "hessian": self.hessian_choice(),
+               "infeasible_scenario": self.infeasible_scenario, "wall_s": self.wall_s,
+               "table": True}
+        if self.feasible:
+            out["nominal_optimum"] = {"values": self.nominal.values,
+                                      "objective": self.nominal.objective_value,
+                                      "worst_case_in_box": self.first_worst_case,
+                                      "worst_case_quantity": "objective",
+                                      "worst_case_scenario": self.first_worst_scenario}
+            out["robust_at_nominal_scenario"] = self.robust_at_nominal
+            out["last_search_score"] = self.last_search_score
+        out.update(self.extra)
+        return out
 
 
 def _natural(kind: str, j: float) -> float:
@@ -238,7 +336,8 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     if not nominal.feasible:
         return TableRobustResult(study, nominal, dict(nominal.values), kind, None, False, False,
                                  "nominal study infeasible", wall_s=time.perf_counter() - t_all,
-                                 infeasible_scenario={"description": "the nominal scenario"})
+                                 infeasible_scenario={"description": "the nominal scenario"},
+                                 constraints=tuple(nominal.constraints))
     tol = settings["tolerance_db"] if kind == "worst_band_margin" else 1e-3
     rng = np.random.default_rng(settings["seed"])
     cands = np.vstack([space.corners(limit=MAX_CORNERS, rng=rng), space.center()[None, :]])
@@ -289,6 +388,8 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
             return TableRobustResult(
                 study, nominal, values, kind, None, False, False, status,
                 rounds=tuple(rounds), wall_s=time.perf_counter() - t_all,
+                first_worst_case=_natural(kind, first[2]["j"]),
+                constraints=_scenario_constraints(space, probs, thetas, g),
                 infeasible_scenario={"description": space.describe(th),
                                      "theta": space.as_dict(th), "constraint": worst[1],
                                      "violation": float(worst[2])})
@@ -305,12 +406,36 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         if r == settings["max_rounds"] or any(np.allclose(th_w, t) for t in thetas):
             break
         thetas.append(np.asarray(th_w, float))
+    reports = _scenario_constraints(space, probs, thetas, g)
     rows = []
-    for th in thetas:
+    for k, th in enumerate(thetas):
         c = sc.check(th, values, sol_js)
-        rows.append({"theta": space.as_dict(th), "description": space.describe(th),
-                     "objective": _natural(kind, c["j"]), "worst": c["j"] >= sol_js - tol,
-                     "max_violation": c["max_violation"]})
+        c_nom = sc.check(th, nominal.values, None)
+        pr, ng = probs[k], probs[k].lbg.size
+        row0 = sum(p.lbg.size for p in probs[:k])
+        binding = [r.name for r in table_constraint_reports(pr, g[row0: row0 + ng]) if r.active]
+        worst = bool(c["j"] >= sol_js - tol)
+        rows.append({"index": k, "theta": space.as_dict(th), "description": space.describe(th),
+                     "objective": _natural(kind, c["j"]),
+                     "nominal_objective": _natural(kind, c_nom["j"]),
+                     "margin_db": float(c["margin_db"]), "worst": worst, "binding": binding,
+                     "active": bool(worst or binding), "max_violation": c["max_violation"]})
+    at_nominal = sc.check(space.nominal(), values, None)["j"]
     return TableRobustResult(study, nominal, values, kind, _natural(kind, sol_js), True,
                              converged, status, rounds=tuple(rounds), scenarios=tuple(rows),
-                             wall_s=time.perf_counter() - t_all)
+                             wall_s=time.perf_counter() - t_all, constraints=reports,
+                             first_worst_case=_natural(kind, first[2]["j"]),
+                             first_worst_scenario=space.describe(first[1]),
+                             last_search_score=float(s),
+                             robust_at_nominal=_natural(kind, at_nominal))
+
+
+def _scenario_constraints(space, probs, thetas, g) -> tuple:
+    """The constraint table of the stacked solve ``g``: each constraint in the scenario
+    where its margin is smallest."""
+    per, row = [], 0
+    for pr in probs:
+        ng = pr.lbg.size
+        per.append(table_constraint_reports(pr, g[row: row + ng]))
+        row += ng
+    return worst_constraint_reports(per, [space.describe(th) for th in thetas])

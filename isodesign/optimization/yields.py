@@ -43,7 +43,7 @@ from isodesign.plotting.robust import yield_histogram
 from isodesign.results import ResultDisplay
 
 __all__ = ["DEFAULT_YIELD_SAMPLES", "YieldResult", "clopper_pearson", "estimate_yield",
-           "optimum_yields", "wilson"]
+           "optimum_yields", "table_draw_response", "wilson"]
 
 #: Draws of each yield a robust optimize run computes by default (``--yield-samples``,
 #: the sweep's ``yield_samples``, :func:`optimum_yields`), the same for a vertical and a
@@ -120,26 +120,50 @@ def _judge(theta) -> dict:
             "peak_excess_db": c["peak_excess_db"]}
 
 
-def _judge_table(theta) -> dict:
-    """The verdict of one drawn table: the table study under the draw's scenario, its band
-    response over every point, axis and band (the NumPy closure)."""
+def table_draw_response(study, values: dict, theta):
+    """The band response of one drawn table: the table study under scenario ``theta``
+    (:func:`.robust_table.table_scenario`), the design ``values`` held, its NumPy closure
+    over every point, axis and band (``models.points_per_band`` points per band).
+
+    Parameters
+    ----------
+    study : Study
+        With ``[table]`` and ``[scenarios]``.
+    values : dict
+        The design (SI).
+    theta : array
+        The scenario, in ``study.scenarios.names`` order.
+
+    Returns
+    -------
+    (TableBandResponse, Study or ScenarioStudy)
+        The response and the scenario's study.
+    """
     import warnings
 
-    from isodesign.errors import SolverError
     from isodesign.optimization.robust_table import table_scenario
     from isodesign.table.response import table_band_response
 
+    sc = table_scenario(study, theta)
+    d = sc.design_at(values)
+    m = sc.models
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        r = table_band_response(d, sc.table, sc.floor_axes, sc.target, bands=sc.bands,
+                                points_per_band=m["points_per_band"], flow=m["flow"],
+                                amplitude_mode=m["amplitude_mode"],
+                                diaphragm=m["diaphragm"], warn=False)
+    return r, sc
+
+
+def _judge_table(theta) -> dict:
+    """The verdict of one drawn table: the table study under the draw's scenario, its band
+    response over every point, axis and band (the NumPy closure)."""
+    from isodesign.errors import SolverError
+
     study, values, _ = _CTX
     try:
-        sc = table_scenario(study, theta)
-        d = sc.design_at(values)
-        m = sc.models
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore")
-            r = table_band_response(d, sc.table, sc.floor_axes, sc.target, bands=sc.bands,
-                                    points_per_band=m["points_per_band"], flow=m["flow"],
-                                    amplitude_mode=m["amplitude_mode"],
-                                    diaphragm=m["diaphragm"], warn=False)
+        r, sc = table_draw_response(study, values, theta)
     except (InputError, SolverError) as exc:  # not a valid table, or no closure: fails
         return {"passes": False, "reason": f"invalid: {exc}", "margin_db": math.nan,
                 "max_violation": math.inf, "objective": math.nan, "peak_excess_db": math.nan}

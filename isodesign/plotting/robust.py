@@ -150,6 +150,9 @@ def robustness_figure(result, sens=None, yields=None):
     i = 1
     if sens is not None:
         sensitivity_bars(sens, ax=axes[i])
+        if getattr(result, "kind", "") == "robust table":  # not the NLP's derivatives
+            axes[i].set_title("sensitivities at the design (design held, central differences "
+                              "of the table's analysis)", fontsize=9)
         i += 1
     if yields:
         yield_histogram(list(yields), ax=axes[i])

@@ -33,28 +33,26 @@ then:
    the rocking stability of the optimum and of the start.
 
 Derivatives: the gradient and the constraint Jacobian are exact (CasADi AD); the Hessian of
-the Lagrangian is IPOPT's limited-memory quasi-Newton approximation (:data:`HESSIAN`): the
-exact Hessian through the mapped 6x6 solve gives the same optimum at several times the cost
-(``benchmarks/bench_table.py`` times both).
+the Lagrangian is chosen by :func:`isodesign.optimization.hessian.hessian_choice` (for a
+table: IPOPT's limited-memory quasi-Newton approximation, :data:`HESSIAN`; the exact Hessian
+through the mapped 6x6 solve gives the same optimum at about three times the cost,
+docs/optimization.md, "The Hessian"), and stated in the result.
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
-from isodesign.optimization.explain import (
-    constraint_table_lines,
-    limiting_factors,
-)
+from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
-from isodesign.results import ResultDisplay
+from isodesign.optimization.result import StudyResult
 from isodesign.table.constraint_table import (
     CONTINUOUS_PEAK,
     LEVELING_GAIN_MARGIN,
@@ -67,7 +65,8 @@ from isodesign.table.problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
 __all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
            "closure_springs", "leveling_check", "measure_peaks", "optimize_table"]
 
-#: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``).
+#: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``): what
+#: :func:`~isodesign.optimization.hessian.hessian_choice` gives a table study.
 HESSIAN = "limited-memory"
 #: Agreement required of the NumPy re-check (relative on sigma, dB on the margin).
 RECHECK_TOL = 1e-6
@@ -93,8 +92,12 @@ _PEAK_SHIFTS = (0.995, 1.0, 1.005)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class TableOptimizationResult(ResultDisplay):
-    """The optimum of a table study, its checks and its analysis.
+class TableOptimizationResult(StudyResult):
+    """The answer to a ``table`` study: the optimum, its checks and its analysis.
+
+    The common interface (verdict, worst margin, constraint table, starts, frames, plot,
+    text and HTML) is :class:`~isodesign.optimization.result.StudyResult`'s; the modes,
+    the rocking stability, the continuous peaks and the leveling loop are this kind's.
 
     Attributes
     ----------
@@ -149,6 +152,8 @@ class TableOptimizationResult(ResultDisplay):
     hessian : str
     """
 
+    KIND = "table"
+
     study: Any
     feasible: bool
     status: str
@@ -179,78 +184,17 @@ class TableOptimizationResult(ResultDisplay):
     #: worst margin's exact sensitivity to that bound, dB per SI unit
     #: (:meth:`~isodesign.table.problem.TableProblem.lever_sensitivities`).
     lever_sensitivity: tuple = ()
+    hessian_info: dict = field(default_factory=dict)
 
-    @property
-    def success(self) -> bool:
-        """True for a feasible, re-checked optimum that breaks no constraint."""
-        return bool(self.feasible and not self.violations)
+    def _start_values(self) -> dict:
+        return {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
 
-    def raise_for_status(self) -> TableOptimizationResult:
-        """Raise :class:`~isodesign.errors.SolverError` unless a success; return self."""
-        if not self.success:
-            what = ("no feasible design" if not self.feasible
-                    else "the design breaks a constraint")
-            raise SolverError(f"table optimization: {what} (IPOPT: {self.status}); "
-                              f"violations: " + ", ".join(f"{n} ({v:.3g})"
-                                                          for n, v in self.violations))
-        return self
+    def _start_rows(self) -> list[dict]:
+        keys = ("start", "status", "feasible", "iterations", "wall_s", "objective_nlp")
+        return [dict(zip(keys, r, strict=True)) for r in self.starts]
 
-    def verdict(self) -> str:
-        """One line over every point, axis and band, and every constraint.
-
-        PASS only for a :attr:`success` whose band analysis passes; a design that breaks a
-        constraint is a FAIL naming it, whatever its band margins.
-        """
-        if not self.feasible:
-            return (f"INFEASIBLE: no design meets the constraints (IPOPT: {self.status}); "
-                    "violations: " + ", ".join(f"{n} ({v:.3g})" for n, v in self.violations))
-        band = self.analysis.verdict() if self.analysis is not None else \
-            f"worst margin {self.objective_value:+.2f} dB on the NLP's grid"
-        if not self.violations:
-            return band
-        broken = ", ".join(f"{n} ({v:.3g}{_VIOLATION_UNITS.get(n, '')})"
-                           for n, v in self.violations)
-        return f"FAIL: constraint broken: {broken}; bands: {band}"
-
-    @property
-    def limited_by(self) -> list[str]:
-        """Sentences naming the limits that stopped the design
-        (:func:`~isodesign.optimization.explain.limiting_factors`)."""
-        return limiting_factors(self)
-
-    def constraints_frame(self):
-        """One row per constraint: value, bounds, margin, unit, binding, description (the
-        command line's units: L, mm)."""
-        import pandas as pd
-
-        return pd.DataFrame([c.display() for c in self.constraints],
-                            columns=["name", "value", "lower", "upper", "margin", "unit",
-                                     "binding", "description"])
-
-    def starts_frame(self):
-        """One row per start: status, feasible, iterations, wall time, NLP objective."""
-        import pandas as pd
-
-        return pd.DataFrame(list(self.starts), columns=["start", "status", "feasible",
-                                                        "iterations", "wall_s", "objective_nlp"])
-
-    def to_frame(self):
-        """Design variables (start and optimum), then the constraints (value, margin, binding).
-
-        SI units (``unit`` column); a constraint's ``note`` gives its margin and ``BINDING``
-        when it is within 0.5 % of its bound (0.022 dB for a peak).
-        """
-        import pandas as pd
-
-        start = {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
-        notes = self.lever_notes()
-        rows = [{"quantity": k, "start": start[k], "optimum": v, "unit": "",
-                 "note": notes.get(k, "")} for k, v in self.values.items()]
-        for c in self.constraints:
-            rows.append({"quantity": f"constraint: {c.name}", "start": None, "optimum": c.value,
-                         "unit": c.unit, "note": ("BINDING " if c.active else "")
-                         + f"margin {c.margin_natural:.3g} {c.unit}"})
-        return pd.DataFrame(rows)
+    def _variable_notes(self) -> dict:
+        return {**super()._variable_notes(), **self.lever_notes()}
 
     def lever_notes(self) -> dict:
         """Per free lever, one phrase: its active bound and the worst margin's exact
@@ -268,41 +212,39 @@ class TableOptimizationResult(ResultDisplay):
                                   f"{s['db_per_unit']:+.3g} dB per {unit} of the bound")
         return out
 
-    def _display_frame(self):
-        import pandas as pd
-
-        start = {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
-        return pd.DataFrame({"variable": list(self.values),
-                             "start": [start[k] for k in self.values],
-                             "optimum": list(self.values.values())})  # fmt: skip
-
-    def constraint_lines(self) -> list[str]:
-        """The constraint table, the binding sentence and the Hessian, as text lines."""
-        where = "the optimum" if self.feasible else "the best point found (not a design)"
-        lines = constraint_table_lines(self, f"constraints at {where}")
-        lines.append(f"Hessian: {self.hessian} (IPOPT's quasi-Newton approximation of the "
-                     "Lagrangian's; gradient and Jacobian exact)" if self.hessian !=
-                     "exact" else "Hessian: exact (CasADi)")
-        return lines
-
-    def __str__(self) -> str:
-        return super().__str__() + "\n\n" + "\n".join(self.constraint_lines())
-
-    def _summary_items(self) -> list[tuple[str, str]]:
-        items = [("", "feasible" if self.feasible else "INFEASIBLE (best point found)"),
-                 ("verdict", self.verdict()),
-                 ("objective", f"{self.objective} {self.objective_value:.4g}"),
-                 ("binding", ", ".join(c.name for c in self.constraints if c.active) or "none"),
-                 ("starts at best", f"{self.n_reached_best} of {len(self.starts)}"),
-                 ("Hessian", self.hessian),
-                 ("wall", f"{self.wall_s:.3g} s")]
+    def _kind_items(self) -> list[tuple[str, str]]:
+        items = [("starts at best", f"{self.n_reached_best} of {len(self.starts)}")]
         if self.lever_sensitivity:
             items.append(("levers", "; ".join(f"{k} {self.values[k]:.4g} ({v})" for k, v in
                                               self.lever_notes().items())))
-        if self.violations:
-            items.insert(2, ("violations", ", ".join(f"{n} {v:.3g}"
-                                                     for n, v in self.violations)))
         return items
+
+    def _figure(self):
+        from isodesign.table.plots import table_bands_figure
+
+        if self.analysis is None:
+            return super()._figure()
+        return table_bands_figure(self.analysis)
+
+    def _draw(self, ax) -> None:
+        """The worst margin per band over every point and axis, start against optimum
+        (the NLP's grid when the result has no fine-grid analysis: its stored analyses)."""
+        from isodesign.plotting.style import OPTIMUM, START
+
+        if self.analysis is None:
+            raise ValueError("plot: the table result has no band analysis (analyze=False)")
+        for label, a, style in (("start design", self.start_analysis, START),
+                                ("optimum", self.analysis, OPTIMUM)):
+            if a is None:
+                continue
+            worst = a.margin_db.reshape(-1, a.margin_db.shape[-1]).min(axis=0)
+            ax.semilogx(a.bands.centre_hz, worst, **{**style, "marker": "o"},
+                        label=f"{label} (worst {float(worst.min()):+.2f} dB)")
+        ax.axhline(0.0, color="0.3", lw=0.8)
+        ax.set_xlabel("band centre (Hz)")
+        ax.set_ylabel("worst margin over points and axes (dB)")
+        ax.set_title(self.verdict()[:80], fontsize=8)
+        ax.legend(fontsize=7)
 
 
 def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
@@ -338,7 +280,10 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         raise InputError("study: has no [table]; use isodesign.optimize")
     _refuse_levers_with_loop_bounds(study)
     t0 = time.perf_counter()
-    prob = problem if problem is not None else TableProblem(study, hessian=HESSIAN)
+    choice = hessian_choice(study)
+    prob = problem if problem is not None else TableProblem(study, hessian=choice["hessian"])
+    if prob.hessian != choice["hessian"]:  # a prebuilt NLP: its own Hessian, stated as such
+        choice = {"hessian": prob.hessian, "reason": "the prebuilt NLP's choice"}
     starts = _lever_starts(study, prob, start_points(study, prob.scaling))
     d0 = study.design_at(starts[0])
     modes0 = _modes_at(prob, d0)
@@ -420,6 +365,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
         leveling=loop, leveling_gain_hint_kg_s_per_m=gain_hint, lever_sensitivity=lever_sens,
+        hessian_info=choice,
     )
 
 

@@ -212,7 +212,7 @@ def test_exchange_on_a_small_study_holds_in_the_whole_box():
     assert res.objective_value <= res.nominal.objective_value
     rec = res.record()
     assert rec["worst_case_objective"] == res.objective_value
-    assert res.to_frame().shape[0] == len(res.scenarios)
+    assert res.scenarios_frame().shape[0] == len(res.scenarios)
 
 
 def test_a_scenario_no_design_can_meet_is_named():
