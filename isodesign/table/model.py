@@ -301,16 +301,18 @@ def table_model(design, table, *, flow: str = "quasi_steady",
     diaphragm_model(diaphragm)
     design = model_design(flow, design)  # the paper's flow models are lumped by definition
     lv = _leveled(table, float(design.piston_area_m2), float(p_atm_pa))
-    designs: list = []  # one design per distinct p0 (equal within P0_SHARE_RTOL)
     tol = TableModel.P0_SHARE_RTOL
+    own = [lv.group_springs[int(g)] for g in lv.group_of]  # a group's own spring fields
+    designs: list = []  # one design per distinct (p0 within P0_SHARE_RTOL, group spring)
     for i, p in enumerate(lv.pressure_pa):
-        same = [j for j in range(i) if abs(p - lv.pressure_pa[j]) <= tol * lv.pressure_pa[j]]
+        same = [j for j in range(i) if own[j] == own[i]
+                and abs(p - lv.pressure_pa[j]) <= tol * lv.pressure_pa[j]]
         if same:
             designs.append(designs[same[0]])
-        elif abs(p - design.pressure_pa) <= tol * p:  # already at it (a payload's p0)
+        elif not own[i] and abs(p - design.pressure_pa) <= tol * p:  # already at it
             designs.append(design)
         else:
-            designs.append(design.replace(pressure_pa=float(p)))
+            designs.append(design.replace(pressure_pa=float(p), **own[i]))
     return TableModel(table=table, design=design, leveling=lv, designs=tuple(designs), flow=flow,
                       amplitude_mode=amplitude_mode, diaphragm=diaphragm,
                       include_gravity=include_gravity)  # fmt: skip
