@@ -132,14 +132,14 @@ def bench_table_modes() -> dict:
 
 def bench_table_optimize() -> list[dict]:
     """``optimize_table(table_study())`` end to end (median of 3), against ``optimize``
-    of the vertical default study (once, same run); the exact-Hessian solve (informative).
+    of the vertical study (once, same run); the exact-Hessian solve (informative).
 
     Returns
     -------
     list of dict
     """
     from isodesign.optimization.driver import optimize
-    from isodesign.optimization.study import default_study, table_study
+    from isodesign.optimization.study import table_study, vertical_study
     from isodesign.table.optimize import optimize_table
     from isodesign.table.problem import TableProblem
 
@@ -151,7 +151,7 @@ def bench_table_optimize() -> list[dict]:
 
     t = median_time(call, n_repeats=3, warmup=0)
     t0 = time.perf_counter()
-    optimize(default_study())
+    optimize(vertical_study())
     t_vert = time.perf_counter() - t0
     r = holder["r"]
     rows = [{
@@ -164,7 +164,7 @@ def bench_table_optimize() -> list[dict]:
         "notes": f"NLP build, {len(r.starts)} starts ({r.n_reached_best} reached the best), "
                  f"mode refreshes {r.mode_rounds}, NumPy re-check, fine-grid analyses of "
                  f"optimum and start; worst margin {r.objective_value:+.2f} dB (NLP grid); "
-                 f"the vertical optimize(default_study()) (8 starts) once in the same run: "
+                 f"the vertical optimize(vertical_study()) (8 starts) once in the same run: "
                  f"{t_vert:.3g} s (table / vertical = {t['median'] / t_vert:.2f})",
     }]
     sols = {}

@@ -505,8 +505,8 @@ def test_acoustics_option_optimize_records_it(capsys, tmp_path):
     import tomllib
 
     out_dir = tmp_path / "run"
-    status, _out, _ = run(capsys, "optimize", "--acoustics", "lumped", "--starts", "1",
-                         "-o", str(out_dir), "--quiet")
+    status, _out, _ = run(capsys, "optimize", "--builtin", "vertical", "--acoustics", "lumped",
+                         "--starts", "1", "-o", str(out_dir), "--quiet")
     assert status == 0
     resolved = tomllib.loads((out_dir / "study_resolved.toml").read_text())
     assert resolved["models"]["acoustics"] == "lumped"

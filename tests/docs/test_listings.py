@@ -136,7 +136,7 @@ def test_the_matcher_skips_only_where_the_document_says_so():
 def test_readme_models_table_gives_the_springs_and_the_studys_defaults():
     import inspect
 
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
     from isodesign.response import band_response
     from isodesign.spring.stiffness import complex_stiffness
 
@@ -150,7 +150,7 @@ def test_readme_models_table_gives_the_springs_and_the_studys_defaults():
                          "acoustics"}, rows
     spring = inspect.signature(complex_stiffness).parameters
     response = inspect.signature(band_response).parameters
-    study = default_study().models
+    study = vertical_study().models
     # the acoustics is a field of the design (issue 16), the study's [models] key too
     import dataclasses
 

@@ -2,7 +2,7 @@
 
 Each entry of :data:`CHECKS` is a regular expression over the document whose named
 groups are quoted numbers; the group's name (before an optional ``__n`` suffix) is a
-key of :func:`quoted_values`, computed from a full ``optimize(default_study())``. A
+key of :func:`quoted_values`, computed from a full ``optimize(vertical_study())``. A
 quoted number must equal the computed value rounded to the precision it is printed
 with, so the document cannot drift from the code.
 """
@@ -20,7 +20,7 @@ from isodesign.optimization.driver import optimize
 from isodesign.optimization.problem import Problem
 from isodesign.optimization.recheck import evaluate_design
 from isodesign.optimization.refine import continuous_peak_db
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 from isodesign.response.random_input import band_response
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "optimization.md"
@@ -130,7 +130,7 @@ def test_every_check_matches_the_document_once():
 @pytest.fixture(scope="module")
 def quoted_values() -> dict:
     """The default study's figures the document quotes, from one full run."""
-    st = default_study()
+    st = vertical_study()
     res = optimize(st)
     assert res.feasible and res.success
     prob = Problem(st)
@@ -235,7 +235,7 @@ README_CHECKS = [
 #: figures in docs/cli.md sit between HTML comment markers.
 ROOT = Path(__file__).resolve().parents[2]
 OTHER_CHECKS = [
-    (ROOT / "isodesign" / "data" / "default_study.toml",
+    (ROOT / "isodesign" / "data" / "vertical_study.toml",
      rf"it misses VC-C at 4 Hz by # (?P<start_miss_db>{NUM}) dB"),
     (ROOT / "docs" / "cli.md",
      rf"misses VC-C at 4 Hz by <!-- demo_start_miss_db -->(?P<start_miss_db>{NUM})"

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from isodesign.optimization.driver import optimize
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 from isodesign.plotting.optimization import optimization_figure
 
 
 @pytest.fixture(scope="module")
 def result():
-    st = default_study().with_changes(solver={"starts": 1, "workers": 1},
+    st = vertical_study().with_changes(solver={"starts": 1, "workers": 1},
                                       models={"points_per_band": 4, "peak_points": 30})
     return optimize(st)
 
