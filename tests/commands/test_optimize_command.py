@@ -349,34 +349,4 @@ def test_pareto_bad_points_exit_2(capsys, tmp_path):
     assert_one_error_line(err, "--points")
 
 
-# -- demo --------------------------------------------------------------------------------------
-@pytest.mark.slow
-def test_demo_runs_the_default_optimization_and_the_stiffness_comparison(capsys, tmp_path):
-    from isodesign.commands.table_optimize import TABLE_OUTPUT_FILES
-    from isodesign.optimization.variables import TABLE_LEVERS
-
-    outdir = tmp_path / "demo"
-    status, out, err = run(capsys, "demo", "-o", str(outdir))
-    assert status == 0, err
-    for name in TABLE_OUTPUT_FILES:  # the default study is the co-designed table
-        assert (outdir / "optimize" / name).stat().st_size > 0, name
-    for name in ("stiffness.csv", "stiffness_paper_model.csv", "stiffness.png"):
-        assert (outdir / "stiffness" / name).stat().st_size > 0, name
-    design = json.loads((outdir / "optimize" / "design.json").read_text())
-    part = json.loads((outdir / "optimize" / "record.json").read_text())
-    assert part["study"]["name"] == "default" and part["table"] is True
-    assert part["run_status"] == "complete"
-    assert design["verdict"].startswith("PASS") and design["start_verdict"].startswith("FAIL")
-    assert set(design["worst_margin_per_axis_db"]) == {"x", "y", "z"}
-    assert min(design["worst_margin_per_axis_db"].values()) >= 0.0
-    assert set(TABLE_LEVERS) <= set(design["variables"])  # the levers are the optimizer's
-    assert "PASS" in out and "paper's model" in out
-    assert "Traceback" not in err
-    # issue 14: the demo writes the report, inside the run, and prints its path last
-    report = outdir / "report.html"
-    html = report.read_text()
-    assert report.stat().st_size > 10_000 and "isodesign-partial" not in html
-    assert str(outdir / "optimize") in html and "What stopped the design" in html
-    assert out.strip().splitlines()[-1] == f"report: {report} (open it in a browser)"
-    rec = json.loads((outdir / "record.json").read_text())
-    assert "report.html" in rec["files"]
+# -- demo: tests/docs/test_default_study_numbers.py (one run of the default study) ---------

@@ -29,8 +29,8 @@ DOCS = Path(__file__).resolve().parents[2] / "docs"
 LISTINGS = [
     ("response.md", "isodesign response --target VC-E -o bands.csv", False),
     ("response.md", "isodesign transmissibility --floor-amplitude 1,10,100um", False),
-    ("optimization.md", "isodesign optimize -o out/optimize", True),
-    ("optimization.md", "isodesign pareto -o out/pareto", True),
+    ("optimization.md", "isodesign optimize --builtin vertical -o out/optimize", True),
+    ("optimization.md", "isodesign pareto --builtin vertical -o out/pareto", True),
 ]
 
 _VOLATILE = [
