@@ -97,11 +97,11 @@ def evaluate(study, values: dict) -> dict:
         constraint's normalized slack, >= 0 when met) and ``feasible``.
     """
     c = study.constraints
-    d = study.design_at(values)
-    table = study.table_at(values)
     m = study.models
     out = dict(values)
-    try:
+    try:  # a spring outside the models (D_c >= L_c: an orifice) is not a candidate either
+        d = study.design_at(values)
+        table = study.table_at(values)
         with warnings.catch_warnings():
             warnings.simplefilter("ignore")
             res = table_band_response(d, table, study.floor_axes, study.target,
