@@ -6,7 +6,9 @@ isolators 1.2 x 0.8 m apart, CG 0.35 m above them, VC-A floor in three axes, VC-
 is optimized with the springs alone (its documented -4.44 dB at the corner, z, 4 Hz:
 rocking driven by the horizontal floor), then with each lever of the horizontal element
 free within its practical bounds (docs/table.md, "Co-design levers") and the others at the
-table's values, then with all four free. Each case reports the worst margin of the NLP
+table's values, then with all four free, and last the default study (all four free within
+the practical bounds of :func:`isodesign.optimization.study.default_study`, docs/table.md
+section 13, "The default study"). Each case reports the worst margin of the NLP
 (its grid) and of the fine-grid NumPy analysis of the optimum, every free lever's value,
 its active bound and the worst margin's exact sensitivity to that bound (IPOPT's bound
 multiplier), and the run's wall time.
@@ -28,17 +30,21 @@ from pathlib import Path
 
 import pandas as pd
 
-from isodesign.optimization.study import table_study
+from isodesign.optimization.study import default_study, table_study
 from isodesign.optimization.variables import TABLE_LEVER_BOUNDS, TABLE_LEVERS
 from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.optimize import optimize_table
 
-#: The cases: a name and the levers it frees.
-CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS}
+#: The cases: a name and the levers it frees ("default": the default study, its own bounds).
+CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS,
+         "default": None}
 
 
 def case_study(levers):
-    """The built-in table study with ``levers`` free (default bounds and starts)."""
+    """The built-in table study with ``levers`` free (default bounds and starts); ``None``:
+    the default study (the four levers free within its practical bounds)."""
+    if levers is None:
+        return default_study()
     st = table_study()
     if not levers:
         return st
@@ -78,15 +84,22 @@ def figure(df: pd.DataFrame):
                   ha="right", fontsize=7)
     a1.set_ylabel("worst margin to VC-C (dB, fine-grid analysis)")
     a1.set_title("built-in table: springs, one lever at a time, all", fontsize=10)
-    for j, n in enumerate(TABLE_LEVERS):
-        lo, hi = TABLE_LEVER_BOUNDS[n]
+    for j, n in enumerate(TABLE_LEVERS):  # within the wide bounds (the default study's are
+        lo, hi = TABLE_LEVER_BOUNDS[n]     # inside them)
         a2.plot(x, (df[n] - lo) / (hi - lo), marker="o", ms=4, color=f"C{j}",
                 label=f"{n} [{lo:g}, {hi:g}]")
+    if "default" in set(df["case"]):  # the default study's practical bounds, as bars
+        i = list(df["case"]).index("default")
+        for j, v in enumerate(default_study().levers):
+            lo, hi = TABLE_LEVER_BOUNDS[v.name]
+            a2.plot([i + 0.08 * (j - 1.5)] * 2, [(v.lower - lo) / (hi - lo),
+                                                  (v.upper - lo) / (hi - lo)],
+                    color=f"C{j}", lw=3, alpha=0.35)
     a2.axhline(0.0, color="k", lw=0.6, ls=":")
     a2.axhline(1.0, color="k", lw=0.6, ls=":")
     a2.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
                   ha="right", fontsize=7)
-    a2.set_ylabel("lever within its bounds (0 lower, 1 upper)")
+    a2.set_ylabel("lever within the wide bounds (0 lower, 1 upper)")
     a2.set_title("lever values at each optimum", fontsize=10)
     a2.legend(fontsize=7)
     for a in (a1, a2):

@@ -213,27 +213,32 @@ def test_an_unreachable_scheduler_is_a_clear_error_within_10_s(tmp_path):
 
 
 def test_an_output_directory_holding_another_sweep_is_refused(tmp_path):
+    from isodesign.io.record import dumps_toml
+
+    vertical = tmp_path / "vertical.toml"  # the vertical study, named
+    vertical.write_text(dumps_toml(vertical_study().raw), encoding="utf-8")
+    vertical = str(vertical)
     out = tmp_path / "s"
-    status, _, err = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+    status, _, err = run_cli("sweep", vertical, "--vary", "payload.mass_kg=300,600", "--task",
                              "response", "--scheduler", "serial", "-o", out, "--quiet",
                              "--no-plots")
     assert status == 0, err
     before = sorted(p.name for p in (out / "points").iterdir())
     for args in (["--vary", "floor.criterion=VC-A,VC-B", "--task", "response"],
                  ["--vary", "payload.mass_kg=300,600", "--task", "optimize"]):
-        status, _, err = run_cli("sweep", *args, "--scheduler", "serial", "-o", out)
+        status, _, err = run_cli("sweep", vertical, *args, "--scheduler", "serial", "-o", out)
         assert status == 2 and "holds another sweep" in err and "--overwrite" in err, err
     assert sorted(p.name for p in (out / "points").iterdir()) == before
     # a directory with other files, or another kind of run, is no sweep
     other = tmp_path / "other"
     other.mkdir()
     (other / "notes.txt").write_text("mine")
-    status, _, err = run_cli("sweep", "--vary", "payload.mass_kg=300", "--task", "response",
-                             "--scheduler", "serial", "-o", other)
+    status, _, err = run_cli("sweep", vertical, "--vary", "payload.mass_kg=300", "--task",
+                             "response", "--scheduler", "serial", "-o", other)
     assert status == 2 and "holds no isodesign sweep" in err
     assert sorted(p.name for p in other.iterdir()) == ["notes.txt"]
     # --overwrite replaces the other sweep
-    status, _, err = run_cli("sweep", "--vary", "floor.criterion=VC-A,VC-B", "--task",
+    status, _, err = run_cli("sweep", vertical, "--vary", "floor.criterion=VC-A,VC-B", "--task",
                              "response", "--scheduler", "serial", "-o", out, "--overwrite",
                              "--quiet", "--no-plots")
     assert status == 0, err
