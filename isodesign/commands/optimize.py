@@ -176,6 +176,8 @@ def canonical_command(args, name: str) -> list[str]:
     words = ["isodesign", name]
     if args.study is not None:
         words.append(str(args.study))
+    if getattr(args, "builtin", None) is not None:
+        words += ["--builtin", args.builtin]
     for opt in ("objectives", "points", "starts", "workers", "seed", "acoustics"):
         v = getattr(args, opt, None)
         if v is not None:
