@@ -43,7 +43,7 @@ def test_optimization_result_display_and_plot(result):
     from isodesign.plotting.style import new_figure
 
     text = repr(result)
-    assert text.startswith("<OptimizationResult: study default") and len(text) <= 240
+    assert text.startswith("<OptimizationResult: study vertical") and len(text) <= 240
     assert ("PASS" in text) or ("FAIL" in text)
     s = str(result)
     assert "binding" in s and "volume_ratio" in s  # key figures and the to_frame table
