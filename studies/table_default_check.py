@@ -28,7 +28,7 @@ starts, its peak refinement). Independently of the NLP, this script
 Usage::
 
     python studies/table_default_check.py -o out/table_default_check [--samples 200]
-        [--polish 4] [--evals 120] [--seed 0] [--study STUDY.toml]
+        [--polish 4] [--evals 120] [--seed 0] [--study STUDY.toml] [--product-run DIR]
 
 Outputs: ``samples.csv`` (every sample and every polished design: variables, worst margin,
 each constraint's value, feasible), ``check.json`` (the product's optimum, the best found,
@@ -187,7 +187,8 @@ def polish(study, free, values: dict, evals: int) -> dict:
 
 def check(study, *, samples: int, polish_n: int, evals: int, seed: int,
           product=None) -> tuple[dict, pd.DataFrame]:
-    """Run the check; ``product``: the study's optimum (computed when None)."""
+    """Run the check; ``product``: the study's optimum (its result, or its values by name;
+    computed when None)."""
     from isodesign.optimization.dispatch import optimize
 
     free = free_variables(study)
@@ -195,7 +196,7 @@ def check(study, *, samples: int, polish_n: int, evals: int, seed: int,
     if product is None:
         product = optimize(study)
     t_product = time.perf_counter() - t0
-    p_values = dict(product.values)
+    p_values = dict(product.values) if not isinstance(product, dict) else product
     p_eval = evaluate(study, p_values)
     rows = []
     t0 = time.perf_counter()
@@ -214,7 +215,8 @@ def check(study, *, samples: int, polish_n: int, evals: int, seed: int,
     summary = {
         "study": study.name, "free": [n for n, *_ in free],
         "product_margin_db": p_eval["margin_db"], "product_feasible": p_eval["feasible"],
-        "product_reported_margin_db": product.analysis.worst_margin_db,
+        "product_reported_margin_db": (None if isinstance(product, dict)
+                                       else product.analysis.worst_margin_db),
         "product_values": p_values, "product_wall_s": t_product,
         "samples": samples, "feasible_samples": sum(1 for r in rows if r["kind"] == "sample"
                                                     and r["feasible"]),
@@ -238,10 +240,21 @@ def main(argv=None) -> int:
     p.add_argument("--evals", type=int, default=120, help="evaluations per polish")
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--tolerance-db", type=float, default=0.05)
+    p.add_argument("--product-run", metavar="DIR",
+                   help="an isodesign optimize run directory of the same study (its "
+                   "design.json's optimum; e.g. out/demo/optimize): not optimized again")
     a = p.parse_args(argv)
     study = default_study() if a.study is None else load_study(a.study)
+    product = None
+    if a.product_run is not None:
+        run = Path(a.product_run)
+        rec = json.loads((run / "record.json").read_text(encoding="utf-8"))
+        if load_study(run / "study_resolved.toml").raw != study.raw:
+            p.error(f"--product-run: {run} is a run of another study ({rec['study']['name']!r})")
+        design = json.loads((run / "design.json").read_text(encoding="utf-8"))
+        product = {n: v["value"] for n, v in design["variables"].items()}
     summary, frame = check(study, samples=a.samples, polish_n=a.polish, evals=a.evals,
-                           seed=a.seed)
+                           seed=a.seed, product=product)
     diff = summary["best_minus_product_db"]
     summary["tolerance_db"] = a.tolerance_db
     summary["holds"] = bool(summary["product_feasible"] and (diff is None
