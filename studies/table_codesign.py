@@ -83,7 +83,8 @@ def figure(df: pd.DataFrame):
     a1.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
                   ha="right", fontsize=7)
     a1.set_ylabel("worst margin to VC-C (dB, fine-grid analysis)")
-    a1.set_title("built-in table: springs, one lever at a time, all", fontsize=10)
+    a1.set_title("built-in table: springs, one lever at a time, all"
+                 + (", the default study" if "default" in set(df["case"]) else ""), fontsize=10)
     for j, n in enumerate(TABLE_LEVERS):  # within the wide bounds (the default study's are
         lo, hi = TABLE_LEVER_BOUNDS[n]     # inside them)
         a2.plot(x, (df[n] - lo) / (hi - lo), marker="o", ms=4, color=f"C{j}",
@@ -100,7 +101,8 @@ def figure(df: pd.DataFrame):
     a2.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
                   ha="right", fontsize=7)
     a2.set_ylabel("lever within the wide bounds (0 lower, 1 upper)")
-    a2.set_title("lever values at each optimum", fontsize=10)
+    a2.set_title("lever values at each optimum (bars: the default study's bounds)"
+                 if "default" in set(df["case"]) else "lever values at each optimum", fontsize=10)
     a2.legend(fontsize=7)
     for a in (a1, a2):
         a.grid(True, alpha=0.3)
