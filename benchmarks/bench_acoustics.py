@@ -64,9 +64,9 @@ def _band_rows() -> list[dict]:
 
 def _optimize_rows() -> list[dict]:
     from isodesign.optimization.driver import optimize
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    st = default_study()
+    st = vertical_study()
     studies = {a: st.with_changes(models={"acoustics": a}) for a in ("lumped", "distributed")}
     walls = {a: [] for a in studies}
     res = {}
@@ -80,7 +80,7 @@ def _optimize_rows() -> list[dict]:
         r, w = res[a], walls[a]
         v = r.values
         out.append({
-            "name": f"`optimize(default_study())`, {a} acoustics, all 8 starts",
+            "name": f"`optimize(vertical_study())`, {a} acoustics, all 8 starts",
             "target": "",
             "unit": "s",
             "median": statistics.median(w),
@@ -109,9 +109,9 @@ def _optimize_rows() -> list[dict]:
 def _nlp_rows() -> list[dict]:
     """Where the optimize ratio comes from: the NLP's size and one solve's cost per model."""
     from isodesign.optimization.problem import Problem
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    st = default_study()
+    st = vertical_study()
     out = []
     for a in ("lumped", "distributed"):
         s = st.with_changes(models={"acoustics": a})
@@ -125,7 +125,7 @@ def _nlp_rows() -> list[dict]:
         per = {k: 1e3 * stats[f"t_wall_{k}"] / max(stats[f"n_call_{k}"], 1)
                for k in ("nlp_hess_l", "nlp_jac_g", "nlp_g")}
         out.append({
-            "name": f"NLP of the default study, {a} acoustics: one solve from the study's start",
+            "name": f"NLP of the vertical study, {a} acoustics: one solve from the study's start",
             "target": "",
             "unit": "s",
             "median": sol.wall_s,

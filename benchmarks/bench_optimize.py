@@ -144,15 +144,15 @@ def _fmt_design(vals: dict) -> str:
 
 
 # ---------------------------------------------------------------------------
-# 1. optimize(default_study())
+# 1. optimize(vertical_study())
 # ---------------------------------------------------------------------------
 def bench_optimize() -> dict:
-    """``optimize(default_study())`` end to end, median of 3."""
+    """``optimize(vertical_study())`` end to end, median of 3."""
     from isodesign.optimization.driver import optimize
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     load0 = _load()
-    t, outs = _timed(lambda: optimize(default_study()), OPTIMIZE_REPEATS)
+    t, outs = _timed(lambda: optimize(vertical_study()), OPTIMIZE_REPEATS)
     r = outs[-1]
     _CACHE["optimize"] = {"result": r, "time": t}
     objs = sorted({round(o.objective_value, 4) for o in outs})
@@ -177,7 +177,7 @@ def bench_optimize() -> dict:
         f"{r.recheck_max_rel_diff:.1e}; {peak}per start (margin dB/iterations/wall): {starts}"
     )
     return {
-        "name": "`optimize(default_study())`, all 8 starts, end to end",
+        "name": "`optimize(vertical_study())`, all 8 starts, end to end",
         "target": f"< {TARGET_OPTIMIZE_S:g} s",
         "unit": "s",
         **t,
@@ -194,10 +194,10 @@ def bench_optimize_breakdown() -> dict:
     from isodesign.optimization.recheck import recheck
     from isodesign.optimization.refine import flat_tolerance, refine_branches
     from isodesign.optimization.solution import Solution
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
     from isodesign.response import band_response
 
-    st = default_study()
+    st = vertical_study()
     load0 = _load()
     t0 = time.perf_counter()
     prob = Problem(st)
@@ -248,10 +248,10 @@ def bench_optimize_breakdown() -> dict:
     # the same 2-worker run in a fresh process with one OpenBLAS thread per process
     code = (
         "import time, warnings; warnings.simplefilter('ignore')\n"
-        "from isodesign.optimization.study import default_study\n"
+        "from isodesign.optimization.study import vertical_study\n"
         "from isodesign.optimization.problem import Problem\n"
         "from isodesign.optimization.multistart import run_starts, start_points\n"
-        "st = default_study(); p = Problem(st); s = start_points(st, p.scaling)\n"
+        "st = vertical_study(); p = Problem(st); s = start_points(st, p.scaling)\n"
         "t = time.perf_counter(); r = run_starts(p, s, workers=2)\n"
         "print(time.perf_counter() - t, sum(x.wall_s for x in r if not isinstance(x, str)))\n"
     )
@@ -363,18 +363,18 @@ def bench_cli_optimize() -> dict:
 # 2. the Pareto front
 # ---------------------------------------------------------------------------
 def bench_pareto() -> dict:
-    """``pareto_front(default_study(), points=20)``, median of 3."""
+    """``pareto_front(vertical_study(), points=20)``, median of 3."""
     from isodesign.optimization.pareto import pareto_front
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     load0 = _load()
-    t, outs = _timed(lambda: pareto_front(default_study(), points=PARETO_POINTS), PARETO_REPEATS)
+    t, outs = _timed(lambda: pareto_front(vertical_study(), points=PARETO_POINTS), PARETO_REPEATS)
     p = outs[-1]
     _CACHE["pareto"] = {"result": p, "time": t}
     v = p.values[p.front]
     hvs = sorted({round(o.hypervolume, 6) for o in outs})
     return {
-        "name": f"`pareto_front(default_study(), points={PARETO_POINTS})`",
+        "name": f"`pareto_front(vertical_study(), points={PARETO_POINTS})`",
         "target": f"< {TARGET_PARETO_S:g} s",
         "unit": "s",
         **t,
@@ -449,7 +449,7 @@ def _nsga() -> dict:
     from isodesign.optimization.problem import Problem
     from isodesign.optimization.recheck import evaluate_design
     from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     Config.warnings["not_compiled"] = False
     if "pareto" not in _CACHE:
@@ -457,7 +457,7 @@ def _nsga() -> dict:
     pr = _CACHE["pareto"]["result"]
     t_casadi = _CACHE["pareto"]["time"]["median"]
 
-    study = default_study()
+    study = vertical_study()
     space = Space(study)
     grid = build_grid(study, objectives=PARETO_OBJECTIVES)
     # per-evaluation cost, measured first (20 random designs)
@@ -847,11 +847,11 @@ def bench_nsga_equal_time() -> dict:
     from pymoo.termination.max_time import TimeBasedTermination
 
     from isodesign.optimization.grid import build_grid
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     r = _nsga()
     pr = _CACHE["pareto"]["result"]
-    study = default_study()
+    study = vertical_study()
     space = Space(study)
     grid = build_grid(study, objectives=PARETO_OBJECTIVES)
     archive = {"z": [], "f": [], "viol": [], "failures": 0, "last_error": ""}
@@ -937,9 +937,9 @@ def bench_slsqp() -> dict:
 
     from isodesign.optimization.grid import build_grid
     from isodesign.optimization.recheck import evaluate_design
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    study = default_study()
+    study = vertical_study()
     space = Space(study)
     grid = build_grid(study)
     cache: dict = {}

@@ -1,6 +1,6 @@
 """HTML reports (informative): ``isodesign.report`` for one design file, one optimize run
 directory and a three-candidate comparison (the run, the reference spring's design file,
-the default study's start design), each with its file size.
+the vertical study's start design), each with its file size.
 
 The optimize run directory is made once, untimed (``isodesign optimize`` of the default
 study, ``--no-plots``). Each timed call loads the inputs, analyses them (band responses on
@@ -30,7 +30,7 @@ def _inputs(tmp: Path) -> dict[str, list]:
         status = main(["optimize", "-o", str(run_dir), "--quiet", "--no-plots"])
     if status != 0:
         raise RuntimeError(f"isodesign optimize failed with status {status}")
-    study = Path(__file__).resolve().parent.parent / "isodesign" / "data" / "default_study.toml"
+    study = Path(__file__).resolve().parent.parent / "isodesign" / "data" / "vertical_study.toml"
     design = reference_design_path()
     return {
         "one design file": [design],

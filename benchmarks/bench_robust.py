@@ -1,4 +1,4 @@
-"""Robust design of the default study: +-5 % D_c and L_c, payload 480-720 kg (docs/robust.md).
+"""Robust design of the vertical study: +-5 % D_c and L_c, payload 480-720 kg (docs/robust.md).
 
 ``robust_optimize`` end to end (the nominal multi-start optimization included, 2 forked
 workers), median of 3 without warm-up (each about 10-20 s); then, informative, the robust
@@ -12,7 +12,7 @@ from __future__ import annotations
 import statistics
 import time
 
-#: Target of the robust default study, s.
+#: Target of the robust vertical study, s.
 TARGET_ROBUST_S = 30.0
 REPEATS = 3
 SCENARIOS = {"payload_mass_kg": {"min": 480.0, "max": 720.0},
@@ -29,12 +29,12 @@ def _load() -> str:
 
 
 def run() -> list[dict]:
-    """The robust default study's wall time and its check at 1,000 draws."""
+    """The robust vertical study's wall time and its check at 1,000 draws."""
     from isodesign.optimization.exchange import robust_optimize
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
     from isodesign.optimization.yields import estimate_yield
 
-    st = default_study().with_changes(scenarios=SCENARIOS)
+    st = vertical_study().with_changes(scenarios=SCENARIOS)
     load0 = _load()
     times, res = [], None
     for _ in range(REPEATS):
@@ -45,7 +45,7 @@ def run() -> list[dict]:
     rounds = len(res.rounds)
     nom_s = res.nominal.wall_s
     rows = [{
-        "name": "`robust_optimize` of the default study (+-5 % D_c, L_c; 480-720 kg)",
+        "name": "`robust_optimize` of the vertical study (+-5 % D_c, L_c; 480-720 kg)",
         "target": f"< {TARGET_ROBUST_S:g} s", "unit": "s", "median": med, "min": min(times),
         "max": max(times), "repeats": REPEATS, "ratio": med / TARGET_ROBUST_S,
         "passed": med < TARGET_ROBUST_S,

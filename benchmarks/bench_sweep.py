@@ -1,4 +1,4 @@
-"""Sweeps on Dask (target): 64 optimize points (the default study with one start per point,
+"""Sweeps on Dask (target): 64 optimize points (the vertical study with one start per point,
 32 payload masses x 2 floors) on a local cluster of 2 worker processes against the same
 points serially in one process: speed-up at least 1.8. Both sides run the same
 :func:`isodesign.sweeps.tasks.run_point` per point (the point's whole run directory, no
@@ -61,9 +61,9 @@ def _process_cpu_s() -> float:
 
 
 def _study():
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    return default_study().with_changes(solver={"starts": STARTS})
+    return vertical_study().with_changes(solver={"starts": STARTS})
 
 
 def _sum(res, col) -> float:
@@ -156,7 +156,7 @@ def _rows(s: dict, d: dict, load: tuple, label: str = "") -> list[dict]:
     outside = d["client_cpu"] + dask_workers
     cores = s["cpu"] / t_serial
     ceiling = WORKERS / max(cores, 1.0)
-    notes = (f"{n} points (default study, {STARTS} start each, {VARY[0]} x {VARY[1]}); serial "
+    notes = (f"{n} points (vertical study, {STARTS} start each, {VARY[0]} x {VARY[1]}); serial "
              f"{t_serial:.1f} s in one process (median point {per_point:.2f} s), local cluster "
              f"of {WORKERS} worker processes{label} {t_dask:.1f} s (warm: started and warmed "
              f"up before timing, {d['warmed']} of {WORKERS} workers warmed); results "

@@ -2,7 +2,8 @@
 4-isolator table (target < 100 ms), the three-axis optimize of the built-in table study
 (target < 10 s), each against the vertical-only path timed in the same run; informative:
 an asymmetric table's band response, the modes (nonlinear eigenproblem), and one NLP solve
-with the exact Hessian against the limited-memory one.
+with the exact Hessian against the limited-memory one; the co-designed built-in table (the
+default study) against the same study with only the spring free (target: within 5x).
 
 Run alone with ``python benchmarks/bench_table.py`` (prints the rows) or through
 ``python benchmarks/run.py table``.
@@ -10,6 +11,7 @@ Run alone with ``python benchmarks/bench_table.py`` (prints the rows) or through
 
 from __future__ import annotations
 
+import statistics
 import time
 import warnings
 
@@ -19,6 +21,11 @@ from run import median_time
 TARGET_TABLE_RESPONSE_S = 0.1
 #: Target: the default three-axis optimize (the built-in table study).
 TARGET_TABLE_OPTIMIZE_S = 10.0
+#: Target: the co-designed built-in table (the default study) within this factor of the same
+#: study with only the spring variables free (issue 24).
+TARGET_CODESIGN_RATIO = 5.0
+#: Interleaved repeats of the co-design pair.
+CODESIGN_REPEATS = 3
 
 
 def _symmetric():
@@ -132,14 +139,14 @@ def bench_table_modes() -> dict:
 
 def bench_table_optimize() -> list[dict]:
     """``optimize_table(table_study())`` end to end (median of 3), against ``optimize``
-    of the vertical default study (once, same run); the exact-Hessian solve (informative).
+    of the vertical study (once, same run); the exact-Hessian solve (informative).
 
     Returns
     -------
     list of dict
     """
     from isodesign.optimization.driver import optimize
-    from isodesign.optimization.study import default_study, table_study
+    from isodesign.optimization.study import table_study, vertical_study
     from isodesign.table.optimize import optimize_table
     from isodesign.table.problem import TableProblem
 
@@ -151,7 +158,7 @@ def bench_table_optimize() -> list[dict]:
 
     t = median_time(call, n_repeats=3, warmup=0)
     t0 = time.perf_counter()
-    optimize(default_study())
+    optimize(vertical_study())
     t_vert = time.perf_counter() - t0
     r = holder["r"]
     rows = [{
@@ -164,7 +171,7 @@ def bench_table_optimize() -> list[dict]:
         "notes": f"NLP build, {len(r.starts)} starts ({r.n_reached_best} reached the best), "
                  f"mode refreshes {r.mode_rounds}, NumPy re-check, fine-grid analyses of "
                  f"optimum and start; worst margin {r.objective_value:+.2f} dB (NLP grid); "
-                 f"the vertical optimize(default_study()) (8 starts) once in the same run: "
+                 f"the vertical optimize(vertical_study()) (8 starts) once in the same run: "
                  f"{t_vert:.3g} s (table / vertical = {t['median'] / t_vert:.2f})",
     }]
     sols = {}
@@ -185,6 +192,54 @@ def bench_table_optimize() -> list[dict]:
     return rows
 
 
+def bench_table_codesign() -> list[dict]:
+    """``optimize_table(default_study())`` (the built-in table with its four levers free)
+    against the same study with the levers fixed (only the spring free), interleaved repeats
+    in one run; the ratio of the medians.
+
+    Returns
+    -------
+    list of dict
+    """
+    from isodesign.optimization.study import default_study
+    from isodesign.table.optimize import optimize_table
+
+    st = default_study()
+    studies = {"springs": st.with_changes(variables={v.name: {"fixed": True}
+                                                     for v in st.levers}),
+               "co-designed": st}
+    walls = {k: [] for k in studies}
+    res = {}
+    for _ in range(CODESIGN_REPEATS):  # interleaved: both see the same machine load
+        for k, s in studies.items():
+            t0 = time.perf_counter()
+            res[k] = optimize_table(s)
+            walls[k].append(time.perf_counter() - t0)
+    out = []
+    for k, what in (("springs", "only the spring free (N, V_t0, L_c, D_c; levers fixed)"),
+                    ("co-designed", "the spring and the four levers free (the default "
+                                    "study)")):
+        r, w = res[k], walls[k]
+        out.append({
+            "name": f"optimize the built-in table co-design study, {what}",
+            "target": "", "unit": "s", "median": statistics.median(w), "min": min(w),
+            "max": max(w), "repeats": len(w),
+            "notes": f"{len(w)} repeats interleaved with the other row; {len(r.starts)} "
+                     f"solves ({r.n_reached_best} reached the best); worst margin "
+                     f"{r.analysis.worst_margin_db:+.2f} dB (fine-grid analysis), "
+                     f"{r.analysis.verdict().split(':')[0]}",
+        })
+    ratio = statistics.median(walls["co-designed"]) / statistics.median(walls["springs"])
+    out.append({
+        "name": "optimize the built-in table: co-designed / springs only",
+        "target": f"< {TARGET_CODESIGN_RATIO:g}", "unit": "ratio", "median": ratio,
+        "ratio": ratio / TARGET_CODESIGN_RATIO, "passed": ratio < TARGET_CODESIGN_RATIO,
+        "notes": "medians of the two rows above, measured in this run (interleaved repeats); "
+                 "the co-designed study runs 2 x starts - 1 solves (docs/table.md, section 13)",
+    })
+    return out
+
+
 def run() -> list[dict]:
     """All rows of this file.
 
@@ -195,7 +250,7 @@ def run() -> list[dict]:
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         return [bench_table_response(), bench_table_response_asymmetric(), bench_table_modes(),
-                *bench_table_optimize()]
+                *bench_table_optimize(), *bench_table_codesign()]
 
 
 if __name__ == "__main__":

@@ -8,8 +8,9 @@ The public API, importable from the top level (``isodesign.complex_stiffness``, 
   :func:`harmonic_response`, :func:`stability_figures`, python-control interop;
 * the floor: :func:`criterion`, :func:`criterion_names`, :class:`FloorSpectrum`,
   :func:`third_octave_bands`;
-* design studies: :func:`load_study`, :func:`default_study`, :func:`optimize`,
-  :func:`analyze`, :func:`pareto_front` (the subpackage is :mod:`isodesign.optimization`);
+* design studies: :func:`load_study`, :func:`default_study` (the built-in table co-designed),
+  :func:`table_study`, :func:`vertical_study`, :func:`optimize`, :func:`analyze`,
+  :func:`pareto_front` (the subpackage is :mod:`isodesign.optimization`);
 * sweeps of many studies on Dask: :func:`sweep` (:mod:`isodesign.sweeps`);
 * verification: :func:`simulate_stiffness` (time-domain rig);
 * errors: :class:`InputError`, :class:`SolverError`, :class:`ModelValidityWarning`.
@@ -71,6 +72,8 @@ _EXPORTS = {
     "Study": "optimization.study",
     "load_study": "optimization.study",
     "default_study": "optimization.study",
+    "table_study": "optimization.study",
+    "vertical_study": "optimization.study",
     "optimize": "optimization.dispatch",
     "analyze": "optimization.analyze",
     "OptimizationResult": "optimization.result",

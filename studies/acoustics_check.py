@@ -12,7 +12,7 @@ Usage (from the repository root)::
 2. The tube's half-wave resonances in the transmissibility (model, FD, ``n c / (2 L)``).
 3. The time-domain rig (lumped, nonlinear) against the distributed harmonic balance on the
    reference grid of docs/simulation.md.
-4. With ``--studies``: the default study and the 1,200 kg / 8 L study optimized with the
+4. With ``--studies``: the vertical study and the 1,200 kg / 8 L study optimized with the
    lumped and the distributed model, the default optimum with wall heat exchange, and the
    lumped robust design of docs/robust.md judged with the distributed model.
 """
@@ -104,10 +104,10 @@ def rig_figures() -> None:
 def study_figures() -> None:
     """Section 4: the studies re-optimized with both models."""
     from isodesign.optimization.driver import optimize
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
     from isodesign.response.random_input import band_response
 
-    base = default_study()
+    base = vertical_study()
     heavy = base.with_changes(**{k: v for k, v in HEAVY_STUDY.items() if k != "name"})
     for label, st in (("default", base), ("1,200 kg / 8 L", heavy)):
         for acoustics in ("lumped", "distributed"):
@@ -148,9 +148,9 @@ def study_figures() -> None:
 def robust_corner_figures() -> None:
     """docs/robust.md: the lumped robust design judged with the distributed model, corners."""
     from isodesign.optimization.scenario_check import scenario_check
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    st = default_study().with_changes(scenarios={
+    st = vertical_study().with_changes(scenarios={
         "payload_mass_kg": {"min": 480.0, "max": 720.0},
         "capillary_diameter_m": {"relative": 0.05},
         "capillary_length_m": {"relative": 0.05}})

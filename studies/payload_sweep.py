@@ -1,7 +1,7 @@
-"""Optimal spring against payload mass: the default study rerun for 300 to 1200 kg.
+"""Optimal spring against payload mass: the vertical study rerun for 300 to 1200 kg.
 
-For each payload mass (on the default study's 4 isolators) the default study
-(:func:`isodesign.optimization.study.default_study`: reference spring hardware, VC-A floor,
+For each payload mass (on the vertical study's 4 isolators) the vertical study
+(:func:`isodesign.optimization.study.vertical_study`: reference spring hardware, VC-A floor,
 VC-C needed in the 4-80 Hz bands, total volume <= 6 L, ...) is optimized again from
 scratch: one point of :func:`isodesign.sweep` per mass (``--vary payload.mass_kg=...``),
 each an independent optimization with its own multi-start, run as one Dask task on a
@@ -11,7 +11,7 @@ natural frequency, the stroke and the tube flow all change with it.
 
 Besides the optimum, each row records the best feasible start (on the sampled grid) that
 ended on a *different* volume-ratio branch (final N more than 10 % away from the
-optimum's), read from the point's run record: the default study has two local optima at
+optimum's), read from the point's run record: the vertical study has two local optima at
 the volume cap, a small-N branch (large top chamber) and a large-N branch (small top
 chamber), and which one is global can change with the payload.
 
@@ -39,9 +39,9 @@ import numpy as np
 import pandas as pd
 
 import isodesign
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 
-#: Payload masses of the sweep, kg (on the default study's 4 isolators).
+#: Payload masses of the sweep, kg (on the vertical study's 4 isolators).
 DEFAULT_MASSES_KG = (300.0, 450.0, 600.0, 800.0, 1000.0, 1200.0)
 #: Relative difference of the final N that counts as another branch.
 BRANCH_TOLERANCE = 0.10
@@ -148,13 +148,13 @@ def plot(df: pd.DataFrame, path: Path) -> Path:
             ax.text(0.5, 0.1, "the same at every payload (constraint-bound)",
                     transform=ax.transAxes, ha="center", fontsize=8, color="0.4")
         if col == "N":
-            spec = default_study().variable("volume_ratio")
+            spec = vertical_study().variable("volume_ratio")
             ax.axhline(spec.lower, color="0.6", ls="--", lw=0.8, label="bounds of N")
             ax.axhline(spec.upper, color="0.6", ls="--", lw=0.8)
     axes[0].legend(fontsize=8)
     for ax in axes[2:]:
         ax.set_xlabel("payload mass on 4 isolators (kg)")
-    st = default_study()
+    st = vertical_study()
     fig.suptitle("Default study re-optimized against payload: floor "
                  f"{st.raw['floor']['criterion']}, limit {st.raw['target']['criterion']} in "
                  f"{st.raw['target']['band_min_hz']:g}-{st.raw['target']['band_max_hz']:g} Hz, "
@@ -178,7 +178,7 @@ def main(argv=None) -> int:
     args = ap.parse_args(argv)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
-    base = default_study()
+    base = vertical_study()
     if args.starts is not None:
         base = base.with_changes(solver={"starts": args.starts})
     t0 = time.perf_counter()

@@ -63,7 +63,7 @@ def main(argv=None) -> int:
     ap.add_argument("--seeds", type=int, default=8)
     ap.add_argument("--duration", type=float, default=320.0)
     ap.add_argument("--no-optimum", action="store_true",
-                    help="skip the Monte Carlo check of the default study's optimum")
+                    help="skip the Monte Carlo check of the vertical study's optimum")
     args = ap.parse_args(argv)
     out = Path(args.output)
     out.mkdir(parents=True, exist_ok=True)
@@ -121,9 +121,9 @@ def main(argv=None) -> int:
 
 
 def optimum_check(seeds: int, duration: float) -> str:
-    """The default study's optimum under each closure, and its margin by Monte Carlo."""
+    """The vertical study's optimum under each closure, and its margin by Monte Carlo."""
     from isodesign.optimization.driver import optimize
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     lines = ["| closure of the optimization | optimum N, V_t0 (L), L_c (mm), D_c (mm) | "
              "predicted margin (analysis) | Monte Carlo margin (diaphragm: own A*; Prony at "
@@ -132,7 +132,7 @@ def optimum_check(seeds: int, duration: float) -> str:
     for method, acoustics in (("statistical", None), ("equivalent_amplitude", None),
                               ("statistical", "lumped")):
         models = {"random_method": method} | ({"acoustics": acoustics} if acoustics else {})
-        st = default_study().with_changes(models=models)
+        st = vertical_study().with_changes(models=models)
         res = optimize(st)
         d, v = res.design, res.values
         kw = {"flow": st.models["flow"], "derive_pressure": False}

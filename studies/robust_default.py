@@ -1,6 +1,6 @@
-"""Nominal against robust optimum of the default study under real tolerances.
+"""Nominal against robust optimum of the vertical study under real tolerances.
 
-The default study (:func:`isodesign.optimization.study.default_study`) with a capillary
+The vertical study (:func:`isodesign.optimization.study.vertical_study`) with a capillary
 drilled and cut to +-5 % (``capillary_diameter_m`` and ``capillary_length_m``, relative,
 uniform) and a payload anywhere in 480-720 kg (600 kg +-20 %). Runs the nominal optimum,
 the robust optimum (exchange method, :func:`isodesign.optimization.exchange.robust_optimize`),
@@ -29,7 +29,7 @@ from pathlib import Path
 import pandas as pd
 
 from isodesign.optimization.exchange import robust_optimize
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 from isodesign.optimization.yields import estimate_yield
 
 #: The tolerances of the issue: +-5 % on D_c and L_c, payload 480-720 kg.
@@ -39,13 +39,13 @@ SCENARIOS = {"payload_mass_kg": {"min": 480.0, "max": 720.0},
 
 
 def robust_default_study(acoustics: str = "lumped"):
-    """The default study with the tolerances of :data:`SCENARIOS`.
+    """The vertical study with the tolerances of :data:`SCENARIOS`.
 
     The worked example of docs/robust.md is the lumped acoustics' (``acoustics="lumped"``):
     with the distributed default the exchange method currently ends on a worse local
     optimum (docs/robust.md, section 1; ``--acoustics distributed`` shows it).
     """
-    return default_study().with_changes(scenarios=SCENARIOS, models={"acoustics": acoustics})
+    return vertical_study().with_changes(scenarios=SCENARIOS, models={"acoustics": acoustics})
 
 
 def main(argv=None) -> int:

@@ -8,11 +8,13 @@ rocking driven by the horizontal floor), then with each lever of the horizontal 
 free within its practical bounds (docs/table.md, "Co-design levers") and the others at the
 table's values, then with all four free; then the layout (the isolators' extent along x and
 y, docs/table.md section 15) alone and with the four levers, the isolators inside the table
-top's 1.5 x 1.0 m footprint and at least 0.5 m apart; and (case ``groups``) each leveling
-group's own spring, its four variables free within the shared bounds. Each case reports
-the worst margin of the NLP (its grid) and of the fine-grid NumPy analysis of the optimum,
-every free lever's value, its active bound and the worst margin's exact sensitivity to
-that bound (IPOPT's bound multiplier), and the run's wall time.
+top's 1.5 x 1.0 m footprint and at least 0.5 m apart; (case ``groups``) each leveling
+group's own spring, its four variables free within the shared bounds; and last the default
+study (all four levers free within the practical bounds of
+:func:`isodesign.optimization.study.default_study`, docs/table.md section 13, "The default
+study"). Each case reports the worst margin of the NLP (its grid) and of the fine-grid NumPy
+analysis of the optimum, every free lever's value, its active bound and the worst margin's
+exact sensitivity to that bound (IPOPT's bound multiplier), and the run's wall time.
 
 Usage::
 
@@ -31,21 +33,22 @@ from pathlib import Path
 
 import pandas as pd
 
-from isodesign.optimization.study import table_study
+from isodesign.optimization.study import default_study, table_study
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     GROUP_SPRING_LEVERS,
     LAYOUT_LEVERS,
+    TABLE_LEVER_BOUNDS,
     TABLE_LEVERS,
 )
 from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.layout import layout_extent
 from isodesign.table.optimize import optimize_table
 
-#: The cases: a name and the levers it frees.
+#: The cases: a name and the levers it frees ("default": the default study, its own bounds).
 CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS,
          "layout": LAYOUT_LEVERS, "all_and_layout": CODESIGN_LEVERS,
-         "groups": GROUP_SPRING_LEVERS}
+         "groups": GROUP_SPRING_LEVERS, "default": None}
 #: The layout's constraints in the layout cases: the table top's footprint (box_m 1.5 x 1.0
 #: m about the CG) and a minimum distance between isolators.
 LAYOUT_CONSTRAINTS = {"footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
@@ -54,7 +57,10 @@ LAYOUT_CONSTRAINTS = {"footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
 
 def case_study(levers):
     """The built-in table study with ``levers`` free (default bounds and starts), the layout
-    constraints with a free layout lever."""
+    constraints with a free layout lever; ``None``: the default study (the four levers free
+    within its practical bounds)."""
+    if levers is None:
+        return default_study()
     st = table_study()
     if not levers:
         return st
@@ -98,15 +104,25 @@ def figure(df: pd.DataFrame):
     a1.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
                   ha="right", fontsize=7)
     a1.set_ylabel("worst margin to VC-C (dB, fine-grid analysis)")
-    a1.set_title("built-in table: springs, one lever at a time, all, layout", fontsize=10)
-    for j, n in enumerate(CODESIGN_LEVERS):
-        a2.plot(x, df[f"{n}_in_bounds"], marker="o", ms=4, color=f"C{j}", label=n)
+    a1.set_title("built-in table: springs, one lever at a time, all, layout"
+                 + (", the default study" if "default" in set(df["case"]) else ""), fontsize=10)
+    for j, n in enumerate(CODESIGN_LEVERS):  # within the wide bounds (the default study's
+        a2.plot(x, df[f"{n}_in_bounds"], marker="o", ms=4, color=f"C{j}", label=n)  # inside)
+    if "default" in set(df["case"]):  # the default study's practical bounds, as bars
+        i = list(df["case"]).index("default")
+        free = [v for v in default_study().levers if v.free and v.name in TABLE_LEVER_BOUNDS]
+        for j, v in enumerate(free):
+            lo, hi = TABLE_LEVER_BOUNDS[v.name]
+            a2.plot([i + 0.08 * (j - 1.5)] * 2, [(v.lower - lo) / (hi - lo),
+                                                  (v.upper - lo) / (hi - lo)],
+                    color=f"C{CODESIGN_LEVERS.index(v.name)}", lw=3, alpha=0.35)
     a2.axhline(0.0, color="k", lw=0.6, ls=":")
     a2.axhline(1.0, color="k", lw=0.6, ls=":")
     a2.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
                   ha="right", fontsize=7)
-    a2.set_ylabel("lever within its bounds (0 lower, 1 upper)")
-    a2.set_title("lever values at each optimum", fontsize=10)
+    a2.set_ylabel("lever within the wide bounds (0 lower, 1 upper)")
+    a2.set_title("lever values at each optimum (bars: the default study's bounds)"
+                 if "default" in set(df["case"]) else "lever values at each optimum", fontsize=10)
     a2.legend(fontsize=7)
     for a in (a1, a2):
         a.grid(True, alpha=0.3)

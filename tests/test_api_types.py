@@ -10,7 +10,7 @@ import pytest
 
 import isodesign
 from isodesign.errors import InputError
-from isodesign.optimization.study import default_study, table_study
+from isodesign.optimization.study import table_study, vertical_study
 from isodesign.table import leveling as lv
 from isodesign.table import leveling_loop as ll
 from isodesign.table import modes as md
@@ -38,7 +38,7 @@ def _refused(call, *fragments):
 
 
 def test_optimize_progress_must_be_callable():
-    _refused(lambda: isodesign.optimize(default_study(), progress=5), "progress:", "callable")
+    _refused(lambda: isodesign.optimize(vertical_study(), progress=5), "progress:", "callable")
 
 
 def test_report_inputs_must_be_paths():
@@ -122,7 +122,7 @@ def test_stability_module_refuses_wrong_objects_by_name():
     from isodesign.response.stability import stability_figures, stability_of_model
     from isodesign.table.stability_report import stability_section, static_verdict
 
-    st = default_study()
+    st = vertical_study()
     _refused(lambda: stability_of_model("x", st.payload), "model:", "SpringModel")
     _refused(lambda: stability_figures("x", st.payload), "design:")
     _refused(lambda: stability_figures(st.start_design(), 5), "payload:")

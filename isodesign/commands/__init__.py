@@ -63,6 +63,13 @@ MAX_LIST_VALUES = 10_000
 #: Most points of a frequency x amplitude grid (``stiffness``, ``transmissibility``).
 MAX_GRID_POINTS = 200_000
 
+#: ``--builtin`` names (:data:`isodesign.optimization.study.BUILTIN_STUDIES`) and their help.
+BUILTIN_CHOICES = ("default", "table", "vertical")
+BUILTIN_HELP = ("default: the built-in table co-designed (the springs, the pendulum, the "
+                "elastic-centre height and the lateral element free; what STUDY omitted runs); "
+                "table: the 600 kg table in six degrees of freedom with its horizontal element "
+                "fixed; vertical: the one-degree-of-freedom payload (docs/table.md)")
+
 
 def int_option(text: str) -> int:
     """An integer option value (an argparse ``type``): digits only, at most 12 of them.

@@ -1,7 +1,8 @@
 """Modes and rocking stability of a table in six degrees of freedom.
 
 INPUT is a study file with a [table] (docs/table.md), an optimize run directory of such a
-study (its optimum is analysed), or --builtin table. The table is leveled on its three
+study (its optimum is analysed), or --builtin table (default: the co-designed table's start;
+vertical: refused, no [table]). The table is leveled on its three
 valves (each isolator's load and p0), and its six modes are solved with the isolators'
 frequency-dependent stiffness evaluated at each mode's own frequency (a nonlinear
 eigenproblem), in the linear regime (1 um). Prints the leveling, the modes (frequency,
@@ -17,7 +18,12 @@ from __future__ import annotations
 
 import argparse
 
-from isodesign.commands import add_output_dir_arguments, run_directory
+from isodesign.commands import (
+    BUILTIN_CHOICES,
+    BUILTIN_HELP,
+    add_output_dir_arguments,
+    run_directory,
+)
 
 #: Files written by ``isodesign modes``.
 OUTPUT_FILES = ("modes.csv", "stability.csv", "leveling.csv", "layout.png", "record.json")
@@ -27,8 +33,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign modes``."""
     parser.add_argument("study", nargs="?", metavar="INPUT",
                         help="study file with a [table], or an optimize run directory of one")
-    parser.add_argument("--builtin", choices=("table",),
-                        help="use a built-in study instead of INPUT (table: docs/table.md)")
+    parser.add_argument("--builtin", choices=BUILTIN_CHOICES,
+                        help="use a built-in study instead of INPUT (" + BUILTIN_HELP + ")")
     parser.add_argument("--no-plots", action="store_true", help="write no PNG file")
     add_output_dir_arguments(parser)
 
@@ -42,14 +48,18 @@ def load_table_job(args):
         With ``study`` and ``builtin``.
     """
     from isodesign.errors import InputError
-    from isodesign.optimization.study import table_study
+    from isodesign.optimization.study import BUILTIN_STUDIES
     from isodesign.reporting.inputs import input_kind, load_case
 
     if args.builtin is not None:
         if args.study is not None:
             raise InputError("--builtin: give INPUT or --builtin, not both")
-        st = table_study()
-        return st, st.start_design(), "start design of the built-in table study"
+        st = BUILTIN_STUDIES[args.builtin]()
+        if st.table is None:
+            raise InputError(f"--builtin {args.builtin}: the built-in {args.builtin} study has "
+                             "no [table] (docs/table.md); the vertical-only payload has one "
+                             "mode: see isodesign response")
+        return st, st.start_design(), f"start design of the built-in {args.builtin} study"
     if args.study is None:
         raise InputError("INPUT: give a study file with a [table] (or --builtin table)")
     kind = input_kind(args.study)

@@ -1,8 +1,10 @@
 """Optimize a design study: the spring's N, V_t0, L_c and D_c for a payload, floor and target.
 
-STUDY.toml (default: the built-in study, isodesign/data/default_study.toml) states the
-payload, the spring hardware, the floor, the instrument's criterion, the models, the
-variables' bounds, the constraints, the objective and the solver (docs/optimization.md).
+STUDY.toml (default: the built-in default study, isodesign/data/default_study.toml: the
+600 kg table in six degrees of freedom with its spring and its horizontal element co-designed,
+docs/table.md; --builtin vertical: the one-degree-of-freedom payload) states the payload, the
+spring hardware, the floor, the instrument's criterion, the models, the variables' bounds,
+the constraints, the objective and the solver (docs/optimization.md).
 Multi-start IPOPT finds the optimum; the flat direction L_c/D_c^4 is resolved by the
 documented tie-break (largest D_c); the optimum is re-checked with the NumPy analysis.
 Prints start design against optimum, every constraint with its margin (binding ones
@@ -20,7 +22,12 @@ from __future__ import annotations
 import argparse
 import sys
 
-from isodesign.commands import add_output_dir_arguments, run_directory
+from isodesign.commands import (
+    BUILTIN_CHOICES,
+    BUILTIN_HELP,
+    add_output_dir_arguments,
+    run_directory,
+)
 from isodesign.commands import int_option as _int_option
 from isodesign.errors import InputError, ModelValidityWarning
 from isodesign.io.designfile import design_to_toml
@@ -59,13 +66,13 @@ def add_study_arguments(parser: argparse.ArgumentParser) -> None:
         "study",
         nargs="?",
         metavar="STUDY.toml",
-        help="study file (docs/optimization.md); default: the built-in default study",
+        help="study file (docs/optimization.md, docs/table.md); default: the built-in default "
+        "study, the built-in table co-designed (--builtin default)",
     )
     parser.add_argument(
         "--builtin",
-        choices=("table",),
-        help="a built-in study instead of STUDY.toml (table: the 600 kg table in six "
-        "degrees of freedom, docs/table.md)",
+        choices=BUILTIN_CHOICES,
+        help="a built-in study instead of STUDY.toml (" + BUILTIN_HELP + ")",
     )
     parser.add_argument(
         "--starts",
@@ -142,9 +149,9 @@ def load_study_from_args(args):
     if getattr(args, "builtin", None) is not None:
         if args.study is not None:
             raise InputError("--builtin: give STUDY.toml or --builtin, not both")
-        from isodesign.optimization.study import table_study
+        from isodesign.optimization.study import BUILTIN_STUDIES
 
-        study = table_study()
+        study = BUILTIN_STUDIES[args.builtin]()
     else:
         study = default_study() if args.study is None else load_study(args.study)
     if changes:
@@ -169,6 +176,8 @@ def canonical_command(args, name: str) -> list[str]:
     words = ["isodesign", name]
     if args.study is not None:
         words.append(str(args.study))
+    if getattr(args, "builtin", None) is not None:
+        words += ["--builtin", args.builtin]
     for opt in ("objectives", "points", "starts", "workers", "seed", "acoustics"):
         v = getattr(args, opt, None)
         if v is not None:
@@ -182,7 +191,7 @@ def canonical_command(args, name: str) -> list[str]:
 
 def study_label(study) -> str:
     """``'name' (source)`` for summaries."""
-    src = "built-in default study" if study.source == "<default>" else study.source
+    src = "built-in vertical study" if study.source == "<default>" else study.source
     return f"{study.name!r} ({src})"
 
 

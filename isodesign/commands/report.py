@@ -39,7 +39,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--study",
         metavar="STUDY.toml",
         help="the job (payload, floor, criterion, judged bands) of design-file inputs "
-        "(default: the built-in default study)",
+        "(default: the built-in vertical study)",
     )
     parser.add_argument(
         "--label",

@@ -127,7 +127,7 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
         "--target",
         metavar="NAME|FILE.csv",
         help="the instrument's criterion: name or CSV curve; default: the study's, else the "
-        "built-in default study's (VC-C)",
+        "built-in vertical study's (VC-C)",
     )
     parser.add_argument(
         "--bands",
@@ -266,7 +266,7 @@ def refuse_robust_response(study) -> None:
         refuse(study, RESPONSE_WHAT, table=False, instead=RESPONSE_INSTEAD)
 
 
-#: Job when neither the input nor an option states it: the built-in default study's floor
+#: Job when neither the input nor an option states it: the built-in vertical study's floor
 #: and target (tests/commands/test_cli.py checks they agree with it).
 DEFAULT_FLOOR = "VC-A"
 DEFAULT_TARGET = "VC-C"

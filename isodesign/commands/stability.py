@@ -1,7 +1,8 @@
 """Static stability and the leveling loop of a table in six degrees of freedom.
 
 INPUT is a study file with a [table] (docs/table.md), an optimize run directory of such a
-study (its optimum is analysed), or --builtin table. Prints the static verdict (the gravity
+study (its optimum is analysed), or --builtin table (default: the co-designed table's start;
+vertical: refused, no [table]). Prints the static verdict (the gravity
 term, the vertical translation condensed, the sealed springs at the quasi-static 1 mHz and
 at the leveling loop's crossover), the critical CG height and the weakest direction, every
 self-consistent solution of the lowest mode, and the leveling loop of the study's
@@ -15,7 +16,12 @@ from __future__ import annotations
 
 import argparse
 
-from isodesign.commands import add_output_dir_arguments, run_directory
+from isodesign.commands import (
+    BUILTIN_CHOICES,
+    BUILTIN_HELP,
+    add_output_dir_arguments,
+    run_directory,
+)
 
 #: Files written by ``isodesign stability``.
 OUTPUT_FILES = ("stability.csv", "loop.csv", "loop.png", "record.json")
@@ -25,8 +31,8 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign stability``."""
     parser.add_argument("study", nargs="?", metavar="INPUT",
                         help="study file with a [table], or an optimize run directory of one")
-    parser.add_argument("--builtin", choices=("table",),
-                        help="use a built-in study instead of INPUT (table: docs/table.md)")
+    parser.add_argument("--builtin", choices=BUILTIN_CHOICES,
+                        help="use a built-in study instead of INPUT (" + BUILTIN_HELP + ")")
     parser.add_argument("--plot", action="store_true",
                         help="write loop.png: Bode and Nyquist plots of the three valves' loops")
     add_output_dir_arguments(parser)

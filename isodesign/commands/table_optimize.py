@@ -166,7 +166,7 @@ def failure_text(result) -> str:
     return "\n".join(lines)
 
 
-def execute_table(study, run, args, result=None) -> int:
+def execute_table(study, run, args, result=None, *, prefix: str = "") -> int:
     """Optimize a table study into the run directory ``run``; print the report; the status.
 
     Parameters
@@ -178,7 +178,11 @@ def execute_table(study, run, args, result=None) -> int:
         The optimize command's options.
     result : TableOptimizationResult, optional
         The study's optimum when already computed (a sweep point); else computed here by
-        :func:`isodesign.optimize`.
+        :func:`isodesign.optimize` (with the progress bar of ``args``).
+    prefix : str
+        A subdirectory of ``run`` for the files (``"optimize/"`` for ``isodesign demo``): the
+        run record's fields then go into ``run.record["parts"]`` and into the subdirectory's
+        own ``record.json``.
     """
     from isodesign.io.designfile import design_to_toml
     from isodesign.io.record import (
@@ -195,44 +199,54 @@ def execute_table(study, run, args, result=None) -> int:
     from isodesign.table.plots import layout_figure
     from isodesign.table.problem import PEAK_ROWS_MAX_HZ
 
-    run.record.update({"kind": "isodesign optimize", "table": True,
-                       "command_line": command_line(), "environment": environment(),
-                       "study": resolved_study_dict(study), "study_source": study.source})
-    res = optimize(study) if result is None else result
+    rec = run.record.setdefault("parts", {}).setdefault(prefix.rstrip("/"), {}) if prefix \
+        else run.record
+    rec.update({"kind": "isodesign optimize", "table": True,
+                "command_line": command_line(), "environment": environment(),
+                "study": resolved_study_dict(study), "study_source": study.source})
+    if result is None:
+        from isodesign.commands.optimize import StartProgress, progress_enabled
+
+        n = study.solver["starts"]
+        n = 2 * n - 1 if any(v.free for v in study.levers) else n
+        with StartProgress(progress_enabled(args), n, study.objective["kind"]) as bar:
+            result = optimize(study, progress=bar)
+    res = result
     start = {v.name: v.start for v in study.variables}
-    run.record.update({"feasible": res.feasible, "status": res.status,
-                       "design": res.values, "start_design": start,
-                       "objective": res.objective, "objective_value": res.objective_value,
-                       "start_objective_value": res.start_objective, "wall_s": res.wall_s,
-                       "n_reached_best": res.n_reached_best,
-                       "starts": [{"start": i, "status": stt, "feasible": bool(f),
-                                   "iterations": it, "wall_s": w}
-                                  for i, stt, f, it, w, _ in res.starts],
-                       "hessian": res.hessian, "mode_rounds": res.mode_rounds,
-                       "recheck_max_rel_diff": res.recheck_sigma_rel,
-                       "recheck_sigma_rel": res.recheck_sigma_rel,
-                       "recheck_margin_db": res.recheck_margin_db,
-                       "violations": [[n, v] for n, v in res.violations],
-                       "nlp_violations": [[n, v] for n, v in res.nlp_violations],
-                       "constraints": constraint_rows(res),
-                       "limited_by": res.limited_by if res.feasible else [],
-                       "success": res.success, "verdict": res.verdict(),
-                       "peak_refinement": _peak_record(res)})
-    run.write_csv("starts.csv", res.starts_frame())
-    run.write_text("study_resolved.toml", study_toml(study, header=(
+    rec.update({"feasible": res.feasible, "status": res.status,
+                "design": res.values, "start_design": start,
+                "objective": res.objective, "objective_value": res.objective_value,
+                "start_objective_value": res.start_objective, "wall_s": res.wall_s,
+                "n_reached_best": res.n_reached_best,
+                "starts": [{"start": i, "status": stt, "feasible": bool(f),
+                            "iterations": it, "wall_s": w}
+                           for i, stt, f, it, w, _ in res.starts],
+                "hessian": res.hessian, "mode_rounds": res.mode_rounds,
+                "recheck_max_rel_diff": res.recheck_sigma_rel,
+                "recheck_sigma_rel": res.recheck_sigma_rel,
+                "recheck_margin_db": res.recheck_margin_db,
+                "violations": [[n, v] for n, v in res.violations],
+                "nlp_violations": [[n, v] for n, v in res.nlp_violations],
+                "constraints": constraint_rows(res),
+                "limited_by": res.limited_by if res.feasible else [],
+                "success": res.success, "verdict": res.verdict(),
+                "peak_refinement": _peak_record(res)})
+    run.write_csv(prefix + "starts.csv", res.starts_frame())
+    run.write_text(prefix + "study_resolved.toml", study_toml(study, header=(
         "Resolved study of an isodesign optimize run (a table study).\n"
-        f"Replay: isodesign optimize {run.final_path('study_resolved.toml')} -o NEWDIR")))
+        f"Replay: isodesign optimize {run.final_path(prefix + 'study_resolved.toml')} -o NEWDIR")))
     if not res.feasible:
         run.status = "infeasible"
+        _part_record(run, rec, prefix, "infeasible")
         print(failure_text(res))
         sys.stdout.flush()
         print(f"isodesign: error: no feasible design ({res.status}); violations: "
               + ", ".join(f"{n} ({v:.3g})" for n, v in res.violations)
-              + f"; wrote {run.final_path('record.json')} (run_status infeasible)",
+              + f"; wrote {run.final_path(prefix + 'record.json')} (run_status infeasible)",
               file=sys.stderr)
         return 1
     models = resolved_study_dict(study).get("models")
-    run.write_text("design.toml", design_to_toml(res.design, models=models, header=(
+    run.write_text(prefix + "design.toml", design_to_toml(res.design, models=models, header=(
         f"Optimized spring of the table study {study.name!r} (isodesign optimize); each "
         "isolator's p0 comes from the table's leveling (docs/table.md).")))
     variables = {}
@@ -270,7 +284,7 @@ def execute_table(study, run, args, result=None) -> int:
                 "tilt_margin": float(rocking_stability(analysis.model).margin[0]),
                 "total_volume_m3": values["top_volume_m3"] * (1 + values["volume_ratio"])}
 
-    run.write_json("design.json", {
+    run.write_json(prefix + "design.json", {
         "derived": derived(res.analysis, res.modes, res.values),
         "start_derived": derived(res.start_analysis, res.start_modes, start),
         "variables": variables, "objective": {"kind": res.objective,
@@ -290,12 +304,12 @@ def execute_table(study, run, args, result=None) -> int:
         "modes": res.modes.to_frame()[["mode", "name", "frequency_hz",
                                        "damping_ratio"]].to_dict("records"),
         "notes": list(res.analysis.notes)})
-    run.write_csv("bands.csv", _bands_frame(res))
-    run.write_csv("modes.csv", res.modes.to_frame())
+    run.write_csv(prefix + "bands.csv", _bands_frame(res))
+    run.write_csv(prefix + "modes.csv", res.modes.to_frame())
     if not args.no_plots:
-        with run.writing("response.png") as tmp:
+        with run.writing(prefix + "response.png") as tmp:
             save_figure(res.analysis.plot(), tmp)
-        with run.writing("layout.png") as tmp:
+        with run.writing(prefix + "layout.png") as tmp:
             save_figure(layout_figure(study.table_at(res.values), res.analysis.model.leveling),
                         tmp)
     if args.quiet:
@@ -303,16 +317,23 @@ def execute_table(study, run, args, result=None) -> int:
               f"{res.verdict()}")
     else:
         print(table_summary_text(res))
-        print(f"wrote {run.target}")
+        print(f"wrote {run.final_path(prefix) if prefix else run.target}")
+    _part_record(run, rec, prefix, "infeasible" if res.violations else "complete")
     if res.violations:  # a design that breaks a constraint is not a success
         run.status = "infeasible"
         sys.stdout.flush()
         print("isodesign: error: the design breaks a constraint: " + ", ".join(
             f"{n} ({v:.3g})" for n, v in res.violations)
-            + f"; wrote {run.final_path('record.json')} (run_status infeasible)",
+            + f"; wrote {run.final_path(prefix + 'record.json')} (run_status infeasible)",
             file=sys.stderr)
         return 1
     return 0
+
+
+def _part_record(run, rec: dict, prefix: str, status: str) -> None:
+    """A part's own ``record.json`` (a run inside ``isodesign demo``'s directory)."""
+    if prefix:
+        run.write_json(prefix + "record.json", {**rec, "run_status": status})
 
 
 def _peak_record(res) -> dict:

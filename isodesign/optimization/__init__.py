@@ -42,6 +42,8 @@ from isodesign._lazy import lazy_exports
 _EXPORTS = {
     "Study": "study",
     "default_study": "study",
+    "table_study": "study",
+    "vertical_study": "study",
     "load_study": "study",
     "study_from_dict": "study",
     "DESIGN_VARIABLES": "variables",

@@ -1,8 +1,7 @@
 """Design studies: what to optimize, under which constraints, on which floor.
 
-A study is a TOML file with SI values (see ``docs/optimization.md`` for the
-schema and :func:`default_study` for the built-in one). :func:`load_study`
-validates every key and names the key and its valid range in every error.
+A study is a TOML file with SI values (``docs/optimization.md``; built-in: :func:`default_study`,
+:func:`table_study`, :func:`vertical_study`). :func:`load_study` validates every key.
 
 Tables and keys
 ---------------
@@ -389,7 +388,7 @@ def _check_keys(d: dict, table: str, where: str):
 def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = True) -> Study:
     """Validate a study dictionary (the TOML schema), filling in defaults.
 
-    Missing tables and keys take the built-in default study's values, so a
+    Missing tables and keys take the built-in vertical study's values, so a
     study file need only state what differs. Every error names the file, the
     table and the key. Each table is validated by its own function
     (``_payload``, ``_hardware``, ``_floor``, ``_target``, ``_models``,
@@ -405,7 +404,7 @@ def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = Tr
         diaphragm table paths are resolved against its directory; errors start
         with it), or ``"<dict>"`` / ``"<default>"``.
     fill_defaults : bool
-        Fill missing tables and keys from the default study (:func:`default_study`);
+        Fill missing tables and keys from the vertical study (:func:`vertical_study`);
         False when ``d`` is already resolved (:meth:`Study.with_changes`).
 
     Returns
@@ -501,7 +500,7 @@ def _check_all_keys(d: dict, where: str) -> None:
 
 
 def _resolve(d: dict, fill_defaults: bool) -> dict:
-    """The study with the default study's values filled in."""
+    """The study with the vertical study's values filled in."""
     raw = _merge(_DEFAULT, d) if fill_defaults else copy.deepcopy(d)
     # a user's floor or hardware table replaces the default's alternatives
     if fill_defaults and "floor" in d:
@@ -848,7 +847,7 @@ def _check_start_design(st: Study, where: str) -> None:
 
 
 def load_study(path) -> Study:
-    """Read and validate a study TOML file (missing keys take the default study's values).
+    """Read and validate a study TOML file (missing keys take the vertical study's values).
 
     Parameters
     ----------
@@ -876,22 +875,26 @@ def load_study(path) -> Study:
 
 
 def default_study() -> Study:
-    """The built-in default study (see ``docs/optimization.md``)."""
-    return study_from_dict({}, source="<default>")
+    """The built-in default study (``data/default_study.toml``): :func:`table_study` with its
+    co-design levers free within practical bounds (docs/table.md, section 13)."""
+    return _builtin("default_study.toml")
 
 
 def vertical_study() -> Study:
-    """The built-in vertical study: every key at its default (``data/default_study.toml``)."""
-    return study_from_dict({}, source="<default>")
+    """The built-in vertical study: every key at its default (``data/vertical_study.toml``)."""
+    return study_from_dict({"name": "vertical"}, source="<default>")
 
 
 def table_study() -> Study:
-    """The built-in table study (``isodesign/data/table_study.toml``, docs/table.md).
+    """The built-in table study (``isodesign/data/table_study.toml``, docs/table.md): 600 kg
+    on four isolators 1.2 x 0.8 m apart, CG 0.35 m above them, VC-A floor in three axes."""
+    return _builtin("table_study.toml")
 
-    A 600 kg table on four isolators 1.2 x 0.8 m apart, its CG 0.35 m above them, on a
-    VC-A floor in three axes, for an instrument that needs VC-C in every axis.
-    """
+
+def _builtin(name: str) -> Study:
     from importlib import resources
-
-    with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
+    with resources.as_file(resources.files("isodesign") / "data" / name) as p:
         return load_study(p)
+
+
+BUILTIN_STUDIES = {"default": default_study, "table": table_study, "vertical": vertical_study}

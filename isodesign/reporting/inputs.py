@@ -4,7 +4,7 @@ An input is one of
 
 * a design file (TOML with ``volume_ratio`` ...): the spring; its ``[models]`` table (the
   models it was made with) and ``[load]`` table are used; the job (payload, floor,
-  criterion, judged bands) is the built-in default study's unless a study is given;
+  criterion, judged bands) is the built-in vertical study's unless a study is given;
 * a study file (TOML with ``[payload]``, ``[floor]``, ``[target]`` ...): the job, and the
   study's start design;
 * an ``isodesign optimize`` run directory (``record.json`` of kind ``isodesign optimize``,
@@ -29,7 +29,7 @@ from isodesign.errors import InputError
 from isodesign.io.designfile import design_from_dict, load_design_models
 from isodesign.io.files import read_toml
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.study import Study, default_study, load_study, study_from_dict
+from isodesign.optimization.study import Study, load_study, study_from_dict, vertical_study
 from isodesign.response.random_input import band_response
 
 __all__ = ["MODEL_DEFAULTS", "Case", "best_pareto_point", "input_kind", "load_case"]
@@ -58,7 +58,7 @@ class Case:
         With p0 derived from the payload.
     study : Study
         The job (payload, floor, target, judged bands, constraints); for a design file
-        the built-in default study (or the one given).
+        the built-in vertical study (or the one given).
     models : dict
         ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method`` in force.
     models_source : str
@@ -148,9 +148,9 @@ def _study_models(study: Study) -> dict:
 
 def _design_case(p: Path, study: Study | None, label: str | None) -> Case:
     d = read_toml(p, what="design")
-    job = study or default_study()
+    job = study or vertical_study()
     job_source = (f"study {study.source}" if study is not None and study.source
-                  else "the built-in default study (no study given)")
+                  else "the built-in vertical study (no study given)")
     load = d.get("load") if isinstance(d, dict) else None
     if isinstance(load, dict) and study is None:
         job = job.with_changes(payload={k: load[k] for k in ("mass_kg", "isolators")
@@ -261,7 +261,7 @@ def load_case(path, *, study=None, label: str | None = None) -> Case:
     ----------
     path : str or Path
     study : str, Path or Study, optional
-        The job of a design file (default: the built-in default study).
+        The job of a design file (default: the built-in vertical study).
     label : str, optional
         Name in tables and legends (default from the input).
 

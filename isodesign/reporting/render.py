@@ -61,7 +61,7 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
         Where to write the HTML; default: return the text only.
     study : str or Path, optional
         The job (payload, floor, criterion, bands) of design-file inputs (default: the
-        built-in default study).
+        built-in vertical study).
     labels : sequence of str, optional
         Names of the candidates (default from the inputs).
     command : sequence of str, optional

@@ -171,7 +171,8 @@ def table_job_rows(case, t: dict) -> list[tuple[str, str]]:
         ("instrument points", pts),
         ("horizontal element", f"pendulum {h.pendulum_length_m:g} m, lateral stiffness "
                                f"{h.lateral_stiffness_n_per_m:g} N/m, loss factor "
-                               f"{h.lateral_loss_factor:g}"),
+                               f"{h.lateral_loss_factor:g}, elastic centre "
+                               f"{h.elastic_centre_height_m:g} m above the support plane"),
     ]
 
 

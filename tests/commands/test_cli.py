@@ -390,26 +390,7 @@ def test_criteria_bad_input(capsys, argv, name):
     assert_one_error_line(err, name)
 
 
-# -- demo ---------------------------------------------------------------------------------------
-@pytest.mark.slow
-def test_demo_writes_both_models_and_the_optimization(capsys, tmp_path):
-    out_dir = tmp_path / "demo"
-    status, out, err = run(capsys, "demo", "-o", str(out_dir))
-    assert status == 0
-    stiff = out_dir / "stiffness"
-    for name in ("stiffness.csv", "stiffness_paper_model.csv", "stiffness.png"):
-        assert (stiff / name).stat().st_size > 0
-    default = pd.read_csv(stiff / "stiffness.csv")
-    paper = pd.read_csv(stiff / "stiffness_paper_model.csv")
-    assert len(default) == len(paper) == 105
-    assert default["valid"].all()
-    assert not paper["valid"].any()
-    assert "paper's model" in out and "default model" in out
-    # the main job: the default optimization study
-    for name in ("design.json", "bands.csv", "starts.csv", "record.json", "study_resolved.toml"):
-        assert (out_dir / "optimize" / name).stat().st_size > 0
-    assert all(line.startswith("isodesign: warning: ") for line in err.splitlines())
-    assert any("paper's model" in line for line in err.splitlines())
+# -- demo: tests/docs/test_default_study_numbers.py (one run of the default study) -----------
 
 
 # -- real processes -----------------------------------------------------------------------------
@@ -505,8 +486,8 @@ def test_acoustics_option_optimize_records_it(capsys, tmp_path):
     import tomllib
 
     out_dir = tmp_path / "run"
-    status, _out, _ = run(capsys, "optimize", "--acoustics", "lumped", "--starts", "1",
-                         "-o", str(out_dir), "--quiet")
+    status, _out, _ = run(capsys, "optimize", "--builtin", "vertical", "--acoustics", "lumped",
+                         "--starts", "1", "-o", str(out_dir), "--quiet")
     assert status == 0
     resolved = tomllib.loads((out_dir / "study_resolved.toml").read_text())
     assert resolved["models"]["acoustics"] == "lumped"

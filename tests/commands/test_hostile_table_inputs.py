@@ -371,14 +371,14 @@ def test_study_acoustics_refused_naming_both(study, fragments):
 
 
 def test_study_lumped_flow_recorded_as_lumped():
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     st = study_from_dict({"models": {"flow": "poiseuille"}}, source="s.toml")
     assert st.models["acoustics"] == "lumped" == st.raw["models"]["acoustics"]
     assert st.start_design().acoustics == "lumped"
     with pytest.raises(InputError, match=r"models\.flow"):
         st.with_changes(models={"acoustics": "distributed"})
-    hx = default_study().with_changes(hardware={"chamber_heat_exchange": True})
+    hx = vertical_study().with_changes(hardware={"chamber_heat_exchange": True})
     with pytest.raises(InputError, match=r"hardware\.chamber_heat_exchange"):
         hx.with_changes(models={"acoustics": "lumped"})
 

@@ -21,7 +21,7 @@ from isodesign.io.plausible import UnitWarning, unit_slips
 from isodesign.optimization.constraints import BINDING_TOL, DISPLAY_UNITS
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.explain import MODEL_VALIDITY_CONSTRAINTS
-from isodesign.optimization.study import default_study, load_study, study_from_dict
+from isodesign.optimization.study import load_study, study_from_dict, vertical_study
 from isodesign.response import band_response
 from isodesign.response.isolator import Payload
 from isodesign.spring.design import SpringDesign
@@ -141,7 +141,7 @@ def test_the_newcomer_study_gives_no_unit_warning(newcomer_run):
 
 
 def test_str_and_html_of_a_result_state_units_and_have_no_nan_start():
-    st = default_study().with_changes(solver={"starts": 1, "workers": 1},
+    st = vertical_study().with_changes(solver={"starts": 1, "workers": 1},
                                       models={"points_per_band": 4, "peak_points": 30})
     res = optimize(st)
     s = str(res)
@@ -172,7 +172,7 @@ def test_a_constraint_within_the_tolerance_is_binding():
 def test_response_prints_db_and_uses_the_default_studys_target(capsys):
     from isodesign.commands.response import DEFAULT_FLOOR, DEFAULT_TARGET
 
-    st = default_study()
+    st = vertical_study()
     assert DEFAULT_TARGET == st.target.name and DEFAULT_FLOOR == st.raw["floor"]["criterion"]
     status, out, _ = run(capsys, "response")
     assert status == 0
@@ -242,8 +242,8 @@ def test_a_unit_slip_is_one_warning_line_on_the_command_line(capsys, tmp_path):
     # the default study and a design file of the reference spring give none
     with warnings.catch_warnings():
         warnings.simplefilter("error", UnitWarning)
-        default_study()
-        default_study().with_changes(payload={"mass_kg": 900.0})
+        vertical_study()
+        vertical_study().with_changes(payload={"mass_kg": 900.0})
 
 
 def test_bands_outside_the_floor_name_the_key_and_the_value(capsys, tmp_path):
@@ -257,15 +257,15 @@ def test_bands_outside_the_floor_name_the_key_and_the_value(capsys, tmp_path):
 
 
 def test_study_repr_html_and_with_changes():
-    st = default_study()
+    st = vertical_study()
     r = repr(st)
-    assert r.startswith("<Study 'default': 600 kg on 4 isolators") and len(r) < 200
+    assert r.startswith("<Study 'vertical': 600 kg on 4 isolators") and len(r) < 200
     assert "<table>" in st._repr_html_() and "max_total_volume_m3 = 0.006" in str(st)
     ch = st.with_changes(payload={"mass_kg": 900.0})
-    assert ch.name == "default (changed)"
-    assert "Changed from study 'default': [payload]" in ch.raw["description"]
-    assert ch.with_changes(objective={"kind": "total_volume"}).name == "default (changed)"
-    assert st.with_changes(solver={"starts": 2}).name == "default"  # solving, not the study
+    assert ch.name == "vertical (changed)"
+    assert "Changed from study 'vertical': [payload]" in ch.raw["description"]
+    assert ch.with_changes(objective={"kind": "total_volume"}).name == "vertical (changed)"
+    assert st.with_changes(solver={"starts": 2}).name == "vertical"  # solving, not the study
     named = st.with_changes(name="heavier", description="900 kg", payload={"mass_kg": 900.0})
     assert named.name == "heavier" and named.raw["description"] == "900 kg"
 
@@ -323,13 +323,13 @@ def test_the_pareto_plot_marks_the_envelope_and_explains_each_break():
 def test_a_study_level_scope_for_answers_over_many_designs():
     from isodesign.response.scope import study_scope
 
-    sc = study_scope(default_study())
+    sc = study_scope(vertical_study())
     lines = sc.lines()
     assert lines[0].startswith("scope: vertical motion of a 600 kg point-mass payload on 4")
     assert sc.illustrative_share is None
     assert lines[-1].startswith("illustrative: the viscoelastic diaphragm") and "per design" \
         in lines[-1]
-    assert study_scope(default_study().with_changes(models={"diaphragm": "none"})).lines()[
+    assert study_scope(vertical_study().with_changes(models={"diaphragm": "none"})).lines()[
         -1].startswith("not modelled")
 
 

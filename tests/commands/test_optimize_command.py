@@ -18,7 +18,7 @@ import pytest
 
 from isodesign.cli import main
 from isodesign.commands.optimize import OUTPUT_FILES
-from isodesign.optimization.study import default_study, load_study
+from isodesign.optimization.study import load_study, vertical_study
 
 FAST_STUDY = """\
 name = "fast"
@@ -79,11 +79,30 @@ def optimized(fast_study, tmp_path_factory):
 
 
 # -- the default study file -------------------------------------------------------------------
-def test_default_study_file_is_the_builtin_study():
+def test_vertical_study_file_is_the_builtin_vertical_study():
     from importlib import resources
 
-    path = resources.files("isodesign") / "data" / "default_study.toml"
-    assert load_study(path).raw == default_study().raw
+    path = resources.files("isodesign") / "data" / "vertical_study.toml"
+    assert load_study(path).raw == vertical_study().raw
+
+
+def test_the_default_study_is_the_builtin_table_with_its_levers_free():
+    """default_study() is table_study() with the four levers free within the bounds its file
+    states (docs/table.md, section 13); everything else is the built-in table's."""
+    from isodesign.optimization.study import default_study, table_study
+    from isodesign.optimization.variables import TABLE_LEVERS
+
+    st, tb = default_study(), table_study()
+    assert st.table is not None and st.name == "default"
+    bounds = {v.name: (v.lower, v.upper) for v in st.levers}
+    assert [v.name for v in st.levers if v.free] == list(TABLE_LEVERS)
+    same = tb.with_changes(name="default", description=st.raw["description"], variables={
+        n: {"fixed": False, "lower": lo, "upper": hi} for n, (lo, hi) in bounds.items()},
+        solver={"starts": 3})  # 5 solves (docs/table.md, section 13)
+    assert same.raw == st.raw
+    for v in st.levers:  # each start is the table's element, inside practical bounds
+        assert v.start == getattr(tb.table.horizontal, v.name)
+        assert v.lower <= v.start <= v.upper
 
 
 def test_resolved_study_toml_round_trips(tmp_path, fast_study):
@@ -331,27 +350,4 @@ def test_pareto_bad_points_exit_2(capsys, tmp_path):
     assert_one_error_line(err, "--points")
 
 
-# -- demo --------------------------------------------------------------------------------------
-@pytest.mark.slow
-def test_demo_runs_the_default_optimization_and_the_stiffness_comparison(capsys, tmp_path):
-    outdir = tmp_path / "demo"
-    status, out, err = run(capsys, "demo", "-o", str(outdir))
-    assert status == 0, err
-    for name in OUTPUT_FILES:
-        assert (outdir / "optimize" / name).stat().st_size > 0, name
-    for name in ("stiffness.csv", "stiffness_paper_model.csv", "stiffness.png"):
-        assert (outdir / "stiffness" / name).stat().st_size > 0, name
-    design = json.loads((outdir / "optimize" / "design.json").read_text())
-    assert design["study"] == "default"
-    assert design["derived"]["passes"] is True
-    assert design["start_derived"]["passes"] is False
-    assert "PASS" in out and "paper's model" in out
-    assert "Traceback" not in err
-    # issue 14: the demo writes the report, inside the run, and prints its path last
-    report = outdir / "report.html"
-    html = report.read_text()
-    assert report.stat().st_size > 10_000 and "isodesign-partial" not in html
-    assert str(outdir / "optimize") in html and "What stopped the design" in html
-    assert out.strip().splitlines()[-1] == f"report: {report} (open it in a browser)"
-    rec = json.loads((outdir / "record.json").read_text())
-    assert "report.html" in rec["files"]
+# -- demo: tests/docs/test_default_study_numbers.py (one run of the default study) ---------

@@ -17,7 +17,7 @@ import pandas as pd
 import pytest
 
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import default_study, study_from_dict
+from isodesign.optimization.study import study_from_dict, vertical_study
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -29,7 +29,7 @@ def cli(*argv):
 
 
 def small_vertical():
-    return default_study().with_changes(models={"points_per_band": 3, "peak_points": 30},
+    return vertical_study().with_changes(models={"points_per_band": 3, "peak_points": 30},
                                         solver={"starts": 2, "workers": 1})
 
 

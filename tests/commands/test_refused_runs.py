@@ -77,12 +77,12 @@ def assert_untouched(target, before: dict | None) -> None:
 @pytest.fixture(scope="module")
 def inputs(tmp_path_factory):
     from isodesign.io.designfile import design_to_toml
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     d = tmp_path_factory.mktemp("inputs")
     (d / "fast.toml").write_text(FAST)
     (d / "robust.toml").write_text(SCENARIOS)
-    (d / "design.toml").write_text(design_to_toml(default_study().start_design()))
+    (d / "design.toml").write_text(design_to_toml(vertical_study().start_design()))
     src = (resources.files("isodesign") / "data" / "table_study.toml").read_text()
     # a damping bound only the horizontal element could meet on the yaw mode (2.5 Hz): the
     # loader accepts it, the table optimizer finds it when it freezes the start's modes

@@ -16,7 +16,7 @@ import isodesign
 from isodesign.commands.response import refuse_robust_response
 from isodesign.errors import InputError
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import default_study, study_from_dict, table_study
+from isodesign.optimization.study import study_from_dict, table_study, vertical_study
 
 ROOT = Path(__file__).resolve().parents[2]
 SCENARIOS = {"payload_mass_kg": {"min": 540.0, "max": 660.0},
@@ -24,7 +24,7 @@ SCENARIOS = {"payload_mass_kg": {"min": 540.0, "max": 660.0},
 
 
 def robust_vertical():
-    return default_study().with_changes(scenarios=copy.deepcopy(SCENARIOS))
+    return vertical_study().with_changes(scenarios=copy.deepcopy(SCENARIOS))
 
 
 def robust_table():
@@ -75,6 +75,6 @@ def test_the_response_task_of_a_point_refuses_scenarios_too(tmp_path):
 
 
 def test_a_nominal_study_still_has_its_response():
-    refuse_robust_response(default_study())  # no [scenarios]: nothing refused
+    refuse_robust_response(vertical_study())  # no [scenarios]: nothing refused
     refuse_robust_response(table_study())
     refuse_robust_response(None)  # a design file: no study

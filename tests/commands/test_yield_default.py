@@ -18,7 +18,7 @@ import pytest
 import isodesign
 from isodesign.errors import InputError
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import default_study, study_from_dict, table_study
+from isodesign.optimization.study import study_from_dict, table_study, vertical_study
 from isodesign.optimization.yields import DEFAULT_YIELD_SAMPLES, estimate_yield, optimum_yields
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -43,7 +43,7 @@ def test_the_help_states_the_one_default():
 
 
 def small_robust():
-    return default_study().with_changes(
+    return vertical_study().with_changes(
         models={"points_per_band": 3, "peak_points": 30}, solver={"starts": 2, "workers": 1},
         scenarios={"payload_mass_kg": {"min": 540.0, "max": 660.0},
                    "capillary_diameter_m": {"relative": 0.03}})

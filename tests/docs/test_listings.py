@@ -29,8 +29,8 @@ DOCS = Path(__file__).resolve().parents[2] / "docs"
 LISTINGS = [
     ("response.md", "isodesign response --target VC-E -o bands.csv", False),
     ("response.md", "isodesign transmissibility --floor-amplitude 1,10,100um", False),
-    ("optimization.md", "isodesign optimize -o out/optimize", True),
-    ("optimization.md", "isodesign pareto -o out/pareto", True),
+    ("optimization.md", "isodesign optimize --builtin vertical -o out/optimize", True),
+    ("optimization.md", "isodesign pareto --builtin vertical -o out/pareto", True),
 ]
 
 _VOLATILE = [
@@ -136,7 +136,7 @@ def test_the_matcher_skips_only_where_the_document_says_so():
 def test_readme_models_table_gives_the_springs_and_the_studys_defaults():
     import inspect
 
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
     from isodesign.response import band_response
     from isodesign.spring.stiffness import complex_stiffness
 
@@ -150,7 +150,7 @@ def test_readme_models_table_gives_the_springs_and_the_studys_defaults():
                          "acoustics"}, rows
     spring = inspect.signature(complex_stiffness).parameters
     response = inspect.signature(band_response).parameters
-    study = default_study().models
+    study = vertical_study().models
     # the acoustics is a field of the design (issue 16), the study's [models] key too
     import dataclasses
 

@@ -12,7 +12,7 @@ import warnings
 import pytest
 
 from isodesign.io.plausible import MIN_LOAD_PER_ISOLATOR_KG, UnitWarning, unit_slips
-from isodesign.optimization.study import default_study, study_from_dict
+from isodesign.optimization.study import study_from_dict, vertical_study
 from isodesign.sweeps.spec import build_points
 
 
@@ -25,7 +25,7 @@ def _unit_warnings(call) -> list[str]:
 
 def test_sweep_points_in_tonnes_warn_per_point():
     msgs = _unit_warnings(lambda: build_points(
-        default_study(), [{"payload.mass_kg": 0.5}, {"payload.mass_kg": 0.6}]))
+        vertical_study(), [{"payload.mass_kg": 0.5}, {"payload.mass_kg": 0.6}]))
     assert len(msgs) == 2, msgs
     assert "payload.mass_kg = 0.5 kg on 4 isolators" in msgs[0]
     assert "0.125 kg per isolator" in msgs[0] and "0.5 t would be 500 kg" in msgs[0]
@@ -34,7 +34,7 @@ def test_sweep_points_in_tonnes_warn_per_point():
 
 def test_realistic_payloads_do_not_warn():
     assert not _unit_warnings(lambda: build_points(
-        default_study(), [{"payload.mass_kg": 500.0}, {"payload.mass_kg": 600.0}]))
+        vertical_study(), [{"payload.mass_kg": 500.0}, {"payload.mass_kg": 600.0}]))
     assert not _unit_warnings(lambda: study_from_dict({"payload": {"mass_kg": 8.0}}))
 
 
@@ -42,7 +42,7 @@ def test_the_study_loader_uses_the_studys_isolators():
     # 12 kg is plausible on one isolator, not on eight (given in the file or the base study)
     assert _unit_warnings(lambda: study_from_dict(
         {"payload": {"mass_kg": 12.0, "isolators": 8}}, source="s.toml"))
-    st = default_study().with_changes({"payload.isolators": 8})
+    st = vertical_study().with_changes({"payload.isolators": 8})
     msgs = _unit_warnings(lambda: st.with_changes({"payload.mass_kg": 12.0}))
     assert any("on 8 isolators is 1.5 kg per isolator" in m for m in msgs), msgs
 

@@ -44,9 +44,9 @@ def test_pareto_record_of_an_infeasible_sweep_point_is_strict_json(tmp_path):
     """An infeasible sweep point has NaN objective values (NumPy scalars of the front)."""
     from isodesign.io.record import pareto_record
     from isodesign.optimization.pareto import ParetoResult
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    st = default_study()
+    st = vertical_study()
     design = {v.name: v.start for v in st.variables}
     res = ParetoResult(
         objectives=("worst_band_margin", "total_volume"),

@@ -81,9 +81,9 @@ def test_nlp_build_in_a_sweep_point_uses_no_second_thread(monkeypatch):
     import numpy as np
 
     from isodesign.optimization import problem
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    st = default_study().with_changes(models={"points_per_band": 3, "peak_points": 20})
+    st = vertical_study().with_changes(models={"points_per_band": 3, "peak_points": 20})
 
     class NoThreads:
         def __init__(self, *a, **k):

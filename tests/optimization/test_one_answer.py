@@ -17,7 +17,7 @@ import pytest
 import isodesign
 from isodesign.errors import InputError
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import default_study, study_from_dict
+from isodesign.optimization.study import study_from_dict, vertical_study
 
 ROOT = Path(__file__).resolve().parents[2]
 DESIGN_KEYS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary_diameter_m")
@@ -25,7 +25,7 @@ DESIGN_KEYS = ("volume_ratio", "top_volume_m3", "capillary_length_m", "capillary
 
 def small_robust():
     """The default study with a small payload and drill tolerance box (coarse grids)."""
-    return default_study().with_changes(
+    return vertical_study().with_changes(
         models={"points_per_band": 3, "peak_points": 30}, solver={"starts": 2, "workers": 1},
         scenarios={"payload_mass_kg": {"min": 540.0, "max": 660.0},
                    "capillary_diameter_m": {"relative": 0.03}})
@@ -47,7 +47,7 @@ def test_the_public_optimize_is_the_dispatcher(small_table_study):
 
     assert isodesign.optimize is dispatch.optimize
     assert isodesign.optimization.optimize is dispatch.optimize
-    assert dispatch.study_kind(default_study()) == "vertical"
+    assert dispatch.study_kind(vertical_study()) == "vertical"
     assert dispatch.study_kind(small_table_study()) == "table"
     assert dispatch.study_kind(small_robust()) == "robust"
 

@@ -23,7 +23,7 @@ from isodesign.optimization.grid import build_grid
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.recheck import RECHECK_RTOL, evaluate_design
 from isodesign.optimization.refine import FLAT_TOLERANCE_DB, TIE_BREAK_SLACK
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 from isodesign.optimization.variables import DESIGN_VARIABLES
 from isodesign.response.isolator import natural_frequency_hz, zener_damping_ratio
 from isodesign.spring.gas import AIR, G_STANDARD, P_ATM
@@ -112,7 +112,7 @@ def classical_study(n: float, peak_points: int):
     limits (acoustic compactness of the tube, laminar Reynolds number at the floor-driven
     stroke) only cut the L_c/D_c valley and would make the test depend on the floor.
     """
-    return default_study().with_changes(
+    return vertical_study().with_changes(
         models={"flow": "poiseuille", "diaphragm": "none", "points_per_band": 4,
                 "peak_points": peak_points},
         variables={"volume_ratio": {"start": n, "fixed": True},
@@ -284,7 +284,7 @@ def test_objective_value_is_the_returned_designs_objective_after_a_tie_break():
 # --------------------------------------------------------------------------------------------
 @pytest.fixture(scope="module")
 def default_run():
-    st = default_study().with_changes(models=REDUCED, solver={"starts": 4})
+    st = vertical_study().with_changes(models=REDUCED, solver={"starts": 4})
     return st, optimize(st)
 
 
@@ -377,7 +377,7 @@ def volume_study(**constraints):
     rises as the volume falls, so the minimum volume is the one with f_n = f_max. (The
     capillary does not enter K0 or the volume; it is fixed so that the answer is one point.)
     """
-    return default_study().with_changes(
+    return vertical_study().with_changes(
         models={"diaphragm": "none", "points_per_band": 3, "peak_points": 20},
         variables={"capillary_length_m": {"start": 1.2e-2, "fixed": True},
                    "capillary_diameter_m": {"start": 0.9e-3, "fixed": True}},
@@ -472,7 +472,7 @@ def test_infeasible_study_is_reported(case):
 def test_fixed_variable_stays_fixed(name, value):
     # the lumped acoustics, whose optimum these refinement figures describe; the
     # distributed default is checked by test_fixed_variable_stays_fixed_distributed
-    st = default_study().with_changes(models={**REDUCED, "acoustics": "lumped"},
+    st = vertical_study().with_changes(models={**REDUCED, "acoustics": "lumped"},
                                       solver={"starts": 2},
                                       variables={name: {"start": value, "fixed": True}})
     assert st.variable(name).fixed
@@ -513,7 +513,7 @@ def test_winning_start_is_the_best_branch_after_the_peak_refinement():
     # the lumped acoustics, where these branches were measured; with the distributed default
     # the optimizer's own refinement and this re-solve of the same branch differ by 2.6e-4 dB
     # (a flatter valley without the lumped cap on L_c; noted in the issue-16 report)
-    st = default_study().with_changes(payload={"mass_kg": 720.0},
+    st = vertical_study().with_changes(payload={"mass_kg": 720.0},
                                       models={"acoustics": "lumped"})
     res = optimize(st, analyze=False)
     assert res.feasible
@@ -550,7 +550,7 @@ def test_fixed_variable_stays_fixed_distributed():
     peak refinement's outcome reported honestly. Without the lumped cap on L_c the optimum
     moves to a 181 mm tube; on this reduced 40-point peak grid the exchange method's four
     rounds end 0.37 dB above the bound (measured), which the result flags as a violation."""
-    st = default_study().with_changes(models=REDUCED, solver={"starts": 2},
+    st = vertical_study().with_changes(models=REDUCED, solver={"starts": 2},
                                       variables={"volume_ratio": {"start": 3.0, "fixed": True}})
     res = optimize(st)
     assert res.feasible and res.recheck_max_rel_diff <= RECHECK_RTOL, res.status

@@ -13,7 +13,7 @@ from isodesign.optimization import FEASIBILITY_TOLERANCE
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.pareto import hypervolume_2d, nondominated, pareto_front
 from isodesign.optimization.recheck import evaluate_design
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 
 STAIRS = [(1.0, 3.0), (2.0, 2.0), (3.0, 1.0)]
 
@@ -132,7 +132,7 @@ def test_hypervolume_against_cell_counting(seed):
 )
 def test_pareto_front_refuses_bad_input(objectives, points, fragment):
     with pytest.raises(InputError, match=fragment):
-        pareto_front(default_study(), objectives=objectives, points=points)
+        pareto_front(vertical_study(), objectives=objectives, points=points)
 
 
 # --------------------------------------------------------------------------------------------
@@ -143,7 +143,7 @@ POINTS = 4
 
 @pytest.fixture(scope="module")
 def front():
-    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40},
+    st = vertical_study().with_changes(models={"points_per_band": 4, "peak_points": 40},
                                       solver={"starts": 2})
     return st, pareto_front(st, points=POINTS), optimize(st)
 
@@ -306,7 +306,7 @@ def test_anchor_b_is_the_minimum_of_b_with_or_without_the_band(monkeypatch):
 
     # the lumped acoustics: with the distributed default the unbounded solve from this start
     # ends Infeasible_Problem_Detected (IPOPT; noted in the issue-16 report)
-    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40,
+    st = vertical_study().with_changes(models={"points_per_band": 4, "peak_points": 40,
                                               "acoustics": "lumped"})
     st = st.with_changes(objective={"kind": "worst_band_margin"})
     prob = Problem(st, objectives=("worst_band_margin", "total_volume"))
@@ -326,7 +326,7 @@ def _lumped_pareto_problem():
     """The small lumped study of the anchor tests, its two-objective NLP and A's optimum."""
     from isodesign.optimization.problem import Problem
 
-    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40,
+    st = vertical_study().with_changes(models={"points_per_band": 4, "peak_points": 40,
                                               "acoustics": "lumped"})
     st = st.with_changes(objective={"kind": "worst_band_margin"})
     prob = Problem(st, objectives=("worst_band_margin", "total_volume"))
@@ -403,7 +403,7 @@ def test_a_front_against_an_epigraph_objective_reports_its_true_values():
     from isodesign.optimization.problem import Problem
     from isodesign.optimization.refine import PEAK_TOLERANCE_DB, continuous_peak_db
 
-    st = default_study().with_changes(models={"points_per_band": 4, "peak_points": 40},
+    st = vertical_study().with_changes(models={"points_per_band": 4, "peak_points": 40},
                                       solver={"starts": 2})
     objs = ("worst_band_margin", "peak_transmissibility")
     pf = pareto_front(st, objectives=objs, points=4)

@@ -10,7 +10,7 @@ import pytest
 from isodesign.errors import SolverError
 from isodesign.optimization.problem import Problem
 from isodesign.optimization.recheck import RECHECK_RTOL, evaluate_design, recheck
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 
 #: A small grid: the re-check compares the NLP and the NumPy path on the same grid.
 SMALL = {"points_per_band": 3, "peak_points": 20}
@@ -18,7 +18,7 @@ SMALL = {"points_per_band": 3, "peak_points": 20}
 
 def test_evaluate_design_of_a_one_frequency_objective_on_another_study():
     """transmissibility_at asked of a study whose own objective is another one."""
-    st = default_study().with_changes(models=SMALL)
+    st = vertical_study().with_changes(models=SMALL)
     assert st.objective["kind"] == "worst_band_margin"
     vals = {v.name: v.start for v in st.variables}
     ev = evaluate_design(st, vals, objectives=("transmissibility_at", "worst_band_margin"))
@@ -35,7 +35,7 @@ def test_evaluate_design_of_a_one_frequency_objective_on_another_study():
 @pytest.fixture(scope="module")
 def rms_point():
     """An rms_velocity study's NLP at the start design (implicit unknowns solved)."""
-    st = default_study().with_changes(models=SMALL, objective={"kind": "rms_velocity"},
+    st = vertical_study().with_changes(models=SMALL, objective={"kind": "rms_velocity"},
                                       solver={"starts": 1})
     prob = Problem(st)
     vals = {v.name: v.start for v in st.variables}

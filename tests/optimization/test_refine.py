@@ -7,7 +7,7 @@ import pytest
 from isodesign.io.record import grid_notes, optimization_design, optimization_record
 from isodesign.optimization import refine
 from isodesign.optimization.driver import optimize
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 
 #: A coarse base peak grid (10 points over ~0.2-18 Hz, 1.6x apart): the sampled |T|
 #: misses the resonance peak, which the default study's 15 dB bound makes binding.
@@ -17,7 +17,7 @@ COARSE = {"points_per_band": 3, "peak_points": 10}
 @pytest.fixture(scope="module")
 def unmet_run():
     """The refinement allowed no round: the continuous peak stays above the bound."""
-    st = default_study().with_changes(models=COARSE, solver={"starts": 2})
+    st = vertical_study().with_changes(models=COARSE, solver={"starts": 2})
     with pytest.MonkeyPatch.context() as mp:
         mp.setattr(refine, "PEAK_ROUNDS", 0)
         res = optimize(st)
@@ -48,7 +48,7 @@ def test_a_peak_above_the_bound_after_the_last_round_is_flagged(unmet_run):
 def test_a_met_refinement_has_no_violation_and_an_accurate_note():
     """With the refinement's rounds the same study meets the bound; a grid note, if any,
     says the bound is enforced on the peak grid plus the refinement's frequencies."""
-    st = default_study().with_changes(models=COARSE, solver={"starts": 2})
+    st = vertical_study().with_changes(models=COARSE, solver={"starts": 2})
     res = optimize(st)
     assert res.peak["met"] is True and res.peak["rounds"] >= 1
     assert res.violations == () and res.success
@@ -68,7 +68,7 @@ def test_a_branch_that_joins_a_better_one_is_not_refined_twice():
     from isodesign.optimization.multistart import run_starts, start_points
     from isodesign.optimization.problem import Problem
 
-    st = default_study().with_changes(models={"acoustics": "lumped"})
+    st = vertical_study().with_changes(models={"acoustics": "lumped"})
     par = optimize(st, analyze=False)
     ser = optimize(st.with_changes(solver={"workers": 1}), analyze=False)
     assert par.objective_value == ser.objective_value and par.values == ser.values
@@ -121,7 +121,7 @@ def test_only_the_winner_is_tie_broken(monkeypatch):
 
     monkeypatch.setattr(refine, "_finish", watched_finish)
     monkeypatch.setattr(refine, "tie_break", watched_tie_break)
-    st = default_study().with_changes(models=COARSE, solver={"starts": 4, "workers": 1})
+    st = vertical_study().with_changes(models=COARSE, solver={"starts": 4, "workers": 1})
     res = optimize(st, analyze=False)
     assert res.feasible and len(res.branches) >= 2
     win = res.branches[0][0]

@@ -12,7 +12,7 @@ from isodesign.optimization.exchange import robust_optimize, scenario_check
 from isodesign.optimization.recheck import evaluate_design
 from isodesign.optimization.robust import RobustProblem, ScenarioBlock
 from isodesign.optimization.sensitivity import design_sensitivities
-from isodesign.optimization.study import default_study, study_from_dict
+from isodesign.optimization.study import study_from_dict, vertical_study
 from isodesign.optimization.uncertainty import ScenarioStudy
 from isodesign.optimization.yields import clopper_pearson, estimate_yield, wilson
 from isodesign.spring.gas import P_ATM
@@ -33,12 +33,12 @@ ALL = {"payload_mass_kg": {"min": 480.0, "max": 720.0},
 
 
 def _study(scen, **kw):
-    return default_study().with_changes(scenarios=scen, **{**FAST, **kw})
+    return vertical_study().with_changes(scenarios=scen, **{**FAST, **kw})
 
 
 # -- the [scenarios] table -----------------------------------------------------------------
 def test_scenarios_are_off_by_default():
-    st = default_study()
+    st = vertical_study()
     assert st.scenarios is None and "scenarios" not in st.raw
 
 
@@ -251,7 +251,7 @@ def _judge_at_1000_draws(st):
 def test_default_robust_optimum_holds_at_1000_draws():
     """The issue's judgement with the lumped acoustics: the worked example of
     docs/robust.md, whose numbers are checked here; the nominal optimum does not hold."""
-    st = default_study().with_changes(scenarios=JUDGED_SCENARIOS,
+    st = vertical_study().with_changes(scenarios=JUDGED_SCENARIOS,
                                       models={"acoustics": "lumped"})
     res, y = _judge_at_1000_draws(st)
     yn = estimate_yield(st, res.nominal.values, samples=1000, seed=1, workers=2)
@@ -262,7 +262,7 @@ def test_default_robust_optimum_holds_at_1000_draws():
 @pytest.mark.slow
 def test_default_robust_optimum_holds_at_1000_draws_with_the_default_acoustics():
     """The issue's judgement on the study as shipped (distributed acoustics, the default)."""
-    st = default_study().with_changes(scenarios=JUDGED_SCENARIOS)
+    st = vertical_study().with_changes(scenarios=JUDGED_SCENARIOS)
     assert st.models["acoustics"] == "distributed"
     _judge_at_1000_draws(st)
 
@@ -334,7 +334,7 @@ def test_yield_is_the_same_on_one_or_two_workers_and_counts_failures():
     with pytest.raises(InputError, match="samples"):
         estimate_yield(st, DESIGN, samples=0)
     with pytest.raises(InputError, match="scenarios"):
-        estimate_yield(default_study(), DESIGN, samples=5)
+        estimate_yield(vertical_study(), DESIGN, samples=5)
 
 
 def _table_study(scen):

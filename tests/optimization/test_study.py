@@ -11,9 +11,9 @@ from isodesign.errors import InputError
 from isodesign.io.record import dumps_toml
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.study import (
-    default_study,
     load_study,
     study_from_dict,
+    vertical_study,
 )
 from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
 from isodesign.spring.gas import G_STANDARD, P_ATM
@@ -39,7 +39,7 @@ def _valid_list(msg: str) -> set[str]:
 # the default study
 # --------------------------------------------------------------------------------------------
 def test_default_study_loads_and_p0_carries_the_payload():
-    st = default_study()
+    st = vertical_study()
     assert st.source == "<default>"
     assert [v.name for v in st.variables] == list(DESIGN_VARIABLES)
     m, n, ap = 600.0, 4, 5.3e-3  # the default study's payload and piston (paper Table 1)
@@ -53,16 +53,16 @@ def test_default_study_loads_and_p0_carries_the_payload():
         assert v.lower <= v.start <= v.upper
         assert getattr(d, v.name) == v.start
     assert st.objective["kind"] in OBJECTIVES
-    # an empty study file means the default study
-    assert study_from_dict({}, source="empty.toml").raw == st.raw
+    # an empty study file means the vertical study (under the name "default")
+    assert study_from_dict({}, source="empty.toml").raw == {**st.raw, "name": "default"}
 
 
 def test_default_study_file_loads(tmp_path):
     p = tmp_path / "default.toml"
-    p.write_text(dumps_toml(default_study().raw), encoding="utf-8")
+    p.write_text(dumps_toml(vertical_study().raw), encoding="utf-8")
     st = load_study(p)
     assert st.source == str(p)
-    assert st.start_design().pressure_pa == default_study().start_design().pressure_pa
+    assert st.start_design().pressure_pa == vertical_study().start_design().pressure_pa
 
 
 # --------------------------------------------------------------------------------------------
@@ -276,7 +276,7 @@ def test_transmissibility_at_needs_a_frequency():
 
 def test_min_tilt_margin_needs_spacing_and_cg_height():
     for missing in ("spacing_m", "cg_height_m"):
-        raw = copy.deepcopy(default_study().raw)
+        raw = copy.deepcopy(vertical_study().raw)
         del raw["payload"][missing]
         with pytest.raises(InputError) as exc:
             study_from_dict(raw, source=SRC, fill_defaults=False)
@@ -329,7 +329,7 @@ def test_a_partial_file_takes_the_defaults(tmp_path):
     p.write_text("[variables.capillary_diameter_m]\nupper = 1.2e-3\n\n"
                  "[constraints]\nmax_mach = false\n", encoding="utf-8")
     st = load_study(p)
-    d0 = default_study()
+    d0 = vertical_study()
     v = st.variable("capillary_diameter_m")
     assert (v.start, v.lower, v.upper) == (d0.variable("capillary_diameter_m").start,
                                            d0.variable("capillary_diameter_m").lower, 1.2e-3)
@@ -341,7 +341,7 @@ def test_a_partial_file_takes_the_defaults(tmp_path):
 # with_changes
 # --------------------------------------------------------------------------------------------
 def test_with_changes_validates_again():
-    st = default_study()
+    st = vertical_study()
     raw_before = copy.deepcopy(st.raw)
     with pytest.raises(InputError, match="singular at Re_w"):
         st.with_changes(models={"flow": "zhao"})
@@ -355,7 +355,7 @@ def test_with_changes_validates_again():
 
 
 def test_with_changes_updates_a_copy():
-    st = default_study()
+    st = vertical_study()
     new = st.with_changes(models={"points_per_band": 4}, objective={"kind": "total_volume"},
                           constraints={"max_mach": False})
     assert new.models["points_per_band"] == 4
@@ -368,7 +368,7 @@ def test_with_changes_updates_a_copy():
 
 
 def test_with_changes_merges_a_variable_like_a_study_file():
-    st = default_study()
+    st = vertical_study()
     change = {"capillary_diameter_m": {"upper": 1.2e-3}}
     from_file = study_from_dict({"variables": change})
     new = st.with_changes(variables=change)
@@ -395,7 +395,7 @@ def _modified_raw() -> dict:
     )).raw
 
 
-@pytest.mark.parametrize("raw", [default_study().raw, _modified_raw()],
+@pytest.mark.parametrize("raw", [vertical_study().raw, _modified_raw()],
                          ids=["default", "modified"])
 def test_toml_round_trip(tmp_path, raw):
     p = tmp_path / "study_resolved.toml"
@@ -412,21 +412,21 @@ def test_toml_round_trip(tmp_path, raw):
 
 def test_acoustics_and_chamber_keys():
     """[models] acoustics and the chamber shape reach the design; bad values are named."""
-    st = default_study().with_changes(models={"acoustics": "lumped"},
+    st = vertical_study().with_changes(models={"acoustics": "lumped"},
                                       hardware={"chamber_aspect_ratio": 2.0})
     d = st.start_design()
     assert d.acoustics == "lumped" and d.chamber_aspect_ratio == 2.0
-    st = default_study().with_changes(hardware={"chamber_heat_exchange": True})
+    st = vertical_study().with_changes(hardware={"chamber_heat_exchange": True})
     assert st.start_design().chamber_heat_exchange
     # the lumped chambers have no heat exchange: refused naming both keys (issue 23)
     with pytest.raises(InputError, match=r"models\.acoustics.*hardware\.chamber_heat_exchange"):
-        default_study().with_changes(models={"acoustics": "lumped"},
+        vertical_study().with_changes(models={"acoustics": "lumped"},
                                      hardware={"chamber_heat_exchange": True})
-    assert default_study().start_design().acoustics == "distributed"
+    assert vertical_study().start_design().acoustics == "distributed"
     with pytest.raises(InputError, match=r"models\.acoustics"):
-        default_study().with_changes(models={"acoustics": "wave"})
+        vertical_study().with_changes(models={"acoustics": "wave"})
     with pytest.raises(InputError, match=r"hardware\.chamber_aspect_ratio"):
-        default_study().with_changes(hardware={"chamber_aspect_ratio": 0.0})
+        vertical_study().with_changes(hardware={"chamber_aspect_ratio": 0.0})
     with pytest.raises(InputError, match="chamber_heat_exchange"):
-        default_study().with_changes(hardware={"chamber_heat_exchange": True,
+        vertical_study().with_changes(hardware={"chamber_heat_exchange": True,
                                                "polytropic_index": 1.2})

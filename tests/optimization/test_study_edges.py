@@ -8,7 +8,7 @@ import pytest
 from isodesign.errors import InputError
 from isodesign.optimization.driver import optimize
 from isodesign.optimization.pareto import pareto_front
-from isodesign.optimization.study import default_study, study_from_dict
+from isodesign.optimization.study import study_from_dict, vertical_study
 from isodesign.spring.diagnostics import MAX_STATIC_PRESSURE_PA
 
 ALL_FIXED = {"variables": {
@@ -57,7 +57,7 @@ def test_an_overflowing_payload_is_named_as_the_payload():
 def test_max_pressure_pa_defaults_to_the_validity_bound_and_is_checked():
     # issue 14: a payload beyond the model's validity must not PASS; by default the study
     # refuses it (the bound is the model's), false switches the bound off
-    st = default_study()
+    st = vertical_study()
     assert st.constraints["max_pressure_pa"] == MAX_STATIC_PRESSURE_PA
     off = study_from_dict({"constraints": {"max_pressure_pa": False}})
     assert off.constraints["max_pressure_pa"] is None
@@ -115,9 +115,9 @@ def test_variable_bounds_outside_the_models_domain_name_the_key():
 
 # -- issue 23: with_changes takes the dotted keys of sweep --vary -------------------------
 def test_with_changes_takes_dotted_keys():
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    st = default_study()
+    st = vertical_study()
     a = st.with_changes({"payload.mass_kg": 800})
     b = st.with_changes(**{"payload.mass_kg": 800})
     c = st.with_changes(payload={"mass_kg": 800})
@@ -140,10 +140,10 @@ def test_with_changes_takes_dotted_keys():
     ("payload.mass_kg=800", ["changes must be a dict"]),
 ])
 def test_with_changes_bad_changes_are_input_errors(changes, words):
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     with pytest.raises(InputError) as exc:
-        default_study().with_changes(changes)
+        vertical_study().with_changes(changes)
     for w in words:
         assert w in str(exc.value)
 
@@ -156,7 +156,7 @@ def _api_cases():
     from isodesign.optimization.yields import estimate_yield
     from isodesign.table import Table
 
-    st = default_study()
+    st = vertical_study()
     rob = st.with_changes(scenarios={"payload_mass_kg": {"relative": 0.1}})
     good = {"volume_ratio": 1.85, "top_volume_m3": 8.1e-4, "capillary_length_m": 0.012,
             "capillary_diameter_m": 9e-4}

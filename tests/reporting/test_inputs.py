@@ -71,7 +71,7 @@ def test_case_of_a_design_file_uses_its_recorded_models(design_file):
     c = load_case(design_file)
     assert c.kind == "design" and c.models["flow"] == "womersley"
     assert "[models]" in c.models_source
-    assert "default study" in c.job_source
+    assert "vertical study" in c.job_source
 
 
 def test_response_reads_a_run_directory(optimize_run):

@@ -6,13 +6,13 @@ import numpy as np
 import pytest
 
 from isodesign.optimization.driver import optimize
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 from isodesign.plotting.optimization import optimization_figure
 
 
 @pytest.fixture(scope="module")
 def result():
-    st = default_study().with_changes(solver={"starts": 1, "workers": 1},
+    st = vertical_study().with_changes(solver={"starts": 1, "workers": 1},
                                       models={"points_per_band": 4, "peak_points": 30})
     return optimize(st)
 
@@ -43,7 +43,7 @@ def test_optimization_result_display_and_plot(result):
     from isodesign.plotting.style import new_figure
 
     text = repr(result)
-    assert text.startswith("<OptimizationResult: study default") and len(text) <= 240
+    assert text.startswith("<OptimizationResult: study vertical") and len(text) <= 240
     assert ("PASS" in text) or ("FAIL" in text)
     s = str(result)
     assert "binding" in s and "volume_ratio" in s  # key figures and the to_frame table

@@ -134,7 +134,7 @@ def test_models_table_names_the_acoustics_the_design_uses():
 def test_report_of_a_design_file_and_of_a_study(design_file, fast_study, tmp_path):
     text = isodesign.report(design_file)
     p = assert_report(text, BASE_SECTIONS, figures=FIGS)
-    assert "built-in default study" in " ".join(p.text)
+    assert "built-in vertical study" in " ".join(p.text)
     out = isodesign.report(fast_study, tmp_path / "study.html")
     assert out.stat().st_size > 50_000
     p = assert_report(out.read_text(encoding="utf-8"), BASE_SECTIONS, figures=FIGS)

@@ -163,10 +163,10 @@ def test_design_file_key_round_trip(tmp_path):
 
 def test_study_key_reaches_the_design():
     from isodesign.errors import InputError
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
-    assert default_study().start_design().tube_end_correction is True
-    st = default_study().with_changes(hardware={"tube_end_correction": False})
+    assert vertical_study().start_design().tube_end_correction is True
+    st = vertical_study().with_changes(hardware={"tube_end_correction": False})
     assert st.start_design().tube_end_correction is False
     with pytest.raises(InputError, match=r"hardware\.tube_end_correction"):
-        default_study().with_changes(hardware={"tube_end_correction": "off"})
+        vertical_study().with_changes(hardware={"tube_end_correction": "off"})

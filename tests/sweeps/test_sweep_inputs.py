@@ -14,7 +14,7 @@ import isodesign
 import isodesign.sweeps
 from isodesign.cli import main
 from isodesign.errors import InputError
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 from isodesign.sweeps.spec import build_points, combine, parse_vary, read_points, study_hash
 from isodesign.sweeps.tasks import SweepTask, get_task, register_task
 
@@ -65,21 +65,21 @@ def test_product_zip_and_the_point_studies():
                                       {"payload.mass_kg": 600, "floor.criterion": "VC-B"}]
     with pytest.raises(InputError, match="same number of values"):
         combine([a, parse_vary("floor.criterion=VC-A")], "zip")
-    pts, dropped = build_points(default_study(), prod + prod[:1])
+    pts, dropped = build_points(vertical_study(), prod + prod[:1])
     assert dropped == 1 and len(pts) == 4
     assert pts[1].study.payload.mass_kg == 300 and pts[1].study.raw["floor"]["criterion"] == "VC-B"
     assert all(p.study.solver["workers"] == 1 for p in pts)  # starts run serially in a task
     # an invalid point names its changes and the key
     with pytest.raises(InputError, match=r"--vary payload.mass_kg=-1: payload.mass_kg"):
-        build_points(default_study(), [{"payload.mass_kg": -1}])
+        build_points(vertical_study(), [{"payload.mass_kg": -1}])
     # a sub-table's keys ([floor.x]) and a table with its own schema are the study's to check
     assert parse_vary("floor.x.criterion=VC-A")[0] == "floor.x.criterion"
     with pytest.raises(InputError, match=r"--vary floor.x.criterion=VC-A: floor.x applies only"):
-        build_points(default_study(), [{"floor.x.criterion": "VC-A"}])
+        build_points(vertical_study(), [{"floor.x.criterion": "VC-A"}])
 
 
 def test_the_study_hash_is_the_resolved_study():
-    st = default_study()
+    st = vertical_study()
     assert study_hash(st.with_changes(payload={"mass_kg": 600})) == study_hash(st)
     assert study_hash(st.with_changes(payload={"mass_kg": 600.0})) == study_hash(st)
     assert study_hash(st.with_changes(payload={"mass_kg": 601})) != study_hash(st)
@@ -213,27 +213,32 @@ def test_an_unreachable_scheduler_is_a_clear_error_within_10_s(tmp_path):
 
 
 def test_an_output_directory_holding_another_sweep_is_refused(tmp_path):
+    from isodesign.io.record import dumps_toml
+
+    vertical = tmp_path / "vertical.toml"  # the vertical study, named
+    vertical.write_text(dumps_toml(vertical_study().raw), encoding="utf-8")
+    vertical = str(vertical)
     out = tmp_path / "s"
-    status, _, err = run_cli("sweep", "--vary", "payload.mass_kg=300,600", "--task",
+    status, _, err = run_cli("sweep", vertical, "--vary", "payload.mass_kg=300,600", "--task",
                              "response", "--scheduler", "serial", "-o", out, "--quiet",
                              "--no-plots")
     assert status == 0, err
     before = sorted(p.name for p in (out / "points").iterdir())
     for args in (["--vary", "floor.criterion=VC-A,VC-B", "--task", "response"],
                  ["--vary", "payload.mass_kg=300,600", "--task", "optimize"]):
-        status, _, err = run_cli("sweep", *args, "--scheduler", "serial", "-o", out)
+        status, _, err = run_cli("sweep", vertical, *args, "--scheduler", "serial", "-o", out)
         assert status == 2 and "holds another sweep" in err and "--overwrite" in err, err
     assert sorted(p.name for p in (out / "points").iterdir()) == before
     # a directory with other files, or another kind of run, is no sweep
     other = tmp_path / "other"
     other.mkdir()
     (other / "notes.txt").write_text("mine")
-    status, _, err = run_cli("sweep", "--vary", "payload.mass_kg=300", "--task", "response",
-                             "--scheduler", "serial", "-o", other)
+    status, _, err = run_cli("sweep", vertical, "--vary", "payload.mass_kg=300", "--task",
+                             "response", "--scheduler", "serial", "-o", other)
     assert status == 2 and "holds no isodesign sweep" in err
     assert sorted(p.name for p in other.iterdir()) == ["notes.txt"]
     # --overwrite replaces the other sweep
-    status, _, err = run_cli("sweep", "--vary", "floor.criterion=VC-A,VC-B", "--task",
+    status, _, err = run_cli("sweep", vertical, "--vary", "floor.criterion=VC-A,VC-B", "--task",
                              "response", "--scheduler", "serial", "-o", out, "--overwrite",
                              "--quiet", "--no-plots")
     assert status == 0, err
@@ -425,7 +430,7 @@ def test_an_invalid_value_is_found_before_the_points_are_validated_one_by_one(mo
     point's key and value."""
     from isodesign.optimization.study import Study
 
-    base = default_study()
+    base = vertical_study()
     varies = [parse_vary("payload.mass_kg=300:1500:100"),
               parse_vary("hardware.temperature_k=280:300:30"),
               ("hardware.minor_loss", [1.0, 1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0, 6.0])]

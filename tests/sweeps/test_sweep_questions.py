@@ -13,7 +13,7 @@ import isodesign
 from isodesign.cli import main
 from isodesign.errors import InputError
 from isodesign.io.record import study_toml
-from isodesign.optimization.study import default_study
+from isodesign.optimization.study import vertical_study
 
 
 def test_the_sweep_cli_optimizes_a_table_study_with_the_table_model(tmp_path, capsys,
@@ -42,7 +42,7 @@ def test_the_sweep_cli_optimizes_a_table_study_with_the_table_model(tmp_path, ca
 
 
 def test_a_task_that_cannot_answer_is_refused_with_the_api_line(tmp_path, capsys):
-    st = default_study().with_changes(
+    st = vertical_study().with_changes(
         scenarios={"payload_mass_kg": {"min": 540.0, "max": 660.0}})
     with pytest.raises(InputError) as api:
         isodesign.pareto_front(st)

@@ -12,7 +12,7 @@ import pytest
 
 from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
-from isodesign.optimization.study import default_study, table_study
+from isodesign.optimization.study import table_study, vertical_study
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     LAYOUT_LEVERS,
@@ -59,7 +59,7 @@ def test_a_free_lever_takes_the_practical_bounds_and_the_tables_start():
 
 def test_a_vertical_study_naming_a_lever_is_refused_with_the_key():
     with pytest.raises(InputError, match=r"variables\.pendulum_length_m"):
-        default_study().with_changes(variables={"pendulum_length_m": {"fixed": False}})
+        vertical_study().with_changes(variables={"pendulum_length_m": {"fixed": False}})
 
 
 @pytest.mark.parametrize("spec, key", [
@@ -191,7 +191,7 @@ def test_lever_sensitivity_against_a_finite_difference_of_the_reoptimized_design
 
 def test_the_stroke_constraint_is_a_table_key_and_its_peak_factor_is_checked():
     with pytest.raises(InputError, match=r"constraints\.max_stroke_m"):
-        default_study().with_changes(constraints={"max_stroke_m": 1e-3})
+        vertical_study().with_changes(constraints={"max_stroke_m": 1e-3})
     with pytest.raises(InputError, match=r"constraints\.stroke_peak_factor"):
         table_study().with_changes(constraints={"max_stroke_m": 1e-3, "stroke_peak_factor": 0.5})
     st = table_study().with_changes(constraints={"max_stroke_m": 1e-3})

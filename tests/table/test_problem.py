@@ -141,7 +141,7 @@ def test_rocking_frequency_constraint_holds_at_the_optimum():
                           analyze=False)
     assert res.objective_value <= free.objective_value + 1e-6  # a constraint costs margin
     from isodesign.errors import InputError
-    from isodesign.optimization.study import default_study
+    from isodesign.optimization.study import vertical_study
 
     with pytest.raises(InputError, match=r"min_rocking_frequency_hz applies only"):
-        default_study().with_changes(constraints={"min_rocking_frequency_hz": 0.5})
+        vertical_study().with_changes(constraints={"min_rocking_frequency_hz": 0.5})

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from isodesign.errors import InputError
-from isodesign.optimization.study import default_study, study_from_dict, table_study
+from isodesign.optimization.study import study_from_dict, table_study, vertical_study
 
 TABLE = {
     "isolators_m": [[-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4]],
@@ -25,7 +25,7 @@ def test_builtin_table_study():
     assert st.floor_axes.names == ("VC-A floor",) * 3
     assert "applied to x and y" in st.floor_axes.notes[0]
     assert st.target.name == "VC-C" and t.point_names == ("centre", "corner")
-    assert default_study().table is None and default_study().floor_axes is None
+    assert vertical_study().table is None and vertical_study().floor_axes is None
 
 
 def test_floor_per_axis_in_a_study():
