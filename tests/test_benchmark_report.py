@@ -16,8 +16,8 @@ def _run_module():
 
 
 def _info(date: str, commit: str) -> dict:
-    return {"date (UTC)": date, "nproc": "2", "load average (1, 5, 15 min) at start": "0.1, 0.2, 0.3",
-            "git commit": commit}
+    return {"date (UTC)": date, "nproc": "2",
+            "load average (1, 5, 15 min) at start": "0.1, 0.2, 0.3", "git commit": commit}
 
 
 def test_update_keeps_other_sections_with_their_own_run():
@@ -40,7 +40,8 @@ def test_update_keeps_other_sections_with_their_own_run():
 def test_a_report_without_run_lines_gets_the_header_run():
     run = _run_module()
     old = ("# Benchmarks\n\n## Machine\n\n| item | value |\n|---|---|\n"
-           "| date (UTC) | 2025-05-05 05:05:05 |\n| load average (1, 5, 15 min) at start | 1, 2, 3 |\n"
+           "| date (UTC) | 2025-05-05 05:05:05 |\n"
+           "| load average (1, 5, 15 min) at start | 1, 2, 3 |\n"
            "| git commit | ccc |\n\n## bench_c.py\n\nC.\n\n| benchmark | target |\n|---|---|\n"
            "| c1 | < 1 |\n\n## Reproduce\n")
     c = run.split_sections(old)["bench_c.py"]
