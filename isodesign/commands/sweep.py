@@ -141,6 +141,11 @@ def summary(res) -> str:
              f" {len(df)} points in the table ({res.ran} run now, {res.reused} already "
              f"finished, {res.failed} failed now); {res.wall_s:.1f} s on {res.where}",
              "  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))]
+    if res.ran:
+        changed = int(df["branch_changed"].fillna(False).astype(bool).sum()) \
+            if "branch_changed" in df else 0
+        lines.append(f"  NLPs built: {res.nlp_builds} for {res.ran} points run now (one per "
+                     f"structure and worker); {changed} points changed branch along their line")
     if walls:
         lines.append(f"  time per point: median {statistics.median(walls):.2f} s, min "
                      f"{min(walls):.2f} s, max {max(walls):.2f} s (sum {sum(walls):.1f} s: "
