@@ -239,7 +239,8 @@ def run(args) -> int:
             signal.signal(sig, h)
     if args.quiet:
         print(f"sweep {res.directory}: {len(res.table)} points, {res.ran} run now, "
-              f"{res.reused} reused, {res.failed} failed; {res.wall_s:.1f} s")
+              f"{res.reused} reused, {res.failed} failed; {res.nlp_builds} NLPs built; "
+              f"{res.wall_s:.1f} s")
     else:
         print(summary(res))
     if res.status == "failed":

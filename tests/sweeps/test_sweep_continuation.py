@@ -69,3 +69,19 @@ def test_continued_points_are_no_worse_than_a_cold_start(line_sweep):
     for _, r in df.iloc[[1, 4, 9]].iterrows():
         cold = optimize_vertical(st.with_changes(json.loads(r["changes"])), analyze=False)
         assert r["objective_value"] >= cold.objective_value - 1e-6
+
+
+def test_the_command_says_how_many_nlps_it_built(tmp_path, cheap_study):
+    import contextlib
+    import io
+
+    from isodesign.cli import main
+
+    out = io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
+        status = main(["sweep", str(cheap_study), "--vary", "payload.mass_kg=500,700",
+                       "--vary", "payload.isolators=4,6", "-o", str(tmp_path / "s"),
+                       "--scheduler", "serial", "--quiet"])
+    assert status == 0
+    # two isolator counts: two structures, one NLP each, in this one process
+    assert "4 run now, 0 reused, 0 failed; 2 NLPs built;" in out.getvalue()
