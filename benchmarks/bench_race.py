@@ -34,13 +34,16 @@ WITHIN_DB = 0.01
 POPSIZE = 15
 
 
-def _isodesign(study) -> tuple[float, float, dict]:
+def _isodesign(study, starts: int) -> tuple[float, float]:
+    """Wall time and optimum of ``isodesign.optimize`` with ``starts`` starts (the NLP's
+    build, the starts in 2 workers, peak refinement, tie-break and the NumPy re-check; not
+    the fine-grid band responses of the result, which are no part of the search)."""
     import isodesign
 
-    isodesign.optimize(study.with_changes(solver={"starts": 1}), analyze=False)  # warm-up
+    st = study.with_changes(solver={"starts": starts})
     t0 = time.perf_counter()
-    r = isodesign.optimize(study)
-    return time.perf_counter() - t0, float(r.objective_value), dict(r.values)
+    r = isodesign.optimize(st, analyze=False)
+    return time.perf_counter() - t0, float(r.objective_value)
 
 
 def _de(study, target_db: float, budget_s: float) -> dict:
@@ -133,11 +136,14 @@ def run() -> list[dict]:
     budget = float(os.environ.get("ISODESIGN_BENCH_RACE_BUDGET_S", "900"))
     study = vertical_study()
     load0 = os.getloadavg()[0]
-    t_iso, j_iso, _ = _isodesign(study)
+    _isodesign(study, 1)  # warm-up: imports, CasADi's first build
+    t_iso, j_iso = _isodesign(study, study.solver["starts"])
+    t_one, j_one = _isodesign(study, 1)
     de = _de(study, j_iso, budget)
     load1 = os.getloadavg()[0]
     j_star = max(j_iso, de["best_db"])
     iso_ok = j_iso >= j_star - WITHIN_DB
+    one_ok = j_one >= j_star - WITHIN_DB
     if de["reached_s"] is not None:
         ratio, bound = t_iso / de["reached_s"], ""
     else:
@@ -150,8 +156,10 @@ def run() -> list[dict]:
         "target": f"<= {TARGET_RATIO}", "median": ratio, "unit": "x",
         "ratio": ratio / TARGET_RATIO, "passed": bool(iso_ok and ratio <= TARGET_RATIO),
         "repeats": 1,
-        "notes": f"vertical study (worst-band margin): isodesign.optimize (8 starts) "
-                 f"{t_iso:.1f} s to {j_iso:.3f} dB; differential evolution (pop "
+        "notes": f"vertical study (worst-band margin): isodesign.optimize ("
+                 f"{study.solver['starts']} starts, the study's, analyze=False) {t_iso:.1f} s to "
+                 f"{j_iso:.3f} dB (with 1 start: {t_one:.1f} s to {j_one:.3f} dB, within "
+                 f"{WITHIN_DB} dB: {one_ok}); differential evolution (pop "
                  f"{POPSIZE} x {de['variables']} variables, vectorized, the NLP's "
                  f"constraint rows as one NonlinearConstraint on the NumPy analysis, "
                  f"{de['eval_ms']:.0f} ms per evaluation) best {de['best_db']:.3f} dB "
