@@ -83,6 +83,11 @@ class SweepResult(ResultDisplay):
         Where it ran.
     status : str
         ``complete``, ``failed`` (some point failed) or ``interrupted``.
+    point_wall_s : tuple of float
+        The wall time of each point computed now.
+    nlp_builds : int
+        NLPs built by the points computed now (one per structure and worker process;
+        ``docs/sweep.md``, section 7).
     """
 
     directory: Path
