@@ -32,6 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign sweep``."""
     parser.add_argument("study", nargs="?", metavar="STUDY.toml",
                         help="base study (default: the built-in default study)")
+    parser.add_argument("--builtin", choices=("table",),
+                        help="a built-in study instead of STUDY.toml (table: the 600 kg table "
+                             "in six degrees of freedom, docs/table.md), as isodesign optimize")
     parser.add_argument("--vary", action="append", metavar="KEY=VALUES", default=[],
                         help="a study key and its values: a,b,c or start:stop:count (linear, "
                         "both ends); repeat for several keys")
@@ -200,7 +203,14 @@ def run(args) -> int:
         options["plots"] = True
     if args.points_file is not None and args.vary:
         raise InputError("--points-file: give a points file or --vary, not both")
-    base = default_study() if args.study is None else load_study(args.study)
+    if getattr(args, "builtin", None) is not None:
+        if args.study is not None:
+            raise InputError("--builtin: give STUDY.toml or --builtin, not both")
+        from isodesign.optimization.study import table_study
+
+        base = table_study()
+    else:
+        base = default_study() if args.study is None else load_study(args.study)
     changes = {}
     if args.starts is not None:
         changes["starts"] = check_count(args.starts, "--starts", 1, 256)

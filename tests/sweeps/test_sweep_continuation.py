@@ -85,3 +85,17 @@ def test_the_command_says_how_many_nlps_it_built(tmp_path, cheap_study):
     assert status == 0
     # two isolator counts: two structures, one NLP each, in this one process
     assert "4 run now, 0 reused, 0 failed; 2 NLPs built;" in out.getvalue()
+
+
+def test_builtin_table_and_a_study_file_together_are_refused(tmp_path, cheap_study):
+    import contextlib
+    import io
+
+    from isodesign.cli import main
+
+    err = io.StringIO()
+    with contextlib.redirect_stdout(io.StringIO()), contextlib.redirect_stderr(err):
+        status = main(["sweep", str(cheap_study), "--builtin", "table", "--vary",
+                       "payload.mass_kg=500", "-o", str(tmp_path / "s")])
+    assert status == 2 and "--builtin: give STUDY.toml or --builtin, not both" in err.getvalue()
+    assert not (tmp_path / "s").exists()
