@@ -332,12 +332,30 @@ def _reference(points) -> dict:
 
 def _reference_in_background(out: Path):
     """The reference computed by another process while the arms run (the machine's load
-    is the same for both arms, which alternate)."""
+    is the same for both arms, which alternate); its stderr beside ``out``."""
     import subprocess
 
-    return subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--reference",
-                             str(out)], env=_env(ROOT), cwd=str(ROOT),
-                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+    with open(out.with_suffix(".log"), "w") as err:
+        return subprocess.Popen([sys.executable, str(Path(__file__).resolve()), "--reference",
+                                 str(out)], env=_env(ROOT), cwd=str(ROOT),
+                                stdout=subprocess.DEVNULL, stderr=err)
+
+
+def _wait_for(path: Path, proc, timeout_s: float = 3600.0) -> dict:
+    """The reference file (written by ``proc``, or by a ``--reference`` run started
+    beforehand when ``proc`` is None); computed here if that process failed."""
+    import json
+
+    t0 = time.perf_counter()
+    while not path.is_file():
+        if proc is not None and proc.poll() is not None and not path.is_file():
+            break  # failed: computed here
+        if time.perf_counter() - t0 > timeout_s:
+            break
+        time.sleep(5)
+    if path.is_file():
+        return {_key(m, c): v for m, c, v in json.loads(path.read_text())}
+    return _reference(_points())
 
 
 def _walls(arms) -> str:
@@ -349,10 +367,10 @@ def run(repeats: int | None = None) -> list[dict]:
     dB), ``isodesign optimize`` whole-process ratio (target 0.75).
 
     ``repeats``: interleaved runs of each arm (default ``ISODESIGN_BENCH_SWEEP_REPEATS``,
-    else 2). The 8-start reference is computed by another process meanwhile.
+    else 2). The 8-start reference is computed by another process meanwhile, or read from
+    ``ISODESIGN_BENCH_SWEEP_REFERENCE`` (a ``--reference PATH`` run started beforehand;
+    waited for).
     """
-    import json
-
     from isodesign.io.record import study_toml
     from isodesign.optimization.study import vertical_study
 
@@ -361,8 +379,12 @@ def run(repeats: int | None = None) -> list[dict]:
         repeats = int(os.environ.get("ISODESIGN_BENCH_SWEEP_REPEATS", "2"))
     old = _old_tree()
     ref_dir = tempfile.TemporaryDirectory()
-    ref_file = Path(ref_dir.name) / "reference.json"
-    ref_proc = _reference_in_background(ref_file)
+    given = os.environ.get("ISODESIGN_BENCH_SWEEP_REFERENCE")
+    if given:  # a reference run started beforehand (python bench_sweep.py --reference PATH)
+        ref_file, ref_proc = Path(given), None
+    else:
+        ref_file = Path(ref_dir.name) / "reference.json"
+        ref_proc = _reference_in_background(ref_file)
     new, olds, loads = [], [], []
     for _ in range(repeats):  # interleaved
         o = _sweep_arm(old)
@@ -373,10 +395,7 @@ def run(repeats: int | None = None) -> list[dict]:
     t_old = statistics.median(a["wall_s"] for a in olds)
     t_new = statistics.median(a["wall_s"] for a in new)
     speedup = t_old / t_new
-    if ref_proc.wait() != 0:
-        raise RuntimeError("the 8-start reference failed (python benchmarks/bench_sweep.py "
-                           "--reference OUT.json)")
-    ref = {_key(m, c): v for m, c, v in json.loads(ref_file.read_text())}
+    ref = _wait_for(ref_file, ref_proc)
     ref_dir.cleanup()
     gaps = [ref[_key(m, c)] - v for m, c, v in new[-1]["points"]]
     gaps_old = [ref[_key(m, c)] - v for m, c, v in olds[-1]["points"]]

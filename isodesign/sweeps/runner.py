@@ -566,21 +566,34 @@ def _interrupts_seen():
             signal.signal(sig, prev)
 
 
-def _submit(client, p, task, options, points_dir, tag, neighbours, resolve=False):
+def _submit(client, p, task, options, points_dir, tag, neighbours, resolve=False,
+            worker=None):
+    # a chain's worker is a preference (allow_other_workers): a lost worker's chain moves
+    where = {"workers": [worker], "allow_other_workers": True} if worker else {}
     return client.submit(run_point, task, resolved_study_dict(p.study), p.study_hash,
                          p.changes, str(points_dir / p.key), options, neighbours=neighbours,
                          resolve=resolve, key=f"isodesign-point-{p.key}-{tag}", pure=False,
-                         retries=RETRIES)
+                         retries=RETRIES, **where)
+
+
+def _worker_addresses(client) -> list[str]:
+    try:
+        return sorted(client.scheduler_info(n_workers=-1)["workers"])
+    except Exception:  # an old scheduler, a test double: no preference
+        return []
 
 
 def _run_dask(client, pts, order, todo_hashes, rows, task, options, points_dir,
               finished) -> None:
     """Submit every point as a task, each chain's points in order (a point's task takes its
-    predecessor's future: its row arrives as the neighbour, and Dask runs the chain on the
-    worker that holds it); hand each row to ``finished`` as it completes."""
+    predecessor's future: its row arrives as the neighbour), each chain on one worker (the
+    chains dealt round the workers, a preference Dask keeps unless the worker is lost);
+    hand each row to ``finished`` as it completes."""
     tag = uuid.uuid4().hex[:8]
     futures = {}
-    for ch in order:
+    workers = _worker_addresses(client)
+    for c, ch in enumerate(order):
+        w = workers[c % len(workers)] if workers else None
         prev = None
         for i in ch:
             p = pts[i]
@@ -588,7 +601,7 @@ def _run_dask(client, pts, order, todo_hashes, rows, task, options, points_dir,
                 prev = rows.get(p.study_hash)
                 continue
             fut = _submit(client, p, task, options, points_dir, tag,
-                          [prev] if prev is not None else [])
+                          [prev] if prev is not None else [], worker=w)
             futures[fut] = p
             prev = fut
     _collect(client, futures, task, points_dir, finished)
