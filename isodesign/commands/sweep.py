@@ -22,7 +22,7 @@ from __future__ import annotations
 import argparse
 import sys
 
-from isodesign.commands import check_count
+from isodesign.commands import BUILTIN_CHOICES, BUILTIN_HELP, check_count
 from isodesign.commands import int_option as _int_option
 
 TASK_NAMES = ("optimize", "response", "pareto", "yield")
@@ -32,6 +32,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     """Options of ``isodesign sweep``."""
     parser.add_argument("study", nargs="?", metavar="STUDY.toml",
                         help="base study (default: the built-in default study)")
+    parser.add_argument("--builtin", choices=BUILTIN_CHOICES,
+                        help="a built-in study instead of STUDY.toml (" + BUILTIN_HELP
+                        + "), as isodesign optimize")
     parser.add_argument("--vary", action="append", metavar="KEY=VALUES", default=[],
                         help="a study key and its values: a,b,c or start:stop:count (linear, "
                         "both ends); repeat for several keys")
@@ -141,6 +144,11 @@ def summary(res) -> str:
              f" {len(df)} points in the table ({res.ran} run now, {res.reused} already "
              f"finished, {res.failed} failed now); {res.wall_s:.1f} s on {res.where}",
              "  status: " + ", ".join(f"{k} {v}" for k, v in sorted(counts.items()))]
+    if res.ran:
+        changed = int(df["branch_changed"].fillna(False).astype(bool).sum()) \
+            if "branch_changed" in df else 0
+        lines.append(f"  NLPs built: {res.nlp_builds} for {res.ran} points run now (one per "
+                     f"structure and worker); {changed} points changed branch along their line")
     if walls:
         lines.append(f"  time per point: median {statistics.median(walls):.2f} s, min "
                      f"{min(walls):.2f} s, max {max(walls):.2f} s (sum {sum(walls):.1f} s: "
@@ -195,7 +203,14 @@ def run(args) -> int:
         options["plots"] = True
     if args.points_file is not None and args.vary:
         raise InputError("--points-file: give a points file or --vary, not both")
-    base = default_study() if args.study is None else load_study(args.study)
+    if getattr(args, "builtin", None) is not None:
+        if args.study is not None:
+            raise InputError("--builtin: give STUDY.toml or --builtin, not both")
+        from isodesign.optimization.study import BUILTIN_STUDIES
+
+        base = BUILTIN_STUDIES[args.builtin]()
+    else:
+        base = default_study() if args.study is None else load_study(args.study)
     changes = {}
     if args.starts is not None:
         changes["starts"] = check_count(args.starts, "--starts", 1, 256)
@@ -234,7 +249,8 @@ def run(args) -> int:
             signal.signal(sig, h)
     if args.quiet:
         print(f"sweep {res.directory}: {len(res.table)} points, {res.ran} run now, "
-              f"{res.reused} reused, {res.failed} failed; {res.wall_s:.1f} s")
+              f"{res.reused} reused, {res.failed} failed; {res.nlp_builds} NLPs built; "
+              f"{res.wall_s:.1f} s")
     else:
         print(summary(res))
     if res.status == "failed":

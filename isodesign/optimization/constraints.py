@@ -124,7 +124,7 @@ def build_constraints(study, mt: dict, n_all: int) -> list[Constraint]:
         # p0 = p_atm + m g/(n A_p) is set by the payload and the piston area, not by the
         # design variables: a constant row (the study refuses a payload beyond the bound),
         # reported with its margin like every constraint
-        ln_p0 = math.log(study.start_design().pressure_pa)
+        ln_p0 = bk.log(study.start_design().pressure_pa)  # symbolic in a sweep's NLP
         # a symbol the row can hang on (the total volume is a number when V_t0 and N are
         # fixed): any symbolic scalar of the model
         sym = next((v for v in (mt["ln_total_volume"], mt["ln_fn"], mt["ln_zeta"])

@@ -45,7 +45,8 @@ PEAK_VIOLATION = "continuous_peak_transmissibility"
 
 
 def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
-                      analyze: bool = True, nominal: bool = False) -> OptimizationResult:
+                      analyze: bool = True, nominal: bool = False,
+                      extra_starts: tuple = ()) -> OptimizationResult:
     """The vertical nominal optimum: multi-start IPOPT, tie-break, peak refinement, re-check.
 
     The internal solve of the one-degree-of-freedom payload. The public entry point is
@@ -67,6 +68,9 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
         Run the fine-grid band responses of the optimum and of the start (default).
     nominal : bool
         A study with ``[scenarios]``: optimize its nominal scenario (default: refused).
+    extra_starts : tuple of dict
+        Further starts (design-variable values, SI) after the study's own: a sweep's
+        continuation passes its finished neighbours' optima (``docs/sweep.md``).
 
     Returns
     -------
@@ -89,7 +93,7 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
                          "study; use isodesign.optimize (robust design)")
     t_all = time.perf_counter()
     prob = problem if problem is not None else Problem(study)
-    starts = start_points(study, prob.scaling)
+    starts = start_points(study, prob.scaling) + [dict(v) for v in extra_starts]
     results = run_starts(prob, starts, workers=study.solver.get("workers"),
                          progress=progress)
     records, sols = _start_records(prob, starts, results)

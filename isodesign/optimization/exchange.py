@@ -202,9 +202,16 @@ def robust_optimize(study, *, nominal=None, progress=None):
     sol = prob = None
     converged = False
     last = first
+    built: dict[int, RobustProblem] = {}  # one stacked NLP per number of scenarios
     for r in range(settings["max_rounds"] + 1):
         t0 = time.perf_counter()
-        prob = RobustProblem(block, thetas)
+        # a round that adds no scenario (peak slots moved) solves the NLP it has: the
+        # scenarios and the slots are parameters
+        prob = built.get(len(thetas))
+        new_nlp = prob is None
+        if new_nlp:
+            prob = built[len(thetas)] = RobustProblem(block, thetas)
+        prob.thetas = [np.asarray(t, float) for t in thetas]
         prob.slots = [s.copy() for s in slots]
         sol = _best_solve(prob, [values, nominal.values, best_values], study)
         if sol.feasible:
@@ -221,7 +228,7 @@ def robust_optimize(study, *, nominal=None, progress=None):
                        OBJECTIVES[kind].to_natural(sol.objective), "iterations": sol.iterations,
                        "solve_s": sol.wall_s, "worst_score": last["score"],
                        "worst_quantity": last["which"], "peak_slots_moved": moved,
-                       "search_evaluations": last["evaluations"],
+                       "search_evaluations": last["evaluations"], "nlp_built": new_nlp,
                        "wall_s": time.perf_counter() - t0})
         if progress:
             progress(rounds[-1])

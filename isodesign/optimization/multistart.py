@@ -101,6 +101,7 @@ def map_in_workers(fn, items, *, workers=None, progress=None) -> list:
     n = len(items)
     workers = min(DEFAULT_WORKERS if workers is None else workers, available_cores())
     results: list = [None] * n
+    outer = _TASK  # a call inside a worker's task (its starts, run serially) restores it
     _TASK = fn
     try:
         executor = executor_for(workers, n)  # the local fork pool, or the one installed
@@ -110,7 +111,7 @@ def map_in_workers(fn, items, *, workers=None, progress=None) -> list:
             if progress:
                 progress(done, n, out)
     finally:
-        _TASK = None
+        _TASK = outer
     return results
 
 

@@ -192,7 +192,8 @@ def _negate(v: float) -> float:
 # -- NLP forms ------------------------------------------------------------------
 def _nlp_worst_band_margin(mt, study, grid, sym):
     t = sym("t_worst_band_margin", 1)  # worst margin, dB: ms_b / lim_b^2 <= 10^(-t/10)
-    lim2 = np.exp(np.asarray(mt["ln_limit2"], float))
+    lim2 = (bk.exp(mt["ln_limit2"]) if bk.is_casadi(mt["ln_limit2"])  # a sweep's parameters
+            else np.exp(np.asarray(mt["ln_limit2"], float)))
     con = Constraint("epigraph_worst_band_margin", mt["ms_all"] / lim2 - bk.exp(-t / _DB),
                      -math.inf, 0.0, len(grid.target_band_rows), "band margin >= t")
     return -t, [t], [con]

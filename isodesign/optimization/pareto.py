@@ -475,6 +475,23 @@ def _run_chains(prob: Problem, chains, eps, anchor_b, workers) -> dict:
 BRANCH_DZ = 0.05
 
 
+def on_other_branch(z, z_ref) -> bool:
+    """True when two designs lie on different branches: a scaled design variable (z in
+    [-1, 1]) differs by more than :data:`BRANCH_DZ` (the Pareto chains' test, and a sweep's
+    along its lines: :mod:`isodesign.sweeps.continuation`).
+
+    Parameters
+    ----------
+    z, z_ref : array_like
+        Scaled designs (:meth:`~isodesign.optimization.variables.LogScaling.to_z`).
+
+    Returns
+    -------
+    bool
+    """
+    return bool(np.max(np.abs(np.asarray(z, float) - np.asarray(z_ref, float))) > BRANCH_DZ)
+
+
 def _other_branch(prob: Problem, sols: dict, in_a: set, eps, workers) -> dict:
     """Solve again, from the other chain's branch, every point where the chains differ.
 
@@ -498,7 +515,7 @@ def _other_branch(prob: Problem, sols: dict, in_a: set, eps, workers) -> dict:
         if not other:
             continue
         z = np.mean([o.x[: prob.nz] for o in other], axis=0)
-        if sols[k].feasible and np.max(np.abs(sols[k].x[: prob.nz] - z)) <= BRANCH_DZ:
+        if sols[k].feasible and not on_other_branch(sols[k].x[: prob.nz], z):
             continue
         todo.append((k, z, other))
     slots = prob.slot_hz.copy()

@@ -254,17 +254,19 @@ class Problem:
         (statistical closure; unused otherwise). Outputs: amplitude residual, T, R,
         ln Mach, ln Re and ``|U/X|^2``.
         """
-        study = self.study
+        extra = self._point_inputs(ca)
+        study = self._point_study(extra)
         dv = ca.SX.sym("design", len(DESIGN_VARIABLES))
         d_sx = study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
         s_sx, y_sx, w_sx = ca.SX.sym("s"), ca.SX.sym("y"), ca.SX.sym("w")
         cnl_sx = ca.SX.sym("c_nl")
+        ins = [dv, s_sx, y_sx, cnl_sx, w_sx, *extra]
         sig_sx = ca.exp(s_sx)
         a_sx = EQUIVALENT_AMPLITUDE_FACTOR * sig_sx
         if self.statistical:
             pq = point_quantities(study, d_sx, w_sx, math.sqrt(2.0) * ca.exp(y_sx), sig_sx,
                                   self.dia, cnl_sx)
-            return ca.Function("point", [dv, s_sx, y_sx, cnl_sx, w_sx],
+            return ca.Function("point", ins,
                                [ca.SX(0), pq["T"].re, pq["T"].im, pq["R"].re, pq["R"].im,
                                 pq["ln_mach"], pq["ln_re"], pq["G2"]], _POINT_OPTIONS)
         if self.self_consistent:
@@ -274,9 +276,50 @@ class Problem:
             u_sx = kinematic_velocity(d_sx, w_sx, a_sx)
             res_sx = ca.SX(0)
         pq = point_quantities(study, d_sx, w_sx, u_sx, sig_sx, self.dia)
-        return ca.Function("point", [dv, s_sx, y_sx, cnl_sx, w_sx],
+        return ca.Function("point", ins,
                            [res_sx, pq["T"].re, pq["T"].im, pq["R"].re, pq["R"].im,
                             pq["ln_mach"], pq["ln_re"], ca.SX(0)], _POINT_OPTIONS)
+
+    # hooks of a subclass whose NLP has further parameters (:mod:`.parametric`)
+    def _point_inputs(self, ca) -> list:
+        """Further SX inputs of the point function (none here)."""
+        return []
+
+    def _point_study(self, extra):
+        """The study the per-point physics is written on (``extra``: its further inputs)."""
+        return self.study
+
+    def _point_args(self, nlp) -> list:
+        """The NLP's values of the point function's further inputs (none here)."""
+        return []
+
+    def _nlp_study(self, nlp):
+        """The study the NLP's design-level expressions and constraints are written on."""
+        return self.study
+
+    def _omega_column(self, nlp):
+        """The grid's angular frequencies, the movable peak slots as parameters."""
+        ca = nlp.ca
+        w, sl = self.grid.omega, self.grid.slot_slice
+        return ca.vertcat(ca.DM(w[: sl.start]), nlp.p_slot, ca.DM(w[sl.stop:]))
+
+    def _adjust_metrics(self, nlp) -> None:
+        """Change the NLP's metrics after :func:`.metrics.combine` (nothing here)."""
+
+    def _chain_factors(self, nlp) -> tuple:
+        """Factors of the stroke (and tube) chains: the floor weights' scale and
+        ``1 / sigma_ref^2`` (``1 / sigma_u,ref^2``)."""
+        self.sigma_ref, self.tube_rms_ref = self._reference_sigma()
+        k_u = 1.0 / self.tube_rms_ref**2 if self.statistical else None
+        return 1.0, 1.0 / self.sigma_ref**2, k_u
+
+    def _fn_param_sym(self, nlp):
+        """The parameters of the evaluation functions beside x (the slots here)."""
+        return nlp.p_slot
+
+    def _fn_params(self) -> np.ndarray:
+        """Their values (:meth:`_fn_param_sym`)."""
+        return self._slot_omega()
 
     def _decision_variables(self, nlp) -> None:
         """Scaled design z, ln sigma s, ln U y, the design values and the slot parameters."""
@@ -300,30 +343,31 @@ class Problem:
     def _physics(self, nlp, point) -> None:
         """The point function mapped over the grid; the metrics of the design."""
         ca, X = nlp.ca, nlp.X
-        w = self.grid.omega
+        st = nlp.st = self._nlp_study(nlp)
+        args = self._point_args(nlp)
+        more = tuple(range(5, 5 + len(args)))
         # design, ln sigma and c_nl (and ln sigma_u, statistical closure) are broadcast
-        mapped = hoisted_map(point, nlp.n_all, (0, 1, 3, 2) if self.statistical else (0, 1, 3))
+        mapped = hoisted_map(point, nlp.n_all,
+                             (0, 1, 3, 2, *more) if self.statistical else (0, 1, 3, *more))
         v = ca.vertcat(*nlp.vals)
-        nlp.d = self.study.design_at({n: nlp.vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
+        nlp.d = st.design_at({n: nlp.vals[i] for i, n in enumerate(DESIGN_VARIABLES)})
         if self.self_consistent:
             y_row = nlp.y.T
         elif self.statistical:
             y_row = nlp.y  # ln sigma_u: broadcast like s
         else:
             y_row = X.zeros(1, nlp.n_all)
-        c_nl = (gaussian_equivalent_resistance(self.study.models["flow"], nlp.d,
-                                               ca.exp(nlp.y[0]))
+        c_nl = (gaussian_equivalent_resistance(st.models["flow"], nlp.d, ca.exp(nlp.y[0]))
                 if self.statistical else X(0))  # fmt: skip
-        sl = self.grid.slot_slice
-        w_sym = ca.vertcat(ca.DM(w[: sl.start]), nlp.p_slot, ca.DM(w[sl.stop:]))
+        w_sym = self._omega_column(nlp)
         # v, s and c_nl keep their shape: map broadcasts them (and sums their derivatives)
-        outs = mapped(v, nlp.s, y_row, c_nl, w_sym.T)
+        outs = mapped(v, nlp.s, y_row, c_nl, w_sym.T, *args)
         res_u, t_re, t_im, r_re, r_im, ln_mach, ln_re, g2 = (o.T for o in outs)
         nlp.pq = {"T": Cx(t_re, t_im), "R": Cx(r_re, r_im), "ln_mach": ln_mach, "ln_re": ln_re}
         if self.statistical:
             nlp.pq["G2"] = g2
-        nlp.mt = combine(self.study, self.grid, nlp.pq,
-                         design_quantities(self.study, self.grid, nlp.d, self.dia))
+        nlp.mt = combine(st, self.grid, nlp.pq, design_quantities(st, self.grid, nlp.d, self.dia))
+        self._adjust_metrics(nlp)
         nlp.res_u = res_u if self.self_consistent else X(0, 1)
 
     def _stroke_chain(self, nlp) -> None:
@@ -334,23 +378,21 @@ class Problem:
         points: a dense row would make the Jacobian's colouring need one sweep per point.
         """
         ca, X = nlp.ca, nlp.X
-        self.sigma_ref, self.tube_rms_ref = self._reference_sigma()
+        scale, k_s, k_u = self._chain_factors(nlp)
         sw = np.asarray(self.grid.response.stroke_weight, float)
         fl = self.grid.floor_slice
         r2 = take(nlp.pq["R"], fl).abs2()
-        nlp.inc = sw / self.sigma_ref**2 * r2
+        nlp.inc = sw * (scale * k_s) * r2
         nf = self.grid.n_floor
         nlp.c = X.sym("stroke_partial_sums", nf)
         res_chain = nlp.c - ca.vertcat(X(0), nlp.c[: nf - 1]) - nlp.inc
-        nlp.res_s = ca.vertcat(res_chain, ca.exp(2.0 * nlp.s) / self.sigma_ref**2 - nlp.c[nf - 1])
-        self._chain_weights = sw / self.sigma_ref**2
+        nlp.res_s = ca.vertcat(res_chain, ca.exp(2.0 * nlp.s) * k_s - nlp.c[nf - 1])
         self.nc = nf
         if self.statistical:  # sigma_u^2 = sum_j stroke_weight_j |R_j|^2 |U/X|_j^2, likewise
-            inc_u = sw / self.tube_rms_ref**2 * r2 * nlp.pq["G2"][fl]
+            inc_u = sw * (scale * k_u) * r2 * nlp.pq["G2"][fl]
             cu = X.sym("tube_partial_sums", nf)
             res_u = cu - ca.vertcat(X(0), cu[: nf - 1]) - inc_u
-            nlp.res_u = ca.vertcat(res_u, ca.exp(2.0 * nlp.y[0]) / self.tube_rms_ref**2
-                                   - cu[nf - 1])  # fmt: skip
+            nlp.res_u = ca.vertcat(res_u, ca.exp(2.0 * nlp.y[0]) * k_u - cu[nf - 1])
             nlp.c = ca.vertcat(nlp.c, cu)
             nlp.inc = ca.vertcat(nlp.inc, inc_u)
             self.nc = 2 * nf
@@ -365,7 +407,8 @@ class Problem:
             aux.append(a)
             return a
 
-        cons = build_constraints(self.study, nlp.mt, nlp.n_all)
+        st = getattr(nlp, "st", self.study)  # a subclass's _physics may not set it
+        cons = build_constraints(st, nlp.mt, nlp.n_all)
         nk = len(self.objectives)
         nlp.p_w = X.sym("weights", nk)
         nlp.p_wd = X.sym("w_diameter")
@@ -373,7 +416,7 @@ class Problem:
         j_total = nlp.p_wd * ca.log(nlp.d.capillary_diameter_m)
         js = []
         for k, kind in enumerate(self.objectives):
-            jk, _, ocons = OBJECTIVES[kind].nlp(nlp.mt, self.study, self.grid, sym)
+            jk, _, ocons = OBJECTIVES[kind].nlp(nlp.mt, st, self.grid, sym)
             cons += ocons
             cons.append(Constraint(f"bound_{kind}", jk - nlp.p_eps[k], -math.inf, 0.0, 1,
                                    f"{kind} <= epsilon"))
@@ -389,22 +432,26 @@ class Problem:
         nlp.p = ca.vertcat(nlp.p_w, nlp.p_wd, nlp.p_eps, nlp.p_slot)
         nlp.g = ca.vertcat(nlp.res_u, nlp.res_s, *[c.expr for c in self.constraints])
         self.n_eq = int(nlp.res_u.numel()) + int(nlp.res_s.numel())
-        lbg = [0.0] * self.n_eq
-        ubg = [0.0] * self.n_eq
-        self.con_rows = []
-        row = self.n_eq
-        for c in self.constraints:
-            n = int(c.expr.numel())
-            lbg += [c.lo] * n
-            ubg += [c.hi] * n
-            self.con_rows.append((c, row, n))
-            row += n
-        self.lbg, self.ubg = np.array(lbg), np.array(ubg)
+        self.lbg, self.ubg, self.con_rows = self._constraint_rows(self.constraints)
         self.nz, self.ny = int(nlp.z.numel()), int(nlp.y.numel())
         self.naux = int(sum(int(a.numel()) for a in nlp.aux))
         self.nx = int(nlp.x.numel())
         self.np = int(nlp.p.numel())
         self.lbx, self.ubx = self._variable_bounds()
+
+    def _constraint_rows(self, constraints) -> tuple[np.ndarray, np.ndarray, list]:
+        """lbg, ubg (the implicit equations first) and ``(constraint, row, size)`` of each."""
+        lbg = [0.0] * self.n_eq
+        ubg = [0.0] * self.n_eq
+        rows = []
+        row = self.n_eq
+        for c in constraints:
+            n = int(c.expr.numel())
+            lbg += [c.lo] * n
+            ubg += [c.hi] * n
+            rows.append((c, row, n))
+            row += n
+        return np.array(lbg), np.array(ubg), rows
 
     def _variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The scaled design in [-1, 1]; generous physical boxes on the implicit unknowns
@@ -426,13 +473,14 @@ class Problem:
         ca = nlp.ca
         mt = nlp.mt
         self.eval_fn = ca.Function("eval", [nlp.x, nlp.p], [nlp.j_total, nlp.g])
-        self._j_fn_p = ca.Function("objectives", [nlp.x, nlp.p_slot], [ca.vertcat(*nlp.js)])
+        q = self._fn_param_sym(nlp)
+        self._j_fn_p = ca.Function("objectives", [nlp.x, q], [ca.vertcat(*nlp.js)])
         x_core = ca.vertcat(nlp.z, nlp.s, nlp.y)
         nf = self.grid.n_floor
         chain = (ca.vertcat(ca.cumsum(nlp.inc[:nf]), ca.cumsum(nlp.inc[nf:]))
                  if self.statistical else ca.cumsum(nlp.inc))  # fmt: skip
-        self._chain_fn_p = ca.Function("chain", [x_core, nlp.p_slot], [chain])
-        self._aux_fn_p = ca.Function("aux_quantities", [x_core, nlp.p_slot],
+        self._chain_fn_p = ca.Function("chain", [x_core, q], [chain])
+        self._aux_fn_p = ca.Function("aux_quantities", [x_core, q],
                                      [mt["ln_ms_band"] - mt["ln_limit2"], mt["ln_T2_peak"],
                                       mt["ms_all"]])
         exact = self.hessian_info["hessian"] == "exact"
@@ -491,13 +539,13 @@ class Problem:
 
     def objective_values(self, x: np.ndarray) -> np.ndarray:
         """Internal values J_k of every objective at x."""
-        return np.asarray(self._j_fn_p(x, self._slot_omega())).ravel()
+        return np.asarray(self._j_fn_p(x, self._fn_params())).ravel()
 
     def _aux_fn(self, x_core):
-        return self._aux_fn_p(x_core, self._slot_omega())
+        return self._aux_fn_p(x_core, self._fn_params())
 
     def _chain_fn(self, x_core):
-        return self._chain_fn_p(x_core, self._slot_omega())
+        return self._chain_fn_p(x_core, self._fn_params())
 
     def closure(self, d) -> tuple[float, float | None]:
         """``(sigma, sigma_u)`` of a design from the NumPy closure (``sigma_u``: ``None``

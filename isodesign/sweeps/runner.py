@@ -43,6 +43,7 @@ from isodesign.io.record import resolved_study_dict, study_toml
 from isodesign.io.rundir import RECORD_NAME, check_run_target, read_run_record
 from isodesign.optimization.study import Study, default_study, load_study
 from isodesign.results import ResultDisplay
+from isodesign.sweeps.continuation import chains
 from isodesign.sweeps.spec import build_points, combine, parse_vary, read_points, study_hash
 from isodesign.sweeps.table import TABLE_NAME, collect_rows, frame, write_table
 from isodesign.sweeps.tasks import FINISHED, get_task, record_failed_point, run_point
@@ -82,6 +83,11 @@ class SweepResult(ResultDisplay):
         Where it ran.
     status : str
         ``complete``, ``failed`` (some point failed) or ``interrupted``.
+    point_wall_s : tuple of float
+        The wall time of each point computed now.
+    nlp_builds : int
+        NLPs built by the points computed now (one per structure and worker process;
+        ``docs/sweep.md``, section 7).
     """
 
     directory: Path
@@ -95,6 +101,8 @@ class SweepResult(ResultDisplay):
     where: str
     status: str
     point_wall_s: tuple = field(default_factory=tuple)
+    #: NLPs built by the points run now (one per structure and worker: docs/sweep.md).
+    nlp_builds: int = 0
 
     def to_frame(self):
         """The table (a copy)."""
@@ -107,6 +115,7 @@ class SweepResult(ResultDisplay):
                 ("points", f"{n} in the table; {self.ran} run now, {self.reused} reused, "
                            f"{self.failed} failed"),
                 ("status", self.status), ("where", self.where),
+                ("NLPs built", f"{self.nlp_builds} for {self.ran} points run now"),
                 ("wall time", f"{self.wall_s:.1f} s (median point {med:.2f} s)")]
 
     def plot(self, objective: str | None = None):
@@ -401,7 +410,14 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
             "Base study of an isodesign sweep (resolved). Each point is this study with its\n"
             "changes applied (see sweep.parquet, column changes, and points/*/)")))
     table_path = target / TABLE_NAME
-    write_table(frame(rows.values(), keys), table_path)
+    tables = [p.changes for p in pts]
+    order = chains(tables, keys, 1 if conn is None else max(conn.workers, 1))
+    builds = [0]  # NLPs built by the points computed now (the branch pass's too)
+
+    def table_now():
+        return frame(rows.values(), keys)
+
+    write_table(table_now(), table_path)
     total, done, failed = len(pts), 0, 0
     walls: list[float] = []
     unwritten = []  # rows handed over but not yet in the table (a batch cut short)
@@ -416,44 +432,71 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
         # them writes the table (one rewrite for all the points finished meanwhile)
         nonlocal done, failed
         rows[p.study_hash] = row
+        builds[0] += bool(row.get("nlp_built") and not row.get("reused"))
         done += 1
         failed += row.get("status") == "failed"
         if row.get("wall_s") is not None and not row.get("reused"):
             walls.append(float(row["wall_s"]))
         unwritten.append(p.study_hash)
         if write:
-            write_table(frame(rows.values(), keys), table_path)
+            write_table(table_now(), table_path)
             unwritten.clear()
         if progress:
             slots = 1 if conn is None else max(conn.workers, 1)  # a point per worker
             progress(reused + done, total, row, min(slots, len(todo) - done))
+
+    todo_hashes = {p.study_hash for p in todo}
+
+    def again(p, row, write=True):  # a point solved again (the branch pass): not a new one
+        rows[p.study_hash] = row
+        builds[0] += bool(row.get("nlp_built"))
+        if write:
+            write_table(table_now(), table_path)
 
     error = None
     try:
         if todo and scheduler == "serial":
             where = "serial (this process, no Dask)"
             with _interrupts_seen() as seen:
-                for p in todo:
-                    pdir = str(points_dir / p.key)
-                    said = io.StringIO()  # the point's stderr, shown unless interrupted
-                    with contextlib.redirect_stderr(said):
-                        try:
-                            row = run_point(task, resolved_study_dict(p.study), p.study_hash,
-                                            p.changes, pdir, options)
-                        except Exception as exc:  # a bug in the task: recorded, goes on
-                            row = record_failed_point(task, p.study_hash, p.changes, pdir,
-                                                      f"{type(exc).__name__}: {exc}")
-                    if seen:
-                        # a Ctrl-C inside the solver (CasADi turns it into a failed solve):
-                        # the point ran under the interrupt, so it is not kept; stop here
-                        if not row.get("reused"):
-                            shutil.rmtree(pdir, ignore_errors=True)
-                        raise KeyboardInterrupt(seen[0])
-                    sys.stderr.write(said.getvalue())
-                    finished(p, row)
+                def serial(items, done_now):
+                    for i, nb, again in items:
+                        p = pts[i]
+                        pdir = str(points_dir / p.key)
+                        said = io.StringIO()  # the point's stderr, shown unless interrupted
+                        with contextlib.redirect_stderr(said):
+                            try:
+                                row = run_point(task, resolved_study_dict(p.study),
+                                                p.study_hash, p.changes, pdir, options,
+                                                neighbours=nb, resolve=again)
+                            except Exception as exc:  # a bug in the task: recorded, goes on
+                                row = record_failed_point(task, p.study_hash, p.changes, pdir,
+                                                          f"{type(exc).__name__}: {exc}")
+                        if seen:
+                            # a Ctrl-C inside the solver (CasADi turns it into a failed
+                            # solve): the point ran under the interrupt, so it is not kept
+                            if not row.get("reused"):
+                                shutil.rmtree(pdir, ignore_errors=True)
+                            raise KeyboardInterrupt(seen[0])
+                        sys.stderr.write(said.getvalue())
+                        done_now(p, row)
+
+                for ch in order:
+                    prev = None
+                    for i in ch:
+                        p = pts[i]
+                        if p.study_hash in rows and p.study_hash not in todo_hashes:
+                            prev = rows[p.study_hash]
+                            continue
+                        serial([(i, [prev] if prev else [], False)], finished)
+                        prev = rows[p.study_hash]
+                _branch_pass(pts, rows, order, task, lambda items: serial(items, again),
+                             todo_hashes)
         elif todo:
             where = conn.where
-            _run_dask(conn.client, todo, task, options, points_dir, finished)
+            _run_dask(conn.client, pts, order, todo_hashes, rows, task, options, points_dir,
+                      finished)
+            _branch_pass(pts, rows, order, task, lambda items: _run_dask_items(
+                conn.client, pts, items, task, options, points_dir, again), todo_hashes)
     except KeyboardInterrupt:
         status = "interrupted"
         raise
@@ -475,15 +518,17 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
                 rows.update(late)
                 unwritten.extend(late)
         if unwritten:  # interrupted inside a batch: its rows reach the table all the same
-            write_table(frame(rows.values(), keys), table_path)
+            write_table(table_now(), table_path)
         if status != "interrupted":  # every task has ended: no worker writes any more
             _clean_leftovers(points_dir)
+        rec["nlp_builds"] = builds[0]
         _finish(target, rec, rows, pts, status, where, keys,
                 charts and status != "interrupted", error)
-    return SweepResult(directory=target, table=frame(rows.values(), keys), keys=tuple(keys),
+    return SweepResult(directory=target, table=table_now(), keys=tuple(keys),
                        task=task, ran=done, reused=reused, failed=failed,
                        wall_s=time.perf_counter() - t_all, where=where, status=status,
-                       point_wall_s=tuple(walls))
+                       point_wall_s=tuple(walls),
+                       nlp_builds=rec["nlp_builds"])
 
 
 @contextlib.contextmanager
@@ -521,17 +566,58 @@ def _interrupts_seen():
             signal.signal(sig, prev)
 
 
-def _run_dask(client, todo, task, options, points_dir, finished) -> None:
-    """Submit every point as a task; hand each row to ``finished`` as it completes."""
-    from distributed import as_completed
+def _submit(client, p, task, options, points_dir, tag, neighbours, resolve=False,
+            worker=None):
+    # a chain's worker is a preference (allow_other_workers): a lost worker's chain moves
+    where = {"workers": [worker], "allow_other_workers": True} if worker else {}
+    return client.submit(run_point, task, resolved_study_dict(p.study), p.study_hash,
+                         p.changes, str(points_dir / p.key), options, neighbours=neighbours,
+                         resolve=resolve, key=f"isodesign-point-{p.key}-{tag}", pure=False,
+                         retries=RETRIES, **where)
 
+
+def _worker_addresses(client) -> list[str]:
+    try:
+        return sorted(client.scheduler_info(n_workers=-1)["workers"])
+    except Exception:  # an old scheduler, a test double: no preference
+        return []
+
+
+def _run_dask(client, pts, order, todo_hashes, rows, task, options, points_dir,
+              finished) -> None:
+    """Submit every point as a task, each chain's points in order (a point's task takes its
+    predecessor's future: its row arrives as the neighbour), each chain on one worker (the
+    chains dealt round the workers, a preference Dask keeps unless the worker is lost);
+    hand each row to ``finished`` as it completes."""
     tag = uuid.uuid4().hex[:8]
     futures = {}
-    for p in todo:
-        fut = client.submit(run_point, task, resolved_study_dict(p.study), p.study_hash,
-                            p.changes, str(points_dir / p.key), options,
-                            key=f"isodesign-point-{p.key}-{tag}", pure=False, retries=RETRIES)
-        futures[fut] = p
+    workers = _worker_addresses(client)
+    for c, ch in enumerate(order):
+        w = workers[c % len(workers)] if workers else None
+        prev = None
+        for i in ch:
+            p = pts[i]
+            if p.study_hash not in todo_hashes:
+                prev = rows.get(p.study_hash)
+                continue
+            fut = _submit(client, p, task, options, points_dir, tag,
+                          [prev] if prev is not None else [], worker=w)
+            futures[fut] = p
+            prev = fut
+    _collect(client, futures, task, points_dir, finished)
+
+
+def _run_dask_items(client, pts, items, task, options, points_dir, done) -> None:
+    """The branch pass's points (``(index, neighbour rows, resolve)``) as tasks."""
+    tag = uuid.uuid4().hex[:8]
+    futures = {_submit(client, pts[i], task, options, points_dir, tag, nb, again): pts[i]
+               for i, nb, again in items}
+    _collect(client, futures, task, points_dir, done)
+
+
+def _collect(client, futures: dict, task, points_dir, finished) -> None:
+    from distributed import as_completed
+
     try:
         # the futures finished since the last batch (usually one): their rows, then one
         # rewrite of the table (a large cluster finishes points faster than whole rewrites)
@@ -550,6 +636,50 @@ def _run_dask(client, todo, task, options, points_dir, finished) -> None:
         with contextlib.suppress(Exception):
             client.cancel(list(futures), force=True)
         raise
+
+
+def _branch_pass(pts, rows: dict, order, task: str, solve, ran: set) -> None:
+    """Solve again, from the later neighbour's optimum, each point whose successor in its
+    chain changed branch (``branch_changed``: its answer left the branch its predecessor's
+    optimum led to); backwards while the answer is the later neighbour's branch.
+
+    ``solve(items)`` runs ``(index, neighbour rows, resolve)`` items and stores their rows.
+    Only ``optimize`` points are continued (the other tasks have no starts), and only the
+    points computed now (``ran``: study hashes): a finished point of an earlier run is never
+    rewritten (a resumed or extended sweep runs only its new points).
+    """
+    if task != "optimize":
+        return
+    where = {i: (c, k) for c, ch in enumerate(order) for k, i in enumerate(ch)}
+    todo = []
+    for ch in order:
+        for k in range(1, len(ch)):
+            ra, rb = rows.get(pts[ch[k - 1]].study_hash), rows.get(pts[ch[k]].study_hash)
+            if ra and rb and pts[ch[k - 1]].study_hash in ran \
+                    and ra.get("question") == "vertical" and ra.get("feasible") \
+                    and rb.get("branch_changed"):
+                todo.append(ch[k - 1])
+    tried: set[int] = set()
+    while todo:
+        items = []
+        for a in todo:
+            c, k = where[a]
+            ch = order[c]
+            # [predecessor (or nothing), successor]: best_neighbour 1 is the successor's
+            nb = [rows.get(pts[ch[k - 1]].study_hash) if k else None,
+                  rows.get(pts[ch[k + 1]].study_hash)]
+            items.append((a, nb, True))
+            tried.add(a)
+        solve(items)
+        nxt = []
+        for a in todo:  # moved to the later branch: its predecessor may follow it
+            c, k = where[a]
+            if not k or order[c][k - 1] in tried or pts[order[c][k - 1]].study_hash not in ran:
+                continue
+            ra = rows.get(pts[a].study_hash) or {}
+            if ra.get("best_neighbour") == 1:
+                nxt.append(order[c][k - 1])
+        todo = nxt
 
 
 def _finish(target, rec, rows, pts, status, where, keys, charts, error=None) -> None:

@@ -31,6 +31,7 @@ import importlib
 import json
 import os
 import socket
+import threading
 import time
 import warnings
 from collections.abc import Callable
@@ -187,7 +188,11 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
     from isodesign.optimization.dispatch import optimize, study_kind
 
     kind = study_kind(study)
-    result = optimize(study)
+    extra: dict = {}
+    if kind == "vertical":
+        result, extra = _optimize_vertical(study, options)
+    else:
+        result = optimize(study)
     plots = bool(options.get("plots", False))
     args = _args(run, plots=plots, yield_samples=options.get("yield_samples"))
     if kind == "vertical":
@@ -204,9 +209,70 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
         yields = (run.record.get("robust_result") or {}).get("yields") or []
         for y, col in zip(yields, ("yield_nominal", "yield"), strict=False):
             row[col] = float(y["fraction"])
+    row.update(extra)
     if not row["feasible"]:
         run.status = "infeasible"
     return row
+
+
+_LOCAL = threading.local()
+
+
+def problem_cache():
+    """This thread's built NLPs (:class:`~isodesign.optimization.parametric.ProblemCache`).
+
+    A sweep worker builds one NLP per structure and solves every point it is given on it;
+    a worker process runs one task at a time (one thread), so the cache is the process's.
+
+    Returns
+    -------
+    ProblemCache
+    """
+    from isodesign.optimization.parametric import ProblemCache
+
+    cache = getattr(_LOCAL, "problems", None)
+    if cache is None:
+        cache = _LOCAL.problems = ProblemCache()
+    return cache
+
+
+def _optimize_vertical(study, options: dict):
+    """The vertical optimum on this worker's NLP, from the study's starts and the finished
+    neighbours' optima; the row's continuation fields (docs/sweep.md, section 7)."""
+    from isodesign.optimization.driver import optimize_vertical
+    from isodesign.optimization.objectives import OBJECTIVES
+    from isodesign.optimization.refine import flat_tolerance
+    from isodesign.sweeps.continuation import neighbour_starts
+
+    cache = problem_cache()
+    before = cache.builds
+    prob = cache.get(study)
+    given = list(options.get("_neighbours") or ())
+    pairs = [(i, v) for i, r in enumerate(given) for v in neighbour_starts([r])]
+    result = optimize_vertical(study, problem=prob, extra_starts=tuple(v for _, v in pairs))
+    n_own = len(result.starts) - len(pairs)
+    best, changed = None, False
+    if result.feasible:
+        sign = -1.0 if OBJECTIVES[result.objective].maximized else 1.0
+        best = min((r for r in result.starts if r.feasible), key=lambda r: sign * r.objective,
+                   default=None)
+        # the answer left the branch the continuation followed: no neighbour's start reached
+        # the best start's objective (within the tie-break's flat tolerance)
+        obj = OBJECTIVES[result.objective]
+        tol = flat_tolerance(result.objective)
+        nbs = result.starts[n_own:]
+        changed = bool(nbs) and best is not None and all(
+            not r.feasible or obj.from_natural(r.objective) > obj.from_natural(best.objective)
+            + tol for r in nbs)
+    return result, {
+        "nlp_built": cache.builds > before, "nlp_builds_worker": cache.builds,
+        "neighbour_starts": len(pairs),
+        "from_neighbour": bool(best is not None and best.index >= n_own),
+        # which of the given neighbours' optima the best start was (-1: the point's own)
+        "best_neighbour": (pairs[best.index - n_own][0]
+                           if best is not None and best.index >= n_own else -1),
+        "branch_changed": changed,
+        "resolved": bool(options.get("_resolved", False))}
 
 
 def _at_bounds(result) -> list[str]:
@@ -525,7 +591,7 @@ def read_point(directory, study_hash: str | None = None) -> dict | None:
 
 
 def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, point_dir: str,
-              options: dict | None = None) -> dict:
+              options: dict | None = None, neighbours=(), resolve: bool = False) -> dict:
     """Compute one sweep point into its run directory; return its row (a Dask task).
 
     Parameters
@@ -542,6 +608,12 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
         The point's run directory (on a file system the workers share).
     options : dict, optional
         Task options.
+    neighbours : sequence of dict or None
+        Rows of finished neighbours (:mod:`isodesign.sweeps.continuation`): their optima
+        are further starts of an ``optimize`` point (a Dask task receives them from its
+        predecessor's future).
+    resolve : bool
+        Compute the point again even when it is finished (the branch pass).
 
     Returns
     -------
@@ -561,7 +633,7 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
     options = dict(options or {})
     task = get_task(task_name)
     done = read_point(point_dir, study_hash)
-    if done is not None and done.get("status") in FINISHED:
+    if done is not None and done.get("status") in FINISHED and not resolve:
         return {**done, "reused": True}
     study = study_from_dict(study_raw, source="<dict>", fill_defaults=False)
     if _hash(study) != study_hash:  # pragma: no cover - a bug, never a silent mismatch
@@ -578,8 +650,10 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
         warnings.simplefilter("always")
         run.record["sweep_point"] = {"study_hash": study_hash, "changes": changes,
                                      "task": task_name, "options": options}
+        run.record["sweep_point"]["neighbours"] = [r.get("point") for r in neighbours if r]
+        inner = {**options, "_neighbours": list(neighbours), "_resolved": resolve}
         try:
-            row.update(task.run(study, run, options))
+            row.update(task.run(study, run, inner))
             status, error = run.status, None
         except (SolverError, InputError) as exc:  # the point's own failure: not retried
             status, error = "failed", f"{type(exc).__name__}: {exc}"

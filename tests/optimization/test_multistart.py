@@ -78,3 +78,19 @@ def test_map_in_workers_runs_here_on_one_core_and_reports_progress(one_core):
                                     progress=lambda done, total, r: seen.append((done, total)))
     assert out == [os.getpid()] * 3
     assert seen == [(1, 3), (2, 3), (3, 3)]
+
+
+def test_a_nested_serial_map_inside_a_worker_keeps_the_outer_task():
+    """A worker's task that maps serially itself (a start's optimize inside a sweep's or a
+    benchmark's worker) leaves the outer task in place for the worker's next item."""
+    from isodesign.optimization.executor import SerialExecutor, use_executor
+    from isodesign.optimization.multistart import map_in_workers
+
+    def inner(x):
+        return x + 1
+
+    def outer(x):
+        with use_executor(SerialExecutor()):
+            return sum(map_in_workers(inner, [x, x]))
+
+    assert map_in_workers(outer, [1, 2, 3, 4, 5, 6], workers=2) == [4, 6, 8, 10, 12, 14]

@@ -213,6 +213,10 @@ def test_exchange_on_a_small_study_holds_in_the_whole_box():
     rec = res.record()
     assert rec["worst_case_objective"] == res.objective_value
     assert res.scenarios_frame().shape[0] == len(res.scenarios)
+    # one stacked NLP per number of scenarios: a round that adds none builds nothing
+    counts = [r["scenarios"] for r in res.rounds]
+    assert [r["nlp_built"] for r in res.rounds] == [
+        k == 0 or counts[k] != counts[k - 1] for k in range(len(counts))]
 
 
 def test_a_scenario_no_design_can_meet_is_named():

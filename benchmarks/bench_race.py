@@ -1,0 +1,175 @@
+"""The peer race (issue 27): isodesign's time to the global optimum against SciPy's
+``differential_evolution`` on the same analysis.
+
+The vertical study (``vertical_study()``, worst-band margin, 8 starts). isodesign:
+:func:`isodesign.optimize` of the study in this process (the NLP's build, the starts in 2
+workers, refinement, tie-break, re-check, analysis), timed once after a warm-up of the
+imports. Differential evolution (SciPy): the same free variables in the same scaled log
+coordinates ``z`` in ``[-1, 1]`` (:func:`isodesign.optimization.variables.log_scaling`), the
+objective (the negated worst-band margin) and every constraint row of the NLP evaluated on
+the NumPy analysis path (:func:`isodesign.optimization.recheck.evaluate_design`: sigma and
+the tube velocity from the NumPy solvers, the study's grid), the constraints as SciPy takes
+them (one ``NonlinearConstraint`` of all the rows with their bounds), ``vectorized=True``
+(one call per generation for the objective and one for the constraints; the designs of a
+generation are evaluated one after the other, each once, shared by the two calls),
+``updating="deferred"``, ``polish=False``, seed 0. The race ends when the best feasible
+design of a generation is within 0.01 dB of the global optimum, the better of isodesign's
+and of everything differential evolution found; a time budget
+(``ISODESIGN_BENCH_RACE_BUDGET_S``, default 900 s) stops it, and the row then gives a bound.
+
+Target: isodesign's time at most 0.05x differential evolution's. The load average is
+reported (the machine is shared).
+"""
+
+from __future__ import annotations
+
+import os
+import time
+import warnings
+
+#: Target: isodesign's time to the optimum over differential evolution's.
+TARGET_RATIO = 0.05
+#: "Reached": within this of the global optimum (dB).
+WITHIN_DB = 0.01
+POPSIZE = 15
+
+
+def _isodesign(study, starts: int) -> tuple[float, float]:
+    """Wall time and optimum of ``isodesign.optimize`` with ``starts`` starts (the NLP's
+    build, the starts in 2 workers, peak refinement, tie-break and the NumPy re-check; not
+    the fine-grid band responses of the result, which are no part of the search)."""
+    import isodesign
+
+    st = study.with_changes(solver={"starts": starts})
+    t0 = time.perf_counter()
+    r = isodesign.optimize(st, analyze=False)
+    return time.perf_counter() - t0, float(r.objective_value)
+
+
+def _de(study, target_db: float, budget_s: float) -> dict:
+    import numpy as np
+    from scipy.optimize import NonlinearConstraint, differential_evolution
+
+    from isodesign.optimization.grid import build_grid
+    from isodesign.optimization.recheck import evaluate_design
+    from isodesign.optimization.variables import log_scaling
+
+    sc = log_scaling(study)
+    grid = build_grid(study)
+    kind = study.objective["kind"]
+    cache: dict = {}
+    stats = {"evaluations": 0, "eval_s": 0.0}
+
+    def ev(z):
+        key = np.asarray(z, float).tobytes()
+        if key not in cache:
+            t = time.perf_counter()
+            try:
+                r = evaluate_design(study, sc.to_values(np.asarray(z, float)), grid=grid)
+                cache[key] = (-float(r["objectives"][kind]),
+                              np.concatenate([np.atleast_1d(c["value"])
+                                              for c in r["constraints"].values()]))
+            except Exception:  # a design the NumPy solvers do not close: infeasible
+                cache[key] = (1e3, None)
+            stats["evaluations"] += 1
+            stats["eval_s"] += time.perf_counter() - t
+        return cache[key]
+
+    first = evaluate_design(study, sc.to_values(np.zeros(len(sc.names))), grid=grid)
+    lo = np.concatenate([np.full(np.size(c["value"]), c["lower"])
+                         for c in first["constraints"].values()])
+    hi = np.concatenate([np.full(np.size(c["value"]), c["upper"])
+                         for c in first["constraints"].values()])
+    m = lo.size
+
+    def fobj(zs):
+        zs = np.asarray(zs, float)
+        if zs.ndim == 1:
+            return ev(zs)[0]
+        return np.array([ev(zs[:, s])[0] for s in range(zs.shape[1])])
+
+    def fcon(zs):
+        zs = np.asarray(zs, float)
+        if zs.ndim == 1:
+            c = ev(zs)[1]
+            return hi + 1e3 if c is None else c
+        out = np.empty((m, zs.shape[1]))
+        for s in range(zs.shape[1]):
+            c = ev(zs[:, s])[1]
+            out[:, s] = hi + 1e3 if c is None else c
+        return out
+
+    t0 = time.perf_counter()
+    trace: list = []
+
+    def callback(intermediate_result):
+        # the best feasible design found so far (differential evolution's incumbent is
+        # feasible whenever any member is)
+        best = -float(intermediate_result.fun)
+        feas = ev(intermediate_result.x)[1] is not None and bool(np.all(
+            (ev(intermediate_result.x)[1] >= lo - 1e-9) & (ev(intermediate_result.x)[1]
+                                                          <= hi + 1e-9)))
+        el = time.perf_counter() - t0
+        trace.append((el, best if feas else float("-inf")))
+        return (feas and best >= target_db - WITHIN_DB) or el > budget_s
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        res = differential_evolution(
+            fobj, [(-1.0, 1.0)] * len(sc.names), constraints=NonlinearConstraint(fcon, lo, hi),
+            vectorized=True, updating="deferred", polish=False, popsize=POPSIZE, rng=0,
+            maxiter=100000, tol=0.0, atol=0.0, callback=callback)
+    wall = time.perf_counter() - t0
+    reached = next((t for t, v in trace if v >= target_db - WITHIN_DB), None)
+    best = max((v for _, v in trace), default=float("-inf"))
+    return {"wall_s": wall, "reached_s": reached, "variables": len(sc.names), "best_db": best,
+            "generations": len(trace), "evaluations": stats["evaluations"],
+            "eval_ms": 1e3 * stats["eval_s"] / max(stats["evaluations"], 1),
+            "values": sc.to_values(res.x), "message": str(res.message)}
+
+
+def run() -> list[dict]:
+    """The race's row."""
+    from isodesign.optimization.study import vertical_study
+
+    warnings.simplefilter("ignore")
+    budget = float(os.environ.get("ISODESIGN_BENCH_RACE_BUDGET_S", "900"))
+    study = vertical_study()
+    load0 = os.getloadavg()[0]
+    _isodesign(study, 1)  # warm-up: imports, CasADi's first build
+    t_iso, j_iso = _isodesign(study, study.solver["starts"])
+    t_one, j_one = _isodesign(study, 1)
+    de = _de(study, j_iso, budget)
+    load1 = os.getloadavg()[0]
+    j_star = max(j_iso, de["best_db"])
+    iso_ok = j_iso >= j_star - WITHIN_DB
+    one_ok = j_one >= j_star - WITHIN_DB
+    if de["reached_s"] is not None:
+        ratio, bound = t_iso / de["reached_s"], ""
+    else:
+        ratio, bound = t_iso / de["wall_s"], (f"differential evolution did not reach it in "
+                                               f"{de['wall_s']:.0f} s (the budget): the ratio "
+                                               f"is at most this; ")
+    return [{
+        "name": "race: time to the global optimum (0.01 dB), isodesign vs SciPy "
+                "differential_evolution",
+        "target": f"<= {TARGET_RATIO}", "median": ratio, "unit": "x",
+        "ratio": ratio / TARGET_RATIO, "passed": bool(iso_ok and ratio <= TARGET_RATIO),
+        "repeats": 1,
+        "notes": f"vertical study (worst-band margin): isodesign.optimize ("
+                 f"{study.solver['starts']} starts, the study's, analyze=False) {t_iso:.1f} s to "
+                 f"{j_iso:.3f} dB (with 1 start: {t_one:.1f} s to {j_one:.3f} dB, within "
+                 f"{WITHIN_DB} dB: {one_ok}); differential evolution (pop "
+                 f"{POPSIZE} x {de['variables']} variables, vectorized, the NLP's "
+                 f"constraint rows as one NonlinearConstraint on the NumPy analysis, "
+                 f"{de['eval_ms']:.0f} ms per evaluation) best {de['best_db']:.3f} dB "
+                 f"after {de['generations']} generations, {de['evaluations']} evaluations, "
+                 f"{de['wall_s']:.0f} s; "
+                 f"{bound}global optimum {j_star:.3f} dB, isodesign within "
+                 f"{WITHIN_DB} dB: {iso_ok}; load average {load0:.1f} -> {load1:.1f} on 2 "
+                 "cores"}]
+
+
+if __name__ == "__main__":
+    for row in run():
+        print(row)

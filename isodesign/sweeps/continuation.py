@@ -1,0 +1,132 @@
+"""Continuation along a sweep's lines: which points are neighbours, in which order they run.
+
+A sweep's points lie on *lines*: the points that differ only in the line key (the swept
+key with numbers and the most values: ``payload.mass_kg`` in ``payload x floor``), sorted
+by it. Each line is cut into at most as many *chains* as there are workers per line; a
+chain's points run in order on one worker, each starting from its own starts and from its
+predecessor's optimum (:func:`neighbour_starts`). A point whose answer is on another
+branch than the one its predecessor's optimum led to (the sweep task's ``branch_changed``:
+:func:`isodesign.optimization.pareto.on_other_branch`, the test of the Pareto chains) has
+its predecessor solved again from its optimum too, and so on backwards while the answer
+moves to that branch (:mod:`isodesign.sweeps.runner`). See ``docs/sweep.md``.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import numbers
+
+__all__ = ["Line", "chains", "line_key", "lines", "neighbour_starts"]
+
+
+def _number(v) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, bool)
+
+
+def line_key(tables: list[dict], keys: list[str]) -> str | None:
+    """The key the lines run along: numeric, the most distinct values (None: no line).
+
+    Parameters
+    ----------
+    tables : list of dict
+        The points' changes (dotted key -> value).
+    keys : list of str
+        The swept keys, in the order given.
+
+    Returns
+    -------
+    str or None
+    """
+    best, n_best = None, 1
+    for k in keys:
+        vals = [t.get(k) for t in tables]
+        if not vals or not all(_number(v) for v in vals):
+            continue
+        n = len(set(vals))
+        if n > n_best:
+            best, n_best = k, n
+    return best
+
+
+class Line(list):
+    """Indices of points on one line, sorted along the line key."""
+
+
+def lines(tables: list[dict], keys: list[str]) -> list[Line]:
+    """The points grouped into lines (each sorted along :func:`line_key`).
+
+    Parameters
+    ----------
+    tables : list of dict
+    keys : list of str
+
+    Returns
+    -------
+    list of Line
+        Every point index exactly once; without a line key, one line per point.
+    """
+    lk = line_key(tables, keys)
+    if lk is None:
+        return [Line([i]) for i in range(len(tables))]
+    groups: dict[str, Line] = {}
+    for i, t in enumerate(tables):
+        rest = json.dumps({k: v for k, v in t.items() if k != lk}, sort_keys=True, default=str)
+        groups.setdefault(rest, Line()).append(i)
+    out = []
+    for g in groups.values():
+        out.append(Line(sorted(g, key=lambda i: tables[i][lk])))
+    return out
+
+
+def chains(tables: list[dict], keys: list[str], workers: int) -> list[list[int]]:
+    """The lines cut into chains, so that every worker has one while lines last.
+
+    Parameters
+    ----------
+    tables : list of dict
+    keys : list of str
+    workers : int
+
+    Returns
+    -------
+    list of list of int
+        Chains of point indices; a chain runs in order, each point after its predecessor.
+        Fewer lines than workers: each line is cut into ``ceil(workers / lines)`` pieces
+        of consecutive points.
+    """
+    ls = lines(tables, keys)
+    if not ls:
+        return []
+    pieces = max(1, math.ceil(max(workers, 1) / len(ls)))
+    out = []
+    for ln in ls:
+        n = min(pieces, len(ln))
+        size = math.ceil(len(ln) / n)
+        out += [list(ln[i: i + size]) for i in range(0, len(ln), size)]
+    return out
+
+
+def neighbour_starts(rows) -> list[dict]:
+    """The design values of the feasible neighbours' optima (rows of the sweep table).
+
+    Parameters
+    ----------
+    rows : iterable of dict or None
+
+    Returns
+    -------
+    list of dict
+        Design-variable values (SI) of each feasible neighbour, in order.
+    """
+    from isodesign.optimization.variables import DESIGN_VARIABLES
+
+    out = []
+    for r in rows:
+        if not r or not r.get("feasible") or r.get("status") not in ("complete",):
+            continue
+        try:
+            out.append({k: float(r[k]) for k in DESIGN_VARIABLES})
+        except (KeyError, TypeError, ValueError):
+            continue
+    return out
