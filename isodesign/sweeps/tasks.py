@@ -343,16 +343,16 @@ def _robust_row(result) -> dict:
 
 def _response(study, run: RunDirectory, options: dict) -> dict:
     from isodesign.io.record import design_figures, resolved_study_dict, study_toml
-    from isodesign.response.random_input import band_response
+    from isodesign.optimization.analyze import vertical_band_response
 
     _check_response(study)  # a point's study never answers the nominal question
     if study.table is not None:
         return _table_response(study, run)
     m = study.models
-    analysis = band_response(study.start_design(), study.payload, study.floor, study.target,
-                             bands=study.bands, derive_pressure=False, warn=False,
-                             flow=m["flow"], amplitude_mode=m["amplitude_mode"],
-                             diaphragm=m["diaphragm"], random_method=m["random_method"])
+    analysis = vertical_band_response(  # through the payload's symmetric table (one model)
+        study.start_design(), study.payload, study.floor, study.target, bands=study.bands,
+        derive_pressure=False, warn=False, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
+        diaphragm=m["diaphragm"], random_method=m["random_method"])
     values = {v.name: v.start for v in study.variables}
     run.record.update({"study": resolved_study_dict(study), "study_source": study.source,
                        "design": values})

@@ -15,7 +15,11 @@ from isodesign.optimization.study import (
     study_from_dict,
     vertical_study,
 )
-from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
+from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
+    DESIGN_VARIABLES,
+    GROUP_SPRING_LEVERS,
+)
 from isodesign.spring.gas import G_STANDARD, P_ATM
 
 SRC = "bad_study.toml"
@@ -90,7 +94,7 @@ def test_default_study_file_loads(tmp_path):
         ({"solver": {"iterations": 10}}, "iterations", "[solver]",
          {"starts", "seed", "max_iter", "tol", "tie_break", "workers"}),
         ({"variables": {"n": {"start": 1.0}}}, "n", "[variables]",
-         set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS)),
+         set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS) | set(GROUP_SPRING_LEVERS)),
         ({"variables": {"volume_ratio": {"begin": 1.0}}}, "begin", "variables.volume_ratio",
          {"start", "lower", "upper", "fixed"}),
         ({"hardware": {"gas": {"gamma": 1.4}}}, "gamma", "[hardware.gas]",
