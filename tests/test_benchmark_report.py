@@ -45,5 +45,6 @@ def test_a_report_without_run_lines_gets_the_header_run():
            "| git commit | ccc |\n\n## bench_c.py\n\nC.\n\n| benchmark | target |\n|---|---|\n"
            "| c1 | < 1 |\n\n## Reproduce\n")
     c = run.split_sections(old)["bench_c.py"]
-    assert "Run: 2025-05-05 05:05:05 UTC, commit ccc, load average 1, 2, 3 at start." in c
+    assert ("Run: 2025-05-05 05:05:05 UTC, commit ccc, unknown x unknown, load average 1, 2, 3 "
+            "at start." in c)
     assert "| c1 | < 1 |" in c
