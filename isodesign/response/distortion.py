@@ -347,3 +347,53 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     conv = np.fft.ifft(spec)
     top = kmax * imax
     return bin_hz * np.arange(1, top + 1), 2.0 * conv[1:top + 1]
+
+
+def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
+    """:func:`cross_convolutions` of many pairs at once, in real arithmetic.
+
+    The two-sided cross-spectrum ``h`` of a pair is Hermitian (``h(-f) = conj h(f)``), so its
+    transform, the cross-correlation ``rho_ij(tau)``, is real: one real inverse FFT per pair
+    (batched), the odd powers of the real correlation, one real FFT back. The same numbers as
+    :func:`cross_convolutions` to rounding (``tests/response/test_distortion.py``), at half
+    its FFT work and without the per-pair calls.
+
+    Parameters
+    ----------
+    freq_hz : ndarray (f,)
+        Line frequencies (> 0).
+    cross_power : complex ndarray (f, m)
+        ``E[u_i u_j*]`` per line and pair, divided by ``s_i s_j`` (one-sided).
+    bin_hz : float
+        Bin width.
+
+    Returns
+    -------
+    f_bins : ndarray
+        One-sided bin centres.
+    p_bins : complex ndarray (bins, m)
+        The residuals' normalized one-sided cross power per bin and pair.
+    """
+    from scipy.fft import irfft, next_fast_len, rfft
+
+    kmax = max(DISTORTION_ORDERS)
+    idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
+    imax = int(idx.max())
+    n = next_fast_len(2 * kmax * imax + 2, real=True)
+    p = np.asarray(cross_power, dtype=complex)
+    m = p.shape[1]
+    # the one-sided half of conj(h): its Hermitian extension is conj(h) (h Hermitian), and
+    # n irfft(conj h) = conj(fft(h)) = fft(h), real
+    half = np.zeros((m, n // 2 + 1), dtype=complex)
+    for j in range(m):  # np.add.at per pair (lines may share a bin)
+        half[j] = np.bincount(idx, weights=p[:, j].real, minlength=n // 2 + 1) \
+            - 1j * np.bincount(idx, weights=p[:, j].imag, minlength=n // 2 + 1)
+    # the zero bin (idx == 0) carries 0.5 p + 0.5 conj p in the two-sided grid
+    half[:, 0] = np.real(half[:, 0]) + 0j
+    half *= 0.5
+    hf = n * irfft(half, n, axis=-1)
+    spec = _odd_orders(hf, kmax)
+    # ifft(spec)[k] = conj(rfft(spec)[k]) / n for a real spec
+    top = kmax * imax
+    conv = np.conj(rfft(spec, axis=-1)[:, 1:top + 1]) / n
+    return bin_hz * np.arange(1, top + 1), 2.0 * conv.T

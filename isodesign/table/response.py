@@ -605,18 +605,49 @@ class TableDistortion:
     band_mean_square: np.ndarray
 
 
-def _springs_at(st: TableStatistical, omega, sigma, sigma_u):
-    """Per isolator ``(k, C)`` (Cx) at arbitrary ``omega`` for the closure's RMS values."""
+def _bin_parts(st: TableStatistical, omega):
+    """The parts of the bins' springs that do not move with the closure's state, computed
+    once per :class:`TableStatistical` and bin grid: each distinct design's linear resistance
+    (``sigma_u -> C``) and the horizontal elements' stiffness."""
     model = st.model
-    ks, cs = [], []
+    cache = st.__dict__.setdefault("_distortion_bins", {})
+    key = (omega.size, float(omega[0]), float(omega[-1]))
+    if key not in cache:
+        c_of: dict = {}
+        per = []
+        for d in model.designs:
+            if d not in c_of:
+                c_of[d] = statistical_resistance_function(model.flow, d, omega)
+            per.append(c_of[d])
+        cache.clear()  # one bin grid per response
+        cache[key] = (per, model.horizontal_stiffness(omega))
+    return cache[key]
+
+
+def _springs_at(st: TableStatistical, omega, sigma, sigma_u):
+    """Per isolator ``(k, C, network)`` at the bins ``omega`` for the closure's RMS values
+    (Cx, Cx, :func:`~isodesign.response.distortion.source_network`'s tuple); isolators of
+    one design at one state share one evaluation."""
+    from isodesign.response.distortion import source_network
+
+    model = st.model
+    c_of, _ = _bin_parts(st, omega)
+    seen: dict = {}
+    ks, cs, nets = [], [], []
     for i in range(model.n_isolators):
         d = model.designs[i]
-        c = statistical_resistance_function(model.flow, d, omega)(float(sigma_u[i]))
-        k_air = air_stiffness(d, omega, c, model.flow)
-        ks.append(spring_stiffness(k_air, st.dia.stiffness(omega,
-                                                           equivalent_amplitude(float(sigma[i])))))
+        key = (d, float(sigma[i]), float(sigma_u[i]))
+        if key not in seen:
+            c = c_of[i](float(sigma_u[i]))
+            k_air = air_stiffness(d, omega, c, model.flow)
+            k = spring_stiffness(k_air, st.dia.stiffness(omega,
+                                                         equivalent_amplitude(float(sigma[i]))))
+            seen[key] = (k, c, source_network(d, omega, c.to_complex(), model.flow))
+        k, c, net = seen[key]
+        ks.append(k)
         cs.append(c)
-    return ks, cs
+        nets.append(net)
+    return ks, cs, nets
 
 
 def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
@@ -641,7 +672,7 @@ def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
     """
     from isodesign.response.distortion import (
         DISTORTION_RANGE_FACTOR,
-        cross_convolutions,
+        pair_convolutions,
         source_network,
     )
 
@@ -662,22 +693,17 @@ def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
     s = np.sqrt(s2)
     coeff = np.array([0.5 * d.minor_loss * d.density_kg_m3 for d in model.designs])
     amp = coeff * s2  # (K rho/2) s^2 per isolator
-    f_bins = None
-    g_e = None
-    for i in range(n):
-        for j in range(i, n):
-            fb, pij = cross_convolutions(f_lines, cross[:, i, j] / (s[i] * s[j]))
-            if g_e is None:
-                top = fb <= DISTORTION_RANGE_FACTOR * f_lines.max()
-                f_bins = fb[top]
-                g_e = np.zeros((f_bins.size, n, n), dtype=complex)
-            g_e[:, i, j] = amp[i] * amp[j] * pij[: f_bins.size]
-            g_e[:, j, i] = np.conj(g_e[:, i, j])
+    iu, ju = np.triu_indices(n)
+    fb, pij = pair_convolutions(f_lines, cross[:, iu, ju] / (s[iu] * s[ju]))
+    top = fb <= DISTORTION_RANGE_FACTOR * f_lines.max()
+    f_bins = fb[top]
+    g_e = np.zeros((f_bins.size, n, n), dtype=complex)
+    g_e[:, iu, ju] = (amp[iu] * amp[ju]) * pij[: f_bins.size]
+    g_e[:, ju, iu] = np.conj(g_e[:, iu, ju])
     wb = 2.0 * math.pi * f_bins
-    kb, cb = _springs_at(st, wb, sigma, sigma_u)
-    d_flat, _ = dynamic_stiffness(geo, kb, model.horizontal_stiffness(wb), wb)
+    kb, _, net = _springs_at(st, wb, sigma, sigma_u)
+    d_flat, _ = dynamic_stiffness(geo, kb, _bin_parts(st, wb)[1], wb)
     dyn = (np.asarray(d_flat.re) + 1j * np.asarray(d_flat.im)).reshape(-1, 6, 6)
-    net = [source_network(model.designs[i], wb, cb[i].to_complex(), model.flow) for i in range(n)]
     force = np.stack([net[i][0] for i in range(n)], axis=-1)  # (f, n)
     rhs = geo.gz.T[None, :, :] * force[:, None, :]  # (f, 6, n): the sources' generalized forces
     q = np.linalg.solve(dyn, rhs)  # (f, 6, n_src)

@@ -235,3 +235,66 @@ def test_section_3a_3b_sentences_summarize_their_tables():
     cost = [float(v) for v in re.search(r"with / without the distortion: ([0-9., ]+)",
                                         flat).group(1).strip(" .").split(", ")]
     assert f"{round(min(cost))} to {round(max(cost))} times the plain one" in flat
+
+
+def test_pair_convolutions_match_the_complex_path():
+    """The batched real-arithmetic cross-convolutions (the table's) against the per-pair
+    complex FFT (the previous path), to rounding (stated tolerance 1e-12 of the peak)."""
+    from isodesign.response.distortion import cross_convolutions, pair_convolutions
+
+    rng = np.random.default_rng(3)
+    f = np.sort(rng.uniform(0.9, 89.0, 400))
+    p = rng.normal(size=(400, 4)) + 1j * rng.normal(size=(400, 4))
+    p[:, 0] = np.abs(p[:, 0])  # an auto-spectrum
+    f[5] = f[4]  # two lines in one bin
+    fb, pb = pair_convolutions(f, p)
+    for j in range(p.shape[1]):
+        fo, po = cross_convolutions(f, p[:, j])
+        np.testing.assert_array_equal(fo, fb)
+        assert np.max(np.abs(pb[:, j] - po)) <= 1e-12 * np.max(np.abs(po))
+
+
+def test_table_distortion_matches_the_per_pair_reference():
+    """The built-in table's distortion figures (band mean squares, stroke and tube velocity
+    variances) with the batched convolutions and the shared bin springs, against the
+    previous per-isolator, per-pair evaluation kept here: within 1e-9 relative."""
+    from isodesign.optimization.study import table_study
+    from isodesign.response.distortion import DISTORTION_RANGE_FACTOR, cross_convolutions
+    from isodesign.table import response as tr
+
+    ts = table_study()
+    m = ts.models
+    vals = {v.name: v.start for v in ts.variables}
+    model = tr.table_model(ts.design_at(vals), ts.table_at(vals), flow=m["flow"],
+                           amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
+    grid = tr.table_grid(tr.table_floor(ts.floor_axes), (2.0, 20.0),
+                         target=tr.resolve_target(ts.target), points_per_band=20)
+    st = tr.TableStatistical(model, grid)
+    sigma, sigma_u, _ = tr.solve_table_closure(st)
+    new = tr.table_distortion(st, sigma, sigma_u)
+
+    # the previous path: cross_convolutions pair by pair (complex FFTs), fresh bin springs
+    calls = []
+
+    def per_pair(f_lines, cross):
+        calls.append(cross.shape[1])
+        cols = [cross_convolutions(f_lines, cross[:, q]) for q in range(cross.shape[1])]
+        return cols[0][0], np.stack([c[1] for c in cols], axis=-1)
+
+    import isodesign.response.distortion as dmod
+
+    saved = dmod.pair_convolutions
+    try:
+        dmod.pair_convolutions = per_pair
+        old = tr.table_distortion(tr.TableStatistical(model, grid), sigma, sigma_u)
+    finally:
+        dmod.pair_convolutions = saved
+    n = model.n_isolators
+    assert calls == [n * (n + 1) // 2]
+    assert DISTORTION_RANGE_FACTOR == 1.5
+    np.testing.assert_array_equal(new.frequency_hz, old.frequency_hz)
+    np.testing.assert_allclose(new.stroke_variance, old.stroke_variance, rtol=1e-9)
+    np.testing.assert_allclose(new.tube_velocity_variance, old.tube_velocity_variance, rtol=1e-9)
+    np.testing.assert_allclose(new.band_mean_square, old.band_mean_square, rtol=1e-9,
+                               atol=1e-9 * new.band_mean_square.max())
+    assert np.all(new.stroke_variance > 0) and new.band_mean_square.max() > 0
