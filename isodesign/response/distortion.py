@@ -370,7 +370,9 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     Returns
     -------
     f_bins : ndarray
-        One-sided bin centres.
+        One-sided bin centres, up to :data:`DISTORTION_RANGE_FACTOR` times the highest line
+        (and one bin more; :func:`cross_convolutions` returns all of them, to ``kmax``
+        times): the FFT period is only as long as these bins need to be free of aliasing.
     p_bins : complex ndarray (bins, m)
         The residuals' normalized one-sided cross power per bin and pair.
     """
@@ -379,7 +381,10 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     kmax = max(DISTORTION_ORDERS)
     idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
     imax = int(idx.max())
-    n = next_fast_len(2 * kmax * imax + 2, real=True)
+    # no aliasing below the bins kept: the k-fold convolution spans +-kmax imax, so a
+    # period n > kmax imax + keep leaves [0, keep] exact
+    keep = min(kmax * imax, math.ceil(DISTORTION_RANGE_FACTOR * imax) + 1)
+    n = next_fast_len(max(2 * imax + 2, kmax * imax + keep + 1), real=True)
     p = np.asarray(cross_power, dtype=complex)
     m = p.shape[1]
     # the one-sided half of conj(h): its Hermitian extension is conj(h) (h Hermitian), and
@@ -394,6 +399,5 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     hf = n * irfft(half, n, axis=-1)
     spec = _odd_orders(hf, kmax)
     # ifft(spec)[k] = conj(rfft(spec)[k]) / n for a real spec
-    top = kmax * imax
-    conv = np.conj(rfft(spec, axis=-1)[:, 1:top + 1]) / n
-    return bin_hz * np.arange(1, top + 1), 2.0 * conv.T
+    conv = np.conj(rfft(spec, axis=-1)[:, 1:keep + 1]) / n
+    return bin_hz * np.arange(1, keep + 1), 2.0 * conv.T
