@@ -29,6 +29,7 @@ __all__ = [
     "DISTORTION_ORDERS",
     "DistortionPower",
     "abs_square_hermite_coefficient",
+    "bin_groups",
     "cross_convolutions",
     "distortion_power",
     "source_network",
@@ -39,6 +40,13 @@ __all__ = [
 DISTORTION_ORDERS = (3, 5)
 #: Bin width of the convolution grid, Hz.
 DISTORTION_BIN_HZ = 0.05
+#: Bins merge into groups no wider than this fraction of their frequency (within one band)
+#: for the response to the sources: the sources' power is summed over a group exactly, the
+#: response evaluated once at its mean frequency. Below ``DISTORTION_BIN_HZ /
+#: DISTORTION_GROUP_REL`` (5 Hz) every bin is its own group. Against every bin alone (0, the
+#: reference) the distortion's added variances and band mean squares agree within 1e-3
+#: (``tests/response/test_distortion.py``; measured 4e-4 on the built-in table).
+DISTORTION_GROUP_REL = 0.01
 #: The distortion's response is evaluated up to this multiple of the highest frequency of the
 #: tube velocity's spectrum (the odd orders spread its power to 3 and 5 times that).
 DISTORTION_RANGE_FACTOR = 1.5
@@ -127,7 +135,8 @@ def _odd_orders(hf, kmax: int):
     return spec
 
 
-def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ):
+def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
+                            keep_hz: float | None = None):
     """``sum_k k! c_k^2 (P * ... * P)_k`` of a normalized one-sided line spectrum, binned.
 
     Parameters
@@ -136,6 +145,11 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ):
         Line frequencies (> 0) and powers (summing to 1).
     bin_hz : float
         Bin width.
+    keep_hz : float, optional
+        Return the bins up to this frequency only (and one more): the FFT period is then
+        only as long as they need to be free of aliasing (``n > kmax imax + keep``, the
+        convolution spanning ``+-kmax imax`` bins), the same numbers to rounding. Default:
+        every bin, to ``kmax`` times the highest line.
 
     Returns
     -------
@@ -145,16 +159,20 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ):
         The residual's normalized power per bin (summing to ``sum_k k! c_k^2`` less what falls
         in the zero bin).
     """
+    from scipy.fft import irfft, next_fast_len, rfft
+
     kmax = max(DISTORTION_ORDERS)
     idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
     imax = int(idx.max())
-    n = 1 << math.ceil(math.log2(2 * kmax * imax + 2))
+    top = kmax * imax
+    if keep_hz is not None:
+        top = min(top, math.ceil(keep_hz / bin_hz) + 1)
+    n = next_fast_len(max(2 * imax + 2, kmax * imax + top + 1), real=True)
     h = np.bincount(np.concatenate([idx % n, (-idx) % n]),
                     weights=np.concatenate([0.5 * power, 0.5 * power]), minlength=n)
-    hf = np.fft.rfft(h)
+    hf = rfft(h)
     spec = _odd_orders(hf, kmax)
-    conv = np.fft.irfft(spec, n)
-    top = kmax * imax
+    conv = irfft(spec, n)
     pos = conv[1:top + 1] + conv[n - top:][::-1]
     f_bins = bin_hz * np.arange(1, top + 1)
     return f_bins, np.clip(pos, 0.0, None)
@@ -237,7 +255,8 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
             f_all = np.concatenate([f_lines, f_bins[inside]])
             p_all = np.concatenate([p_lines, added_u[inside]])
         s2 = float(np.sum(p_all))
-        f_bins, shape = normalized_convolutions(f_all, p_all / s2, bin_hz)
+        f_bins, shape = normalized_convolutions(f_all, p_all / s2, bin_hz,
+                                                keep_hz=DISTORTION_RANGE_FACTOR * f_lines.max())
         # the response above the lines' range (the payload bands, the stroke and the tube
         # fall off there) is left out: keep the bins up to DISTORTION_RANGE_FACTOR f_max
         top = f_bins <= DISTORTION_RANGE_FACTOR * f_lines.max()
@@ -401,3 +420,39 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     # ifft(spec)[k] = conj(rfft(spec)[k]) / n for a real spec
     conv = np.conj(rfft(spec, axis=-1)[:, 1:keep + 1]) / n
     return bin_hz * np.arange(1, keep + 1), 2.0 * conv.T
+
+
+def bin_groups(f_bins, edges_hz=(), rel: float = DISTORTION_GROUP_REL):
+    """Groups of consecutive bins for the sources' response: no wider than ``rel`` of their
+    frequency, never across an edge of ``edges_hz`` (the bands').
+
+    The sources' power is summed over a group exactly; the response to it is evaluated once,
+    at the group's mean frequency (:data:`DISTORTION_GROUP_REL`).
+
+    Parameters
+    ----------
+    f_bins : ndarray
+        Bin centres, increasing (> 0).
+    edges_hz : sequence of float
+        Frequencies no group spans (a bin at an edge starts a group, as a band's lower
+        edge is in the band).
+    rel : float
+        Largest group width over its frequency (0: every bin alone).
+
+    Returns
+    -------
+    starts : ndarray of int
+        Index of each group's first bin (for ``np.add.reduceat``).
+    f_groups : ndarray
+        The groups' mean frequencies.
+    """
+    f = np.asarray(f_bins, dtype=float)
+    if rel <= 0 or f.size == 0:
+        return np.arange(f.size), f
+    cell = np.floor(np.log(f) / rel).astype(np.int64)
+    seg = np.searchsorted(np.unique(np.asarray(edges_hz, dtype=float)), f, side="right")
+    new = np.ones(f.size, dtype=bool)
+    new[1:] = (cell[1:] != cell[:-1]) | (seg[1:] != seg[:-1])
+    starts = np.flatnonzero(new)
+    counts = np.diff(np.append(starts, f.size))
+    return starts, np.add.reduceat(f, starts) / counts

@@ -657,7 +657,8 @@ def _springs_at(st: TableStatistical, omega, sigma, sigma_u):
     return ks, cs, nets
 
 
-def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
+def table_distortion(st: TableStatistical, sigma, sigma_u,
+                     group_rel: float | None = None) -> TableDistortion:
     """The tubes' distortion power carried through the table at the closure's state.
 
     Each isolator's residual ``e_i = (K rho_i/2) s_i^2 (|x_i| x_i - c_1 x_i)`` is a
@@ -672,15 +673,22 @@ def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
     st : TableStatistical
     sigma, sigma_u : ndarray (n,)
         The closure's stroke and tube velocity RMS.
+    group_rel : float, optional
+        Width of the bin groups the response is evaluated on, relative to their frequency
+        (default :data:`~isodesign.response.distortion.DISTORTION_GROUP_REL`; 0: every bin).
 
     Returns
     -------
     TableDistortion
     """
+    from isodesign.response.distortion import DISTORTION_GROUP_REL, source_network
+
+    if group_rel is None:
+        group_rel = DISTORTION_GROUP_REL
     from isodesign.response.distortion import (
         DISTORTION_RANGE_FACTOR,
+        bin_groups,
         pair_convolutions,
-        source_network,
     )
 
     model, grid = st.model, st.grid
@@ -712,6 +720,10 @@ def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
     g_e = np.zeros((f_bins.size, n, n), dtype=complex)
     g_e[:, iu, ju] = (amp[iu] * amp[ju]) * pij[: f_bins.size]
     g_e[:, ju, iu] = np.conj(g_e[:, iu, ju])
+    # the sources' power summed over groups of bins, the response once per group
+    lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
+    starts, f_bins = bin_groups(f_bins, np.concatenate([lo, hi]), group_rel)
+    g_e = np.add.reduceat(g_e, starts, axis=0)
     wb = 2.0 * math.pi * f_bins
     kb, _, net = _springs_at(st, wb, sigma, sigma_u)
     d_flat, _ = dynamic_stiffness(geo, kb, _bin_parts(st, wb)[1], wb)
@@ -732,7 +744,6 @@ def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
     pts = np.einsum("pbk,fks->fpbs", geo.points, q) * (1j * wb)[:, None, None, None]
     k_pts, _, _ = geo.points.shape
     pv = power(pts.reshape(wb.size, 3 * k_pts, n)).reshape(wb.size, k_pts, 3)
-    lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
     band = np.zeros((k_pts, 3, len(lo)))
     for b, (fl, fh) in enumerate(zip(lo, hi, strict=True)):
         sel = (f_bins >= fl) & (f_bins < fh)
