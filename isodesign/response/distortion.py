@@ -215,7 +215,8 @@ def source_gains(design, omega, c, k, mass_kg, flow):
 
 
 def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
-                     iterations: int = 1, bin_hz: float = DISTORTION_BIN_HZ) -> DistortionPower:
+                     iterations: int = 1, bin_hz: float = DISTORTION_BIN_HZ,
+                     edges_hz=(), group_rel: float = DISTORTION_GROUP_REL) -> DistortionPower:
     """The minor loss's distortion power through the system, self-consistently.
 
     Parameters
@@ -236,10 +237,15 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
         spectrum it is computed from).
     bin_hz : float
         Bin width of the convolutions.
+    edges_hz : sequence of float
+        The band edges: no bin group spans one (:func:`bin_groups`).
+    group_rel : float
+        Bin groups' width relative to their frequency (0: every bin alone).
 
     Returns
     -------
     DistortionPower
+        On the bin groups (``frequency_hz`` their mean frequencies, the powers summed).
     """
     coeff = 0.5 * design.minor_loss * design.density_kg_m3
     f_lines = np.asarray(freq_hz, dtype=float)
@@ -261,6 +267,9 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
         # fall off there) is left out: keep the bins up to DISTORTION_RANGE_FACTOR f_max
         top = f_bins <= DISTORTION_RANGE_FACTOR * f_lines.max()
         f_bins, shape = f_bins[top], shape[top]
+        # the source's power summed over bin groups, its response once per group
+        starts, f_bins = bin_groups(f_bins, edges_hz, group_rel)
+        shape = np.add.reduceat(shape, starts)
         if gains is None or gains[0].size != f_bins.size:
             w = 2.0 * math.pi * f_bins
             k, c = state_at(w)

@@ -194,7 +194,9 @@ def _distortion_at(st: _Statistical, sigma: float, sigma_u: float):
         kk, _, _, cc = st.stiffness(w, sigma, sigma_u, st.bin_c_of[1])
         return kk.to_complex(), cc.to_complex()
 
-    return distortion_power(m.design, m.flow, g.frequency_hz, lines, state_at, m.mass)
+    edges = np.concatenate([g.bands.lower_hz, g.bands.upper_hz])
+    return distortion_power(m.design, m.flow, g.frequency_hz, lines, state_at, m.mass,
+                            edges_hz=edges)
 
 
 def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter: int):
