@@ -159,7 +159,7 @@ def _state_key(sigma, sigma_u) -> bytes:
 
 
 def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: int = 100,
-                        start=None, reduce: bool = True):
+                        start=None, reduce: bool = True, record=None, history=None):
     """Solve the per-isolator statistical closure; ``(sigma, sigma_u, evaluations)``.
 
     Parameters
@@ -175,6 +175,11 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
     reduce : bool
         A z-reducible table under a vertical floor alone solves its z DOF alone (default;
         exact, :func:`z_closure`); False: the ``2n`` RMS values together, always.
+    record : list, optional
+        Appended with each evaluation's ``(x, g(x))`` (``x`` the log RMS values, ``2n``).
+    history : list, optional
+        Such pairs of this closure's map to start the mixing from
+        (:func:`~isodesign.table.closure.anderson`).
 
     Raises
     ------
@@ -195,9 +200,12 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
     def g(x):
         e = np.exp(x)
         a, b, _, _, _ = st.variances(e[:n], e[n:], strokes_only=True)
-        return 0.5 * np.log(np.concatenate([a, np.maximum(b, 1e-300)]))
+        gx = 0.5 * np.log(np.concatenate([a, np.maximum(b, 1e-300)]))
+        if record is not None:
+            record.append((x, gx))
+        return gx
 
-    x, n_eval, res = _anderson(g, x0, rtol, max_iter)
+    x, n_eval, res = _anderson(g, x0, rtol, max_iter, history=history)
     if not res <= rtol:
         from scipy.optimize import root
 
@@ -788,14 +796,19 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
         ``(sigma, sigma_u, TableDistortion, evaluations)``: the RMS values include the
         distortion's.
     """
-    sigma, sigma_u, n_it = solve_table_closure(st, rtol=rtol, max_iter=max_iter)
+    record: list = []
+    sigma, sigma_u, n_it = solve_table_closure(st, rtol=rtol, max_iter=max_iter, record=record)
     dist = table_distortion(st, sigma, sigma_u)
-    # start at one fixed-point step with the offset (the plain closure's variances are its
-    # fixed point's): most of the way to the new fixed point, at no cost
+    # the second closure's map is the first's with the offset added to its variances,
+    # g'(x) = ln(exp(2 g(x)) + offset) / 2, exactly: the first solve's evaluations are the
+    # second's too, and its mixing starts from them (at the plain solution) at no cost
+    off = np.concatenate([dist.stroke_variance, dist.tube_velocity_variance])
+    hist = [(x, 0.5 * np.log(np.exp(2.0 * gx) + off)) for x, gx in record]
+    # without them (a z DOF closure): start one fixed-point step on
     start = (np.sqrt(sigma**2 + dist.stroke_variance),
              np.sqrt(sigma_u**2 + dist.tube_velocity_variance))
     sigma, sigma_u, n2 = solve_table_closure(
         _WithOffset(st, dist.stroke_variance, dist.tube_velocity_variance), rtol=rtol,
-        max_iter=max_iter, start=start)  # fmt: skip
+        max_iter=max_iter, start=start, history=hist or None)  # fmt: skip
     dist = table_distortion(st, sigma, sigma_u)
     return sigma, sigma_u, dist, n_it + n2

@@ -418,3 +418,33 @@ def test_vertical_bin_groups_against_every_bin(monkeypatch):
     close(new.tube_velocity_rms_m_s, old.tube_velocity_rms_m_s, plain.tube_velocity_rms_m_s)
     close(new.payload_velocity_rms_m_s, old.payload_velocity_rms_m_s,
           plain.payload_velocity_rms_m_s)
+
+
+def test_anderson_from_a_known_history():
+    """The mixing seeded with known evaluations (the table's second closure starts from the
+    first's, converted to the offset map) reaches the same fixed point as from scratch, with
+    fewer new evaluations."""
+    from isodesign.table.closure import anderson
+
+    a = np.array([[0.5, 0.2, 0.0], [0.1, 0.3, 0.1], [0.0, 0.2, 0.4]])
+
+    def g(x, b):
+        return a @ np.tanh(x) + b
+
+    b0, b1 = np.array([0.3, -0.2, 0.1]), np.array([0.31, -0.19, 0.1])
+    rec = []
+
+    def g0(x):
+        y = g(x, b0)
+        rec.append((x.copy(), y))
+        return y
+
+    x0, _, res0 = anderson(g0, np.zeros(3), 1e-12, 100)
+    assert res0 <= 1e-12
+    # the second map is the first shifted: its values at the recorded points are known
+    hist = [(x, y + (b1 - b0)) for x, y in rec]
+    ref, n_ref, _ = anderson(lambda x: g(x, b1), x0, 1e-12, 100)
+    got, n_got, res = anderson(lambda x: g(x, b1), x0, 1e-12, 100, history=hist)
+    assert res <= 1e-12
+    np.testing.assert_allclose(got, ref, atol=1e-11)
+    assert n_got < n_ref
