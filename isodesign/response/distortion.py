@@ -126,12 +126,14 @@ def _odd_orders(hf, kmax: int):
     (:data:`_WEIGHTS`): the residual's spectrum in the transform domain, where the
     ``k``-fold self-convolution of the spectrum is the ``k``-th power of its transform."""
     h2 = hf * hf
-    spec = np.zeros_like(hf)
-    hk = hf
-    for k in range(3, kmax + 1, 2):
-        hk = hk * h2
-        if k in _WEIGHTS:
-            spec += _WEIGHTS[k] * hk
+    # Horner in h2: hf h2 (w_3 + h2 (w_5 + ...)), in place
+    ks = range(3, kmax + 1, 2)
+    spec = np.full_like(h2, _WEIGHTS.get(ks[-1], 0.0))
+    for k in reversed(ks[:-1]):
+        spec *= h2
+        spec += _WEIGHTS.get(k, 0.0)
+    spec *= h2
+    spec *= hf
     return spec
 
 
@@ -417,13 +419,13 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     m = p.shape[1]
     # the one-sided half of conj(h): its Hermitian extension is conj(h) (h Hermitian), and
     # n irfft(conj h) = conj(fft(h)) = fft(h), real
-    half = np.zeros((m, n // 2 + 1), dtype=complex)
-    for j in range(m):  # np.add.at per pair (lines may share a bin)
-        half[j] = np.bincount(idx, weights=p[:, j].real, minlength=n // 2 + 1) \
-            - 1j * np.bincount(idx, weights=p[:, j].imag, minlength=n // 2 + 1)
+    nb = n // 2 + 1
+    flat = (idx[:, None] + nb * np.arange(m)[None, :]).ravel()  # lines may share a bin
+    half = np.empty((m, nb), dtype=complex)
+    half.real = np.bincount(flat, weights=0.5 * p.real.ravel(), minlength=m * nb).reshape(m, nb)
+    half.imag = np.bincount(flat, weights=-0.5 * p.imag.ravel(), minlength=m * nb).reshape(m, nb)
     # the zero bin (idx == 0) carries 0.5 p + 0.5 conj p in the two-sided grid
-    half[:, 0] = np.real(half[:, 0]) + 0j
-    half *= 0.5
+    half.imag[:, 0] = 0.0
     hf = n * irfft(half, n, axis=-1)
     spec = _odd_orders(hf, kmax)
     # ifft(spec)[k] = conj(rfft(spec)[k]) / n for a real spec
