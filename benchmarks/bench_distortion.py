@@ -73,13 +73,17 @@ def _ratio_row(name: str, call, describe) -> dict:
 
     res = {dist: call(dist) for dist in (False, True)}  # warm-up
     times: dict[bool, list[float]] = {False: [], True: []}
+    cpu: dict[bool, list[float]] = {False: [], True: []}
     for _ in range(max(repeats(), MIN_REPEATS)):
         for dist in (False, True):
-            t0 = time.perf_counter()
+            t0, c0 = time.perf_counter(), time.process_time()
             call(dist)
             times[dist].append(time.perf_counter() - t0)
+            cpu[dist].append(time.process_time() - c0)
     med = {k: statistics.median(v) for k, v in times.items()}
     ratio = med[True] / med[False]
+    # the process's CPU time too: less moved by other processes on a shared machine
+    cpu_ratio = statistics.median(cpu[True]) / statistics.median(cpu[False])
     return {
         "name": name,
         "target": f"<= {TARGET_DISTORTION_RATIO:g}",
@@ -90,8 +94,8 @@ def _ratio_row(name: str, call, describe) -> dict:
         "repeats": len(times[True]),
         "ratio": ratio / TARGET_DISTORTION_RATIO,
         "passed": ratio <= TARGET_DISTORTION_RATIO,
-        "notes": (f"medians {med[True] * 1e3:.1f} ms with, {med[False] * 1e3:.1f} ms without; "
-                  + describe(res[False], res[True])),
+        "notes": (f"medians {med[True] * 1e3:.1f} ms with, {med[False] * 1e3:.1f} ms without "
+                  f"(CPU-time ratio {cpu_ratio:.2f}); " + describe(res[False], res[True])),
     }
 
 

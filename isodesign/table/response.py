@@ -725,13 +725,13 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     fb, pij = pair_convolutions(f_lines, cross[:, iu, ju] / (s[iu] * s[ju]))
     top = fb <= DISTORTION_RANGE_FACTOR * f_lines.max()
     f_bins = fb[top]
-    g_e = np.zeros((f_bins.size, n, n), dtype=complex)
-    g_e[:, iu, ju] = (amp[iu] * amp[ju]) * pij[: f_bins.size]
-    g_e[:, ju, iu] = np.conj(g_e[:, iu, ju])
     # the sources' power summed over groups of bins, the response once per group
     lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
     starts, f_bins = bin_groups(f_bins, np.concatenate([lo, hi]), group_rel)
-    g_e = np.add.reduceat(g_e, starts, axis=0)
+    pij = np.add.reduceat(pij[: top.sum()], starts, axis=0)
+    g_e = np.empty((f_bins.size, n, n), dtype=complex)
+    g_e[:, iu, ju] = (amp[iu] * amp[ju]) * pij
+    g_e[:, ju, iu] = np.conj(g_e[:, iu, ju])
     wb = 2.0 * math.pi * f_bins
     kb, _, net = _springs_at(st, wb, sigma, sigma_u)
     d_flat, _ = dynamic_stiffness(geo, kb, _bin_parts(st, wb)[1], wb)
