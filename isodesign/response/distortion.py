@@ -89,9 +89,9 @@ class DistortionPower:
     Attributes
     ----------
     frequency_hz : ndarray
-        Bin centres (one-sided).
+        The bin groups' mean frequencies (one-sided; :func:`bin_groups`).
     source_power : ndarray
-        Power of the pressure-drop source per bin, Pa^2.
+        Power of the pressure-drop source per bin group, Pa^2.
     stroke_variance : float
         Added stroke variance, m^2.
     tube_velocity_variance : float
