@@ -406,6 +406,16 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     p_bins : complex ndarray (bins, m)
         The residuals' normalized one-sided cross power per bin and pair.
     """
+    p = np.asarray(cross_power, dtype=complex)
+    rep, cols = _same_columns(p)
+    if cols.size < p.shape[1]:  # a symmetric table's pairs repeat: each distinct one once
+        f_bins, out = _pair_convolutions(freq_hz, p[:, cols], bin_hz)
+        return f_bins, out[:, rep]
+    return _pair_convolutions(freq_hz, p, bin_hz)
+
+
+def _pair_convolutions(freq_hz, p, bin_hz: float):
+    """:func:`pair_convolutions` of distinct pairs."""
     from scipy.fft import irfft, next_fast_len, rfft
 
     kmax = max(DISTORTION_ORDERS)
@@ -415,7 +425,6 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     # period n > kmax imax + keep leaves [0, keep] exact
     keep = min(kmax * imax, math.ceil(DISTORTION_RANGE_FACTOR * imax) + 1)
     n = next_fast_len(max(2 * imax + 2, kmax * imax + keep + 1), real=True)
-    p = np.asarray(cross_power, dtype=complex)
     m = p.shape[1]
     # the one-sided half of conj(h): its Hermitian extension is conj(h) (h Hermitian), and
     # n irfft(conj h) = conj(fft(h)) = fft(h), real
@@ -431,6 +440,31 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     # ifft(spec)[k] = conj(rfft(spec)[k]) / n for a real spec
     conv = np.conj(rfft(spec, axis=-1)[:, 1:keep + 1]) / n
     return bin_hz * np.arange(1, keep + 1), 2.0 * conv.T
+
+
+def _same_columns(p, rtol: float = 1e-12):
+    """Columns of ``p`` equal to an earlier one within ``rtol`` of its largest entry.
+
+    Returns ``(rep, cols)``: ``cols`` the distinct columns' indices, ``rep[j]`` the position
+    in ``cols`` of column ``j``'s representative (candidates by a rounded projection, each
+    match checked entry by entry).
+    """
+    m = p.shape[1]
+    scale = np.max(np.abs(p), axis=0)
+    sig = (np.cos(np.arange(p.shape[0]) * 0.7) @ p) / np.where(scale > 0, scale, 1.0)
+    seen: dict = {}
+    cols: list[int] = []
+    rep = np.empty(m, dtype=int)
+    for j in range(m):
+        key = (round(float(sig[j].real), 6), round(float(sig[j].imag), 6))
+        i = seen.get(key)
+        if i is not None and np.max(np.abs(p[:, j] - p[:, cols[i]])) <= rtol * scale[cols[i]]:
+            rep[j] = i
+            continue
+        seen.setdefault(key, len(cols))
+        rep[j] = len(cols)
+        cols.append(j)
+    return rep, np.asarray(cols, dtype=int)
 
 
 def bin_groups(f_bins, edges_hz=(), rel: float = DISTORTION_GROUP_REL):

@@ -246,6 +246,7 @@ def test_pair_convolutions_match_the_complex_path():
     f = np.sort(rng.uniform(0.9, 89.0, 400))
     p = rng.normal(size=(400, 4)) + 1j * rng.normal(size=(400, 4))
     p[:, 0] = np.abs(p[:, 0])  # an auto-spectrum
+    p[:, 3] = p[:, 1] * (1.0 + 1e-15)  # a repeated pair (a symmetric table's): once, shared
     f[5] = f[4]  # two lines in one bin
     fb, pb = pair_convolutions(f, p)
     for j in range(p.shape[1]):
