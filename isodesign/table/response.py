@@ -711,9 +711,13 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     sw = grid.stroke_weight  # (3, f)
     # the floor-driven tube velocities, complex, per unit floor displacement (f, n, axis)
     u = np.empty(out.strokes.shape, dtype=complex)
+    gains: dict = {}
     for i in range(n):
-        _, g, _, ends = source_network(model.designs[i], w, cs[i].to_complex(), model.flow)
-        u[:, i, :] = -out.strokes[:, i, :] * (g * np.sqrt(ends))[:, None]
+        key = (model.designs[i], float(sigma_u[i]))  # isolators of one spring and state
+        if key not in gains:
+            _, g, _, ends = source_network(model.designs[i], w, cs[i].to_complex(), model.flow)
+            gains[key] = g * np.sqrt(ends)
+        u[:, i, :] = -out.strokes[:, i, :] * gains[key][:, None]
     cross = np.einsum("af,fia,fja->fij", sw, u, u.conj(), optimize=True)  # (f, n, n)
     s2 = np.real(np.einsum("fii->i", cross))
     keep = np.real(np.einsum("fii->f", cross)) > 0
