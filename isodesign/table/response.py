@@ -749,7 +749,7 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     ends = np.stack([net[i][3] for i in range(n)], axis=-1)
 
     def power(h):  # diag(H G_e H^H) per frequency: (f, r)
-        return np.real(np.einsum("fri,fij,frj->fr", h, g_e, h.conj(), optimize=True))
+        return np.real(np.einsum("fri,fij,frj->fr", h, g_e, h.conj(), optimize=False))
 
     ds2 = power(x).sum(axis=0)
     dsu2 = (power(ut) * ends).sum(axis=0)
