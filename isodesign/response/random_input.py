@@ -119,6 +119,8 @@ class _Statistical:
         self.c_of = statistical_resistance_function(model.flow, model.design, grid.omega)
         #: variances added to the linearization's (the distortion power, if carried)
         self.offset = (0.0, 0.0)
+        #: the distortion bins' ``sigma_u -> C`` (computed once, :func:`_distortion_at`)
+        self.bin_c_of = None
 
     def stiffness(self, omega, sigma, sigma_u, c_of=None):
         """``(k, k_air, k_dia, C)`` as Cx at ``omega`` for the two RMS values."""
@@ -185,10 +187,16 @@ def _distortion_at(st: _Statistical, sigma: float, sigma_u: float):
     lines = g.stroke_weight * rel.abs2() * tube_velocity_gain2(m.design, g.omega, c, m.flow)
 
     def state_at(w):
-        kk, _, _, cc = st.stiffness(w, sigma, sigma_u)
+        # the bins' linear resistance does not move with the state: once per response
+        key = (w.size, float(w[0]), float(w[-1]))
+        if st.bin_c_of is None or st.bin_c_of[0] != key:
+            st.bin_c_of = (key, statistical_resistance_function(m.flow, m.design, w))
+        kk, _, _, cc = st.stiffness(w, sigma, sigma_u, st.bin_c_of[1])
         return kk.to_complex(), cc.to_complex()
 
-    return distortion_power(m.design, m.flow, g.frequency_hz, lines, state_at, m.mass)
+    edges = np.concatenate([g.bands.lower_hz, g.bands.upper_hz])
+    return distortion_power(m.design, m.flow, g.frequency_hz, lines, state_at, m.mass,
+                            edges_hz=edges)
 
 
 def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter: int):
@@ -197,6 +205,9 @@ def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter
     and the distortion at the new state. Returns ``(x, y, DistortionPower, evaluations)``."""
     dist = _distortion_at(st, math.exp(x), math.exp(y))
     st.offset = (dist.stroke_variance, dist.tube_velocity_variance)
+    # start one fixed-point step on: the plain closure's variances plus the distortion's
+    x = 0.5 * math.log(math.exp(2.0 * x) + dist.stroke_variance)
+    y = 0.5 * math.log(math.exp(2.0 * y) + dist.tube_velocity_variance)
     x, y, _, n, _ = _statistical_closure(st, x, y, rtol, max_iter)
     dist = _distortion_at(st, math.exp(x), math.exp(y))
     st.offset = (dist.stroke_variance, dist.tube_velocity_variance)

@@ -219,7 +219,7 @@ def solve_describing_closure(st: TableDescribing, *, rtol: float = 1e-10,
     return np.exp(x), n_eval
 
 
-def anderson(g, x0: np.ndarray, tol: float, max_iter: int, depth: int = 6):
+def anderson(g, x0: np.ndarray, tol: float, max_iter: int, depth: int = 6, history=None):
     """Fixed point ``x = g(x)`` by Anderson mixing (steps clipped to +-2).
 
     Parameters
@@ -234,16 +234,24 @@ def anderson(g, x0: np.ndarray, tol: float, max_iter: int, depth: int = 6):
         Iterations.
     depth : int
         History length of the mixing.
+    history : list of (ndarray, ndarray), optional
+        Pairs ``(x, g(x))`` already known (oldest first): the mixing starts from them, at
+        the last one, without evaluating ``g`` there (``x0`` is then unused).
 
     Returns
     -------
     tuple
         ``(x, evaluations, residual)``.
     """
-    x = x0.copy()
-    gx = g(x)
-    n_eval = 1
-    xs, gs = [x], [gx]
+    if history:
+        xs = [np.asarray(h[0], dtype=float) for h in history[-depth - 1:]]
+        gs = [np.asarray(h[1], dtype=float) for h in history[-depth - 1:]]
+        x, gx, n_eval = xs[-1].copy(), gs[-1], 0
+    else:
+        x = x0.copy()
+        gx = g(x)
+        n_eval = 1
+        xs, gs = [x], [gx]
     for _ in range(max_iter):
         f = gx - x
         res = float(np.max(np.abs(f)))

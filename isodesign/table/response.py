@@ -148,11 +148,18 @@ class TableStatistical:
                                                             self.grid.omega, cs[i],
                                                             self.model.flow))
             su2[i] = float(np.sum(sw.T * a2[:, i, :] * gains[key][:, None]))
+        #: the last state's outputs (the distortion at the closure's solution reuses them)
+        self._last = (_state_key(sigma, sigma_u), out, ks, cs)
         return s2, su2, out, ks, cs
 
 
+def _state_key(sigma, sigma_u) -> bytes:
+    """An exact key of a closure state (two RMS vectors)."""
+    return np.asarray(sigma, float).tobytes() + np.asarray(sigma_u, float).tobytes()
+
+
 def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: int = 100,
-                        start=None, reduce: bool = True):
+                        start=None, reduce: bool = True, record=None, history=None):
     """Solve the per-isolator statistical closure; ``(sigma, sigma_u, evaluations)``.
 
     Parameters
@@ -168,6 +175,11 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
     reduce : bool
         A z-reducible table under a vertical floor alone solves its z DOF alone (default;
         exact, :func:`z_closure`); False: the ``2n`` RMS values together, always.
+    record : list, optional
+        Appended with each evaluation's ``(x, g(x))`` (``x`` the log RMS values, ``2n``).
+    history : list, optional
+        Such pairs of this closure's map to start the mixing from
+        (:func:`~isodesign.table.closure.anderson`).
 
     Raises
     ------
@@ -188,9 +200,12 @@ def solve_table_closure(st: TableStatistical, *, rtol: float = 1e-10, max_iter: 
     def g(x):
         e = np.exp(x)
         a, b, _, _, _ = st.variances(e[:n], e[n:], strokes_only=True)
-        return 0.5 * np.log(np.concatenate([a, np.maximum(b, 1e-300)]))
+        gx = 0.5 * np.log(np.concatenate([a, np.maximum(b, 1e-300)]))
+        if record is not None:
+            record.append((x, gx))
+        return gx
 
-    x, n_eval, res = _anderson(g, x0, rtol, max_iter)
+    x, n_eval, res = _anderson(g, x0, rtol, max_iter, history=history)
     if not res <= rtol:
         from scipy.optimize import root
 
@@ -605,21 +620,53 @@ class TableDistortion:
     band_mean_square: np.ndarray
 
 
-def _springs_at(st: TableStatistical, omega, sigma, sigma_u):
-    """Per isolator ``(k, C)`` (Cx) at arbitrary ``omega`` for the closure's RMS values."""
+def _bin_parts(st: TableStatistical, omega):
+    """The parts of the bins' springs that do not move with the closure's state, computed
+    once per :class:`TableStatistical` and bin grid: each distinct design's linear resistance
+    (``sigma_u -> C``) and the horizontal elements' stiffness."""
     model = st.model
-    ks, cs = [], []
+    cache = st.__dict__.setdefault("_distortion_bins", {})
+    key = (omega.size, float(omega[0]), float(omega[-1]))
+    if key not in cache:
+        c_of: dict = {}
+        per = []
+        for d in model.designs:
+            if d not in c_of:
+                c_of[d] = statistical_resistance_function(model.flow, d, omega)
+            per.append(c_of[d])
+        cache.clear()  # one bin grid per response
+        cache[key] = (per, model.horizontal_stiffness(omega))
+    return cache[key]
+
+
+def _springs_at(st: TableStatistical, omega, sigma, sigma_u):
+    """Per isolator ``(k, C, network)`` at the bins ``omega`` for the closure's RMS values
+    (Cx, Cx, :func:`~isodesign.response.distortion.source_network`'s tuple); isolators of
+    one design at one state share one evaluation."""
+    from isodesign.response.distortion import source_network
+
+    model = st.model
+    c_of, _ = _bin_parts(st, omega)
+    seen: dict = {}
+    ks, cs, nets = [], [], []
     for i in range(model.n_isolators):
         d = model.designs[i]
-        c = statistical_resistance_function(model.flow, d, omega)(float(sigma_u[i]))
-        k_air = air_stiffness(d, omega, c, model.flow)
-        ks.append(spring_stiffness(k_air, st.dia.stiffness(omega,
-                                                           equivalent_amplitude(float(sigma[i])))))
+        key = (d, float(sigma[i]), float(sigma_u[i]))
+        if key not in seen:
+            c = c_of[i](float(sigma_u[i]))
+            k_air = air_stiffness(d, omega, c, model.flow)
+            k = spring_stiffness(k_air, st.dia.stiffness(omega,
+                                                         equivalent_amplitude(float(sigma[i]))))
+            seen[key] = (k, c, source_network(d, omega, c.to_complex(), model.flow))
+        k, c, net = seen[key]
+        ks.append(k)
         cs.append(c)
-    return ks, cs
+        nets.append(net)
+    return ks, cs, nets
 
 
-def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
+def table_distortion(st: TableStatistical, sigma, sigma_u,
+                     group_rel: float | None = None) -> TableDistortion:
     """The tubes' distortion power carried through the table at the closure's state.
 
     Each isolator's residual ``e_i = (K rho_i/2) s_i^2 (|x_i| x_i - c_1 x_i)`` is a
@@ -634,27 +681,43 @@ def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
     st : TableStatistical
     sigma, sigma_u : ndarray (n,)
         The closure's stroke and tube velocity RMS.
+    group_rel : float, optional
+        Width of the bin groups the response is evaluated on, relative to their frequency
+        (default :data:`~isodesign.response.distortion.DISTORTION_GROUP_REL`; 0: every bin).
 
     Returns
     -------
     TableDistortion
     """
+    from isodesign.response.distortion import DISTORTION_GROUP_REL, source_network
+
+    if group_rel is None:
+        group_rel = DISTORTION_GROUP_REL
     from isodesign.response.distortion import (
         DISTORTION_RANGE_FACTOR,
-        cross_convolutions,
-        source_network,
+        bin_groups,
+        pair_convolutions,
     )
 
     model, grid = st.model, st.grid
     n, w, geo = model.n_isolators, grid.omega, model.geometry
-    ks, cs = st.springs(sigma, sigma_u)
-    out = model.outputs(ks, w, st.kh, strokes_only=True)
+    last = getattr(st, "_last", None)
+    if last is not None and last[0] == _state_key(sigma, sigma_u):
+        # the closure's last evaluation (its unexcited axes' zero columns weigh nothing)
+        _, out, ks, cs = last
+    else:
+        ks, cs = st.springs(sigma, sigma_u)
+        out = model.outputs(ks, w, st.kh, strokes_only=True)
     sw = grid.stroke_weight  # (3, f)
     # the floor-driven tube velocities, complex, per unit floor displacement (f, n, axis)
     u = np.empty(out.strokes.shape, dtype=complex)
+    gains: dict = {}
     for i in range(n):
-        _, g, _, ends = source_network(model.designs[i], w, cs[i].to_complex(), model.flow)
-        u[:, i, :] = -out.strokes[:, i, :] * (g * np.sqrt(ends))[:, None]
+        key = (model.designs[i], float(sigma_u[i]))  # isolators of one spring and state
+        if key not in gains:
+            _, g, _, ends = source_network(model.designs[i], w, cs[i].to_complex(), model.flow)
+            gains[key] = g * np.sqrt(ends)
+        u[:, i, :] = -out.strokes[:, i, :] * gains[key][:, None]
     cross = np.einsum("af,fia,fja->fij", sw, u, u.conj(), optimize=True)  # (f, n, n)
     s2 = np.real(np.einsum("fii->i", cross))
     keep = np.real(np.einsum("fii->f", cross)) > 0
@@ -662,22 +725,21 @@ def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
     s = np.sqrt(s2)
     coeff = np.array([0.5 * d.minor_loss * d.density_kg_m3 for d in model.designs])
     amp = coeff * s2  # (K rho/2) s^2 per isolator
-    f_bins = None
-    g_e = None
-    for i in range(n):
-        for j in range(i, n):
-            fb, pij = cross_convolutions(f_lines, cross[:, i, j] / (s[i] * s[j]))
-            if g_e is None:
-                top = fb <= DISTORTION_RANGE_FACTOR * f_lines.max()
-                f_bins = fb[top]
-                g_e = np.zeros((f_bins.size, n, n), dtype=complex)
-            g_e[:, i, j] = amp[i] * amp[j] * pij[: f_bins.size]
-            g_e[:, j, i] = np.conj(g_e[:, i, j])
+    iu, ju = np.triu_indices(n)
+    fb, pij = pair_convolutions(f_lines, cross[:, iu, ju] / (s[iu] * s[ju]))
+    top = fb <= DISTORTION_RANGE_FACTOR * f_lines.max()
+    f_bins = fb[top]
+    # the sources' power summed over groups of bins, the response once per group
+    lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
+    starts, f_bins = bin_groups(f_bins, np.concatenate([lo, hi]), group_rel)
+    pij = np.add.reduceat(pij[: top.sum()], starts, axis=0)
+    g_e = np.empty((f_bins.size, n, n), dtype=complex)
+    g_e[:, iu, ju] = (amp[iu] * amp[ju]) * pij
+    g_e[:, ju, iu] = np.conj(g_e[:, iu, ju])
     wb = 2.0 * math.pi * f_bins
-    kb, cb = _springs_at(st, wb, sigma, sigma_u)
-    d_flat, _ = dynamic_stiffness(geo, kb, model.horizontal_stiffness(wb), wb)
+    kb, _, net = _springs_at(st, wb, sigma, sigma_u)
+    d_flat, _ = dynamic_stiffness(geo, kb, _bin_parts(st, wb)[1], wb)
     dyn = (np.asarray(d_flat.re) + 1j * np.asarray(d_flat.im)).reshape(-1, 6, 6)
-    net = [source_network(model.designs[i], wb, cb[i].to_complex(), model.flow) for i in range(n)]
     force = np.stack([net[i][0] for i in range(n)], axis=-1)  # (f, n)
     rhs = geo.gz.T[None, :, :] * force[:, None, :]  # (f, 6, n): the sources' generalized forces
     q = np.linalg.solve(dyn, rhs)  # (f, 6, n_src)
@@ -687,14 +749,13 @@ def table_distortion(st: TableStatistical, sigma, sigma_u) -> TableDistortion:
     ends = np.stack([net[i][3] for i in range(n)], axis=-1)
 
     def power(h):  # diag(H G_e H^H) per frequency: (f, r)
-        return np.real(np.einsum("fri,fij,frj->fr", h, g_e, h.conj(), optimize=True))
+        return np.real(np.einsum("fri,fij,frj->fr", h, g_e, h.conj(), optimize=False))
 
     ds2 = power(x).sum(axis=0)
     dsu2 = (power(ut) * ends).sum(axis=0)
     pts = np.einsum("pbk,fks->fpbs", geo.points, q) * (1j * wb)[:, None, None, None]
     k_pts, _, _ = geo.points.shape
     pv = power(pts.reshape(wb.size, 3 * k_pts, n)).reshape(wb.size, k_pts, 3)
-    lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
     band = np.zeros((k_pts, 3, len(lo)))
     for b, (fl, fh) in enumerate(zip(lo, hi, strict=True)):
         sel = (f_bins >= fl) & (f_bins < fh)
@@ -739,10 +800,19 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
         ``(sigma, sigma_u, TableDistortion, evaluations)``: the RMS values include the
         distortion's.
     """
-    sigma, sigma_u, n_it = solve_table_closure(st, rtol=rtol, max_iter=max_iter)
+    record: list = []
+    sigma, sigma_u, n_it = solve_table_closure(st, rtol=rtol, max_iter=max_iter, record=record)
     dist = table_distortion(st, sigma, sigma_u)
+    # the second closure's map is the first's with the offset added to its variances,
+    # g'(x) = ln(exp(2 g(x)) + offset) / 2, exactly: the first solve's evaluations are the
+    # second's too, and its mixing starts from them (at the plain solution) at no cost
+    off = np.concatenate([dist.stroke_variance, dist.tube_velocity_variance])
+    hist = [(x, 0.5 * np.log(np.exp(2.0 * gx) + off)) for x, gx in record]
+    # without them (a z DOF closure): start one fixed-point step on
+    start = (np.sqrt(sigma**2 + dist.stroke_variance),
+             np.sqrt(sigma_u**2 + dist.tube_velocity_variance))
     sigma, sigma_u, n2 = solve_table_closure(
         _WithOffset(st, dist.stroke_variance, dist.tube_velocity_variance), rtol=rtol,
-        max_iter=max_iter, start=(sigma, sigma_u))  # fmt: skip
+        max_iter=max_iter, start=start, history=hist or None)  # fmt: skip
     dist = table_distortion(st, sigma, sigma_u)
     return sigma, sigma_u, dist, n_it + n2

@@ -1,0 +1,153 @@
+"""The cost of the distortion power (issue 26): the band response with ``distortion=True``
+over the one without, interleaved medians in one run, for the vertical study's start design
+(``isodesign.optimization.study.vertical_study()``, the 1-DOF ``band_response``) and the
+built-in table (``table_study()``, ``table_band_response``), target <= 1.5 each.
+
+Run alone with ``python benchmarks/bench_distortion.py`` (prints the rows) or through
+``python benchmarks/run.py distortion -o /tmp/out.md``.
+"""
+
+from __future__ import annotations
+
+import statistics
+import time
+import warnings
+
+#: Target: the band response with the distortion power at most this times the one without.
+TARGET_DISTORTION_RATIO = 1.5
+
+
+def _vertical():
+    """``dist -> BandResponse`` of the vertical study's start design, its models and bands."""
+    from isodesign.optimization.study import vertical_study
+    from isodesign.response import band_response
+
+    st = vertical_study()
+    m = st.models
+    kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"]}
+    d = st.start_design()
+
+    def call(dist: bool):
+        return band_response(d, st.payload, st.floor, st.target, bands=st.bands, warn=False,
+                             distortion=dist, **kw)
+
+    return call
+
+
+def _table():
+    """``dist -> TableBandResponse`` of the built-in table at its start values."""
+    from isodesign.optimization.study import table_study
+    from isodesign.table.response import table_band_response
+
+    st = table_study()
+    m = st.models
+    kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"]}
+    vals = {v.name: v.start for v in st.variables}
+    d, table = st.design_at(vals), st.table_at(vals)
+
+    def call(dist: bool):
+        return table_band_response(d, table, st.floor_axes, st.target, bands=st.bands,
+                                   warn=False, distortion=dist, **kw)
+
+    return call
+
+
+def _ratio_row(name: str, call, describe) -> dict:
+    """Interleaved timing of ``call(False)`` and ``call(True)``; the ratio of the medians.
+
+    Parameters
+    ----------
+    name : str
+        The row's name.
+    call : callable
+        ``dist -> result``.
+    describe : callable
+        ``(without, with) -> str``: the figures for the notes.
+
+    Returns
+    -------
+    dict
+        A result row.
+    """
+    from run import MIN_REPEATS, repeats
+
+    res = {dist: call(dist) for dist in (False, True)}  # warm-up
+    times: dict[bool, list[float]] = {False: [], True: []}
+    cpu: dict[bool, list[float]] = {False: [], True: []}
+    for _ in range(max(repeats(), MIN_REPEATS)):
+        for dist in (False, True):
+            t0, c0 = time.perf_counter(), time.process_time()
+            call(dist)
+            times[dist].append(time.perf_counter() - t0)
+            cpu[dist].append(time.process_time() - c0)
+    med = {k: statistics.median(v) for k, v in times.items()}
+    ratio = med[True] / med[False]
+    # the process's CPU time too: less moved by other processes on a shared machine
+    cpu_ratio = statistics.median(cpu[True]) / statistics.median(cpu[False])
+    return {
+        "name": name,
+        "target": f"<= {TARGET_DISTORTION_RATIO:g}",
+        "unit": "ratio",
+        "median": ratio,
+        "min": min(times[True]) / min(times[False]),
+        "max": max(times[True]) / max(times[False]),
+        "repeats": len(times[True]),
+        "ratio": ratio / TARGET_DISTORTION_RATIO,
+        "passed": ratio <= TARGET_DISTORTION_RATIO,
+        "notes": (f"medians {med[True] * 1e3:.1f} ms with, {med[False] * 1e3:.1f} ms without "
+                  f"(CPU-time ratio {cpu_ratio:.2f}); " + describe(res[False], res[True])),
+    }
+
+
+def bench_vertical_distortion() -> dict:
+    """The vertical study's start design: ``band_response(..., distortion=True)`` / without.
+
+    Returns
+    -------
+    dict
+        A result row.
+    """
+    def describe(r0, r1):
+        return (f"{r1.iterations} closure evaluations (against {r0.iterations}); stroke RMS "
+                f"{r1.stroke_rms_m * 1e6:.4g} um (without {r0.stroke_rms_m * 1e6:.4g} um), "
+                f"tube velocity RMS {r1.tube_velocity_rms_m_s:.4g} m/s "
+                f"(without {r0.tube_velocity_rms_m_s:.4g} m/s)")
+
+    return _ratio_row("vertical study: band response with the distortion / without",
+                      _vertical(), describe)
+
+
+def bench_table_distortion() -> dict:
+    """The built-in table: ``table_band_response(..., distortion=True)`` / without.
+
+    Returns
+    -------
+    dict
+        A result row.
+    """
+    def describe(r0, r1):
+        return (f"{r1.iterations} closure evaluations (against {r0.iterations}); "
+                f"{len(r1.stroke_rms_m)} isolators, stroke RMS up to "
+                f"{r1.stroke_rms_m.max() * 1e6:.4g} um (without "
+                f"{r0.stroke_rms_m.max() * 1e6:.4g} um)")
+
+    return _ratio_row("built-in table: band response with the distortion / without",
+                      _table(), describe)
+
+
+def run() -> list[dict]:
+    """The distortion's cost rows.
+
+    Returns
+    -------
+    list of dict
+        One row per benchmark.
+    """
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return [bench_vertical_distortion(), bench_table_distortion()]
+
+
+if __name__ == "__main__":
+    for row in run():
+        print(row)
