@@ -326,7 +326,18 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
 
 
 def group_lever(name: str) -> tuple[int, str]:
-    """``(group, variable)`` of a per-group spring lever (group zero-based)."""
+    """``(group, variable)`` of a per-group spring lever (group zero-based).
+
+    Parameters
+    ----------
+    name : str
+        A :data:`GROUP_SPRING_LEVERS` name, ``<variable>_group<k>`` (``k`` one-based).
+
+    Returns
+    -------
+    tuple of (int, str)
+        The zero-based group and the design variable's name.
+    """
     base, k = name.rsplit("_group", 1)
     return int(k) - 1, base
 

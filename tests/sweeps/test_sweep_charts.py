@@ -57,7 +57,8 @@ def test_the_design_chart_draws_each_series_with_its_breaks():
 @pytest.fixture(scope="module")
 def response_sweep(tmp_path_factory):
     out = tmp_path_factory.mktemp("report") / "sweep"
-    return isodesign.sweep(vary=["payload.mass_kg=300:1500:7", "floor.criterion=VC-A,VC-B"],
+    return isodesign.sweep(isodesign.vertical_study(),
+                           vary=["payload.mass_kg=300:1500:7", "floor.criterion=VC-A,VC-B"],
                            task="response", output=out, scheduler="serial")
 
 

@@ -71,11 +71,17 @@ def test_continued_points_are_no_worse_than_a_cold_start(line_sweep):
         assert r["objective_value"] >= cold.objective_value - 1e-6
 
 
-def test_the_command_says_how_many_nlps_it_built(tmp_path, cheap_study):
+def test_the_command_says_how_many_nlps_it_built(tmp_path, cheap_study, monkeypatch):
     import contextlib
     import io
+    import threading
 
     from isodesign.cli import main
+    from isodesign.sweeps import tasks
+
+    # a fresh process's NLP cache (another test in this process may have built one of the
+    # two structures already)
+    monkeypatch.setattr(tasks, "_LOCAL", threading.local())
 
     out = io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):
