@@ -28,6 +28,7 @@ __all__ = [
     "LinearScaling",
     "LogScaling",
     "VariableSpec",
+    "check_layout_feasible",
     "check_load_range",
     "effective_bounds",
     "fixed_lever_changes",
@@ -164,6 +165,9 @@ GROUP_SPRING_LEVERS = tuple(f"{v}_group{k}" for k in (1, 2, 3) for v in DESIGN_V
 #: A table study's constraints on its layout, loads and supply (docs/table.md, section 15).
 LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_load_n",
                       "max_isolator_load_n", "supply_margin_pa")
+#: Plausible half-size of a table, m (``isodesign.table.study.LENGTH_PLAUSIBLE_M``): a
+#: footprint coordinate beyond it, or a layout lever beyond twice it, is a unit slip.
+LAYOUT_PLAUSIBLE_M = 20.0
 #: Default bounds of a free layout lever, as fractions of the table's own extent.
 LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
@@ -308,6 +312,12 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
             if not start > 0:
                 raise InputError(f"{key}.start: the isolators' extent must be > 0 m, got "
                                  f"{start:g}")
+            for k, v in vals.items():
+                if v > 2 * LAYOUT_PLAUSIBLE_M:
+                    raise InputError(
+                        f"{key}.{k} = {v:g} m is outside the plausible extent of a table's "
+                        f"isolators (0, {2 * LAYOUT_PLAUSIBLE_M:g}] m; a unit slip? {name} "
+                        f"is in m, and {v:g} mm would be {v * 1e-3:g} m")
         else:
             lo_d, hi_d = TABLE_LEVER_BOUNDS[name]
         if fixed:
@@ -485,12 +495,88 @@ def footprint_bounds(where: str, value):
     except (TypeError, ValueError):
         a = None
     if isinstance(value, str) or a is None or a.shape != (2, 2) or \
-            not np.all(np.isfinite(a)):
+            not np.all(np.isfinite(a)) or _has_bool(value):
         raise InputError(f"{key}: expected [[x_min, y_min], [x_max, y_max]] in m (the "
                          f"rectangle the isolators stand in), got {value!r:.60}")
     if not (a[0, 0] < a[1, 0] and a[0, 1] < a[1, 1]):
         raise InputError(f"{key}: need x_min < x_max and y_min < y_max, got {a.tolist()}")
+    big = float(np.max(np.abs(a)))
+    if big > LAYOUT_PLAUSIBLE_M:
+        raise InputError(f"{key}: a coordinate of {big:g} m is outside the plausible range of "
+                         f"a table's footprint (+-{LAYOUT_PLAUSIBLE_M:g} m); a unit slip? "
+                         f"footprint_m is in m, and {big:g} mm would be {big * 1e-3:g} m")
     return tuple(float(v) for v in a.ravel())
+
+
+def _has_bool(value) -> bool:
+    """A boolean anywhere in a nested list (TOML true/false where a number belongs)."""
+    if isinstance(value, bool | np.bool_):
+        return True
+    return isinstance(value, list | tuple) and any(_has_bool(v) for v in value)
+
+
+def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
+    """A free layout's constraints must be reachable within its levers' bounds.
+
+    The layout is stretched about the CG (``x_i = c_x + s_x a_i``), so each axis's stretch
+    ``s`` that keeps every isolator in ``constraints.footprint_m`` is an interval; with the
+    levers' bounds it must not be empty, and at its largest stretch the closest two
+    isolators must be ``constraints.min_isolator_distance_m`` apart (the distances grow with
+    the stretch). A fixed layout is checked by the problem (``lever_geometry``).
+
+    Parameters
+    ----------
+    table : Table
+    levers : sequence of VariableSpec
+        ``Study.levers``.
+    constraints : dict
+        The parsed constraints.
+    where : str
+        The study's source, for errors.
+
+    Raises
+    ------
+    InputError
+        Naming ``constraints.footprint_m`` or ``constraints.min_isolator_distance_m``.
+    """
+    from isodesign.table.layout import layout_extent
+
+    spec = {v.name: v for v in levers if v.name in LAYOUT_LEVERS}
+    if not any(v.free for v in spec.values()):
+        return
+    fp, dmin = constraints.get("footprint_m"), constraints.get("min_isolator_distance_m")
+    c = np.asarray(table.cg_m[:2], float)
+    off = np.asarray(table.isolators_m, float) - c
+    smax = []
+    for ax, (name, e0) in enumerate(zip(LAYOUT_LEVERS, layout_extent(table), strict=True)):
+        v = spec[name]
+        lo, hi = v.lower / e0, v.upper / e0
+        if fp:
+            b0, b1 = fp[ax], fp[ax + 2]
+            for a in off[:, ax]:
+                if a > 0:
+                    lo, hi = max(lo, (b0 - c[ax]) / a), min(hi, (b1 - c[ax]) / a)
+                elif a < 0:
+                    lo, hi = max(lo, (b1 - c[ax]) / a), min(hi, (b0 - c[ax]) / a)
+                elif not b0 <= c[ax] <= b1:
+                    lo, hi = 1.0, 0.0
+            if not lo <= hi:
+                raise InputError(
+                    f"{where}: constraints.footprint_m: no {name} in its bounds "
+                    f"[{v.lower:g}, {v.upper:g}] m keeps every isolator inside "
+                    f"{'xy'[ax]} {b0:g}..{b1:g} m (the layout is stretched about the CG at "
+                    f"{'xy'[ax]} = {c[ax]:g} m); widen the footprint or the lever's bounds")
+        smax.append(hi)
+    if dmin:
+        n = off.shape[0]
+        d = min(float(np.hypot(smax[0] * (off[i, 0] - off[j, 0]),
+                               smax[1] * (off[i, 1] - off[j, 1])))
+                for i in range(n) for j in range(i + 1, n))
+        if d < dmin:
+            raise InputError(
+                f"{where}: constraints.min_isolator_distance_m = {dmin:g} m, but the closest "
+                f"two isolators are at most {d:.4g} m apart with the layout levers' bounds"
+                f"{' and constraints.footprint_m' if fp else ''}; lower it or widen them")
 
 
 def refuse_free_levers(study, what: str) -> None:

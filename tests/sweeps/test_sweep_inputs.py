@@ -26,6 +26,22 @@ def run_cli(*argv) -> tuple[int, str, str]:
     return status, o.getvalue(), e.getvalue()
 
 
+def test_vary_takes_a_tables_levers_as_optimize_does():
+    """The layout and per-group levers are study keys a sweep varies; a group number out
+    of 1..3 gets the study's own message (the groups numbered from 1)."""
+    from isodesign.optimization.study import table_study
+
+    st = table_study()
+    pts, _ = build_points(st, combine([parse_vary("variables.layout_length_m.fixed=false"),
+                                       parse_vary("variables.volume_ratio_group2.fixed=false")],
+                                      "product"))
+    free = [v.name for v in pts[0].study.levers if v.free]
+    assert free == ["layout_length_m", "volume_ratio_group2"]
+    with pytest.raises(InputError, match=r"volume_ratio_group4: group '4' .* 1, 2 or 3"):
+        build_points(st, combine([parse_vary("variables.volume_ratio_group4.fixed=false")],
+                                 "product"))
+
+
 # -- values and combinations ---------------------------------------------------------------
 def test_a_linear_range_includes_both_ends_and_an_extension_meets_the_same_values():
     assert parse_vary("payload.mass_kg=300:1500:13") == (

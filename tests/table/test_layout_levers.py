@@ -59,10 +59,37 @@ def test_layout_levers_are_fixed_at_the_isolators_extent_by_default():
     ({"constraints": {"footprint_m": "big"}}, "constraints.footprint_m"),
     ({"constraints": {"min_isolator_distance_m": -0.1}}, "constraints.min_isolator_distance_m"),
     ({"constraints": {"min_isolator_distance_m": 1e3}}, "constraints.min_isolator_distance_m"),
+    # TOML booleans are not coordinates; a footprint or an extent in mm typed as m
+    ({"constraints": {"footprint_m": [[False, False], [True, True]]}},
+     "constraints.footprint_m"),
+    ({"constraints": {"footprint_m": [[-750, -500], [750, 500]]}},
+     "constraints.footprint_m: a coordinate of 750 m"),
+    ({"variables": {"layout_length_m": {"start": 1500.0}}},
+     "variables.layout_length_m.start = 1500 m"),
+    ({"variables": {"layout_width_m": {"fixed": False, "upper": 1200.0}}},
+     "variables.layout_width_m.upper = 1200 m"),
 ])
 def test_bad_layout_keys_name_the_key(changes, key):
     with pytest.raises(InputError, match=re.escape(key)):
         table_study().with_changes(**changes)
+
+
+@pytest.mark.parametrize("constraints, key", [
+    ({"footprint_m": [[-0.1, -0.1], [0.1, 0.1]]}, "constraints.footprint_m: no layout_length_m"),
+    ({"footprint_m": [[1.0, 1.0], [2.0, 2.0]]}, "constraints.footprint_m: no layout_length_m"),
+    ({"min_isolator_distance_m": 5.0}, "constraints.min_isolator_distance_m = 5 m"),
+    ({"footprint_m": [[-0.75, -0.5], [0.75, 0.5]], "min_isolator_distance_m": 1.2},
+     "constraints.min_isolator_distance_m = 1.2 m"),
+])
+def test_a_free_layout_that_cannot_meet_its_constraints_is_refused_naming_the_key(
+        constraints, key):
+    """The footprint must hold the stretched layout for some lever value inside its bounds,
+    and the largest such stretch must keep the isolators min_isolator_distance_m apart."""
+    with pytest.raises(InputError, match=re.escape(key)):
+        table_study().with_changes(variables=LAYOUT, constraints=constraints)
+    # the same keys, reachable: accepted (the built-in table's 1.5 x 1.0 m top, 0.5 m)
+    table_study().with_changes(variables=LAYOUT, constraints={
+        "footprint_m": [[-0.75, -0.5], [0.75, 0.5]], "min_isolator_distance_m": 0.5})
 
 
 def test_a_vertical_study_refuses_the_layout_keys():
