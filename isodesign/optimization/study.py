@@ -73,11 +73,11 @@ from isodesign.optimization.variables import (
     GROUP_SPRING_LEVERS,
     LAYOUT_CONSTRAINTS,
     VariableSpec,
-    check_layout_feasible,
     check_load_range,
     fixed_lever_changes,
     footprint_bounds,
     parse_levers,
+    refuse_group_number,
     table_with_levers,
 )
 from isodesign.response.isolator import Payload
@@ -283,7 +283,6 @@ class Study(ResultDisplay):
 
     def design_at(self, values: dict):
         """The spring at given design-variable values (fixed ones from the study)."""
-
         vals = {v.name: (v.start if v.fixed else values.get(v.name, v.start))
                 for v in self.variables}
         acoustics = self.models.get("acoustics", ACOUSTIC_MODELS[0])
@@ -381,19 +380,10 @@ def _check_keys(d: dict, table: str, where: str):
     for k in d:
         if k not in allowed:
             tname = f"[{table}]" if table else "top level"
-            _refuse_group_number(k, table, where)
+            refuse_group_number(k, table, where)
             raise InputError(
                 f"{where}: unknown key {k!r} in {tname}; valid: {', '.join(sorted(allowed))}"
             )
-
-
-def _refuse_group_number(key, table: str, where: str) -> None:
-    """A per-group lever ``<variable>_group<k>`` with ``k`` not a leveling group (1..3)."""
-    base, sep, k = str(key).rpartition("_group")
-    if table == "variables" and sep and base in DESIGN_VARIABLES:
-        raise InputError(f"{where}: variables.{key}: group {k!r} is not a leveling group; "
-                         f"<variable>_group<k> takes k = 1, 2 or 3 (numbered from 1, as "
-                         "table.leveling_groups lists them)")
 
 
 def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = True) -> Study:
@@ -484,9 +474,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source, table=table,
-               floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where))
-    if table is not None:
-        check_layout_feasible(table, st.levers, cons, where)
+               floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where, cons))
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
         warn_unit_slips(d, where, isolators=payload.isolators)
@@ -878,7 +866,6 @@ def load_study(path) -> Study:
         An unreadable or malformed file, or an invalid study (see
         :func:`study_from_dict`); the message names the file and the key.
     """
-
     if not isinstance(path, str | Path) and not hasattr(path, "__fspath__"):
         raise InputError(f"path: expected a study file name (a string or path), got "
                          f"{type(path).__name__} {path!r:.40}")

@@ -38,6 +38,7 @@ __all__ = [
     "log_scaling",
     "parse_levers",
     "refuse_free_levers",
+    "refuse_group_number",
     "table_with_levers",
 ]
 
@@ -243,7 +244,8 @@ def lever_scaling(study) -> LinearScaling:
                          half=0.5 * (hi_a - lo_a), log=tuple(log))
 
 
-def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]:
+def parse_levers(variables: dict, table, where: str,
+                 constraints: dict | None = None) -> tuple[VariableSpec, ...]:
     """``[variables.<lever>]`` of a table study: one spec per :data:`CODESIGN_LEVERS` entry.
 
     A lever the study does not name, or names with ``fixed = true``, is fixed at the
@@ -260,6 +262,9 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
         The study's table (None: a vertical study, which may name no lever).
     where : str
         The study's source, for errors.
+    constraints : dict, optional
+        The parsed constraints: a free layout's are checked reachable
+        (:func:`check_layout_feasible`).
 
     Returns
     -------
@@ -332,11 +337,48 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
             raise InputError(f"{key}.start ({start:g}) must lie in [lower, upper] = "
                              f"[{lo:g}, {hi:g}]")
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
-    return tuple(out) + _group_levers(variables or {}, table, where)
+    out = tuple(out) + _group_levers(variables or {}, table, where)
+    check_layout_feasible(table, out, constraints or {}, where)
+    return out
+
+
+def refuse_group_number(key, table: str, where: str) -> None:
+    """Refuse a per-group lever ``<variable>_group<k>`` whose ``k`` is no leveling group.
+
+    Parameters
+    ----------
+    key : str
+        An unknown key of the study.
+    table : str
+        The study table it is in (only ``variables`` is checked).
+    where : str
+        The study's source, for errors.
+
+    Raises
+    ------
+    InputError
+        Naming ``variables.<key>`` and the groups 1, 2, 3 (numbered from 1).
+    """
+    base, sep, k = str(key).rpartition("_group")
+    if table == "variables" and sep and base in DESIGN_VARIABLES:
+        raise InputError(f"{where}: variables.{key}: group {k!r} is not a leveling group; "
+                         f"<variable>_group<k> takes k = 1, 2 or 3 (numbered from 1, as "
+                         "table.leveling_groups lists them)")
 
 
 def group_lever(name: str) -> tuple[int, str]:
-    """``(group, variable)`` of a per-group spring lever (group zero-based)."""
+    """``(group, variable)`` of a per-group spring lever (group zero-based).
+
+    Parameters
+    ----------
+    name : str
+        A :data:`GROUP_SPRING_LEVERS` name, ``<variable>_group<k>`` with ``k`` from 1.
+
+    Returns
+    -------
+    tuple of (int, str)
+        ``(k - 1, variable)``.
+    """
     base, k = name.rsplit("_group", 1)
     return int(k) - 1, base
 
