@@ -267,6 +267,11 @@ def split_sections(text: str) -> dict[str, str]:
     -------
     dict of str to str
         Each section's Markdown, from its ``## bench_...`` heading to the next heading.
+
+    Raises
+    ------
+    ValueError
+        A ``## bench_...`` section without its table (not a report of :func:`render`).
     """
     def cell(item: str) -> str:
         for line in text.split("\n"):
@@ -283,6 +288,8 @@ def split_sections(text: str) -> dict[str, str]:
         if not name.startswith("bench_"):
             continue
         body = part.rstrip("\n")
+        if "\n| benchmark |" not in body:
+            raise ValueError(f"its section {name} has no table of benchmarks")
         if "\nRun: " not in body:  # a report of one run: its sections state the header's run
             head, table = body.split("\n| benchmark |", 1)
             body = head.rstrip("\n") + "\n\n" + run + "\n\n| benchmark |" + table
@@ -372,11 +379,26 @@ def main(argv: list[str] | None = None) -> int:
         help="rerun only the named files and keep the other sections of the output file",
     )
     args = ap.parse_args(argv)
-
+    if args.update and not args.names:
+        ap.error("--update: name the benchmark files to rerun (e.g. table); without names "
+                 "every file reruns and no section is kept")
+    try:
+        paths = discover(args.names)
+    except SystemExit as exc:
+        ap.error(str(exc))
+    if Path(args.output).is_dir():
+        ap.error(f"-o: {args.output} is a directory; give the Markdown file to write")
+    kept = None
+    if args.update and Path(args.output).exists():  # checked before minutes of benchmarks
+        try:
+            kept = split_sections(Path(args.output).read_text())
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            ap.error(f"--update: cannot keep the sections of {args.output}: it is not a report "
+                     f"of benchmarks/run.py ({exc})")
     info = machine_info()
     results = []
     failed = False
-    for path in discover(args.names):
+    for path in paths:
         print(f"running {path.name} ...", flush=True)
         mod = load(path)
         rows = mod.run()
@@ -391,9 +413,6 @@ def main(argv: list[str] | None = None) -> int:
             failed |= r.get("passed") is False
     rel = Path(__file__).resolve().relative_to(ROOT)
     command = " ".join(["python", str(rel), *(argv if argv is not None else sys.argv[1:])])
-    kept = None
-    if args.update and Path(args.output).exists():
-        kept = split_sections(Path(args.output).read_text())
     report = render(info, results, command, kept)
     out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)
