@@ -474,7 +474,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source, table=table,
-               floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where, cons))
+               floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where, cons, hw))
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
         warn_unit_slips(d, where, isolators=payload.isolators)

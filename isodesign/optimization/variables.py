@@ -244,8 +244,8 @@ def lever_scaling(study) -> LinearScaling:
                          half=0.5 * (hi_a - lo_a), log=tuple(log))
 
 
-def parse_levers(variables: dict, table, where: str,
-                 constraints: dict | None = None) -> tuple[VariableSpec, ...]:
+def parse_levers(variables: dict, table, where: str, constraints: dict | None = None,
+                 hardware: dict | None = None) -> tuple[VariableSpec, ...]:
     """``[variables.<lever>]`` of a table study: one spec per :data:`CODESIGN_LEVERS` entry.
 
     A lever the study does not name, or names with ``fixed = true``, is fixed at the
@@ -264,7 +264,10 @@ def parse_levers(variables: dict, table, where: str,
         The study's source, for errors.
     constraints : dict, optional
         The parsed constraints: a free layout's are checked reachable
-        (:func:`check_layout_feasible`).
+        (:func:`check_layout_feasible`), the loads and p0 of the leveled table against
+        the load and supply constraints (no variable moves them).
+    hardware : dict, optional
+        The study's hardware (its ``piston_area_m2`` levels the table).
 
     Returns
     -------
@@ -339,7 +342,28 @@ def parse_levers(variables: dict, table, where: str,
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
     out = tuple(out) + _group_levers(variables or {}, table, where)
     check_layout_feasible(table, out, constraints or {}, where)
+    _check_loads(table, constraints or {}, hardware, where)
     return out
+
+
+def _check_loads(table, constraints: dict, hardware: dict | None, where: str) -> None:
+    """The leveled table's loads and group p0 against ``min_isolator_load_n``,
+    ``max_isolator_load_n`` and ``supply_margin_pa`` (refused when no variable can meet
+    them, as the problem refuses them)."""
+    margin = constraints.get("supply_margin_pa")
+    if margin and margin >= table.supply_pressure_pa:
+        raise InputError(f"{where}: constraints.supply_margin_pa ({margin:g} Pa) must be below "
+                         f"table.supply_pressure_pa ({table.supply_pressure_pa:g} Pa, "
+                         "absolute); a margin is a few 1e4 Pa")
+    keys = ("min_isolator_load_n", "max_isolator_load_n", "supply_margin_pa")
+    if hardware is None or not any(constraints.get(k) for k in keys):
+        return
+    from isodesign.table.statics import check_load_constraints, level
+
+    try:
+        check_load_constraints(level(table, hardware["piston_area_m2"]), constraints)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
 
 
 def refuse_group_number(key, table: str, where: str) -> None:

@@ -68,6 +68,11 @@ def test_layout_levers_are_fixed_at_the_isolators_extent_by_default():
      "variables.layout_length_m.start = 1500 m"),
     ({"variables": {"layout_width_m": {"fixed": False, "upper": 1200.0}}},
      "variables.layout_width_m.upper = 1200 m"),
+    # a margin above the supply itself; loads no variable moves: refused by the study
+    ({"constraints": {"supply_margin_pa": 9.0e5}},
+     "constraints.supply_margin_pa (900000 Pa) must be below table.supply_pressure_pa"),
+    ({"constraints": {"max_isolator_load_n": 1.0}},
+     "constraints.max_isolator_load_n: isolator 1 (from 1) needs 1471 N"),
 ])
 def test_bad_layout_keys_name_the_key(changes, key):
     with pytest.raises(InputError, match=re.escape(key)):
