@@ -169,6 +169,8 @@ LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_lo
 #: Plausible half-size of a table, m (``isodesign.table.study.LENGTH_PLAUSIBLE_M``): a
 #: footprint coordinate beyond it, or a layout lever beyond twice it, is a unit slip.
 LAYOUT_PLAUSIBLE_M = 20.0
+#: Smallest plausible extent of a layout, m (``isodesign.table.study.SPAN_PLAUSIBLE_M``).
+SPAN_PLAUSIBLE_M = 0.05
 #: Default bounds of a free layout lever, as fractions of the table's own extent.
 LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
@@ -321,13 +323,19 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
                 raise InputError(f"{key}.start: the isolators' extent must be > 0 m, got "
                                  f"{start:g}")
             for k, v in vals.items():
-                if v > 2 * LAYOUT_PLAUSIBLE_M:
+                if not SPAN_PLAUSIBLE_M <= v <= 2 * LAYOUT_PLAUSIBLE_M:
+                    hint = (f"; a unit slip? {name} is in m, and {v:g} mm would be "
+                            f"{v * 1e-3:g} m") if v > 1 else f"; {name} is in m"
                     raise InputError(
                         f"{key}.{k} = {v:g} m is outside the plausible extent of a table's "
-                        f"isolators (0, {2 * LAYOUT_PLAUSIBLE_M:g}] m; a unit slip? {name} "
-                        f"is in m, and {v:g} mm would be {v * 1e-3:g} m")
+                        f"isolators [{SPAN_PLAUSIBLE_M:g}, {2 * LAYOUT_PLAUSIBLE_M:g}] m{hint}")
         else:
             lo_d, hi_d = TABLE_LEVER_BOUNDS[name]
+            _plausible_horizontal(key, name, vals)
+        if fixed and not vals.get("lower", start) <= start <= vals.get("upper", start):
+            raise InputError(f"{key}.start ({start:g}) is fixed outside its own bounds [lower, "
+                             f"upper] = [{vals.get('lower', start):g}, "
+                             f"{vals.get('upper', start):g}]")
         if fixed:
             out.append(VariableSpec(name, float(start), float(start), float(start), True))
             continue
@@ -390,6 +398,21 @@ def refuse_group_number(key, table: str, where: str) -> None:
                          "table.leveling_groups lists them)")
 
 
+def _plausible_horizontal(key: str, name: str, vals: dict) -> None:
+    """A horizontal lever's given values within the plausible range of its
+    ``[table.horizontal]`` number (``isodesign.table.study``): beyond it a bound lets the
+    optimizer design an element no table has (a unit slip: cm, %, N/mm)."""
+    from isodesign.table.study import _HORIZONTAL
+
+    _lo, hi, _hard, slip = _HORIZONTAL[name]
+    for k, v in vals.items():
+        if abs(v) > hi:
+            hint = f"; a unit slip? {name} is in m, and {v:g} mm would be {v * 1e-3:g} m" \
+                if slip is not None else ""
+            raise InputError(f"{key}.{k} = {v:g} is outside the plausible range of "
+                             f"table.horizontal.{name}, |value| <= {hi:g}{hint}")
+
+
 def group_lever(name: str) -> tuple[int, str]:
     """``(group, variable)`` of a per-group spring lever (group zero-based).
 
@@ -440,6 +463,10 @@ def _group_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...
             if not dlo <= vals[k] <= dhi:
                 raise InputError(f"{key}.{k} = {vals[k]:g} is outside the models' domain "
                                  f"[{dlo:g}, {dhi:g}]{' ' + unit if unit else ''}")
+        if fixed and not vals["lower"] <= vals["start"] <= vals["upper"] and \
+                ("lower" in spec or "upper" in spec):
+            raise InputError(f"{key}.start ({vals['start']:g}) is fixed outside its own bounds "
+                             f"[lower, upper] = [{vals['lower']:g}, {vals['upper']:g}]")
         if fixed:
             out.append(VariableSpec(name, vals["start"], vals["start"], vals["start"], True))
             continue

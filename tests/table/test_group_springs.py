@@ -58,6 +58,8 @@ def test_a_group_lever_takes_the_shared_variables_start_and_bounds():
     ({"top_volume_m3_group3": {"fixed": False, "lower": -1.0}},
      "variables.top_volume_m3_group3.lower"),
     ({"volume_ratio_group2": {"fixed": "yes"}}, "variables.volume_ratio_group2.fixed"),
+    ({"volume_ratio_group2": {"lower": 50.0, "upper": 60.0}},
+     "variables.volume_ratio_group2.start (1.85185) is fixed outside its own bounds"),
 ])
 def test_bad_group_levers_name_the_key(spec, key):
     with pytest.raises(InputError, match=re.escape(key)):

@@ -68,6 +68,14 @@ def test_layout_levers_are_fixed_at_the_isolators_extent_by_default():
      "variables.layout_length_m.start = 1500 m"),
     ({"variables": {"layout_width_m": {"fixed": False, "upper": 1200.0}}},
      "variables.layout_width_m.upper = 1200 m"),
+    # a fixed lever's own bounds must hold it (as a design variable's); a 1 mm layout; a
+    # pendulum in cm
+    ({"variables": {"layout_length_m": {"lower": 2.0, "upper": 3.0}}},
+     "variables.layout_length_m.start (1.2) is fixed outside its own bounds"),
+    ({"variables": {"layout_length_m": {"fixed": False, "lower": 0.001}}},
+     "variables.layout_length_m.lower = 0.001 m is outside the plausible extent"),
+    ({"variables": {"pendulum_length_m": {"fixed": False, "upper": 150.0}}},
+     "variables.pendulum_length_m.upper = 150 is outside the plausible range"),
     # a margin above the supply itself; loads no variable moves: refused by the study
     ({"constraints": {"supply_margin_pa": 9.0e5}},
      "constraints.supply_margin_pa (900000 Pa) must be below table.supply_pressure_pa"),
