@@ -8,6 +8,7 @@ half-range and ``z`` in [-1, 1].
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -502,6 +503,7 @@ def table_with_levers(table, levers, values: dict | None = None):
 
     from isodesign.table.layout import layout_extent, stretch_layout
 
+    _check_lever_values(levers, values)
     h = table.horizontal
     vals = {v.name: (v.start if v.fixed else (values or {}).get(v.name, v.start))
             for v in levers}
@@ -523,6 +525,25 @@ def table_with_levers(table, levers, values: dict | None = None):
     return out
 
 
+def _check_lever_values(levers, values, require=()) -> None:
+    """``values`` a dict whose levers (the other names are the spring's) are finite numbers,
+    holding every name of ``require``: InputError naming ``values[name]``."""
+    if values is None and not require:
+        return
+    if not isinstance(values, dict):
+        raise InputError(f"values: expected a dict of lever values by name (SI), got "
+                         f"{type(values).__name__} {values!r:.40}")
+    missing = [n for n in require if n not in values]
+    if missing:
+        raise InputError(f"values: the free lever {missing[0]} has no value; give every free "
+                         f"lever ({', '.join(require)})")
+    for v in levers:
+        x = values.get(v.name)
+        if x is not None and (isinstance(x, bool) or not isinstance(x, numbers.Real)
+                              or not math.isfinite(x)):
+            raise InputError(f"values[{v.name!r}]: expected a finite number, got {x!r:.40}")
+
+
 def fixed_lever_changes(table, levers, values: dict) -> dict:
     """The ``Study.with_changes`` tables that fix the free levers at ``values``: the
     horizontal element's in ``[table.horizontal]``, a stretched layout's isolators in
@@ -538,6 +559,7 @@ def fixed_lever_changes(table, levers, values: dict) -> dict:
     from isodesign.table.study import narrowest_spacing_m
 
     free = [v.name for v in levers if v.free]
+    _check_lever_values(levers, values, require=free)
     t = table_with_levers(table, levers, values)
     out = {"table": {"horizontal": {k: float(values[k]) for k in free if k in TABLE_LEVERS}},
            "variables": {k: {"fixed": True, "start": float(values[k])} for k in free}}

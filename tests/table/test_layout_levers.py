@@ -384,3 +384,21 @@ def test_the_command_line_refuses_a_footprint_front_without_a_free_layout(tmp_pa
     assert main(["pareto", "--builtin", "table", "--objectives",
                  "worst_band_margin,rms_velocity", "--points", "3", "-o", str(out)]) == 2
     assert "worst_band_margin,footprint_area" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda st: st.with_levers_fixed([1.4]), "values: expected a dict"),
+    (lambda st: st.with_levers_fixed({"layout_length_m": 1.4}),
+     "values: the free lever layout_width_m has no value"),
+    (lambda st: st.with_levers_fixed({"layout_length_m": "1.4", "layout_width_m": 0.8}),
+     "values['layout_length_m']: expected a finite number"),
+    (lambda st: st.table_at({"layout_width_m": float("nan")}),
+     "values['layout_width_m']: expected a finite number"),
+    (lambda st: st.table_at([1.4, 0.8]), "values: expected a dict"),
+])
+def test_lever_values_of_the_api_are_checked_naming_the_lever(call, words):
+    """Study.with_levers_fixed and Study.table_at: a list raised AttributeError, a missing
+    free lever KeyError; a NaN layout built a NaN table and a string was taken as a number."""
+    with pytest.raises(InputError) as exc:
+        call(table_study().with_changes(variables=LAYOUT))
+    assert words in str(exc.value)
