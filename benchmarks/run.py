@@ -269,6 +269,11 @@ def split_sections(text: str) -> dict[str, str]:
     -------
     dict of str to str
         Each section's Markdown, from its ``## bench_...`` heading to the next heading.
+
+    Raises
+    ------
+    ValueError
+        A ``## bench_...`` section without its table (not a report of :func:`render`).
     """
     def cell(item: str) -> str:
         for line in text.split("\n"):
@@ -288,6 +293,8 @@ def split_sections(text: str) -> dict[str, str]:
         if not name.startswith("bench_"):
             continue
         body = part.split("\n# ", 1)[0].rstrip("\n")
+        if "\n| benchmark |" not in body:
+            raise ValueError(f"its section {name} has no table of benchmarks")
         if "\nRun: " not in body:  # a report of one run: its sections state the header's run
             head, table = body.split("\n| benchmark |", 1)
             body = head.rstrip("\n") + "\n\n" + run + "\n\n| benchmark |" + table
@@ -385,11 +392,27 @@ def main(argv: list[str] | None = None) -> int:
     args = ap.parse_args(argv)
     if args.merge and not args.update:
         ap.error("--merge: only with --update")
-
+    if args.update and not args.names and not args.merge:
+        ap.error("--update: name the benchmark files to rerun (e.g. table) or the reports to "
+                 "--merge; without names every file reruns and no section is kept")
+    try:
+        paths = [] if args.merge and not args.names else discover(args.names)
+    except SystemExit as exc:
+        ap.error(str(exc))
+    if Path(args.output).is_dir():
+        ap.error(f"-o: {args.output} is a directory; give the Markdown file to write")
+    kept = None
+    reports = ([args.output] if args.update and Path(args.output).exists() else []) + args.merge
+    for report in reports:  # checked before minutes of benchmarks; later reports win
+        try:
+            kept = {**(kept or {}), **split_sections(Path(report).read_text())}
+        except (OSError, UnicodeDecodeError, ValueError) as exc:
+            ap.error(f"--update: cannot keep the sections of {report}: it is not a report "
+                     f"of benchmarks/run.py ({exc})")
     info = machine_info()
     results = []
     failed = False
-    for path in ([] if args.merge and not args.names else discover(args.names)):
+    for path in paths:
         print(f"running {path.name} ...", flush=True)
         mod = load(path)
         rows = mod.run()
@@ -404,11 +427,6 @@ def main(argv: list[str] | None = None) -> int:
             failed |= r.get("passed") is False
     rel = Path(__file__).resolve().relative_to(ROOT)
     command = " ".join(["python", str(rel), *(argv if argv is not None else sys.argv[1:])])
-    kept = None
-    if args.update and Path(args.output).exists():
-        kept = split_sections(Path(args.output).read_text())
-    for other in args.merge:  # later reports win, and a section rerun here wins over them
-        kept = {**(kept or {}), **split_sections(Path(other).read_text())}
     report = render(info, results, command, kept)
     out = Path(args.output)
     out.parent.mkdir(parents=True, exist_ok=True)

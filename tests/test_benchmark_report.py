@@ -48,3 +48,29 @@ def test_a_report_without_run_lines_gets_the_header_run():
     assert ("Run: 2025-05-05 05:05:05 UTC, commit ccc, unknown x unknown, load average 1, 2, 3 "
             "at start." in c)
     assert "| c1 | < 1 |" in c
+
+
+def test_bad_update_arguments_end_in_one_line_before_any_benchmark_runs(tmp_path, capsys,
+                                                                        monkeypatch):
+    """--update without names, a file that is no report (a section without its table, a
+    binary file, a directory) and an unknown name: usage errors (exit 2), nothing run or
+    written."""
+    import pytest
+
+    run = _run_module()
+    monkeypatch.setattr(run, "load", lambda path: pytest.fail(f"ran {path}"))
+    no_table = tmp_path / "notes.md"
+    no_table.write_text("# Notes\n\n## bench_table.py\n\nsome text\n")
+    binary = tmp_path / "bin.md"
+    binary.write_bytes(b"\xff\xfe\x00\x81")
+    cases = [(["--update", "-o", str(no_table)], "--update: name the benchmark files"),
+             (["table", "--update", "-o", str(no_table)], "not a report of benchmarks/run.py"),
+             (["table", "--update", "-o", str(binary)], "not a report of benchmarks/run.py"),
+             (["table", "--update", "-o", str(tmp_path)], "is a directory"),
+             (["no_such_bench", "-o", str(tmp_path / "x.md")], "no benchmark file for")]
+    for argv, words in cases:
+        with pytest.raises(SystemExit) as exc:
+            run.main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and words in err and "Traceback" not in err, argv
+    assert no_table.read_text().startswith("# Notes") and not (tmp_path / "x.md").exists()

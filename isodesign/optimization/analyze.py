@@ -59,8 +59,8 @@ def analyze(study, values: dict | None = None, scenario=None, *, bands="study",
         vertical study's :class:`~isodesign.response.band.BandResponse` (its symmetric
         table's z answer, to 1e-6 dB the 1-DOF's: ``tests/table/test_one_model.py``).
     """
+    vals = _checked_values(study, values)
     st, p_atm = _under(study, scenario)
-    vals = {v.name: v.start for v in study.variables} if values is None else dict(values)
     b = st.bands if isinstance(bands, str) and bands == "study" else bands
     m = st.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
@@ -112,6 +112,11 @@ def vertical_band_response(design, payload, floor, target, *, bands=None,
     -------
     BandResponse
     """
+    from isodesign.spring.design import SpringDesign
+
+    if not isinstance(design, SpringDesign):
+        raise InputError(f"design: expected an isodesign SpringDesign, got "
+                         f"{type(design).__name__} {design!r:.40}")
     kw = {"flow": flow, "amplitude_mode": amplitude_mode, "diaphragm": diaphragm,
           "random_method": random_method}
     if not _table_able(design, payload, derive_pressure, p_atm_pa):
@@ -190,16 +195,62 @@ def vertical_stroke_rms(design, payload, grid, *, flow: str = "quasi_steady",
     return float(sigma[0]), info
 
 
+def _checked_values(study, values) -> dict:
+    """``values`` checked against the study: a mapping of its design variables' and levers'
+    names to finite numbers; a fixed one only at its fixed value (else the answer would be
+    the fixed design's, not the one asked for)."""
+    import math
+    import numbers
+
+    from isodesign.optimization.study import Study
+    from isodesign.optimization.variables import LAYOUT_LEVERS, LAYOUT_PLAUSIBLE_M
+
+    if not isinstance(study, Study):
+        raise InputError(f"study: expected an isodesign Study (isodesign.load_study(path), "
+                         f"table_study(), vertical_study()), got {type(study).__name__} "
+                         f"{study!r:.40}")
+    if values is None:
+        return {v.name: v.start for v in study.variables}
+    if not isinstance(values, dict):
+        raise InputError(f"values: expected a dict of design-variable values by name (SI), "
+                         f"got {type(values).__name__} {values!r:.40}")
+    spec = {v.name: v for v in (*study.variables, *study.levers)}
+    for k, v in values.items():
+        if k not in spec:
+            raise InputError(f"values: unknown name {k!r}; this study's design variables and "
+                             f"levers: {', '.join(spec)}")
+        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
+            raise InputError(f"values[{k!r}]: expected a finite number, got {v!r:.40}")
+        if spec[k].fixed and not math.isclose(v, spec[k].start, rel_tol=1e-9, abs_tol=0.0):
+            raise InputError(f"values[{k!r}] = {v:g}: variables.{k} is fixed at "
+                             f"{spec[k].start:g} in this study; free it (fixed = false) or "
+                             "leave it out")
+        if k in LAYOUT_LEVERS and not 0 < v <= 2 * LAYOUT_PLAUSIBLE_M:
+            raise InputError(f"values[{k!r}] = {v:g} m is outside the plausible extent of a "
+                             f"table's isolators (0, {2 * LAYOUT_PLAUSIBLE_M:g}] m; a unit "
+                             "slip? it is in m")
+    return dict(values)
+
+
 def _under(study, scenario):
     """The study under ``scenario`` and its ambient pressure."""
     if scenario is None:
         return study, P_ATM
     if study.scenarios is None:
         raise InputError("scenario: the study has no [scenarios]")
-    theta = np.asarray(scenario, dtype=float)
-    if theta.shape != (study.scenarios.size,):
-        raise InputError(f"scenario: expected {study.scenarios.size} values "
-                         f"({', '.join(study.scenarios.names)}), got shape {theta.shape}")
+    sp = study.scenarios
+    try:
+        theta = np.asarray(scenario, dtype=float)
+    except (TypeError, ValueError):
+        theta = None
+    if theta is None or isinstance(scenario, str | dict) or theta.shape != (sp.size,):
+        raise InputError(f"scenario: expected {sp.size} numbers ({', '.join(sp.names)}, in "
+                         f"that order), got {scenario!r:.60}")
+    lo, hi = sp.lower(), sp.upper()
+    for name, v, a, b in zip(sp.names, theta, lo, hi, strict=True):
+        if not a - 1e-12 * abs(a) <= v <= b + 1e-12 * abs(b):  # also NaN
+            raise InputError(f"scenario: {name} = {v:g} is outside the study's [scenarios] "
+                             f"range [{a:g}, {b:g}]")
     if study.table is not None:
         from isodesign.optimization.robust_table import table_scenario
 

@@ -48,7 +48,8 @@ from isodesign.optimization.study import Study
 from isodesign.plotting.optimization import pareto_figure
 from isodesign.results import ResultDisplay
 
-__all__ = ["DEFAULT_OBJECTIVES", "ParetoResult", "hypervolume_2d", "nondominated", "pareto_front"]
+__all__ = ["DEFAULT_OBJECTIVES", "ParetoResult", "check_front", "hypervolume_2d", "nondominated",
+           "pareto_front"]
 
 DEFAULT_OBJECTIVES = ("worst_band_margin", "total_volume")
 #: The front of a table study (its only one).
@@ -154,6 +155,48 @@ def _check_objectives(objectives) -> tuple[str, str]:
     return objs  # type: ignore[return-value]
 
 
+def check_front(study: Study, objectives) -> tuple[str, str]:
+    """The front's two objectives checked against the study, before anything is solved.
+
+    A table study has the fronts ``worst_band_margin,total_volume`` and
+    ``worst_band_margin,footprint_area`` (the latter with a free layout, docs/table.md
+    section 15); ``footprint_area`` is a table's only.
+
+    Parameters
+    ----------
+    study : Study
+    objectives : sequence of 2 str
+
+    Returns
+    -------
+    tuple of 2 str
+
+    Raises
+    ------
+    InputError
+        Naming ``objectives``.
+    """
+    from isodesign.optimization.variables import LAYOUT_LEVERS
+
+    a, b = _check_objectives(objectives)
+    if study.table is None:
+        if "footprint_area" in (a, b):
+            raise InputError("objectives: footprint_area is the footprint of a table's "
+                             "isolators (a study with a [table] and a free layout, "
+                             "docs/table.md section 15); this study has no [table]")
+        return a, b
+    fronts = (TABLE_OBJECTIVES, ("worst_band_margin", "footprint_area"))
+    if (a, b) not in fronts:
+        raise InputError(f"objectives: a study with a [table] has the fronts "
+                         f"{' and '.join(','.join(f) for f in fronts)}, got {a},{b}")
+    if b == "footprint_area" and not any(v.free for v in study.levers
+                                         if v.name in LAYOUT_LEVERS):
+        raise InputError("objectives: footprint_area needs a free layout "
+                         "(variables.layout_length_m or layout_width_m, fixed = false; "
+                         "docs/table.md section 15)")
+    return a, b
+
+
 def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, *,
                  progress=None) -> ParetoResult:
     """Epsilon-constraint Pareto front of two objectives with warm starts.
@@ -192,16 +235,12 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
         raise InputError(f"study: expected a Study (load_study(path) or default_study()), "
                          f"got {type(study).__name__} {study!r:.40}")
     refuse(study, PARETO_WHAT, table=False)  # no robust front (docs/robust.md)
-    a, b = _check_objectives(objectives)
-    table_fronts = (TABLE_OBJECTIVES, ("worst_band_margin", "footprint_area"))
+    a, b = check_front(study, objectives)
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
     if study.table is not None:  # the table's front (docs/table.md, section 11)
         from isodesign.table.pareto import table_pareto_front
 
-        if (a, b) not in table_fronts:
-            raise InputError(f"objectives: a study with a [table] has the fronts "
-                             f"{' and '.join(','.join(f) for f in table_fronts)}, got {a},{b}")
         return table_pareto_front(study, points, progress=progress, cost=b)
     t0 = time.perf_counter()
     st = study.with_changes(objective=_objective_table(study, a))

@@ -6,7 +6,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any
 
-from isodesign.errors import SolverError
+from isodesign.errors import InputError, SolverError
 from isodesign.optimization.constraints import ConstraintReport
 from isodesign.optimization.explain import (
     BINDING_NOTE,
@@ -68,6 +68,13 @@ class StudyResult(ResultDisplay):
     #: The study kind this class answers (one of
     #: :data:`isodesign.optimization.dispatch.KINDS`).
     KIND = ""
+
+    def __new__(cls, *args, **kwargs):
+        # the common interface holds no result: StudyResult() had no fields to show
+        if not cls.KIND:
+            raise InputError(f"{cls.__name__}: the common interface of isodesign.optimize's "
+                             "results, not a result; get one from isodesign.optimize(study)")
+        return super().__new__(cls)
 
     # -- hooks of the subclasses ---------------------------------------------------------------
     def _checked(self) -> bool:

@@ -77,6 +77,7 @@ from isodesign.optimization.variables import (
     fixed_lever_changes,
     footprint_bounds,
     parse_levers,
+    refuse_group_number,
     table_with_levers,
 )
 from isodesign.response.isolator import Payload
@@ -282,7 +283,6 @@ class Study(ResultDisplay):
 
     def design_at(self, values: dict):
         """The spring at given design-variable values (fixed ones from the study)."""
-
         vals = {v.name: (v.start if v.fixed else values.get(v.name, v.start))
                 for v in self.variables}
         acoustics = self.models.get("acoustics", ACOUSTIC_MODELS[0])
@@ -380,6 +380,7 @@ def _check_keys(d: dict, table: str, where: str):
     for k in d:
         if k not in allowed:
             tname = f"[{table}]" if table else "top level"
+            refuse_group_number(k, table, where)
             raise InputError(
                 f"{where}: unknown key {k!r} in {tname}; valid: {', '.join(sorted(allowed))}"
             )
@@ -473,7 +474,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     st = Study(name=name, raw=raw, payload=payload, hardware=hw, floor=floor, target=target,
                bands=bands, models=models, variables=variables, constraints=cons,
                objective=obj, solver=solver, source=source, table=table,
-               floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where))
+               floor_axes=floor_axes, levers=parse_levers(raw["variables"], table, where, cons, hw))
     _check_start_design(st, where)
     if fill_defaults:  # the user's own values (with_changes warns on its changes)
         warn_unit_slips(d, where, isolators=payload.isolators)
@@ -865,7 +866,6 @@ def load_study(path) -> Study:
         An unreadable or malformed file, or an invalid study (see
         :func:`study_from_dict`); the message names the file and the key.
     """
-
     if not isinstance(path, str | Path) and not hasattr(path, "__fspath__"):
         raise InputError(f"path: expected a study file name (a string or path), got "
                          f"{type(path).__name__} {path!r:.40}")

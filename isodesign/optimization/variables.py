@@ -8,6 +8,7 @@ half-range and ``z`` in [-1, 1].
 from __future__ import annotations
 
 import math
+import numbers
 from dataclasses import dataclass
 
 import numpy as np
@@ -28,6 +29,7 @@ __all__ = [
     "LinearScaling",
     "LogScaling",
     "VariableSpec",
+    "check_layout_feasible",
     "check_load_range",
     "effective_bounds",
     "fixed_lever_changes",
@@ -37,6 +39,7 @@ __all__ = [
     "log_scaling",
     "parse_levers",
     "refuse_free_levers",
+    "refuse_group_number",
     "table_with_levers",
 ]
 
@@ -164,6 +167,11 @@ GROUP_SPRING_LEVERS = tuple(f"{v}_group{k}" for k in (1, 2, 3) for v in DESIGN_V
 #: A table study's constraints on its layout, loads and supply (docs/table.md, section 15).
 LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_load_n",
                       "max_isolator_load_n", "supply_margin_pa")
+#: Plausible half-size of a table, m (``isodesign.table.study.LENGTH_PLAUSIBLE_M``): a
+#: footprint coordinate beyond it, or a layout lever beyond twice it, is a unit slip.
+LAYOUT_PLAUSIBLE_M = 20.0
+#: Smallest plausible extent of a layout, m (``isodesign.table.study.SPAN_PLAUSIBLE_M``).
+SPAN_PLAUSIBLE_M = 0.05
 #: Default bounds of a free layout lever, as fractions of the table's own extent.
 LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
@@ -239,7 +247,8 @@ def lever_scaling(study) -> LinearScaling:
                          half=0.5 * (hi_a - lo_a), log=tuple(log))
 
 
-def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]:
+def parse_levers(variables: dict, table, where: str, constraints: dict | None = None,
+                 hardware: dict | None = None) -> tuple[VariableSpec, ...]:
     """``[variables.<lever>]`` of a table study: one spec per :data:`CODESIGN_LEVERS` entry.
 
     A lever the study does not name, or names with ``fixed = true``, is fixed at the
@@ -256,6 +265,12 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
         The study's table (None: a vertical study, which may name no lever).
     where : str
         The study's source, for errors.
+    constraints : dict, optional
+        The parsed constraints: a free layout's are checked reachable
+        (:func:`check_layout_feasible`), the loads and p0 of the leveled table against
+        the load and supply constraints (no variable moves them).
+    hardware : dict, optional
+        The study's hardware (its ``piston_area_m2`` levels the table).
 
     Returns
     -------
@@ -308,8 +323,20 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
             if not start > 0:
                 raise InputError(f"{key}.start: the isolators' extent must be > 0 m, got "
                                  f"{start:g}")
+            for k, v in vals.items():
+                if not SPAN_PLAUSIBLE_M <= v <= 2 * LAYOUT_PLAUSIBLE_M:
+                    hint = (f"; a unit slip? {name} is in m, and {v:g} mm would be "
+                            f"{v * 1e-3:g} m") if v > 1 else f"; {name} is in m"
+                    raise InputError(
+                        f"{key}.{k} = {v:g} m is outside the plausible extent of a table's "
+                        f"isolators [{SPAN_PLAUSIBLE_M:g}, {2 * LAYOUT_PLAUSIBLE_M:g}] m{hint}")
         else:
             lo_d, hi_d = TABLE_LEVER_BOUNDS[name]
+            _plausible_horizontal(key, name, vals)
+        if fixed and not vals.get("lower", start) <= start <= vals.get("upper", start):
+            raise InputError(f"{key}.start ({start:g}) is fixed outside its own bounds [lower, "
+                             f"upper] = [{vals.get('lower', start):g}, "
+                             f"{vals.get('upper', start):g}]")
         if fixed:
             out.append(VariableSpec(name, float(start), float(start), float(start), True))
             continue
@@ -322,7 +349,69 @@ def parse_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...]
             raise InputError(f"{key}.start ({start:g}) must lie in [lower, upper] = "
                              f"[{lo:g}, {hi:g}]")
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
-    return tuple(out) + _group_levers(variables or {}, table, where)
+    out = tuple(out) + _group_levers(variables or {}, table, where)
+    check_layout_feasible(table, out, constraints or {}, where)
+    _check_loads(table, constraints or {}, hardware, where)
+    return out
+
+
+def _check_loads(table, constraints: dict, hardware: dict | None, where: str) -> None:
+    """The leveled table's loads and group p0 against ``min_isolator_load_n``,
+    ``max_isolator_load_n`` and ``supply_margin_pa`` (refused when no variable can meet
+    them, as the problem refuses them)."""
+    margin = constraints.get("supply_margin_pa")
+    if margin and margin >= table.supply_pressure_pa:
+        raise InputError(f"{where}: constraints.supply_margin_pa ({margin:g} Pa) must be below "
+                         f"table.supply_pressure_pa ({table.supply_pressure_pa:g} Pa, "
+                         "absolute); a margin is a few 1e4 Pa")
+    keys = ("min_isolator_load_n", "max_isolator_load_n", "supply_margin_pa")
+    if hardware is None or not any(constraints.get(k) for k in keys):
+        return
+    from isodesign.table.statics import check_load_constraints, level
+
+    try:
+        check_load_constraints(level(table, hardware["piston_area_m2"]), constraints)
+    except InputError as exc:
+        raise InputError(f"{where}: {exc}") from None
+
+
+def refuse_group_number(key, table: str, where: str) -> None:
+    """Refuse a per-group lever ``<variable>_group<k>`` whose ``k`` is no leveling group.
+
+    Parameters
+    ----------
+    key : str
+        An unknown key of the study.
+    table : str
+        The study table it is in (only ``variables`` is checked).
+    where : str
+        The study's source, for errors.
+
+    Raises
+    ------
+    InputError
+        Naming ``variables.<key>`` and the groups 1, 2, 3 (numbered from 1).
+    """
+    base, sep, k = str(key).rpartition("_group")
+    if table == "variables" and sep and base in DESIGN_VARIABLES:
+        raise InputError(f"{where}: variables.{key}: group {k!r} is not a leveling group; "
+                         f"<variable>_group<k> takes k = 1, 2 or 3 (numbered from 1, as "
+                         "table.leveling_groups lists them)")
+
+
+def _plausible_horizontal(key: str, name: str, vals: dict) -> None:
+    """A horizontal lever's given values within the plausible range of its
+    ``[table.horizontal]`` number (``isodesign.table.study``): beyond it a bound lets the
+    optimizer design an element no table has (a unit slip: cm, %, N/mm)."""
+    from isodesign.table.study import _HORIZONTAL
+
+    _lo, hi, _hard, slip = _HORIZONTAL[name]
+    for k, v in vals.items():
+        if abs(v) > hi:
+            hint = f"; a unit slip? {name} is in m, and {v:g} mm would be {v * 1e-3:g} m" \
+                if slip is not None else ""
+            raise InputError(f"{key}.{k} = {v:g} is outside the plausible range of "
+                             f"table.horizontal.{name}, |value| <= {hi:g}{hint}")
 
 
 def group_lever(name: str) -> tuple[int, str]:
@@ -375,6 +464,10 @@ def _group_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...
             if not dlo <= vals[k] <= dhi:
                 raise InputError(f"{key}.{k} = {vals[k]:g} is outside the models' domain "
                                  f"[{dlo:g}, {dhi:g}]{' ' + unit if unit else ''}")
+        if fixed and not vals["lower"] <= vals["start"] <= vals["upper"] and \
+                ("lower" in spec or "upper" in spec):
+            raise InputError(f"{key}.start ({vals['start']:g}) is fixed outside its own bounds "
+                             f"[lower, upper] = [{vals['lower']:g}, {vals['upper']:g}]")
         if fixed:
             out.append(VariableSpec(name, vals["start"], vals["start"], vals["start"], True))
             continue
@@ -410,6 +503,7 @@ def table_with_levers(table, levers, values: dict | None = None):
 
     from isodesign.table.layout import layout_extent, stretch_layout
 
+    _check_lever_values(levers, values)
     h = table.horizontal
     vals = {v.name: (v.start if v.fixed else (values or {}).get(v.name, v.start))
             for v in levers}
@@ -431,6 +525,25 @@ def table_with_levers(table, levers, values: dict | None = None):
     return out
 
 
+def _check_lever_values(levers, values, require=()) -> None:
+    """``values`` a dict whose levers (the other names are the spring's) are finite numbers,
+    holding every name of ``require``: InputError naming ``values[name]``."""
+    if values is None and not require:
+        return
+    if not isinstance(values, dict):
+        raise InputError(f"values: expected a dict of lever values by name (SI), got "
+                         f"{type(values).__name__} {values!r:.40}")
+    missing = [n for n in require if n not in values]
+    if missing:
+        raise InputError(f"values: the free lever {missing[0]} has no value; give every free "
+                         f"lever ({', '.join(require)})")
+    for v in levers:
+        x = values.get(v.name)
+        if x is not None and (isinstance(x, bool) or not isinstance(x, numbers.Real)
+                              or not math.isfinite(x)):
+            raise InputError(f"values[{v.name!r}]: expected a finite number, got {x!r:.40}")
+
+
 def fixed_lever_changes(table, levers, values: dict) -> dict:
     """The ``Study.with_changes`` tables that fix the free levers at ``values``: the
     horizontal element's in ``[table.horizontal]``, a stretched layout's isolators in
@@ -446,6 +559,7 @@ def fixed_lever_changes(table, levers, values: dict) -> dict:
     from isodesign.table.study import narrowest_spacing_m
 
     free = [v.name for v in levers if v.free]
+    _check_lever_values(levers, values, require=free)
     t = table_with_levers(table, levers, values)
     out = {"table": {"horizontal": {k: float(values[k]) for k in free if k in TABLE_LEVERS}},
            "variables": {k: {"fixed": True, "start": float(values[k])} for k in free}}
@@ -496,12 +610,88 @@ def footprint_bounds(where: str, value):
     except (TypeError, ValueError):
         a = None
     if isinstance(value, str) or a is None or a.shape != (2, 2) or \
-            not np.all(np.isfinite(a)):
+            not np.all(np.isfinite(a)) or _has_bool(value):
         raise InputError(f"{key}: expected [[x_min, y_min], [x_max, y_max]] in m (the "
                          f"rectangle the isolators stand in), got {value!r:.60}")
     if not (a[0, 0] < a[1, 0] and a[0, 1] < a[1, 1]):
         raise InputError(f"{key}: need x_min < x_max and y_min < y_max, got {a.tolist()}")
+    big = float(np.max(np.abs(a)))
+    if big > LAYOUT_PLAUSIBLE_M:
+        raise InputError(f"{key}: a coordinate of {big:g} m is outside the plausible range of "
+                         f"a table's footprint (+-{LAYOUT_PLAUSIBLE_M:g} m); a unit slip? "
+                         f"footprint_m is in m, and {big:g} mm would be {big * 1e-3:g} m")
     return tuple(float(v) for v in a.ravel())
+
+
+def _has_bool(value) -> bool:
+    """A boolean anywhere in a nested list (TOML true/false where a number belongs)."""
+    if isinstance(value, bool | np.bool_):
+        return True
+    return isinstance(value, list | tuple) and any(_has_bool(v) for v in value)
+
+
+def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
+    """A free layout's constraints must be reachable within its levers' bounds.
+
+    The layout is stretched about the CG (``x_i = c_x + s_x a_i``), so each axis's stretch
+    ``s`` that keeps every isolator in ``constraints.footprint_m`` is an interval; with the
+    levers' bounds it must not be empty, and at its largest stretch the closest two
+    isolators must be ``constraints.min_isolator_distance_m`` apart (the distances grow with
+    the stretch). A fixed layout is checked by the problem (``lever_geometry``).
+
+    Parameters
+    ----------
+    table : Table
+    levers : sequence of VariableSpec
+        ``Study.levers``.
+    constraints : dict
+        The parsed constraints.
+    where : str
+        The study's source, for errors.
+
+    Raises
+    ------
+    InputError
+        Naming ``constraints.footprint_m`` or ``constraints.min_isolator_distance_m``.
+    """
+    from isodesign.table.layout import layout_extent
+
+    spec = {v.name: v for v in levers if v.name in LAYOUT_LEVERS}
+    if not any(v.free for v in spec.values()):
+        return
+    fp, dmin = constraints.get("footprint_m"), constraints.get("min_isolator_distance_m")
+    c = np.asarray(table.cg_m[:2], float)
+    off = np.asarray(table.isolators_m, float) - c
+    smax = []
+    for ax, (name, e0) in enumerate(zip(LAYOUT_LEVERS, layout_extent(table), strict=True)):
+        v = spec[name]
+        lo, hi = v.lower / e0, v.upper / e0
+        if fp:
+            b0, b1 = fp[ax], fp[ax + 2]
+            for a in off[:, ax]:
+                if a > 0:
+                    lo, hi = max(lo, (b0 - c[ax]) / a), min(hi, (b1 - c[ax]) / a)
+                elif a < 0:
+                    lo, hi = max(lo, (b1 - c[ax]) / a), min(hi, (b0 - c[ax]) / a)
+                elif not b0 <= c[ax] <= b1:
+                    lo, hi = 1.0, 0.0
+            if not lo <= hi:
+                raise InputError(
+                    f"{where}: constraints.footprint_m: no {name} in its bounds "
+                    f"[{v.lower:g}, {v.upper:g}] m keeps every isolator inside "
+                    f"{'xy'[ax]} {b0:g}..{b1:g} m (the layout is stretched about the CG at "
+                    f"{'xy'[ax]} = {c[ax]:g} m); widen the footprint or the lever's bounds")
+        smax.append(hi)
+    if dmin:
+        n = off.shape[0]
+        d = min(float(np.hypot(smax[0] * (off[i, 0] - off[j, 0]),
+                               smax[1] * (off[i, 1] - off[j, 1])))
+                for i in range(n) for j in range(i + 1, n))
+        if d < dmin:
+            raise InputError(
+                f"{where}: constraints.min_isolator_distance_m = {dmin:g} m, but the closest "
+                f"two isolators are at most {d:.4g} m apart with the layout levers' bounds"
+                f"{' and constraints.footprint_m' if fp else ''}; lower it or widen them")
 
 
 def refuse_free_levers(study, what: str) -> None:

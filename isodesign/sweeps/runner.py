@@ -342,6 +342,15 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
     tables, keys = _tables(vary, combine, points)
     pts, dropped = build_points(base, tables,
                                  "--points-file" if points is not None else "--vary")
+    if task == "pareto":  # every point's front, checked before any runs
+        from isodesign.optimization.pareto import DEFAULT_OBJECTIVES, check_front
+
+        for p in pts:
+            try:
+                check_front(p.study, options.get("objectives") or DEFAULT_OBJECTIVES)
+            except InputError as exc:
+                at = ", ".join(f"{k}={v}" for k, v in p.changes.items())
+                raise InputError(f"--objectives at the point {at}: {exc}") from None
     identity = _identity(task, options, base, keys)
     target = Path(output)
     mode = _check_dir(target, identity, overwrite, "--output")

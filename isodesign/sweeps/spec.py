@@ -30,7 +30,11 @@ from pathlib import Path
 from isodesign.errors import InputError
 from isodesign.io.record import resolved_study_dict
 from isodesign.optimization.study import SCHEMA_KEYS, Study
-from isodesign.optimization.variables import DESIGN_VARIABLES
+from isodesign.optimization.variables import (
+    CODESIGN_LEVERS,
+    DESIGN_VARIABLES,
+    GROUP_SPRING_LEVERS,
+)
 
 __all__ = [
     "MAX_POINTS",
@@ -52,11 +56,17 @@ _TABLES = ("payload", "hardware", "floor", "target", "models", "constraints", "o
            "solver")
 
 
+def _variables() -> list[str]:
+    """Every ``[variables.NAME]`` a study takes: the design variables, then a table's levers
+    (docs/table.md sections 13 and 15), as ``optimize`` takes them."""
+    return [*DESIGN_VARIABLES, *CODESIGN_LEVERS, *GROUP_SPRING_LEVERS]
+
+
 def _valid_keys() -> list[str]:
     keys = [f"{t}.{k}" for t in _TABLES for k in sorted(SCHEMA_KEYS[t]) if k != "gas"]
     keys += [f"hardware.gas.{k}" for k in sorted(SCHEMA_KEYS["hardware.gas"])]
-    keys += [f"variables.{v}.{f}" for v in DESIGN_VARIABLES for f in ("start", "lower", "upper",
-                                                                     "fixed")]
+    keys += [f"variables.{v}.{f}" for v in _variables() for f in ("start", "lower", "upper",
+                                                                  "fixed")]
     return ["name", *keys]
 
 
@@ -91,7 +101,12 @@ def check_key(key: str, option: str = "--vary") -> str:
         valid = sorted(SCHEMA_KEYS[table] - {"gas"})
         where = f"[{table}]"
     elif head == "variables":
-        valid = [f"variables.{v}.{{start,lower,upper,fixed}}" for v in DESIGN_VARIABLES]
+        base, sep, _ = parts[1].rpartition("_group") if len(parts) > 1 else ("", "", "")
+        if len(parts) == 3 and sep and base in DESIGN_VARIABLES:
+            return k  # a group number out of 1..3: the study names the valid groups
+        valid = [f"variables.{v}.{{start,lower,upper,fixed}}"
+                 for v in (*DESIGN_VARIABLES, *CODESIGN_LEVERS)]
+        valid.append("variables.<variable>_group<1..3>.{start,lower,upper,fixed}")
         where = "[variables]"
     else:
         others = sorted(set(SCHEMA_KEYS[""]) - {*_TABLES, "variables", "name", "description"})

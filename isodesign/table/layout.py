@@ -23,6 +23,7 @@ from typing import Any
 
 import numpy as np
 
+from isodesign.domain import DESIGN_DOMAIN
 from isodesign.errors import InputError, check_range
 from isodesign.spring.gas import G_STANDARD, P_ATM
 
@@ -642,8 +643,9 @@ def _group_springs(value) -> tuple:
             if name not in SPRING_FIELDS:
                 raise InputError(f"group_springs: group {k + 1}: unknown field {name!r}; "
                                  f"valid: {', '.join(SPRING_FIELDS)}")
-            check_range(f"group_springs: group {k + 1}: {name}", _real(name, v), 0.0, None,
-                        lo_open=True)
+            key = f"group_springs: group {k + 1}: {name}"
+            lo, hi, unit = DESIGN_DOMAIN[name]
+            check_range(key, _real(key, v), lo, hi, unit=unit)
         out.append({n: float(g[n]) for n in SPRING_FIELDS if n in g})
     return tuple(out)
 

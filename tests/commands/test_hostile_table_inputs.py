@@ -220,6 +220,35 @@ def test_modes_cli_one_line(tmp_path, capsys, line, fragments):
         assert f in err[0]
 
 
+@pytest.mark.parametrize("command, extra, fragments", [
+    ("sweep", "[constraints]\nmax_isolator_load_n = 1.0\n",
+     ["constraints.max_isolator_load_n: isolator 1 (from 1)"]),
+    ("optimize", "[constraints]\nsupply_margin_pa = 9.0e5\n",
+     ["constraints.supply_margin_pa (900000 Pa) must be below table.supply_pressure_pa"]),
+    ("pareto", "[variables.layout_length_m]\nfixed = false\n[constraints]\n"
+     "footprint_m = [[-0.1, -0.1], [0.1, 0.1]]\n",
+     ["constraints.footprint_m: no layout_length_m in its bounds"]),
+    ("optimize", "[variables.layout_width_m]\nfixed = false\nupper = 800\n",
+     ["variables.layout_width_m.upper = 800 m", "800 mm would be 0.8 m"]),
+    ("sweep", "[variables.volume_ratio_group4]\nfixed = false\n",
+     ["variables.volume_ratio_group4: group '4'", "k = 1, 2 or 3"]),
+])
+def test_layout_and_load_contradictions_end_in_one_line_before_any_run(
+        tmp_path, capsys, command, extra, fragments):
+    """Settings no design can meet (docs/table.md section 15) are refused by the study,
+    so every entry point stops before solving anything (a sweep before its cluster)."""
+    path = _study_file(tmp_path, TABLE_TOML + "cg_m = [0.0, 0.0, 0.35]\n" + extra)
+    argv = [command, path, "-o", str(tmp_path / "out")]
+    if command == "sweep":
+        argv += ["--vary", "payload.mass_kg=500,600"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("isodesign: error: "), err
+    for f in fragments:
+        assert f in err[0]
+    assert not (tmp_path / "out").exists()
+
+
 # -- [scenarios]: ranges in another unit ---------------------------------------------------
 
 SCENARIO_ERRORS = [

@@ -184,3 +184,11 @@ def test_design_json_states_the_hessian_and_why():
     d = optimization_design(res)
     assert (d["hessian"], d["hessian_reason"]) == (res.hessian_choice()["hessian"],
                                                    res.hessian_choice()["reason"])
+
+
+@pytest.mark.parametrize("cls", [StudyResult, RobustStudyResult])
+def test_the_common_interface_is_not_a_result(cls):
+    """StudyResult() built an object whose str, verdict and to_frame raised AttributeError:
+    the interface refuses to be built, naming where a result comes from."""
+    with pytest.raises(isodesign.InputError, match=rf"{cls.__name__}: .*isodesign\.optimize"):
+        cls()

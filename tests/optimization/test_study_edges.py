@@ -198,3 +198,53 @@ def test_public_api_wrong_types_are_input_errors(i, tmp_path, monkeypatch):
         call()
     assert name in str(exc.value)
     assert not (tmp_path / "x").exists()
+
+
+def _analyze_cases():
+    """``isodesign.analyze`` and ``vertical_band_response`` misused: (call, words)."""
+    import isodesign
+    from isodesign.optimization.analyze import vertical_band_response
+    from isodesign.optimization.study import table_study
+
+    v, t = vertical_study(), table_study()
+    s = v.with_changes(scenarios={"payload_mass_kg": {"min": 480.0, "max": 720.0}})
+    free = t.with_changes(variables={"layout_length_m": {"fixed": False}})
+    return [
+        (lambda: isodesign.analyze("study.toml"), "study: expected an isodesign Study"),
+        (lambda: isodesign.analyze(None), "study: expected an isodesign Study"),
+        (lambda: isodesign.analyze(v, [1.0, 2.0]), "values: expected a dict"),
+        (lambda: isodesign.analyze(v, {"colour": 1.0}), "values: unknown name 'colour'"),
+        (lambda: isodesign.analyze(v, {"volume_ratio": "2"}), "values['volume_ratio']"),
+        (lambda: isodesign.analyze(v, {"volume_ratio": float("nan")}), "values['volume_ratio']"),
+        # a fixed lever at another value would answer for the fixed design, silently
+        (lambda: isodesign.analyze(t, {"layout_length_m": 1.4}),
+         "variables.layout_length_m is fixed at 1.2"),
+        (lambda: isodesign.analyze(t, {"volume_ratio_group2": 3.0}),
+         "unknown name 'volume_ratio_group2'"),
+        (lambda: isodesign.analyze(free, {"layout_length_m": 1500.0}), "a unit slip"),
+        (lambda: isodesign.analyze(s, None, "abc"), "scenario: expected 1 numbers"),
+        (lambda: isodesign.analyze(s, None, {"payload_mass_kg": 600.0}), "scenario: expected"),
+        (lambda: isodesign.analyze(s, None, [6000.0]), "payload_mass_kg = 6000 is outside"),
+        (lambda: isodesign.analyze(s, None, [float("nan")]), "payload_mass_kg = nan"),
+        (lambda: vertical_band_response(None, v.payload, v.floor, v.target),
+         "design: expected an isodesign SpringDesign"),
+    ]
+
+
+@pytest.mark.parametrize("i", range(14))
+def test_analyze_misuse_is_an_input_error_naming_the_argument(i):
+    call, words = _analyze_cases()[i]
+    with pytest.raises(InputError) as exc:
+        call()
+    assert words in str(exc.value)
+
+
+def test_analyze_takes_a_fixed_lever_at_its_own_value():
+    import isodesign
+    from isodesign.optimization.study import table_study
+
+    t = table_study()
+    a = isodesign.analyze(t.with_changes(models={"points_per_band": 4}), points_per_band=4)
+    b = isodesign.analyze(t.with_changes(models={"points_per_band": 4}),
+                          {"layout_length_m": 1.2, "layout_width_m": 0.8}, points_per_band=4)
+    assert a.worst_margin_db == b.worst_margin_db

@@ -26,6 +26,43 @@ def run_cli(*argv) -> tuple[int, str, str]:
     return status, o.getvalue(), e.getvalue()
 
 
+def test_vary_takes_a_tables_levers_as_optimize_does():
+    """The layout and per-group levers are study keys a sweep varies; a group number out
+    of 1..3 gets the study's own message (the groups numbered from 1)."""
+    from isodesign.optimization.study import table_study
+
+    st = table_study()
+    pts, _ = build_points(st, combine([parse_vary("variables.layout_length_m.fixed=false"),
+                                       parse_vary("variables.volume_ratio_group2.fixed=false")],
+                                      "product"))
+    free = [v.name for v in pts[0].study.levers if v.free]
+    assert free == ["layout_length_m", "volume_ratio_group2"]
+    with pytest.raises(InputError, match=r"volume_ratio_group4: group '4' .* 1, 2 or 3"):
+        build_points(st, combine([parse_vary("variables.volume_ratio_group4.fixed=false")],
+                                 "product"))
+
+
+@pytest.mark.parametrize("builtin, vary, objectives, words", [
+    ("table", "payload.mass_kg=500,600", "worst_band_margin,footprint_area",
+     "footprint_area needs a free layout"),
+    ("table", "variables.layout_length_m.fixed=false,true", "worst_band_margin,footprint_area",
+     "point variables.layout_length_m.fixed=True: objectives: footprint_area needs a free"),
+    ("table", "payload.mass_kg=500,600", "footprint_area,worst_band_margin",
+     "a study with a [table] has the fronts"),
+    ("vertical", "payload.mass_kg=500,600", "worst_band_margin,footprint_area",
+     "this study has no [table]"),
+])
+def test_a_pareto_sweep_checks_every_points_front_before_running(tmp_path, builtin, vary,
+                                                                 objectives, words):
+    """A front no point (or some point) can have: one line, exit 2, nothing run (each
+    point failed on the cluster before, exit 1)."""
+    status, _, err = run_cli("sweep", "--builtin", builtin, "--vary", vary, "--task", "pareto",
+                             "--objectives", objectives, "-o", tmp_path / "out")
+    lines = err.strip().splitlines()
+    assert status == 2 and len(lines) == 1 and words in lines[0], err
+    assert not (tmp_path / "out").exists()
+
+
 # -- values and combinations ---------------------------------------------------------------
 def test_a_linear_range_includes_both_ends_and_an_extension_meets_the_same_values():
     assert parse_vary("payload.mass_kg=300:1500:13") == (

@@ -58,10 +58,32 @@ def test_a_group_lever_takes_the_shared_variables_start_and_bounds():
     ({"top_volume_m3_group3": {"fixed": False, "lower": -1.0}},
      "variables.top_volume_m3_group3.lower"),
     ({"volume_ratio_group2": {"fixed": "yes"}}, "variables.volume_ratio_group2.fixed"),
+    ({"volume_ratio_group2": {"lower": 50.0, "upper": 60.0}},
+     "variables.volume_ratio_group2.start (1.85185) is fixed outside its own bounds"),
 ])
 def test_bad_group_levers_name_the_key(spec, key):
     with pytest.raises(InputError, match=re.escape(key)):
         table_study().with_changes(variables=spec)
+
+
+@pytest.mark.parametrize("name", ["volume_ratio_group0", "volume_ratio_group4",
+                                  "capillary_diameter_m_group-1"])
+def test_a_group_number_outside_1_to_3_names_the_key_and_the_groups(name):
+    with pytest.raises(InputError, match=re.escape(f"variables.{name}: group ") +
+                       r".* k = 1, 2 or 3 \(numbered from 1"):
+        table_study().with_changes(variables={name: {"fixed": False}})
+
+
+@pytest.mark.parametrize("group, key", [
+    ({"volume_ratio": "2"}, "table.group_springs: group 2: volume_ratio: expected a number"),
+    ({"volume_ratio": True}, "table.group_springs: group 2: volume_ratio: expected a number"),
+    ({"volume_ratio": 1e6}, "table.group_springs: group 2: volume_ratio: must be in [0.001, "),
+    ({"capillary_diameter_m": 1.2},  # mm typed as m: outside the models' domain
+     "table.group_springs: group 2: capillary_diameter_m: must be in [1e-08, 1] m"),
+])
+def test_a_bad_group_spring_value_names_the_group_and_the_field(group, key):
+    with pytest.raises(InputError, match=re.escape(key)):
+        table_study().with_changes(table={"group_springs": [{}, group, {}]})
 
 
 def test_a_vertical_study_refuses_a_group_lever_and_a_bad_group_spring_names_its_key():

@@ -59,10 +59,50 @@ def test_layout_levers_are_fixed_at_the_isolators_extent_by_default():
     ({"constraints": {"footprint_m": "big"}}, "constraints.footprint_m"),
     ({"constraints": {"min_isolator_distance_m": -0.1}}, "constraints.min_isolator_distance_m"),
     ({"constraints": {"min_isolator_distance_m": 1e3}}, "constraints.min_isolator_distance_m"),
+    # TOML booleans are not coordinates; a footprint or an extent in mm typed as m
+    ({"constraints": {"footprint_m": [[False, False], [True, True]]}},
+     "constraints.footprint_m"),
+    ({"constraints": {"footprint_m": [[-750, -500], [750, 500]]}},
+     "constraints.footprint_m: a coordinate of 750 m"),
+    ({"variables": {"layout_length_m": {"start": 1500.0}}},
+     "variables.layout_length_m.start = 1500 m"),
+    ({"variables": {"layout_width_m": {"fixed": False, "upper": 1200.0}}},
+     "variables.layout_width_m.upper = 1200 m"),
+    # a fixed lever's own bounds must hold it (as a design variable's); a 1 mm layout; a
+    # pendulum in cm
+    ({"variables": {"layout_length_m": {"lower": 2.0, "upper": 3.0}}},
+     "variables.layout_length_m.start (1.2) is fixed outside its own bounds"),
+    ({"variables": {"layout_length_m": {"fixed": False, "lower": 0.001}}},
+     "variables.layout_length_m.lower = 0.001 m is outside the plausible extent"),
+    ({"variables": {"pendulum_length_m": {"fixed": False, "upper": 150.0}}},
+     "variables.pendulum_length_m.upper = 150 is outside the plausible range"),
+    # a margin above the supply itself; loads no variable moves: refused by the study
+    ({"constraints": {"supply_margin_pa": 9.0e5}},
+     "constraints.supply_margin_pa (900000 Pa) must be below table.supply_pressure_pa"),
+    ({"constraints": {"max_isolator_load_n": 1.0}},
+     "constraints.max_isolator_load_n: isolator 1 (from 1) needs 1471 N"),
 ])
 def test_bad_layout_keys_name_the_key(changes, key):
     with pytest.raises(InputError, match=re.escape(key)):
         table_study().with_changes(**changes)
+
+
+@pytest.mark.parametrize("constraints, key", [
+    ({"footprint_m": [[-0.1, -0.1], [0.1, 0.1]]}, "constraints.footprint_m: no layout_length_m"),
+    ({"footprint_m": [[1.0, 1.0], [2.0, 2.0]]}, "constraints.footprint_m: no layout_length_m"),
+    ({"min_isolator_distance_m": 5.0}, "constraints.min_isolator_distance_m = 5 m"),
+    ({"footprint_m": [[-0.75, -0.5], [0.75, 0.5]], "min_isolator_distance_m": 1.2},
+     "constraints.min_isolator_distance_m = 1.2 m"),
+])
+def test_a_free_layout_that_cannot_meet_its_constraints_is_refused_naming_the_key(
+        constraints, key):
+    """The footprint must hold the stretched layout for some lever value inside its bounds,
+    and the largest such stretch must keep the isolators min_isolator_distance_m apart."""
+    with pytest.raises(InputError, match=re.escape(key)):
+        table_study().with_changes(variables=LAYOUT, constraints=constraints)
+    # the same keys, reachable: accepted (the built-in table's 1.5 x 1.0 m top, 0.5 m)
+    table_study().with_changes(variables=LAYOUT, constraints={
+        "footprint_m": [[-0.75, -0.5], [0.75, 0.5]], "min_isolator_distance_m": 0.5})
 
 
 def test_a_vertical_study_refuses_the_layout_keys():
@@ -296,7 +336,9 @@ def test_the_footprint_area_objective_is_the_stretched_layouts_area():
     with pytest.raises(InputError, match=r"footprint_area needs a free layout.*"
                                          r"variables\.layout_length_m"):
         TableProblem(table_study(), objectives=("worst_band_margin", "footprint_area"))
-    with pytest.raises(InputError, match=r"objective\.kind: footprint_area"):
+    # the key the caller typed: objectives (objective.kind is a study file's key)
+    with pytest.raises(InputError, match=r"objectives: footprint_area is the footprint of a "
+                                         r"table's isolators.*this study has no \[table\]"):
         pareto_front(vertical_study(), ("worst_band_margin", "footprint_area"), 3)
     with pytest.raises(InputError, match=r"objectives: a study with a \[table\] has the "
                                          r"fronts"):
@@ -342,3 +384,21 @@ def test_the_command_line_refuses_a_footprint_front_without_a_free_layout(tmp_pa
     assert main(["pareto", "--builtin", "table", "--objectives",
                  "worst_band_margin,rms_velocity", "--points", "3", "-o", str(out)]) == 2
     assert "worst_band_margin,footprint_area" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("call, words", [
+    (lambda st: st.with_levers_fixed([1.4]), "values: expected a dict"),
+    (lambda st: st.with_levers_fixed({"layout_length_m": 1.4}),
+     "values: the free lever layout_width_m has no value"),
+    (lambda st: st.with_levers_fixed({"layout_length_m": "1.4", "layout_width_m": 0.8}),
+     "values['layout_length_m']: expected a finite number"),
+    (lambda st: st.table_at({"layout_width_m": float("nan")}),
+     "values['layout_width_m']: expected a finite number"),
+    (lambda st: st.table_at([1.4, 0.8]), "values: expected a dict"),
+])
+def test_lever_values_of_the_api_are_checked_naming_the_lever(call, words):
+    """Study.with_levers_fixed and Study.table_at: a list raised AttributeError, a missing
+    free lever KeyError; a NaN layout built a NaN table and a string was taken as a number."""
+    with pytest.raises(InputError) as exc:
+        call(table_study().with_changes(variables=LAYOUT))
+    assert words in str(exc.value)
