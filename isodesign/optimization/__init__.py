@@ -27,6 +27,7 @@ One file per concept:
 ``exchange``        the exchange method: :func:`robust_optimize`, worst-case search
 ``robust_result``   :class:`RobustResult`
 ``robust_table``    the robust table design (:class:`~.robust_table.TableRobustResult`)
+``table_scenario``  :func:`~.table_scenario.table_scenario`: a table study under one scenario
 ``sensitivity``     parametric sensitivities from the NLP (design held; ``lam_p``)
 ``yields``          yield by sampling, Clopper-Pearson and Wilson intervals
 ==================  =====================================================================

@@ -252,7 +252,7 @@ def _under(study, scenario):
             raise InputError(f"scenario: {name} = {v:g} is outside the study's [scenarios] "
                              f"range [{a:g}, {b:g}]")
     if study.table is not None:
-        from isodesign.optimization.robust_table import table_scenario
+        from isodesign.optimization.table_scenario import table_scenario
 
         return table_scenario(study, theta), P_ATM
     from isodesign.optimization.uncertainty import ScenarioStudy

@@ -19,7 +19,6 @@ summary figures.
 
 from __future__ import annotations
 
-import copy
 import math
 import time
 from dataclasses import dataclass, field
@@ -31,12 +30,7 @@ from isodesign.errors import InputError
 from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
-from isodesign.optimization.study import study_from_dict
-from isodesign.optimization.uncertainty import (
-    OPERATING_PARAMETERS,
-    ScenarioStudy,
-    UncertaintySpace,
-)
+from isodesign.optimization.table_scenario import table_scenario
 from isodesign.table.constraint_table import table_constraint_reports
 from isodesign.table.optimize import _modes_at, optimize_table
 from isodesign.table.problem import TableProblem
@@ -106,41 +100,6 @@ def table_sensitivities(study, values: dict, theta=None) -> list:
                                "%" if p.mode == "relative" else p.unit,
                                d * p.half_width, False))
     return out
-
-
-def table_scenario(study, theta):
-    """The table study under scenario ``theta`` (a study object the TableProblem takes).
-
-    Parameters
-    ----------
-    study : Study
-        With ``table`` and ``scenarios``.
-    theta : array
-        In ``study.scenarios.names`` order.
-
-    Returns
-    -------
-    Study or ScenarioStudy
-    """
-    space = study.scenarios
-    th = space.as_dict(theta)
-    raw = copy.deepcopy(study.raw)
-    raw.pop("scenarios", None)
-    if "payload_mass_kg" in th:
-        raw["payload"]["mass_kg"] = th["payload_mass_kg"]
-    if "cg_offset_x_m" in th or "cg_offset_y_m" in th:
-        cg = list(raw["table"]["cg_m"])
-        cg[0] += th.get("cg_offset_x_m", 0.0)
-        cg[1] += th.get("cg_offset_y_m", 0.0)
-        raw["table"]["cg_m"] = cg
-    if "temperature_k" in th:
-        raw["hardware"]["temperature_k"] = th["temperature_k"]
-    st = study_from_dict(raw, source=study.source, fill_defaults=False)
-    tol = [p for p in space.parameters if p.name not in OPERATING_PARAMETERS]
-    if not tol:
-        return st
-    sub = UncertaintySpace(tuple(tol), space.settings)
-    return ScenarioStudy(st, sub, [th[p.name] for p in tol])
 
 
 class _Scenarios:

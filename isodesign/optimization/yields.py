@@ -141,7 +141,7 @@ def table_draw_response(study, values: dict, theta):
     """
     import warnings
 
-    from isodesign.optimization.robust_table import table_scenario
+    from isodesign.optimization.table_scenario import table_scenario
     from isodesign.table.response import table_band_response
 
     sc = table_scenario(study, theta)

@@ -361,7 +361,7 @@ def test_table_only_and_vertical_only_keys_are_named():
 
 
 def test_table_scenarios_move_the_payload_and_the_cg():
-    from isodesign.optimization.robust_table import table_scenario
+    from isodesign.optimization.table_scenario import table_scenario
 
     st = _table_study({"payload_mass_kg": {"min": 540.0, "max": 660.0},
                        "cg_offset_x_m": {"absolute": 0.05},
