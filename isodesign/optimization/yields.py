@@ -9,7 +9,7 @@ every constraint holds (violation <= :data:`.solution.FEASIBILITY_TOLERANCE`) an
 continuous peak of |T| is within :data:`.refine.PEAK_TOLERANCE_DB` of its bound.
 
 A table study (``[table]``) is judged with the table's analysis: each draw is the table
-study under the draw's scenario (:func:`.robust_table.table_scenario`: its payload, its
+study under the draw's scenario (:func:`.table_scenario.table_scenario`: its payload, its
 centre-of-gravity offsets ``cg_offset_x_m`` / ``cg_offset_y_m``, its temperature, the built
 spring's tolerances), its band response in three axes solved by the table's NumPy closure
 (:func:`isodesign.table.response.table_band_response`, on the study's
@@ -122,7 +122,7 @@ def _judge(theta) -> dict:
 
 def table_draw_response(study, values: dict, theta):
     """The band response of one drawn table: the table study under scenario ``theta``
-    (:func:`.robust_table.table_scenario`), the design ``values`` held, its NumPy closure
+    (:func:`.table_scenario.table_scenario`), the design ``values`` held, its NumPy closure
     over every point, axis and band (``models.points_per_band`` points per band).
 
     Parameters
