@@ -32,7 +32,12 @@ __all__ = [
     "bin_groups",
     "cross_convolutions",
     "distortion_power",
+    "generalized_gaussian_moments",
+    "non_gaussian_factors",
+    "resummed_kurtosis",
     "source_network",
+    "table_kurtosis",
+    "tube_kurtosis",
 ]
 
 #: The Hermite orders of ``|x| x`` carried (3 and 5: 93.6 % and 4.7 % of the residual power
@@ -81,6 +86,65 @@ def abs_square_hermite_coefficient(k: int) -> float:
 _WEIGHTS = {k: math.factorial(k) * abs_square_hermite_coefficient(k) ** 2
             for k in DISTORTION_ORDERS}
 
+#: The smallest kurtosis of a symmetric unimodal density (the uniform one, Khintchine).
+UNIMODAL_KURTOSIS_MIN = 1.8
+#: The Gaussian residual's variance per ``s^4``: ``E x^4 - c_1^2 = 3 - 8/pi``.
+GAUSSIAN_RESIDUAL = 3.0 - 8.0 / math.pi
+
+
+def _gg_kurtosis(beta: float) -> float:
+    lg = math.lgamma
+    return math.exp(lg(5.0 / beta) + lg(1.0 / beta) - 2.0 * lg(3.0 / beta))
+
+
+def generalized_gaussian_moments(kurtosis: float) -> tuple[float, float, float]:
+    """The unit-variance generalized Gaussian ``p(x) ~ exp(-|x/a|^beta)`` of a kurtosis.
+
+    Parameters
+    ----------
+    kurtosis : float
+        ``E x^4`` (clipped to ``(1.8, 3]``: ``beta`` from 2, the Gaussian, to infinity, the
+        uniform).
+
+    Returns
+    -------
+    beta : float
+        The shape.
+    gain : float
+        ``E|x|^3`` (the minor loss's equivalent gain; ``sqrt(8/pi)`` at ``beta = 2``).
+    residual : float
+        ``E x^4 - (E|x|^3)^2``: the residual's variance per ``s^4`` (``3 - 8/pi`` at 2).
+    """
+    from scipy.optimize import brentq
+
+    kap = min(3.0, max(float(kurtosis), UNIMODAL_KURTOSIS_MIN + 1e-6))
+    if kap >= 3.0 - 1e-12:
+        beta = 2.0
+    else:
+        lb = brentq(lambda t: _gg_kurtosis(math.exp(t)) - kap, math.log(2.0), math.log(1e4),
+                    xtol=1e-12)
+        beta = math.exp(lb)
+    lg = math.lgamma
+    gain = math.exp(lg(4.0 / beta) + 0.5 * lg(1.0 / beta) - 1.5 * lg(3.0 / beta))
+    return beta, gain, _gg_kurtosis(beta) - gain * gain
+
+
+def resummed_kurtosis(first_order: float) -> float:
+    """The tube velocity's kurtosis from its first-order estimate ``3 - delta``: the
+    exponential that has the first order's slope at ``delta = 0`` and the unimodal bound
+    1.8 as ``delta -> infinity``, ``1.8 + 1.2 exp(-delta / 1.2)`` (docs/random-response.md,
+    section 3c)."""
+    span = 3.0 - UNIMODAL_KURTOSIS_MIN
+    return UNIMODAL_KURTOSIS_MIN + span * math.exp(min(0.0, first_order - 3.0) / span)
+
+
+def minor_loss_gain_shift(design, sigma_u, gain_ratio):
+    """The change of the minor loss's equivalent resistance (Pa s/kg) when its Gaussian gain
+    ``sqrt(8/pi)`` is scaled by ``gain_ratio``: ``K (gain_ratio - 1) sqrt(8/pi) sigma_u /
+    (2 A_c)``. Any backend."""
+    c1 = math.sqrt(8.0 / math.pi)
+    return design.minor_loss * (gain_ratio - 1.0) * c1 * sigma_u / (2.0 * design.capillary_area_m2)
+
 
 @dataclass(frozen=True)
 class DistortionPower:
@@ -100,6 +164,15 @@ class DistortionPower:
         The added tube velocity power per bin, (m/s)^2 (its line spectrum).
     payload_velocity_power : ndarray
         The added payload velocity power per bin, (m/s)^2.
+    kurtosis_first_order : float
+        The tube velocity's kurtosis to first order in the residual (3: Gaussian).
+    kurtosis : float
+        Its resummed value (:func:`resummed_kurtosis`), the non-Gaussian correction's.
+    gain_ratio : float
+        The minor loss's equivalent gain at that kurtosis over the Gaussian ``sqrt(8/pi)``.
+    residual_ratio : float
+        The residual's variance at that kurtosis over the Gaussian ``3 - 8/pi`` (the factor
+        on ``source_power``).
     """
 
     frequency_hz: np.ndarray
@@ -108,6 +181,10 @@ class DistortionPower:
     tube_velocity_variance: float
     tube_power: np.ndarray
     payload_velocity_power: np.ndarray
+    kurtosis_first_order: float = 3.0
+    kurtosis: float = 3.0
+    gain_ratio: float = 1.0
+    residual_ratio: float = 1.0
 
     def band_mean_square(self, lower_hz, upper_hz, power: int = 0) -> np.ndarray:
         """The added payload band mean squares (``power``: -2 displacement, 0 velocity, 2
@@ -138,7 +215,7 @@ def _odd_orders(hf, kmax: int):
 
 
 def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
-                            keep_hz: float | None = None):
+                            keep_hz: float | None = None, third: bool = False):
     """``sum_k k! c_k^2 (P * ... * P)_k`` of a normalized one-sided line spectrum, binned.
 
     Parameters
@@ -152,6 +229,8 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
         only as long as they need to be free of aliasing (``n > kmax imax + keep``, the
         convolution spanning ``+-kmax imax`` bins), the same numbers to rounding. Default:
         every bin, to ``kmax`` times the highest line.
+    third : bool
+        Also return the normalized spectrum of ``rho_u^3`` alone (weight 1), ``p3_bins``.
 
     Returns
     -------
@@ -174,9 +253,13 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
                     weights=np.concatenate([0.5 * power, 0.5 * power]), minlength=n)
     hf = rfft(h)
     spec = _odd_orders(hf, kmax)
-    conv = irfft(spec, n)
-    pos = conv[1:top + 1] + conv[n - top:][::-1]
+    if third:  # the third order alone too (the first-order kurtosis), in the same transform
+        spec = np.stack([spec, hf * hf * hf])
+    conv = irfft(spec, n, axis=-1)
+    pos = conv[..., 1:top + 1] + conv[..., n - top:][..., ::-1]
     f_bins = bin_hz * np.arange(1, top + 1)
+    if third:
+        return f_bins, np.clip(pos[0], 0.0, None), pos[1]
     return f_bins, np.clip(pos, 0.0, None)
 
 
@@ -218,7 +301,8 @@ def source_gains(design, omega, c, k, mass_kg, flow):
 
 def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
                      iterations: int = 1, bin_hz: float = DISTORTION_BIN_HZ,
-                     edges_hz=(), group_rel: float = DISTORTION_GROUP_REL) -> DistortionPower:
+                     edges_hz=(), group_rel: float = DISTORTION_GROUP_REL,
+                     non_gaussian: bool = True) -> DistortionPower:
     """The minor loss's distortion power through the system, self-consistently.
 
     Parameters
@@ -243,6 +327,9 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
         The band edges: no bin group spans one (:func:`bin_groups`).
     group_rel : float
         Bin groups' width relative to their frequency (0: every bin alone).
+    non_gaussian : bool
+        Scale the residual's power to the tube velocity's predicted kurtosis
+        (:func:`tube_kurtosis`, docs/random-response.md section 3c; False: Gaussian).
 
     Returns
     -------
@@ -263,27 +350,121 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
             f_all = np.concatenate([f_lines, f_bins[inside]])
             p_all = np.concatenate([p_lines, added_u[inside]])
         s2 = float(np.sum(p_all))
-        f_bins, shape = normalized_convolutions(f_all, p_all / s2, bin_hz,
-                                                keep_hz=DISTORTION_RANGE_FACTOR * f_lines.max())
+        f_bins, shape, p3 = normalized_convolutions(
+            f_all, p_all / s2, bin_hz, keep_hz=DISTORTION_RANGE_FACTOR * f_lines.max(),
+            third=True)
         # the response above the lines' range (the payload bands, the stroke and the tube
         # fall off there) is left out: keep the bins up to DISTORTION_RANGE_FACTOR f_max
         top = f_bins <= DISTORTION_RANGE_FACTOR * f_lines.max()
-        f_bins, shape = f_bins[top], shape[top]
+        f_bins, shape, p3 = f_bins[top], shape[top], p3[top]
         # the source's power summed over bin groups, its response once per group
         starts, f_bins = bin_groups(f_bins, edges_hz, group_rel)
         shape = np.add.reduceat(shape, starts)
+        p3 = np.add.reduceat(p3, starts)
         if gains is None or gains[0].size != f_bins.size:
             w = 2.0 * math.pi * f_bins
             k, c = state_at(w)
-            gains = source_gains(design, w, c, k, mass_kg, flow)
-        src = coeff * coeff * s2 * s2 * shape
+            x_dp, u_dp, ends = source_response(design, w, c, k, mass_kg, flow)
+            gains = (np.abs(x_dp) ** 2, np.abs(u_dp) ** 2 * ends, u_dp)
+        a3 = coeff * s2 * abs_square_hermite_coefficient(3)
+        kurt1 = tube_kurtosis(a3, math.sqrt(s2), gains[2], p3)
+        kurt, gain_ratio, res_ratio = 3.0, 1.0, 1.0
+        if non_gaussian:
+            kurt, gain_ratio, res_ratio = non_gaussian_factors(kurt1)
+        src = coeff * coeff * s2 * s2 * shape * res_ratio
         added_u = src * gains[1]
     w = 2.0 * math.pi * f_bins
     return DistortionPower(
         frequency_hz=f_bins, source_power=src, stroke_variance=float(np.sum(src * gains[0])),
         tube_velocity_variance=float(np.sum(added_u)), tube_power=added_u,
-        payload_velocity_power=src * gains[0] * w * w,
+        payload_velocity_power=src * gains[0] * w * w, kurtosis_first_order=kurt1,
+        kurtosis=kurt, gain_ratio=gain_ratio, residual_ratio=res_ratio,
     )
+
+
+def tube_kurtosis(a3, s, h_ue, p3):
+    """The tube velocity's kurtosis to first order in the residual.
+
+    ``u = u_L + u_e``, ``u_L`` Gaussian of RMS ``s``, ``u_e`` the response to the residual
+    ``e = A He_3(x) + ...`` (``A = (K rho/2) s^2 c_3``): by Mehler,
+    ``E[u_L^3 u_e] = 6 s^3 A sum_f Re H_ue(f) P_3(f)``, so ``E u^4 / s^4 = 3 + (24 A/s) sum_f
+    Re H_ue P_3`` (docs/random-response.md, section 3c).
+
+    Parameters
+    ----------
+    a3 : float
+        ``A``, Pa.
+    s : float
+        ``sigma_u``, m/s.
+    h_ue : complex ndarray
+        The tube velocity per unit source at the bins (groups), (m/s)/Pa.
+    p3 : ndarray
+        The normalized one-sided spectrum of ``rho_u^3`` on the same bins.
+
+    Returns
+    -------
+    float
+        The first-order kurtosis (below 3: the residual opposes the tube's large velocities).
+    """
+    return 3.0 + 24.0 * a3 / s * float(np.sum(np.real(h_ue) * p3))
+
+
+def non_gaussian_factors(kurtosis_first_order: float) -> tuple[float, float, float]:
+    """``(kurtosis, gain_ratio, residual_ratio)`` from the first-order kurtosis: the resummed
+    kurtosis (:func:`resummed_kurtosis`), and the minor loss's equivalent gain ``E|x|^3`` and
+    the residual's variance ``E x^4 - (E|x|^3)^2`` of the generalized Gaussian of that
+    kurtosis over the Gaussian ones (docs/random-response.md, section 3c)."""
+    kurt = resummed_kurtosis(kurtosis_first_order)
+    _, gain, res = generalized_gaussian_moments(kurt)
+    return kurt, gain / math.sqrt(8.0 / math.pi), res / GAUSSIAN_RESIDUAL
+
+
+def table_kurtosis(p3ij, ut, amp, s, iu, ju, on: bool = True):
+    """Per isolator of a table: ``(first-order kurtosis, kurtosis, gain_ratio,
+    residual_ratio)`` (arrays (n,)).
+
+    ``E[u_L,i^3 u_e,i] = 6 s_i^3 sum_j A_j Re sum_f P3_ij conj(H_ij)`` (Mehler, the residual
+    ``e_j = A_j He_3(x_j) + ...``, ``A_j = (K rho_j/2) s_j^2 c_3``, ``H_ij`` isolator ``i``'s
+    tube velocity per unit source ``j``, ``P3_ij`` the normalized one-sided cross-spectrum of
+    ``rho_ij^3``), so ``kurtosis_i = 3 + (24 / s_i) sum_j A_j Re sum_f P3_ij conj(H_ij)``:
+    :func:`tube_kurtosis` with the cross terms.
+
+    Parameters
+    ----------
+    p3ij : complex ndarray (f, m)
+        ``P3`` of the pairs ``(iu, ju)`` (upper triangle) on the bins.
+    ut : complex ndarray (f, n, n)
+        ``H_ij`` on the same bins.
+    amp : ndarray (n,)
+        ``(K rho_i / 2) s_i^2``, Pa.
+    s : ndarray (n,)
+        The tube velocities' RMS, m/s.
+    iu, ju : ndarray
+        The pairs' indices.
+    on : bool
+        The non-Gaussian correction (False: the first-order kurtosis only, ratios 1).
+    """
+    n = s.size
+    p3 = np.empty((p3ij.shape[0], n, n), dtype=complex)
+    p3[:, iu, ju] = p3ij
+    p3[:, ju, iu] = np.conj(p3ij)
+    a3 = amp * abs_square_hermite_coefficient(3)
+    corr = np.real(np.einsum("fij,fij->ij", p3, np.conj(ut)))
+    kurt1 = 3.0 + 24.0 / s * (corr @ a3)
+    ones = np.ones(n)
+    if not on:
+        return kurt1, 3.0 * ones, ones, ones
+    fac = np.array([non_gaussian_factors(float(k)) for k in kurt1])
+    return kurt1, fac[:, 0], fac[:, 1], fac[:, 2]
+
+
+def source_response(design, omega, c, k, mass_kg, flow):
+    """Per unit pressure-drop source in the tube, complex: ``(X, U1, ends)``
+    (:func:`source_gains` before the squares)."""
+    w = np.asarray(omega, dtype=float)
+    force_per_dp, u_per_x, u_per_dp, ends = source_network(design, w, c, flow)
+    x = -force_per_dp / (k - mass_kg * w * w)
+    return x, u_per_x * x + u_per_dp, ends
 
 
 def source_network(design, omega, c, flow):
@@ -338,7 +519,8 @@ def source_network(design, omega, c, flow):
     return a_p / den1, 1j * w * a_p / (den1 * a_c), -c_t / (den1 * a_c), ends
 
 
-def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
+def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
+                       third: bool = False):
     """:func:`normalized_convolutions` of a normalized complex cross line spectrum.
 
     For two jointly Gaussian unit processes with cross-correlation ``rho_ij(tau)`` (Mehler:
@@ -354,6 +536,8 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
         ``E[u_i u_j*]`` per line, divided by ``s_i s_j`` (one-sided).
     bin_hz : float
         Bin width.
+    third : bool
+        Also return the normalized cross-spectrum of ``rho_ij^3`` alone (weight 1).
 
     Returns
     -------
@@ -376,10 +560,14 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     spec = _odd_orders(hf, kmax)
     conv = np.fft.ifft(spec)
     top = kmax * imax
-    return bin_hz * np.arange(1, top + 1), 2.0 * conv[1:top + 1]
+    f_bins = bin_hz * np.arange(1, top + 1)
+    if third:
+        return f_bins, 2.0 * conv[1:top + 1], 2.0 * np.fft.ifft(hf * hf * hf)[1:top + 1]
+    return f_bins, 2.0 * conv[1:top + 1]
 
 
-def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
+def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
+                      third: bool = False):
     """:func:`cross_convolutions` of many pairs at once, in real arithmetic.
 
     The two-sided cross-spectrum ``h`` of a pair is Hermitian (``h(-f) = conj h(f)``), so its
@@ -396,6 +584,9 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
         ``E[u_i u_j*]`` per line and pair, divided by ``s_i s_j`` (one-sided).
     bin_hz : float
         Bin width.
+    third : bool
+        Also return the normalized cross-spectra of ``rho_ij^3`` alone (weight 1),
+        ``p3_bins`` (bins, m), from the same transforms (the first-order kurtosis).
 
     Returns
     -------
@@ -409,12 +600,12 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ):
     p = np.asarray(cross_power, dtype=complex)
     rep, cols = _same_columns(p)
     if cols.size < p.shape[1]:  # a symmetric table's pairs repeat: each distinct one once
-        f_bins, out = _pair_convolutions(freq_hz, p[:, cols], bin_hz)
-        return f_bins, out[:, rep]
-    return _pair_convolutions(freq_hz, p, bin_hz)
+        res = _pair_convolutions(freq_hz, p[:, cols], bin_hz, third)
+        return (res[0], *(r[:, rep] for r in res[1:]))
+    return _pair_convolutions(freq_hz, p, bin_hz, third)
 
 
-def _pair_convolutions(freq_hz, p, bin_hz: float):
+def _pair_convolutions(freq_hz, p, bin_hz: float, third: bool = False):
     """:func:`pair_convolutions` of distinct pairs."""
     from scipy.fft import irfft, next_fast_len, rfft
 
@@ -437,9 +628,14 @@ def _pair_convolutions(freq_hz, p, bin_hz: float):
     half.imag[:, 0] = 0.0
     hf = n * irfft(half, n, axis=-1)
     spec = _odd_orders(hf, kmax)
+    if third:
+        spec = np.concatenate([spec, hf * hf * hf])
     # ifft(spec)[k] = conj(rfft(spec)[k]) / n for a real spec
     conv = np.conj(rfft(spec, axis=-1)[:, 1:keep + 1]) / n
-    return bin_hz * np.arange(1, keep + 1), 2.0 * conv.T
+    f_bins = bin_hz * np.arange(1, keep + 1)
+    if third:
+        return f_bins, 2.0 * conv[:m].T, 2.0 * conv[m:].T
+    return f_bins, 2.0 * conv.T
 
 
 def _same_columns(p, rtol: float = 1e-12):

@@ -121,11 +121,25 @@ class _Statistical:
         self.offset = (0.0, 0.0)
         #: the distortion bins' ``sigma_u -> C`` (computed once, :func:`_distortion_at`)
         self.bin_c_of = None
+        #: the minor loss's equivalent gain over the Gaussian ``sqrt(8/pi)`` (1: Gaussian;
+        #: the non-Gaussian correction of the distortion, docs/random-response.md 3c)
+        self.gain_ratio = 1.0
+
+    def resistance(self, c_of, sigma_u):
+        """``C(sigma_u)`` from ``c_of``, the minor loss's gain scaled by :attr:`gain_ratio`."""
+        c = c_of(sigma_u)
+        if self.gain_ratio == 1.0 or self.model.flow == "poiseuille":
+            return c
+        from isodesign.response.distortion import minor_loss_gain_shift
+
+        return Cx(c.re + minor_loss_gain_shift(self.model.design, sigma_u, self.gain_ratio),
+                  c.im)
 
     def stiffness(self, omega, sigma, sigma_u, c_of=None):
         """``(k, k_air, k_dia, C)`` as Cx at ``omega`` for the two RMS values."""
         d = self.model.design
-        c = (c_of or statistical_resistance_function(self.model.flow, d, omega))(sigma_u)
+        c = self.resistance(c_of or statistical_resistance_function(self.model.flow, d, omega),
+                            sigma_u)
         k_air = air_stiffness(d, omega, c, self.model.flow)
         k_d = self.dia.stiffness(omega, equivalent_amplitude(sigma))
         return spring_stiffness(k_air, k_d), k_air, k_d, c
@@ -133,7 +147,7 @@ class _Statistical:
     def variances(self, sigma, sigma_u, k_dia=None):
         """``(sigma^2, sigma_u^2, k)`` produced by the linearization at ``(sigma, sigma_u)``."""
         d, w = self.model.design, self.grid.omega
-        c = self.c_of(sigma_u)
+        c = self.resistance(self.c_of, sigma_u)
         if k_dia is None:
             k_dia = self.dia.stiffness(w, equivalent_amplitude(sigma))
         k = spring_stiffness(air_stiffness(d, w, c, self.model.flow), k_dia)
@@ -205,6 +219,7 @@ def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter
     and the distortion at the new state. Returns ``(x, y, DistortionPower, evaluations)``."""
     dist = _distortion_at(st, math.exp(x), math.exp(y))
     st.offset = (dist.stroke_variance, dist.tube_velocity_variance)
+    st.gain_ratio = dist.gain_ratio
     # start one fixed-point step on: the plain closure's variances plus the distortion's
     x = 0.5 * math.log(math.exp(2.0 * x) + dist.stroke_variance)
     y = 0.5 * math.log(math.exp(2.0 * y) + dist.tube_velocity_variance)

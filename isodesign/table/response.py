@@ -27,6 +27,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from isodesign.errors import InputError, ModelValidityWarning, SolverError, check_positive
+from isodesign.numerics.cplx import Cx
 from isodesign.response.linearization import (
     EQUIVALENT_AMPLITUDE_FACTOR,
     RAYLEIGH_NODES,
@@ -97,6 +98,20 @@ class TableStatistical:
         self.kh = model.horizontal_stiffness(w)
         #: the floor axes that move (the closure's strokes need no other)
         self.axes = excited_axes(grid)
+        #: per isolator, the minor loss's equivalent gain over the Gaussian (the distortion's
+        #: non-Gaussian correction, docs/random-response.md 3c; ones: Gaussian)
+        self.gain_ratio = np.ones(model.n_isolators)
+
+    def resistance(self, c_of, i: int, sigma_u: float):
+        """Isolator ``i``'s ``C(sigma_u)`` from ``c_of``, its gain scaled by
+        :attr:`gain_ratio`."""
+        c = c_of(sigma_u)
+        g = float(self.gain_ratio[i])
+        if g == 1.0 or self.model.flow == "poiseuille":
+            return c
+        from isodesign.response.distortion import minor_loss_gain_shift
+
+        return Cx(c.re + minor_loss_gain_shift(self.model.designs[i], sigma_u, g), c.im)
 
     def springs(self, sigma, sigma_u):
         """Per isolator ``(k, C)`` (Cx on the grid) at the RMS values ``sigma``, ``sigma_u``.
@@ -111,9 +126,9 @@ class TableStatistical:
         ks, cs = [], []
         for i in range(self.model.n_isolators):
             rep = int(self.first[self.inv[i]])
-            key = (rep, float(sigma[i]), float(sigma_u[i]))
+            key = (rep, float(sigma[i]), float(sigma_u[i]), float(self.gain_ratio[i]))
             if key not in cache:
-                c = self.c_of[rep](float(sigma_u[i]))
+                c = self.resistance(self.c_of[rep], i, float(sigma_u[i]))
                 k_air = air_stiffness(self.model.designs[rep], w, c, self.model.flow)
                 k_d = self.dia.stiffness(w, equivalent_amplitude(float(sigma[i])))
                 cache[key] = (spring_stiffness(k_air, k_d), c, k_air, k_d)
@@ -142,7 +157,7 @@ class TableStatistical:
         gains: dict = {}
         for i in range(self.model.n_isolators):
             rep = int(self.first[self.inv[i]])
-            key = (rep, float(sigma[i]), float(sigma_u[i]))
+            key = (rep, float(sigma[i]), float(sigma_u[i]), float(self.gain_ratio[i]))
             if key not in gains:  # the isolators sharing a spring share its tube's gain
                 gains[key] = np.asarray(tube_velocity_gain2(self.model.designs[rep],
                                                             self.grid.omega, cs[i],
@@ -612,12 +627,20 @@ class TableDistortion:
         Added tube velocity variance per isolator, (m/s)^2.
     band_mean_square : ndarray (k, 3, n_bands)
         Added velocity mean square per instrument point, axis and band, (m/s)^2.
+    kurtosis_first_order, kurtosis, gain_ratio, residual_ratio : ndarray (n,)
+        Per isolator, as :class:`~isodesign.response.distortion.DistortionPower`'s: the tube
+        velocity's first-order and resummed kurtosis, the minor loss's gain and the
+        residual's variance at it over the Gaussian ones (docs/random-response.md 3c).
     """
 
     frequency_hz: np.ndarray
     stroke_variance: np.ndarray
     tube_velocity_variance: np.ndarray
     band_mean_square: np.ndarray
+    kurtosis_first_order: np.ndarray | None = None
+    kurtosis: np.ndarray | None = None
+    gain_ratio: np.ndarray | None = None
+    residual_ratio: np.ndarray | None = None
 
 
 def _bin_parts(st: TableStatistical, omega):
@@ -651,9 +674,9 @@ def _springs_at(st: TableStatistical, omega, sigma, sigma_u):
     ks, cs, nets = [], [], []
     for i in range(model.n_isolators):
         d = model.designs[i]
-        key = (d, float(sigma[i]), float(sigma_u[i]))
+        key = (d, float(sigma[i]), float(sigma_u[i]), float(st.gain_ratio[i]))
         if key not in seen:
-            c = c_of[i](float(sigma_u[i]))
+            c = st.resistance(c_of[i], i, float(sigma_u[i]))
             k_air = air_stiffness(d, omega, c, model.flow)
             k = spring_stiffness(k_air, st.dia.stiffness(omega,
                                                          equivalent_amplitude(float(sigma[i]))))
@@ -666,7 +689,8 @@ def _springs_at(st: TableStatistical, omega, sigma, sigma_u):
 
 
 def table_distortion(st: TableStatistical, sigma, sigma_u,
-                     group_rel: float | None = None) -> TableDistortion:
+                     group_rel: float | None = None,
+                     non_gaussian: bool = True) -> TableDistortion:
     """The tubes' distortion power carried through the table at the closure's state.
 
     Each isolator's residual ``e_i = (K rho_i/2) s_i^2 (|x_i| x_i - c_1 x_i)`` is a
@@ -684,6 +708,9 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     group_rel : float, optional
         Width of the bin groups the response is evaluated on, relative to their frequency
         (default :data:`~isodesign.response.distortion.DISTORTION_GROUP_REL`; 0: every bin).
+    non_gaussian : bool
+        Scale each residual to its tube velocity's predicted kurtosis (docs/random-response.md
+        section 3c; False: Gaussian).
 
     Returns
     -------
@@ -697,6 +724,7 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
         DISTORTION_RANGE_FACTOR,
         bin_groups,
         pair_convolutions,
+        table_kurtosis,
     )
 
     model, grid = st.model, st.grid
@@ -713,7 +741,8 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     u = np.empty(out.strokes.shape, dtype=complex)
     gains: dict = {}
     for i in range(n):
-        key = (model.designs[i], float(sigma_u[i]))  # isolators of one spring and state
+        # isolators of one spring and state
+        key = (model.designs[i], float(sigma_u[i]), float(st.gain_ratio[i]))
         if key not in gains:
             _, g, _, ends = source_network(model.designs[i], w, cs[i].to_complex(), model.flow)
             gains[key] = g * np.sqrt(ends)
@@ -726,13 +755,14 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     coeff = np.array([0.5 * d.minor_loss * d.density_kg_m3 for d in model.designs])
     amp = coeff * s2  # (K rho/2) s^2 per isolator
     iu, ju = np.triu_indices(n)
-    fb, pij = pair_convolutions(f_lines, cross[:, iu, ju] / (s[iu] * s[ju]))
+    fb, pij, p3ij = pair_convolutions(f_lines, cross[:, iu, ju] / (s[iu] * s[ju]), third=True)
     top = fb <= DISTORTION_RANGE_FACTOR * f_lines.max()
     f_bins = fb[top]
     # the sources' power summed over groups of bins, the response once per group
     lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
     starts, f_bins = bin_groups(f_bins, np.concatenate([lo, hi]), group_rel)
     pij = np.add.reduceat(pij[: top.sum()], starts, axis=0)
+    p3ij = np.add.reduceat(p3ij[: top.sum()], starts, axis=0)
     g_e = np.empty((f_bins.size, n, n), dtype=complex)
     g_e[:, iu, ju] = (amp[iu] * amp[ju]) * pij
     g_e[:, ju, iu] = np.conj(g_e[:, iu, ju])
@@ -747,6 +777,8 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     ut = np.stack([net[i][1] for i in range(n)], axis=-1)[:, :, None] * x
     ut[:, np.arange(n), np.arange(n)] += np.stack([net[i][2] for i in range(n)], axis=-1)
     ends = np.stack([net[i][3] for i in range(n)], axis=-1)
+    kurt1, kurt, gain, res = table_kurtosis(p3ij, ut, amp, s, iu, ju, non_gaussian)
+    g_e *= np.sqrt(res[:, None] * res[None, :])[None, :, :]
 
     def power(h):  # diag(H G_e H^H) per frequency: (f, r)
         return np.real(np.einsum("fri,fij,frj->fr", h, g_e, h.conj(), optimize=False))
@@ -761,7 +793,9 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
         sel = (f_bins >= fl) & (f_bins < fh)
         band[:, :, b] = pv[sel].sum(axis=0)
     return TableDistortion(frequency_hz=f_bins, stroke_variance=ds2,
-                           tube_velocity_variance=dsu2, band_mean_square=band)
+                           tube_velocity_variance=dsu2, band_mean_square=band,
+                           kurtosis_first_order=kurt1, kurtosis=kurt, gain_ratio=gain,
+                           residual_ratio=res)
 
 
 class _WithOffset:
@@ -778,7 +812,7 @@ class _WithOffset:
 
 
 def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1e-10,
-                                        max_iter: int = 100):
+                                        max_iter: int = 100, non_gaussian: bool = True):
     """The per-isolator closure with the tubes' distortion power, self-consistently.
 
     As the vertical payload's (``docs/random-response.md`` 3a): the distortion at the plain
@@ -793,6 +827,9 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
         Closure tolerance on ``ln sigma``.
     max_iter : int
         Closure iterations.
+    non_gaussian : bool
+        The residuals and the minor loss's gains at the tube velocities' predicted kurtosis
+        (docs/random-response.md 3c; False: Gaussian).
 
     Returns
     -------
@@ -802,17 +839,22 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
     """
     record: list = []
     sigma, sigma_u, n_it = solve_table_closure(st, rtol=rtol, max_iter=max_iter, record=record)
-    dist = table_distortion(st, sigma, sigma_u)
+    dist = table_distortion(st, sigma, sigma_u, non_gaussian=non_gaussian)
     # the second closure's map is the first's with the offset added to its variances,
     # g'(x) = ln(exp(2 g(x)) + offset) / 2, exactly: the first solve's evaluations are the
-    # second's too, and its mixing starts from them (at the plain solution) at no cost
+    # second's too, and its mixing starts from them (at the plain solution) at no cost;
+    # not so when the non-Gaussian gain moves the map (then from one fixed-point step on)
     off = np.concatenate([dist.stroke_variance, dist.tube_velocity_variance])
     hist = [(x, 0.5 * np.log(np.exp(2.0 * gx) + off)) for x, gx in record]
+    if np.any(dist.gain_ratio != 1.0):
+        st.gain_ratio = np.asarray(dist.gain_ratio, dtype=float).copy()
+        st._last = None
+        hist = []
     # without them (a z DOF closure): start one fixed-point step on
     start = (np.sqrt(sigma**2 + dist.stroke_variance),
              np.sqrt(sigma_u**2 + dist.tube_velocity_variance))
     sigma, sigma_u, n2 = solve_table_closure(
         _WithOffset(st, dist.stroke_variance, dist.tube_velocity_variance), rtol=rtol,
         max_iter=max_iter, start=start, history=hist or None)  # fmt: skip
-    dist = table_distortion(st, sigma, sigma_u)
+    dist = table_distortion(st, sigma, sigma_u, non_gaussian=non_gaussian)
     return sigma, sigma_u, dist, n_it + n2

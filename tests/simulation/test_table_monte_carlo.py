@@ -428,23 +428,21 @@ def distortion_case(ref):
 @pytest.mark.slow
 @pytest.mark.filterwarnings("ignore::isodesign.errors.ModelValidityWarning")
 def test_table_distortion_against_monte_carlo(ref):
-    """The distortion brings every isolator's stroke and tube velocity RMS closer to the
-    simulation (the closure alone is 1-2 % low) and keeps every band of both points and axes
-    within 0.3 dB; it raises the centre's z bands at 5-8 Hz above the simulation (the
-    Gaussian residual's overstatement, section 3a)."""
+    """The distortion (non-Gaussian, docs/random-response.md 3c) brings every isolator's
+    stroke and tube velocity RMS closer to the simulation (the closure alone is 1-2 % low),
+    to within 1 %, and keeps every band of both points and axes within 0.3 dB (with it
+    within 0.25 dB: the Gaussian residual's overstatement of the centre's z bands at 5-8 Hz,
+    +0.27 dB, is gone)."""
     plain, dist, mc = distortion_case(ref)
     assert np.nanmax(mc.standard_error_db()) < 0.15
     assert np.max(mc.stroke_rms_se_m / mc.stroke_rms_m) < 0.005
     e0 = plain.stroke_rms_m / mc.stroke_rms_m - 1.0
     e1 = dist.stroke_rms_m / mc.stroke_rms_m - 1.0
     assert np.all(np.abs(e1) < np.abs(e0) - 0.002), (e0, e1)
-    assert np.max(np.abs(e1)) < 0.02
+    assert np.max(np.abs(e1)) < 0.01
     u0 = plain.tube_velocity_rms_m_s / mc.tube_velocity_rms_m_s - 1.0
     u1 = dist.tube_velocity_rms_m_s / mc.tube_velocity_rms_m_s - 1.0
     assert np.all(np.abs(u1) < np.abs(u0) - 0.003), (u0, u1)
     b0 = mc.error_db(plain.velocity_rms_m_s, plain.bands)
     b1 = mc.error_db(dist.velocity_rms_m_s, dist.bands)
-    assert np.max(np.abs(b0)) < 0.3 and np.max(np.abs(b1)) < 0.3
-    # the centre's z bands at 5-8 Hz (index 7-9 of the 1-80 Hz bands) rise above the simulation
-    z58 = (dist.bands.nominal_hz >= 5.0) & (dist.bands.nominal_hz <= 8.0)
-    assert np.all(b1[0, 2, z58] > b0[0, 2, z58] + 0.05)
+    assert np.max(np.abs(b0)) < 0.3 and np.max(np.abs(b1)) < 0.25
