@@ -19,6 +19,8 @@ of every point and axis.
 from __future__ import annotations
 
 import argparse
+import functools
+import re
 import sys
 import time
 import warnings
@@ -44,6 +46,7 @@ from isodesign.simulation.table_monte_carlo import (
     simulate_table_response,
 )
 from isodesign.spring.design import SpringDesign
+from isodesign.table import response as tr
 from isodesign.table.floor import table_floor
 from isodesign.table.response import table_band_response
 
@@ -80,7 +83,8 @@ def cases():
 
 
 def run_case(design, build, floor, dia, seeds, duration):
-    """``(plain closure, closure with distortion, Monte Carlo, seconds (plain, distortion))``."""
+    """``(plain closure, closure with distortion, Monte Carlo, seconds (plain, distortion),
+    closure with the Gaussian residual)``."""
     lat, _ = lateral_prony(LATERAL, F_FIT)
     table = build(lat)
     with warnings.catch_warnings():
@@ -93,9 +97,25 @@ def run_case(design, build, floor, dia, seeds, duration):
         t1 = time.perf_counter()
         dist = table_band_response(design, table, floor, "VC-E", diaphragm=dia, distortion=True)
         t2 = time.perf_counter()
+        orig = tr.solve_table_closure_with_distortion
+        try:  # the Gaussian residual (section 3b before 3c's correction), for comparison
+            tr.solve_table_closure_with_distortion = functools.partial(orig, non_gaussian=False)
+            gauss = table_band_response(design, table, floor, "VC-E", diaphragm=dia,
+                                        distortion=True)
+        finally:
+            tr.solve_table_closure_with_distortion = orig
     mc = simulate_table_response(design, table, floor, target="VC-E", seeds=seeds,
                                  duration_s=duration, diaphragm=dia)  # fmt: skip
-    return plain, dist, mc, (t1 - t0, t2 - t1)
+    return plain, dist, mc, (t1 - t0, t2 - t1), gauss
+
+
+def _kurtosis_note(r):
+    """The closure's predicted tube velocity kurtosis per isolator (from its note)."""
+    for note in r.notes:
+        m = re.search(r"tube velocity kurtosis ([0-9. ]+)\)", note)
+        if m:
+            return m.group(1).strip()
+    return ""
 
 
 def _worst(err, bands, names):
@@ -117,23 +137,25 @@ def main(argv=None) -> int:
     print(f"{a.seeds} seeds x {a.duration:g} s, random-phase floor\n")
     head = ["case", "closure", *(f"worst {ax} (dB)" for ax in AXES),
             "stroke error (%, per isolator)", "tube velocity error (%, per isolator)",
-            "MC kurtosis of u (per isolator)"]
+            "kurtosis of u: closure / MC (per isolator)"]
     rows, first, se, cost = [], None, [], []
     for name, build, floor, dia in cases():
-        plain, dist, mc, secs = run_case(design, build, floor, dia, a.seeds, a.duration)
+        plain, dist, mc, secs, gauss = run_case(design, build, floor, dia, a.seeds, a.duration)
         cost.append(secs[1] / secs[0])
         se.append((np.nanmax(mc.standard_error_db()),
                    100 * np.max(mc.stroke_rms_se_m / mc.stroke_rms_m)))
         if first is None:
             first = (mc, mc.error_db(plain.velocity_rms_m_s, plain.bands),
                      mc.error_db(dist.velocity_rms_m_s, dist.bands))
-        for label, r in (("without", plain), ("with distortion", dist)):
+        for label, r in (("without", plain), ("Gaussian residual (3b)", gauss),
+                         ("with distortion (3c)", dist)):
             err = mc.error_db(r.velocity_rms_m_s, r.bands)
             s = 100 * (r.stroke_rms_m / mc.stroke_rms_m - 1)
             u = 100 * (r.tube_velocity_rms_m_s / mc.tube_velocity_rms_m_s - 1)
             rows.append([name, label, *_worst(err, mc.bands, mc.point_names),
                          " ".join(f"{v:+.1f}" for v in s), " ".join(f"{v:+.1f}" for v in u),
-                         " ".join(f"{v:.2f}" for v in mc.tube_velocity_kurtosis)])
+                         (_kurtosis_note(r) or "3") + " / "
+                         + " ".join(f"{v:.2f}" for v in mc.tube_velocity_kurtosis)])
     print("| " + " | ".join(head) + " |")
     print("|" + "---|" * len(head))
     for r in rows:

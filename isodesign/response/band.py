@@ -65,6 +65,12 @@ class BandResponse(ResultDisplay):
     tube_velocity_rms_m_s : float or None
         RMS ``sigma_u`` of the capillary's mean velocity at the final linearization
         (``random_method='statistical'``; ``None`` for the harmonic closures).
+    distortion_kurtosis : float or None
+        The tube velocity's kurtosis the distortion power was evaluated at
+        (``distortion=True``; ``docs/random-response.md`` section 3c), else ``None``.
+    flags : tuple of str
+        The closure's own validity flags (the distortion's, :attr:`warnings` lists them
+        after the spring's).
     """
 
     grid: ResponseGrid
@@ -91,6 +97,8 @@ class BandResponse(ResultDisplay):
     design: Any = field(repr=False, default=None)
     payload: Payload | None = None
     tube_velocity_rms_m_s: float | None = None
+    distortion_kurtosis: float | None = None
+    flags: tuple = ()
 
     @property
     def bands(self):
@@ -146,8 +154,9 @@ class BandResponse(ResultDisplay):
 
     @property
     def warnings(self) -> tuple[str, ...]:
-        """Validity warnings of the spring model at the final linearization."""
-        return tuple(self.spring_diagnostics.warnings)
+        """Validity warnings of the spring model at the final linearization, then the
+        closure's (:attr:`flags`)."""
+        return (*self.spring_diagnostics.warnings, *self.flags)
 
     def verdict(self) -> str:
         """One line: PASS/FAIL, worst band and margin."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 
 import math
 import warnings
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -27,6 +27,7 @@ from isodesign.errors import (
 )
 from isodesign.numerics.cplx import Cx
 from isodesign.response.band import BandResponse
+from isodesign.response.distortion import DISTORTION_FIRST_RTOL
 from isodesign.response.isolator import (
     relative_transmissibility,
 )
@@ -498,8 +499,11 @@ def band_response(
         if not s2_lin > 0:
             raise InputError(f"floor: the spectrum {fl.name!r} carries no motion (PSD zero)")
         x0, y0 = 0.5 * math.log(s2_lin), 0.5 * math.log(max(su2_lin, 1e-300))
+        # with the distortion, the plain closure only as close as the distortion evaluated
+        # there needs: the closure with it, the one reported, is solved to rtol
+        rtol0 = max(rtol, DISTORTION_FIRST_RTOL) if distortion else rtol
         try:
-            x, y, _, n_it, slope = _statistical_closure(st, x0, y0, rtol, int(max_iter))
+            x, y, _, n_it, slope = _statistical_closure(st, x0, y0, rtol0, int(max_iter))
         except SolverError as exc:
             if strict:
                 raise
@@ -511,6 +515,12 @@ def band_response(
         res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
                                 (math.exp(x), math.exp(y)), n_it, converged, slope, warn,
                                 t_lin, st=st, dist=dist)
+        if dist is not None:
+            from isodesign.response.distortion import kurtosis_flag
+
+            flag = kurtosis_flag(dist.kurtosis_first_order, dist.kurtosis)
+            res = replace(res, distortion_kurtosis=dist.kurtosis, flags=tuple(flag))
+            lines += flag
         emit_flags(lines, "band_response", warn)
         return res
     else:

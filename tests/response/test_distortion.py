@@ -538,3 +538,24 @@ def test_generalized_gaussian_moments():
     r = np.array([non_gaussian_factors(k)[1:] for k in (3.0, 2.8, 2.5, 2.2, 1.9)])
     assert np.all(np.diff(r, axis=0) < 0)
     np.testing.assert_allclose(r[0], 1.0, rtol=1e-12)
+
+
+def test_distortion_carries_its_kurtosis_and_flags_beyond_the_verified_range():
+    """The result says at which tube velocity kurtosis the distortion was evaluated; for the
+    reference spring at 16x VC-A the first-order kurtosis falls below the verified 1.0 and
+    the result flags it (named in its warnings); on VC-A and 4x VC-A it does not."""
+    from isodesign.floor import FloorSpectrum
+
+    vca = FloorSpectrum.from_criterion("VC-A")
+    kw = {"flow": "quasi_steady", "diaphragm": "none", "distortion": True}
+    r = band_response(REF, P, vca, "VC-E", warn=False, **kw)
+    assert 2.3 < r.distortion_kurtosis < 3.0 and r.flags == ()
+    loud = FloorSpectrum.from_band_rms(vca.bands, 16.0 * vca.band_rms_velocity(), name="16x")
+    four = FloorSpectrum.from_band_rms(vca.bands, 4.0 * vca.band_rms_velocity(), name="4x")
+    assert band_response(REF, P, four, "VC-E", warn=False, **kw).flags == ()
+    with pytest.warns(Warning, match="kurtosis to first order"):
+        r16 = band_response(REF, P, loud, "VC-E", **kw)
+    assert 1.8 < r16.distortion_kurtosis < r.distortion_kurtosis
+    assert any("kurtosis to first order" in w for w in r16.warnings)
+    assert band_response(REF, P, vca, "VC-E", warn=False, flow="quasi_steady",
+                         diaphragm="none").distortion_kurtosis is None
