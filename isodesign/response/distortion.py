@@ -204,6 +204,8 @@ class DistortionPower:
     residual_ratio : float
         The residual's variance at that kurtosis over the Gaussian ``3 - 8/pi`` (the factor
         on ``source_power``).
+    extent_hz : tuple of ndarray, optional
+        The groups' ``(lower, upper)`` frequency extents (:func:`group_extents`).
     """
 
     frequency_hz: np.ndarray
@@ -216,17 +218,34 @@ class DistortionPower:
     kurtosis: float = 3.0
     gain_ratio: float = 1.0
     residual_ratio: float = 1.0
+    extent_hz: tuple | None = None
 
     def band_mean_square(self, lower_hz, upper_hz, power: int = 0) -> np.ndarray:
         """The added payload band mean squares (``power``: -2 displacement, 0 velocity, 2
-        acceleration)."""
+        acceleration); a group straddling a band edge shared by its overlap
+        (:func:`band_fractions`)."""
         f = self.frequency_hz
         w = (2.0 * math.pi * f) ** power
-        out = np.zeros(len(lower_hz))
-        for i, (lo, hi) in enumerate(zip(lower_hz, upper_hz, strict=True)):
-            sel = (f >= lo) & (f < hi)
-            out[i] = float(np.sum(self.payload_velocity_power[sel] * w[sel]))
-        return out
+        if self.extent_hz is None:
+            lo_g, hi_g = f, np.nextafter(f, np.inf)  # every group at its frequency
+        else:
+            lo_g, hi_g = self.extent_hz
+        return (self.payload_velocity_power * w) @ band_fractions(lo_g, hi_g, lower_hz,
+                                                                  upper_hz)
+
+
+def _bins(freq_hz, weights, bin_hz: float):
+    """Each line's weight shared between its two neighbouring bins in proportion to its
+    distance (linear, "cloud in cell"): ``(index, weight)``, twice as many. It keeps every
+    line's frequency as the mean of its two parts, so the spectra's convolutions keep their
+    mean frequencies and the grid's error is of second order in the bin width
+    (docs/random-response.md 3a; rounding to the nearest bin moved a line by up to half a
+    bin, an error of first order)."""
+    r = np.asarray(freq_hz, dtype=float) / bin_hz
+    i0 = np.floor(r).astype(int)
+    a = (r - i0).reshape(r.shape + (1,) * (np.ndim(weights) - 1))
+    w = np.asarray(weights)
+    return np.concatenate([i0, i0 + 1]), np.concatenate([(1.0 - a) * w, a * w])
 
 
 def _odd_orders(hf, kmax: int):
@@ -274,7 +293,7 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
     from scipy.fft import irfft, next_fast_len, rfft
 
     kmax = max(DISTORTION_ORDERS)
-    idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
+    idx, power = _bins(freq_hz, power, bin_hz)
     imax = int(idx.max())
     top = kmax * imax
     if keep_hz is not None:
@@ -389,7 +408,9 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
         top = f_bins <= DISTORTION_RANGE_FACTOR * f_lines.max()
         f_bins, shape, p3 = f_bins[top], shape[top], p3[top]
         # the source's power summed over bin groups, its response once per group
+        f_edge = f_bins
         starts, f_bins = bin_groups(f_bins, edges_hz, group_rel)
+        extent = group_extents(f_edge, starts, bin_hz)
         shape = np.add.reduceat(shape, starts)
         p3 = np.add.reduceat(p3, starts)
         if gains is None or gains[0].size != f_bins.size:
@@ -409,7 +430,7 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
         frequency_hz=f_bins, source_power=src, stroke_variance=float(np.sum(src * gains[0])),
         tube_velocity_variance=float(np.sum(added_u)), tube_power=added_u,
         payload_velocity_power=src * gains[0] * w * w, kurtosis_first_order=kurt1,
-        kurtosis=kurt, gain_ratio=gain_ratio, residual_ratio=res_ratio,
+        kurtosis=kurt, gain_ratio=gain_ratio, residual_ratio=res_ratio, extent_hz=extent,
     )
 
 
@@ -609,12 +630,11 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
         The residuals' normalized one-sided cross power per bin.
     """
     kmax = max(DISTORTION_ORDERS)
-    idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
+    idx, p = _bins(freq_hz, np.asarray(cross_power, dtype=complex), bin_hz)
     imax = int(idx.max())
     from scipy.fft import next_fast_len
 
     n = next_fast_len(2 * kmax * imax + 2)
-    p = np.asarray(cross_power, dtype=complex)
     h = np.zeros(n, dtype=complex)
     np.add.at(h, idx % n, 0.5 * p)
     np.add.at(h, (-idx) % n, 0.5 * np.conj(p))
@@ -672,7 +692,7 @@ def _pair_convolutions(freq_hz, p, bin_hz: float, third: bool = False):
     from scipy.fft import irfft, next_fast_len, rfft
 
     kmax = max(DISTORTION_ORDERS)
-    idx = np.rint(np.asarray(freq_hz) / bin_hz).astype(int)
+    idx, p = _bins(freq_hz, p, bin_hz)
     imax = int(idx.max())
     # no aliasing below the bins kept: the k-fold convolution spans +-kmax imax, so a
     # period n > kmax imax + keep leaves [0, keep] exact
@@ -760,3 +780,23 @@ def bin_groups(f_bins, edges_hz=(), rel: float = DISTORTION_GROUP_REL):
     starts = np.flatnonzero(new)
     counts = np.diff(np.append(starts, f.size))
     return starts, np.add.reduceat(f, starts) / counts
+
+
+def group_extents(f_bins, starts, bin_hz: float):
+    """The frequency extent ``(lower, upper)`` of each bin group: from its first bin's lower
+    edge to its last bin's upper edge (a bin stands for ``+-bin_hz/2`` about its centre)."""
+    f = np.asarray(f_bins, dtype=float)
+    last = np.append(np.asarray(starts)[1:] - 1, f.size - 1)
+    return f[starts] - 0.5 * bin_hz, f[last] + 0.5 * bin_hz
+
+
+def band_fractions(extent_lo, extent_hi, lower_hz, upper_hz):
+    """``(groups, bands)``: the share of each bin group's power in each band, its power
+    spread evenly over its extent (a group straddling a band edge, its first bin's, is split
+    by the overlap; assigning whole bins by their centres erred by up to half a bin's
+    power at each edge, docs/random-response.md 3a)."""
+    lo = np.asarray(extent_lo, dtype=float)[:, None]
+    hi = np.asarray(extent_hi, dtype=float)[:, None]
+    over = (np.minimum(hi, np.asarray(upper_hz, dtype=float)[None, :])
+            - np.maximum(lo, np.asarray(lower_hz, dtype=float)[None, :]))
+    return np.clip(over, 0.0, None) / (hi - lo)

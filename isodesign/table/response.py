@@ -727,7 +727,9 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
         group_rel = DISTORTION_GROUP_REL
     from isodesign.response.distortion import (
         DISTORTION_RANGE_FACTOR,
+        band_fractions,
         bin_groups,
+        group_extents,
         pair_convolutions,
         table_kurtosis,
     )
@@ -765,7 +767,9 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     f_bins = fb[top]
     # the sources' power summed over groups of bins, the response once per group
     lo, hi = grid.bands.lower_hz, grid.bands.upper_hz
+    f_edge = f_bins
     starts, f_bins = bin_groups(f_bins, np.concatenate([lo, hi]), group_rel)
+    frac = band_fractions(*group_extents(f_edge, starts, fb[1] - fb[0]), lo, hi)
     pij = np.add.reduceat(pij[: top.sum()], starts, axis=0)
     p3ij = np.add.reduceat(p3ij[: top.sum()], starts, axis=0)
     g_e = np.empty((f_bins.size, n, n), dtype=complex)
@@ -793,10 +797,7 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     pts = np.einsum("pbk,fks->fpbs", geo.points, q) * (1j * wb)[:, None, None, None]
     k_pts, _, _ = geo.points.shape
     pv = power(pts.reshape(wb.size, 3 * k_pts, n)).reshape(wb.size, k_pts, 3)
-    band = np.zeros((k_pts, 3, len(lo)))
-    for b, (fl, fh) in enumerate(zip(lo, hi, strict=True)):
-        sel = (f_bins >= fl) & (f_bins < fh)
-        band[:, :, b] = pv[sel].sum(axis=0)
+    band = np.einsum("gpa,gb->pab", pv, frac)  # edge groups shared by their overlap
     return TableDistortion(frequency_hz=f_bins, stroke_variance=ds2,
                            tube_velocity_variance=dsu2, band_mean_square=band,
                            kurtosis_first_order=kurt1, kurtosis=kurt, gain_ratio=gain,
