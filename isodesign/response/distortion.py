@@ -161,7 +161,18 @@ def resummed_kurtosis(first_order):
     """The tube velocity's kurtosis from its first-order estimate ``3 - delta``: the
     exponential that has the first order's slope at ``delta = 0`` and the unimodal bound
     1.8 as ``delta -> infinity``, ``1.8 + 1.2 exp(-delta / 1.2)`` (docs/random-response.md,
-    section 3c). Float or array."""
+    section 3c).
+
+    Parameters
+    ----------
+    first_order : float or ndarray
+        The first-order kurtosis (:func:`tube_kurtosis`; above 3 it is taken as 3).
+
+    Returns
+    -------
+    float or ndarray
+        The kurtosis, in ``(1.8, 3]``.
+    """
     span = 3.0 - UNIMODAL_KURTOSIS_MIN
     out = UNIMODAL_KURTOSIS_MIN + span * np.exp(np.minimum(0.0, np.asarray(first_order,
                                                                         dtype=float) - 3.0)
@@ -465,8 +476,19 @@ def non_gaussian_factors(kurtosis_first_order):
     """``(kurtosis, gain_ratio, residual_ratio)`` from the first-order kurtosis: the resummed
     kurtosis (:func:`resummed_kurtosis`), and the minor loss's equivalent gain ``E|x|^3`` and
     the residual's variance ``E x^4 - (E|x|^3)^2`` of the generalized Gaussian of that
-    kurtosis over the Gaussian ones (docs/random-response.md, section 3c). Floats or
-    arrays."""
+    kurtosis over the Gaussian ones (docs/random-response.md, section 3c).
+
+    Parameters
+    ----------
+    kurtosis_first_order : float or ndarray
+        :func:`tube_kurtosis`'s value (per isolator).
+
+    Returns
+    -------
+    kurtosis, gain_ratio, residual_ratio : float or ndarray
+        The resummed kurtosis, ``E|x|^3 / sqrt(8/pi)`` and ``(kurtosis - (E|x|^3)^2) /
+        (3 - 8/pi)``.
+    """
     kurt = resummed_kurtosis(kurtosis_first_order)
     _, gain, res = generalized_gaussian_moments(kurt)
     return kurt, gain / math.sqrt(8.0 / math.pi), res / GAUSSIAN_RESIDUAL
@@ -543,7 +565,18 @@ def table_kurtosis(p3ij, ut, amp, s, iu, ju, on: bool = True):
 
 def source_response(design, omega, c, k, mass_kg, flow):
     """Per unit pressure-drop source in the tube, complex: ``(X, U1, ends)``
-    (:func:`source_gains` before the squares)."""
+    (:func:`source_gains` before the squares).
+
+    Parameters
+    ----------
+    design, omega, c, k, mass_kg, flow
+        As :func:`source_gains`.
+
+    Returns
+    -------
+    tuple
+        ``X/dp`` (m/Pa), ``U1/dp`` ((m/s)/Pa) complex, and ``ends`` (:func:`source_network`).
+    """
     w = np.asarray(omega, dtype=float)
     force_per_dp, u_per_x, u_per_dp, ends = source_network(design, w, c, flow)
     x = -force_per_dp / (k - mass_kg * w * w)
