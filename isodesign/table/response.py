@@ -268,6 +268,9 @@ class TableBandResponse(ResultDisplay):
         Assumptions (floor axes) and what the model leaves out.
     flags : tuple of str
         Validity flags.
+    distortion_kurtosis : ndarray (n,) or None
+        Each tube velocity's kurtosis the distortion power was evaluated at
+        (``distortion=True``; ``docs/random-response.md`` 3c), else ``None``.
     """
 
     grid: TableGrid
@@ -287,6 +290,7 @@ class TableBandResponse(ResultDisplay):
     target_name: str
     notes: tuple = ()
     flags: tuple = ()
+    distortion_kurtosis: np.ndarray | None = None
 
     @property
     def bands(self):
@@ -528,7 +532,8 @@ def table_band_response(
     kurt = "tube velocity kurtosis " + " ".join(f"{k:.2f}" for k in dist.kurtosis)
     return dataclasses.replace(
         res, velocity_rms_m_s=np.sqrt(res.velocity_rms_m_s**2 + dist.band_mean_square),
-        notes=(*res.notes, f"{DISTORTION_NOTE} ({kurt})"))  # fmt: skip
+        notes=(*res.notes, f"{DISTORTION_NOTE} ({kurt})"),
+        distortion_kurtosis=np.asarray(dist.kurtosis, dtype=float))  # fmt: skip
 
 
 def _describing_response(model, grid, target_name, method, nodes, rtol, max_iter, strict,
