@@ -157,10 +157,18 @@ def measure(seeds=2, duration_s=160.0):
             both.bands)
 
 
+#: The payload's cases of :func:`variants`: (name, flow, vertical diaphragm).
+CASES = (("quasi-steady tube, no diaphragm", "quasi_steady", "none"),
+         ("Womersley tube, no diaphragm", "womersley", "none"),
+         ("quasi-steady tube, diaphragm as a Prony series at A*", "quasi_steady", "prony"))
+
+
 def variants(duration_s=160.0, seeds=4):
-    """Rows ``(floor, closure, worst band (dB, label), stroke %, tube velocity %, kurtosis
-    predicted, simulated)`` of the plain closure, the Gaussian residual and the non-Gaussian
-    distortion against the Monte Carlo on VC-A and 4x VC-A."""
+    """Rows ``(case, floor, closure, worst band (dB, label), stroke %, tube velocity %,
+    kurtosis predicted, simulated, first order)`` of the plain closure, the Gaussian residual
+    and the non-Gaussian distortion against the Monte Carlo on VC-A and 4x VC-A, for each
+    case of :data:`CASES` (the diaphragm fitted at the plain closure's A*, the same element
+    in the closure and the simulation)."""
     import functools
 
     from isodesign.response import random_input as ri
@@ -168,39 +176,49 @@ def variants(duration_s=160.0, seeds=4):
 
     ref, payload = SpringDesign.reference(), Payload(400.0, 4)
     vca = FloorSpectrum.from_criterion("VC-A")
-    kw = {"flow": "quasi_steady", "diaphragm": "none"}
     rows = []
-    for scale in (1.0, 4.0):
-        floor = FloorSpectrum.from_band_rms(vca.bands, scale * vca.band_rms_velocity(),
-                                            name="VC-A" if scale == 1 else "4x VC-A")
-        mc = simulate_random_response(ref, payload, floor, target="VC-E", seeds=seeds,
-                                      duration_s=duration_s, **kw)
-        for label, dist, ng in (("plain closure", False, True),
-                                ("Gaussian residual (3a)", True, False),
-                                ("non-Gaussian distortion (3c)", True, True)):
-            seen = []
-            orig_at, orig_dp = ri._distortion_at, dmod.distortion_power
-
-            def spy(*args, _o=orig_at, _s=seen):
-                _s.append(_o(*args))
-                return _s[-1]
-
-            try:
-                ri._distortion_at = spy
-                dmod.distortion_power = functools.partial(orig_dp, non_gaussian=ng)
+    for case, flow, dia in CASES:
+        for scale in (1.0, 4.0):
+            floor = FloorSpectrum.from_band_rms(vca.bands, scale * vca.band_rms_velocity(),
+                                                name="VC-A" if scale == 1 else "4x VC-A")
+            if dia == "prony":
                 with warnings.catch_warnings():
                     warnings.simplefilter("ignore")
-                    r = band_response(ref, payload, floor, "VC-E", distortion=dist, **kw)
-            finally:
-                ri._distortion_at, dmod.distortion_power = orig_at, orig_dp
-            e = mc.error_db(r)
-            i = int(np.argmax(np.abs(e)))
-            kurt = seen[-1].kurtosis if seen and ng else 3.0
-            rows.append((floor.name, label, (float(e[i]), r.bands.labels[i]),
-                         100 * (r.stroke_rms_m / mc.stroke_rms_m - 1),
-                         100 * (r.tube_velocity_rms_m_s / mc.tube_velocity_rms_m_s - 1),
-                         kurt, mc.tube_velocity_kurtosis,
-                         seen[-1].kurtosis_first_order if seen else None))
+                    a = band_response(ref, payload, floor, "VC-E",
+                                      flow=flow).equivalent_amplitude_m
+                dia_m, _ = mcm.prony_diaphragm(
+                    "viscoelastic", np.geomspace(floor.f_min_hz, floor.f_max_hz, 60), a)
+            else:
+                dia_m = dia
+            kw = {"flow": flow, "diaphragm": dia_m}
+            mc = simulate_random_response(ref, payload, floor, target="VC-E", seeds=seeds,
+                                          duration_s=duration_s, **kw)
+            for label, dist, ng in (("plain closure", False, True),
+                                    ("Gaussian residual (3a)", True, False),
+                                    ("non-Gaussian distortion (3c)", True, True)):
+                seen = []
+                orig_at, orig_dp = ri._distortion_at, dmod.distortion_power
+
+                def spy(*args, _o=orig_at, _s=seen):
+                    _s.append(_o(*args))
+                    return _s[-1]
+
+                try:
+                    ri._distortion_at = spy
+                    dmod.distortion_power = functools.partial(orig_dp, non_gaussian=ng)
+                    with warnings.catch_warnings():
+                        warnings.simplefilter("ignore")
+                        r = band_response(ref, payload, floor, "VC-E", distortion=dist, **kw)
+                finally:
+                    ri._distortion_at, dmod.distortion_power = orig_at, orig_dp
+                e = mc.error_db(r)
+                i = int(np.argmax(np.abs(e)))
+                kurt = seen[-1].kurtosis if seen and ng else 3.0
+                rows.append((case, floor.name, label, (float(e[i]), r.bands.labels[i]),
+                             100 * (r.stroke_rms_m / mc.stroke_rms_m - 1),
+                             100 * (r.tube_velocity_rms_m_s / mc.tube_velocity_rms_m_s - 1),
+                             kurt, mc.tube_velocity_kurtosis,
+                             seen[-1].kurtosis_first_order if seen else None))
     return rows
 
 
@@ -210,13 +228,13 @@ def main(argv=None):
     ap.add_argument("--duration", type=float, default=160.0)
     a = ap.parse_args(argv)
     print(f"Closures against the Monte Carlo (4 seeds x {a.duration:g} s, reference spring, "
-          "4 x 100 kg, no diaphragm)\n")
-    print("| floor | closure | worst band (dB) | stroke | tube velocity | kurtosis of u: "
-          "closure (first order) / MC |\n|---|---|---|---|---|---|")
-    for fl, lab, (eb, bl), es, eu, kp, km, k1 in variants(a.duration):
+          "4 x 100 kg)\n")
+    print("| case | floor | closure | worst band (dB) | stroke | tube velocity | kurtosis of u: "
+          "closure (first order) / MC |\n|---|---|---|---|---|---|---|")
+    for case, fl, lab, (eb, bl), es, eu, kp, km, k1 in variants(a.duration):
         k1s = f" ({k1:.2f})" if k1 is not None and lab.startswith("non") else ""
         kps = f"{kp:.2f}{k1s}" if lab.startswith("non") else "3 (Gaussian)"
-        print(f"| {fl} | {lab} | {eb:+.2f} ({bl} Hz) | {es:+.1f} % | {eu:+.1f} % | "
+        print(f"| {case} | {fl} | {lab} | {eb:+.2f} ({bl} Hz) | {es:+.1f} % | {eu:+.1f} % | "
               f"{kps} / {km:.2f} |")
     print()
     marginal, bands, ratio_db, dist_db, order5_db, pbands = measure(a.seeds, a.duration)
