@@ -180,6 +180,13 @@ def resummed_kurtosis(first_order):
     return float(out) if np.ndim(first_order) == 0 else out
 
 
+def minor_loss_coefficient(design, flow: str):
+    """``K rho / 2`` (Pa s^2/m^2), the quadratic drop's coefficient whose residual the
+    distortion carries; 0 for ``flow='poiseuille'``, which has no minor loss (its closure
+    linearizes none, section 2 of docs/random-response.md)."""
+    return 0.0 if flow == "poiseuille" else 0.5 * design.minor_loss * design.density_kg_m3
+
+
 def minor_loss_gain_shift(design, sigma_u, gain_ratio):
     """The change of the minor loss's equivalent resistance (Pa s/kg) when its Gaussian gain
     ``sqrt(8/pi)`` is scaled by ``gain_ratio``: ``K (gain_ratio - 1) sqrt(8/pi) sigma_u /
@@ -397,7 +404,7 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
     DistortionPower
         On the bin groups (``frequency_hz`` their mean frequencies, the powers summed).
     """
-    coeff = 0.5 * design.minor_loss * design.density_kg_m3
+    coeff = minor_loss_coefficient(design, flow)
     f_lines = np.asarray(freq_hz, dtype=float)
     p_lines = np.asarray(tube_power, dtype=float)
     keep = p_lines > 0

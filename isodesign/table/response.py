@@ -735,6 +735,7 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
         band_fractions,
         bin_groups,
         group_extents,
+        minor_loss_coefficient,
         pair_convolutions,
         table_kurtosis,
     )
@@ -764,7 +765,7 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     keep = np.real(np.einsum("fii->f", cross)) > 0
     f_lines, cross = grid.frequency_hz[keep], cross[keep]
     s = np.sqrt(s2)
-    coeff = np.array([0.5 * d.minor_loss * d.density_kg_m3 for d in model.designs])
+    coeff = np.array([minor_loss_coefficient(d, model.flow) for d in model.designs])
     amp = coeff * s2  # (K rho/2) s^2 per isolator
     iu, ju = np.triu_indices(n)
     fb, pij, p3ij = pair_convolutions(f_lines, cross[:, iu, ju] / (s[iu] * s[ju]), third=True)

@@ -610,3 +610,24 @@ def test_distortion_carries_its_kurtosis_and_flags_beyond_the_verified_range():
     assert any("kurtosis to first order" in w for w in r16.warnings)
     assert band_response(REF, P, vca, "VC-E", warn=False, flow="quasi_steady",
                          diaphragm="none").distortion_kurtosis is None
+
+
+def test_no_distortion_without_a_minor_loss_in_the_flow_model():
+    """``flow='poiseuille'`` has no minor loss (its closure linearizes none): the distortion
+    adds nothing there, on the payload and on the table, and the kurtosis stays 3."""
+    from isodesign.floor import FloorSpectrum
+    from isodesign.table.response import table_band_response
+
+    vca = FloorSpectrum.from_criterion("VC-A")
+    kw = {"flow": "poiseuille", "diaphragm": "none", "warn": False}
+    a = band_response(REF, P, vca, "VC-E", **kw)
+    b = band_response(REF, P, vca, "VC-E", distortion=True, **kw)
+    assert b.stroke_rms_m == pytest.approx(a.stroke_rms_m, rel=1e-9)
+    np.testing.assert_allclose(b.payload_velocity_rms_m_s, a.payload_velocity_rms_m_s,
+                               rtol=1e-9)
+    assert b.distortion_kurtosis == 3.0
+    t = _symmetric_table()
+    ta = table_band_response(REF, t, vca, "VC-E", **kw)
+    tb = table_band_response(REF, t, vca, "VC-E", distortion=True, **kw)
+    np.testing.assert_allclose(tb.velocity_rms_m_s, ta.velocity_rms_m_s, rtol=1e-9)
+    np.testing.assert_allclose(tb.distortion_kurtosis, 3.0)
