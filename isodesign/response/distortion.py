@@ -13,9 +13,18 @@ with ``x = u / s`` and the Hermite expansion ``|x| x = sum_k c_k He_k(x)`` (odd 
 ``k``-fold self-convolution of the tube velocity's normalized spectrum, weighted by
 ``k! c_k^2``. It is carried through the linear system as a pressure-drop source in the tube.
 
+The tube velocity is not Gaussian where its law is strongly quadratic (section 3c): its
+kurtosis to first order in the residual (:func:`tube_kurtosis`), resummed to the unimodal
+bound (:func:`resummed_kurtosis`), gives the generalized-Gaussian marginal at which the
+residual's power and the minor loss's equivalent gain are evaluated
+(:func:`non_gaussian_factors`); a first-order kurtosis below the verified range is flagged
+(:func:`kurtosis_flag`).
+
 Here the tube velocity's spectrum is the line spectrum of the response grid (the power of each
-grid point at its frequency), the convolutions are taken on a uniform two-sided grid of bins
-by FFT, and the source's response is evaluated at the bins' centres.
+grid point at its frequency), shared linearly between the two neighbouring bins of a uniform
+two-sided grid, the convolutions are taken by FFT, and the source's response is evaluated on
+groups of bins (:func:`bin_groups`), a group straddling a band edge shared by its overlap
+(:func:`band_fractions`).
 """
 
 from __future__ import annotations

@@ -455,8 +455,11 @@ def band_response(
         Add the minor loss's distortion power, the residual of the statistical linearization
         carried through the system as an uncorrelated pressure-drop source in the tube
         (:mod:`isodesign.response.distortion`, ``docs/random-response.md`` section 3a), to the
-        bands, the stroke and the tube velocity, self-consistently with the closure
-        (``random_method="statistical"`` only; NumPy only, not in the NLP).
+        bands, the stroke and the tube velocity, self-consistently with the closure; the
+        residual's power and the minor loss's equivalent gain at the tube velocity's
+        predicted kurtosis (section 3c; ``distortion_kurtosis`` and ``flags`` of the
+        result). ``random_method="statistical"`` only; NumPy only, not in the NLP (default
+        off, section 3c).
 
     Returns
     -------

@@ -476,8 +476,9 @@ def table_band_response(
     distortion : bool
         Add the tubes' distortion power, the residual of each isolator's statistical
         linearization carried through the table as a pressure-drop source in its tube
-        (:func:`table_distortion`, ``docs/random-response.md`` section 3b), to the band
-        response, the strokes and the tube velocities, self-consistently (default off).
+        (:func:`table_distortion`, ``docs/random-response.md`` sections 3b and 3c, at each
+        tube velocity's predicted kurtosis), to the band response, the strokes and the tube
+        velocities, self-consistently (default off: not in the NLP).
 
     Returns
     -------
