@@ -631,3 +631,21 @@ def test_no_distortion_without_a_minor_loss_in_the_flow_model():
     tb = table_band_response(REF, t, vca, "VC-E", distortion=True, **kw)
     np.testing.assert_allclose(tb.velocity_rms_m_s, ta.velocity_rms_m_s, rtol=1e-9)
     np.testing.assert_allclose(tb.distortion_kurtosis, 3.0)
+
+
+def test_gain_shift_scales_the_minor_loss_equivalent():
+    """The non-Gaussian gain scales the minor loss's equivalent resistance, ``K E|x|^3 s /
+    (2 A_c)`` (section 3c): with the Womersley flow (whose nonlinear part is the minor loss
+    alone) the shifted resistance is the Gaussian one times the gain ratio; with the
+    quasi-steady flow the turbulent friction's excess is left as it was."""
+    from isodesign.response.distortion import minor_loss_gain_shift
+    from isodesign.spring.capillary import gaussian_equivalent_resistance
+
+    s = np.array([0.3, 1.5, 4.0])
+    g = 0.88
+    c_w = gaussian_equivalent_resistance("womersley", REF, s)
+    np.testing.assert_allclose(c_w + minor_loss_gain_shift(REF, s, g), g * c_w, rtol=1e-12)
+    c_q = gaussian_equivalent_resistance("quasi_steady", REF, s)
+    friction = c_q - c_w
+    np.testing.assert_allclose(c_q + minor_loss_gain_shift(REF, s, g), friction + g * c_w,
+                               rtol=1e-12)
