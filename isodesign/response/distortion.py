@@ -37,6 +37,7 @@ import numpy as np
 __all__ = [
     "DISTORTION_ORDERS",
     "DistortionPower",
+    "PairTransform",
     "abs_square_hermite_coefficient",
     "bin_groups",
     "cross_convolutions",
@@ -47,12 +48,20 @@ __all__ = [
     "resummed_kurtosis",
     "source_network",
     "table_kurtosis",
+    "translation_coefficients",
     "tube_kurtosis",
 ]
 
 #: The Hermite orders of ``|x| x`` carried (3 and 5: 93.6 % and 4.7 % of the residual power
 #: ``(3 - 8/pi) s^4``; the orders >= 7, left out, carry the other 1.7 %).
 DISTORTION_ORDERS = (3, 5)
+#: The Hermite orders of the non-Gaussian residual (section 3c): its translation-process
+#: expansion moves power from order 3 to the higher ones (order 7 carries 3-6 % of it at the
+#: kurtosis of these tubes, against 1 % for a Gaussian velocity).
+NON_GAUSSIAN_ORDERS = (3, 5, 7, 9, 11)
+#: The order whose convolution the FFT period of :class:`PairTransform` holds without
+#: aliasing (the higher orders' spectra alias by their negligible mass beyond it).
+PERIOD_ORDER = 5
 #: Bin width of the convolution grid, Hz.
 DISTORTION_BIN_HZ = 0.05
 #: Bins merge into groups no wider than this fraction of their frequency (within one band)
@@ -164,6 +173,59 @@ def generalized_gaussian_moments(kurtosis):
     if np.ndim(kurtosis) == 0:
         return float(b), float(gain), float(res)
     return b, gain, res
+
+
+_GH_Z, _GH_W = np.polynomial.hermite_e.hermegauss(96)
+_GH_W = _GH_W / _GH_W.sum()
+# the integrands are even (G and He_k odd): the positive nodes, their weights doubled
+_GH_ZP, _GH_WP = _GH_Z[48:], 2.0 * _GH_W[48:]
+_HE_AT_NODES: dict = {}
+
+
+def translation_coefficients(kurtosis, orders=NON_GAUSSIAN_ORDERS):
+    """The Hermite coefficients of the residual of a non-Gaussian tube velocity.
+
+    The tube velocity is taken as a translation process, ``x = F(z)``, ``z`` standard
+    Gaussian and ``F`` the monotone map onto the unit-variance generalized Gaussian of the
+    given kurtosis (:func:`generalized_gaussian_moments`), so that the residual
+    ``G(z) = |F(z)| F(z) - E|x|^3 F(z)`` is a function of a Gaussian process and Mehler's
+    theorem applies to it as to the Gaussian residual (docs/random-response.md 3c):
+    ``a_k = E[G(z) He_k(z)] / k!`` (Gauss-Hermite, 96 nodes), the residual's autocovariance
+    ``sum_k k! a_k^2 rho_z^k`` and the cross-covariance of two such residuals
+    ``sum_k k! a_k,i a_k,j rho_ij^k``. At kurtosis 3, ``F`` is the identity and ``a_k = c_k``.
+
+    Parameters
+    ----------
+    kurtosis : float or ndarray (n,)
+        The tube velocities' kurtosis.
+    orders : tuple of int
+        The odd orders ``k``.
+
+    Returns
+    -------
+    ndarray (n, len(orders)) or (len(orders),)
+        ``a_k`` (signed).
+    """
+    from numpy.polynomial.hermite_e import hermeval
+    from scipy.special import gammainccinv, gammaln, ndtr
+
+    kap = np.atleast_1d(np.asarray(kurtosis, dtype=float))
+    beta = np.atleast_1d(generalized_gaussian_moments(kap)[0])[:, None]
+    # F(z), z > 0: the generalized Gaussian's quantile at the standard normal's probability,
+    # by its upper tail (P(X > x) = Q(1/beta, (x/a)^beta) / 2); F is odd
+    x = np.exp(0.5 * (gammaln(1.0 / beta) - gammaln(3.0 / beta))) * gammainccinv(
+        1.0 / beta, 2.0 * ndtr(-_GH_ZP)[None, :]) ** (1.0 / beta)
+    x = x / np.sqrt(np.sum(_GH_WP * x * x, axis=1, keepdims=True))  # unit variance
+    gain = np.sum(_GH_WP * x ** 3, axis=1, keepdims=True)
+    g = x * x - gain * x
+    if orders not in _HE_AT_NODES:
+        _HE_AT_NODES[orders] = np.array([hermeval(_GH_ZP, [0.0] * k + [1.0])
+                                         / math.factorial(k) for k in orders])
+    out = (_GH_WP * g) @ _HE_AT_NODES[orders].T
+    gauss = kap >= 3.0
+    if np.any(gauss):
+        out[gauss] = [abs_square_hermite_coefficient(k) for k in orders]
+    return out if np.ndim(kurtosis) else out[0]
 
 
 def resummed_kurtosis(first_order):
@@ -292,7 +354,8 @@ def _odd_orders(hf, kmax: int):
 
 
 def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
-                            keep_hz: float | None = None, third: bool = False):
+                            keep_hz: float | None = None, third: bool = False,
+                            orders: tuple | None = None):
     """``sum_k k! c_k^2 (P * ... * P)_k`` of a normalized one-sided line spectrum, binned.
 
     Parameters
@@ -308,6 +371,9 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
         every bin, to ``kmax`` times the highest line.
     third : bool
         Also return the normalized spectrum of ``rho_u^3`` alone (weight 1), ``p3_bins``.
+    orders : tuple of int, optional
+        Instead, return the normalized spectrum of ``rho_u^k`` for each ``k`` (weight 1),
+        ``(f_bins, spectra (len(orders), bins))``, from the same transform.
 
     Returns
     -------
@@ -319,7 +385,7 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
     """
     from scipy.fft import irfft, next_fast_len, rfft
 
-    kmax = max(DISTORTION_ORDERS)
+    kmax = max(orders) if orders else max(DISTORTION_ORDERS)
     idx, power = _bins(freq_hz, power, bin_hz)
     imax = int(idx.max())
     top = kmax * imax
@@ -329,6 +395,11 @@ def normalized_convolutions(freq_hz, power, bin_hz: float = DISTORTION_BIN_HZ,
     h = np.bincount(np.concatenate([idx % n, (-idx) % n]),
                     weights=np.concatenate([0.5 * power, 0.5 * power]), minlength=n)
     hf = rfft(h)
+    if orders:  # each order alone (weight 1), in one batched transform
+        spec = np.stack([hf ** k for k in orders])
+        conv = irfft(spec, n, axis=-1)
+        pos = conv[:, 1:top + 1] + conv[:, n - top:][:, ::-1]
+        return bin_hz * np.arange(1, top + 1), pos
     spec = _odd_orders(hf, kmax)
     if third:  # the third order alone too (the first-order kurtosis), in the same transform
         spec = np.stack([spec, hf * hf * hf])
@@ -427,18 +498,19 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
             f_all = np.concatenate([f_lines, f_bins[inside]])
             p_all = np.concatenate([p_lines, added_u[inside]])
         s2 = float(np.sum(p_all))
-        f_bins, shape, p3 = normalized_convolutions(
-            f_all, p_all / s2, bin_hz, keep_hz=DISTORTION_RANGE_FACTOR * f_lines.max(),
-            third=True)
+        orders = NON_GAUSSIAN_ORDERS if non_gaussian else DISTORTION_ORDERS
+        tr = PairTransform(f_all, (p_all / s2)[:, None], bin_hz)
+        unit = np.eye(len(orders))[0]
+        p3 = tr.spectra(unit, orders)[:, 0].real
+        f_bins = tr.f_bins
         # the response above the lines' range (the payload bands, the stroke and the tube
         # fall off there) is left out: keep the bins up to DISTORTION_RANGE_FACTOR f_max
         top = f_bins <= DISTORTION_RANGE_FACTOR * f_lines.max()
-        f_bins, shape, p3 = f_bins[top], shape[top], p3[top]
+        f_bins, p3 = f_bins[top], p3[top]
         # the source's power summed over bin groups, its response once per group
         f_edge = f_bins
         starts, f_bins = bin_groups(f_bins, edges_hz, group_rel)
         extent = group_extents(f_edge, starts, bin_hz)
-        shape = np.add.reduceat(shape, starts)
         p3 = np.add.reduceat(p3, starts)
         if gains is None or gains[0].size != f_bins.size:
             w = 2.0 * math.pi * f_bins
@@ -447,10 +519,14 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
             gains = (np.abs(x_dp) ** 2, np.abs(u_dp) ** 2 * ends, u_dp)
         a3 = coeff * s2 * abs_square_hermite_coefficient(3)
         kurt1 = tube_kurtosis(a3, math.sqrt(s2), gains[2], p3)
-        kurt, gain_ratio, res_ratio = 3.0, 1.0, 1.0
+        kurt, gain_ratio = 3.0, 1.0
         if non_gaussian:
-            kurt, gain_ratio, res_ratio = non_gaussian_factors(kurt1)
-        src = coeff * coeff * s2 * s2 * shape * res_ratio
+            kurt, gain_ratio, _ = non_gaussian_factors(kurt1)
+        a_k = translation_coefficients(kurt, orders)
+        weights = np.array([math.factorial(k) for k in orders]) * a_k * a_k
+        res_ratio = float(weights.sum()) / sum(_WEIGHTS.values())
+        shape = np.add.reduceat(tr.spectra(weights, orders)[:, 0].real[top], starts)
+        src = coeff * coeff * s2 * s2 * np.clip(shape, 0.0, None)
         added_u = src * gains[1]
     w = 2.0 * math.pi * f_bins
     return DistortionPower(
@@ -652,7 +728,7 @@ def source_network(design, omega, c, flow):
 
 
 def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
-                       third: bool = False):
+                       third: bool = False, orders: tuple | None = None):
     """:func:`normalized_convolutions` of a normalized complex cross line spectrum.
 
     For two jointly Gaussian unit processes with cross-correlation ``rho_ij(tau)`` (Mehler:
@@ -670,6 +746,9 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
         Bin width.
     third : bool
         Also return the normalized cross-spectrum of ``rho_ij^3`` alone (weight 1).
+    orders : tuple of int, optional
+        Instead, the normalized cross-spectrum of ``rho_ij^k`` for each ``k`` (weight 1):
+        ``(f_bins, spectra (bins, len(orders)))``.
 
     Returns
     -------
@@ -678,7 +757,7 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
     p_bins : complex ndarray
         The residuals' normalized one-sided cross power per bin.
     """
-    kmax = max(DISTORTION_ORDERS)
+    kmax = max(orders) if orders else max(DISTORTION_ORDERS)
     idx, p = _bins(freq_hz, np.asarray(cross_power, dtype=complex), bin_hz)
     imax = int(idx.max())
     from scipy.fft import next_fast_len
@@ -688,17 +767,19 @@ def cross_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
     np.add.at(h, idx % n, 0.5 * p)
     np.add.at(h, (-idx) % n, 0.5 * np.conj(p))
     hf = np.fft.fft(h)
-    spec = _odd_orders(hf, kmax)
-    conv = np.fft.ifft(spec)
     top = kmax * imax
     f_bins = bin_hz * np.arange(1, top + 1)
+    if orders:
+        return f_bins, np.stack([2.0 * np.fft.ifft(hf ** k)[1:top + 1] for k in orders], axis=-1)
+    spec = _odd_orders(hf, kmax)
+    conv = np.fft.ifft(spec)
     if third:
         return f_bins, 2.0 * conv[1:top + 1], 2.0 * np.fft.ifft(hf * hf * hf)[1:top + 1]
     return f_bins, 2.0 * conv[1:top + 1]
 
 
 def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
-                      third: bool = False):
+                      third: bool = False, orders: tuple | None = None):
     """:func:`cross_convolutions` of many pairs at once, in real arithmetic.
 
     The two-sided cross-spectrum ``h`` of a pair is Hermitian (``h(-f) = conj h(f)``), so its
@@ -718,6 +799,10 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
     third : bool
         Also return the normalized cross-spectra of ``rho_ij^3`` alone (weight 1),
         ``p3_bins`` (bins, m), from the same transforms (the first-order kurtosis).
+    orders : tuple of int, optional
+        Instead, return the normalized cross-spectra of ``rho_ij^k`` for each ``k`` (weight
+        1): ``(f_bins, spectra (bins, m, len(orders)))`` (the non-Gaussian residuals' weights
+        differ per pair, section 3c).
 
     Returns
     -------
@@ -731,16 +816,17 @@ def pair_convolutions(freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
     p = np.asarray(cross_power, dtype=complex)
     rep, cols = _same_columns(p)
     if cols.size < p.shape[1]:  # a symmetric table's pairs repeat: each distinct one once
-        res = _pair_convolutions(freq_hz, p[:, cols], bin_hz, third)
+        res = _pair_convolutions(freq_hz, p[:, cols], bin_hz, third, orders)
         return (res[0], *(r[:, rep] for r in res[1:]))
-    return _pair_convolutions(freq_hz, p, bin_hz, third)
+    return _pair_convolutions(freq_hz, p, bin_hz, third, orders)
 
 
-def _pair_convolutions(freq_hz, p, bin_hz: float, third: bool = False):
+def _pair_convolutions(freq_hz, p, bin_hz: float, third: bool = False,
+                       orders: tuple | None = None):
     """:func:`pair_convolutions` of distinct pairs."""
     from scipy.fft import irfft, next_fast_len, rfft
 
-    kmax = max(DISTORTION_ORDERS)
+    kmax = max(orders) if orders else max(DISTORTION_ORDERS)
     idx, p = _bins(freq_hz, p, bin_hz)
     imax = int(idx.max())
     # no aliasing below the bins kept: the k-fold convolution spans +-kmax imax, so a
@@ -758,6 +844,10 @@ def _pair_convolutions(freq_hz, p, bin_hz: float, third: bool = False):
     # the zero bin (idx == 0) carries 0.5 p + 0.5 conj p in the two-sided grid
     half.imag[:, 0] = 0.0
     hf = n * irfft(half, n, axis=-1)
+    if orders:  # each order alone: (bins, m, orders)
+        spec = np.stack([hf ** k for k in orders], axis=1)  # (m, orders, n)
+        conv = np.conj(rfft(spec, axis=-1)[:, :, 1:keep + 1]) / n
+        return bin_hz * np.arange(1, keep + 1), 2.0 * np.transpose(conv, (2, 0, 1))
     spec = _odd_orders(hf, kmax)
     if third:
         spec = np.concatenate([spec, hf * hf * hf])
@@ -767,6 +857,80 @@ def _pair_convolutions(freq_hz, p, bin_hz: float, third: bool = False):
     if third:
         return f_bins, 2.0 * conv[:m].T, 2.0 * conv[m:].T
     return f_bins, 2.0 * conv.T
+
+
+class PairTransform:
+    """The pairs' normalized correlations ``rho_ij(tau)`` on one FFT period, from which any
+    weighted sum of their odd powers is transformed back (the non-Gaussian residuals, whose
+    weights are known only after the third order has given the kurtosis; section 3c).
+
+    The period is that of :data:`PERIOD_ORDER`: free of aliasing for the orders up to it,
+    and for the higher ones up to their mass beyond it, the ``k``-fold convolution of the
+    tube velocity's spectrum beyond ``PERIOD_ORDER`` times its highest line, which is below
+    1e-9 of the band powers here (``test_pair_transform_period``).
+
+    Parameters
+    ----------
+    freq_hz : ndarray (f,)
+        Line frequencies (> 0).
+    cross_power : complex ndarray (f, m)
+        ``E[u_i u_j*]`` per line and pair, divided by ``s_i s_j`` (one-sided).
+    bin_hz : float
+        Bin width.
+    period_order : int
+        The order whose convolution the period holds without aliasing.
+    """
+
+    def __init__(self, freq_hz, cross_power, bin_hz: float = DISTORTION_BIN_HZ,
+                 period_order: int | None = None):
+        from scipy.fft import irfft, next_fast_len
+
+        p = np.asarray(cross_power, dtype=complex)
+        self.rep, cols = _same_columns(p)
+        idx, q = _bins(freq_hz, p[:, cols], bin_hz)
+        imax = int(idx.max())
+        kmax = period_order or PERIOD_ORDER
+        keep = min(kmax * imax, math.ceil(DISTORTION_RANGE_FACTOR * imax) + 1)
+        n = next_fast_len(max(2 * imax + 2, kmax * imax + keep + 1), real=True)
+        m = q.shape[1]
+        nb = n // 2 + 1
+        flat = (idx[:, None] + nb * np.arange(m)[None, :]).ravel()
+        half = np.empty((m, nb), dtype=complex)
+        half.real = np.bincount(flat, weights=0.5 * q.real.ravel(),
+                                minlength=m * nb).reshape(m, nb)
+        half.imag = np.bincount(flat, weights=-0.5 * q.imag.ravel(),
+                                minlength=m * nb).reshape(m, nb)
+        half.imag[:, 0] = 0.0
+        self.hf = n * irfft(half, n, axis=-1)  # rho_ij(tau), real
+        self.n, self.keep = n, keep
+        self.f_bins = bin_hz * np.arange(1, keep + 1)
+
+    def spectra(self, weights, orders=NON_GAUSSIAN_ORDERS):
+        """``sum_k w_k,ij (rho_ij^k)``'s one-sided spectra, ``(bins, m)`` complex.
+
+        Parameters
+        ----------
+        weights : ndarray (len(orders),) or (m, len(orders))
+            Per pair (or for all) the weight of each order.
+        orders : tuple of int
+            Consecutive odd orders from 3.
+        """
+        from scipy.fft import rfft
+
+        m = self.rep.size
+        w = np.broadcast_to(np.asarray(weights, dtype=float), (m, len(orders)))
+        key = np.column_stack([self.rep, w])
+        uniq, inv = np.unique(key, axis=0, return_inverse=True)
+        h = self.hf[uniq[:, 0].astype(int)]
+        wu = uniq[:, 1:]
+        h2 = h * h
+        spec = np.repeat(wu[:, -1:], h.shape[1], axis=1)
+        for j in range(len(orders) - 2, -1, -1):  # Horner in h^2
+            spec *= h2
+            spec += wu[:, j:j + 1]
+        spec *= h2 * h
+        conv = np.conj(rfft(spec, axis=-1)[:, 1:self.keep + 1]) / self.n
+        return 2.0 * conv.T[:, np.ravel(inv)]
 
 
 def _same_columns(p, rtol: float = 1e-12):

@@ -732,13 +732,17 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     if group_rel is None:
         group_rel = DISTORTION_GROUP_REL
     from isodesign.response.distortion import (
+        _WEIGHTS,
+        DISTORTION_ORDERS,
         DISTORTION_RANGE_FACTOR,
+        NON_GAUSSIAN_ORDERS,
+        PairTransform,
         band_fractions,
         bin_groups,
         group_extents,
         minor_loss_coefficient,
-        pair_convolutions,
         table_kurtosis,
+        translation_coefficients,
     )
 
     model, grid = st.model, st.grid
@@ -769,7 +773,9 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     coeff = np.array([minor_loss_coefficient(d, model.flow) for d in model.designs])
     amp = coeff * s2  # (K rho/2) s^2 per isolator
     iu, ju = np.triu_indices(n)
-    fb, pij, p3ij = pair_convolutions(f_lines, cross[:, iu, ju] / (s[iu] * s[ju]), third=True)
+    orders = NON_GAUSSIAN_ORDERS if non_gaussian else DISTORTION_ORDERS
+    trans = PairTransform(f_lines, cross[:, iu, ju] / (s[iu] * s[ju]))
+    fb = trans.f_bins
     top = fb <= DISTORTION_RANGE_FACTOR * f_lines.max()
     f_bins = fb[top]
     # the sources' power summed over groups of bins, the response once per group
@@ -777,11 +783,8 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     f_edge = f_bins
     starts, f_bins = bin_groups(f_bins, np.concatenate([lo, hi]), group_rel)
     frac = band_fractions(*group_extents(f_edge, starts, fb[1] - fb[0]), lo, hi)
-    pij = np.add.reduceat(pij[: top.sum()], starts, axis=0)
-    p3ij = np.add.reduceat(p3ij[: top.sum()], starts, axis=0)
-    g_e = np.empty((f_bins.size, n, n), dtype=complex)
-    g_e[:, iu, ju] = (amp[iu] * amp[ju]) * pij
-    g_e[:, ju, iu] = np.conj(g_e[:, iu, ju])
+    p3ij = np.add.reduceat(trans.spectra(np.eye(len(orders))[0], orders)[: top.sum()], starts,
+                           axis=0)  # rho_ij^3's spectra on the groups (pairs)
     wb = 2.0 * math.pi * f_bins
     kb, _, net = _springs_at(st, wb, sigma, sigma_u)
     d_flat, _ = dynamic_stiffness(geo, kb, _bin_parts(st, wb)[1], wb)
@@ -794,7 +797,15 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     ut[:, np.arange(n), np.arange(n)] += np.stack([net[i][2] for i in range(n)], axis=-1)
     ends = np.stack([net[i][3] for i in range(n)], axis=-1)
     kurt1, kurt, gain, res = table_kurtosis(p3ij, ut, amp, s, iu, ju, non_gaussian)
-    g_e *= np.sqrt(res[:, None] * res[None, :])[None, :, :]
+    # the residuals' cross-spectra: sum_k k! a_k,i a_k,j (rho_ij^k) (translation processes)
+    a_k = translation_coefficients(kurt, orders)  # (n, orders)
+    fact = np.array([math.factorial(k) for k in orders], dtype=float)
+    w_pair = fact * a_k[iu] * a_k[ju]  # (pairs, orders)
+    res = (fact * a_k * a_k).sum(axis=1) / sum(_WEIGHTS.values())
+    g_e = np.empty((f_bins.size, n, n), dtype=complex)
+    pij = np.add.reduceat(trans.spectra(w_pair, orders)[: top.sum()], starts, axis=0)
+    g_e[:, iu, ju] = (amp[iu] * amp[ju]) * pij
+    g_e[:, ju, iu] = np.conj(g_e[:, iu, ju])
 
     def power(h):  # diag(H G_e H^H) per frequency: (f, r)
         return np.real(np.einsum("fri,fij,frj->fr", h, g_e, h.conj(), optimize=False))

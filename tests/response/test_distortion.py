@@ -326,9 +326,11 @@ def test_pair_convolutions_match_the_complex_path():
 
 def test_table_distortion_matches_the_per_pair_reference():
     """The built-in table's distortion figures (band mean squares, stroke and tube velocity
-    variances) with the batched convolutions and the shared bin springs, against the
-    previous per-isolator, per-pair evaluation kept here, every bin alone (``group_rel=0``):
-    within 1e-9 relative."""
+    variances) with the batched real transforms (:class:`PairTransform`, a period free of
+    aliasing to order 5 only) and the shared bin springs, against a per-pair complex
+    evaluation kept here on a period free of aliasing for every order (to 11), every bin
+    alone (``group_rel=0``): within 1e-9 relative (the higher orders' aliasing is below it,
+    docs/random-response.md 3c)."""
     from isodesign.optimization.study import table_study
     from isodesign.response.distortion import DISTORTION_RANGE_FACTOR, cross_convolutions
     from isodesign.table import response as tr
@@ -344,25 +346,31 @@ def test_table_distortion_matches_the_per_pair_reference():
     sigma, sigma_u, _ = tr.solve_table_closure(st)
     new = tr.table_distortion(st, sigma, sigma_u, group_rel=0)
 
-    # the previous path: cross_convolutions pair by pair (complex FFTs), fresh bin springs
+    # the reference path: cross_convolutions pair by pair (complex FFTs on a period free of
+    # aliasing for every order, 11 included), fresh bin springs
     calls = []
-
-    def per_pair(f_lines, cross, third=False):
-        calls.append(cross.shape[1])
-        cols = [cross_convolutions(f_lines, cross[:, q], third=third)
-                for q in range(cross.shape[1])]
-        return (cols[0][0], *(np.stack([c[r] for c in cols], axis=-1)  # every bin
-                              for r in range(1, len(cols[0]))))
-
     import isodesign.response.distortion as dmod
 
-    saved = dmod.pair_convolutions
+    class PerPair:
+        def __init__(self, f_lines, cross, bin_hz=dmod.DISTORTION_BIN_HZ):
+            calls.append(cross.shape[1])
+            self.f_lines, self.cross = f_lines, cross
+            self.f_bins = cross_convolutions(f_lines, cross[:, 0])[0]
+
+        def spectra(self, weights, orders=dmod.NON_GAUSSIAN_ORDERS):
+            m = self.cross.shape[1]
+            w = np.broadcast_to(np.asarray(weights, float), (m, len(orders)))
+            cols = [cross_convolutions(self.f_lines, self.cross[:, q], orders=orders)[1] @ w[q]
+                    for q in range(m)]
+            return np.stack(cols, axis=1)
+
+    saved = dmod.PairTransform
     try:
-        dmod.pair_convolutions = per_pair
+        dmod.PairTransform = PerPair
         old = tr.table_distortion(tr.TableStatistical(model, grid), sigma, sigma_u,
                                   group_rel=0)
     finally:
-        dmod.pair_convolutions = saved
+        dmod.PairTransform = saved
     n = model.n_isolators
     assert calls == [n * (n + 1) // 2]
     assert DISTORTION_RANGE_FACTOR == 1.5
@@ -394,10 +402,10 @@ def test_table_band_response_with_distortion_matches_the_previous_solve():
                                  points_per_band=20, warn=False, distortion=True, **kw)
     import isodesign.response.distortion as dmod
 
-    def per_pair(f_lines, cross, third=False):
-        cols = [cross_convolutions(f_lines, cross[:, q], third=third)
+    def per_pair(f_lines, cross, third=False, orders=None):
+        cols = [cross_convolutions(f_lines, cross[:, q], third=third, orders=orders)
                 for q in range(cross.shape[1])]
-        return (cols[0][0], *(np.stack([c[r] for c in cols], axis=-1)
+        return (cols[0][0], *(np.stack([c[r] for c in cols], axis=1)
                               for r in range(1, len(cols[0]))))
 
     model = tr.table_model(d, table, **kw)
@@ -545,10 +553,10 @@ def test_bin_width_is_a_discretization(monkeypatch):
                          target=tr.resolve_target(ts.target))
     st = tr.TableStatistical(model, grid)
     sigma, sigma_u, _ = tr.solve_table_closure(st)
-    base = dmod.pair_convolutions
+    base = dmod.PairTransform
     res = {}
     for h in (0.05, 0.025, 0.00625):
-        monkeypatch.setattr(dmod, "pair_convolutions", functools.partial(base, bin_hz=h))
+        monkeypatch.setattr(dmod, "PairTransform", functools.partial(base, bin_hz=h))
         res[h] = tr.table_distortion(st, sigma, sigma_u)
     ref = res[0.00625]
 
@@ -649,3 +657,33 @@ def test_gain_shift_scales_the_minor_loss_equivalent():
     friction = c_q - c_w
     np.testing.assert_allclose(c_q + minor_loss_gain_shift(REF, s, g), friction + g * c_w,
                                rtol=1e-12)
+
+
+def test_translation_coefficients():
+    """The translation process's Hermite coefficients (section 3c): at kurtosis 3 the
+    Gaussian ``c_k``; below, the order 3 falls, the orders 7-11 rise and every order above 3
+    exceeds its Gaussian weight; their weights
+    ``k! a_k^2`` sum, with the order-1 part and the tail beyond 11, to the generalized
+    Gaussian's residual variance ``kurtosis - (E|x|^3)^2`` (orders to 11 hold at least 97 %
+    of it down to kurtosis 2.05)."""
+    from isodesign.response.distortion import (
+        generalized_gaussian_moments,
+        translation_coefficients,
+    )
+
+    ks = (3, 5, 7, 9, 11)
+    fact = np.array([math.factorial(k) for k in ks], dtype=float)
+    np.testing.assert_allclose(translation_coefficients(3.0, ks),
+                               [abs_square_hermite_coefficient(k) for k in ks], rtol=1e-12)
+    gauss = prev = fact * translation_coefficients(2.999999, ks) ** 2
+    for kap in (2.5, 2.4, 2.2, 2.05):
+        w = fact * translation_coefficients(kap, ks) ** 2
+        assert w[0] < prev[0] and np.all(w[2:] > prev[2:]) and np.all(w[1:] > gauss[1:])
+        a1 = translation_coefficients(kap, (1,))[0]
+        res = generalized_gaussian_moments(kap)[2]
+        assert 0.97 * res < w.sum() + a1 * a1 <= res
+        prev = w
+    # the odd orders' translation map at each node is the quadrature's: vectorized = scalar
+    np.testing.assert_allclose(translation_coefficients(np.array([2.4, 2.2]), ks),
+                               [translation_coefficients(2.4, ks),
+                                translation_coefficients(2.2, ks)], rtol=1e-12)
