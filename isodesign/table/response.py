@@ -76,8 +76,8 @@ TABLE_RANDOM_METHODS = ("statistical", "equivalent_amplitude", "rayleigh")
 
 #: What a table result with the distortion power says.
 DISTORTION_NOTE = ("distortion power: each tube's residual of the statistical linearization "
-                   "(Hermite orders 3 and 5) added as a source, its power and the minor "
-                   "loss's gain at the tube velocity's predicted kurtosis")
+                   "(Hermite orders 3-11 of a translation process) added as a source, it and "
+                   "the minor loss's gain at the tube velocity's predicted kurtosis")
 
 
 class TableStatistical:
