@@ -346,10 +346,10 @@ def distortion_power(design, flow, freq_hz, tube_power, state_at, mass_kg,
             gains = (np.abs(x_dp) ** 2, np.abs(u_dp) ** 2 * ends, u_dp)
         a3 = coeff * s2 * abs_square_hermite_coefficient(3)
         kurt1 = tube_kurtosis(a3, math.sqrt(s2), gains[2], p3)
-        kurt, gain_ratio = 3.0, 1.0
+        kurt, gain_ratio, beta = 3.0, 1.0, 2.0
         if non_gaussian:
-            kurt, gain_ratio, _ = non_gaussian_factors(kurt1)
-        a_k = translation_coefficients(kurt, orders)
+            kurt, gain_ratio, _, beta = non_gaussian_factors(kurt1)
+        a_k = translation_coefficients(kurt, orders, beta)
         weights = np.array([math.factorial(k) for k in orders]) * a_k * a_k
         res_ratio = float(weights.sum()) / sum(_WEIGHTS.values())
         shape = np.add.reduceat(tr.spectra(weights, orders)[:, 0].real[top], starts)
@@ -627,17 +627,24 @@ class PairTransform:
         from scipy.fft import rfft
 
         m = self.rep.size
-        w = np.broadcast_to(np.asarray(weights, dtype=float), (m, len(orders)))
-        key = np.column_stack([self.rep, w])
-        uniq, inv = np.unique(key, axis=0, return_inverse=True)
-        h = self.hf[uniq[:, 0].astype(int)]
-        wu = uniq[:, 1:]
+        w = np.asarray(weights, dtype=float)
+        if w.ndim == 1:  # one weight row for all: the distinct correlations
+            h, wu, inv = self.hf, np.broadcast_to(w, (self.hf.shape[0], w.size)), self.rep
+        else:  # each distinct (correlation, weights) once
+            key = np.column_stack([self.rep, np.broadcast_to(w, (m, len(orders)))])
+            uniq, inv = np.unique(key, axis=0, return_inverse=True)
+            h = self.hf[uniq[:, 0].astype(int)]
+            wu = uniq[:, 1:]
+        nz = np.flatnonzero(np.any(wu != 0.0, axis=0))
+        top = int(nz[-1]) + 1 if nz.size else 1  # the highest order weighted
         h2 = h * h
-        spec = np.repeat(wu[:, -1:], h.shape[1], axis=1)
-        for j in range(len(orders) - 2, -1, -1):  # Horner in h^2
-            spec *= h2
-            spec += wu[:, j:j + 1]
-        spec *= h2 * h
+        spec = h2 * h  # h^3
+        if top > 1 or np.any(wu[:, 0] != 1.0):
+            acc = np.repeat(wu[:, top - 1:top], h.shape[1], axis=1)
+            for j in range(top - 2, -1, -1):  # Horner in h^2
+                acc *= h2
+                acc += wu[:, j:j + 1]
+            spec *= acc
         conv = np.conj(rfft(spec, axis=-1)[:, 1:self.keep + 1]) / self.n
         return 2.0 * conv.T[:, np.ravel(inv)]
 

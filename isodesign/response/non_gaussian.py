@@ -11,6 +11,7 @@ the validity flag (:func:`kurtosis_flag`). NumPy.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -44,6 +45,7 @@ def _abs_moment(m: int) -> float:
     return 2.0 ** (m / 2) * math.gamma((m + 1) / 2) / math.sqrt(math.pi)
 
 
+@functools.lru_cache(maxsize=64)
 def abs_square_hermite_coefficient(k: int) -> float:
     """``c_k = E[|x| x He_k(x)] / k!`` for a standard Gaussian ``x`` (0 for even ``k``).
 
@@ -141,7 +143,7 @@ _GH_ZP, _GH_WP = _GH_Z[48:], 2.0 * _GH_W[48:]
 _HE_AT_NODES: dict = {}
 
 
-def translation_coefficients(kurtosis, orders=NON_GAUSSIAN_ORDERS):
+def translation_coefficients(kurtosis, orders=NON_GAUSSIAN_ORDERS, beta=None):
     """The Hermite coefficients of the residual of a non-Gaussian tube velocity.
 
     The tube velocity is taken as a translation process, ``x = F(z)``, ``z`` standard
@@ -159,6 +161,9 @@ def translation_coefficients(kurtosis, orders=NON_GAUSSIAN_ORDERS):
         The tube velocities' kurtosis.
     orders : tuple of int
         The odd orders ``k``.
+    beta : float or ndarray, optional
+        The generalized Gaussian's shape at ``kurtosis``, if known
+        (:func:`generalized_gaussian_moments`).
 
     Returns
     -------
@@ -169,7 +174,9 @@ def translation_coefficients(kurtosis, orders=NON_GAUSSIAN_ORDERS):
     from scipy.special import gammainccinv, gammaln, ndtr
 
     kap = np.atleast_1d(np.asarray(kurtosis, dtype=float))
-    beta = np.atleast_1d(generalized_gaussian_moments(kap)[0])[:, None]
+    if beta is None:
+        beta = generalized_gaussian_moments(kap)[0]
+    beta = np.atleast_1d(np.asarray(beta, dtype=float))[:, None]
     # F(z), z > 0: the generalized Gaussian's quantile at the standard normal's probability,
     # by its upper tail (P(X > x) = Q(1/beta, (x/a)^beta) / 2); F is odd
     x = np.exp(0.5 * (gammaln(1.0 / beta) - gammaln(3.0 / beta))) * gammainccinv(
@@ -292,13 +299,13 @@ def non_gaussian_factors(kurtosis_first_order):
 
     Returns
     -------
-    kurtosis, gain_ratio, residual_ratio : float or ndarray
-        The resummed kurtosis, ``E|x|^3 / sqrt(8/pi)`` and ``(kurtosis - (E|x|^3)^2) /
-        (3 - 8/pi)``.
+    kurtosis, gain_ratio, residual_ratio, beta : float or ndarray
+        The resummed kurtosis, ``E|x|^3 / sqrt(8/pi)``, ``(kurtosis - (E|x|^3)^2) /
+        (3 - 8/pi)`` and the generalized Gaussian's shape.
     """
     kurt = resummed_kurtosis(kurtosis_first_order)
-    _, gain, res = generalized_gaussian_moments(kurt)
-    return kurt, gain / math.sqrt(8.0 / math.pi), res / GAUSSIAN_RESIDUAL
+    beta, gain, res = generalized_gaussian_moments(kurt)
+    return kurt, gain / math.sqrt(8.0 / math.pi), res / GAUSSIAN_RESIDUAL, beta
 
 
 def kurtosis_flag(first_order, kurtosis, where: str = "") -> list[str]:
@@ -333,7 +340,7 @@ def kurtosis_flag(first_order, kurtosis, where: str = "") -> list[str]:
 
 def table_kurtosis(p3ij, ut, amp, s, iu, ju, on: bool = True):
     """Per isolator of a table: ``(first-order kurtosis, kurtosis, gain_ratio,
-    residual_ratio)`` (arrays (n,)).
+    residual_ratio, beta)`` (arrays (n,); :func:`non_gaussian_factors`).
 
     ``E[u_L,i^3 u_e,i] = 6 s_i^3 sum_j A_j Re sum_f P3_ij conj(H_ij)`` (Mehler, the residual
     ``e_j = A_j He_3(x_j) + ...``, ``A_j = (K rho_j/2) s_j^2 c_3``, ``H_ij`` isolator ``i``'s
@@ -365,6 +372,5 @@ def table_kurtosis(p3ij, ut, amp, s, iu, ju, on: bool = True):
     kurt1 = 3.0 + 24.0 / s * (corr @ a3)
     ones = np.ones(n)
     if not on:
-        return kurt1, 3.0 * ones, ones, ones
-    kurt, gain, res = non_gaussian_factors(kurt1)
-    return kurt1, kurt, gain, res
+        return kurt1, 3.0 * ones, ones, ones, 2.0 * ones
+    return (kurt1, *non_gaussian_factors(kurt1))

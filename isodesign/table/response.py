@@ -796,9 +796,9 @@ def table_distortion(st: TableStatistical, sigma, sigma_u,
     ut = np.stack([net[i][1] for i in range(n)], axis=-1)[:, :, None] * x
     ut[:, np.arange(n), np.arange(n)] += np.stack([net[i][2] for i in range(n)], axis=-1)
     ends = np.stack([net[i][3] for i in range(n)], axis=-1)
-    kurt1, kurt, gain, res = table_kurtosis(p3ij, ut, amp, s, iu, ju, non_gaussian)
+    kurt1, kurt, gain, res, beta = table_kurtosis(p3ij, ut, amp, s, iu, ju, non_gaussian)
     # the residuals' cross-spectra: sum_k k! a_k,i a_k,j (rho_ij^k) (translation processes)
-    a_k = translation_coefficients(kurt, orders)  # (n, orders)
+    a_k = translation_coefficients(kurt, orders, beta)  # (n, orders)
     fact = np.array([math.factorial(k) for k in orders], dtype=float)
     w_pair = fact * a_k[iu] * a_k[ju]  # (pairs, orders)
     res = (fact * a_k * a_k).sum(axis=1) / sum(_WEIGHTS.values())
