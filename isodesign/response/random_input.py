@@ -122,6 +122,9 @@ class _Statistical:
         self.offset = (0.0, 0.0)
         #: the distortion bins' ``sigma_u -> C`` (computed once, :func:`_distortion_at`)
         self.bin_c_of = None
+        #: the inner (tube) closure's last slope, for a first Newton step (None: the
+        #: fixed-point step; set for the closure solved again with the distortion)
+        self.tube_slope = None
         #: the minor loss's equivalent gain over the Gaussian ``sqrt(8/pi)`` (1: Gaussian;
         #: the non-Gaussian correction of the distortion, docs/random-response.md 3c)
         self.gain_ratio = 1.0
@@ -167,12 +170,15 @@ class _Statistical:
             cache[y] = (s2, k)
             return _Eval(y, 0.5 * math.log(su2), k, None)
 
-        e, n, _ = _random_closure(ev, y0, rtol, max_iter)
+        e, n, slope = _random_closure(ev, y0, rtol, max_iter, self.tube_slope)
+        if self.tube_slope is not None and slope is not None:
+            self.tube_slope = slope  # the next inner solve starts with Newton's step
         s2, k = cache[e.log_sigma_in]
         return e.log_sigma_in, s2, k, n
 
 
-def _statistical_closure(st: _Statistical, x0: float, y0: float, rtol: float, max_iter: int):
+def _statistical_closure(st: _Statistical, x0: float, y0: float, rtol: float, max_iter: int,
+                         slope0: float | None = None):
     """Nested closure: the stroke RMS outside (secant), the tube velocity RMS inside.
 
     Returns ``(ln sigma, ln sigma_u, k, evaluations, slope)``.
@@ -187,7 +193,7 @@ def _statistical_closure(st: _Statistical, x0: float, y0: float, rtol: float, ma
         memo[x] = (y, k)
         return _Eval(x, 0.5 * math.log(s2), k, None)
 
-    ev, _, slope = _random_closure(evaluate, x0, rtol, max_iter)
+    ev, _, slope = _random_closure(evaluate, x0, rtol, max_iter, slope0)
     y, k = memo[ev.log_sigma_in]
     return ev.log_sigma_in, y, k, state["n"], slope
 
@@ -214,7 +220,8 @@ def _distortion_at(st: _Statistical, sigma: float, sigma_u: float):
                             edges_hz=edges)
 
 
-def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter: int):
+def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter: int,
+                     slope: float | None = None):
     """The closure with the distortion power added to its variances: one pass of the
     distortion at the plain closure's state, the closure solved again with it (from there),
     and the distortion at the new state. Returns ``(x, y, DistortionPower, evaluations)``."""
@@ -224,13 +231,15 @@ def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter
     # start one fixed-point step on: the plain closure's variances plus the distortion's
     x = 0.5 * math.log(math.exp(2.0 * x) + dist.stroke_variance)
     y = 0.5 * math.log(math.exp(2.0 * y) + dist.tube_velocity_variance)
-    x, y, _, n, _ = _statistical_closure(st, x, y, rtol, max_iter)
+    st.tube_slope = 0.0  # inner solves from a Newton step once a slope is known
+    x, y, _, n, _ = _statistical_closure(st, x, y, rtol, max_iter, slope)
     dist = _distortion_at(st, math.exp(x), math.exp(y))
     st.offset = (dist.stroke_variance, dist.tube_velocity_variance)
     return x, y, dist, n
 
 
-def _random_closure(evaluate, x0: float, rtol: float, max_iter: int):
+def _random_closure(evaluate, x0: float, rtol: float, max_iter: int,
+                    slope0: float | None = None):
     """Secant (then Brent) on ``g(x) = ln sigma_new(e^x) - x``; returns (eval, n, slope)."""
     hist: list[_Eval] = []
 
@@ -242,7 +251,12 @@ def _random_closure(evaluate, x0: float, rtol: float, max_iter: int):
     x_prev, g_prev = x0, g(x0)
     if abs(g_prev) <= rtol:
         return hist[-1], len(hist), None
-    x, gx = x_prev + g_prev, None  # first step: the fixed-point iteration
+    # first step: the fixed-point iteration, or Newton's with a known slope of the map
+    # (a closure solved again from a nearby one's solution, its slope)
+    step0 = g_prev
+    if slope0 is not None and math.isfinite(slope0) and slope0 < 0.9:
+        step0 = max(-2.0, min(2.0, g_prev / (1.0 - slope0)))
+    x, gx = x_prev + step0, None
     gx = g(x)
     for _ in range(max_iter):
         if abs(gx) <= rtol:
@@ -505,6 +519,8 @@ def band_response(
         # with the distortion, the plain closure only as close as the distortion evaluated
         # there needs: the closure with it, the one reported, is solved to rtol
         rtol0 = max(rtol, DISTORTION_FIRST_RTOL) if distortion else rtol
+        if distortion:  # the inner solves start with Newton's step once a slope is known
+            st.tube_slope = 0.0
         try:
             x, y, _, n_it, slope = _statistical_closure(st, x0, y0, rtol0, int(max_iter))
         except SolverError as exc:
@@ -513,7 +529,7 @@ def band_response(
             warnings.warn(f"band_response: {exc}", ModelValidityWarning, stacklevel=2)
             converged, x, y, n_it = False, x0, y0, int(max_iter)
         if distortion:
-            x, y, dist, n_more = _with_distortion(st, x, y, rtol, int(max_iter))
+            x, y, dist, n_more = _with_distortion(st, x, y, rtol, int(max_iter), slope)
             n_it += n_more
         res, lines = _result_at(model, payload, grid, fl.name, tg.name, random_method,
                                 (math.exp(x), math.exp(y)), n_it, converged, slope, warn,
