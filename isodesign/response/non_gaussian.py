@@ -36,7 +36,7 @@ __all__ = [
 #: power ``(3 - 8/pi) s^4``; the orders >= 7, left out, carry the other 1.7 %).
 DISTORTION_ORDERS = (3, 5)
 #: The Hermite orders of the non-Gaussian residual (section 3c): its translation-process
-#: expansion moves power from order 3 to the higher ones (orders 3-11 hold 97-99 % of it).
+#: expansion moves power from order 3 to the higher ones (orders 3-11 hold 95-99 % of it).
 NON_GAUSSIAN_ORDERS = (3, 5, 7, 9, 11)
 
 

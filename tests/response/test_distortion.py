@@ -674,7 +674,7 @@ def test_translation_coefficients():
     Gaussian ``c_k``; below, the order 3 falls, the orders 7-11 rise and every order above 3
     exceeds its Gaussian weight; their weights
     ``k! a_k^2`` sum, with the order-1 part and the tail beyond 11, to the generalized
-    Gaussian's residual variance ``kurtosis - (E|x|^3)^2`` (orders to 11 hold at least 97 %
+    Gaussian's residual variance ``kurtosis - (E|x|^3)^2`` (with the order-1 part, orders to 11 hold at least 97 %
     of it down to kurtosis 2.05)."""
     from isodesign.response.distortion import (
         generalized_gaussian_moments,
@@ -693,7 +693,56 @@ def test_translation_coefficients():
         res = generalized_gaussian_moments(kap)[2]
         assert 0.97 * res < w.sum() + a1 * a1 <= res
         prev = w
+    # the figures docs/random-response.md 3c quotes
+    from pathlib import Path
+
+    flat = " ".join((Path(__file__).parents[2] / "docs" / "random-response.md")
+                    .read_text("utf-8").split())
+    w24 = fact * translation_coefficients(2.4, ks) ** 2
+    g3 = fact * translation_coefficients(3.0, ks) ** 2
+    fmt = lambda w: ", ".join(f"{v:.2g}" if v < 0.01 else f"{v:.3f}" for v in w)  # noqa: E731
+    assert f"weights of orders 3, 5, 7, 9, 11 are {fmt(w24)} (Gaussian {fmt(g3)})" in flat
+    r24 = generalized_gaussian_moments(2.4)[2] / (3 - 8 / math.pi)
+    assert f"the residual's total falls to {100 * r24:.0f} %" in flat
+    share = {k: (fact * translation_coefficients(k, ks) ** 2).sum()
+             / generalized_gaussian_moments(k)[2] for k in (2.2, 2.5, 2.05)}
+    assert (f"hold {100 * share[2.2]:.0f}-{100 * share[2.5]:.0f} % of the residual variance at "
+            f"kurtosis 2.2-2.5, {100 * share[2.05]:.0f} % at 2.05") in flat
     # the odd orders' translation map at each node is the quadrature's: vectorized = scalar
     np.testing.assert_allclose(translation_coefficients(np.array([2.4, 2.2]), ks),
                                [translation_coefficients(2.4, ks),
                                 translation_coefficients(2.2, ks)], rtol=1e-12)
+
+
+def test_kurtosis_saturates_as_quoted():
+    """docs/random-response.md 3c quotes the reference spring's predicted kurtosis on 1, 4,
+    16 and 64 times VC-A and the first-order estimate at 64x: recomputed here (to the
+    quoted two decimals)."""
+    from pathlib import Path
+
+    from isodesign.floor import FloorSpectrum
+
+    page = (Path(__file__).parents[2] / "docs" / "random-response.md").read_text("utf-8")
+    flat = " ".join(page.split())
+    vca = FloorSpectrum.from_criterion("VC-A")
+    kw = {"flow": "quasi_steady", "diaphragm": "none", "distortion": True, "warn": False}
+    seen = []
+    import isodesign.response.random_input as ri
+
+    orig = ri._distortion_at
+
+    def spy(*args):
+        seen.append(orig(*args))
+        return seen[-1]
+
+    kap = {}
+    try:
+        ri._distortion_at = spy
+        for f in (1, 4, 16, 64):
+            fl = FloorSpectrum.from_band_rms(vca.bands, f * vca.band_rms_velocity(), name="x")
+            kap[f] = band_response(REF, P, fl, "VC-E", **kw).distortion_kurtosis
+    finally:
+        ri._distortion_at = orig
+    assert (f"predicted kurtosis is {kap[1]:.2f} on VC-A, {kap[4]:.2f} on 4x VC-A, "
+            f"{kap[16]:.2f} on 16x and {kap[64]:.2f} on 64x") in flat
+    assert f"({seen[-1].kurtosis_first_order:.2f} for the reference spring at 64x VC-A)" in flat
