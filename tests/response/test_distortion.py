@@ -672,10 +672,10 @@ def test_gain_shift_scales_the_minor_loss_equivalent():
 def test_translation_coefficients():
     """The translation process's Hermite coefficients (section 3c): at kurtosis 3 the
     Gaussian ``c_k``; below, the order 3 falls, the orders 7-11 rise and every order above 3
-    exceeds its Gaussian weight; their weights
-    ``k! a_k^2`` sum, with the order-1 part and the tail beyond 11, to the generalized
-    Gaussian's residual variance ``kurtosis - (E|x|^3)^2`` (with the order-1 part, orders to 11 hold at least 97 %
-    of it down to kurtosis 2.05)."""
+    exceeds its Gaussian weight; their weights ``k! a_k^2`` sum, with the order-1 part and
+    the tail beyond 11, to the generalized Gaussian's residual variance
+    ``kurtosis - (E|x|^3)^2`` (with the order-1 part, the orders to 11 hold at least 97 % of
+    it down to kurtosis 2.05)."""
     from isodesign.response.distortion import (
         generalized_gaussian_moments,
         translation_coefficients,
