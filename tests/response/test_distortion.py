@@ -309,6 +309,16 @@ def test_section_3a_to_3c_sentences_summarize_their_tables():
             f"product's distortion to {gd[2]} (worst {cell(gd)[0]:+.2f} dB at "
             f"{cell(gd)[1]},") in flat
     assert int(gd[2]) < int(gg[2]) < int(g0[2])
+    # docs/table-monte-carlo.md repeats the table's figures
+    from pathlib import Path
+
+    tmc = " ".join((Path(__file__).parents[2] / "docs" / "table-monte-carlo.md")
+                   .read_text("utf-8").split())
+    g_first = max(num(c) for c in trip[0][1][2:5])
+    assert f"above the simulation ({g_first:+.2f} dB," in tmc
+    assert f"overshoots on 4x VC-A ({max(num(c) for c in g4r[2:5]):+.2f} dB)" in tmc
+    assert (f"by up to {abs(cell(g0)[0]):.1f} dB ({g0[2]} of 2160 cells beyond 0.3 dB), "
+            f"{gd[2]} cells stay beyond 0.3 dB ({cell(gd)[0]:+.2f} dB at worst)") in tmc
     k_vca = np.concatenate([vec(p[7].split(" / ")[1]) for p, _, _ in vca])
     assert f"kurtosis {k_vca.min():.1f}-{k_vca.max():.1f} on VC-A" in flat
     k4 = vec(p4[7].split(" / ")[1])
