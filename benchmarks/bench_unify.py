@@ -65,7 +65,7 @@ if arm.endswith("-old"):
         from isodesign.optimization.driver import optimize as run
         study = default_study()
     else:
-        from isodesign.table.optimize import optimize_table as run
+        from isodesign.optimization.table_driver import optimize_table as run
         study = table_study()
 else:
     from isodesign import optimize as run

@@ -1,7 +1,7 @@
 """Robust design of a table study (six degrees of freedom): scenarios stacked, exchange.
 
 The same layer as :mod:`.robust` and :mod:`.exchange`, on the table NLP
-(:class:`isodesign.table.problem.TableProblem`): every scenario is the table study under
+(:class:`.table_problem.TableProblem`): every scenario is the table study under
 that scenario's payload mass, centre-of-gravity offset (``cg_offset_x_m``,
 ``cg_offset_y_m``), temperature, and the built spring's tolerances
 (:class:`.uncertainty.ScenarioStudy`), its own TableProblem (the leveling pressures and
@@ -30,10 +30,10 @@ from isodesign.errors import InputError
 from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+from isodesign.optimization.table_constraints import table_constraint_reports
+from isodesign.optimization.table_driver import _modes_at, optimize_table
+from isodesign.optimization.table_problem import TableProblem
 from isodesign.optimization.table_scenario import table_scenario
-from isodesign.table.constraint_table import table_constraint_reports
-from isodesign.table.optimize import _modes_at, optimize_table
-from isodesign.table.problem import TableProblem
 
 __all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "robust_optimize_table",
            "table_scenario", "table_sensitivities"]

@@ -53,6 +53,12 @@ import numpy as np
 
 from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
+from isodesign.optimization.loop_rows import (
+    LOOP_MARGIN_EPS,
+    LOOP_POLES_MIMO,
+    frozen_poles,
+    loop_rows,
+)
 from isodesign.optimization.problem import (
     CONSTRAINT_VIOLATION_TOL,
     EPIGRAPH_BOUND,
@@ -82,7 +88,6 @@ from isodesign.table.lever_geometry import (
     lever_stiffness,
     vertical_vectors,
 )
-from isodesign.table.loop_rows import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, frozen_poles, loop_rows
 from isodesign.table.statics import level
 
 __all__ = ["DAMPED_MODE_LIMIT_HZ", "LOOP_MARGIN_EPS", "LOOP_POLES_MIMO", "PEAK_ROWS_MAX_HZ",
@@ -428,7 +433,7 @@ class TableProblem:
                     start = next(lv.start for lv in st.levers if lv.name == name)
                     vals.append(X(0.0 if start is None else start))
         if self.grouped:  # each group's four: its free lever, its own value, or the shared
-            from isodesign.table.lever_nlp import group_values
+            from isodesign.optimization.lever_nlp import group_values
 
             vals += group_values(self, ca, z[nzs:], vals)
         v = ca.vertcat(*vals)
@@ -636,9 +641,9 @@ class TableProblem:
                 out.append(("max_rocking_frequency_hz", ca.vertcat(*hi_rows), 0.0, np.inf))
         return out
 
-    # -- the leveling loop's gain margin (isodesign.table.loop_rows) -------------------
+    # -- the leveling loop's gain margin (isodesign.optimization.loop_rows) -------------------
     def _loop_rows(self, ca, v, p_loop) -> list:
-        """The gain-margin rows (:func:`~isodesign.table.loop_rows.loop_rows`)."""
+        """The gain-margin rows (:func:`~isodesign.optimization.loop_rows.loop_rows`)."""
         return loop_rows(self, ca, v, p_loop)
 
     def clear_loop(self) -> None:
@@ -647,7 +652,7 @@ class TableProblem:
 
     def set_loop(self, d) -> None:
         """Freeze the leveling loop's gain-margin rows at design ``d``'s poles
-        (:func:`~isodesign.table.loop_rows.frozen_poles`).
+        (:func:`~isodesign.optimization.loop_rows.frozen_poles`).
 
         Parameters
         ----------
@@ -820,14 +825,14 @@ class TableProblem:
 
     def lever_sensitivities(self, x: np.ndarray) -> tuple:
         """The re-optimized sensitivity of the worst margin to each free lever's bounds
-        (:func:`~isodesign.table.lever_nlp.lever_sensitivities`).
+        (:func:`~isodesign.optimization.lever_nlp.lever_sensitivities`).
 
         Parameters
         ----------
         x : ndarray
             The optimum.
         """
-        from isodesign.table.lever_nlp import lever_sensitivities
+        from isodesign.optimization.lever_nlp import lever_sensitivities
 
         return lever_sensitivities(self, x)
 
