@@ -28,6 +28,7 @@ import numpy as np
 
 from isodesign.errors import InputError
 from isodesign.optimization.hessian import hessian_choice
+from isodesign.optimization.nlp import EPIGRAPH_BOUND
 from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.table_constraints import table_constraint_reports
@@ -161,8 +162,8 @@ def _stack(probs, study):
                        {"x": x, "f": t, "g": g, "p": ca.vertcat(*ps)}, p0.ipopt_options())
     bounds = {"lbg": np.concatenate([*lbg, np.full(len(probs), -np.inf)]),
               "ubg": np.concatenate([*ubg, np.zeros(len(probs))]),
-              "lbx": np.concatenate([p0.lbx[:nz], *lbx, [-300.0]]),
-              "ubx": np.concatenate([p0.ubx[:nz], *ubx, [300.0]])}
+              "lbx": np.concatenate([p0.lbx[:nz], *lbx, [-EPIGRAPH_BOUND]]),
+              "ubx": np.concatenate([p0.ubx[:nz], *ubx, [EPIGRAPH_BOUND]])}
     return solver, bounds
 
 
