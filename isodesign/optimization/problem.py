@@ -178,6 +178,15 @@ def derivative_functions(nlp, threads: bool = True, hessian: bool = True) -> dic
 class Problem(NLP):
     """The NLP of a study, built once and solved from many starts.
 
+    ``Problem(study)`` builds every study's NLP on the one machinery of :mod:`.nlp`; the
+    study picks the body. A study without ``[table]`` (the symmetric table of its
+    ``[payload]``) gets this class's body, the exact z reduction of the table model
+    (docs/table.md, section 14): one spring, its payload share, the vertical response;
+    a study with ``[table]`` gets the six-degree-of-freedom assembly,
+    :class:`~isodesign.optimization.table_problem.TableProblem` (``Problem(study,
+    objectives, hessian=..., peak_slots=...)`` passes its options on), so no study is
+    answered by the other body.
+
     The objective is parametric, so that one built solver serves the main
     solve, the flat-direction tie-break and a Pareto sweep::
 
@@ -202,6 +211,14 @@ class Problem(NLP):
     extra_peak_hz : tuple of float
         Fixed frequencies added to the peak grid.
     """
+
+    def __new__(cls, study=None, *args, **kwargs):
+        # study=None: a copy (copy.copy calls __new__ without arguments)
+        if cls is Problem and getattr(study, "table", None) is not None:
+            from isodesign.optimization.table_problem import TableProblem
+
+            return TableProblem(study, *args, **kwargs)
+        return super().__new__(cls)
 
     def __init__(self, study, objectives: tuple | None = None, extra_peak_hz: tuple = ()):
         import casadi as ca

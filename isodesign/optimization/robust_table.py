@@ -27,13 +27,12 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError
-from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.nlp import EPIGRAPH_BOUND
+from isodesign.optimization.problem import Problem
 from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.table_constraints import table_constraint_reports
 from isodesign.optimization.table_driver import _modes_at, optimize_table
-from isodesign.optimization.table_problem import TableProblem
 from isodesign.optimization.table_scenario import table_scenario
 
 __all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "robust_optimize_table",
@@ -114,7 +113,7 @@ class _Scenarios:
         key = tuple(np.round(np.asarray(theta, float), 12))
         if key not in self.cache:
             st = table_scenario(self.study, theta)
-            self.cache[key] = TableProblem(st, hessian=hessian_choice(self.study)["hessian"])
+            self.cache[key] = Problem(st)  # a table study: the table body
         return self.cache[key]
 
     def check(self, theta, values: dict, reference: float | None) -> dict:

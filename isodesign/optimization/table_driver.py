@@ -49,7 +49,6 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
-from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
 from isodesign.optimization.result import StudyResult
@@ -274,16 +273,14 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         The NLP's optimum and the NumPy closure disagree (a bug, never a silently wrong
         design), or no start could be initialized.
     """
-    from isodesign.optimization.table_problem import TableProblem
+    from isodesign.optimization.problem import Problem
 
     if getattr(study, "table", None) is None:
         raise InputError("study: has no [table]; use isodesign.optimize")
     _refuse_levers_with_loop_bounds(study)
     t0 = time.perf_counter()
-    choice = hessian_choice(study)
-    prob = problem if problem is not None else TableProblem(study, hessian=choice["hessian"])
-    if prob.hessian != choice["hessian"]:  # a prebuilt NLP: its own Hessian, stated as such
-        choice = {"hessian": prob.hessian, "reason": "the prebuilt NLP's choice"}
+    prob = problem if problem is not None else Problem(study)
+    choice = prob.hessian_info  # a prebuilt NLP with another Hessian states it as such
     starts = _lever_starts(study, prob, start_points(study, prob.scaling))
     d0 = study.design_at(starts[0])
     modes0 = _modes_at(prob, d0)
@@ -551,7 +548,7 @@ def add_peak_frequencies(prob, over, used) -> tuple:
     Parameters
     ----------
     prob : TableProblem
-        Built again with movable frequencies (:meth:`~.problem.TableProblem.with_peak_slots`)
+        Built again with movable frequencies (:meth:`~.table_problem.TableProblem.with_peak_slots`)
         if it has none.
     over : list of (float, float)
         ``(excess dB, frequency Hz)`` of the peaks above the bound, worst first

@@ -175,8 +175,8 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
     SolverError
         No feasible design at anchor A.
     """
+    from isodesign.optimization.problem import Problem
     from isodesign.optimization.table_driver import optimize_table
-    from isodesign.optimization.table_problem import TableProblem
 
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
@@ -185,7 +185,7 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
                          f"got {cost!r}")
     t0 = time.perf_counter()
     st = study.with_changes(objective={"kind": "worst_band_margin"})
-    prob = TableProblem(st, objectives=("worst_band_margin", cost))
+    prob = Problem(st, objectives=("worst_band_margin", cost))
     res_a = optimize_table(st, problem=prob, analyze=False)
     if not res_a.feasible:
         raise SolverError(f"pareto: no feasible design when maximizing the worst margin "

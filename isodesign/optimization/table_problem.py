@@ -122,8 +122,9 @@ class TableProblem(NLP):
     objectives : tuple of str, optional
         ``worst_band_margin`` (default), ``total_volume`` and/or ``footprint_area`` (a free
         layout's ``L W``).
-    hessian : {'limited-memory', 'exact'}
-        IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way).
+    hessian : {'limited-memory', 'exact'}, optional
+        IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way);
+        default: the rule's (:func:`~isodesign.optimization.hessian.hessian_choice`).
     peak_slots : int
         Movable peak frequencies (:meth:`set_slots`; used only with a peak bound). The
         continuous peak refinement builds the NLP again with
@@ -134,10 +135,13 @@ class TableProblem(NLP):
     """
 
     def __init__(self, study, objectives: tuple | None = None, *,
-                 hessian: str = "limited-memory", peak_slots: int = 0):
+                 hessian: str | None = None, peak_slots: int = 0):
         import casadi as ca
 
-        self.hessian = hessian
+        from isodesign.optimization.hessian import hessian_choice
+
+        self._rule = hessian_choice(study)
+        self.hessian = self._rule["hessian"] if hessian is None else hessian
 
         if study.table is None:
             raise InputError("study: has no [table]; use isodesign.optimization.Problem")
@@ -219,7 +223,7 @@ class TableProblem(NLP):
         TableProblem
             Its decision variables are this one's (a solution's ``x`` carries over).
         """
-        new = TableProblem(self.study, self.objectives, hessian=self.hessian, peak_slots=n)
+        new = type(self)(self.study, self.objectives, hessian=self.hessian, peak_slots=n)
         new.mode_params = self.mode_params.copy()
         new.loop_params = self.loop_params.copy()
         return new
@@ -676,6 +680,14 @@ class TableProblem(NLP):
     def hessian_approximation(self) -> str:
         """IPOPT's Hessian of this NLP (the ``hessian`` it was built with)."""
         return self.hessian
+
+    @property
+    def hessian_info(self) -> dict:
+        """IPOPT's Hessian of this NLP and why: the rule's
+        (:func:`~isodesign.optimization.hessian.hessian_choice`), or the caller's."""
+        if self.hessian == self._rule["hessian"]:
+            return dict(self._rule)
+        return {"hessian": self.hessian, "reason": "the prebuilt NLP's choice"}
 
     def _param_tail(self) -> np.ndarray:
         """Frozen modes (:meth:`set_modes`), movable peak frequencies (:meth:`set_slots`),

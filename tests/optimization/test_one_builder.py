@@ -76,3 +76,21 @@ def test_objective_params_and_rows_are_one_function():
     np.testing.assert_array_equal(lbg, [0, 0, -np.inf, -np.inf, -np.inf, 1.0])
     np.testing.assert_array_equal(ubg, [0, 0, 0, 0, 0, 2.0])
     assert rows == [("a", 2, 3), ("b", 5, 1)]
+
+
+def test_problem_of_a_study_builds_the_body_the_study_asks_for(small_table_study):
+    """``Problem(study)``: the exact z reduction for a study without ``[table]``, the
+    six-degree-of-freedom assembly for a table study (never the other body)."""
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.table_problem import TableProblem
+
+    st = small_table_study()
+    prob = Problem(st)
+    assert type(prob) is TableProblem
+    assert prob.hessian_info["hessian"] == prob.ipopt_options()["ipopt.hessian_approximation"]
+    assert prob.n == st.table.n_isolators
+    assert type(Problem(vertical_study())) is Problem
+    # options of the table body pass through
+    two = Problem(st, ("worst_band_margin", "total_volume"), hessian="exact")
+    assert two.objectives == ("worst_band_margin", "total_volume")
+    assert two.hessian_info == {"hessian": "exact", "reason": "the prebuilt NLP's choice"}
