@@ -68,6 +68,7 @@ from isodesign.optimization.nlp import (
     design_values,
     variable_boxes,
 )
+from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     DESIGN_VARIABLES,
@@ -107,8 +108,9 @@ ROCKING_ENERGY_FRACTION = 0.3
 #: at most three peaks, for :data:`TABLE_PEAK_ROUNDS` rounds.
 PEAK_SLOTS_PER_ROUND = 9
 TABLE_PEAK_ROUNDS = 4
-#: Objectives of the table NLP.
-TABLE_OBJECTIVES = ("worst_band_margin", "total_volume", "footprint_area")
+#: Objectives of the table NLP: those of the one registry with a table form
+#: (:attr:`~isodesign.optimization.objectives.Objective.table`).
+TABLE_OBJECTIVES = tuple(k for k, o in OBJECTIVES.items() if o.table is not None)
 _LN10 = math.log(10.0)
 
 
@@ -468,16 +470,21 @@ class TableProblem(NLP):
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
         cons = self._constraints(ca, d, v, s, y, out, out_slots)
         _, designs = self._designs(v)
+        # the objectives' quantities; their forms are the registry's (objectives.OBJECTIVES)
         # the total volume per isolator: the mean over the isolators with per-group springs
-        j_parts = {"total_volume": ca.log(d.total_volume_m3) if not self.grouped else
-                   ca.log(sum(di.total_volume_m3 for di in designs) / n)}
+        q = {"ln_total_volume": ca.log(d.total_volume_m3) if not self.grouped else
+             ca.log(sum(di.total_volume_m3 for di in designs) / n), "margins_db": judged,
+             "t_worst_band_margin": t[0] if t.numel() else None}
         if "footprint_area" in self.objectives:  # ln (L W) of the stretched layout
             sx, sy = self._scale(v)
             ex, ey = layout_extent(self.table)
-            j_parts["footprint_area"] = ca.log(sx * sy * (ex * ey))
-        if t.numel():
-            j_parts["worst_band_margin"] = -t[0]
-            cons.insert(0, ("worst_band_margin_epigraph", t[0] - judged, -np.inf, 0.0))
+            q["ln_footprint_area"] = ca.log(sx * sy * (ex * ey))
+        js, obj_cons = [], []
+        for kind in self.objectives:
+            jk, ocons = OBJECTIVES[kind].table(q)
+            js.append(jk)
+            obj_cons += ocons
+        cons[:0] = obj_cons  # the epigraph rows first
         p_w = X.sym("weights", len(self.objectives))
         p_wd = X.sym("w_diameter")
         p_eps = X.sym("eps", len(self.objectives))
@@ -486,7 +493,6 @@ class TableProblem(NLP):
         cons += self._damping(ca, v, s, y, p_modes)
         p_loop = X.sym("loop", self.loop_params.size)
         cons += self._loop_rows(ca, v, p_loop)
-        js = [j_parts[kind] for kind in self.objectives]
         j_total = p_wd * ca.log(d.capillary_diameter_m)
         for i, jk in enumerate(js):
             j_total = j_total + p_w[i] * jk
