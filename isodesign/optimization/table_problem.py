@@ -53,21 +53,14 @@ import numpy as np
 
 from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
+from isodesign.optimization import nlp
 from isodesign.optimization.loop_rows import (
     LOOP_MARGIN_EPS,
     LOOP_POLES_MIMO,
     frozen_poles,
     loop_rows,
 )
-from isodesign.optimization.nlp import (
-    EPIGRAPH_BOUND,
-    NLP,
-    SIGMA_BOUNDS_M,
-    VELOCITY_BOUNDS_M_S,
-    constraint_rows,
-    design_values,
-    variable_boxes,
-)
+from isodesign.optimization.nlp import NLP
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
@@ -423,7 +416,7 @@ class TableProblem(NLP):
         s, y = X.sym("s", n), X.sym("y", n)
         t = X.sym("t", 1 if self.objective == "worst_band_margin" or
                   "worst_band_margin" in self.objectives else 0)
-        vals = design_values(ca, X, z, self.scaling, st)
+        vals = nlp.design_values(ca, X, z, self.scaling, st)
         if self.n_levers:
             ls = self.lever_scaling
             for name in CODESIGN_LEVERS:
@@ -501,14 +494,14 @@ class TableProblem(NLP):
         pp = ca.vertcat(p_w, p_wd, p_eps, p_modes, p_slot, p_loop)
         gg = ca.vertcat(*rows_eq, *[c[1] for c in cons])
         self.n_eq = 2 * n
-        self.lbg, self.ubg, self.con_rows = constraint_rows(
+        self.lbg, self.ubg, self.con_rows = nlp.constraint_rows(
             self.n_eq, [(name, int(expr.numel()), lo, hi) for name, expr, lo, hi in cons])
         self.nz, self.nx = int(z.numel()), int(x.numel())
-        self.lbx, self.ubx = variable_boxes(
+        self.lbx, self.ubx = nlp.variable_boxes(
             (self.nz, -1.0, 1.0),
-            (n, math.log(SIGMA_BOUNDS_M[0]), math.log(SIGMA_BOUNDS_M[1])),
-            (n, math.log(VELOCITY_BOUNDS_M_S[0]), math.log(VELOCITY_BOUNDS_M_S[1])),
-            (int(t.numel()), -EPIGRAPH_BOUND, EPIGRAPH_BOUND))
+            (n, math.log(nlp.SIGMA_BOUNDS_M[0]), math.log(nlp.SIGMA_BOUNDS_M[1])),
+            (n, math.log(nlp.VELOCITY_BOUNDS_M_S[0]), math.log(nlp.VELOCITY_BOUNDS_M_S[1])),
+            (int(t.numel()), -nlp.EPIGRAPH_BOUND, nlp.EPIGRAPH_BOUND))
         self._margins_fn = ca.Function("margins", [x], [judged])
         self._all_margins_fn = ca.Function("all_margins", [x], [margins])
         self._j_fn = ca.Function("objectives", [x], [ca.vertcat(*js)])
