@@ -35,6 +35,10 @@ ROOT = HERE.parent
 #: The commit before issue 23's work started (``BENCH23_OLD_COMMIT`` measures against another,
 #: e.g. the commit before one step of the issue, in a tree of its own: ``BENCH23_OLD_TREE``).
 OLD_COMMIT = os.environ.get("BENCH23_OLD_COMMIT", "d765a8c")
+#: The old tree's vertical call: d765a8c's default study was the vertical one; a later
+#: tree names it ``vertical_study()`` (the child picks by the tree).
+OLD_VERTICAL_CALL = ("driver.optimize(default_study())" if OLD_COMMIT == "d765a8c"
+                     else "isodesign.optimize(vertical_study())")
 #: Target: vertical optimize, new / old.
 TARGET_VERTICAL = 1.1
 #: Target: the built-in table optimize (with the continuous peak refinement), new / old.
@@ -256,7 +260,7 @@ def rows_from(recs: dict) -> list[dict]:
     same_like, cmp_like = compare(vo, vx)
     ratio = arms["vertical-new"]["median"] / arms["vertical-old"]["median"]
     out.append({
-        "name": f"vertical study optimize: {OLD_COMMIT} (driver.optimize(default_study()))",
+        "name": f"vertical study optimize: {OLD_COMMIT} ({OLD_VERTICAL_CALL})",
         "target": "", "unit": "s", **arms["vertical-old"],
         "notes": f"8 starts, the optimize call in a fresh process, {n} interleaved rounds; "
                  f"process {statistics.median(r['process_s'] for r in recs['vertical-old']):.3g}"

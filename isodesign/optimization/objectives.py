@@ -243,7 +243,7 @@ def _table_only(mt, study, grid, *args):
 # -- the table body's forms (TableProblem) ------------------------------------------
 def _table_worst_band_margin(q):
     t = q["t_worst_band_margin"]  # worst margin over points x axes x bands, dB: t <= each
-    return -t, [("worst_band_margin_epigraph", t - q["margins_db"], -math.inf, 0.0)]
+    return -t, [("epigraph_worst_band_margin", t - q["margins_db"], -math.inf, 0.0)]
 
 
 def _table_total_volume(q):

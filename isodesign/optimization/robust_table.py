@@ -125,7 +125,7 @@ class _Scenarios:
         x = prob.initial_guess(values)
         _, g = prob.eval_fn(x, prob.params())
         viol = [(n, v) for n, v in prob.violations(np.asarray(g).ravel())
-                if not n.startswith(("bound_", "worst_band_margin_epigraph"))]
+                if not n.startswith(("epigraph_", "bound_"))]
         margin = prob.worst_margin_db(x)
         j = float(np.asarray(prob._j_fn(x)).ravel()[0])
         if prob.objective == "worst_band_margin":
