@@ -42,6 +42,7 @@ __all__ = [
     "ipopt_options",
     "objective_params",
     "row_name",
+    "stacked_bounds",
     "variable_boxes",
 ]
 
@@ -188,6 +189,39 @@ def variable_boxes(*blocks) -> tuple[np.ndarray, np.ndarray]:
     lbx = np.concatenate([np.full(int(n), float(lo)) for n, lo, _ in blocks])
     ubx = np.concatenate([np.full(int(n), float(hi)) for n, _, hi in blocks])
     return lbx, ubx
+
+
+def stacked_bounds(blocks, nz: int, extra_rows: int = 0) -> dict:
+    """Bounds of scenario blocks stacked in one NLP sharing the design (the robust NLP).
+
+    The stacked NLP's variables are ``x = [z, w_1 .. w_K, t]`` (the shared scaled design,
+    each block's own variables, the worst-case epigraph ``t``) and its rows
+    ``g = [g_1 .. g_K, J_k - t (K rows), extra rows]``, the epigraph and extra rows
+    ``<= 0``: one layout for the vertical body's block mapped over K scenarios
+    (:mod:`.robust`) and the table's scenario NLPs (:mod:`.robust_table`).
+
+    Parameters
+    ----------
+    blocks : sequence
+        The K blocks' NLPs (``lbg``, ``ubg``, ``lbx``, ``ubx``; their first ``nz``
+        variables are the shared design).
+    nz : int
+        The shared design's size.
+    extra_rows : int
+        Rows after the epigraph rows, ``<= 0`` (an epsilon bound on ``t``).
+
+    Returns
+    -------
+    dict
+        ``lbg``, ``ubg``, ``lbx``, ``ubx``.
+    """
+    k = len(blocks) + extra_rows
+    return {"lbg": np.concatenate([*[b.lbg for b in blocks], np.full(k, -np.inf)]),
+            "ubg": np.concatenate([*[b.ubg for b in blocks], np.zeros(k)]),
+            "lbx": np.concatenate([blocks[0].lbx[:nz], *[b.lbx[nz:] for b in blocks],
+                                   [-EPIGRAPH_BOUND]]),
+            "ubx": np.concatenate([blocks[0].ubx[:nz], *[b.ubx[nz:] for b in blocks],
+                                   [EPIGRAPH_BOUND]])}
 
 
 def design_values(ca, X, z, scaling, study) -> list:

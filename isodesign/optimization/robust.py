@@ -29,10 +29,10 @@ from isodesign.numerics.cplx import Cx
 from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.metrics import combine, design_quantities, point_quantities
 from isodesign.optimization.nlp import (
-    EPIGRAPH_BOUND,
     NO_BOUND,
     ipopt_options,
     objective_params,
+    stacked_bounds,
 )
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import Problem, hoisted_map
@@ -262,10 +262,9 @@ class RobustProblem:
         p = ca.vertcat(ca.vec(p_all), pg)
         gs = [g_all[:, 0]]
         self.ng_block = int(gs[0].numel())
-        self.lbg = np.concatenate([np.tile(b.lbg, self.K), np.full(self.K, -np.inf), [-np.inf]])
-        self.ubg = np.concatenate([np.tile(b.ubg, self.K), np.zeros(self.K), [0.0]])
-        self.lbx = np.concatenate([b.lbx[: b.nz], *[b.lbx[b.nz:]] * self.K, [-EPIGRAPH_BOUND]])
-        self.ubx = np.concatenate([b.ubx[: b.nz], *[b.ubx[b.nz:]] * self.K, [EPIGRAPH_BOUND]])
+        bounds = stacked_bounds([b] * self.K, b.nz, extra_rows=1)  # t <= epsilon
+        self.lbg, self.ubg, self.lbx, self.ubx = (bounds[k] for k in ("lbg", "ubg", "lbx",
+                                                                       "ubx"))
         self.nx = int(x.numel())
         self.j_fn = ca.Function("scenario_objectives", [x, p], [j_vec])
         self.hessian_info = hessian_choice(b.study, b.nx, scenarios=self.K)

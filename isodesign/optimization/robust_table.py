@@ -27,7 +27,7 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError
-from isodesign.optimization.nlp import EPIGRAPH_BOUND
+from isodesign.optimization.nlp import stacked_bounds
 from isodesign.optimization.problem import Problem
 from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
@@ -142,7 +142,7 @@ def _stack(probs, study):
     nz = p0.nz
     z = ca.MX.sym("z", nz)
     t = ca.MX.sym("t")
-    xs, ps, gs, js, lbg, ubg, lbx, ubx = [], [], [], [], [], [], [], []
+    xs, ps, gs, js = [], [], [], []
     for k, pr in enumerate(probs):
         w = ca.MX.sym(f"w{k}", pr.nx - nz)
         p = ca.MX.sym(f"p{k}", pr.params().size)
@@ -151,19 +151,11 @@ def _stack(probs, study):
         ps.append(p)
         gs.append(gk)
         js.append(jk)
-        lbg.append(pr.lbg)
-        ubg.append(pr.ubg)
-        lbx.append(pr.lbx[nz:])
-        ubx.append(pr.ubx[nz:])
     g = ca.vertcat(*gs, *[j - t for j in js])
     x = ca.vertcat(z, *xs, t)
     solver = ca.nlpsol("isodesign_table_robust", "ipopt",
                        {"x": x, "f": t, "g": g, "p": ca.vertcat(*ps)}, p0.ipopt_options())
-    bounds = {"lbg": np.concatenate([*lbg, np.full(len(probs), -np.inf)]),
-              "ubg": np.concatenate([*ubg, np.zeros(len(probs))]),
-              "lbx": np.concatenate([p0.lbx[:nz], *lbx, [-EPIGRAPH_BOUND]]),
-              "ubx": np.concatenate([p0.ubx[:nz], *ubx, [EPIGRAPH_BOUND]])}
-    return solver, bounds
+    return solver, stacked_bounds(probs, nz)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
