@@ -147,8 +147,8 @@ def bench_table_optimize() -> list[dict]:
     """
     from isodesign.optimization.driver import optimize
     from isodesign.optimization.study import table_study, vertical_study
-    from isodesign.table.optimize import optimize_table
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_driver import optimize_table
+    from isodesign.optimization.table_problem import TableProblem
 
     st = table_study()
     holder = {}
@@ -202,7 +202,7 @@ def bench_table_codesign() -> list[dict]:
     list of dict
     """
     from isodesign.optimization.study import default_study
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     st = default_study()
     studies = {"springs": st.with_changes(variables={v.name: {"fixed": True}

@@ -32,8 +32,13 @@ from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
 ROOT = HERE.parent
-#: The commit before issue 23's work started.
-OLD_COMMIT = "d765a8c"
+#: The commit before issue 23's work started (``BENCH23_OLD_COMMIT`` measures against another,
+#: e.g. the commit before one step of the issue, in a tree of its own: ``BENCH23_OLD_TREE``).
+OLD_COMMIT = os.environ.get("BENCH23_OLD_COMMIT", "d765a8c")
+#: The old tree's vertical call: d765a8c's default study was the vertical one; a later
+#: tree names it ``vertical_study()`` (the child picks by the tree).
+OLD_VERTICAL_CALL = ("driver.optimize(default_study())" if OLD_COMMIT == "d765a8c"
+                     else "isodesign.optimize(vertical_study())")
 #: Target: vertical optimize, new / old.
 TARGET_VERTICAL = 1.1
 #: Target: the built-in table optimize (with the continuous peak refinement), new / old.
@@ -60,13 +65,20 @@ warnings.simplefilter("ignore")
 arm = sys.argv[1]
 end = None if len(sys.argv) < 3 else sys.argv[2] == "on"
 if arm.endswith("-old"):
-    from isodesign.optimization.study import default_study, table_study
-    if arm.startswith("vertical"):
+    import isodesign.optimization.study as S
+    vertical = getattr(S, "vertical_study", None)  # a tree after d765a8c names it
+    if arm.startswith("vertical") and vertical is None:
         from isodesign.optimization.driver import optimize as run
-        study = default_study()
+        study = S.default_study()
+    elif arm.startswith("vertical"):
+        from isodesign import optimize as run
+        study = vertical()
     else:
-        from isodesign.table.optimize import optimize_table as run
-        study = table_study()
+        try:  # the table's driver moved from table/ to optimization/ (issue 23)
+            from isodesign.optimization.table_driver import optimize_table as run
+        except ImportError:
+            from isodesign.table.optimize import optimize_table as run
+        study = S.table_study()
 else:
     from isodesign import optimize as run
     from isodesign.optimization.study import table_study, vertical_study
@@ -248,7 +260,7 @@ def rows_from(recs: dict) -> list[dict]:
     same_like, cmp_like = compare(vo, vx)
     ratio = arms["vertical-new"]["median"] / arms["vertical-old"]["median"]
     out.append({
-        "name": f"vertical study optimize: {OLD_COMMIT} (driver.optimize(default_study()))",
+        "name": f"vertical study optimize: {OLD_COMMIT} ({OLD_VERTICAL_CALL})",
         "target": "", "unit": "s", **arms["vertical-old"],
         "notes": f"8 starts, the optimize call in a fresh process, {n} interleaved rounds; "
                  f"process {statistics.median(r['process_s'] for r in recs['vertical-old']):.3g}"

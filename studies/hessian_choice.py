@@ -74,8 +74,8 @@ def run_one(study, hessian):
         prob = _vertical_problem(study, hessian)
         res = optimize_vertical(study, problem=prob)
     else:
-        from isodesign.table.optimize import optimize_table
-        from isodesign.table.problem import TableProblem
+        from isodesign.optimization.table_driver import optimize_table
+        from isodesign.optimization.table_problem import TableProblem
 
         prob = TableProblem(study, hessian=hessian)
         res = optimize_table(study, problem=prob)

@@ -36,10 +36,10 @@ import numpy as np
 import pandas as pd
 
 from isodesign.optimization.study import table_study
+from isodesign.optimization.table_driver import closure_springs
 from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.layout import Table
 from isodesign.table.modes import rocking_stability, table_modes
-from isodesign.table.optimize import closure_springs
 from isodesign.table.response import table_band_response
 
 #: Instrument points' height above the CG, m (the study's: 0.7 m above the plane, CG 0.35 m).

@@ -34,6 +34,7 @@ from pathlib import Path
 import pandas as pd
 
 from isodesign.optimization.study import default_study, table_study
+from isodesign.optimization.table_driver import optimize_table
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     GROUP_SPRING_LEVERS,
@@ -43,7 +44,6 @@ from isodesign.optimization.variables import (
 )
 from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.layout import layout_extent
-from isodesign.table.optimize import optimize_table
 
 #: The cases: a name and the levers it frees ("default": the default study, its own bounds).
 CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS,

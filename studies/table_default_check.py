@@ -51,11 +51,11 @@ import pandas as pd
 
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB
 from isodesign.optimization.study import default_study, load_study
+from isodesign.optimization.table_problem import PEAK_ROWS_MAX_HZ
 from isodesign.response.isolator import static_stiffness
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.table.modes import rocking_stability, table_modes
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
-from isodesign.table.problem import PEAK_ROWS_MAX_HZ
 from isodesign.table.response import table_band_response
 from isodesign.table.statics import level
 

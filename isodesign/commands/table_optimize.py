@@ -193,11 +193,11 @@ def execute_table(study, run, args, result=None, *, prefix: str = "") -> int:
         study_toml,
     )
     from isodesign.optimization.dispatch import optimize
+    from isodesign.optimization.table_problem import PEAK_ROWS_MAX_HZ
     from isodesign.plotting.style import save_figure
     from isodesign.table.modes import rocking_stability
     from isodesign.table.peaks import continuous_peaks, peak_search_band
     from isodesign.table.plots import layout_figure
-    from isodesign.table.problem import PEAK_ROWS_MAX_HZ
 
     rec = run.record.setdefault("parts", {}).setdefault(prefix.rstrip("/"), {}) if prefix \
         else run.record

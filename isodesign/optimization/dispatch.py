@@ -7,7 +7,7 @@ kind              the study has               answered by
 ================  ==========================  ===============================================
 ``robust table``  ``[table]`` + ``[scenarios]``  :func:`.robust_table.robust_optimize_table`
 ``robust``        ``[scenarios]``             :func:`.exchange.robust_optimize`
-``table``         ``[table]``                 :func:`isodesign.table.optimize.optimize_table`
+``table``         ``[table]``                 :func:`.table_driver.optimize_table`
 ``vertical``      neither                     :func:`.driver.optimize_vertical`
 ================  ==========================  ===============================================
 
@@ -99,7 +99,7 @@ def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool 
     -------
     StudyResult
         Its ``kind`` is the study's (:func:`study_kind`): an :class:`~.result.OptimizationResult`,
-        :class:`~isodesign.table.optimize.TableOptimizationResult`,
+        :class:`~isodesign.optimization.table_driver.TableOptimizationResult`,
         :class:`~.robust_result.RobustResult` or
         :class:`~.robust_table.TableRobustResult` for a ``vertical``, ``table``, ``robust``
         and ``robust table`` study respectively. Check ``.success`` (or call
@@ -131,7 +131,7 @@ def _answer(kind, study, progress, problem, nominal, analyze):
     """The optimizer of ``kind`` on ``study`` (see :func:`optimize`)."""
     if kind == "robust table":
         from isodesign.optimization.robust_table import robust_optimize_table
-        from isodesign.table.optimize import optimize_table
+        from isodesign.optimization.table_driver import optimize_table
 
         if nominal is None:
             nominal = optimize_table(study, progress=progress, analyze=False)
@@ -144,7 +144,7 @@ def _answer(kind, study, progress, problem, nominal, analyze):
             nominal = optimize_vertical(study, progress=progress, nominal=True)
         return robust_optimize(study, nominal=nominal)
     if kind == "table":
-        from isodesign.table.optimize import optimize_table
+        from isodesign.optimization.table_driver import optimize_table
 
         return optimize_table(study, progress=progress, problem=problem, analyze=analyze)
     from isodesign.optimization.driver import optimize_vertical

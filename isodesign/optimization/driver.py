@@ -24,8 +24,9 @@ from isodesign.errors import InputError, SolverError
 from isodesign.optimization.analyze import vertical_band_response
 from isodesign.optimization.constraints import constraint_reports
 from isodesign.optimization.multistart import run_starts, start_points
+from isodesign.optimization.nlp import CONSTRAINT_VIOLATION_TOL, IPOPT_OPTIONS
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.problem import CONSTRAINT_VIOLATION_TOL, IPOPT_OPTIONS, Problem
+from isodesign.optimization.problem import Problem
 from isodesign.optimization.recheck import RECHECK_RTOL, recheck
 from isodesign.optimization.refine import (
     FLAT_TOLERANCE_DB,
@@ -206,7 +207,7 @@ def solver_settings(study) -> dict:
     -------
     dict
         ``solver`` (a description), ``options`` (IPOPT's ``max_iter``, ``tol``,
-        ``constr_viol_tol`` and the fixed :data:`~.problem.IPOPT_OPTIONS`, without
+        ``constr_viol_tol`` and the fixed :data:`~.nlp.IPOPT_OPTIONS`, without
         the ``ipopt.`` prefix), ``starts``, ``seed``, ``recheck_rtol`` (agreement
         required of the NumPy re-check: relative, absolute in dB for a dB
         objective) and ``flat_tolerance_db`` / ``flat_tolerance_rel`` (the

@@ -1,10 +1,12 @@
 """The objective registry: every objective of a study in one place.
 
 Each :class:`Objective` states its name, description, natural unit, sense
-(``"min"`` or ``"max"``), how the NLP writes it (:attr:`Objective.nlp`, minimized
-internally as J), its value on NumPy metrics (:attr:`Objective.value`), the map
-between J and the natural value, and how it is displayed. Adding an objective
-means adding one entry to :data:`OBJECTIVES`.
+(``"min"`` or ``"max"``), how the NLP writes it (minimized internally as J) on each body of
+the one builder (:class:`~isodesign.optimization.problem.Problem`): the exact z reduction
+of a study without ``[table]`` (:attr:`Objective.nlp`) and the table's six-degree-of-freedom
+assembly (:attr:`Objective.table`, None where a table study does not offer it), its value
+on NumPy metrics (:attr:`Objective.value`), the map between J and the natural value, and
+how it is displayed. Adding an objective means adding one entry to :data:`OBJECTIVES`.
 
 Internal values J (what the NLP minimizes): the negated margin (dB) for
 ``worst_band_margin``; dB for the transmissibilities; the natural log for the RMS
@@ -56,6 +58,13 @@ class Objective:
         The objective needs one extra grid frequency (``objective.frequency_hz``).
     options : tuple of str
         Extra keys of the study's ``[objective]`` table it reads.
+    table : callable or None
+        ``table(q) -> (J, constraints)``: the form in the table's NLP
+        (:class:`~isodesign.optimization.table_problem.TableProblem`) on its quantities
+        ``q`` (``t_worst_band_margin``, the epigraph variable; ``margins_db``, the judged
+        margins over instrument points x axes x bands; ``ln_total_volume``;
+        ``ln_footprint_area``), constraints as ``(name, expr, lo, hi)`` rows. None: not an
+        objective of a table study.
     display_scale, display_unit, label, display_format :
         Display: ``f"{value * display_scale:{display_format}} {display_unit}"``.
     """
@@ -76,6 +85,7 @@ class Objective:
     display_format: str
     at_frequency: bool = False
     options: tuple[str, ...] = ()
+    table: Callable | None = None
 
     @property
     def maximized(self) -> bool:
@@ -230,6 +240,20 @@ def _table_only(mt, study, grid, *args):
                      "this study has no [table]")
 
 
+# -- the table body's forms (TableProblem) ------------------------------------------
+def _table_worst_band_margin(q):
+    t = q["t_worst_band_margin"]  # worst margin over points x axes x bands, dB: t <= each
+    return -t, [("epigraph_worst_band_margin", t - q["margins_db"], -math.inf, 0.0)]
+
+
+def _table_total_volume(q):
+    return q["ln_total_volume"], []
+
+
+def _table_footprint_area(q):
+    return q["ln_footprint_area"], []
+
+
 # -- values on NumPy metrics ----------------------------------------------------------
 def _value_worst_band_margin(mt, study, grid) -> float:
     return float(np.min(_DB * (mt["ln_limit2"] - mt["ln_ms_band"])))
@@ -264,7 +288,7 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
     _dB_objective("worst_band_margin",
                   "worst-band margin of payload velocity against the target, dB (max)", "max",
                   _nlp_worst_band_margin, _value_worst_band_margin, _negate, _negate, _identity,
-                  "worst-band margin"),
+                  "worst-band margin", table=_table_worst_band_margin),
     Objective(name="rms_velocity",
               description="payload RMS velocity over a band range, m/s (min)", unit="m/s",
               sense="min", db=False, nlp=_nlp_rms_velocity, value=_value_rms_velocity,
@@ -285,12 +309,12 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
               value=_value_total_volume, to_natural=math.exp,
               from_natural=_positive_log("total_volume"), epigraph=None, display_scale=1e3,
               display_unit="L", label="total volume per isolator, V_t0 (1 + N)",
-              display_format=".4g"),
+              display_format=".4g", table=_table_total_volume),
     Objective(name="footprint_area",
               description="the isolators' footprint, layout length x width, m^2 (min; a table "
                           "study with a free layout)", unit="m^2", sense="min", db=False,
               nlp=_table_only, value=_table_only, to_natural=math.exp,
               from_natural=_positive_log("footprint_area"), epigraph=None, display_scale=1.0,
               display_unit="m^2", label="footprint of the isolators, length x width",
-              display_format=".4g"),
+              display_format=".4g", table=_table_footprint_area),
 )}

@@ -227,7 +227,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     -------
     ParetoResult or TableParetoResult
         A study with ``[table]`` gets the table's front (worst margin over every point,
-        axis and band against total volume: :func:`isodesign.table.pareto.table_pareto_front`);
+        axis and band against total volume: :func:`.table_pareto.table_pareto_front`);
         a study with ``[scenarios]`` is refused (InputError naming ``[scenarios]``): the
         front is nominal.
     """
@@ -239,7 +239,7 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
     if study.table is not None:  # the table's front (docs/table.md, section 11)
-        from isodesign.table.pareto import table_pareto_front
+        from isodesign.optimization.table_pareto import table_pareto_front
 
         return table_pareto_front(study, points, progress=progress, cost=b)
     t0 = time.perf_counter()

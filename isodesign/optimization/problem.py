@@ -25,7 +25,6 @@ Max-over-bands and max-over-frequency quantities are written in epigraph form
 from __future__ import annotations
 
 import math
-import time
 from concurrent.futures import ThreadPoolExecutor
 from types import SimpleNamespace
 
@@ -42,6 +41,15 @@ from isodesign.optimization.metrics import (
     point_quantities,
     statistical,
 )
+from isodesign.optimization.nlp import (
+    EPIGRAPH_BOUND,
+    NLP,
+    SIGMA_BOUNDS_M,
+    VELOCITY_BOUNDS_M_S,
+    constraint_rows,
+    design_values,
+    variable_boxes,
+)
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.solution import Solution
 from isodesign.optimization.variables import DESIGN_VARIABLES, log_scaling
@@ -53,46 +61,21 @@ from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import amplitude_residual, kinematic_velocity
 
 __all__ = [
-    "CONSTRAINT_VIOLATION_TOL",
-    "EPIGRAPH_BOUND",
-    "IPOPT_OPTIONS",
     "PEAK_ROUNDS",
     "PEAK_SLOTS",
-    "SIGMA_BOUNDS_M",
-    "VELOCITY_BOUNDS_M_S",
     "Problem",
     "derivative_functions",
     "hoisted_map",
 ]
 
-#: IPOPT options beyond max_iter and tol. Every start is consistent (the implicit
-#: unknowns solved by the NumPy path), so IPOPT must not push it off its bounds nor
-#: start with a large barrier parameter: a monotone barrier from mu = 1e-3 and
-#: tiny bound pushes converged from every start where the adaptive default often
-#: wandered off (measured on the default study, benchmarks/bench_optimize.py).
-IPOPT_OPTIONS = {
-    "ipopt.mu_strategy": "monotone",
-    "ipopt.mu_init": 1e-3,
-    "ipopt.bound_push": 1e-9,
-    "ipopt.bound_frac": 1e-9,
-    "ipopt.slack_bound_push": 1e-9,
-    "ipopt.slack_bound_frac": 1e-9,
-}
 #: Options of the per-point SX function: common subexpressions (the flow model and the
 #: distributed network share the Womersley function and the line elements) computed once.
 _POINT_OPTIONS = {"cse": True}
 
-#: IPOPT's constraint violation tolerance (``ipopt.constr_viol_tol``).
-CONSTRAINT_VIOLATION_TOL = 1e-9
-#: Boxes on the implicit unknowns of the NLP (far outside any physical solution).
-SIGMA_BOUNDS_M = (1e-13, 1e-1)
-VELOCITY_BOUNDS_M_S = (1e-12, 1e3)
-EPIGRAPH_BOUND = 300.0  # dB, or ln(m/s) for rms_velocity
 #: Refinement rounds of the peak grid (five movable frequencies each).
 PEAK_ROUNDS = 4
 #: Movable peak-grid frequencies reserved in every NLP (parameters, no rebuild).
 PEAK_SLOTS = 5 * PEAK_ROUNDS
-_NO_BOUND = 1e20  # an epsilon bound that never binds
 
 
 def hoisted_map(point, n: int, shared: tuple):
@@ -192,8 +175,17 @@ def derivative_functions(nlp, threads: bool = True, hessian: bool = True) -> dic
         return {"jac_g": jac, "hess_lag": hess.result()}
 
 
-class Problem:
+class Problem(NLP):
     """The NLP of a study, built once and solved from many starts.
+
+    ``Problem(study)`` builds every study's NLP on the one machinery of :mod:`.nlp`; the
+    study picks the body. A study without ``[table]`` (the symmetric table of its
+    ``[payload]``) gets this class's body, the exact z reduction of the table model
+    (docs/table.md, section 14): one spring, its payload share, the vertical response;
+    a study with ``[table]`` gets the six-degree-of-freedom assembly,
+    :class:`~isodesign.optimization.table_problem.TableProblem` (``Problem(study,
+    objectives, hessian=..., peak_slots=...)`` passes its options on), so no study is
+    answered by the other body.
 
     The objective is parametric, so that one built solver serves the main
     solve, the flat-direction tie-break and a Pareto sweep::
@@ -219,6 +211,14 @@ class Problem:
     extra_peak_hz : tuple of float
         Fixed frequencies added to the peak grid.
     """
+
+    def __new__(cls, study=None, *args, **kwargs):
+        # study=None: a copy (copy.copy calls __new__ without arguments)
+        if cls is Problem and getattr(study, "table", None) is not None:
+            from isodesign.optimization.table_problem import TableProblem
+
+            return TableProblem(study, *args, **kwargs)
+        return super().__new__(cls)
 
     def __init__(self, study, objectives: tuple | None = None, extra_peak_hz: tuple = ()):
         import casadi as ca
@@ -328,14 +328,7 @@ class Problem:
         nlp.z = X.sym("z", len(self.scaling.names))
         nlp.s = X.sym("s")
         nlp.y = X.sym("y", nlp.n_all if self.self_consistent else int(self.statistical))
-        vals = []
-        for n in DESIGN_VARIABLES:
-            if n in self.scaling.names:
-                k = self.scaling.names.index(n)
-                vals.append(ca.exp(self.scaling.center[k] + self.scaling.half[k] * nlp.z[k]))
-            else:
-                vals.append(X(self.study.variable(n).start))
-        nlp.vals = vals
+        nlp.vals = design_values(ca, X, nlp.z, self.scaling, self.study)
         # the movable peak frequencies are parameters: refining the peak grid needs no
         # rebuild of the NLP
         nlp.p_slot = X.sym("slot_omega", self.grid.n_slots)
@@ -440,33 +433,21 @@ class Problem:
         self.lbx, self.ubx = self._variable_bounds()
 
     def _constraint_rows(self, constraints) -> tuple[np.ndarray, np.ndarray, list]:
-        """lbg, ubg (the implicit equations first) and ``(constraint, row, size)`` of each."""
-        lbg = [0.0] * self.n_eq
-        ubg = [0.0] * self.n_eq
-        rows = []
-        row = self.n_eq
-        for c in constraints:
-            n = int(c.expr.numel())
-            lbg += [c.lo] * n
-            ubg += [c.hi] * n
-            rows.append((c, row, n))
-            row += n
-        return np.array(lbg), np.array(ubg), rows
+        """lbg, ubg (the implicit equations first) and ``(constraint, row, size)`` of each
+        (:func:`.nlp.constraint_rows`)."""
+        return constraint_rows(self.n_eq, [(c, int(c.expr.numel()), c.lo, c.hi)
+                                           for c in constraints])
 
     def _variable_bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """The scaled design in [-1, 1]; generous physical boxes on the implicit unknowns
-        keep IPOPT's trial steps away from overflow."""
-        nz = self.nz
-        lbx = np.full(self.nx, -np.inf)
-        ubx = np.full(self.nx, np.inf)
-        lbx[:nz], ubx[:nz] = -1.0, 1.0
-        lbx[nz], ubx[nz] = math.log(SIGMA_BOUNDS_M[0]), math.log(SIGMA_BOUNDS_M[1])
-        i0 = nz + 1
-        lbx[i0: i0 + self.ny] = math.log(VELOCITY_BOUNDS_M_S[0])
-        ubx[i0: i0 + self.ny] = math.log(VELOCITY_BOUNDS_M_S[1])
-        i0 += self.ny + self.nc  # partial sums: free (a bound would be pushed off its zeros)
-        lbx[i0:], ubx[i0:] = -EPIGRAPH_BOUND, EPIGRAPH_BOUND
-        return lbx, ubx
+        keep IPOPT's trial steps away from overflow; the partial sums free (a bound would
+        be pushed off its zeros); the epigraph variables in +-:data:`.nlp.EPIGRAPH_BOUND`."""
+        return variable_boxes(
+            (self.nz, -1.0, 1.0),
+            (1, math.log(SIGMA_BOUNDS_M[0]), math.log(SIGMA_BOUNDS_M[1])),
+            (self.ny, math.log(VELOCITY_BOUNDS_M_S[0]), math.log(VELOCITY_BOUNDS_M_S[1])),
+            (self.nc, -np.inf, np.inf),
+            (self.naux, -EPIGRAPH_BOUND, EPIGRAPH_BOUND))
 
     def _build_solver(self, nlp) -> None:
         """Evaluation functions and the IPOPT solver."""
@@ -490,19 +471,9 @@ class Problem:
                                     nlp, parallel_allowed(self.study.solver["workers"]),
                                     hessian=exact)})
 
-    def ipopt_options(self) -> dict:
-        """The options given to CasADi's nlpsol."""
-        return {
-            "ipopt.print_level": 0,
-            "print_time": False,
-            "ipopt.sb": "yes",
-            "ipopt.max_iter": self.study.solver["max_iter"],
-            "ipopt.tol": self.study.solver["tol"],
-            "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL,
-            **IPOPT_OPTIONS,
-            "ipopt.hessian_approximation": self.hessian_info["hessian"],
-            "error_on_fail": False,
-        }
+    def hessian_approximation(self) -> str:
+        """IPOPT's Hessian of this NLP (:attr:`hessian_info`)."""
+        return self.hessian_info["hessian"]
 
     @property
     def hessian_info(self) -> dict:
@@ -513,18 +484,9 @@ class Problem:
         return hessian_choice(self.study, getattr(self, "nx", None))
 
     # -- parameters and grid -------------------------------------------------------
-    def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:
-        """Parameter vector: objective weights (default: minimize the first objective),
-        the weight of ln D_c and the epsilon bounds (default: none)."""
-        nk = len(self.objectives)
-        w = np.zeros(nk)
-        if weights is None:
-            w[0] = 1.0
-        else:
-            w[:] = weights
-        e = np.full(nk, _NO_BOUND) if eps is None else np.asarray(
-            [_NO_BOUND if v is None else v for v in eps], float)
-        return np.concatenate([w, [diameter_weight], e, 2.0 * math.pi * self.slot_hz])
+    def _param_tail(self) -> np.ndarray:
+        """The movable peak-grid frequencies (rad/s) after the objectives' parameters."""
+        return 2.0 * math.pi * self.slot_hz
 
     def set_slots(self, frequencies_hz) -> None:
         """Move the movable peak-grid frequencies (Hz); the grid follows."""
@@ -618,46 +580,6 @@ class Problem:
                 raise SolverError("velocity amplitude did not converge at the initial guess")
             return sol.velocity
         return kinematic_velocity(d, w, a)
-
-    # -- solving -------------------------------------------------------------------
-    def solve(self, x0: np.ndarray, p=None) -> Solution:
-        """Run IPOPT from x0 (parameters from :meth:`params`, default: minimize the
-        first objective)."""
-        t0 = time.perf_counter()
-        p = self.params() if p is None else np.asarray(p, float)
-        res = self.solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p)
-        wall = time.perf_counter() - t0
-        stats = self.solver.stats()
-        x = np.asarray(res["x"]).ravel()
-        g = np.asarray(res["g"]).ravel()
-        j_all = self.objective_values(x)
-        return Solution(
-            x=x, values=self.values(x), objective=float(j_all[0]), objectives=j_all, g=g,
-            violations=tuple(self.violations(g)),
-            status=stats.get("return_status", "unknown"),
-            success=bool(stats.get("success", False)),
-            iterations=int(stats.get("iter_count", -1)), wall_s=wall,
-        )
-
-    def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
-        """Worst violation of each constraint group (equalities as 'implicit_equations')."""
-        out = []
-        eq = np.abs(g[: self.n_eq])
-        if eq.size:
-            out.append(("implicit_equations", float(np.max(eq))))
-        for c, row, n in self.con_rows:
-            gi = g[row: row + n]
-            v = np.maximum(np.maximum(self.lbg[row: row + n] - gi, gi - self.ubg[row: row + n]),
-                           0.0)
-            out.append((c.name, float(np.max(v)) if v.size else 0.0))
-        return out
-
-    def values(self, x: np.ndarray) -> dict:
-        """Design-variable values at x (fixed ones from the study)."""
-        vals = {v.name: v.start for v in self.study.variables}
-        # IPOPT relaxes bounds by ~1e-8: report the design inside its box
-        vals.update(self.scaling.to_values(np.clip(x[: self.nz], -1.0, 1.0)))
-        return vals
 
     def sigma(self, x: np.ndarray) -> float:
         """RMS stroke sigma at x (m)."""

@@ -39,7 +39,7 @@ class StudyResult(ResultDisplay):
 
     Every optimization returns a subclass of this class, one per study kind
     (:attr:`kind`): :class:`OptimizationResult` (``vertical``),
-    :class:`~isodesign.table.optimize.TableOptimizationResult` (``table``),
+    :class:`~isodesign.optimization.table_driver.TableOptimizationResult` (``table``),
     :class:`~isodesign.optimization.robust_result.RobustResult` (``robust``) and
     :class:`~isodesign.optimization.robust_table.TableRobustResult` (``robust table``).
     This class owns what they share, written once:

@@ -28,15 +28,14 @@ import numpy as np
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.metrics import combine, design_quantities, point_quantities
-from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.problem import (
-    _NO_BOUND,
-    CONSTRAINT_VIOLATION_TOL,
-    EPIGRAPH_BOUND,
-    IPOPT_OPTIONS,
-    Problem,
-    hoisted_map,
+from isodesign.optimization.nlp import (
+    NO_BOUND,
+    ipopt_options,
+    objective_params,
+    stacked_bounds,
 )
+from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.problem import Problem, hoisted_map
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.uncertainty import ScenarioStudy
 from isodesign.optimization.variables import DESIGN_VARIABLES
@@ -186,9 +185,8 @@ class ScenarioBlock(Problem):
     def block_params(self, theta=None, slot_hz=None) -> np.ndarray:
         """The block's parameter vector: first objective, no epsilon bound, slots, theta."""
         slots = self.slot_hz if slot_hz is None else np.asarray(slot_hz, float)
-        nk = len(self.objectives)
         th = self.theta if theta is None else np.asarray(theta, float)
-        return np.concatenate([np.eye(nk)[0], [0.0], np.full(nk, _NO_BOUND),
+        return np.concatenate([objective_params(len(self.objectives)),
                                2.0 * math.pi * slots, th])
 
 
@@ -264,20 +262,15 @@ class RobustProblem:
         p = ca.vertcat(ca.vec(p_all), pg)
         gs = [g_all[:, 0]]
         self.ng_block = int(gs[0].numel())
-        self.lbg = np.concatenate([np.tile(b.lbg, self.K), np.full(self.K, -np.inf), [-np.inf]])
-        self.ubg = np.concatenate([np.tile(b.ubg, self.K), np.zeros(self.K), [0.0]])
-        self.lbx = np.concatenate([b.lbx[: b.nz], *[b.lbx[b.nz:]] * self.K, [-EPIGRAPH_BOUND]])
-        self.ubx = np.concatenate([b.ubx[: b.nz], *[b.ubx[b.nz:]] * self.K, [EPIGRAPH_BOUND]])
+        bounds = stacked_bounds([b] * self.K, b.nz, extra_rows=1)  # t <= epsilon
+        self.lbg, self.ubg, self.lbx, self.ubx = (bounds[k] for k in ("lbg", "ubg", "lbx",
+                                                                       "ubx"))
         self.nx = int(x.numel())
         self.j_fn = ca.Function("scenario_objectives", [x, p], [j_vec])
         self.hessian_info = hessian_choice(b.study, b.nx, scenarios=self.K)
-        opts = {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-                "ipopt.max_iter": b.study.solver["max_iter"], "ipopt.tol": b.study.solver["tol"],
-                "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL, **IPOPT_OPTIONS,
-                "ipopt.hessian_approximation": self.hessian_info["hessian"],
-                "error_on_fail": False}
         self.solver = ca.nlpsol("isodesign_robust", "ipopt",
-                                {"x": x, "f": f, "g": g, "p": p}, opts)
+                                {"x": x, "f": f, "g": g, "p": p},
+                                ipopt_options(b.study, self.hessian_info["hessian"]))
         self.build_s = time.perf_counter() - t0
 
     # -- parameters -------------------------------------------------------------------
@@ -286,7 +279,7 @@ class RobustProblem:
         """Every block's parameters (its scenario and slots), then the global ones."""
         parts = [self.block.block_params(th, sl) for th, sl in
                  zip(self.thetas, self.slots, strict=True)]
-        parts.append([weight, diameter_weight, _NO_BOUND if eps is None else eps])
+        parts.append([weight, diameter_weight, NO_BOUND if eps is None else eps])
         return np.concatenate(parts)
 
     def theta_slice(self, k: int) -> slice:

@@ -1,7 +1,7 @@
 """Robust design of a table study (six degrees of freedom): scenarios stacked, exchange.
 
 The same layer as :mod:`.robust` and :mod:`.exchange`, on the table NLP
-(:class:`isodesign.table.problem.TableProblem`): every scenario is the table study under
+(:class:`.table_problem.TableProblem`): every scenario is the table study under
 that scenario's payload mass, centre-of-gravity offset (``cg_offset_x_m``,
 ``cg_offset_y_m``), temperature, and the built spring's tolerances
 (:class:`.uncertainty.ScenarioStudy`), its own TableProblem (the leveling pressures and
@@ -27,13 +27,13 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError
-from isodesign.optimization.hessian import hessian_choice
+from isodesign.optimization.nlp import stacked_bounds
+from isodesign.optimization.problem import Problem
 from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+from isodesign.optimization.table_constraints import table_constraint_reports
+from isodesign.optimization.table_driver import _modes_at, optimize_table
 from isodesign.optimization.table_scenario import table_scenario
-from isodesign.table.constraint_table import table_constraint_reports
-from isodesign.table.optimize import _modes_at, optimize_table
-from isodesign.table.problem import TableProblem
 
 __all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "robust_optimize_table",
            "table_scenario", "table_sensitivities"]
@@ -113,7 +113,7 @@ class _Scenarios:
         key = tuple(np.round(np.asarray(theta, float), 12))
         if key not in self.cache:
             st = table_scenario(self.study, theta)
-            self.cache[key] = TableProblem(st, hessian=hessian_choice(self.study)["hessian"])
+            self.cache[key] = Problem(st)  # a table study: the table body
         return self.cache[key]
 
     def check(self, theta, values: dict, reference: float | None) -> dict:
@@ -125,7 +125,7 @@ class _Scenarios:
         x = prob.initial_guess(values)
         _, g = prob.eval_fn(x, prob.params())
         viol = [(n, v) for n, v in prob.violations(np.asarray(g).ravel())
-                if not n.startswith(("bound_", "worst_band_margin_epigraph"))]
+                if not n.startswith(("epigraph_", "bound_"))]
         margin = prob.worst_margin_db(x)
         j = float(np.asarray(prob._j_fn(x)).ravel()[0])
         if prob.objective == "worst_band_margin":
@@ -142,7 +142,7 @@ def _stack(probs, study):
     nz = p0.nz
     z = ca.MX.sym("z", nz)
     t = ca.MX.sym("t")
-    xs, ps, gs, js, lbg, ubg, lbx, ubx = [], [], [], [], [], [], [], []
+    xs, ps, gs, js = [], [], [], []
     for k, pr in enumerate(probs):
         w = ca.MX.sym(f"w{k}", pr.nx - nz)
         p = ca.MX.sym(f"p{k}", pr.params().size)
@@ -151,19 +151,11 @@ def _stack(probs, study):
         ps.append(p)
         gs.append(gk)
         js.append(jk)
-        lbg.append(pr.lbg)
-        ubg.append(pr.ubg)
-        lbx.append(pr.lbx[nz:])
-        ubx.append(pr.ubx[nz:])
     g = ca.vertcat(*gs, *[j - t for j in js])
     x = ca.vertcat(z, *xs, t)
     solver = ca.nlpsol("isodesign_table_robust", "ipopt",
                        {"x": x, "f": t, "g": g, "p": ca.vertcat(*ps)}, p0.ipopt_options())
-    bounds = {"lbg": np.concatenate([*lbg, np.full(len(probs), -np.inf)]),
-              "ubg": np.concatenate([*ubg, np.zeros(len(probs))]),
-              "lbx": np.concatenate([p0.lbx[:nz], *lbx, [-300.0]]),
-              "ubx": np.concatenate([p0.ubx[:nz], *ubx, [300.0]])}
-    return solver, bounds
+    return solver, stacked_bounds(probs, nz)
 
 
 @dataclass(frozen=True, eq=False, repr=False)

@@ -31,6 +31,7 @@ def table_section(case) -> dict | None:
     st = case.study
     if getattr(st, "table", None) is None:
         return None
+    from isodesign.optimization.table_problem import PEAK_ROWS_MAX_HZ
     from isodesign.table.modes import table_modes
     from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
     from isodesign.table.plots import (
@@ -38,7 +39,6 @@ def table_section(case) -> dict | None:
         table_bands_figure,
         table_transmissibility_figure,
     )
-    from isodesign.table.problem import PEAK_ROWS_MAX_HZ
     from isodesign.table.response import table_band_response
 
     m = case.models

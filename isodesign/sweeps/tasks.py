@@ -372,7 +372,7 @@ def _table_response(study, run: RunDirectory) -> dict:
     """The table's band response of the start design (three axes, every point), as
     ``isodesign response`` answers a table study."""
     from isodesign.io.record import resolved_study_dict, study_toml
-    from isodesign.table.optimize import _analyze
+    from isodesign.optimization.table_driver import _analyze
 
     analysis, modes, _ = _analyze(study, study.start_design())
     values = {v.name: v.start for v in study.variables}

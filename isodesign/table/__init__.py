@@ -19,11 +19,14 @@ One concept a module:
 * :mod:`~isodesign.table.leveling`, :mod:`~isodesign.table.leveling_loop`,
   :mod:`~isodesign.table.stability_report`: the leveling valves as a dynamic model, their
   loop (python-control), a report section.
-* :mod:`~isodesign.table.problem`, :mod:`~isodesign.table.optimize`: the NLP in three axes;
-  :mod:`~isodesign.table.lever_geometry`, :mod:`~isodesign.table.lever_nlp`: its co-design
-  levers (layout, per-group springs, sensitivities).
+* :mod:`~isodesign.table.lever_geometry`: the co-design levers' geometry in the assembly
+  (layout, elastic centre).
 * :mod:`~isodesign.table.study`, :mod:`~isodesign.table.summary`,
   :mod:`~isodesign.table.plots`: study files, text, figures.
+
+Physics only: nothing here imports :mod:`isodesign.optimization`. The table's NLP, its
+driver and Pareto front live there (:mod:`~isodesign.optimization.table_problem`,
+:mod:`~isodesign.optimization.table_driver`, :mod:`~isodesign.optimization.table_pareto`).
 
 The vertical-only :class:`~isodesign.response.isolator.Payload` is the symmetric special
 case (:func:`~isodesign.table.symmetric.payload_table`, docs/table.md section 14).

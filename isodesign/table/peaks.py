@@ -6,9 +6,9 @@ the built-in table), above the lowest rigid-body modes of a soft table. The peak
 constraint is semi-infinite: :func:`continuous_peaks` measures each point and axis' peak on
 a fine log grid from :data:`LOW_FRACTION` of the lowest modal frequency to
 :data:`HIGH_FACTOR` times the highest one (or the top of the NLP's peak rows), refined by a
-parabola in ``ln f`` through the largest sample; :func:`isodesign.table.optimize.optimize_table`
-adds the frequencies of the peaks above the bound to the NLP's movable peak frequencies and
-solves again (docs/table.md, section 11).
+parabola in ``ln f`` through the largest sample;
+:func:`isodesign.optimization.table_driver.optimize_table` adds the frequencies of the peaks
+above the bound to the NLP's movable peak frequencies and solves again (docs/table.md, section 11).
 """
 
 from __future__ import annotations

@@ -253,7 +253,7 @@ def test_a_table_sweep_response_point_is_the_tables_band_response(tmp_path, smal
                           scheduler="serial", charts=False, task="response")
     row = res.table.iloc[0]
     assert row["status"] == "complete", row["error"]
-    from isodesign.table.optimize import _analyze
+    from isodesign.optimization.table_driver import _analyze
 
     a, _, _ = _analyze(st, st.start_design())
     assert row["objective_value"] == pytest.approx(a.worst_margin_db, abs=1e-9)

@@ -107,7 +107,7 @@ def test_horizontal_stiffness_on_symbols_equals_numpy():
 def test_the_nlp_with_free_levers_equals_the_nlp_of_the_fixed_table():
     """At lever values V, the NLP's symbolic lever path gives the margins and closure of
     the NLP built on the table with V fixed (the path the NumPy re-check validates)."""
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     free = _free(*TABLE_LEVERS)
     lev = {"pendulum_length_m": 0.4, "elastic_centre_height_m": 0.3,
@@ -128,7 +128,7 @@ def test_the_nlp_with_free_levers_equals_the_nlp_of_the_fixed_table():
 
 @pytest.mark.slow
 def test_levers_declared_but_fixed_reproduce_todays_optimum():
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     st = table_study()
     declared = st.with_changes(variables={n: {"fixed": True} for n in TABLE_LEVERS})
@@ -141,7 +141,7 @@ def test_levers_declared_but_fixed_reproduce_todays_optimum():
 @pytest.fixture(scope="module")
 def codesigned():
     """The built-in table with the pendulum length and the elastic centre free."""
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     return optimize_table(_free("pendulum_length_m", "elastic_centre_height_m"), workers=1)
 
@@ -173,7 +173,7 @@ def test_lever_sensitivity_against_a_finite_difference_of_the_reoptimized_design
     """The bound multiplier (envelope theorem) against the re-optimized design with the
     pendulum's upper bound raised by 1 cm: within 5 % (a forward difference of a curved
     optimal value); docs/table.md quotes 2.43 and 2.38 dB/m (within 0.05 dB/m)."""
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     sens = {s["name"]: s for s in codesigned.lever_sensitivity}
     pend = sens["pendulum_length_m"]
@@ -200,7 +200,7 @@ def test_the_stroke_constraint_is_a_table_key_and_its_peak_factor_is_checked():
 
 
 def test_the_stroke_rows_are_the_closures_rms_times_the_peak_factor():
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = table_study().with_changes(constraints={"max_stroke_m": 1e-3,
                                                  "stroke_peak_factor": 4.0})
@@ -217,7 +217,7 @@ def test_the_stroke_rows_are_the_closures_rms_times_the_peak_factor():
 def test_a_stroke_bound_below_the_free_optimums_stroke_binds():
     """The built-in table's optimum strokes 0.135 mm (3 x RMS, worst isolator; NLP grid);
     a 0.1 mm travel binds and costs margin (the optimum is -4.49 dB on the NLP's grid)."""
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     r = optimize_table(table_study().with_changes(constraints={"max_stroke_m": 1.0e-4}),
                        workers=1, analyze=False)
@@ -232,8 +232,8 @@ def test_a_mode_the_horizontal_element_alone_damps_keeps_its_row_with_a_free_lev
     """Torsion moves no vertical spring: with the levers fixed its damping is no design
     variable's (refused below the bound); a free lever of the horizontal element's
     stiffness makes it one, so the mode keeps its damping row."""
-    from isodesign.table.optimize import _modes_at
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_driver import _modes_at
+    from isodesign.optimization.table_problem import TableProblem
 
     st = table_study().with_changes(table={"horizontal": {"lateral_loss_factor": 0.05}})
     p = TableProblem(st)
@@ -300,8 +300,8 @@ def test_yield_and_robust_design_refuse_free_levers_naming_the_key():
 
 def test_a_codesigned_study_runs_its_starts_again_with_the_levers_drawn():
     from isodesign.optimization.multistart import start_points
-    from isodesign.table.optimize import _lever_starts
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_driver import _lever_starts
+    from isodesign.optimization.table_problem import TableProblem
 
     st = _free("pendulum_length_m", "lateral_loss_factor")
     p = TableProblem(st)
@@ -352,7 +352,7 @@ def test_a_codesigned_run_on_the_command_line_and_its_run_directory(tmp_path, ca
 def test_free_levers_with_leveling_loop_bounds_are_refused_naming_the_key():
     """The loop's frozen-pole rows are built on the fixed horizontal element: a study that
     frees a lever and bounds the loop's margins is refused before any solve, by its keys."""
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     st = _free("pendulum_length_m").with_changes(
         constraints={"min_leveling_gain_margin_db": 6.0})

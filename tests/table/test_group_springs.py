@@ -122,7 +122,7 @@ def test_the_nlp_with_free_group_levers_is_the_numpy_closure_and_the_fixed_nlp(h
     """Five isolators, CG off centre: at group values V the NLP's implicit equations hold at
     the NumPy closure of the table with V (to 1e-10, the physics written once), and every
     row equals the NLP of the study with V fixed (``with_levers_fixed``)."""
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     free = _held_out(held_out_toml, variables=FREE, constraints={"min_tilt_margin": 1.5,
                                                                  "max_total_volume_m3": 0.02})
@@ -149,7 +149,7 @@ def test_the_nlp_with_free_group_levers_is_the_numpy_closure_and_the_fixed_nlp(h
 
 def test_group_levers_at_the_shared_values_reproduce_todays_nlp():
     """Every group lever named, fixed at the shared spring: the rows of today's NLP."""
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = table_study()
     named = st.with_changes(variables={n: {"fixed": True} for n in GROUP_SPRING_LEVERS})
@@ -170,7 +170,7 @@ def test_group_levers_at_the_shared_values_reproduce_todays_nlp():
 
 
 def test_group_springs_with_leveling_loop_bounds_are_refused_naming_the_key():
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = table_study().with_changes(variables=FREE, constraints={
         "min_leveling_gain_margin_db": 6.0})
@@ -198,7 +198,7 @@ def test_a_group_levers_sensitivity_against_a_central_difference_of_the_reoptimi
     its 3 mm upper bound; the bound multiplier of the log-scaled lever, lam / (h v), gives
     77.15 dB per m of the bound, and the re-optimized designs with the bound at 2.985 and
     3.015 mm give 77.17 dB/m (a central difference; within 2 %)."""
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     st = table_study().with_changes(solver={"starts": 1})
 

@@ -172,7 +172,7 @@ def test_the_nlp_with_a_free_layout_equals_the_nlp_of_the_stretched_table(held_o
     """At layout values V (with the elastic centre free too), the NLP's symbolic path gives
     the closure, the margins and the constraint rows of the NLP built on the table with V
     fixed (the table the NumPy re-check and the analysis use)."""
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = _held_out(held_out_toml, constraints={"min_tilt_margin": 1.5})
     free = st.with_changes(variables={**LAYOUT, "elastic_centre_height_m": {"fixed": False}})
@@ -194,7 +194,7 @@ def test_the_nlp_with_a_free_layout_equals_the_nlp_of_the_stretched_table(held_o
 
 def test_footprint_and_distance_rows(held_out_toml):
     """The rows against the stretched table's positions computed in NumPy."""
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     fp = [[-1.2, -0.7], [1.1, 0.75]]
     st = _held_out(held_out_toml, variables=LAYOUT,
@@ -213,7 +213,7 @@ def test_footprint_and_distance_rows(held_out_toml):
     d = [np.hypot(*(xy[i] - xy[j])) for i in range(5) for j in range(i + 1, 5)]
     np.testing.assert_allclose(np.exp(g[row: row + m]), d, rtol=1e-12)
     assert p.lbg[row] == pytest.approx(np.log(0.4))
-    from isodesign.table.constraint_table import table_constraint_reports
+    from isodesign.optimization.table_constraints import table_constraint_reports
 
     rep = {r.name: r for r in table_constraint_reports(p, g)}
     assert rep["footprint"].value == pytest.approx(want.min())
@@ -222,7 +222,7 @@ def test_footprint_and_distance_rows(held_out_toml):
 
 
 def test_a_fixed_layout_outside_the_footprint_is_refused_naming_the_key(held_out_toml):
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = _held_out(held_out_toml, constraints={"footprint_m": [[-0.5, -0.6], [0.9, 0.6]]})
     with pytest.raises(InputError, match=r"constraints\.footprint_m: isolator 1"):
@@ -247,7 +247,7 @@ def test_with_levers_fixed_writes_the_stretched_layout():
 def test_layout_levers_declared_but_fixed_build_todays_nlp_exactly():
     """A symmetric layout with its levers declared but fixed: the NLP is today's, bit for bit
     (the same rows at the same point), alone and with a horizontal lever free."""
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = table_study()
     fixed = {n: {"fixed": True} for n in LAYOUT_LEVERS}
@@ -266,8 +266,8 @@ def test_layout_levers_declared_but_fixed_build_todays_nlp_exactly():
 def test_load_range_and_supply_margin_are_checked_naming_the_key(held_out_toml):
     """No variable moves the loads: a load or p0 outside the study's range is refused naming
     the key; inside it, the constraint table reports the worst isolator and group."""
-    from isodesign.table.constraint_table import table_constraint_reports
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_constraints import table_constraint_reports
+    from isodesign.optimization.table_problem import TableProblem
 
     st = _held_out(held_out_toml)
     lv = level(st.table, st.hardware["piston_area_m2"])
@@ -302,7 +302,7 @@ def test_layout_sensitivity_against_a_finite_difference_of_the_reoptimized_desig
     width stops on its upper bound, and the bound multiplier's exact sensitivity (1.42 dB
     per m) agrees with the re-optimized design with the bound raised by 1 cm (1.46 dB/m)
     within 5 % (a forward difference of a curved optimal value)."""
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     st = table_study().with_changes(solver={"starts": 1})
 
@@ -325,7 +325,7 @@ def test_the_footprint_area_objective_is_the_stretched_layouts_area():
     """The cost of the footprint front: ln (L W) of the layout levers; refused without a free
     layout and for a vertical study (one line naming the key)."""
     from isodesign.optimization.pareto import pareto_front
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = table_study().with_changes(variables=LAYOUT)
     p = TableProblem(st, objectives=("worst_band_margin", "footprint_area"))

@@ -81,7 +81,7 @@ def test_margin_bounds_defaults_and_switches():
 def test_constraint_rows_are_the_loops_margins():
     """The rows hold the smallest gain margin (MIMO and per valve) and the smallest phase
     margin of python-control's loop, against their bounds; without a bound, no binding."""
-    from isodesign.table.constraint_table import leveling_reports
+    from isodesign.optimization.table_constraints import leveling_reports
     from isodesign.table.leveling_loop import leveling_loop
     from isodesign.table.model import table_model
 
@@ -122,7 +122,7 @@ def test_high_cg_table_below_its_loop_margin_is_a_violation(tmp_path, capsys, mo
     NLP's gain-margin rows never switched on) keeps a leveling loop within 1 dB of its onset:
     the run breaks leveling_gain_margin, exits 1 and is no PASS; its constraint table holds
     the margins `isodesign stability` prints for the same design."""
-    import isodesign.table.optimize as topt
+    import isodesign.optimization.table_driver as topt
     from isodesign.cli import main
 
     monkeypatch.setattr(topt, "LOOP_ROUNDS", 0)
@@ -160,9 +160,9 @@ def test_high_cg_table_below_its_loop_margin_is_a_violation(tmp_path, capsys, mo
     import re
 
     from isodesign.optimization.study import load_study
+    from isodesign.optimization.table_driver import _model
     from isodesign.table.leveling import leveling_of_study
     from isodesign.table.leveling_loop import leveling_loop
-    from isodesign.table.optimize import _model
 
     g_hint = float(re.search(r"at gains up to ([0-9.e-]+) kg/s/m", cap.out).group(1))
     assert g_hint == pytest.approx(0.0104, rel=0.02)  # docs/table.md, section 12
@@ -183,8 +183,8 @@ def test_the_optimizer_moves_a_high_cg_table_to_its_loop_margin(tmp_path):
     the same study without [table.leveling] (whose margins are reported, not enforced)."""
     from isodesign.optimization.explain import limiting_factors
     from isodesign.optimization.study import load_study
+    from isodesign.optimization.table_driver import _model, optimize_table
     from isodesign.table.leveling_loop import leveling_loop
-    from isodesign.table.optimize import _model, optimize_table
 
     st = load_study(_high_cg_toml(tmp_path, 0.8))
     res = optimize_table(st, workers=1, analyze=False)
@@ -220,7 +220,7 @@ def test_a_phase_margin_out_of_reach_is_a_violation(tmp_path):
     """The phase margin has no NLP row: a bound above every valve's (about 92 deg at the
     built-in table's optimum) is a violation naming leveling_phase_margin, never a PASS."""
     from isodesign.optimization.study import load_study
-    from isodesign.table.optimize import optimize_table
+    from isodesign.optimization.table_driver import optimize_table
 
     p = _high_cg_toml(tmp_path, 0.35)
     p.write_text(p.read_text() + "\n[constraints]\nmin_leveling_phase_margin_deg = 120.0\n")
@@ -237,12 +237,12 @@ def test_nlp_loop_rows_are_the_poles_of_the_analysis_plant(tmp_path):
     at G 10^(6/20) (every valve, and each alone), and first-order exact about it."""
     import casadi as ca
 
+    from isodesign.optimization.loop_rows import plant_function
     from isodesign.optimization.study import load_study
+    from isodesign.optimization.table_driver import _model
+    from isodesign.optimization.table_problem import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, TableProblem
     from isodesign.optimization.variables import DESIGN_VARIABLES
     from isodesign.table.leveling import leveling_plant
-    from isodesign.table.loop_rows import plant_function
-    from isodesign.table.optimize import _model
-    from isodesign.table.problem import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, TableProblem
 
     st = load_study(_high_cg_toml(tmp_path, 0.8))
     prob = TableProblem(st)
@@ -289,9 +289,9 @@ def test_pareto_points_below_the_loop_margin_are_not_on_the_front(tmp_path, monk
     """The Pareto front of a table study is judged like its optimum: without loop rounds the
     high-CG table's anchor keeps its loop below 6 dB; such a point names the margin in its
     status and is not on the front; a point on the front meets both bounds."""
-    import isodesign.table.optimize as topt
+    import isodesign.optimization.table_driver as topt
     from isodesign.optimization.study import load_study
-    from isodesign.table.pareto import table_pareto_front
+    from isodesign.optimization.table_pareto import table_pareto_front
 
     monkeypatch.setattr(topt, "LOOP_ROUNDS", 0)
     st = load_study(_high_cg_toml(tmp_path, 0.8))

@@ -1,6 +1,6 @@
 """Optimize a table study in three axes: multi-start, mode refresh, re-check, analysis.
 
-:func:`optimize_table` runs the :class:`~isodesign.table.problem.TableProblem` from the
+:func:`optimize_table` runs the :class:`~isodesign.optimization.table_problem.TableProblem` from the
 study's start and Latin-hypercube starts (the vertical optimizer's
 :func:`~isodesign.optimization.multistart.run_starts`), keeps the best feasible start, and
 then:
@@ -15,7 +15,7 @@ then:
    measured between the NLP's frequencies, on a fine grid from half the lowest modal
    frequency (:mod:`isodesign.table.peaks`); a peak above ``max_peak_transmissibility_db``
    puts movable frequencies around it into the NLP, which is solved again (at most
-   :data:`~isodesign.table.problem.TABLE_PEAK_ROUNDS` rounds, the mode refresh repeated
+   :data:`~isodesign.optimization.table_problem.TABLE_PEAK_ROUNDS` rounds, the mode refresh repeated
    after each). A peak still above the bound is a violation (:data:`PEAK_VIOLATION`): the
    result is not a success and its verdict is no PASS.
    **Leveling loop rounds.** With a bound on the leveling loop's gain margin, while the
@@ -27,7 +27,7 @@ then:
    at the optimum on the NLP's grid must give the NLP's stroke RMS values to 1e-6 and its
    worst margin to 1e-6 dB, else :class:`~isodesign.errors.SolverError`.
 4. **Constraint table.** The constraints at the returned design with margins and binding
-   flags (:mod:`isodesign.table.constraint_table`), for the sentence naming what stopped it
+   flags (:mod:`isodesign.optimization.table_constraints`), for the sentence naming what stopped it
    (:mod:`isodesign.optimization.explain`).
 5. **Analysis.** The band response on the fine grid (50 points per band), the modes and
    the rocking stability of the optimum and of the start.
@@ -49,18 +49,17 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
-from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
 from isodesign.optimization.result import StudyResult
-from isodesign.table.constraint_table import (
+from isodesign.optimization.table_constraints import (
     CONTINUOUS_PEAK,
     LEVELING_GAIN_MARGIN,
     LEVELING_PHASE_MARGIN,
     table_constraint_reports,
 )
+from isodesign.optimization.table_problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
-from isodesign.table.problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
 
 __all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
            "closure_springs", "leveling_check", "measure_peaks", "optimize_table"]
@@ -117,7 +116,7 @@ class TableOptimizationResult(StudyResult):
     n_reached_best : int
     constraints : tuple of ConstraintReport
         The constraint table at the returned design: value, bounds, margin and binding flag
-        of each constraint (:func:`~isodesign.table.constraint_table.table_constraint_reports`).
+        of each constraint (:func:`~.table_constraints.table_constraint_reports`).
     nlp_violations : tuple
         ``(name, worst violation)`` per NLP constraint group (NLP units).
     violations : tuple
@@ -182,7 +181,7 @@ class TableOptimizationResult(StudyResult):
     leveling_gain_hint_kg_s_per_m: float | None = None
     #: Per free lever of a co-designed table: its value, bounds, active bound and the
     #: worst margin's exact sensitivity to that bound, dB per SI unit
-    #: (:meth:`~isodesign.table.problem.TableProblem.lever_sensitivities`).
+    #: (:meth:`~isodesign.optimization.table_problem.TableProblem.lever_sensitivities`).
     lever_sensitivity: tuple = ()
     hessian_info: dict = field(default_factory=dict)
 
@@ -274,16 +273,14 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         The NLP's optimum and the NumPy closure disagree (a bug, never a silently wrong
         design), or no start could be initialized.
     """
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.problem import Problem
 
     if getattr(study, "table", None) is None:
         raise InputError("study: has no [table]; use isodesign.optimize")
     _refuse_levers_with_loop_bounds(study)
     t0 = time.perf_counter()
-    choice = hessian_choice(study)
-    prob = problem if problem is not None else TableProblem(study, hessian=choice["hessian"])
-    if prob.hessian != choice["hessian"]:  # a prebuilt NLP: its own Hessian, stated as such
-        choice = {"hessian": prob.hessian, "reason": "the prebuilt NLP's choice"}
+    prob = problem if problem is not None else Problem(study)
+    choice = prob.hessian_info  # a prebuilt NLP with another Hessian states it as such
     starts = _lever_starts(study, prob, start_points(study, prob.scaling))
     d0 = study.design_at(starts[0])
     modes0 = _modes_at(prob, d0)
@@ -551,7 +548,7 @@ def add_peak_frequencies(prob, over, used) -> tuple:
     Parameters
     ----------
     prob : TableProblem
-        Built again with movable frequencies (:meth:`~.problem.TableProblem.with_peak_slots`)
+        Built again with movable frequencies (:meth:`~.table_problem.TableProblem.with_peak_slots`)
         if it has none.
     over : list of (float, float)
         ``(excess dB, frequency Hz)`` of the peaks above the bound, worst first

@@ -8,7 +8,7 @@ complex pair), with right and left eigenvectors ``v``, ``w`` frozen, the first-o
 ``Re (w^H A_cl(x) v) / (w^H v)`` is linear in the plant's ``A(x)``:
 ``sum_jk R_jk A_jk(x) - c0`` with ``R = Re(conj(w) v^T) / (w^H v)`` and ``c0`` the valves'
 part. Exact at the design the poles are frozen at and to first order about it (the
-eigenvalue's derivative); the driver (:mod:`isodesign.table.optimize`) freezes them again at
+eigenvalue's derivative); the driver (:mod:`.table_driver`) freezes them again at
 each new design. The plant's ``A`` is :func:`isodesign.table.leveling.plant_matrix`, the
 analysis' own assembly, evaluated on CasADi symbols here.
 """

@@ -3,8 +3,8 @@
 The cost is the total volume (default) or, with a free layout, the isolators' footprint
 area ``L W`` (docs/table.md, section 15).
 
-Epsilon constraint on the :class:`~isodesign.table.problem.TableProblem` with both
-objectives: anchor A is :func:`~isodesign.table.optimize.optimize_table` (multi-start, mode
+Epsilon constraint on the :class:`~.table_problem.TableProblem` with both
+objectives: anchor A is :func:`~.table_driver.optimize_table` (multi-start, mode
 refresh, re-check); anchor B minimizes the total volume from it; between them the worst
 margin is maximized subject to ``ln V <= eps`` for ``points`` values of eps, each solve
 warm-started from the previous one (from anchor B when that one stalls; docs/table.md,
@@ -25,8 +25,8 @@ import numpy as np
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.front import REFERENCE_MARGIN, front_reference, nondominated
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB
+from isodesign.optimization.table_constraints import CONTINUOUS_PEAK as PEAK_VIOLATION
 from isodesign.results import ResultDisplay
-from isodesign.table.constraint_table import CONTINUOUS_PEAK as PEAK_VIOLATION
 
 __all__ = ["TableParetoResult", "table_pareto_front"]
 
@@ -175,8 +175,8 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
     SolverError
         No feasible design at anchor A.
     """
-    from isodesign.table.optimize import optimize_table
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.table_driver import optimize_table
 
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
@@ -185,7 +185,7 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
                          f"got {cost!r}")
     t0 = time.perf_counter()
     st = study.with_changes(objective={"kind": "worst_band_margin"})
-    prob = TableProblem(st, objectives=("worst_band_margin", cost))
+    prob = Problem(st, objectives=("worst_band_margin", cost))
     res_a = optimize_table(st, problem=prob, analyze=False)
     if not res_a.feasible:
         raise SolverError(f"pareto: no feasible design when maximizing the worst margin "
@@ -255,8 +255,8 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
 def _loop_misses(study, sol) -> tuple:
     """The leveling loop's margins below their bounds at a feasible point: ``(name, dB or
     deg)`` (none without bounds; docs/table.md, section 12)."""
+    from isodesign.optimization.table_driver import _leveling_misses, leveling_check
     from isodesign.table.leveling import leveling_margin_bounds
-    from isodesign.table.optimize import _leveling_misses, leveling_check
 
     if not sol.feasible or leveling_margin_bounds(study) == (None, None):
         return ()
@@ -265,13 +265,13 @@ def _loop_misses(study, sol) -> tuple:
 
 def _peak_refined(study, state, x0, params, first=None):
     """Solve from ``x0`` with ``params`` and refine the continuous peak of |T| (as
-    :func:`~isodesign.table.optimize.optimize_table` does): ``(solution, excess dB or None)``.
+    :func:`~.table_driver.optimize_table` does): ``(solution, excess dB or None)``.
 
     ``state`` holds the NLP (built again with movable frequencies when needed) and the
     frequencies placed so far, shared by every point of the front.
     """
-    from isodesign.table.optimize import _modes_at, add_peak_frequencies, measure_peaks
-    from isodesign.table.problem import TABLE_PEAK_ROUNDS
+    from isodesign.optimization.table_driver import _modes_at, add_peak_frequencies, measure_peaks
+    from isodesign.optimization.table_problem import TABLE_PEAK_ROUNDS
 
     limit = study.constraints.get("max_peak_transmissibility_db")
     sol = first if first is not None else state["prob"].solve(x0, params)

@@ -39,6 +39,7 @@ def independent_peak_db(study, values, f_low_hz=0.05, f_high_hz=20.0, n=20001):
 def test_continuous_peaks_find_the_mode_below_the_grid():
     """The built-in table's y+rx mode lies below the NLP grid's first frequency: the
     continuous peak (from half the lowest mode) finds it, at the dense grid's value."""
+    from isodesign.optimization.table_problem import TableProblem
     from isodesign.table.modes import table_modes
     from isodesign.table.peaks import (
         LOW_FRACTION,
@@ -46,7 +47,6 @@ def test_continuous_peaks_find_the_mode_below_the_grid():
         continuous_peaks,
         peak_search_band,
     )
-    from isodesign.table.problem import TableProblem
 
     st = table_study()
     prob = TableProblem(st)
@@ -85,7 +85,7 @@ def test_continuous_peaks_find_the_mode_below_the_grid():
 
 def test_refinement_rows_are_the_numpy_transmissibility(held_out_toml):
     """The NLP's movable peak rows at a frequency are ln |T_p,aa|^2 of the NumPy model."""
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = load_study_text(held_out_toml)
     prob = TableProblem(st, peak_slots=3)
@@ -123,7 +123,7 @@ def test_held_out_table_optimum_meets_its_continuous_peak(held_out_toml):
     """The optimum's |T| from well below its lowest mode stays within the bound (dense grid,
     the NumPy band response's closure: not the optimizer's numbers); a PASS only when every
     constraint holds."""
-    from isodesign.table.optimize import PEAK_VIOLATION, optimize_table
+    from isodesign.optimization.table_driver import PEAK_VIOLATION, optimize_table
 
     st = load_study_text(held_out_toml)
     with warnings.catch_warnings():
@@ -150,7 +150,7 @@ def test_held_out_table_pareto_points_meet_their_continuous_peak(held_out_toml):
     """Every point of the table's Pareto front is refined like the optimum: its |T| from
     0.05 Hz (dense grid, the band response's closure) is within the bound, or its status
     names the excess and it is off the front."""
-    from isodesign.table.pareto import table_pareto_front
+    from isodesign.optimization.table_pareto import table_pareto_front
 
     st = load_study_text(held_out_toml)
     with warnings.catch_warnings():
@@ -172,9 +172,9 @@ def test_a_branch_better_before_refinement_is_refined_too(held_out_toml):
     """The refinement lowers a branch's objective, so a branch that looked better before it
     is refined as well and the best refined one wins (here: the same branch again, which
     must come back no worse and meeting its bound)."""
+    from isodesign.optimization import table_driver as topt
     from isodesign.optimization.refine import BRANCH_TOLERANCE
-    from isodesign.table import optimize as topt
-    from isodesign.table.problem import TableProblem
+    from isodesign.optimization.table_problem import TableProblem
 
     st = load_study_text(held_out_toml)
     prob = TableProblem(st)

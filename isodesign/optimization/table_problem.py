@@ -1,8 +1,9 @@
 """The NLP of a table study in three axes (CasADi SX, IPOPT, exact derivatives).
 
-A sibling of :class:`isodesign.optimization.problem.Problem` with the same interface
-(``initial_guess``, ``solve``, ``params``, ``values``, ``violations``, ``scaling``,
-``objective``), so the multi-start machinery runs it unchanged. Decision variables: the
+Built on the machinery every NLP shares (:class:`~isodesign.optimization.nlp.NLP`: IPOPT
+options, the parameter head, constraint rows, one ``solve``, ``params``, ``values``,
+``violations``), like the vertical :class:`~isodesign.optimization.problem.Problem`, so the
+multi-start machinery runs either unchanged. Decision variables: the
 scaled design ``z`` (N, V_t0, L_c, D_c; identical isolators), and per isolator
 ``s_i = ln sigma_i`` and ``y_i = ln sigma_u,i`` of the statistical closure, solved inside
 the NLP as equality constraints::
@@ -47,20 +48,20 @@ Objective: the worst margin over every instrument point, axis and band (an epigr
 from __future__ import annotations
 
 import math
-import time
 
 import numpy as np
 
 from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
-from isodesign.optimization.problem import (
-    CONSTRAINT_VIOLATION_TOL,
-    EPIGRAPH_BOUND,
-    IPOPT_OPTIONS,
-    SIGMA_BOUNDS_M,
-    VELOCITY_BOUNDS_M_S,
+from isodesign.optimization import nlp
+from isodesign.optimization.loop_rows import (
+    LOOP_MARGIN_EPS,
+    LOOP_POLES_MIMO,
+    frozen_poles,
+    loop_rows,
 )
-from isodesign.optimization.solution import Solution
+from isodesign.optimization.nlp import NLP
+from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     DESIGN_VARIABLES,
@@ -82,7 +83,6 @@ from isodesign.table.lever_geometry import (
     lever_stiffness,
     vertical_vectors,
 )
-from isodesign.table.loop_rows import LOOP_MARGIN_EPS, LOOP_POLES_MIMO, frozen_poles, loop_rows
 from isodesign.table.statics import level
 
 __all__ = ["DAMPED_MODE_LIMIT_HZ", "LOOP_MARGIN_EPS", "LOOP_POLES_MIMO", "PEAK_ROWS_MAX_HZ",
@@ -101,12 +101,13 @@ ROCKING_ENERGY_FRACTION = 0.3
 #: at most three peaks, for :data:`TABLE_PEAK_ROUNDS` rounds.
 PEAK_SLOTS_PER_ROUND = 9
 TABLE_PEAK_ROUNDS = 4
-#: Objectives of the table NLP.
-TABLE_OBJECTIVES = ("worst_band_margin", "total_volume", "footprint_area")
+#: Objectives of the table NLP: those of the one registry with a table form
+#: (:attr:`~isodesign.optimization.objectives.Objective.table`).
+TABLE_OBJECTIVES = tuple(k for k, o in OBJECTIVES.items() if o.table is not None)
 _LN10 = math.log(10.0)
 
 
-class TableProblem:
+class TableProblem(NLP):
     """The NLP of a study with a ``[table]``, built once and solved from many starts.
 
     Parameters
@@ -116,8 +117,9 @@ class TableProblem:
     objectives : tuple of str, optional
         ``worst_band_margin`` (default), ``total_volume`` and/or ``footprint_area`` (a free
         layout's ``L W``).
-    hessian : {'limited-memory', 'exact'}
-        IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way).
+    hessian : {'limited-memory', 'exact'}, optional
+        IPOPT's Hessian of the Lagrangian (gradient and Jacobian are exact either way);
+        default: the rule's (:func:`~isodesign.optimization.hessian.hessian_choice`).
     peak_slots : int
         Movable peak frequencies (:meth:`set_slots`; used only with a peak bound). The
         continuous peak refinement builds the NLP again with
@@ -128,10 +130,13 @@ class TableProblem:
     """
 
     def __init__(self, study, objectives: tuple | None = None, *,
-                 hessian: str = "limited-memory", peak_slots: int = 0):
+                 hessian: str | None = None, peak_slots: int = 0):
         import casadi as ca
 
-        self.hessian = hessian
+        from isodesign.optimization.hessian import hessian_choice
+
+        self._rule = hessian_choice(study)
+        self.hessian = self._rule["hessian"] if hessian is None else hessian
 
         if study.table is None:
             raise InputError("study: has no [table]; use isodesign.optimization.Problem")
@@ -213,7 +218,7 @@ class TableProblem:
         TableProblem
             Its decision variables are this one's (a solution's ``x`` carries over).
         """
-        new = TableProblem(self.study, self.objectives, hessian=self.hessian, peak_slots=n)
+        new = type(self)(self.study, self.objectives, hessian=self.hessian, peak_slots=n)
         new.mode_params = self.mode_params.copy()
         new.loop_params = self.loop_params.copy()
         return new
@@ -411,13 +416,7 @@ class TableProblem:
         s, y = X.sym("s", n), X.sym("y", n)
         t = X.sym("t", 1 if self.objective == "worst_band_margin" or
                   "worst_band_margin" in self.objectives else 0)
-        vals = []
-        for name in DESIGN_VARIABLES:
-            if name in self.scaling.names:
-                i = self.scaling.names.index(name)
-                vals.append(ca.exp(self.scaling.center[i] + self.scaling.half[i] * z[i]))
-            else:
-                vals.append(X(st.variable(name).start))
+        vals = nlp.design_values(ca, X, z, self.scaling, st)
         if self.n_levers:
             ls = self.lever_scaling
             for name in CODESIGN_LEVERS:
@@ -428,7 +427,7 @@ class TableProblem:
                     start = next(lv.start for lv in st.levers if lv.name == name)
                     vals.append(X(0.0 if start is None else start))
         if self.grouped:  # each group's four: its free lever, its own value, or the shared
-            from isodesign.table.lever_nlp import group_values
+            from isodesign.optimization.lever_nlp import group_values
 
             vals += group_values(self, ca, z[nzs:], vals)
         v = ca.vertcat(*vals)
@@ -464,16 +463,21 @@ class TableProblem:
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
         cons = self._constraints(ca, d, v, s, y, out, out_slots)
         _, designs = self._designs(v)
+        # the objectives' quantities; their forms are the registry's (objectives.OBJECTIVES)
         # the total volume per isolator: the mean over the isolators with per-group springs
-        j_parts = {"total_volume": ca.log(d.total_volume_m3) if not self.grouped else
-                   ca.log(sum(di.total_volume_m3 for di in designs) / n)}
+        q = {"ln_total_volume": ca.log(d.total_volume_m3) if not self.grouped else
+             ca.log(sum(di.total_volume_m3 for di in designs) / n), "margins_db": judged,
+             "t_worst_band_margin": t[0] if t.numel() else None}
         if "footprint_area" in self.objectives:  # ln (L W) of the stretched layout
             sx, sy = self._scale(v)
             ex, ey = layout_extent(self.table)
-            j_parts["footprint_area"] = ca.log(sx * sy * (ex * ey))
-        if t.numel():
-            j_parts["worst_band_margin"] = -t[0]
-            cons.insert(0, ("worst_band_margin_epigraph", t[0] - judged, -np.inf, 0.0))
+            q["ln_footprint_area"] = ca.log(sx * sy * (ex * ey))
+        js, obj_cons = [], []
+        for kind in self.objectives:
+            jk, ocons = OBJECTIVES[kind].table(q)
+            js.append(jk)
+            obj_cons += ocons
+        cons[:0] = obj_cons  # the epigraph rows first
         p_w = X.sym("weights", len(self.objectives))
         p_wd = X.sym("w_diameter")
         p_eps = X.sym("eps", len(self.objectives))
@@ -482,7 +486,6 @@ class TableProblem:
         cons += self._damping(ca, v, s, y, p_modes)
         p_loop = X.sym("loop", self.loop_params.size)
         cons += self._loop_rows(ca, v, p_loop)
-        js = [j_parts[kind] for kind in self.objectives]
         j_total = p_wd * ca.log(d.capillary_diameter_m)
         for i, jk in enumerate(js):
             j_total = j_total + p_w[i] * jk
@@ -491,21 +494,14 @@ class TableProblem:
         pp = ca.vertcat(p_w, p_wd, p_eps, p_modes, p_slot, p_loop)
         gg = ca.vertcat(*rows_eq, *[c[1] for c in cons])
         self.n_eq = 2 * n
-        lbg, ubg, self.con_rows, row = [0.0] * (2 * n), [0.0] * (2 * n), [], 2 * n
-        for name, expr, lo, hi in cons:
-            m = int(expr.numel())
-            lbg += [lo] * m
-            ubg += [hi] * m
-            self.con_rows.append((name, row, m))
-            row += m
-        self.lbg, self.ubg = np.array(lbg), np.array(ubg)
+        self.lbg, self.ubg, self.con_rows = nlp.constraint_rows(
+            self.n_eq, [(name, int(expr.numel()), lo, hi) for name, expr, lo, hi in cons])
         self.nz, self.nx = int(z.numel()), int(x.numel())
-        self.lbx = np.concatenate([-np.ones(self.nz), np.full(n, math.log(SIGMA_BOUNDS_M[0])),
-                                   np.full(n, math.log(VELOCITY_BOUNDS_M_S[0])),
-                                   np.full(int(t.numel()), -EPIGRAPH_BOUND)])
-        self.ubx = np.concatenate([np.ones(self.nz), np.full(n, math.log(SIGMA_BOUNDS_M[1])),
-                                   np.full(n, math.log(VELOCITY_BOUNDS_M_S[1])),
-                                   np.full(int(t.numel()), EPIGRAPH_BOUND)])
+        self.lbx, self.ubx = nlp.variable_boxes(
+            (self.nz, -1.0, 1.0),
+            (n, math.log(nlp.SIGMA_BOUNDS_M[0]), math.log(nlp.SIGMA_BOUNDS_M[1])),
+            (n, math.log(nlp.VELOCITY_BOUNDS_M_S[0]), math.log(nlp.VELOCITY_BOUNDS_M_S[1])),
+            (int(t.numel()), -nlp.EPIGRAPH_BOUND, nlp.EPIGRAPH_BOUND))
         self._margins_fn = ca.Function("margins", [x], [judged])
         self._all_margins_fn = ca.Function("all_margins", [x], [margins])
         self._j_fn = ca.Function("objectives", [x], [ca.vertcat(*js)])
@@ -636,9 +632,9 @@ class TableProblem:
                 out.append(("max_rocking_frequency_hz", ca.vertcat(*hi_rows), 0.0, np.inf))
         return out
 
-    # -- the leveling loop's gain margin (isodesign.table.loop_rows) -------------------
+    # -- the leveling loop's gain margin (isodesign.optimization.loop_rows) -------------------
     def _loop_rows(self, ca, v, p_loop) -> list:
-        """The gain-margin rows (:func:`~isodesign.table.loop_rows.loop_rows`)."""
+        """The gain-margin rows (:func:`~isodesign.optimization.loop_rows.loop_rows`)."""
         return loop_rows(self, ca, v, p_loop)
 
     def clear_loop(self) -> None:
@@ -647,7 +643,7 @@ class TableProblem:
 
     def set_loop(self, d) -> None:
         """Freeze the leveling loop's gain-margin rows at design ``d``'s poles
-        (:func:`~isodesign.table.loop_rows.frozen_poles`).
+        (:func:`~isodesign.optimization.loop_rows.frozen_poles`).
 
         Parameters
         ----------
@@ -680,38 +676,23 @@ class TableProblem:
     def _reference(self):
         return self.closure(self.study.start_design())
 
-    def ipopt_options(self) -> dict:
-        """The options given to CasADi's nlpsol (those of the vertical NLP)."""
-        return {"ipopt.print_level": 0, "print_time": False, "ipopt.sb": "yes",
-                "ipopt.max_iter": self.study.solver["max_iter"],
-                "ipopt.tol": self.study.solver["tol"],
-                "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL, **IPOPT_OPTIONS,
-                "ipopt.hessian_approximation": self.hessian,
-                "error_on_fail": False}  # fmt: skip
+    def hessian_approximation(self) -> str:
+        """IPOPT's Hessian of this NLP (the ``hessian`` it was built with)."""
+        return self.hessian
 
-    def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:
-        """Parameter vector: weights, the weight of ln D_c, epsilon bounds, frozen modes,
-        movable peak frequencies (:meth:`set_slots`), frozen loop poles (:meth:`set_loop`).
+    @property
+    def hessian_info(self) -> dict:
+        """IPOPT's Hessian of this NLP and why: the rule's
+        (:func:`~isodesign.optimization.hessian.hessian_choice`), or the caller's."""
+        if self.hessian == self._rule["hessian"]:
+            return dict(self._rule)
+        return {"hessian": self.hessian, "reason": "the prebuilt NLP's choice"}
 
-        Parameters
-        ----------
-        weights : sequence of float, optional
-            Objective weights (default: minimize the first objective).
-        diameter_weight : float
-            Weight of ``ln D_c`` (tie-break).
-        eps : sequence of float or None, optional
-            Epsilon bounds on the objectives (None: none).
-        """
-        nk = len(self.objectives)
-        w = np.zeros(nk)
-        if weights is None:
-            w[0] = 1.0
-        else:
-            w[:] = weights
-        e = np.full(nk, 1e20) if eps is None else np.asarray(
-            [1e20 if v is None else v for v in eps], float)
-        return np.concatenate([w, [diameter_weight], e, self.mode_params, self.slot_params,
-                               self.loop_params])
+    def _param_tail(self) -> np.ndarray:
+        """Frozen modes (:meth:`set_modes`), movable peak frequencies (:meth:`set_slots`),
+        frozen loop poles (:meth:`set_loop`), after the objectives' parameters
+        (:meth:`~.nlp.NLP.params`)."""
+        return np.concatenate([self.mode_params, self.slot_params, self.loop_params])
 
     def set_slots(self, frequencies_hz) -> None:
         """Move the peak constraint's movable frequencies (NLP parameters, no rebuild).
@@ -794,72 +775,27 @@ class TableProblem:
             x0[-1] = float(np.min(np.asarray(self._margins_fn(x0))))
         return x0
 
-    def solve(self, x0: np.ndarray, p=None) -> Solution:
-        """Run IPOPT from ``x0``.
+    def objective_values(self, x: np.ndarray) -> np.ndarray:
+        """Internal values J of every objective at ``x``.
 
         Parameters
         ----------
-        x0 : ndarray
-            Initial point (:meth:`initial_guess`).
-        p : ndarray, optional
-            Parameters (:meth:`params`).
+        x : ndarray
         """
-        t0 = time.perf_counter()
-        p = self.params() if p is None else np.asarray(p, float)
-        res = self.solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p)
-        stats = self.solver.stats()
-        x = np.asarray(res["x"]).ravel()
-        g = np.asarray(res["g"]).ravel()
-        j_all = np.asarray(self._j_fn(x)).ravel()
-        return Solution(x=x, values=self.values(x), objective=float(j_all[0]), objectives=j_all,
-                        g=g, violations=tuple(self.violations(g)),
-                        status=stats.get("return_status", "unknown"),
-                        success=bool(stats.get("success", False)),
-                        iterations=int(stats.get("iter_count", -1)),
-                        wall_s=time.perf_counter() - t0)  # fmt: skip
+        return np.asarray(self._j_fn(x)).ravel()
 
     def lever_sensitivities(self, x: np.ndarray) -> tuple:
         """The re-optimized sensitivity of the worst margin to each free lever's bounds
-        (:func:`~isodesign.table.lever_nlp.lever_sensitivities`).
+        (:func:`~isodesign.optimization.lever_nlp.lever_sensitivities`).
 
         Parameters
         ----------
         x : ndarray
             The optimum.
         """
-        from isodesign.table.lever_nlp import lever_sensitivities
+        from isodesign.optimization.lever_nlp import lever_sensitivities
 
         return lever_sensitivities(self, x)
-
-    def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
-        """Worst violation of each constraint group (equalities as ``implicit_equations``).
-
-        Parameters
-        ----------
-        g : ndarray
-            Constraint values.
-        """
-        out = [("implicit_equations", float(np.max(np.abs(g[: self.n_eq]))))]
-        for name, row, m in self.con_rows:
-            gi = g[row: row + m]
-            v = np.maximum(np.maximum(self.lbg[row: row + m] - gi, gi - self.ubg[row: row + m]),
-                           0.0)
-            out.append((name, float(np.max(v)) if v.size else 0.0))
-        return out
-
-    def values(self, x: np.ndarray) -> dict:
-        """Design-variable values at ``x`` (fixed ones from the study).
-
-        Parameters
-        ----------
-        x : ndarray
-        """
-        vals = {v.name: v.start for v in self.study.variables}
-        nzs = len(self.scaling.names)
-        vals.update(self.scaling.to_values(np.clip(x[:nzs], -1.0, 1.0)))
-        if self.n_levers:  # the free levers' values (fixed ones: the study's table)
-            vals.update(self.lever_scaling.to_values(np.clip(x[nzs: self.nz], -1.0, 1.0)))
-        return vals
 
     def worst_margin_db(self, x: np.ndarray) -> float:
         """Worst margin over points, axes and bands at ``x`` (dB).

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from isodesign.optimization.study import table_study
+from isodesign.optimization.table_driver import optimize_table
+from isodesign.optimization.table_problem import TableProblem
 from isodesign.table.modes import rocking_stability
-from isodesign.table.optimize import optimize_table
-from isodesign.table.problem import TableProblem
 from isodesign.table.response import TableStatistical, solve_table_closure
 
 

@@ -1,0 +1,363 @@
+"""What every NLP of a study shares, written once.
+
+The vertical NLP (:class:`~.problem.Problem`, the exact z reduction of a symmetric
+payload, docs/table.md section 14), the table's six-degree-of-freedom NLP
+(:class:`~.table_problem.TableProblem`) and their scenario stacks (:mod:`.robust`,
+:mod:`.robust_table`) build different bodies on the same machinery:
+
+* the IPOPT options (:data:`IPOPT_OPTIONS`, :func:`ipopt_options`) and the boxes on the
+  implicit unknowns (:data:`SIGMA_BOUNDS_M`, :data:`VELOCITY_BOUNDS_M_S`,
+  :data:`EPIGRAPH_BOUND`), :func:`variable_boxes`;
+* the design values from the scaled variables ``z`` (:func:`design_values`: the spring's
+  four, log-scaled, fixed ones from the study);
+* the head of the parameter vector, ``[weights, w_D, epsilon bounds]``
+  (:func:`objective_params`), shared by the nominal solve, the tie-break and the Pareto
+  sweep;
+* the constraint rows with their names and bounds (:func:`constraint_rows`), from which
+  the violations (:meth:`NLP.violations`) and the binding flags
+  (:func:`~.constraints.constraint_reports`) are read;
+* one solve (:meth:`NLP.solve`) returning a :class:`~.solution.Solution`, and the design
+  values at a point (:meth:`NLP.values`).
+"""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from isodesign.optimization.solution import Solution
+from isodesign.optimization.variables import DESIGN_VARIABLES
+
+__all__ = [
+    "CONSTRAINT_VIOLATION_TOL",
+    "EPIGRAPH_BOUND",
+    "IPOPT_OPTIONS",
+    "NLP",
+    "NO_BOUND",
+    "SIGMA_BOUNDS_M",
+    "VELOCITY_BOUNDS_M_S",
+    "constraint_rows",
+    "design_values",
+    "ipopt_options",
+    "objective_params",
+    "row_name",
+    "stacked_bounds",
+    "variable_boxes",
+]
+
+#: IPOPT options beyond max_iter and tol. Every start is consistent (the implicit
+#: unknowns solved by the NumPy path), so IPOPT must not push it off its bounds nor
+#: start with a large barrier parameter: a monotone barrier from mu = 1e-3 and
+#: tiny bound pushes converged from every start where the adaptive default often
+#: wandered off (measured on the default study, benchmarks/bench_optimize.py).
+IPOPT_OPTIONS = {
+    "ipopt.mu_strategy": "monotone",
+    "ipopt.mu_init": 1e-3,
+    "ipopt.bound_push": 1e-9,
+    "ipopt.bound_frac": 1e-9,
+    "ipopt.slack_bound_push": 1e-9,
+    "ipopt.slack_bound_frac": 1e-9,
+}
+#: IPOPT's constraint violation tolerance (``ipopt.constr_viol_tol``).
+CONSTRAINT_VIOLATION_TOL = 1e-9
+#: Boxes on the implicit unknowns of the NLP (far outside any physical solution).
+SIGMA_BOUNDS_M = (1e-13, 1e-1)
+VELOCITY_BOUNDS_M_S = (1e-12, 1e3)
+#: Box on an epigraph variable: dB, or ln(m/s) for rms_velocity.
+EPIGRAPH_BOUND = 300.0
+#: An epsilon bound that never binds.
+NO_BOUND = 1e20
+
+
+def ipopt_options(study, hessian: str) -> dict:
+    """The options given to CasADi's ``nlpsol`` for a study's NLP.
+
+    Parameters
+    ----------
+    study : Study
+        Its ``solver`` table (``max_iter``, ``tol``).
+    hessian : {'exact', 'limited-memory'}
+        IPOPT's Hessian of the Lagrangian
+        (:func:`~isodesign.optimization.hessian.hessian_choice`).
+
+    Returns
+    -------
+    dict
+    """
+    return {
+        "ipopt.print_level": 0,
+        "print_time": False,
+        "ipopt.sb": "yes",
+        "ipopt.max_iter": study.solver["max_iter"],
+        "ipopt.tol": study.solver["tol"],
+        "ipopt.constr_viol_tol": CONSTRAINT_VIOLATION_TOL,
+        **IPOPT_OPTIONS,
+        "ipopt.hessian_approximation": hessian,
+        "error_on_fail": False,
+    }
+
+
+def objective_params(n_objectives: int, weights=None, diameter_weight: float = 0.0,
+                     eps=None) -> np.ndarray:
+    """The head of every NLP's parameter vector: ``[w_1..w_K, w_D, eps_1..eps_K]``.
+
+    Parameters
+    ----------
+    n_objectives : int
+        K, the objectives in the NLP.
+    weights : sequence of float, optional
+        Objective weights (default: minimize the first objective).
+    diameter_weight : float
+        Weight of ``ln D_c`` (the tie-break).
+    eps : sequence of float or None, optional
+        Epsilon bounds on the objectives (None: :data:`NO_BOUND`).
+
+    Returns
+    -------
+    ndarray
+        ``2 K + 1`` values.
+    """
+    w = np.zeros(n_objectives)
+    if weights is None:
+        w[0] = 1.0
+    else:
+        w[:] = weights
+    e = np.full(n_objectives, NO_BOUND) if eps is None else np.asarray(
+        [NO_BOUND if v is None else v for v in eps], float)
+    return np.concatenate([w, [diameter_weight], e])
+
+
+def row_name(key) -> str:
+    """The name of a constraint row's key.
+
+    Parameters
+    ----------
+    key : str or Constraint
+        A name (the table's rows), or a
+        :class:`~isodesign.optimization.constraints.Constraint` (the vertical rows).
+
+    Returns
+    -------
+    str
+    """
+    return key if isinstance(key, str) else key.name
+
+
+def constraint_rows(n_eq: int, constraints) -> tuple[np.ndarray, np.ndarray, list]:
+    """Bounds of the constraint rows and where each constraint sits.
+
+    Parameters
+    ----------
+    n_eq : int
+        The implicit equations (``= 0``), first in ``g``.
+    constraints : iterable of (key, int, float, float)
+        Each constraint's key (its name or its
+        :class:`~isodesign.optimization.constraints.Constraint`), rows, lower and upper
+        bound, in the order of ``g``.
+
+    Returns
+    -------
+    lbg, ubg : ndarray
+    rows : list of (key, int, int)
+        Each constraint's key, first row in ``g`` and number of rows.
+    """
+    lbg = [0.0] * n_eq
+    ubg = [0.0] * n_eq
+    rows = []
+    row = n_eq
+    for key, n, lo, hi in constraints:
+        lbg += [lo] * n
+        ubg += [hi] * n
+        rows.append((key, row, n))
+        row += n
+    return np.array(lbg), np.array(ubg), rows
+
+
+def variable_boxes(*blocks) -> tuple[np.ndarray, np.ndarray]:
+    """``lbx``, ``ubx`` from blocks of variables in the order of ``x``.
+
+    Parameters
+    ----------
+    *blocks : (int, float, float)
+        Size, lower and upper bound of each block.
+
+    Returns
+    -------
+    lbx, ubx : ndarray
+    """
+    lbx = np.concatenate([np.full(int(n), float(lo)) for n, lo, _ in blocks])
+    ubx = np.concatenate([np.full(int(n), float(hi)) for n, _, hi in blocks])
+    return lbx, ubx
+
+
+def stacked_bounds(blocks, nz: int, extra_rows: int = 0) -> dict:
+    """Bounds of scenario blocks stacked in one NLP sharing the design (the robust NLP).
+
+    The stacked NLP's variables are ``x = [z, w_1 .. w_K, t]`` (the shared scaled design,
+    each block's own variables, the worst-case epigraph ``t``) and its rows
+    ``g = [g_1 .. g_K, J_k - t (K rows), extra rows]``, the epigraph and extra rows
+    ``<= 0``: one layout for the vertical body's block mapped over K scenarios
+    (:mod:`.robust`) and the table's scenario NLPs (:mod:`.robust_table`).
+
+    Parameters
+    ----------
+    blocks : sequence
+        The K blocks' NLPs (``lbg``, ``ubg``, ``lbx``, ``ubx``; their first ``nz``
+        variables are the shared design).
+    nz : int
+        The shared design's size.
+    extra_rows : int
+        Rows after the epigraph rows, ``<= 0`` (an epsilon bound on ``t``).
+
+    Returns
+    -------
+    dict
+        ``lbg``, ``ubg``, ``lbx``, ``ubx``.
+    """
+    k = len(blocks) + extra_rows
+    return {"lbg": np.concatenate([*[b.lbg for b in blocks], np.full(k, -np.inf)]),
+            "ubg": np.concatenate([*[b.ubg for b in blocks], np.zeros(k)]),
+            "lbx": np.concatenate([blocks[0].lbx[:nz], *[b.lbx[nz:] for b in blocks],
+                                   [-EPIGRAPH_BOUND]]),
+            "ubx": np.concatenate([blocks[0].ubx[:nz], *[b.ubx[nz:] for b in blocks],
+                                   [EPIGRAPH_BOUND]])}
+
+
+def design_values(ca, X, z, scaling, study) -> list:
+    """The spring's four design values on the NLP's variables.
+
+    Parameters
+    ----------
+    ca : module
+        casadi.
+    X : type
+        ``casadi.SX`` or ``casadi.MX``.
+    z : casadi symbol
+        The scaled variables (the spring's first, in ``scaling.names`` order).
+    scaling : LogScaling
+        The spring's log scaling (:func:`~isodesign.optimization.variables.log_scaling`).
+    study : Study
+        The fixed variables' values.
+
+    Returns
+    -------
+    list
+        In :data:`~isodesign.optimization.variables.DESIGN_VARIABLES` order.
+    """
+    vals = []
+    for name in DESIGN_VARIABLES:
+        if name in scaling.names:
+            k = scaling.names.index(name)
+            vals.append(ca.exp(scaling.center[k] + scaling.half[k] * z[k]))
+        else:
+            vals.append(X(study.variable(name).start))
+    return vals
+
+
+class NLP:
+    """The part of a built NLP that does not depend on its body.
+
+    A subclass sets ``study``, ``objectives``, ``scaling`` (and ``lever_scaling`` with
+    ``n_levers`` free levers after the spring in ``z``), ``solver``, ``lbx``, ``ubx``,
+    ``lbg``, ``ubg``, ``n_eq``, ``con_rows`` (:func:`constraint_rows`), and defines
+    :meth:`objective_values`, :meth:`hessian_approximation` and :meth:`_param_tail`.
+    """
+
+    n_levers = 0
+
+    def hessian_approximation(self) -> str:
+        """IPOPT's Hessian of this NLP (``exact`` or ``limited-memory``)."""
+        raise NotImplementedError
+
+    def _param_tail(self) -> np.ndarray:
+        """The parameters after the objectives' (:func:`objective_params`)."""
+        raise NotImplementedError
+
+    def objective_values(self, x: np.ndarray) -> np.ndarray:
+        """Internal values J of every objective at ``x``."""
+        raise NotImplementedError
+
+    def ipopt_options(self) -> dict:
+        """The options given to CasADi's nlpsol (:func:`ipopt_options`)."""
+        return ipopt_options(self.study, self.hessian_approximation())
+
+    def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:
+        """Parameter vector: objective weights (default: minimize the first objective),
+        the weight of ``ln D_c``, the epsilon bounds (default: none), then the body's own
+        parameters (movable peak frequencies, frozen modes and loop poles).
+
+        Parameters
+        ----------
+        weights : sequence of float, optional
+        diameter_weight : float
+        eps : sequence of float or None, optional
+        """
+        return np.concatenate([objective_params(len(self.objectives), weights,
+                                                diameter_weight, eps), self._param_tail()])
+
+    def solve(self, x0: np.ndarray, p=None) -> Solution:
+        """Run IPOPT from ``x0``.
+
+        Parameters
+        ----------
+        x0 : ndarray
+            Initial point (``initial_guess``).
+        p : ndarray, optional
+            Parameters (:meth:`params`; default: minimize the first objective).
+
+        Returns
+        -------
+        Solution
+        """
+        t0 = time.perf_counter()
+        p = self.params() if p is None else np.asarray(p, float)
+        res = self.solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p)
+        wall = time.perf_counter() - t0
+        stats = self.solver.stats()
+        x = np.asarray(res["x"]).ravel()
+        g = np.asarray(res["g"]).ravel()
+        j_all = self.objective_values(x)
+        return Solution(
+            x=x, values=self.values(x), objective=float(j_all[0]), objectives=j_all, g=g,
+            violations=tuple(self.violations(g)),
+            status=stats.get("return_status", "unknown"),
+            success=bool(stats.get("success", False)),
+            iterations=int(stats.get("iter_count", -1)), wall_s=wall,
+        )
+
+    def violations(self, g: np.ndarray) -> list[tuple[str, float]]:
+        """Worst violation of each constraint group (equalities as ``implicit_equations``).
+
+        Parameters
+        ----------
+        g : ndarray
+            Constraint values.
+        """
+        out = []
+        eq = np.abs(g[: self.n_eq])
+        if eq.size:
+            out.append(("implicit_equations", float(np.max(eq))))
+        for key, row, n in self.con_rows:
+            gi = g[row: row + n]
+            v = np.maximum(np.maximum(self.lbg[row: row + n] - gi, gi - self.ubg[row: row + n]),
+                           0.0)
+            out.append((row_name(key), float(np.max(v)) if v.size else 0.0))
+        return out
+
+    def values(self, x: np.ndarray) -> dict:
+        """Design-variable values at ``x`` (fixed ones from the study).
+
+        Parameters
+        ----------
+        x : ndarray
+        """
+        vals = {v.name: v.start for v in self.study.variables}
+        nzs = len(self.scaling.names)
+        # IPOPT relaxes bounds by ~1e-8: report the design inside its box
+        vals.update(self.scaling.to_values(np.clip(x[:nzs], -1.0, 1.0)))
+        if self.n_levers:  # the free levers' values (fixed ones: the study's table)
+            vals.update(self.lever_scaling.to_values(
+                np.clip(x[nzs: nzs + self.n_levers], -1.0, 1.0)))
+        return vals
+
