@@ -25,15 +25,16 @@ demo: $(STAMP)
 
 # The suite on every core (pytest-xdist: one worker per core; the tests share no files),
 # without the checks marked slow: a few minutes on 2 cores (keep it under 10).
+# --dist loadgroup: the tests that share a module-scoped fixture run on one worker, which
+# computes it once (tests/conftest.py gives them one xdist_group).
 test: $(STAMP)
 	$(BIN)/ruff check isodesign tests studies benchmarks
-	$(BIN)/python -m pytest -q -n auto -m "not slow"
+	$(BIN)/python -m pytest -q -n auto --dist loadgroup -m "not slow"
 
 # The checks marked @pytest.mark.slow (time-domain simulations, full optimizations, study
-# scripts, the demo): CI (.ci/run) runs them after `make test`. --dist loadgroup keeps the
-# tests that share an expensive fixture (pytest.mark.xdist_group) on one worker.
+# scripts, the demo): CI (.ci/run) runs them after `make test`.
 test-slow: $(STAMP)
-	$(BIN)/python -m pytest -q -n auto -m slow --dist loadgroup
+	$(BIN)/python -m pytest -q -n auto --dist loadgroup -m slow
 
 # The browser tests of the HTML report (headless Chromium; installs Debian's chromium if missing).
 # `make test` and `make test-slow` run them too whenever chromium is installed (they skip without it).
@@ -44,7 +45,7 @@ test-browser: $(STAMP)
 
 # The suite without the slow checks and without ruff (what `make test` runs after ruff)
 test-fast: $(STAMP)
-	$(BIN)/python -m pytest -q -n auto -m "not slow"
+	$(BIN)/python -m pytest -q -n auto --dist loadgroup -m "not slow"
 
 lint: $(STAMP)
 	$(BIN)/ruff check isodesign tests studies benchmarks

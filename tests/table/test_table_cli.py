@@ -48,11 +48,8 @@ def test_response_on_a_table_study_has_point_and_axis_columns(tmp_path, capsys):
 
 
 @pytest.mark.slow
-def test_optimize_builtin_table_and_its_run_directory(tmp_path, capsys):
-    out = tmp_path / "o"
-    assert main(["optimize", "--builtin", "table", "--starts", "1", "--workers", "1",
-                 "-o", str(out)]) == 0
-    text = capsys.readouterr().out
+def test_optimize_builtin_table_and_its_run_directory(builtin_table_run, tmp_path, capsys):
+    text, out = builtin_table_run  # optimize --builtin table --starts 1 --workers 1 -o out
     assert "re-check: NumPy closure = NLP" in text and "optimum: " in text
     for name in ("design.toml", "design.json", "bands.csv", "modes.csv", "starts.csv",
                  "record.json", "study_resolved.toml", "response.png", "layout.png"):
