@@ -4,12 +4,69 @@ from __future__ import annotations
 
 import copy
 import importlib.util
+import json
 from pathlib import Path
 
 import pytest
 
 from isodesign.optimization.study import study_from_dict, table_study
 from isodesign.spring.design import SpringDesign
+
+#: Session fixtures of a directory's conftest that take seconds to minutes (a time-domain
+#: rig, an optimize or Pareto run): the tests that read one share its xdist group.
+SHARED_SESSION_FIXTURES = frozenset({"single_chamber_rig", "dual_chamber_rig", "optimize_run",
+                                     "pareto_run", "builtin_table_run"})
+
+
+def _shared_keys(item) -> list[str]:
+    """What ``item`` shares with other tests: its ``xdist_group`` names and the fixtures,
+    computed once per test process, that it reads (module- or class-scoped fixtures of the
+    suite with their parameter, and :data:`SHARED_SESSION_FIXTURES`)."""
+    keys = [f"group:{m.args[0] if m.args else m.kwargs.get('name', 'default')}"
+            for m in item.iter_markers("xdist_group")]
+    info = getattr(item, "_fixtureinfo", None)
+    params = getattr(getattr(item, "callspec", None), "params", {})
+    for name in getattr(item, "fixturenames", ()):
+        defs = info.name2fixturedefs.get(name) if info is not None else None
+        if not defs:
+            continue
+        d = defs[-1]
+        if (d.scope in ("module", "class", "package") and d.baseid.startswith("tests")) or (
+                name in SHARED_SESSION_FIXTURES):
+            keys.append(f"{d.baseid}::{name}[{params.get(name, '')!r}]")
+    return keys
+
+
+@pytest.hookimpl(tryfirst=True)
+def pytest_collection_modifyitems(config, items):
+    """One ``xdist_group`` per set of tests that share an expensive fixture.
+
+    Under ``--dist loadgroup`` (``make test``, ``make test-slow``) pytest-xdist runs a group
+    on one worker, so that a module-scoped fixture (an optimization, a demo run, a
+    simulated grid) is computed once rather than once per worker. Tests that share any key
+    of :func:`_shared_keys` (directly or through another test) form one group; the others
+    are distributed one by one. Without ``--dist loadgroup`` the groups do nothing.
+    """
+    parent: dict[str, str] = {}
+
+    def find(k: str) -> str:
+        while parent.setdefault(k, k) != k:
+            parent[k] = parent[parent[k]]
+            k = parent[k]
+        return k
+
+    keys = {}
+    for item in items:
+        keys[item] = _shared_keys(item)
+        for k in keys[item][1:]:
+            parent[find(k)] = find(keys[item][0])
+    for item, ks in keys.items():
+        if not ks:
+            continue
+        item.own_markers[:] = [m for m in item.own_markers if m.name != "xdist_group"]
+        root = find(ks[0])
+        name = root.removeprefix("group:").replace("/", ".").replace("::", ".")
+        item.add_marker(pytest.mark.xdist_group(name=name))
 
 
 @pytest.fixture(scope="session")
@@ -47,3 +104,30 @@ def small_table_study():
         return study_from_dict(raw, source="small_table.toml", fill_defaults=False)
 
     return make
+
+
+@pytest.fixture(scope="session")
+def optimum():
+    """``solve(study, analyze=True)``: ``isodesign.optimize(study)`` on one worker process,
+    solved once per test process (per pytest-xdist worker) for each question.
+
+    The tests that ask the same question (the built-in table study's optimum, a lever
+    freed, ...) share one solve: the key is the study's resolved dictionary (``raw``, its
+    name and description included) and ``analyze``, so two studies share a result only
+    when they are the same study. Computed lazily, on the first test that asks; results
+    are immutable (a test reads one, never changes it). One worker process, as the tests
+    call ``optimize_table(study, workers=1)``: ``solver.workers`` changes how a study is
+    solved, not its answer.
+    """
+    import isodesign
+
+    cache: dict = {}
+
+    def solve(study, *, analyze: bool = True):
+        key = (json.dumps(study.raw, sort_keys=True, default=repr), study.source, analyze)
+        if key not in cache:
+            one = study.with_changes(solver={"workers": 1})
+            cache[key] = isodesign.optimize(one, analyze=analyze)
+        return cache[key]
+
+    return solve

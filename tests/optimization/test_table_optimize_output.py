@@ -24,11 +24,9 @@ def _table_toml(tmp_path, extra: str, name="t.toml"):
 
 
 @pytest.mark.slow
-def test_builtin_table_prints_and_records_its_constraints(tmp_path, capsys):
-    out = tmp_path / "o"
-    assert main(["optimize", "--builtin", "table", "--starts", "1", "--workers", "1",
-                 "--no-plots", "-o", str(out)]) == 0
-    text = capsys.readouterr().out
+def test_builtin_table_prints_and_records_its_constraints(builtin_table_run):
+    """(The run test_table_cli.py reads too: tests/table/conftest.py, with its plots.)"""
+    text, out = builtin_table_run  # optimize --builtin table --starts 1 --workers 1 -o out
     assert "constraints at the optimum" in text
     assert "the design is stopped by" in text
     assert "Hessian: limited-memory" in text

@@ -127,23 +127,25 @@ def test_the_nlp_with_free_levers_equals_the_nlp_of_the_fixed_table():
 
 
 @pytest.mark.slow
-def test_levers_declared_but_fixed_reproduce_todays_optimum():
+@pytest.mark.xdist_group("table_study_optimum")
+def test_levers_declared_but_fixed_reproduce_todays_optimum(optimum):
+    """(The built-in table's optimum is the shared one the study script's "springs" case
+    also reads: tests/conftest.py, ``optimum``.)"""
     from isodesign.optimization.table_driver import optimize_table
 
     st = table_study()
     declared = st.with_changes(variables={n: {"fixed": True} for n in TABLE_LEVERS})
-    r0 = optimize_table(st, analyze=False, workers=1)
+    r0 = optimum(st)
     r1 = optimize_table(declared, analyze=False, workers=1)
     assert abs(r1.objective_value - r0.objective_value) <= 1e-6
     assert set(r1.values) == set(r0.values)
 
 
 @pytest.fixture(scope="module")
-def codesigned():
-    """The built-in table with the pendulum length and the elastic centre free."""
-    from isodesign.optimization.table_driver import optimize_table
-
-    return optimize_table(_free("pendulum_length_m", "elastic_centre_height_m"), workers=1)
+def codesigned(optimum):
+    """The built-in table with the pendulum length and the elastic centre free (its tests
+    share an xdist group, tests/conftest.py, so one worker solves it)."""
+    return optimum(_free("pendulum_length_m", "elastic_centre_height_m"))
 
 
 @pytest.mark.slow
@@ -251,10 +253,14 @@ def test_a_mode_the_horizontal_element_alone_damps_keeps_its_row_with_a_free_lev
         p3.set_modes(_modes_at(p3, only_height.start_design()))
 
 
-@pytest.mark.slow
-def test_the_codesign_study_script(tmp_path):
-    """studies/table_codesign.py on four of its cases: the figures docs/table.md quotes
-    (fine-grid analysis, tolerance 0.05 dB)."""
+def _codesign_script(name, tmp_path, monkeypatch, optimum):
+    """studies/table_codesign.py run on its case ``name``: its CSV row.
+
+    The script's own code runs (its cases, its row, its CSV and figure); its optimizations
+    are ``isodesign.optimize`` of the case's study through the shared ``optimum`` fixture
+    (tests/conftest.py), so that the "springs" case and the built-in table's optimum the
+    other tests read are one solve (the same study, the same answer as the script's
+    ``optimize_table(study, workers=1)``)."""
     import importlib.util
     from pathlib import Path
 
@@ -264,24 +270,53 @@ def test_the_codesign_study_script(tmp_path):
     spec = importlib.util.spec_from_file_location("table_codesign", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)
-    assert mod.main(["-o", str(tmp_path), "--cases",
-                     "springs,pendulum_length_m,all,layout"]) == 0
+    monkeypatch.setattr(mod, "optimize_table",
+                        lambda st, workers=None, analyze=True: optimum(st, analyze=analyze))
+    assert mod.main(["-o", str(tmp_path), "--cases", name]) == 0
     assert (tmp_path / "table_codesign.png").is_file()
     df = pd.read_csv(tmp_path / "table_codesign.csv").set_index("case")
+    assert list(df.index) == [name]
     assert df["success"].all()
-    assert df.loc["springs", "analysis_margin_db"] == pytest.approx(-4.44, abs=0.05)
-    assert df.loc["pendulum_length_m", "analysis_margin_db"] == pytest.approx(0.89, abs=0.05)
-    assert df.loc["pendulum_length_m", "pendulum_length_m"] == pytest.approx(0.6)
-    assert df.loc["pendulum_length_m", "pendulum_length_m_at_bound"] == "upper"
-    assert df.loc["all", "analysis_margin_db"] == pytest.approx(7.83, abs=0.05)
-    for n, (lo, hi) in TABLE_LEVER_BOUNDS.items():  # all four inside their bounds
-        assert lo < df.loc["all", n] < hi
-    # the layout alone (docs/table.md, section 15): -4.25 dB, its length on the lower bound
-    assert df.loc["layout", "analysis_margin_db"] == pytest.approx(-4.25, abs=0.05)
-    assert df.loc["layout", "layout_length_m_at_bound"] == "lower"
-    assert df.loc["layout", "layout_length_m"] == pytest.approx(0.6)
     # the fine-grid analysis and the NLP's grid agree within 0.1 dB in every case
     assert (df["analysis_margin_db"] - df["nlp_margin_db"]).abs().max() < 0.1
+    return df.loc[name]
+
+
+# studies/table_codesign.py on four of its cases, one test each (they run in parallel):
+# the figures docs/table.md quotes (fine-grid analysis, tolerance 0.05 dB).
+
+
+@pytest.mark.slow
+@pytest.mark.xdist_group("table_study_optimum")
+def test_the_codesign_study_script_springs(tmp_path, monkeypatch, optimum):
+    row = _codesign_script("springs", tmp_path, monkeypatch, optimum)
+    assert row["analysis_margin_db"] == pytest.approx(-4.44, abs=0.05)
+
+
+@pytest.mark.slow
+def test_the_codesign_study_script_pendulum_length(tmp_path, monkeypatch, optimum):
+    row = _codesign_script("pendulum_length_m", tmp_path, monkeypatch, optimum)
+    assert row["analysis_margin_db"] == pytest.approx(0.89, abs=0.05)
+    assert row["pendulum_length_m"] == pytest.approx(0.6)
+    assert row["pendulum_length_m_at_bound"] == "upper"
+
+
+@pytest.mark.slow
+def test_the_codesign_study_script_all_four_levers(tmp_path, monkeypatch, optimum):
+    row = _codesign_script("all", tmp_path, monkeypatch, optimum)
+    assert row["analysis_margin_db"] == pytest.approx(7.83, abs=0.05)
+    for n, (lo, hi) in TABLE_LEVER_BOUNDS.items():  # all four inside their bounds
+        assert lo < row[n] < hi
+
+
+@pytest.mark.slow
+def test_the_codesign_study_script_layout(tmp_path, monkeypatch, optimum):
+    """The layout alone (docs/table.md, section 15): -4.25 dB, its length on the lower
+    bound."""
+    row = _codesign_script("layout", tmp_path, monkeypatch, optimum)
+    assert row["analysis_margin_db"] == pytest.approx(-4.25, abs=0.05)
+    assert row["layout_length_m_at_bound"] == "lower"
+    assert row["layout_length_m"] == pytest.approx(0.6)
 
 
 def test_yield_and_robust_design_refuse_free_levers_naming_the_key():
