@@ -60,8 +60,21 @@ def analyze(study, values: dict | None = None, scenario=None, *, bands="study",
         table's z answer, to 1e-6 dB the 1-DOF's: ``tests/table/test_one_model.py``).
     """
     vals = _checked_values(study, values)
+    for name, flag in (("warn", warn), ("strict", strict)):
+        if not isinstance(flag, bool):
+            raise InputError(f"{name}: expected True or False, got {flag!r:.40}")
     st, p_atm = _under(study, scenario)
     b = st.bands if isinstance(bands, str) and bands == "study" else bands
+    if isinstance(b, tuple | list):  # (f_min_hz, f_max_hz): named as the caller typed it
+        from isodesign.floor import third_octave_bands
+
+        try:
+            if len(b) != 2:
+                raise InputError(f"{len(b)} numbers")
+            third_octave_bands(*b)  # checked only: the response resolves them
+        except InputError as exc:
+            raise InputError(f"bands: expected (f_min_hz, f_max_hz) with f_min_hz < f_max_hz, "
+                             f"got {bands!r:.60} ({exc})") from None
     m = st.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
           "random_method": m["random_method"]}
@@ -243,7 +256,8 @@ def _under(study, scenario):
         theta = np.asarray(scenario, dtype=float)
     except (TypeError, ValueError):
         theta = None
-    if theta is None or isinstance(scenario, str | dict) or theta.shape != (sp.size,):
+    if theta is None or isinstance(scenario, str | dict) or theta.shape != (sp.size,) or any(
+            isinstance(v, str | bytes | bool) for v in np.ravel(np.asarray(scenario, object))):
         raise InputError(f"scenario: expected {sp.size} numbers ({', '.join(sp.names)}, in "
                          f"that order), got {scenario!r:.60}")
     lo, hi = sp.lower(), sp.upper()

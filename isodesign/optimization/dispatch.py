@@ -118,6 +118,8 @@ def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool 
     if progress is not None and not callable(progress):
         raise InputError(f"progress: expected a callable progress(done, total, solution) or "
                          f"None, got {type(progress).__name__} {progress!r:.40}")
+    if not isinstance(analyze, bool):
+        raise InputError(f"analyze: expected true or false, got {analyze!r:.40}")
     kind = study_kind(study)
     res = _answer(kind, study, progress, problem, nominal, analyze)
     if res.kind != kind:  # never the answer to another question

@@ -239,11 +239,19 @@ class Study(ResultDisplay):
                 f"{items['target']}, {items['objective']}, source {items['source']}>")
 
     def variable(self, name: str) -> VariableSpec:
-        """The spec of one design variable."""
-        for v in self.variables:
+        """The spec of one design variable or co-design lever (``study.levers``).
+
+        Raises
+        ------
+        InputError
+            A name that is neither, naming the study's variables and levers.
+        """
+        for v in (*self.variables, *self.levers):
             if v.name == name:
                 return v
-        raise KeyError(name)
+        names = [v.name for v in (*self.variables, *self.levers)]
+        raise InputError(f"name: unknown design variable {name!r:.60}; this study's: "
+                         f"{', '.join(names)}")
 
     def table_at(self, values: dict | None = None):
         """The table with its levers at ``values`` (fixed or missing ones at their start).
@@ -760,10 +768,11 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
         lo, hi, unit = CONSTRAINT_DOMAIN[k]  # the models' numeric domain
         _num(where, f"constraints.{k}", v, lo, hi, False, unit)
     check_load_range(where, cons)
-    if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
-        if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
-            raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "
-                             "max_natural_frequency_hz")
+    for lo_k, hi_k in (("min_natural_frequency_hz", "max_natural_frequency_hz"),
+                       ("min_rocking_frequency_hz", "max_rocking_frequency_hz")):
+        if cons[lo_k] and cons[hi_k] and cons[lo_k] >= cons[hi_k]:
+            raise InputError(f"{where}: constraints.{lo_k} must be below {hi_k} (got "
+                             f"{cons[lo_k]:g} >= {cons[hi_k]:g} Hz)")
     dmin = cons.get("min_capillary_diameter_m")
     dvar = next(v for v in variables if v.name == "capillary_diameter_m")
     if dmin and dvar.fixed and dvar.start < dmin:

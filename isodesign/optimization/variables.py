@@ -7,6 +7,7 @@ half-range and ``z`` in [-1, 1].
 
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
 from dataclasses import dataclass
@@ -333,6 +334,7 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
         else:
             lo_d, hi_d = TABLE_LEVER_BOUNDS[name]
             _plausible_horizontal(key, name, vals)
+            _horizontal_sign(f"{key}.start", name, start)
         if fixed and not vals.get("lower", start) <= start <= vals.get("upper", start):
             raise InputError(f"{key}.start ({start:g}) is fixed outside its own bounds [lower, "
                              f"upper] = [{vals.get('lower', start):g}, "
@@ -350,6 +352,7 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
                              f"[{lo:g}, {hi:g}]")
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
     out = tuple(out) + _group_levers(variables or {}, table, where)
+    _check_group_diameters(table, out, constraints or {}, where)
     check_layout_feasible(table, out, constraints or {}, where)
     _check_loads(table, constraints or {}, hardware, where)
     return out
@@ -373,6 +376,18 @@ def _check_loads(table, constraints: dict, hardware: dict | None, where: str) ->
         check_load_constraints(level(table, hardware["piston_area_m2"]), constraints)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
+
+
+def _horizontal_sign(key: str, name: str, start: float) -> None:
+    """A horizontal lever's start (its fixed value) where the element is physical: a
+    pendulum longer than 0 m, a lateral stiffness and loss factor not negative (the
+    ``[table.horizontal]`` numbers' own ranges)."""
+    if name == "pendulum_length_m" and not start > 0:
+        raise InputError(f"{key} = {start:g} m: a pendulum's length must be > 0 m "
+                         "(table.horizontal.pendulum_length_m = false: no pendulum)")
+    if name in ("lateral_stiffness_n_per_m", "lateral_loss_factor") and start < 0:
+        raise InputError(f"{key} = {start:g}: must be >= 0 (as "
+                         f"table.horizontal.{name})")
 
 
 def refuse_group_number(key, table: str, where: str) -> None:
@@ -481,6 +496,30 @@ def _group_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...
     return tuple(out)
 
 
+def _check_group_diameters(table, levers, constraints: dict, where: str) -> None:
+    """Every group's own capillary diameter against ``constraints.min_capillary_diameter_m``,
+    as the shared one's: a fixed one (a lever or ``table.group_springs``) at or above it, a
+    free one's upper bound above it."""
+    dmin = constraints.get("min_capillary_diameter_m")
+    if not dmin:
+        return
+    spec = {v.name: v for v in levers}
+    for g, own in enumerate(table.group_springs):
+        name = f"capillary_diameter_m_group{g + 1}"
+        v = spec.get(name)
+        if v is not None and not v.fixed:
+            if v.upper <= dmin:
+                raise InputError(f"{where}: variables.{name}.upper ({v.upper:g} m) must exceed "
+                                 f"constraints.min_capillary_diameter_m ({dmin:g} m)")
+            continue
+        value, key = ((v.start, f"variables.{name}") if v is not None else
+                      (own.get("capillary_diameter_m"),
+                       f"table.group_springs: group {g + 1}: capillary_diameter_m"))
+        if value is not None and value < dmin:
+            raise InputError(f"{where}: {key} is fixed at {value:g} m, below "
+                             f"constraints.min_capillary_diameter_m ({dmin:g} m)")
+
+
 def table_with_levers(table, levers, values: dict | None = None):
     """The table with its levers at ``values`` (fixed or missing ones at their start).
 
@@ -537,11 +576,45 @@ def _check_lever_values(levers, values, require=()) -> None:
     if missing:
         raise InputError(f"values: the free lever {missing[0]} has no value; give every free "
                          f"lever ({', '.join(require)})")
+    known = {v.name for v in levers}
+    for k in values:  # a lever's name this study lacks, or a typo of one: not ignored
+        if k not in known and k not in DESIGN_VARIABLES and (
+                k in CODESIGN_LEVERS or k in GROUP_SPRING_LEVERS or difflib.get_close_matches(
+                    str(k), (*CODESIGN_LEVERS, *GROUP_SPRING_LEVERS), n=1, cutoff=0.8)):
+            raise InputError(f"values: unknown name {k!r}; this study's levers: "
+                             f"{', '.join(sorted(known)) or 'none'}")
     for v in levers:
         x = values.get(v.name)
         if x is not None and (isinstance(x, bool) or not isinstance(x, numbers.Real)
                               or not math.isfinite(x)):
             raise InputError(f"values[{v.name!r}]: expected a finite number, got {x!r:.40}")
+        if x is None:
+            continue
+        if not v.fixed:  # a fixed lever keeps its start (table_at's contract)
+            _check_lever_value(v.name, float(x))
+
+
+def _check_lever_value(name: str, x: float) -> None:
+    """One lever's value where its element is physical and plausible (named
+    ``values[name]``): a horizontal lever's sign and plausible range, a group's spring
+    field in the models' domain."""
+    from isodesign.domain import DESIGN_DOMAIN
+    from isodesign.table.study import _HORIZONTAL
+
+    key = f"values[{name!r}]"
+    if name in TABLE_LEVERS:
+        _horizontal_sign(key, name, x)
+        hi, slip = _HORIZONTAL[name][1], _HORIZONTAL[name][3]
+        if abs(x) > hi:
+            hint = f"; a unit slip? {name} is in m, and {x:g} mm would be {x * 1e-3:g} m" \
+                if slip is not None else ""
+            raise InputError(f"{key} = {x:g} is outside the plausible range of "
+                             f"table.horizontal.{name}, |value| <= {hi:g}{hint}")
+    elif name in GROUP_SPRING_LEVERS:
+        lo, hi, unit = DESIGN_DOMAIN[group_lever(name)[1]]
+        if not lo <= x <= hi:
+            raise InputError(f"{key} = {x:g} is outside the models' domain [{lo:g}, {hi:g}]"
+                             f"{' ' + unit if unit else ''}")
 
 
 def fixed_lever_changes(table, levers, values: dict) -> dict:
@@ -610,7 +683,7 @@ def footprint_bounds(where: str, value):
     except (TypeError, ValueError):
         a = None
     if isinstance(value, str) or a is None or a.shape != (2, 2) or \
-            not np.all(np.isfinite(a)) or _has_bool(value):
+            not np.all(np.isfinite(a)) or _has_bool(value) or _has_str(value):
         raise InputError(f"{key}: expected [[x_min, y_min], [x_max, y_max]] in m (the "
                          f"rectangle the isolators stand in), got {value!r:.60}")
     if not (a[0, 0] < a[1, 0] and a[0, 1] < a[1, 1]):
@@ -630,6 +703,13 @@ def _has_bool(value) -> bool:
     return isinstance(value, list | tuple) and any(_has_bool(v) for v in value)
 
 
+def _has_str(value) -> bool:
+    """A string anywhere in a nested list (a TOML string where a number belongs)."""
+    if isinstance(value, str | bytes):
+        return True
+    return isinstance(value, list | tuple) and any(_has_str(v) for v in value)
+
+
 def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
     """A free layout's constraints must be reachable within its levers' bounds.
 
@@ -637,7 +717,8 @@ def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
     ``s`` that keeps every isolator in ``constraints.footprint_m`` is an interval; with the
     levers' bounds it must not be empty, and at its largest stretch the closest two
     isolators must be ``constraints.min_isolator_distance_m`` apart (the distances grow with
-    the stretch). A fixed layout is checked by the problem (``lever_geometry``).
+    the stretch). A fixed layout is checked as it stands (``lever_geometry.layout_rows``),
+    when the study is read, so every entry point refuses it.
 
     Parameters
     ----------
@@ -657,7 +738,14 @@ def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
     from isodesign.table.layout import layout_extent
 
     spec = {v.name: v for v in levers if v.name in LAYOUT_LEVERS}
-    if not any(v.free for v in spec.values()):
+    if not any(v.free for v in spec.values()):  # a fixed layout: checked as it stands
+        if constraints.get("footprint_m") or constraints.get("min_isolator_distance_m"):
+            from isodesign.table.lever_geometry import layout_rows
+
+            try:
+                layout_rows(table_with_levers(table, levers), constraints, (1.0, 1.0), False)
+            except InputError as exc:
+                raise InputError(f"{where}: {exc}") from None
         return
     fp, dmin = constraints.get("footprint_m"), constraints.get("min_isolator_distance_m")
     c = np.asarray(table.cg_m[:2], float)

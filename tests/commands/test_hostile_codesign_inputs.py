@@ -1,0 +1,191 @@
+"""Hostile and mistaken inputs on the co-design surfaces (issue 23): the levers of
+``[variables.<lever>]``, the layout's constraints, per-group springs and the Python calls
+that take lever values. Each is refused where the study is read (an InputError naming the
+key as the user typed it and its range) or warned as a unit slip, never run as another
+question. Every study here is the built-in table study, ``table_study()``, changed."""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+import warnings
+from importlib import resources
+
+import pytest
+
+import isodesign
+from isodesign.errors import InputError
+from isodesign.io.plausible import UnitWarning
+from isodesign.optimization.study import default_study, study_from_dict, table_study
+from isodesign.optimization.yields import estimate_yield
+
+
+@pytest.fixture(scope="module")
+def table_raw():
+    """The built-in table study's file as a dictionary (``table_study()``)."""
+    with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
+        return tomllib.loads(p.read_text())
+
+
+def _study(raw, changes):
+    d = copy.deepcopy(raw)
+    for path, value in changes.items():
+        *head, last = path.split(".")
+        cur = d
+        for k in head:
+            cur = cur.setdefault(k, {})
+        cur[last] = value
+    return study_from_dict(d, source="table.toml")
+
+
+V = "variables."
+LAYOUT_FREE = {V + "layout_length_m": {"fixed": False}, V + "layout_width_m": {"fixed": False}}
+
+# (changes, fragments every one of which the message holds)
+REFUSED = [
+    # a fixed horizontal lever outside its element's physical range (it built the table
+    # only when a problem was made, or never: a negative loss factor ran)
+    ({V + "pendulum_length_m": {"fixed": True, "start": -0.1}},
+     ["variables.pendulum_length_m.start = -0.1", "> 0 m"]),
+    ({V + "pendulum_length_m": {"fixed": True, "start": 0.0}},
+     ["variables.pendulum_length_m.start", "> 0 m"]),
+    ({V + "lateral_stiffness_n_per_m": {"fixed": True, "start": -100.0}},
+     ["variables.lateral_stiffness_n_per_m.start = -100", ">= 0"]),
+    ({V + "lateral_loss_factor": {"fixed": True, "start": -0.1}},
+     ["variables.lateral_loss_factor.start = -0.1", ">= 0"]),
+    # a footprint of TOML strings was read as numbers
+    ({"constraints.footprint_m": [["-0.75", "-0.5"], ["0.75", "0.5"]]},
+     ["constraints.footprint_m", "[[x_min, y_min], [x_max, y_max]]"]),
+    # a fixed layout that breaks its own footprint or distance: refused when read (every
+    # entry point, a sweep before it runs), not by the optimizer alone
+    ({"constraints.footprint_m": [[-0.3, -0.2], [0.3, 0.2]]},
+     ["table.toml: constraints.footprint_m: isolator 1 (from 1)", "layout is fixed"]),
+    ({"constraints.min_isolator_distance_m": 1.0},
+     ["table.toml: constraints.min_isolator_distance_m: isolators 1 and 4 (from 1)",
+      "layout is fixed"]),
+    ({"constraints.min_isolator_distance_m": 1.0, V + "layout_length_m": {"fixed": True,
+                                                                          "start": 1.5}},
+     ["constraints.min_isolator_distance_m", "below 1 m"]),
+    # a group's own capillary against min_capillary_diameter_m, as the shared one's
+    ({V + "capillary_diameter_m_group2": {"start": 0.2e-3}},
+     ["variables.capillary_diameter_m_group2 is fixed at 0.0002 m",
+      "constraints.min_capillary_diameter_m (0.0003 m)"]),
+    ({V + "capillary_diameter_m_group2": {"fixed": False, "lower": 0.31e-3, "upper": 0.35e-3,
+                                          "start": 0.32e-3},
+      "constraints.min_capillary_diameter_m": 0.4e-3},
+     ["variables.capillary_diameter_m_group2.upper (0.00035 m)",
+      "must exceed constraints.min_capillary_diameter_m"]),
+    ({"table.group_springs": [{}, {}, {"capillary_diameter_m": 0.2e-3}]},
+     ["table.group_springs: group 3: capillary_diameter_m is fixed at 0.0002 m",
+      "min_capillary_diameter_m"]),
+    # the rocking band reversed
+    ({"constraints.min_rocking_frequency_hz": 5.0, "constraints.max_rocking_frequency_hz": 2.0},
+     ["constraints.min_rocking_frequency_hz must be below max_rocking_frequency_hz",
+      "5 >= 2 Hz"]),
+]
+
+
+@pytest.mark.parametrize("changes, fragments", REFUSED,
+                         ids=[f[0].split(" ")[0] + f"-{i}" for i, (_, f) in enumerate(REFUSED)])
+def test_codesign_input_refused_naming_the_key(table_raw, changes, fragments):
+    with pytest.raises(InputError) as err:
+        _study(table_raw, changes)
+    msg = str(err.value)
+    assert "\n" not in msg
+    for f in fragments:
+        assert f in msg
+
+
+def test_a_free_layout_within_its_footprint_is_accepted(table_raw):
+    st = _study(table_raw, {**LAYOUT_FREE, "constraints.footprint_m": [[-0.75, -0.5],
+                                                                       [0.75, 0.5]],
+                            "constraints.min_isolator_distance_m": 0.5})
+    assert [v.name for v in st.levers if v.free] == ["layout_length_m", "layout_width_m"]
+
+
+WARNED = [
+    ({"constraints.supply_margin_pa": 50.0},
+     ["constraints.supply_margin_pa = 50", "kPa", "50000 Pa"]),
+    ({V + "capillary_diameter_m_group2": {"start": 0.9}},
+     ["variables.capillary_diameter_m_group2.start = 0.9", "mm", "0.0009 m"]),
+    ({"table.group_springs": [{}, {"capillary_diameter_m": 0.9}, {}]},
+     ["table.group_springs: group 2: capillary_diameter_m = 0.9", "0.0009 m"]),
+]
+
+
+@pytest.mark.parametrize("changes, fragments", WARNED, ids=["supply_margin_kpa",
+                                                            "group_lever_mm", "group_springs_mm"])
+def test_codesign_unit_slip_warns_naming_the_key(table_raw, changes, fragments):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _study(table_raw, changes)
+    msgs = [str(w.message) for w in caught if issubclass(w.category, UnitWarning)]
+    assert any(all(f in m for f in fragments) for m in msgs), msgs
+
+
+@pytest.fixture(scope="module")
+def robust_table():
+    return table_study().with_changes(
+        {"scenarios": {"payload_mass_kg": {"min": 500.0, "max": 700.0},
+                       "cg_offset_x_m": {"absolute": 0.05}}})
+
+
+def _values(st):
+    return {v.name: v.start for v in st.variables}
+
+
+# (call, fragments): the Python calls that take lever values, scenarios and counts
+API = [
+    (lambda r: isodesign.analyze(r, None, ["600", "0"]), ["scenario: expected 2 numbers"]),
+    (lambda r: isodesign.analyze(r, None, [True, False]), ["scenario: expected 2 numbers"]),
+    (lambda r: isodesign.analyze(table_study(), bands=(80.0, 4.0)),
+     ["bands: expected (f_min_hz, f_max_hz)", "(80.0, 4.0)"]),
+    (lambda r: isodesign.analyze(table_study(), bands=(4.0, 8.0, 16.0)), ["bands: expected"]),
+    (lambda r: isodesign.analyze(table_study(), strict="no"), ["strict: expected True or"]),
+    (lambda r: isodesign.analyze(default_study(), {"pendulum_length_m": 150.0}),
+     ["values['pendulum_length_m'] = 150", "mm", "0.15 m"]),
+    (lambda r: isodesign.analyze(
+        table_study().with_changes({"variables.volume_ratio_group2.fixed": False}),
+        {"volume_ratio_group2": -2.0}),
+     ["values['volume_ratio_group2'] = -2", "domain"]),
+    (lambda r: default_study().table_at({"pendulum_lenght_m": 0.2}),
+     ["values: unknown name 'pendulum_lenght_m'", "pendulum_length_m"]),
+    (lambda r: default_study().with_levers_fixed(
+        {"pendulum_length_m": 0.2, "elastic_centre_height_m": 0.1,
+         "lateral_stiffness_n_per_m": 5e3, "lateral_loss_factor": 0.2,
+         "lateral_los_factor": 0.3}), ["values: unknown name 'lateral_los_factor'"]),
+    (lambda r: table_study().variable("pendulum_lenght_m"),
+     ["name: unknown design variable 'pendulum_lenght_m'", "pendulum_length_m"]),
+    (lambda r: isodesign.optimize(table_study(), analyze="no"), ["analyze: expected true"]),
+    (lambda r: isodesign.pareto_front(table_study(), points=10**9),
+     ["points: must be an integer >= 2 and <= 500"]),
+    (lambda r: estimate_yield(r, _values(r), samples=4,
+                                                            workers=-2),
+     ["workers: must be an integer in [1, 64]"]),
+    (lambda r: estimate_yield(r, _values(r), samples=4,
+                                                            seed=-1),
+     ["seed: must be an integer >= 0"]),
+    (lambda r: estimate_yield(r, _values(r), samples=4,
+                                                            confidence="95%"),
+     ["confidence: must be in (0, 1)"]),
+]
+API_IDS = ["scenario_strings", "scenario_bools", "bands_reversed", "bands_three",
+           "strict_string", "lever_mm", "group_lever_negative", "table_at_typo",
+           "with_levers_fixed_typo", "variable_typo",
+           "optimize_analyze_string", "pareto_points_huge", "yield_workers", "yield_seed",
+           "yield_confidence"]
+
+
+@pytest.mark.parametrize("call, fragments", API, ids=API_IDS)
+def test_api_refuses_naming_the_argument(robust_table, call, fragments):
+    with pytest.raises(InputError) as err:
+        call(robust_table)
+    msg = str(err.value)
+    for f in fragments:
+        assert f in msg
+
+
+def test_variable_finds_a_lever():
+    st = default_study()
+    assert st.variable("pendulum_length_m").free
+    assert st.variable("volume_ratio").name == "volume_ratio"
