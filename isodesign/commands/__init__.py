@@ -34,7 +34,7 @@ from pathlib import Path
 
 from isodesign.errors import InputError
 from isodesign.io.files import atomic_path, atomic_write_text, write_probe
-from isodesign.io.rundir import RunDirectory
+from isodesign.io.rundir import RunDirectory, check_outside_whole_runs
 
 __all__ = [
     "MAX_GRID_POINTS",
@@ -221,7 +221,7 @@ def run_directory(args, command: str, *, known_outputs=(), option: str = "--outp
     -------
     RunDirectory
     """
-
+    check_outside_whole_runs(args.output, option=option)  # not inside a sweep's directory
     return RunDirectory(args.output, command=command,
                         overwrite=bool(getattr(args, "overwrite", False)), option=option,
                         known_outputs=known_outputs)

@@ -189,3 +189,31 @@ def test_variable_finds_a_lever():
     st = default_study()
     assert st.variable("pendulum_length_m").free
     assert st.variable("volume_ratio").name == "volume_ratio"
+
+
+@pytest.mark.parametrize("command, inside", [
+    (["modes", "--builtin", "table"], "points"),
+    (["stability", "--builtin", "table"], "points"),
+    (["modes", "--builtin", "table"], "points/0123456789abcdef"),
+    (["optimize", "--builtin", "table"], "charts"),
+])
+def test_no_command_writes_inside_a_sweeps_directory(tmp_path, capsys, command, inside):
+    """``modes -o SWEEP/points --overwrite`` wrote a run among the sweep's points (issue
+    23: a sweep directory is the sweep's whole): one line naming --output, nothing
+    written."""
+    import json
+
+    from isodesign.cli import main
+
+    sweep = tmp_path / "sweep"
+    (sweep / "points" / "0123456789abcdef").mkdir(parents=True)
+    (sweep / "record.json").write_text(json.dumps({"kind": "isodesign sweep",
+                                                   "run_status": "complete"}))
+    (sweep / "points" / "0123456789abcdef" / "record.json").write_text(
+        json.dumps({"kind": "isodesign optimize", "run_status": "complete"}))
+    before = sorted(str(p) for p in sweep.rglob("*"))
+    assert main([*command, "-o", str(sweep / inside), "--overwrite"]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("isodesign: error: --output: "), err
+    assert "isodesign sweep" in err[0]
+    assert sorted(str(p) for p in sweep.rglob("*")) == before
