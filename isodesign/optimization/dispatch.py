@@ -132,9 +132,10 @@ def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool 
 def _answer(kind, study, progress, problem, nominal, analyze):
     """The optimizer of ``kind`` on ``study`` (see :func:`optimize`)."""
     if kind == "robust table":
-        from isodesign.optimization.robust_table import robust_optimize_table
+        from isodesign.optimization.robust_table import check_robust_table, robust_optimize_table
         from isodesign.table.optimize import optimize_table
 
+        check_robust_table(study)  # before the nominal's minutes
         if nominal is None:
             nominal = optimize_table(study, progress=progress, analyze=False)
         return robust_optimize_table(study, nominal=nominal)

@@ -129,7 +129,8 @@ def input_kind(path) -> str:
             return "optimize"
         if kind == "isodesign pareto":
             return "pareto"
-        raise InputError(f"{rec}: unknown run kind {kind!r}")
+        raise InputError(f"{rec}: a run of {kind or 'an unknown kind'!s:.40}, not of isodesign "
+                         "optimize or pareto (the runs that hold a design and its study)")
     if not p.exists():
         raise InputError(f"{p}: no such file or directory")
     d = read_toml(p, what="design or study")
@@ -254,6 +255,16 @@ def _pareto_case(p: Path, label: str | None) -> Case:
                        f"{rec['objectives'][0]}",))
 
 
+def _refuse_robust(study, where: str) -> None:
+    """A study with ``[scenarios]`` asks for the robust verdict, which a design's report
+    (one nominal response) does not give: refused naming the key, never answered nominal."""
+    if study is not None and study.scenarios is not None:
+        raise InputError(f"{where}: [scenarios]: the report of a design or study file is its "
+                         "nominal response, not the robust answer the study asks; use isodesign "
+                         "optimize STUDY -o RUN then isodesign report RUN (robustness "
+                         "section), or isodesign yield, or remove [scenarios]")
+
+
 def load_case(path, *, study=None, label: str | None = None) -> Case:
     """The :class:`Case` of one input (design file, study file, optimize or pareto run).
 
@@ -272,11 +283,18 @@ def load_case(path, *, study=None, label: str | None = None) -> Case:
     """
     p = Path(path)
     kind = input_kind(p)
+    if study is not None and kind != "design":  # not silently another job than the run's
+        art = "an" if kind[0] in "aeiou" else "a"
+        raise InputError(f"--study: the job of a design file only; {p} is {art} {kind} input "
+                         "with its own study (drop --study, or report a design file with it)")
     if kind == "design":
         st = study if isinstance(study, Study) or study is None else load_study(study)
+        _refuse_robust(st, "--study")
         return _design_case(p, st, label)
     if kind == "study":
-        return _study_case(p, label)
+        case = _study_case(p, label)
+        _refuse_robust(case.study, str(p))
+        return case
     if kind == "optimize":
         return _optimize_case(p, label)
     return _pareto_case(p, label)

@@ -351,6 +351,16 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
             except InputError as exc:
                 at = ", ".join(f"{k}={v}" for k, v in p.changes.items())
                 raise InputError(f"--objectives at the point {at}: {exc}") from None
+    if task == "optimize":  # a robust table no optimizer answers, refused before any runs
+        from isodesign.optimization.dispatch import study_kind
+        from isodesign.optimization.robust_table import check_robust_table
+
+        for p in (p for p in pts if study_kind(p.study) == "robust table"):
+            try:
+                check_robust_table(p.study)
+            except InputError as exc:
+                at = ", ".join(f"{k}={v}" for k, v in p.changes.items())
+                raise InputError(f"{exc} (at the point {at})") from None
     identity = _identity(task, options, base, keys)
     target = Path(output)
     mode = _check_dir(target, identity, overwrite, "--output")

@@ -217,3 +217,90 @@ def test_no_command_writes_inside_a_sweeps_directory(tmp_path, capsys, command, 
     assert len(err) == 1 and err[0].startswith("isodesign: error: --output: "), err
     assert "isodesign sweep" in err[0]
     assert sorted(str(p) for p in sweep.rglob("*")) == before
+
+
+SCENARIOS = {"payload_mass_kg": {"min": 480.0, "max": 720.0}, "cg_offset_x_m": {"absolute": 0.05}}
+
+
+def test_a_robust_table_with_free_levers_is_refused_before_the_nominal(monkeypatch, tmp_path):
+    """The co-designed default study with [scenarios]: the nominal co-design ran for minutes
+    before the robust optimizer refused the free levers; a sweep ran every point so. Both
+    refuse first, naming the lever's key."""
+    import isodesign.table.optimize as table_optimize
+
+    monkeypatch.setattr(table_optimize, "optimize_table",
+                        lambda *a, **k: pytest.fail("the nominal optimum ran"))
+    st = default_study().with_changes({"scenarios": SCENARIOS})
+    with pytest.raises(InputError, match=r"variables\.pendulum_length_m\.fixed: robust design"):
+        isodesign.optimize(st)
+    with pytest.raises(InputError, match=r"variables\.pendulum_length_m\.fixed: robust design"
+                                         r".*\(at the point payload\.mass_kg=600"):
+        isodesign.sweep(st, {"payload.mass_kg": [600.0]}, output=str(tmp_path / "sweep"))
+    assert not (tmp_path / "sweep").exists()
+
+
+@pytest.fixture(scope="module")
+def table_run(tmp_path_factory):
+    """A table optimize run (one start), written by the command line."""
+    from isodesign.cli import main
+
+    out = tmp_path_factory.mktemp("run") / "opt"
+    assert main(["optimize", "--builtin", "table", "--starts", "1", "--no-plots", "--quiet",
+                 "-o", str(out)]) == 0
+    return out
+
+
+def _robust_table_file(tmp_path):
+    from isodesign.io.record import dumps_toml
+
+    raw = copy.deepcopy(table_study().raw)
+    raw["scenarios"] = SCENARIOS
+    p = tmp_path / "robust_table.toml"
+    p.write_text(dumps_toml(raw))
+    return p
+
+
+@pytest.mark.parametrize("argv", [
+    ["yield", "{run}", "--study", "{robust}", "--samples", "4", "-o", "{run}", "--overwrite"],
+    ["yield", "{run}/design.toml", "--study", "{robust}", "--samples", "4", "-o", "{run}",
+     "--overwrite"],
+    ["modes", "{run}", "-o", "{run}", "--overwrite"],
+    ["stability", "{run}", "-o", "{run}", "--overwrite"],
+], ids=["yield_run", "yield_design_file", "modes", "stability"])
+def test_a_command_never_overwrites_the_run_it_reads(table_run, tmp_path, capsys, argv):
+    """``yield RUN -o RUN --overwrite`` replaced the optimize run by its yield (no design
+    left: every later command failed on it): one line naming --output, the run untouched."""
+    from isodesign.cli import main
+
+    robust = _robust_table_file(tmp_path)
+    before = {p.name: p.read_bytes() for p in table_run.iterdir() if p.is_file()}
+    args = [a.format(run=table_run, robust=robust) for a in argv]
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--output: " in err[0] and "its own input" in err[0], err
+    assert {p.name: p.read_bytes() for p in table_run.iterdir() if p.is_file()} == before
+
+
+@pytest.mark.parametrize("inputs, study, fragments", [
+    (["{run}"], "{robust}", ["--study: the job of a design file only", "optimize input"]),
+    (["{robust}"], None, ["robust_table.toml: [scenarios]: the report of a design or study "
+                          "file is its nominal response"]),
+    (["{run}/design.toml"], "{robust}", ["--study: [scenarios]"]),
+], ids=["study_with_a_run", "robust_study_file", "design_with_a_robust_study"])
+def test_report_never_answers_nominal_for_a_robust_or_ignored_study(table_run, tmp_path, capsys,
+                                                                     inputs, study, fragments):
+    """``report RUN --study robust.toml`` ignored the study without a word; a study file
+    or a design judged by a study with [scenarios] got the nominal verdict."""
+    from isodesign.cli import main
+
+    robust = _robust_table_file(tmp_path)
+    fmt = {"run": table_run, "robust": robust}
+    argv = ["report", *(i.format(**fmt) for i in inputs), "-o", str(tmp_path / "r.html")]
+    if study:
+        argv += ["--study", study.format(**fmt)]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1, err
+    for f in fragments:
+        assert f in err[0]
+    assert not (tmp_path / "r.html").exists()
