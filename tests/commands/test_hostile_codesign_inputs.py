@@ -304,3 +304,33 @@ def test_report_never_answers_nominal_for_a_robust_or_ignored_study(table_run, t
     for f in fragments:
         assert f in err[0]
     assert not (tmp_path / "r.html").exists()
+
+
+@pytest.mark.parametrize("content, fragments", [
+    (b"payload.mass_kg,payload.mass_kg\n600,700\n", ["the header names payload.mass_kg twice"]),
+    (b"payload.mass_kg;floor.criterion\n600;VC-A\n", ["one cell", "commas, not semicolons"]),
+], ids=["column_twice", "semicolons"])
+def test_a_points_csv_that_would_be_misread_is_refused(tmp_path, content, fragments):
+    """A key named twice (which value would the point take?) ran silently; a spreadsheet's
+    semicolon CSV gave an unknown-key message."""
+    from isodesign.sweeps.spec import read_points
+
+    p = tmp_path / "points.csv"
+    p.write_bytes(content)
+    with pytest.raises(InputError) as err:
+        read_points(p)
+    for f in fragments:
+        assert f in str(err.value)
+
+
+def test_a_points_csv_saved_with_a_byte_order_mark_is_read():
+    """A spreadsheet's UTF-8 CSV starts with a BOM: its first key was '\\ufeffpayload...'."""
+    import tempfile
+    from pathlib import Path
+
+    from isodesign.sweeps.spec import read_points
+
+    with tempfile.TemporaryDirectory() as d:
+        p = Path(d) / "points.csv"
+        p.write_bytes("\ufeffpayload.mass_kg,floor.criterion\n600,VC-B\n".encode())
+        assert read_points(p) == [{"payload.mass_kg": 600, "floor.criterion": "VC-B"}]
