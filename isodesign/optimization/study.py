@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 
 from isodesign.domain import CONSTRAINT_DOMAIN, DESIGN_DOMAIN, FREQUENCY_DOMAIN_HZ
-from isodesign.errors import InputError, check_choice
+from isodesign.errors import InputError, check_choice, did_you_mean
 from isodesign.floor import criterion, third_octave_bands
 from isodesign.io.files import read_toml
 from isodesign.io.plausible import unit_slips, warn_unit_slips
@@ -389,9 +389,8 @@ def _check_keys(d: dict, table: str, where: str):
         if k not in allowed:
             tname = f"[{table}]" if table else "top level"
             refuse_group_number(k, table, where)
-            raise InputError(
-                f"{where}: unknown key {k!r} in {tname}; valid: {', '.join(sorted(allowed))}"
-            )
+            raise InputError(f"{where}: unknown key {k!r} in {tname}{did_you_mean(k, allowed)}; "
+                             f"valid: {', '.join(sorted(allowed))}")
 
 
 def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = True) -> Study:

@@ -334,3 +334,28 @@ def test_a_points_csv_saved_with_a_byte_order_mark_is_read():
         p = Path(d) / "points.csv"
         p.write_bytes("\ufeffpayload.mass_kg,floor.criterion\n600,VC-B\n".encode())
         assert read_points(p) == [{"payload.mass_kg": 600, "floor.criterion": "VC-B"}]
+
+
+@pytest.mark.parametrize("changes, fragments", [
+    ({V + "pendulum_lenght_m": {"fixed": False}},
+     ["unknown key 'pendulum_lenght_m' in [variables] (did you mean 'pendulum_length_m'?)"]),
+    ({V + "Layout_Width_m": {"fixed": False}}, ["(did you mean 'layout_width_m'?)"]),
+    ({"constraints.footprint": [[-0.75, -0.5], [0.75, 0.5]]},
+     ["unknown key 'footprint' in [constraints] (did you mean 'footprint_m'?)"]),
+    ({"constraints.min_isolator_distance": 0.5}, ["(did you mean 'min_isolator_distance_m'?)"]),
+    ({"table.group_spring": [{}, {}, {}]},
+     ["unknown key 'group_spring' in [table] (did you mean 'group_springs'?)"]),
+    ({"table.horizontal.pendulum": 0.2},
+     ["unknown key 'pendulum' in [table.horizontal] (did you mean 'pendulum_length_m'?)"]),
+    ({V + "volume_ratio_group2": {"fixd": False}},
+     ["unknown key 'fixd' in [variable] (did you mean 'fixed'?)"]),
+    ({"constraints.bogus_key": 1.0}, ["unknown key 'bogus_key' in [constraints]; valid: "]),
+], ids=["lever", "layout_case", "footprint", "min_distance", "group_springs", "horizontal",
+        "variable_field", "no_close_key"])
+def test_an_unknown_key_suggests_the_closest(table_raw, changes, fragments):
+    with pytest.raises(InputError) as err:
+        _study(table_raw, changes)
+    for f in fragments:
+        assert f in str(err.value)
+    if "bogus_key" in fragments[0]:  # nothing close: no guess
+        assert "did you mean" not in str(err.value)
