@@ -173,6 +173,9 @@ LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_lo
 LAYOUT_PLAUSIBLE_M = 20.0
 #: Smallest plausible extent of a layout, m (``isodesign.table.study.SPAN_PLAUSIBLE_M``).
 SPAN_PLAUSIBLE_M = 0.05
+#: Tolerance of a fixed layout's footprint and distance check when the study is read, m (a
+#: co-designed optimum on its bound, within the solver's tolerance, is inside).
+LAYOUT_TOL_M = 1e-6
 #: Default bounds of a free layout lever, as fractions of the table's own extent.
 LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
@@ -742,10 +745,21 @@ def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
         if constraints.get("footprint_m") or constraints.get("min_isolator_distance_m"):
             from isodesign.table.lever_geometry import layout_rows
 
+            c = dict(constraints)  # within a solver's tolerance: a co-designed optimum on
+            if c.get("footprint_m"):  # its bound, fixed by Study.with_levers_fixed, stays
+                x0, y0, x1, y1 = c["footprint_m"]
+                c["footprint_m"] = (x0 - LAYOUT_TOL_M, y0 - LAYOUT_TOL_M, x1 + LAYOUT_TOL_M,
+                                    y1 + LAYOUT_TOL_M)
+            if c.get("min_isolator_distance_m"):
+                c["min_isolator_distance_m"] = c["min_isolator_distance_m"] - LAYOUT_TOL_M
+            t = table_with_levers(table, levers)
             try:
-                layout_rows(table_with_levers(table, levers), constraints, (1.0, 1.0), False)
-            except InputError as exc:
-                raise InputError(f"{where}: {exc}") from None
+                layout_rows(t, c, (1.0, 1.0), False)
+            except InputError:
+                try:  # the message of the study's own bounds
+                    layout_rows(t, constraints, (1.0, 1.0), False)
+                except InputError as exc:
+                    raise InputError(f"{where}: {exc}") from None
         return
     fp, dmin = constraints.get("footprint_m"), constraints.get("min_isolator_distance_m")
     c = np.asarray(table.cg_m[:2], float)

@@ -359,3 +359,20 @@ def test_an_unknown_key_suggests_the_closest(table_raw, changes, fragments):
         assert f in str(err.value)
     if "bogus_key" in fragments[0]:  # nothing close: no guess
         assert "did you mean" not in str(err.value)
+
+
+def test_a_co_designed_layout_on_its_footprint_bound_is_read_again():
+    """The fixed layout's check when a study is read keeps a solver's tolerance: an optimum
+    on the footprint (1e-7 m outside, as IPOPT may end) fixed by ``with_levers_fixed`` (what
+    ``report``, ``modes`` and ``response`` of a run read) loads; 0.1 mm outside is refused
+    with the study's own bounds."""
+    st = table_study().with_changes({"variables.layout_length_m.fixed": False,
+                                     "variables.layout_length_m.upper": 1.6,
+                                     "constraints.footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
+                                     "constraints.min_isolator_distance_m": 0.8})
+    fixed = st.with_levers_fixed({"layout_length_m": 1.5 + 2e-7})
+    assert fixed.table.isolators_m[0, 0] == pytest.approx(-0.75, abs=1e-6)
+    with pytest.raises(InputError, match=r"constraints\.footprint_m: isolator 1 \(from 1\) at "
+                                         r"\(-0\.75, -0\.4\) m lies outside the footprint x "
+                                         r"-0\.75\.\.0\.75 m"):
+        st.with_levers_fixed({"layout_length_m": 1.5 + 1e-4})
