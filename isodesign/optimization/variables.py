@@ -518,7 +518,7 @@ def _check_group_diameters(table, levers, constraints: dict, where: str) -> None
         value, key = ((v.start, f"variables.{name}") if v is not None else
                       (own.get("capillary_diameter_m"),
                        f"table.group_springs: group {g + 1}: capillary_diameter_m"))
-        if value is not None and value < dmin:
+        if value is not None and value < dmin * (1 - 1e-6):  # an optimum on it, fixed, holds
             raise InputError(f"{where}: {key} is fixed at {value:g} m, below "
                              f"constraints.min_capillary_diameter_m ({dmin:g} m)")
 

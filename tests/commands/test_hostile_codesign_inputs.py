@@ -376,3 +376,16 @@ def test_a_co_designed_layout_on_its_footprint_bound_is_read_again():
                                          r"\(-0\.75, -0\.4\) m lies outside the footprint x "
                                          r"-0\.75\.\.0\.75 m"):
         st.with_levers_fixed({"layout_length_m": 1.5 + 1e-4})
+
+
+def test_a_group_capillary_optimum_on_the_minimum_diameter_is_read_again():
+    """A group's capillary free down to min_capillary_diameter_m, fixed at an optimum on it
+    (IPOPT relaxes bounds by 1e-8): loads; 1 % below is refused."""
+    st = table_study().with_changes({V + "capillary_diameter_m_group2": {"fixed": False}})
+    dmin = st.constraints["min_capillary_diameter_m"]
+    free = [v.name for v in st.levers if v.free]
+    assert free == ["capillary_diameter_m_group2"]
+    fixed = st.with_levers_fixed({"capillary_diameter_m_group2": dmin * (1 - 1e-8)})
+    assert fixed.table.group_springs[1]["capillary_diameter_m"] == pytest.approx(dmin)
+    with pytest.raises(InputError, match=r"variables\.capillary_diameter_m_group2 is fixed at"):
+        st.with_levers_fixed({"capillary_diameter_m_group2": dmin * 0.99})
