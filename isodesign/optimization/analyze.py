@@ -232,8 +232,13 @@ def _checked_values(study, values) -> dict:
         if k not in spec:
             raise InputError(f"values: unknown name {k!r}; this study's design variables and "
                              f"levers: {', '.join(spec)}")
-        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
-            raise InputError(f"values[{k!r}]: expected a finite number, got {v!r:.40}")
+        try:
+            finite = not isinstance(v, bool) and isinstance(v, numbers.Real) and \
+                math.isfinite(float(v))
+        except OverflowError:  # a 400-digit integer
+            finite = False
+        if not finite:
+            raise InputError(f"values[{k!r}]: expected a finite number, got {str(v)[:40]!s}")
         if spec[k].fixed and not math.isclose(v, spec[k].start, rel_tol=1e-9, abs_tol=0.0):
             raise InputError(f"values[{k!r}] = {v:g}: variables.{k} is fixed at "
                              f"{spec[k].start:g} in this study; free it (fixed = false) or "
@@ -254,7 +259,7 @@ def _under(study, scenario):
     sp = study.scenarios
     try:
         theta = np.asarray(scenario, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         theta = None
     if theta is None or isinstance(scenario, str | dict) or theta.shape != (sp.size,) or any(
             isinstance(v, str | bytes | bool) for v in np.ravel(np.asarray(scenario, object))):

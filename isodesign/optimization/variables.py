@@ -315,8 +315,8 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
         for k in ("start", "lower", "upper"):
             if k in spec:
                 v = spec[k]
-                if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                    raise InputError(f"{key}.{k}: expected a finite number, got {v!r:.40}")
+                if not _finite_number(v):
+                    raise InputError(f"{key}.{k}: expected a finite number, got {_short(v)}")
                 vals[k] = float(v)
         start = vals.get("start", table_value)
         if start is None:
@@ -473,9 +473,8 @@ def _group_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...
             if v is None:
                 raise InputError(f"{key}.{k}: give it (variables.{base} has no {k}: it is "
                                  "fixed)")
-            if isinstance(v, bool) or not isinstance(v, int | float) or not \
-                    math.isfinite(v) or v <= 0:
-                raise InputError(f"{key}.{k}: expected a number > 0, got {v!r:.40}")
+            if not _finite_number(v) or v <= 0:
+                raise InputError(f"{key}.{k}: expected a number > 0, got {_short(v)}")
             vals[k] = float(v)
         dlo, dhi, unit = DESIGN_DOMAIN[base]
         for k in ("start",) if fixed else ("start", "lower", "upper"):
@@ -588,9 +587,8 @@ def _check_lever_values(levers, values, require=()) -> None:
                              f"{', '.join(sorted(known)) or 'none'}")
     for v in levers:
         x = values.get(v.name)
-        if x is not None and (isinstance(x, bool) or not isinstance(x, numbers.Real)
-                              or not math.isfinite(x)):
-            raise InputError(f"values[{v.name!r}]: expected a finite number, got {x!r:.40}")
+        if x is not None and not _finite_number(x):
+            raise InputError(f"values[{v.name!r}]: expected a finite number, got {_short(x)}")
         if x is None:
             continue
         if not v.fixed:  # a fixed lever keeps its start (table_at's contract)
@@ -683,7 +681,7 @@ def footprint_bounds(where: str, value):
     key = f"{where}: constraints.footprint_m"
     try:
         a = np.array(value, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         a = None
     if isinstance(value, str) or a is None or a.shape != (2, 2) or \
             not np.all(np.isfinite(a)) or _has_bool(value) or _has_str(value):
@@ -704,6 +702,23 @@ def _has_bool(value) -> bool:
     if isinstance(value, bool | np.bool_):
         return True
     return isinstance(value, list | tuple) and any(_has_bool(v) for v in value)
+
+
+def _finite_number(v) -> bool:
+    """A finite real number (not a boolean; a 400-digit integer is not finite as a float)."""
+    if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real):
+        return False
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
+def _short(v) -> str:
+    """``repr(v)`` for a message, at most 40 characters (a huge integer by its size)."""
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) > 10**15:
+        return f"an integer of {len(str(abs(v)))} digits"
+    return f"{v!r:.40}"
 
 
 def _has_str(value) -> bool:

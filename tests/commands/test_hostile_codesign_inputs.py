@@ -389,3 +389,42 @@ def test_a_group_capillary_optimum_on_the_minimum_diameter_is_read_again():
     assert fixed.table.group_springs[1]["capillary_diameter_m"] == pytest.approx(dmin)
     with pytest.raises(InputError, match=r"variables\.capillary_diameter_m_group2 is fixed at"):
         st.with_levers_fixed({"capillary_diameter_m_group2": dmin * 0.99})
+
+
+HUGE = 10**400  # a Python integer no float holds (TOML integers are 64-bit; the API takes any)
+
+
+@pytest.mark.parametrize("call, fragment", [
+    (lambda: table_study().with_changes(
+        {V + "lateral_stiffness_n_per_m": {"fixed": False, "upper": HUGE}}),
+     "variables.lateral_stiffness_n_per_m.upper: expected a finite number, got an integer of "
+     "401 digits"),
+    (lambda: table_study().with_changes({V + "layout_length_m": {"fixed": False,
+                                                                 "upper": HUGE}}),
+     "variables.layout_length_m.upper"),
+    (lambda: table_study().with_changes({"constraints.footprint_m": [[-HUGE, -1], [1, 1]]}),
+     "constraints.footprint_m"),
+    (lambda: table_study().with_changes({V + "volume_ratio_group2": {"fixed": False,
+                                                                     "upper": HUGE}}),
+     "variables.volume_ratio_group2.upper"),
+    (lambda: table_study().with_changes({"table.group_springs": [{}, {"volume_ratio": HUGE},
+                                                                 {}]}),
+     "table.group_springs: group 2: volume_ratio"),
+    (lambda: isodesign.analyze(table_study(), {"volume_ratio": HUGE}),
+     "values['volume_ratio']: expected a finite number"),
+    (lambda: isodesign.analyze(default_study(), {"pendulum_length_m": HUGE}),
+     "values['pendulum_length_m']"),
+    (lambda: default_study().table_at({"pendulum_length_m": HUGE}),
+     "values['pendulum_length_m']: expected a finite number"),
+], ids=["lever", "layout", "footprint", "group_lever", "group_springs", "analyze_variable",
+        "analyze_lever", "table_at"])
+def test_a_huge_integer_is_an_input_error_naming_the_key(call, fragment):
+    """A 400-digit integer ended in a raw OverflowError (float conversion)."""
+    with pytest.raises(InputError) as err:
+        call()
+    assert fragment in str(err.value)
+
+
+def test_a_huge_integer_scenario_is_an_input_error(robust_table):
+    with pytest.raises(InputError, match=r"^scenario: expected 2 numbers"):
+        isodesign.analyze(robust_table, None, [HUGE, 0])
