@@ -255,14 +255,28 @@ def _pareto_case(p: Path, label: str | None) -> Case:
                        f"{rec['objectives'][0]}",))
 
 
-def _refuse_robust(study, where: str) -> None:
-    """A study with ``[scenarios]`` asks for the robust verdict, which a design's report
-    (one nominal response) does not give: refused naming the key, never answered nominal."""
-    if study is not None and study.scenarios is not None:
-        raise InputError(f"{where}: [scenarios]: the report of a design or study file is its "
-                         "nominal response, not the robust answer the study asks; use isodesign "
-                         "optimize STUDY -o RUN then isodesign report RUN (robustness "
-                         "section), or isodesign yield, or remove [scenarios]")
+def refuse_robust_job(case: Case) -> None:
+    """A design or study file whose study has ``[scenarios]`` asks for the robust verdict,
+    which its report (one nominal response) does not give: refused naming the key, never
+    answered nominal (a robust run's report has its robustness section).
+
+    Parameters
+    ----------
+    case : Case
+        A loaded report input.
+
+    Raises
+    ------
+    InputError
+        Naming ``--study`` (a design file's job) or the study file, and ``[scenarios]``.
+    """
+    if case.kind not in ("design", "study") or case.study.scenarios is None:
+        return
+    where = "--study" if case.kind == "design" else case.source
+    raise InputError(f"{where}: [scenarios]: the report of a design or study file is its "
+                     "nominal response, not the robust answer the study asks; use isodesign "
+                     "optimize STUDY -o RUN then isodesign report RUN (robustness "
+                     "section), or isodesign yield, or remove [scenarios]")
 
 
 def load_case(path, *, study=None, label: str | None = None) -> Case:
@@ -289,12 +303,9 @@ def load_case(path, *, study=None, label: str | None = None) -> Case:
                          "with its own study (drop --study, or report a design file with it)")
     if kind == "design":
         st = study if isinstance(study, Study) or study is None else load_study(study)
-        _refuse_robust(st, "--study")
         return _design_case(p, st, label)
     if kind == "study":
-        case = _study_case(p, label)
-        _refuse_robust(case.study, str(p))
-        return case
+        return _study_case(p, label)
     if kind == "optimize":
         return _optimize_case(p, label)
     return _pareto_case(p, label)
