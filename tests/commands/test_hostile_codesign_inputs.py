@@ -457,3 +457,34 @@ def test_response_answers_the_table_with_its_fixed_levers(tmp_path, capsys, leve
     frame = pd.read_csv(out)
     got = frame[frame["band_hz"].between(4.0, 80.0)]["margin_db"].min()
     assert got == pytest.approx(want, abs=1e-9)
+
+
+def test_yield_of_a_co_designed_run_refuses_a_study_with_other_lever_values(table_run,
+                                                                           tmp_path, capsys):
+    """``yield RUN --study robust.toml`` of a co-designed run read the spring from
+    design.toml and dropped the run's levers: the draws judged the study's table (its
+    pendulum at 0.15 m) instead of the optimum's (0.4 m), and said "yield of optimum of
+    RUN". Refused naming the lever and the run's value; the same study with the lever fixed
+    at the run's value is judged."""
+    import json
+    import shutil
+
+    from isodesign.cli import main
+
+    run = tmp_path / "codesigned"
+    shutil.copytree(table_run, run)
+    dj = json.loads((run / "design.json").read_text())
+    dj["variables"]["pendulum_length_m"] = {"value": 0.4, "lower": 0.05, "upper": 0.4,
+                                            "fixed": False}
+    (run / "design.json").write_text(json.dumps(dj))
+    robust = _robust_table_file(tmp_path)
+    assert main(["yield", str(run), "--study", str(robust), "--samples", "2", "-o",
+                 str(tmp_path / "y1")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--study: variables.pendulum_length_m is fixed at 0.15" in err[0]
+    assert "pendulum_length_m = 0.4" in err[0] and not (tmp_path / "y1").exists()
+    robust.write_text(robust.read_text() + "\n[variables.pendulum_length_m]\nfixed = true\n"
+                      "start = 0.4\n")
+    assert main(["yield", str(run), "--study", str(robust), "--samples", "2", "--no-plots",
+                 "-o", str(tmp_path / "y2")]) in (0, 1)
+    assert (tmp_path / "y2" / "yield.json").is_file()
