@@ -450,8 +450,11 @@ def main(argv: list[str] | None = None) -> int:
     command = " ".join(["python", str(rel), *(argv if argv is not None else sys.argv[1:])])
     report = render(info, results, command, kept)
     out = Path(args.output)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(report)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(report)
+    except OSError as exc:  # what the check before the runs could not foresee (/proc)
+        ap.exit(2, f"{ap.prog}: error: -o: cannot write {out} ({exc.strerror or exc})\n")
     print(f"wrote {out}")
     if failed:
         print("some targets were missed (see the pass column)")
