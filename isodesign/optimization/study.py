@@ -239,19 +239,12 @@ class Study(ResultDisplay):
                 f"{items['target']}, {items['objective']}, source {items['source']}>")
 
     def variable(self, name: str) -> VariableSpec:
-        """The spec of one design variable or co-design lever (``study.levers``).
-
-        Raises
-        ------
-        InputError
-            A name that is neither, naming the study's variables and levers.
-        """
-        for v in (*self.variables, *self.levers):
-            if v.name == name:
-                return v
-        names = [v.name for v in (*self.variables, *self.levers)]
+        """The spec of one design variable or lever (InputError naming them for another)."""
+        specs = (*self.variables, *self.levers)
+        for v in (v for v in specs if v.name == name):
+            return v
         raise InputError(f"name: unknown design variable {name!r:.60}; this study's: "
-                         f"{', '.join(names)}")
+                         f"{', '.join(v.name for v in specs)}")
 
     def table_at(self, values: dict | None = None):
         """The table with its levers at ``values`` (fixed or missing ones at their start).
@@ -488,7 +481,6 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
         _warn_table_slips(st, d, where)
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
-
 
         st = dataclasses.replace(st, scenarios=parse_scenarios(raw["scenarios"], where, st))
     return st
