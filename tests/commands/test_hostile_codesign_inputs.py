@@ -488,3 +488,18 @@ def test_yield_of_a_co_designed_run_refuses_a_study_with_other_lever_values(tabl
     assert main(["yield", str(run), "--study", str(robust), "--samples", "2", "--no-plots",
                  "-o", str(tmp_path / "y2")]) in (0, 1)
     assert (tmp_path / "y2" / "yield.json").is_file()
+
+
+def test_no_sweep_is_written_inside_another_sweeps_directory(tmp_path):
+    """``sweep -o SWEEP/inner`` nested a sweep among another's points and table."""
+    import json
+
+    outer = tmp_path / "sweep"
+    outer.mkdir()
+    (outer / "record.json").write_text(json.dumps({"kind": "isodesign sweep",
+                                                   "run_status": "complete"}))
+    with pytest.raises(InputError, match=r"^--output: .*inner is inside the directory of a run "
+                                         r"that owns it whole \(isodesign sweep"):
+        isodesign.sweep(table_study(), {"payload.mass_kg": [600.0]}, task="response",
+                        output=str(outer / "inner"))
+    assert sorted(p.name for p in outer.iterdir()) == ["record.json"]
