@@ -360,6 +360,21 @@ def render(info: dict[str, str], results: list[tuple[Path, str, list[dict]]], co
     return "\n".join(out)
 
 
+def _unwritable(out: Path) -> str | None:
+    """Why the report ``out`` cannot be written (None: it can): a parent that is a file, a
+    directory without write permission."""
+    anc = out.absolute().parent
+    while not anc.exists() and anc != anc.parent:
+        anc = anc.parent
+    if not anc.is_dir():
+        return f"{anc} is a file"
+    if out.exists() and not os.access(out, os.W_OK):
+        return "permission denied"
+    if not os.access(anc, os.W_OK | os.X_OK):
+        return f"cannot write in {anc} (permission denied)"
+    return None
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the benchmarks and write the report.
 
@@ -401,11 +416,17 @@ def main(argv: list[str] | None = None) -> int:
         ap.error(str(exc))
     if Path(args.output).is_dir():
         ap.error(f"-o: {args.output} is a directory; give the Markdown file to write")
+    why = _unwritable(Path(args.output))
+    if why:  # checked before minutes of benchmarks, not when the report is written
+        ap.error(f"-o: cannot write {args.output}: {why}")
     kept = None
     reports = ([args.output] if args.update and Path(args.output).exists() else []) + args.merge
     for report in reports:  # checked before minutes of benchmarks; later reports win
         try:
-            kept = {**(kept or {}), **split_sections(Path(report).read_text())}
+            text = Path(report).read_text()
+            if not text.startswith("# Benchmarks\n"):
+                raise ValueError("it does not start with its '# Benchmarks' title")
+            kept = {**(kept or {}), **split_sections(text)}
         except (OSError, UnicodeDecodeError, ValueError) as exc:
             ap.error(f"--update: cannot keep the sections of {report}: it is not a report "
                      f"of benchmarks/run.py ({exc})")
@@ -429,8 +450,11 @@ def main(argv: list[str] | None = None) -> int:
     command = " ".join(["python", str(rel), *(argv if argv is not None else sys.argv[1:])])
     report = render(info, results, command, kept)
     out = Path(args.output)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    out.write_text(report)
+    try:
+        out.parent.mkdir(parents=True, exist_ok=True)
+        out.write_text(report)
+    except OSError as exc:  # what the check before the runs could not foresee (/proc)
+        ap.exit(2, f"{ap.prog}: error: -o: cannot write {out} ({exc.strerror or exc})\n")
     print(f"wrote {out}")
     if failed:
         print("some targets were missed (see the pass column)")

@@ -21,6 +21,7 @@ __all__ = [
     "check_instance",
     "check_positive",
     "check_range",
+    "did_you_mean",
 ]
 
 
@@ -34,6 +35,26 @@ class SolverError(RuntimeError):
 
 class ModelValidityWarning(UserWarning):
     """Some evaluated points lie outside the validity range of a model."""
+
+
+def did_you_mean(given: Any, valid) -> str:
+    """``" (did you mean 'mass_kg'?)"`` for a key close to one of ``valid`` (else ``""``).
+
+    Parameters
+    ----------
+    given : object
+        The unknown key as the user typed it.
+    valid : iterable of str
+        The keys it could have meant.
+    """
+    import difflib
+
+    if not isinstance(given, str):
+        return ""
+    keys = sorted(str(v) for v in valid)
+    close = difflib.get_close_matches(given, keys, n=1, cutoff=0.6) or \
+        difflib.get_close_matches(given.lower(), keys, n=1, cutoff=0.6)
+    return f" (did you mean {close[0]!r}?)" if close else ""
 
 
 def _is_symbolic(x: Any) -> bool:

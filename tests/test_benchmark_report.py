@@ -74,3 +74,33 @@ def test_bad_update_arguments_end_in_one_line_before_any_benchmark_runs(tmp_path
         err = capsys.readouterr().err
         assert exc.value.code == 2 and words in err and "Traceback" not in err, argv
     assert no_table.read_text().startswith("# Notes") and not (tmp_path / "x.md").exists()
+
+
+def test_a_merge_of_no_report_or_an_unwritable_output_is_refused_before_anything(
+        tmp_path, capsys, monkeypatch):
+    """--merge of a file that is no report (a text without the report's title, a script)
+    wrote a report without sections; -o under a file ended in a traceback after the runs:
+    usage errors (exit 2), nothing run or written."""
+    import pytest
+
+    run = _run_module()
+    monkeypatch.setattr(run, "load", lambda path: pytest.fail(f"ran {path}"))
+    text = tmp_path / "notes.md"
+    text.write_text("hello\n")
+    report = tmp_path / "report.md"
+    report.write_text(run.render(_info("2026-01-01", "abc"), [], "python benchmarks/run.py"))
+    cases = [(["--update", "--merge", str(text), "-o", str(tmp_path / "a.md")],
+              "not a report of benchmarks/run.py"),
+             (["--update", "--merge", str(ROOT / "benchmarks" / "run.py"), "-o",
+               str(tmp_path / "b.md")], "not a report of benchmarks/run.py"),
+             (["--update", "--merge", str(report), "-o", str(text)],
+              "not a report of benchmarks/run.py"),
+             (["--update", "--merge", str(report), "-o", str(report / "x.md")],
+              "is a file")]
+    for argv, words in cases:
+        with pytest.raises(SystemExit) as exc:
+            run.main(argv)
+        err = capsys.readouterr().err
+        assert exc.value.code == 2 and words in err and "Traceback" not in err, argv
+    assert text.read_text() == "hello\n"
+    assert not (tmp_path / "a.md").exists() and not (tmp_path / "b.md").exists()

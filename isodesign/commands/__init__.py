@@ -34,7 +34,7 @@ from pathlib import Path
 
 from isodesign.errors import InputError
 from isodesign.io.files import atomic_path, atomic_write_text, write_probe
-from isodesign.io.rundir import RunDirectory
+from isodesign.io.rundir import RunDirectory, check_outside_whole_runs
 
 __all__ = [
     "MAX_GRID_POINTS",
@@ -221,10 +221,36 @@ def run_directory(args, command: str, *, known_outputs=(), option: str = "--outp
     -------
     RunDirectory
     """
-
+    check_outside_whole_runs(args.output, option=option)  # not inside a sweep's directory
+    _refuse_own_input(args, option)
     return RunDirectory(args.output, command=command,
                         overwrite=bool(getattr(args, "overwrite", False)), option=option,
                         known_outputs=known_outputs)
+
+
+def _refuse_own_input(args, option: str) -> None:
+    """Refuse an output directory that is the run the command reads (``yield RUN -o RUN
+    --overwrite`` replaced the optimize run by its own yield: no design left to read; ``modes
+    RUN -o RUN --overwrite`` the same)."""
+    from isodesign.io.rundir import read_run_record
+
+    out = getattr(args, "output", None)
+    if not isinstance(out, str | os.PathLike) or not str(out).strip() or \
+            read_run_record(out) is None:
+        return
+    target = Path(out).resolve()
+    for attr in ("design", "study", "run", "inputs", "input"):
+        given = getattr(args, attr, None)
+        for p in given if isinstance(given, list | tuple) else [given]:
+            if not isinstance(p, str | os.PathLike) or not str(p).strip():
+                continue
+            path = Path(p).resolve()
+            if attr == "study" and not path.is_dir():
+                continue  # a study file is read whole first (optimize it again in place)
+            if target == (path if path.is_dir() else path.parent):
+                raise InputError(f"{option}: {out} is the run this command reads ({p}); "
+                                 "--overwrite would replace its own input: choose another "
+                                 "directory")
 
 
 def check_acoustics(design, flow: str | None, option: str | None) -> None:

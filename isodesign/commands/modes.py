@@ -106,7 +106,7 @@ def run(args) -> int:
     study, design, label = load_table_job(args)
     rundir = run_directory(args, "modes", known_outputs=OUTPUT_FILES)
     model, modes, stab, lowest = table_job_modes(study, design)
-    t = study.table
+    t = study.table_at(None)  # with its levers: the table the modes are of
     print(f"modes of the table: {label}; {t.mass_kg:g} kg on {t.n_isolators} isolators, CG "
           f"({', '.join(f'{v:g}' for v in t.cg_m)}) m; springs in the linear regime (1 um), "
           "each mode at its own frequency")
@@ -159,15 +159,16 @@ def run_table_response(args, job) -> int:
     if m.get("random_method", "statistical") != "statistical":
         raise InputError("--random-method: the table response uses the statistical closure")
     st = job.study
+    table = st.table_at(None)  # the study's table with its levers (a fixed lever's value)
     floor = st.floor_axes if args.floor is None else table_floor(args.floor)
-    res = table_band_response(job.design, st.table, floor, job.target, bands=job.bands,
+    res = table_band_response(job.design, table, floor, job.target, bands=job.bands,
                               points_per_band=args.points_per_band, flow=m["flow"],
                               amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"],
                               warn=False)  # fmt: skip
     for line in res.flags:
         warnings.warn(f"spring model at the closure: {line}", ModelValidityWarning,
                       stacklevel=2)
-    model = table_model(job.design, st.table, flow=m["flow"],
+    model = table_model(job.design, table, flow=m["flow"],
                         amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
     to_stdout = args.output == "-"
     mc = None
@@ -180,7 +181,7 @@ def run_table_response(args, job) -> int:
         twin = lumped_twin(job.design)  # like with like: the simulator's lumped equations
         if twin is not None:
             mc_closure = table_band_response(
-                twin, st.table, floor, job.target, bands=job.bands,
+                twin, table, floor, job.target, bands=job.bands,
                 points_per_band=args.points_per_band, flow=m["flow"],
                 amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"], warn=False)
             in_force = res

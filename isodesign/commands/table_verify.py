@@ -35,7 +35,8 @@ def verify_table(args, job, res, floor):
     m = job.models
     try:
         return simulate_table_response(
-            job.design, job.study.table, floor, bands=res.bands, seeds=args.verify_monte_carlo,
+            job.design, job.study.table_at(None), floor, bands=res.bands,
+            seeds=args.verify_monte_carlo,
             duration_s=args.mc_duration_s, flow=m["flow"], diaphragm=m["diaphragm"],
         )  # fmt: skip
     except InputError as exc:

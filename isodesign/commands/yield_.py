@@ -77,6 +77,38 @@ def _design_values(path: Path) -> tuple[dict, str, Path | None]:
     return {n: float(getattr(d, n)) for n in DESIGN_VARIABLES}, str(path), None
 
 
+def _check_run_levers(path: Path, study, study_path) -> None:
+    """A co-designed run's levers (its ``design.json``) against the study's: a lever the
+    study fixes at another value would judge another table than the run's optimum (the
+    spring alone is in ``design.toml``), so it is refused naming the key."""
+    import math
+
+    from isodesign.errors import InputError
+    from isodesign.io.files import read_json
+    from isodesign.optimization.variables import CODESIGN_LEVERS, GROUP_SPRING_LEVERS
+
+    dj = path / "design.json" if path.is_dir() else None
+    if dj is None or not dj.is_file() or (path / "robust.json").is_file():
+        return
+    try:
+        variables = read_json(dj, what="design.json").get("variables") or {}
+    except (AttributeError, InputError):
+        return  # the design itself is read from design.toml; its errors name it
+    levers = {n: v.get("value") for n, v in variables.items() if isinstance(v, dict)
+              and n in (*CODESIGN_LEVERS, *GROUP_SPRING_LEVERS)}
+    own = {v.name: v for v in getattr(study, "levers", ())}
+    for name, value in levers.items():
+        spec = own.get(name)
+        if not isinstance(value, int | float) or spec is None or not spec.fixed:
+            continue  # a vertical study has none; a free one is refused by the yield
+        if not math.isclose(value, spec.start, rel_tol=1e-9, abs_tol=1e-12):
+            raise InputError(f"--study: variables.{name} is fixed at {spec.start:g} in "
+                             f"{study_path}, but the optimum of {path} has {name} = "
+                             f"{value:g} (a co-designed lever): the yield would judge another "
+                             f"table; fix it at the run's value (fixed = true, start = "
+                             f"{value!r})")
+
+
 def _write_partial(path: Path, study, values: dict, finished: dict, args, label: str):
     """Write the finished draws (in draw order) as ``yield_partial.csv``; its name, or None
     when no draw had finished."""
@@ -121,6 +153,7 @@ def run(args) -> int:
     if study.scenarios is None:
         raise InputError(f"--study: {study_path} has no [scenarios] table (the laws the "
                          "built tables are drawn from; docs/robust.md)")
+    _check_run_levers(Path(args.design), study, study_path)
     with run_directory(args, "yield", known_outputs=OUTPUT_FILES) as rundir:
         rundir.record.update({"kind": "isodesign yield", "environment": environment(),
                               "command_line": command_line(["yield", str(args.design),

@@ -12,6 +12,7 @@ error: an unusual but intended value still runs.
 
 from __future__ import annotations
 
+import re
 import warnings
 
 __all__ = ["MIN_LOAD_PER_ISOLATOR_KG", "PLAUSIBLE", "UnitWarning", "unit_slips",
@@ -29,6 +30,7 @@ _MM_M = ("mm", 1e-3, "m")
 _CM2_M2 = ("cm^2", 1e-4, "m^2")
 _T_KG = ("t", 1e3, "kg")
 _BAR_PA = ("bar", 1e5, "Pa")
+_KPA_PA = ("kPa", 1e3, "Pa")
 
 #: Key (last part, as in a study or design file) -> (low, high, slip below, slip above).
 PLAUSIBLE = {
@@ -46,6 +48,7 @@ PLAUSIBLE = {
     "temperature_k": (150.0, 1000.0, ("degC", None, "K"), None),
     "max_pressure_pa": (2e4, 1e9, _BAR_PA, None),
     "pressure_pa": (2e4, 1e9, _BAR_PA, None),
+    "supply_margin_pa": (1e3, 1e8, _KPA_PA, None),
 }
 
 
@@ -119,9 +122,14 @@ def unit_slips(values: dict, where: str = "", *, isolators: int | None = None) -
             if isinstance(v, dict):
                 walk(v, name + ".")
                 continue
+            if isinstance(v, list) and v and all(isinstance(g, dict) for g in v):
+                for i, g in enumerate(v):  # table.group_springs: one table per group
+                    walk(g, f"{name}: group {i + 1}: ")
+                continue
             leaf = str(k)
             if leaf in ("start", "lower", "upper"):  # [variables.<name>]
                 leaf = prefix.rstrip(".").split(".")[-1]
+            leaf = re.sub(r"_group\d+$", "", leaf)  # a group's own spring variable
             rng = PLAUSIBLE.get(leaf)
             if rng is None or isinstance(v, bool) or not isinstance(v, int | float):
                 continue

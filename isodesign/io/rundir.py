@@ -75,6 +75,7 @@ __all__ = [
     "RECORD_NAME",
     "RUN_STATUSES",
     "RunDirectory",
+    "check_outside_whole_runs",
     "check_run_target",
     "interrupt_active_runs",
     "partial_tables",
@@ -222,6 +223,37 @@ def check_run_target(target, *, overwrite: bool = False, option: str = "--output
             "the files isodesign did not write)"
         )
     return []
+
+
+def check_outside_whole_runs(target, *, option: str = "--output") -> None:
+    """Refuse a command's output directory inside a run that owns its whole directory.
+
+    A sweep's points (``OUTDIR/points/HASH``) belong to the sweep: its table names them and
+    a rerun resumes from them, so another command writing there (``modes -o
+    SWEEP/points --overwrite``) would leave the sweep unable to resume. Only the sweep
+    writes inside its directory (it does not call this).
+
+    Parameters
+    ----------
+    target : str or Path
+        The output directory as the user gave it.
+    option : str
+        The option as the user typed it, for messages.
+
+    Raises
+    ------
+    InputError
+        An ancestor of ``target`` holds a run of a kind in :data:`WHOLE_DIRECTORY_KINDS`.
+    """
+    if not isinstance(target, str | os.PathLike) or not str(target).strip():
+        return  # check_run_target names these
+    t = Path(target).absolute()
+    for anc in t.parents:
+        rec = read_run_record(anc)
+        if rec is not None and rec.get("kind") in WHOLE_DIRECTORY_KINDS:
+            raise InputError(f"{option}: {target} is inside the directory of a run that "
+                             f"owns it whole ({rec.get('kind')} in {anc}): writing there "
+                             "would leave it unable to resume; choose a directory outside it")
 
 
 @contextlib.contextmanager

@@ -60,8 +60,21 @@ def analyze(study, values: dict | None = None, scenario=None, *, bands="study",
         table's z answer, to 1e-6 dB the 1-DOF's: ``tests/table/test_one_model.py``).
     """
     vals = _checked_values(study, values)
+    for name, flag in (("warn", warn), ("strict", strict)):
+        if not isinstance(flag, bool):
+            raise InputError(f"{name}: expected True or False, got {flag!r:.40}")
     st, p_atm = _under(study, scenario)
     b = st.bands if isinstance(bands, str) and bands == "study" else bands
+    if isinstance(b, tuple | list):  # (f_min_hz, f_max_hz): named as the caller typed it
+        from isodesign.floor import third_octave_bands
+
+        try:
+            if len(b) != 2:
+                raise InputError(f"{len(b)} numbers")
+            third_octave_bands(*b)  # checked only: the response resolves them
+        except InputError as exc:
+            raise InputError(f"bands: expected (f_min_hz, f_max_hz) with f_min_hz < f_max_hz, "
+                             f"got {bands!r:.60} ({exc})") from None
     m = st.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
           "random_method": m["random_method"]}
@@ -219,8 +232,13 @@ def _checked_values(study, values) -> dict:
         if k not in spec:
             raise InputError(f"values: unknown name {k!r}; this study's design variables and "
                              f"levers: {', '.join(spec)}")
-        if isinstance(v, bool) or not isinstance(v, numbers.Real) or not math.isfinite(v):
-            raise InputError(f"values[{k!r}]: expected a finite number, got {v!r:.40}")
+        try:
+            finite = not isinstance(v, bool) and isinstance(v, numbers.Real) and \
+                math.isfinite(float(v))
+        except OverflowError:  # a 400-digit integer
+            finite = False
+        if not finite:
+            raise InputError(f"values[{k!r}]: expected a finite number, got {str(v)[:40]!s}")
         if spec[k].fixed and not math.isclose(v, spec[k].start, rel_tol=1e-9, abs_tol=0.0):
             raise InputError(f"values[{k!r}] = {v:g}: variables.{k} is fixed at "
                              f"{spec[k].start:g} in this study; free it (fixed = false) or "
@@ -241,9 +259,10 @@ def _under(study, scenario):
     sp = study.scenarios
     try:
         theta = np.asarray(scenario, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         theta = None
-    if theta is None or isinstance(scenario, str | dict) or theta.shape != (sp.size,):
+    if theta is None or isinstance(scenario, str | dict) or theta.shape != (sp.size,) or any(
+            isinstance(v, str | bytes | bool) for v in np.ravel(np.asarray(scenario, object))):
         raise InputError(f"scenario: expected {sp.size} numbers ({', '.join(sp.names)}, in "
                          f"that order), got {scenario!r:.60}")
     lo, hi = sp.lower(), sp.upper()

@@ -118,6 +118,8 @@ def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool 
     if progress is not None and not callable(progress):
         raise InputError(f"progress: expected a callable progress(done, total, solution) or "
                          f"None, got {type(progress).__name__} {progress!r:.40}")
+    if not isinstance(analyze, bool):
+        raise InputError(f"analyze: expected true or false, got {analyze!r:.40}")
     kind = study_kind(study)
     res = _answer(kind, study, progress, problem, nominal, analyze)
     if res.kind != kind:  # never the answer to another question
@@ -130,9 +132,10 @@ def optimize(study, *, progress=None, problem=None, nominal=None, analyze: bool 
 def _answer(kind, study, progress, problem, nominal, analyze):
     """The optimizer of ``kind`` on ``study`` (see :func:`optimize`)."""
     if kind == "robust table":
-        from isodesign.optimization.robust_table import robust_optimize_table
+        from isodesign.optimization.robust_table import check_robust_table, robust_optimize_table
         from isodesign.optimization.table_driver import optimize_table
 
+        check_robust_table(study)  # before the nominal's minutes
         if nominal is None:
             nominal = optimize_table(study, progress=progress, analyze=False)
         return robust_optimize_table(study, nominal=nominal)

@@ -236,8 +236,9 @@ def pareto_front(study: Study, objectives=DEFAULT_OBJECTIVES, points: int = 20, 
                          f"got {type(study).__name__} {study!r:.40}")
     refuse(study, PARETO_WHAT, table=False)  # no robust front (docs/robust.md)
     a, b = check_front(study, objectives)
-    if isinstance(points, bool) or not isinstance(points, int) or points < 2:
-        raise InputError(f"points: must be an integer >= 2, got {points!r}")
+    if isinstance(points, bool) or not isinstance(points, int) or not 2 <= points <= 500:
+        # the range of the command line's --points (each point is a solve)
+        raise InputError(f"points: must be an integer >= 2 and <= 500, got {points!r:.40}")
     if study.table is not None:  # the table's front (docs/table.md, section 11)
         from isodesign.optimization.table_pareto import table_pareto_front
 

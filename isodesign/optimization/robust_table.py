@@ -35,7 +35,8 @@ from isodesign.optimization.table_constraints import table_constraint_reports
 from isodesign.optimization.table_driver import _modes_at, optimize_table
 from isodesign.optimization.table_scenario import table_scenario
 
-__all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "robust_optimize_table",
+__all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "check_robust_table",
+           "robust_optimize_table",
            "table_scenario", "table_sensitivities"]
 
 #: Most corners of the box scored per round (a random subset beyond).
@@ -253,6 +254,31 @@ def _natural(kind: str, j: float) -> float:
     return -j if kind == "worst_band_margin" else math.exp(j)
 
 
+def check_robust_table(study) -> None:
+    """Refuse, before any solve (the nominal optimum too), a robust table study this
+    optimizer cannot answer: free co-design levers, the leveling loop's margin bounds.
+
+    Parameters
+    ----------
+    study : Study
+        With ``[table]`` and ``[scenarios]``.
+
+    Raises
+    ------
+    InputError
+        Naming the study key.
+    """
+    from isodesign.optimization.variables import refuse_free_levers
+    from isodesign.table.leveling import leveling_margin_bounds
+
+    refuse_free_levers(study, "robust design")
+    if leveling_margin_bounds(study) != (None, None):  # not held over the scenarios yet
+        raise InputError("constraints.min_leveling_gain_margin_db: the robust table optimizer "
+                         "does not hold the leveling loop's margins over the scenarios; set "
+                         "min_leveling_gain_margin_db and min_leveling_phase_margin_deg to "
+                         "false (docs/table.md, section 12)")
+
+
 def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     """Robust optimum of a table study with ``[scenarios]`` (see the module docstring).
 
@@ -269,15 +295,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     """
     if study.table is None or study.scenarios is None:
         raise InputError("robust_optimize_table: the study needs a [table] and [scenarios]")
-    from isodesign.optimization.variables import refuse_free_levers
-    from isodesign.table.leveling import leveling_margin_bounds
-
-    refuse_free_levers(study, "robust design")
-    if leveling_margin_bounds(study) != (None, None):  # not held over the scenarios yet
-        raise InputError("constraints.min_leveling_gain_margin_db: the robust table optimizer "
-                         "does not hold the leveling loop's margins over the scenarios; set "
-                         "min_leveling_gain_margin_db and min_leveling_phase_margin_deg to "
-                         "false (docs/table.md, section 12)")
+    check_robust_table(study)
     t_all = time.perf_counter()
     space = study.scenarios
     settings = space.settings

@@ -54,7 +54,7 @@ from typing import Any
 import numpy as np
 
 from isodesign.domain import CONSTRAINT_DOMAIN, DESIGN_DOMAIN, FREQUENCY_DOMAIN_HZ
-from isodesign.errors import InputError, check_choice
+from isodesign.errors import InputError, check_choice, did_you_mean
 from isodesign.floor import criterion, third_octave_bands
 from isodesign.io.files import read_toml
 from isodesign.io.plausible import unit_slips, warn_unit_slips
@@ -239,11 +239,12 @@ class Study(ResultDisplay):
                 f"{items['target']}, {items['objective']}, source {items['source']}>")
 
     def variable(self, name: str) -> VariableSpec:
-        """The spec of one design variable."""
-        for v in self.variables:
-            if v.name == name:
-                return v
-        raise KeyError(name)
+        """The spec of one design variable or lever (InputError naming them for another)."""
+        specs = (*self.variables, *self.levers)
+        for v in (v for v in specs if v.name == name):
+            return v
+        raise InputError(f"name: unknown design variable {name!r:.60}; this study's: "
+                         f"{', '.join(v.name for v in specs)}")
 
     def table_at(self, values: dict | None = None):
         """The table with its levers at ``values`` (fixed or missing ones at their start).
@@ -381,9 +382,8 @@ def _check_keys(d: dict, table: str, where: str):
         if k not in allowed:
             tname = f"[{table}]" if table else "top level"
             refuse_group_number(k, table, where)
-            raise InputError(
-                f"{where}: unknown key {k!r} in {tname}; valid: {', '.join(sorted(allowed))}"
-            )
+            raise InputError(f"{where}: unknown key {k!r} in {tname}{did_you_mean(k, allowed)}; "
+                             f"valid: {', '.join(sorted(allowed))}")
 
 
 def study_from_dict(d: dict, *, source: str = "<dict>", fill_defaults: bool = True) -> Study:
@@ -481,7 +481,6 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
         _warn_table_slips(st, d, where)
     if raw.get("scenarios"):  # robust design (docs/robust.md); off by default
         from isodesign.optimization.uncertainty import parse_scenarios
-
 
         st = dataclasses.replace(st, scenarios=parse_scenarios(raw["scenarios"], where, st))
     return st
@@ -760,10 +759,11 @@ def _constraints(c: dict, where: str, variables, payload) -> dict:
         lo, hi, unit = CONSTRAINT_DOMAIN[k]  # the models' numeric domain
         _num(where, f"constraints.{k}", v, lo, hi, False, unit)
     check_load_range(where, cons)
-    if cons["min_natural_frequency_hz"] and cons["max_natural_frequency_hz"]:
-        if cons["min_natural_frequency_hz"] >= cons["max_natural_frequency_hz"]:
-            raise InputError(f"{where}: constraints.min_natural_frequency_hz must be below "
-                             "max_natural_frequency_hz")
+    for lo_k, hi_k in (("min_natural_frequency_hz", "max_natural_frequency_hz"),
+                       ("min_rocking_frequency_hz", "max_rocking_frequency_hz")):
+        if cons[lo_k] and cons[hi_k] and cons[lo_k] >= cons[hi_k]:
+            raise InputError(f"{where}: constraints.{lo_k} must be below {hi_k} (got "
+                             f"{cons[lo_k]:g} >= {cons[hi_k]:g} Hz)")
     dmin = cons.get("min_capillary_diameter_m")
     dvar = next(v for v in variables if v.name == "capillary_diameter_m")
     if dmin and dvar.fixed and dvar.start < dmin:

@@ -7,6 +7,7 @@ half-range and ``z`` in [-1, 1].
 
 from __future__ import annotations
 
+import difflib
 import math
 import numbers
 from dataclasses import dataclass
@@ -172,6 +173,9 @@ LAYOUT_CONSTRAINTS = ("footprint_m", "min_isolator_distance_m", "min_isolator_lo
 LAYOUT_PLAUSIBLE_M = 20.0
 #: Smallest plausible extent of a layout, m (``isodesign.table.study.SPAN_PLAUSIBLE_M``).
 SPAN_PLAUSIBLE_M = 0.05
+#: Tolerance of a fixed layout's footprint and distance check when the study is read, m (a
+#: co-designed optimum on its bound, within the solver's tolerance, is inside).
+LAYOUT_TOL_M = 1e-6
 #: Default bounds of a free layout lever, as fractions of the table's own extent.
 LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
@@ -311,8 +315,8 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
         for k in ("start", "lower", "upper"):
             if k in spec:
                 v = spec[k]
-                if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                    raise InputError(f"{key}.{k}: expected a finite number, got {v!r:.40}")
+                if not _finite_number(v):
+                    raise InputError(f"{key}.{k}: expected a finite number, got {_short(v)}")
                 vals[k] = float(v)
         start = vals.get("start", table_value)
         if start is None:
@@ -333,6 +337,7 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
         else:
             lo_d, hi_d = TABLE_LEVER_BOUNDS[name]
             _plausible_horizontal(key, name, vals)
+            _horizontal_sign(f"{key}.start", name, start)
         if fixed and not vals.get("lower", start) <= start <= vals.get("upper", start):
             raise InputError(f"{key}.start ({start:g}) is fixed outside its own bounds [lower, "
                              f"upper] = [{vals.get('lower', start):g}, "
@@ -350,6 +355,7 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
                              f"[{lo:g}, {hi:g}]")
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
     out = tuple(out) + _group_levers(variables or {}, table, where)
+    _check_group_diameters(table, out, constraints or {}, where)
     check_layout_feasible(table, out, constraints or {}, where)
     _check_loads(table, constraints or {}, hardware, where)
     return out
@@ -373,6 +379,18 @@ def _check_loads(table, constraints: dict, hardware: dict | None, where: str) ->
         check_load_constraints(level(table, hardware["piston_area_m2"]), constraints)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
+
+
+def _horizontal_sign(key: str, name: str, start: float) -> None:
+    """A horizontal lever's start (its fixed value) where the element is physical: a
+    pendulum longer than 0 m, a lateral stiffness and loss factor not negative (the
+    ``[table.horizontal]`` numbers' own ranges)."""
+    if name == "pendulum_length_m" and not start > 0:
+        raise InputError(f"{key} = {start:g} m: a pendulum's length must be > 0 m "
+                         "(table.horizontal.pendulum_length_m = false: no pendulum)")
+    if name in ("lateral_stiffness_n_per_m", "lateral_loss_factor") and start < 0:
+        raise InputError(f"{key} = {start:g}: must be >= 0 (as "
+                         f"table.horizontal.{name})")
 
 
 def refuse_group_number(key, table: str, where: str) -> None:
@@ -455,9 +473,8 @@ def _group_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...
             if v is None:
                 raise InputError(f"{key}.{k}: give it (variables.{base} has no {k}: it is "
                                  "fixed)")
-            if isinstance(v, bool) or not isinstance(v, int | float) or not \
-                    math.isfinite(v) or v <= 0:
-                raise InputError(f"{key}.{k}: expected a number > 0, got {v!r:.40}")
+            if not _finite_number(v) or v <= 0:
+                raise InputError(f"{key}.{k}: expected a number > 0, got {_short(v)}")
             vals[k] = float(v)
         dlo, dhi, unit = DESIGN_DOMAIN[base]
         for k in ("start",) if fixed else ("start", "lower", "upper"):
@@ -479,6 +496,30 @@ def _group_levers(variables: dict, table, where: str) -> tuple[VariableSpec, ...
                              f"[{vals['lower']:g}, {vals['upper']:g}]")
         out.append(VariableSpec(name, vals["start"], vals["lower"], vals["upper"], False))
     return tuple(out)
+
+
+def _check_group_diameters(table, levers, constraints: dict, where: str) -> None:
+    """Every group's own capillary diameter against ``constraints.min_capillary_diameter_m``,
+    as the shared one's: a fixed one (a lever or ``table.group_springs``) at or above it, a
+    free one's upper bound above it."""
+    dmin = constraints.get("min_capillary_diameter_m")
+    if not dmin:
+        return
+    spec = {v.name: v for v in levers}
+    for g, own in enumerate(table.group_springs):
+        name = f"capillary_diameter_m_group{g + 1}"
+        v = spec.get(name)
+        if v is not None and not v.fixed:
+            if v.upper <= dmin:
+                raise InputError(f"{where}: variables.{name}.upper ({v.upper:g} m) must exceed "
+                                 f"constraints.min_capillary_diameter_m ({dmin:g} m)")
+            continue
+        value, key = ((v.start, f"variables.{name}") if v is not None else
+                      (own.get("capillary_diameter_m"),
+                       f"table.group_springs: group {g + 1}: capillary_diameter_m"))
+        if value is not None and value < dmin * (1 - 1e-6):  # an optimum on it, fixed, holds
+            raise InputError(f"{where}: {key} is fixed at {value:g} m, below "
+                             f"constraints.min_capillary_diameter_m ({dmin:g} m)")
 
 
 def table_with_levers(table, levers, values: dict | None = None):
@@ -537,11 +578,44 @@ def _check_lever_values(levers, values, require=()) -> None:
     if missing:
         raise InputError(f"values: the free lever {missing[0]} has no value; give every free "
                          f"lever ({', '.join(require)})")
+    known = {v.name for v in levers}
+    for k in values:  # a lever's name this study lacks, or a typo of one: not ignored
+        if k not in known and k not in DESIGN_VARIABLES and (
+                k in CODESIGN_LEVERS or k in GROUP_SPRING_LEVERS or difflib.get_close_matches(
+                    str(k), (*CODESIGN_LEVERS, *GROUP_SPRING_LEVERS), n=1, cutoff=0.8)):
+            raise InputError(f"values: unknown name {k!r}; this study's levers: "
+                             f"{', '.join(sorted(known)) or 'none'}")
     for v in levers:
         x = values.get(v.name)
-        if x is not None and (isinstance(x, bool) or not isinstance(x, numbers.Real)
-                              or not math.isfinite(x)):
-            raise InputError(f"values[{v.name!r}]: expected a finite number, got {x!r:.40}")
+        if x is not None and not _finite_number(x):
+            raise InputError(f"values[{v.name!r}]: expected a finite number, got {_short(x)}")
+        if x is None:
+            continue
+        if not v.fixed:  # a fixed lever keeps its start (table_at's contract)
+            _check_lever_value(v.name, float(x))
+
+
+def _check_lever_value(name: str, x: float) -> None:
+    """One lever's value where its element is physical and plausible (named
+    ``values[name]``): a horizontal lever's sign and plausible range, a group's spring
+    field in the models' domain."""
+    from isodesign.domain import DESIGN_DOMAIN
+    from isodesign.table.study import _HORIZONTAL
+
+    key = f"values[{name!r}]"
+    if name in TABLE_LEVERS:
+        _horizontal_sign(key, name, x)
+        hi, slip = _HORIZONTAL[name][1], _HORIZONTAL[name][3]
+        if abs(x) > hi:
+            hint = f"; a unit slip? {name} is in m, and {x:g} mm would be {x * 1e-3:g} m" \
+                if slip is not None else ""
+            raise InputError(f"{key} = {x:g} is outside the plausible range of "
+                             f"table.horizontal.{name}, |value| <= {hi:g}{hint}")
+    elif name in GROUP_SPRING_LEVERS:
+        lo, hi, unit = DESIGN_DOMAIN[group_lever(name)[1]]
+        if not lo <= x <= hi:
+            raise InputError(f"{key} = {x:g} is outside the models' domain [{lo:g}, {hi:g}]"
+                             f"{' ' + unit if unit else ''}")
 
 
 def fixed_lever_changes(table, levers, values: dict) -> dict:
@@ -607,10 +681,10 @@ def footprint_bounds(where: str, value):
     key = f"{where}: constraints.footprint_m"
     try:
         a = np.array(value, dtype=float)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         a = None
     if isinstance(value, str) or a is None or a.shape != (2, 2) or \
-            not np.all(np.isfinite(a)) or _has_bool(value):
+            not np.all(np.isfinite(a)) or _has_bool(value) or _has_str(value):
         raise InputError(f"{key}: expected [[x_min, y_min], [x_max, y_max]] in m (the "
                          f"rectangle the isolators stand in), got {value!r:.60}")
     if not (a[0, 0] < a[1, 0] and a[0, 1] < a[1, 1]):
@@ -630,6 +704,30 @@ def _has_bool(value) -> bool:
     return isinstance(value, list | tuple) and any(_has_bool(v) for v in value)
 
 
+def _finite_number(v) -> bool:
+    """A finite real number (not a boolean; a 400-digit integer is not finite as a float)."""
+    if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real):
+        return False
+    try:
+        return math.isfinite(float(v))
+    except OverflowError:
+        return False
+
+
+def _short(v) -> str:
+    """``repr(v)`` for a message, at most 40 characters (a huge integer by its size)."""
+    if isinstance(v, int) and not isinstance(v, bool) and abs(v) > 10**15:
+        return f"an integer of {len(str(abs(v)))} digits"
+    return f"{v!r:.40}"
+
+
+def _has_str(value) -> bool:
+    """A string anywhere in a nested list (a TOML string where a number belongs)."""
+    if isinstance(value, str | bytes):
+        return True
+    return isinstance(value, list | tuple) and any(_has_str(v) for v in value)
+
+
 def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
     """A free layout's constraints must be reachable within its levers' bounds.
 
@@ -637,7 +735,8 @@ def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
     ``s`` that keeps every isolator in ``constraints.footprint_m`` is an interval; with the
     levers' bounds it must not be empty, and at its largest stretch the closest two
     isolators must be ``constraints.min_isolator_distance_m`` apart (the distances grow with
-    the stretch). A fixed layout is checked by the problem (``lever_geometry``).
+    the stretch). A fixed layout is checked as it stands (``lever_geometry.layout_rows``),
+    when the study is read, so every entry point refuses it.
 
     Parameters
     ----------
@@ -657,7 +756,25 @@ def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
     from isodesign.table.layout import layout_extent
 
     spec = {v.name: v for v in levers if v.name in LAYOUT_LEVERS}
-    if not any(v.free for v in spec.values()):
+    if not any(v.free for v in spec.values()):  # a fixed layout: checked as it stands
+        if constraints.get("footprint_m") or constraints.get("min_isolator_distance_m"):
+            from isodesign.table.lever_geometry import layout_rows
+
+            c = dict(constraints)  # within a solver's tolerance: a co-designed optimum on
+            if c.get("footprint_m"):  # its bound, fixed by Study.with_levers_fixed, stays
+                x0, y0, x1, y1 = c["footprint_m"]
+                c["footprint_m"] = (x0 - LAYOUT_TOL_M, y0 - LAYOUT_TOL_M, x1 + LAYOUT_TOL_M,
+                                    y1 + LAYOUT_TOL_M)
+            if c.get("min_isolator_distance_m"):
+                c["min_isolator_distance_m"] = c["min_isolator_distance_m"] - LAYOUT_TOL_M
+            t = table_with_levers(table, levers)
+            try:
+                layout_rows(t, c, (1.0, 1.0), False)
+            except InputError:
+                try:  # the message of the study's own bounds
+                    layout_rows(t, constraints, (1.0, 1.0), False)
+                except InputError as exc:
+                    raise InputError(f"{where}: {exc}") from None
         return
     fp, dmin = constraints.get("footprint_m"), constraints.get("min_isolator_distance_m")
     c = np.asarray(table.cg_m[:2], float)

@@ -360,8 +360,14 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
     refuse_free_levers(study, "yield")
     if isinstance(samples, bool) or not isinstance(samples, int) or not 1 <= samples <= 10**6:
         raise InputError(f"samples: must be an integer in [1, 1000000], got {samples!r:.30}")
-    if not 0 < confidence < 1:
-        raise InputError(f"confidence: must be in (0, 1), got {confidence!r}")
+    if isinstance(confidence, bool) or not isinstance(confidence, int | float) \
+            or not 0 < confidence < 1:
+        raise InputError(f"confidence: must be in (0, 1), got {confidence!r:.40}")
+    if isinstance(seed, bool) or not isinstance(seed, int) or seed < 0:
+        raise InputError(f"seed: must be an integer >= 0, got {seed!r:.40}")
+    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
+                                or not 1 <= workers <= 64):
+        raise InputError(f"workers: must be an integer in [1, 64] or None, got {workers!r:.40}")
     t0 = time.perf_counter()
     rng = np.random.default_rng(seed)
     draws = study.scenarios.draws(samples, rng)

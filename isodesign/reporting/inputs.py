@@ -129,7 +129,8 @@ def input_kind(path) -> str:
             return "optimize"
         if kind == "isodesign pareto":
             return "pareto"
-        raise InputError(f"{rec}: unknown run kind {kind!r}")
+        raise InputError(f"{rec}: a run of {kind or 'an unknown kind'!s:.40}, not of isodesign "
+                         "optimize or pareto (the runs that hold a design and its study)")
     if not p.exists():
         raise InputError(f"{p}: no such file or directory")
     d = read_toml(p, what="design or study")
@@ -254,6 +255,30 @@ def _pareto_case(p: Path, label: str | None) -> Case:
                        f"{rec['objectives'][0]}",))
 
 
+def refuse_robust_job(case: Case) -> None:
+    """A design or study file whose study has ``[scenarios]`` asks for the robust verdict,
+    which its report (one nominal response) does not give: refused naming the key, never
+    answered nominal (a robust run's report has its robustness section).
+
+    Parameters
+    ----------
+    case : Case
+        A loaded report input.
+
+    Raises
+    ------
+    InputError
+        Naming ``--study`` (a design file's job) or the study file, and ``[scenarios]``.
+    """
+    if case.kind not in ("design", "study") or case.study.scenarios is None:
+        return
+    where = "--study" if case.kind == "design" else case.source
+    raise InputError(f"{where}: [scenarios]: the report of a design or study file is its "
+                     "nominal response, not the robust answer the study asks; use isodesign "
+                     "optimize STUDY -o RUN then isodesign report RUN (robustness "
+                     "section), or isodesign yield, or remove [scenarios]")
+
+
 def load_case(path, *, study=None, label: str | None = None) -> Case:
     """The :class:`Case` of one input (design file, study file, optimize or pareto run).
 
@@ -272,6 +297,10 @@ def load_case(path, *, study=None, label: str | None = None) -> Case:
     """
     p = Path(path)
     kind = input_kind(p)
+    if study is not None and kind != "design":  # not silently another job than the run's
+        art = "an" if kind[0] in "aeiou" else "a"
+        raise InputError(f"--study: the job of a design file only; {p} is {art} {kind} input "
+                         "with its own study (drop --study, or report a design file with it)")
     if kind == "design":
         st = study if isinstance(study, Study) or study is None else load_study(study)
         return _design_case(p, st, label)

@@ -15,7 +15,7 @@ from pathlib import Path
 
 from isodesign.errors import InputError
 from isodesign.reporting.analysis import analyse
-from isodesign.reporting.inputs import Case, load_case
+from isodesign.reporting.inputs import Case, load_case, refuse_robust_job
 from isodesign.reporting.sections import build_context
 
 __all__ = ["render_html", "report", "timed_report"]
@@ -97,6 +97,8 @@ def report(inputs, output=None, *, study=None, labels=None, command=None, title=
         return _sweep_report(inputs[0], output, command=command, title=title)
     labels = list(labels) if labels is not None else [None] * len(inputs)
     cases = [load_case(p, study=study, label=lab) for p, lab in zip(inputs, labels, strict=True)]
+    for c in cases:  # a robust question is not answered by a nominal response
+        refuse_robust_job(c)
     seen: dict[str, int] = {}
     fixed = []
     for c in cases:  # candidates must be told apart in legends

@@ -40,7 +40,12 @@ from isodesign import __version__
 from isodesign.errors import InputError
 from isodesign.io.files import atomic_write_text
 from isodesign.io.record import resolved_study_dict, study_toml
-from isodesign.io.rundir import RECORD_NAME, check_run_target, read_run_record
+from isodesign.io.rundir import (
+    RECORD_NAME,
+    check_outside_whole_runs,
+    check_run_target,
+    read_run_record,
+)
 from isodesign.optimization.study import Study, default_study, load_study
 from isodesign.results import ResultDisplay
 from isodesign.sweeps.continuation import chains
@@ -141,6 +146,7 @@ def _check_dir(target: Path, identity: dict, overwrite: bool, option: str) -> st
     """``new`` or ``resume``; InputError for another sweep, another run, other files."""
     if str(target).strip() == "":
         raise InputError(f"{option}: empty; give a directory name")
+    check_outside_whole_runs(target, option=option)  # not inside another sweep's directory
     if target.exists() and not target.is_dir():
         raise InputError(f"{option}: {target} exists and is not a directory")
     if not target.exists() or not any(target.iterdir()):
@@ -351,6 +357,16 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
             except InputError as exc:
                 at = ", ".join(f"{k}={v}" for k, v in p.changes.items())
                 raise InputError(f"--objectives at the point {at}: {exc}") from None
+    if task == "optimize":  # a robust table no optimizer answers, refused before any runs
+        from isodesign.optimization.dispatch import study_kind
+        from isodesign.optimization.robust_table import check_robust_table
+
+        for p in (p for p in pts if study_kind(p.study) == "robust table"):
+            try:
+                check_robust_table(p.study)
+            except InputError as exc:
+                at = ", ".join(f"{k}={v}" for k, v in p.changes.items())
+                raise InputError(f"{exc} (at the point {at})") from None
     identity = _identity(task, options, base, keys)
     target = Path(output)
     mode = _check_dir(target, identity, overwrite, "--output")

@@ -269,7 +269,7 @@ def read_points(path) -> list[dict]:
         import csv
 
         try:
-            with open(p, newline="", encoding="utf-8") as fh:
+            with open(p, newline="", encoding="utf-8-sig") as fh:  # a spreadsheet's BOM
                 rows = list(csv.reader(row for row in fh if not row.lstrip().startswith("#")))
         except UnicodeDecodeError as exc:
             raise InputError(f"--points-file {path}: not a UTF-8 text file (undecodable byte "
@@ -279,7 +279,13 @@ def read_points(path) -> list[dict]:
             raise InputError(f"--points-file {path}: cannot read ({exc})") from None
         if not rows:
             raise InputError(f"{option}: empty file")
+        if len(rows[0]) == 1 and ";" in rows[0][0]:
+            raise InputError(f"{option}: the header {rows[0][0]!r:.60} is one cell; the cells "
+                             "of a points CSV are separated by commas, not semicolons")
         header = [check_key(h, option) for h in rows[0]]
+        twice = sorted({h for h in header if header.count(h) > 1})
+        if twice:  # one value per key and point: which would the point take?
+            raise InputError(f"{option}: the header names {twice[0]} twice")
         pts = []
         for i, r in enumerate(rows[1:], 2):
             if not any(c.strip() for c in r):

@@ -53,7 +53,10 @@ MAX_TABLE_ISOLATORS = 64
 def _real(name: str, v) -> float:
     if isinstance(v, bool | np.bool_) or not isinstance(v, numbers.Real):
         raise InputError(f"{name}: expected a number, got {type(v).__name__} {v!r:.40}")
-    v = float(v)
+    try:
+        v = float(v)
+    except OverflowError:  # a 400-digit integer (Python, not TOML)
+        v = math.inf
     if not math.isfinite(v):
         raise InputError(f"{name}: must be finite, got {v!r}")
     return v

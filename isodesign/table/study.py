@@ -35,7 +35,7 @@ import math
 
 import numpy as np
 
-from isodesign.errors import InputError
+from isodesign.errors import InputError, did_you_mean
 from isodesign.table.layout import HorizontalElement, Table, box_inertia, check_numbers
 
 __all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection",
@@ -56,7 +56,8 @@ def _keys(d, table: str, where: str) -> None:
         raise InputError(f"{where}: [{table}] must be a table")
     for k in d:
         if k not in TABLE_KEYS[table]:
-            raise InputError(f"{where}: unknown key {k!r} in [{table}]; valid: "
+            raise InputError(f"{where}: unknown key {k!r} in [{table}]"
+                             f"{did_you_mean(k, TABLE_KEYS[table])}; valid: "
                              f"{', '.join(sorted(TABLE_KEYS[table]))}")
 
 

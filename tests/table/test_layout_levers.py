@@ -224,13 +224,13 @@ def test_footprint_and_distance_rows(held_out_toml):
 def test_a_fixed_layout_outside_the_footprint_is_refused_naming_the_key(held_out_toml):
     from isodesign.optimization.table_problem import TableProblem
 
-    st = _held_out(held_out_toml, constraints={"footprint_m": [[-0.5, -0.6], [0.9, 0.6]]})
+    # refused where the study is read (every entry point), before any problem is built
     with pytest.raises(InputError, match=r"constraints\.footprint_m: isolator 1"):
-        TableProblem(st)
-    st = _held_out(held_out_toml, constraints={"min_isolator_distance_m": 0.9})
+        TableProblem(_held_out(held_out_toml,
+                               constraints={"footprint_m": [[-0.5, -0.6], [0.9, 0.6]]}))
     with pytest.raises(InputError, match=r"constraints\.min_isolator_distance_m: isolators 3 "
                                          r"and 5"):
-        TableProblem(st)
+        TableProblem(_held_out(held_out_toml, constraints={"min_isolator_distance_m": 0.9}))
 
 
 def test_with_levers_fixed_writes_the_stretched_layout():
