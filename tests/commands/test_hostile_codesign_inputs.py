@@ -226,7 +226,7 @@ def test_a_robust_table_with_free_levers_is_refused_before_the_nominal(monkeypat
     """The co-designed default study with [scenarios]: the nominal co-design ran for minutes
     before the robust optimizer refused the free levers; a sweep ran every point so. Both
     refuse first, naming the lever's key."""
-    import isodesign.table.optimize as table_optimize
+    import isodesign.optimization.table_driver as table_optimize
 
     monkeypatch.setattr(table_optimize, "optimize_table",
                         lambda *a, **k: pytest.fail("the nominal optimum ran"))
