@@ -159,8 +159,10 @@ TABLE_LEVERS = ("pendulum_length_m", "elastic_centre_height_m", "lateral_stiffne
 #: The layout's levers (docs/table.md, "The layout as design variables"): the isolators'
 #: extent along x and y, the layout stretched about the CG's plan position.
 LAYOUT_LEVERS = ("layout_length_m", "layout_width_m")
+#: The inertia base's lever (docs/table.md, section 16): the slab's mass under the payload.
+BASE_LEVERS = ("inertia_base_mass_kg",)
 #: Every co-design lever of a table study, in the order of ``Study.levers`` and the NLP.
-CODESIGN_LEVERS = TABLE_LEVERS + LAYOUT_LEVERS
+CODESIGN_LEVERS = TABLE_LEVERS + LAYOUT_LEVERS + BASE_LEVERS
 #: Per-group spring levers (docs/table.md, section 15): ``<variable>_group<k>``, the design
 #: variable of leveling group ``k`` (1..3); a group the study does not name shares the spring.
 GROUP_SPRING_LEVERS = tuple(f"{v}_group{k}" for k in (1, 2, 3) for v in DESIGN_VARIABLES)
@@ -177,6 +179,7 @@ LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
                      "lateral_stiffness_n_per_m": "N/m", "lateral_loss_factor": "-",
                      "layout_length_m": "m", "layout_width_m": "m",
+                     "inertia_base_mass_kg": "kg",
                      **{f"{v}_group{k}": DESIGN_VARIABLE_UNITS[v] for k in (1, 2, 3)
                         for v in DESIGN_VARIABLES}}
 #: Practical bounds of each lever (the defaults of a free lever's lower and upper): a
@@ -299,6 +302,11 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
             raise InputError(f"{where}: [variables.{name}] must be a table (start, lower, "
                              f"upper, fixed), got {spec!r:.40}")
         key = f"{where}: variables.{name}"
+        if name in BASE_LEVERS:  # the slab's mass (isodesign.table.inertia_base)
+            from isodesign.table.inertia_base import parse_base_lever
+
+            out.append(VariableSpec(name, *parse_base_lever(spec, table, key)))
+            continue
         fixed = spec.get("fixed", True)
         if not isinstance(fixed, bool):
             raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
@@ -522,6 +530,11 @@ def table_with_levers(table, levers, values: dict | None = None):
             groups[g][base] = float(v)
     if groups != list(table.group_springs):
         out = dataclasses.replace(out, group_springs=groups)
+    base = vals.get("inertia_base_mass_kg")
+    if base is not None and table.inertia_base is not None and base != table.inertia_base.mass_kg:
+        from isodesign.table.inertia_base import with_base_mass
+
+        out = with_base_mass(out, float(base))
     return out
 
 
@@ -565,6 +578,8 @@ def fixed_lever_changes(table, levers, values: dict) -> dict:
            "variables": {k: {"fixed": True, "start": float(values[k])} for k in free}}
     if t.group_springs != table.group_springs:  # each group's own spring
         out["table"]["group_springs"] = [dict(g) for g in t.group_springs]
+    if "inertia_base_mass_kg" in free:
+        out["table"]["inertia_base"] = {"mass_kg": float(values["inertia_base_mass_kg"])}
     if t.isolators_m is not table.isolators_m:
         out["table"]["isolators_m"] = t.isolators_m.tolist()
         out["payload"] = {"spacing_m": narrowest_spacing_m(t)}

@@ -1,0 +1,204 @@
+"""The inertia base (docs/table.md, section 16): a slab under the payload, its mass a lever;
+the combined body's mass, CG and inertia, the loads and pressures that follow, the NLP's
+symbolic path against the analysis."""
+
+from __future__ import annotations
+
+import casadi as ca
+import numpy as np
+import pytest
+
+from isodesign.errors import InputError
+from isodesign.optimization.study import table_study
+from isodesign.spring.gas import P_ATM
+from isodesign.table.inertia_base import InertiaBase, slab_body, with_base_mass
+from isodesign.table.layout import box_inertia
+from isodesign.table.statics import level
+
+FREE = {"inertia_base_mass_kg": {"fixed": False}}
+
+
+def test_the_combined_body_against_two_boxes_by_hand():
+    """table_study() (600 kg, box 1.5 x 1.0 x 0.7 m, CG 0.35 m) on a 400 kg concrete slab of
+    1.5 x 1.0 m hung at the support plane: t = 400 / (2400 * 1.5) m, the combined CG and the
+    inertia of two boxes, each about its own CG and moved to the combined CG by hand."""
+    st = table_study().with_changes({"table.inertia_base": {"mass_kg": 400.0}})
+    t = st.table
+    mp, ms, hp = 600.0, 400.0, 0.35
+    th = 400.0 / (2400.0 * 1.5 * 1.0)
+    zs = -th / 2
+    h = (mp * hp + ms * zs) / (mp + ms)
+    ip = box_inertia(mp, (1.5, 1.0, 0.7))
+    islab = box_inertia(ms, (1.5, 1.0, th))
+    par = np.diag([1.0, 1.0, 0.0])
+    want = ip + mp * (hp - h) ** 2 * par + islab + ms * (zs - h) ** 2 * par
+    assert t.mass_kg == pytest.approx(1000.0)
+    assert t.cg_m == pytest.approx([0.0, 0.0, h], abs=1e-15)
+    np.testing.assert_allclose(t.inertia_kg_m2, want, rtol=1e-13)
+    assert t.inertia_base.thickness_m() == pytest.approx(th)
+    # the instrument points stay in the table frame; without a slab the payload is back
+    np.testing.assert_array_equal(t.instrument_points_m, table_study().table.instrument_points_m)
+    back = with_base_mass(t, 0.0)
+    np.testing.assert_allclose(back.inertia_kg_m2, table_study().table.inertia_kg_m2,
+                               rtol=1e-13, atol=1e-12)
+    assert back.cg_m == pytest.approx(table_study().table.cg_m, abs=1e-15)
+
+
+def test_slab_body_on_symbols_equals_numpy():
+    b = InertiaBase(density_kg_m3=2700.0, size_m=(1.2, 0.9), top_height_m=0.05)
+    x = ca.SX.sym("m")
+    f = ca.Function("f", [x], list(slab_body(900.0, 0.4, x, b)[:2]) + list(
+        slab_body(900.0, 0.4, x, b)[2]))
+    got = [float(v) for v in f(350.0)]
+    m, h, di = slab_body(900.0, 0.4, 350.0, b)
+    assert got == pytest.approx([m, h, *di], rel=1e-15)
+
+
+def test_loads_and_pressures_scale_with_the_weight():
+    """The slab centred under the CG keeps the load shares: each load and gauge pressure
+    scales by m / m_payload (the leveling's equations are homogeneous in the weight)."""
+    st = table_study()
+    area = st.hardware["piston_area_m2"]
+    l0 = level(st.table, area)
+    lv = level(with_base_mass(st.table, 300.0), area)
+    np.testing.assert_allclose(lv.load_n, l0.load_n * 900.0 / 600.0, rtol=1e-13)
+    np.testing.assert_allclose(lv.pressure_pa - P_ATM, (l0.pressure_pa - P_ATM) * 1.5,
+                               rtol=1e-13)
+
+
+def test_a_slab_that_puts_the_cg_at_the_support_plane_decouples_rocking():
+    """Physics: with the elastic centres at the support plane, a CG at that plane decouples
+    horizontal translation from rocking (and removes the overturning term). The slab that
+    does it, m_s = sqrt(2 rho A m_p h_p) (its top at the plane), leaves an x mode with no ry;
+    without it the x mode rocks (a 12 bar supply carries the 1830 kg)."""
+    from isodesign.table.model import table_model
+    from isodesign.table.modes import table_modes
+
+    st = table_study().with_changes({"table.supply_pressure_pa": 1.3e6})
+    ms = float(np.sqrt(2 * 2400.0 * 1.5 * 1.0 * 600.0 * 0.35))
+    t = with_base_mass(st.table, ms)
+    assert t.cg_height_m == pytest.approx(0.0, abs=1e-12)
+    d = st.start_design()
+
+    def x_mode_rocking(table):
+        m = table_modes(table_model(d, table))
+        j = int(np.argmax(m.energy_fraction[:, 0]))
+        return m.energy_fraction[j, 4]
+
+    assert x_mode_rocking(t) < 1e-9
+    assert x_mode_rocking(st.table) > 1e-3
+
+
+def test_the_nlp_with_a_free_slab_equals_the_nlp_of_the_fixed_table():
+    """At a slab of 450 kg (and the elastic centre free at 0.1 m), the NLP's symbolic path
+    gives the closure, the margins and the rows of the NLP built on the table with them
+    fixed; the tilt rows are the same rows times the fixed scale's ratio W h / (W_0 h_0)."""
+    from isodesign.table.problem import TableProblem
+
+    st = table_study().with_changes(constraints={"min_tilt_margin": 1.5,
+                                                 "min_natural_frequency_hz": 1.0})
+    free = st.with_changes(variables={**FREE, "elastic_centre_height_m": {"fixed": False}})
+    lev = {"inertia_base_mass_kg": 450.0, "elastic_centre_height_m": 0.1}
+    fixed = free.with_levers_fixed(lev)
+    assert fixed.table.mass_kg == pytest.approx(1050.0)
+    p1, p2 = TableProblem(free), TableProblem(fixed)
+    vals = {v.name: v.start for v in free.variables}
+    x1, x2 = p1.initial_guess({**vals, **lev}), p2.initial_guess(vals)
+    np.testing.assert_allclose(np.asarray(p1._all_margins_fn(x1)).ravel(),
+                               np.asarray(p2._all_margins_fn(x2)).ravel(), atol=1e-9)
+    g1 = np.asarray(p1.eval_fn(x1, p1.params())[1]).ravel()
+    g2 = np.asarray(p2.eval_fn(x2, p2.params())[1]).ravel()
+    ratio = fixed.table.weight_n * fixed.table.cg_height_m / (600.0 * 9.80665 * 0.35)
+    for name, row, m in p1.con_rows:
+        a, b = g1[row: row + m], g2[row: row + m]
+        if name == "min_tilt_margin":
+            b = b * np.array([ratio, ratio, ratio ** 2])
+        np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9, err_msg=name)
+    np.testing.assert_allclose(g1[: p1.n_eq], g2[: p2.n_eq], atol=1e-9)
+
+
+def test_the_nlps_derivative_in_the_slab_mass_equals_finite_differences_of_the_analysis():
+    """The total derivative of every band margin in the slab's mass (the closure implicit,
+    from the NLP's exact Jacobians) against central differences of the NumPy analysis
+    (table_band_response on the table with the slab, +-5 kg): within 0.1 %."""
+    from isodesign.table.problem import TableProblem
+    from isodesign.table.response import table_band_response
+
+    st = table_study().with_changes(variables=FREE)
+    p = TableProblem(st)
+    vals = {v.name: v.start for v in st.variables}
+    x = p.initial_guess({**vals, "inertia_base_mass_kg": 300.0})
+    xs = ca.MX.sym("x", p.nx)
+    i = len(p.scaling.names) + p.lever_scaling.names.index("inertia_base_mass_kg")
+    g = p.eval_fn(xs, p.params())[1][: p.n_eq]
+    jac = ca.Function("j", [xs], [ca.jacobian(g, xs), ca.jacobian(p._all_margins_fn(xs), xs)])
+    jg, jm = (np.asarray(a) for a in jac(x))
+    cl = list(range(p.nz, p.nz + 2 * p.n))
+    dm = (jm[:, i] - jm[:, cl] @ np.linalg.solve(jg[:, cl], jg[:, i])) / p.lever_scaling.half[
+        p.lever_scaling.names.index("inertia_base_mass_kg")]
+    m = st.models
+
+    def margins(ms):
+        r = table_band_response(st.design_at(vals), st.table_at({"inertia_base_mass_kg": ms}),
+                                st.floor_axes, st.target, bands=st.bands,
+                                points_per_band=m["points_per_band"], flow=m["flow"],
+                                amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"],
+                                warn=False, strict=False)
+        return r.margin_db.ravel()
+
+    np.testing.assert_allclose(np.asarray(p._all_margins_fn(x)).ravel(), margins(300.0),
+                               atol=1e-9)
+    fd = (margins(305.0) - margins(295.0)) / 10.0
+    assert np.max(np.abs(dm - fd)) < 1e-3 * np.max(np.abs(fd))
+
+
+@pytest.mark.parametrize("changes, words", [
+    ({"table.inertia_base": {"density_kg_m3": 0.0}},
+     r"table\.inertia_base\.density_kg_m3: must be in \[10, 25000\]"),
+    ({"table.inertia_base": {"density_kg_m3": "2400"}},
+     r"table\.inertia_base\.density_kg_m3: expected a number"),
+    ({"table.inertia_base": {"size_m": [1.5]}}, r"table\.inertia_base\.size_m: expected"),
+    ({"table.inertia_base": {"size_m": [1500.0, 1000.0]}},
+     r"table\.inertia_base\.size_m: each side must be in \[0\.05, 40\] m"),
+    ({"table.inertia_base": {"mass_kg": -1.0}}, r"table\.inertia_base\.mass_kg: must be >= 0"),
+    ({"table.inertia_base": {"top_height_m": 350.0}}, r"table\.inertia_base\.top_height_m"),
+    ({"table.inertia_base": {"thickness_m": 0.1}}, r"unknown key 'thickness_m' in "
+                                                   r"\[table\.inertia_base\]"),
+    ({"variables.inertia_base_mass_kg": {"fixed": False, "upper": 1e6}},
+     r"variables\.inertia_base_mass_kg\.upper = 1e\+06 kg is outside \[0, 30000\] kg"),
+    ({"variables.inertia_base_mass_kg": {"fixed": False, "lower": -5.0}},
+     r"variables\.inertia_base_mass_kg\.lower = -5 kg is outside"),
+    ({"variables.inertia_base_mass_kg": {"fixed": False, "lower": 500.0, "upper": 100.0}},
+     r"variables\.inertia_base_mass_kg: need 0 <= lower < upper"),
+    ({"variables.inertia_base_mass_kg": {"fixed": False, "start": 2000.0}},
+     r"variables\.inertia_base_mass_kg\.start \(2000\) must lie in \[lower, upper\] = "
+     r"\[0, 1200\] kg"),
+    ({"variables.inertia_base_mass_kg": {"fixed": "no"}},
+     r"variables\.inertia_base_mass_kg\.fixed: expected true or false"),
+    ({"variables.inertia_base_mass_kg": {"start": True}},
+     r"variables\.inertia_base_mass_kg\.start: expected a finite number"),
+])
+def test_bad_inertia_base_keys_name_the_key_and_its_range(changes, words):
+    with pytest.raises(InputError, match=words):
+        table_study().with_changes(changes)
+
+
+def test_the_lever_is_fixed_at_no_slab_by_default_and_free_within_twice_the_payload():
+    st = table_study()
+    spec = {v.name: v for v in st.levers}["inertia_base_mass_kg"]
+    assert spec.fixed and spec.start == 0.0
+    assert st.table.mass_kg == 600.0 and st.table.inertia_base.size_m == (1.5, 1.0)
+    spec = {v.name: v for v in st.with_changes(variables=FREE).levers}["inertia_base_mass_kg"]
+    assert (spec.lower, spec.upper, spec.fixed) == (0.0, 1200.0, False)
+    with pytest.raises(InputError, match=r"values\['inertia_base_mass_kg'\]: expected a finite"):
+        st.with_changes(variables=FREE).table_at({"inertia_base_mass_kg": float("nan")})
+
+
+def test_a_free_slab_with_leveling_loop_bounds_is_refused_naming_the_key():
+    from isodesign.table.problem import TableProblem
+
+    st = table_study().with_changes(variables=FREE, constraints={
+        "min_leveling_gain_margin_db": 6.0})
+    with pytest.raises(InputError, match=r"constraints\.min_leveling_gain_margin_db: .*"
+                                         r"variables\.inertia_base_mass_kg"):
+        TableProblem(st)
