@@ -359,11 +359,12 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
     out = tuple(out) + _group_levers(variables or {}, table, where)
     check_layout_feasible(table, out, constraints or {}, where)
-    _check_loads(table, constraints or {}, hardware, where)
+    _check_loads(table, constraints or {}, hardware, where, out)
     return out
 
 
-def _check_loads(table, constraints: dict, hardware: dict | None, where: str) -> None:
+def _check_loads(table, constraints: dict, hardware: dict | None, where: str,
+                 levers=()) -> None:
     """The leveled table's loads and group p0 against ``min_isolator_load_n``,
     ``max_isolator_load_n`` and ``supply_margin_pa`` (refused when no variable can meet
     them, as the problem refuses them)."""
@@ -375,9 +376,15 @@ def _check_loads(table, constraints: dict, hardware: dict | None, where: str) ->
     keys = ("min_isolator_load_n", "max_isolator_load_n", "supply_margin_pa")
     if hardware is None or not any(constraints.get(k) for k in keys):
         return
-    from isodesign.table.statics import check_load_constraints, level
+    from isodesign.table.statics import check_load_constraints, check_scaled_loads, level
 
+    base = next((v for v in levers if v.name in BASE_LEVERS and v.free), None)
     try:
+        if base is not None:  # the loads follow the slab: some mass in its bounds must do
+            m0 = table.mass_kg - base.start
+            check_scaled_loads(level(table, hardware["piston_area_m2"]), constraints, (
+                (m0 + base.lower) / table.mass_kg, (m0 + base.upper) / table.mass_kg))
+            return
         check_load_constraints(level(table, hardware["piston_area_m2"]), constraints)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None

@@ -32,9 +32,10 @@ from isodesign.errors import InputError
 
 __all__ = ["BASE_KEYS", "BASE_LEVER", "DENSITY_RANGE_KG_M3", "InertiaBase", "base_from_dict",
            "base_lever_terms", "base_mass_row", "base_point_rows", "base_stiffness",
-           "base_summary", "body_mass", "centre_shift", "lever_terms", "load_scale",
-           "parse_base_lever", "payload_body", "refuse_free_base_with_loop", "scaled_pressures",
-           "slab_body", "tilt_bound", "with_base_mass"]
+           "base_summary", "body_mass", "centre_shift", "check_start_loads", "lever_terms",
+           "load_rows_of", "load_scale", "parse_base_lever", "payload_body",
+           "refuse_free_base_with_loop", "scaled_pressures", "slab_body", "tilt_bound",
+           "with_base_mass"]
 
 #: The lever's name (``[variables.inertia_base_mass_kg]``).
 BASE_LEVER = "inertia_base_mass_kg"
@@ -493,3 +494,35 @@ def base_summary(table) -> str:
             f"{b.density_kg_m3:g} kg/m^3, top {b.top_height_m:g} m): {table.mass_kg:.4g} kg "
             f"with the payload, CG {table.cg_height_m:.3g} m above the support plane (the "
             f"payload's {hp:.3g} m)")
+
+
+def check_start_loads(prob, study) -> None:
+    """The start table's loads and p0 against the study's load and supply constraints
+    (refused naming the key); with a free slab they are NLP rows (:func:`load_rows_of`).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    study : Study
+    """
+    from isodesign.table.statics import check_load_constraints
+
+    if BASE_LEVER not in prob.lever_scaling.names:
+        check_load_constraints(prob.leveling, study.constraints)
+
+
+def load_rows_of(leveling, constraints: dict, terms) -> list:
+    """The load and supply rows with a free slab (:func:`~isodesign.table.statics.
+    load_rows` at its load scale); none without.
+
+    Parameters
+    ----------
+    leveling : Leveling
+    constraints : dict
+    terms : BaseTerms or None
+    """
+    if terms is None:
+        return []
+    from isodesign.table.statics import load_rows
+
+    return load_rows(leveling, constraints, terms.load_scale)

@@ -166,9 +166,7 @@ class TableProblem:
         self.grid = table_grid(study.floor_axes, study.bands, target=study.target,
                                points_per_band=m["points_per_band"])
         self.leveling = level(self.table, study.hardware["piston_area_m2"])
-        from isodesign.table.statics import check_load_constraints
-
-        check_load_constraints(self.leveling, study.constraints)
+        slab_terms.check_start_loads(self, study)  # NLP rows with a free inertia base
         self.geo = geometry(self.table, self.leveling.load_n)
         self.lever_dirs = lever_directions(self.geo, self.table)
         self.n = self.table.n_isolators
@@ -553,6 +551,7 @@ class TableProblem:
             rows = tilt_margin_rows(kq, table.vertical_points_m, wh, mu, self._scale(v))
             cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
         cons += layout_rows(self.table, c, self._scale(v), self._layout_free())
+        cons += slab_terms.load_rows_of(lv, c, slab)
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows

@@ -109,8 +109,12 @@ def test_the_nlp_with_a_free_slab_equals_the_nlp_of_the_fixed_table():
     g1 = np.asarray(p1.eval_fn(x1, p1.params())[1]).ravel()
     g2 = np.asarray(p2.eval_fn(x2, p2.params())[1]).ravel()
     ratio = fixed.table.weight_n * fixed.table.cg_height_m / (600.0 * 9.80665 * 0.35)
+    rows2 = {n: (r, m) for n, r, m in p2.con_rows}
+    assert [n for n, _, _ in p1.con_rows if n not in rows2] == ["supply_pressure_pa"]
     for name, row, m in p1.con_rows:
-        a, b = g1[row: row + m], g2[row: row + m]
+        if name not in rows2:
+            continue
+        a, b = g1[row: row + m], g2[rows2[name][0]: rows2[name][0] + m]
         if name == "min_tilt_margin":
             b = b * np.array([ratio, ratio, ratio ** 2])
         np.testing.assert_allclose(a, b, rtol=1e-9, atol=1e-9, err_msg=name)
@@ -202,3 +206,65 @@ def test_a_free_slab_with_leveling_loop_bounds_is_refused_naming_the_key():
     with pytest.raises(InputError, match=r"constraints\.min_leveling_gain_margin_db: .*"
                                          r"variables\.inertia_base_mass_kg"):
         TableProblem(st)
+
+
+def test_with_a_free_slab_the_loads_and_the_supply_are_rows_of_the_nlp():
+    """The rows equal the leveling of the table with the slab (loads in kN, gauge p0 in
+    bar), the supply always (a physical limit), the load range when the study sets it; the
+    reports read the optimum's leveling from them."""
+    from isodesign.table.problem import TableProblem
+    from isodesign.table.statics import leveling_of_rows
+
+    st = table_study().with_changes(variables=FREE, constraints={
+        "max_isolator_load_n": 2500.0, "supply_margin_pa": 5.0e4})
+    p = TableProblem(st)
+    vals = {v.name: v.start for v in st.variables}
+    x = p.initial_guess({**vals, "inertia_base_mass_kg": 250.0})
+    g = np.asarray(p.eval_fn(x, p.params())[1]).ravel()
+    rows = {n: (r, m) for n, r, m in p.con_rows}
+    lv = level(st.table_at({"inertia_base_mass_kg": 250.0}), st.hardware["piston_area_m2"])
+    r, m = rows["isolator_load_n"]
+    np.testing.assert_allclose(g[r: r + m] * 1e3, lv.load_n, rtol=1e-13)
+    assert p.ubg[r] == pytest.approx(2.5)
+    r, m = rows["supply_pressure_pa"]
+    np.testing.assert_allclose(g[r: r + m] * 1e5 + P_ATM, lv.group_pressure_pa, rtol=1e-13)
+    assert p.ubg[r] * 1e5 + P_ATM == pytest.approx(st.table.supply_pressure_pa - 5.0e4)
+    back = leveling_of_rows(p, g)
+    np.testing.assert_allclose(back.load_n, lv.load_n, rtol=1e-12)
+    np.testing.assert_allclose(back.pressure_pa, lv.pressure_pa, rtol=1e-12)
+    # without a free slab no such rows (the read-time check holds them)
+    assert "supply_pressure_pa" not in [n for n, _, _ in TableProblem(table_study()).con_rows]
+
+
+@pytest.mark.parametrize("cons, words", [
+    ({"max_isolator_load_n": 1000.0}, r"constraints\.max_isolator_load_n: the heaviest "
+                                      r"isolator carries 1471 N with the lightest inertia base"),
+    ({"min_isolator_load_n": 5000.0}, r"constraints\.min_isolator_load_n: the lightest "
+                                      r"isolator carries 4413 N with the heaviest inertia base"),
+])
+def test_load_constraints_no_slab_in_its_bounds_meets_are_refused_naming_the_key(cons, words):
+    with pytest.raises(InputError, match=words):
+        table_study().with_changes(variables=FREE, constraints=cons)
+    # a range some slab meets is taken (the NLP holds it)
+    table_study().with_changes(variables=FREE, constraints={"min_isolator_load_n": 2000.0})
+
+
+@pytest.mark.slow
+def test_a_load_bound_stops_the_slab_and_says_so():
+    """The built-in table with the slab free (one start): its optimum takes 318 kg; with
+    max_isolator_load_n = 2000 N the slab stops where the heaviest isolator carries 2000 N
+    (the loads scale with the weight: 2000 / 1471 x 600 kg - 600 kg = 216 kg), the row is
+    binding and the sentence names the key."""
+    from isodesign.optimization.explain import limiting_factors
+    from isodesign.table.optimize import optimize_table
+
+    st = table_study().with_changes(variables=FREE, solver={"starts": 1},
+                                    constraints={"max_isolator_load_n": 2000.0})
+    r = optimize_table(st, workers=1)
+    assert r.success
+    w0 = float(level(table_study().table, st.hardware["piston_area_m2"]).load_n.max())
+    assert r.values["inertia_base_mass_kg"] == pytest.approx(2000.0 / w0 * 600.0 - 600.0,
+                                                             rel=1e-5)
+    c = {x.name: x for x in r.constraints}["isolator_load"]
+    assert c.active and c.value == pytest.approx(2000.0, rel=1e-6)
+    assert any("constraints.min/max_isolator_load_n" in s for s in limiting_factors(r))
