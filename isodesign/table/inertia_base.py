@@ -32,10 +32,10 @@ from isodesign.errors import InputError
 
 __all__ = ["BASE_KEYS", "BASE_LEVER", "DENSITY_RANGE_KG_M3", "InertiaBase", "base_from_dict",
            "base_lever_terms", "base_mass_row", "base_point_rows", "base_stiffness",
-           "base_summary", "body_mass", "centre_shift", "check_start_loads", "lever_terms",
-           "load_rows_of", "load_scale", "parse_base_lever", "payload_body",
-           "refuse_free_base_with_loop", "scaled_pressures", "slab_body", "tilt_bound",
-           "with_base_mass"]
+           "base_summary", "body_mass", "centre_shift", "check_objectives", "check_start_loads",
+           "lever_terms", "load_rows_of", "load_scale", "objective_parts", "parse_base_lever",
+           "payload_body", "refuse_free_base_with_loop", "scaled_pressures", "slab_body",
+           "tilt_bound", "with_base_mass"]
 
 #: The lever's name (``[variables.inertia_base_mass_kg]``).
 BASE_LEVER = "inertia_base_mass_kg"
@@ -526,3 +526,32 @@ def load_rows_of(leveling, constraints: dict, terms) -> list:
     from isodesign.table.statics import load_rows
 
     return load_rows(leveling, constraints, terms.load_scale)
+
+
+def check_objectives(prob) -> None:
+    """``added_mass`` needs a free slab (refused naming ``objectives``).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    """
+    if "added_mass" in prob.objectives and BASE_LEVER not in prob.lever_scaling.names:
+        raise InputError("objectives: added_mass needs a free inertia base "
+                         "(variables.inertia_base_mass_kg, fixed = false; docs/table.md "
+                         "section 16)")
+
+
+def objective_parts(prob, dv) -> dict:
+    """The NLP's ``added_mass`` objective: the slab's mass in tonnes (linear, 0 allowed;
+    :data:`~isodesign.optimization.objectives.OBJECTIVES` converts it to kg).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    dv : CasADi column
+    """
+    if "added_mass" not in prob.objectives:
+        return {}
+    from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
+
+    return {"added_mass": dv[len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index(BASE_LEVER)] / 1e3}

@@ -103,7 +103,7 @@ ROCKING_ENERGY_FRACTION = 0.3
 PEAK_SLOTS_PER_ROUND = 9
 TABLE_PEAK_ROUNDS = 4
 #: Objectives of the table NLP.
-TABLE_OBJECTIVES = ("worst_band_margin", "total_volume", "footprint_area")
+TABLE_OBJECTIVES = ("worst_band_margin", "total_volume", "footprint_area", "added_mass")
 _LN10 = math.log(10.0)
 
 
@@ -159,6 +159,7 @@ class TableProblem:
                              "(variables.layout_length_m or layout_width_m, fixed = false; "
                              "docs/table.md section 15)")
         self.table = study.table_at(None)
+        slab_terms.check_objectives(self)  # added_mass: a free inertia base's
         # per-group springs (docs/table.md, section 15): each group's four variables after
         # the levers, when the study names one or its table holds a group's own spring
         self.grouped = any(v.name in GROUP_SPRING_LEVERS for v in study.levers) or \
@@ -287,8 +288,7 @@ class TableProblem:
             "elastic_centre_height_m") else None
         return out, slab_terms.centre_shift(shift, base)
 
-    def _base(self, dv):
-        """The inertia base's terms (docs/table.md section 16; None with its lever fixed)."""
+    def _base(self, dv):  # the inertia base's terms (docs/table.md s. 16; None: it is fixed)
         return slab_terms.lever_terms(self, dv)
 
     def _n_dv(self) -> int:
@@ -477,6 +477,7 @@ class TableProblem:
             sx, sy = self._scale(v)
             ex, ey = layout_extent(self.table)
             j_parts["footprint_area"] = ca.log(sx * sy * (ex * ey))
+        j_parts.update(slab_terms.objective_parts(self, v))  # added_mass (t)
         if t.numel():
             j_parts["worst_band_margin"] = -t[0]
             cons.insert(0, ("worst_band_margin_epigraph", t[0] - judged, -np.inf, 0.0))

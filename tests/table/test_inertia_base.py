@@ -268,3 +268,89 @@ def test_a_load_bound_stops_the_slab_and_says_so():
     c = {x.name: x for x in r.constraints}["isolator_load"]
     assert c.active and c.value == pytest.approx(2000.0, rel=1e-6)
     assert any("constraints.min/max_isolator_load_n" in s for s in limiting_factors(r))
+
+
+def test_the_added_mass_objective_is_the_slabs_mass():
+    """The cost of the added-mass front: the slab's mass (kg through the registry; tonnes
+    inside the NLP, linear: 0 kg is a design); refused without a free slab and for a
+    vertical study (one line naming objectives)."""
+    from isodesign.optimization.objectives import OBJECTIVES
+    from isodesign.optimization.pareto import check_front, pareto_front
+    from isodesign.optimization.study import vertical_study
+    from isodesign.table.problem import TableProblem
+
+    st = table_study().with_changes(variables=FREE)
+    p = TableProblem(st, objectives=("worst_band_margin", "added_mass"))
+    x = p.initial_guess({**{v.name: v.start for v in st.variables},
+                         "inertia_base_mass_kg": 420.0})
+    j = np.asarray(p._j_fn(x)).ravel()
+    assert OBJECTIVES["added_mass"].to_natural(j[1]) == pytest.approx(420.0, rel=1e-12)
+    assert OBJECTIVES["added_mass"].from_natural(420.0) == pytest.approx(j[1])
+    assert check_front(st, ("worst_band_margin", "added_mass")) == ("worst_band_margin",
+                                                                    "added_mass")
+    with pytest.raises(InputError, match=r"objectives: added_mass needs a free inertia base "
+                                         r"\(variables\.inertia_base_mass_kg"):
+        TableProblem(table_study(), objectives=("worst_band_margin", "added_mass"))
+    with pytest.raises(InputError, match=r"objectives: added_mass needs a free inertia base"):
+        pareto_front(table_study(), ("worst_band_margin", "added_mass"), 3)
+    with pytest.raises(InputError, match=r"objectives: added_mass is the mass of a table's "
+                                         r"inertia base.*this study has no \[table\]"):
+        pareto_front(vertical_study(), ("worst_band_margin", "added_mass"), 3)
+    with pytest.raises(InputError, match=r"added_mass: expected a mass >= 0 kg"):
+        OBJECTIVES["added_mass"].from_natural(-1.0)
+
+
+def test_the_command_line_refuses_an_added_mass_front_without_a_free_slab(tmp_path, capsys):
+    from isodesign.cli import main
+
+    out = tmp_path / "p"
+    assert main(["pareto", "--builtin", "table", "--objectives",
+                 "worst_band_margin,added_mass", "--points", "3", "-o", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "variables.inertia_base_mass_kg" in err[0]
+    assert not out.exists()
+
+
+@pytest.mark.slow
+def test_a_pareto_front_of_the_margin_against_the_added_mass():
+    """The built-in table, the slab free (one start, 3 points): anchor A the margin's
+    optimum (a slab of 318 kg, +4.18 dB), anchor B no slab (the springs alone, -4.48 dB);
+    every point's cost its own slab's mass, the margin rising with it."""
+    from isodesign.optimization.pareto import pareto_front
+
+    st = table_study().with_changes(variables=FREE, solver={"starts": 1})
+    res = pareto_front(st, ("worst_band_margin", "added_mass"), 3)
+    assert res.cost == "added_mass"
+    ok = np.isfinite(res.worst_margin_db)
+    assert ok.all() and res.front.all()
+    np.testing.assert_allclose(res.costs, [d["inertia_base_mass_kg"] for d in res.designs],
+                               rtol=1e-9, atol=1e-6)
+    assert res.costs[0] == pytest.approx(317.7, abs=1.0)
+    assert res.costs[-1] == pytest.approx(0.0, abs=1e-3)
+    assert res.worst_margin_db[0] == pytest.approx(4.18, abs=0.05)
+    assert res.worst_margin_db[-1] == pytest.approx(-4.48, abs=0.05)
+    assert np.all(np.diff(res.worst_margin_db) < 0)
+    df = res.to_frame()
+    assert "added_mass_kg" in df
+    assert res.plot().axes[0].get_xlabel().startswith("added mass")
+
+
+@pytest.mark.slow
+def test_slab_sensitivity_against_a_finite_difference_of_the_reoptimized_design():
+    """The slab capped at 150 kg (its optimum is 318 kg): it stops on the cap, and the bound
+    multiplier's exact sensitivity (dB per kg of the cap) agrees with the re-optimized design
+    with the cap raised by 5 kg within 5 % (a forward difference of a curved optimum)."""
+    from isodesign.table.optimize import optimize_table
+
+    def capped(upper):
+        return table_study().with_changes(solver={"starts": 1}, variables={
+            "inertia_base_mass_kg": {"fixed": False, "upper": upper}})
+
+    r = optimize_table(capped(150.0), workers=1, analyze=False)
+    assert r.success
+    s = {x["name"]: x for x in r.lever_sensitivity}["inertia_base_mass_kg"]
+    assert s["at_bound"] == "upper" and r.values["inertia_base_mass_kg"] == pytest.approx(150.0)
+    up = optimize_table(capped(155.0), workers=1, analyze=False)
+    fd = (up.objective_value - r.objective_value) / 5.0
+    assert fd > 0
+    assert s["db_per_unit"] == pytest.approx(fd, rel=0.05)
