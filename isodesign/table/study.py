@@ -320,11 +320,15 @@ def _with_base(d: dict, t: Table, where: str) -> Table:
     ``box_m``'s, else the isolators' extent (docs/table.md, section 16)."""
     import dataclasses
 
-    from isodesign.table.inertia_base import base_from_dict, with_base_mass
+    from isodesign.table.inertia_base import MASS_RATIO_MAX, base_from_dict, with_base_mass
     from isodesign.table.layout import layout_extent
 
     size = tuple(float(v) for v in d["box_m"][:2]) if "box_m" in d else layout_extent(t)
     base = base_from_dict(d.get("inertia_base", {}), size, where)
+    if base.mass_kg > MASS_RATIO_MAX * t.mass_kg:
+        raise InputError(f"{where}: table.inertia_base.mass_kg = {base.mass_kg:g} kg is outside "
+                         f"[0, {MASS_RATIO_MAX * t.mass_kg:g}] kg (0 to {MASS_RATIO_MAX:g} "
+                         f"times the payload's {t.mass_kg:g} kg)")
     t = dataclasses.replace(t, inertia_base=dataclasses.replace(base, mass_kg=0.0))
     return with_base_mass(t, base.mass_kg) if base.mass_kg else t
 

@@ -168,6 +168,11 @@ def test_the_nlps_derivative_in_the_slab_mass_equals_finite_differences_of_the_a
     ({"table.inertia_base": {"top_height_m": 350.0}}, r"table\.inertia_base\.top_height_m"),
     ({"table.inertia_base": {"thickness_m": 0.1}}, r"unknown key 'thickness_m' in "
                                                    r"\[table\.inertia_base\]"),
+    ({"table.inertia_base": {"mass_kg": 1e6}},
+     r"table\.inertia_base\.mass_kg = 1e\+06 kg is outside \[0, 30000\] kg"),
+    ({"table.inertia_base": 5.0}, r"\[table\.inertia_base\] must be a table"),
+    ({"table.inertia_base": {"size_m": [1.5, "1.0"]}},
+     r"table\.inertia_base\.size_m: expected a number"),
     ({"variables.inertia_base_mass_kg": {"fixed": False, "upper": 1e6}},
      r"variables\.inertia_base_mass_kg\.upper = 1e\+06 kg is outside \[0, 30000\] kg"),
     ({"variables.inertia_base_mass_kg": {"fixed": False, "lower": -5.0}},
@@ -196,6 +201,14 @@ def test_the_lever_is_fixed_at_no_slab_by_default_and_free_within_twice_the_payl
     assert (spec.lower, spec.upper, spec.fixed) == (0.0, 1200.0, False)
     with pytest.raises(InputError, match=r"values\['inertia_base_mass_kg'\]: expected a finite"):
         st.with_changes(variables=FREE).table_at({"inertia_base_mass_kg": float("nan")})
+
+
+def test_a_vertical_study_refuses_the_slab_naming_the_key():
+    from isodesign.optimization.study import vertical_study
+
+    with pytest.raises(InputError, match=r"variables\.inertia_base_mass_kg is a lever of a "
+                                         r"table study"):
+        vertical_study().with_changes(variables=FREE)
 
 
 def test_a_free_slab_with_leveling_loop_bounds_is_refused_naming_the_key():
