@@ -305,7 +305,8 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
         if name in BASE_LEVERS:  # the slab's mass (isodesign.table.inertia_base)
             from isodesign.table.inertia_base import parse_base_lever
 
-            out.append(VariableSpec(name, *parse_base_lever(spec, table, key)))
+            out.append(VariableSpec(name, *parse_base_lever(spec, table, key, hardware,
+                                                            constraints)))
             continue
         fixed = spec.get("fixed", True)
         if not isinstance(fixed, bool):

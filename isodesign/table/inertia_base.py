@@ -35,7 +35,7 @@ __all__ = ["BASE_KEYS", "BASE_LEVER", "DENSITY_RANGE_KG_M3", "InertiaBase", "bas
            "base_summary", "body_mass", "centre_shift", "check_objectives", "check_start_loads",
            "lever_terms", "load_rows_of", "load_scale", "objective_parts", "parse_base_lever",
            "payload_body", "refuse_free_base_with_loop", "scaled_pressures", "slab_body",
-           "tilt_bound", "with_base_mass"]
+           "supply_limited_mass_kg", "tilt_bound", "with_base_mass"]
 
 #: The lever's name (``[variables.inertia_base_mass_kg]``).
 BASE_LEVER = "inertia_base_mass_kg"
@@ -278,12 +278,37 @@ def base_lever_terms(table, slab_mass_kg) -> BaseTerms:
                      d_gravity=-(g * m * h - g * m0 * h0), weight_height=g * m * h)
 
 
-def parse_base_lever(spec: dict, table, key: str) -> tuple:
+def supply_limited_mass_kg(table, piston_area_m2: float, margin_pa: float = 0.0) -> float:
+    """The heaviest slab the supply carries: every group's p0 at most ``p_supply -
+    margin`` (the loads scale with the weight, docs/table.md section 16), kg.
+
+    Parameters
+    ----------
+    table : Table
+        With its slab.
+    piston_area_m2 : float
+    margin_pa : float
+        ``constraints.supply_margin_pa`` (0: none).
+    """
+    from isodesign.table.statics import level
+
+    lv = level(table, piston_area_m2)
+    p_atm = float(np.mean(lv.pressure_pa - lv.load_n / lv.piston_area_m2))
+    scale = (table.supply_pressure_pa - margin_pa - p_atm) / (float(lv.group_pressure_pa.max())
+                                                              - p_atm)
+    b = table.inertia_base
+    return scale * table.mass_kg - (table.mass_kg - (b.mass_kg if b is not None else 0.0))
+
+
+def parse_base_lever(spec: dict, table, key: str, hardware: dict | None = None,
+                     constraints: dict | None = None) -> tuple:
     """``[variables.inertia_base_mass_kg]``: ``(start, lower, upper, fixed)``.
 
     Fixed unless ``fixed = false``, at ``table.inertia_base.mass_kg`` (default 0: no slab)
     or its own ``start``; free within ``lower`` (default 0) and ``upper`` (default twice
-    the payload's mass), both in ``[0, 50 m_payload]``.
+    the payload's mass, or the heaviest slab the supply carries if lighter:
+    :func:`supply_limited_mass_kg`), both in ``[0, 50 m_payload]``; an ``upper`` above the
+    supply's limit is refused (a drawn start there could not be leveled).
 
     Parameters
     ----------
@@ -313,13 +338,21 @@ def parse_base_lever(spec: dict, table, key: str) -> tuple:
                                  f"{MASS_RATIO_MAX:g} times the payload's {mp:g} kg)")
             vals[k] = float(v)
     start = vals.get("start", b.mass_kg)
+    cap = math.inf
+    if hardware is not None and not fixed:
+        margin = (constraints or {}).get("supply_margin_pa") or 0.0
+        cap = supply_limited_mass_kg(table, hardware["piston_area_m2"], margin)
+        if "upper" in vals and vals["upper"] > cap:
+            raise InputError(f"{key}.upper = {vals['upper']:g} kg is above {cap:.5g} kg, the "
+                             "heaviest slab the supply carries (table.supply_pressure_pa minus "
+                             "constraints.supply_margin_pa, every group's p0 on its pistons)")
     if fixed:
         if not vals.get("lower", start) <= start <= vals.get("upper", start):
             raise InputError(f"{key}.start ({start:g}) is fixed outside its own bounds [lower, "
                              f"upper] = [{vals.get('lower', start):g}, "
                              f"{vals.get('upper', start):g}] kg")
         return start, start, start, True
-    lo, hi = vals.get("lower", 0.0), vals.get("upper", 2.0 * mp)
+    lo, hi = vals.get("lower", 0.0), vals.get("upper", min(2.0 * mp, cap))
     if not lo < hi:
         raise InputError(f"{key}: need 0 <= lower < upper, got lower = {lo:g}, upper = {hi:g} kg")
     if not lo <= start <= hi:

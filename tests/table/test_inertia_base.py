@@ -181,7 +181,10 @@ def test_the_nlps_derivative_in_the_slab_mass_equals_finite_differences_of_the_a
      r"variables\.inertia_base_mass_kg: need 0 <= lower < upper"),
     ({"variables.inertia_base_mass_kg": {"fixed": False, "start": 2000.0}},
      r"variables\.inertia_base_mass_kg\.start \(2000\) must lie in \[lower, upper\] = "
-     r"\[0, 1200\] kg"),
+     r"\[0, 697\.079\] kg"),
+    ({"variables.inertia_base_mass_kg": {"fixed": False, "upper": 900.0}},
+     r"variables\.inertia_base_mass_kg\.upper = 900 kg is above 697\.08 kg, the heaviest slab "
+     r"the supply carries"),
     ({"variables.inertia_base_mass_kg": {"fixed": "no"}},
      r"variables\.inertia_base_mass_kg\.fixed: expected true or false"),
     ({"variables.inertia_base_mass_kg": {"start": True}},
@@ -192,13 +195,29 @@ def test_bad_inertia_base_keys_name_the_key_and_its_range(changes, words):
         table_study().with_changes(changes)
 
 
-def test_the_lever_is_fixed_at_no_slab_by_default_and_free_within_twice_the_payload():
+def test_the_lever_is_fixed_at_no_slab_by_default_and_free_up_to_what_the_supply_carries():
+    """Default bounds: 0 to twice the payload or the heaviest slab the supply carries if
+    lighter: the built-in table's p0 (2.78 bar gauge at 600 kg, every group alike) reaches
+    the 6 bar gauge supply at 600 x 6 / 2.78... = 1297 kg, a slab of 697 kg; with a supply
+    margin, less."""
     st = table_study()
     spec = {v.name: v for v in st.levers}["inertia_base_mass_kg"]
     assert spec.fixed and spec.start == 0.0
     assert st.table.mass_kg == 600.0 and st.table.inertia_base.size_m == (1.5, 1.0)
-    spec = {v.name: v for v in st.with_changes(variables=FREE).levers}["inertia_base_mass_kg"]
-    assert (spec.lower, spec.upper, spec.fixed) == (0.0, 1200.0, False)
+    free = st.with_changes(variables=FREE)
+    spec = {v.name: v for v in free.levers}["inertia_base_mass_kg"]
+    lv = level(st.table, st.hardware["piston_area_m2"])
+    gauge = float(lv.group_pressure_pa.max()) - P_ATM
+    cap = 600.0 * (st.table.supply_pressure_pa - P_ATM) / gauge - 600.0
+    assert (spec.lower, spec.fixed) == (0.0, False)
+    assert spec.upper == pytest.approx(cap, rel=1e-12) and spec.upper == pytest.approx(697.08,
+                                                                                     abs=0.01)
+    lv = level(free.table_at({"inertia_base_mass_kg": spec.upper}),
+               st.hardware["piston_area_m2"])
+    assert float(lv.group_pressure_pa.max()) == pytest.approx(st.table.supply_pressure_pa)
+    margin = st.with_changes(variables=FREE, constraints={"supply_margin_pa": 1e5})
+    spec = {v.name: v for v in margin.levers}["inertia_base_mass_kg"]
+    assert spec.upper == pytest.approx(600.0 * 5e5 / gauge - 600.0, rel=1e-12)
     with pytest.raises(InputError, match=r"values\['inertia_base_mass_kg'\]: expected a finite"):
         st.with_changes(variables=FREE).table_at({"inertia_base_mass_kg": float("nan")})
 
@@ -253,7 +272,7 @@ def test_with_a_free_slab_the_loads_and_the_supply_are_rows_of_the_nlp():
     ({"max_isolator_load_n": 1000.0}, r"constraints\.max_isolator_load_n: the heaviest "
                                       r"isolator carries 1471 N with the lightest inertia base"),
     ({"min_isolator_load_n": 5000.0}, r"constraints\.min_isolator_load_n: the lightest "
-                                      r"isolator carries 4413 N with the heaviest inertia base"),
+                                      r"isolator carries 3180 N with the heaviest inertia base"),
 ])
 def test_load_constraints_no_slab_in_its_bounds_meets_are_refused_naming_the_key(cons, words):
     with pytest.raises(InputError, match=words):
