@@ -10,8 +10,9 @@ table's values, then with all four free; then the layout (the isolators' extent 
 y, docs/table.md section 15) alone and with the four levers, the isolators inside the table
 top's 1.5 x 1.0 m footprint and at least 0.5 m apart; (case ``groups``) each leveling
 group's own spring, its four variables free within the shared bounds; the inertia base (a
-concrete slab of the table top's 1.5 x 1.0 m under the payload, its mass free from 0 to the 697 kg the supply carries,
-docs/table.md section 16) alone and with the four levers; and last the default
+concrete slab of the table top's 1.5 x 1.0 m under the payload, its mass free from 0 to
+the 697 kg the supply carries, docs/table.md section 16) alone and with the four levers;
+and last the default
 study (all four levers free within the practical bounds of
 :func:`isodesign.optimization.study.default_study`, docs/table.md section 13, "The default
 study"). Each case reports the worst margin of the NLP (its grid) and of the fine-grid NumPy

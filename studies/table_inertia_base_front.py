@@ -3,11 +3,11 @@
 The built-in table study (:func:`isodesign.optimization.study.table_study`: 600 kg on four
 isolators 1.2 x 0.8 m apart, CG 0.35 m above them, VC-A floor in three axes, VC-C target)
 with a concrete slab of the table top's 1.5 x 1.0 m hung under the payload at the support
-plane, its mass free from 0 to the 697 kg the supply carries (docs/table.md, section 16): the front of the worst
-margin (maximized) against the added mass (minimized) through the product's own entry
-point (:func:`isodesign.pareto_front`, objectives ``worst_band_margin,added_mass``; the
-same as ``isodesign pareto --objectives worst_band_margin,added_mass``). Each point's
-combined CG height is reported with it.
+plane, its mass free from 0 to the 697 kg the supply carries (docs/table.md, section 16):
+the front of the worst margin (maximized) against the added mass (minimized) through the
+product's own entry point (:func:`isodesign.pareto_front`, objectives
+``worst_band_margin,added_mass``; the same as ``isodesign pareto --objectives
+worst_band_margin,added_mass``). Each point's combined CG height is reported with it.
 
 Usage::
 
@@ -31,7 +31,8 @@ from isodesign.plotting.style import new_figure, save_figure
 
 
 def front_study(starts: int = 1):
-    """The built-in table with the inertia base's mass free (default bounds: 0 to the 697 kg the supply carries)."""
+    """The built-in table with the inertia base's mass free (default bounds: 0 to the 697 kg
+    the supply carries)."""
     return table_study().with_changes(variables={"inertia_base_mass_kg": {"fixed": False}},
                                       solver={"starts": starts})
 
