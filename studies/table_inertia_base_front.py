@@ -60,8 +60,8 @@ def main(argv=None) -> int:
     a2.plot(res.costs[ok], df["cg_height_m"][ok], "C1-o", ms=4)
     a2.axhline(0.0, color="k", lw=0.6, ls=":")
     a2.set_xlabel("added mass: the inertia base under the payload (kg)")
-    a2.set_ylabel("CG height of payload + slab above the support plane (m)")
-    a2.set_title("the slab lowers the CG (elastic centres at the support plane)", fontsize=10)
+    a2.set_ylabel("CG height above the support plane (m)")
+    a2.set_title("the combined CG of payload and slab", fontsize=10)
     a2.grid(True, alpha=0.3)
     save_figure(fig, out / "table_inertia_base_front.png")
     print(df[["worst_margin_db", "added_mass_kg", "cg_height_m", "status",
