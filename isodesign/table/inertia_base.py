@@ -347,6 +347,10 @@ def parse_base_lever(spec: dict, table, key: str, hardware: dict | None = None,
                              "heaviest slab the supply carries (table.supply_pressure_pa minus "
                              "constraints.supply_margin_pa, every group's p0 on its pistons)")
     if fixed:
+        if start != b.mass_kg:  # the table holds a fixed slab (every entry point reads it)
+            raise InputError(f"{key}.start ({start:g} kg) differs from the fixed slab's "
+                             f"table.inertia_base.mass_kg ({b.mass_kg:g} kg): set the mass "
+                             "there, or free the lever (fixed = false)")
         if not vals.get("lower", start) <= start <= vals.get("upper", start):
             raise InputError(f"{key}.start ({start:g}) is fixed outside its own bounds [lower, "
                              f"upper] = [{vals.get('lower', start):g}, "

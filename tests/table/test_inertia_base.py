@@ -185,6 +185,9 @@ def test_the_nlps_derivative_in_the_slab_mass_equals_finite_differences_of_the_a
     ({"variables.inertia_base_mass_kg": {"fixed": False, "upper": 900.0}},
      r"variables\.inertia_base_mass_kg\.upper = 900 kg is above 697\.08 kg, the heaviest slab "
      r"the supply carries"),
+    ({"variables.inertia_base_mass_kg": {"start": 300.0}},
+     r"variables\.inertia_base_mass_kg\.start \(300 kg\) differs from the fixed slab's "
+     r"table\.inertia_base\.mass_kg \(0 kg\)"),
     ({"variables.inertia_base_mass_kg": {"fixed": "no"}},
      r"variables\.inertia_base_mass_kg\.fixed: expected true or false"),
     ({"variables.inertia_base_mass_kg": {"start": True}},
