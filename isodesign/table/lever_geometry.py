@@ -222,4 +222,3 @@ def layout_rows(table, constraints: dict, scale_xy, free: bool) -> list:
             rows.append(0.5 * ca.log(sx * sx * dx * dx + sy * sy * dy * dy))
         out.append(("min_isolator_distance_m", ca.vertcat(*rows), float(np.log(dmin)), np.inf))
     return out
-

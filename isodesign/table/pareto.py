@@ -64,7 +64,7 @@ class TableParetoResult(ResultDisplay):
     settings : dict
         Method, points, reference margin, units, starts of anchor A.
     cost : str
-        Objective B: ``total_volume`` or ``footprint_area``.
+        Objective B: ``total_volume``, ``footprint_area`` or ``added_mass``.
     cost_value : ndarray or None
         Objective B per point in its natural unit (m^3, m^2 or kg; None: the total volume).
     """

@@ -348,13 +348,15 @@ def test_the_command_line_refuses_an_added_mass_front_without_a_free_slab(tmp_pa
 
 @pytest.mark.slow
 def test_a_pareto_front_of_the_margin_against_the_added_mass():
-    """The built-in table, the slab free (one start, 3 points): anchor A the margin's
-    optimum (a slab of 318 kg, +4.18 dB), anchor B no slab (the springs alone, -4.48 dB);
-    every point's cost its own slab's mass, the margin rising with it."""
+    """The built-in table, the slab free (one start, 4 points): anchor A the margin's
+    optimum (a slab of 318 kg, +4.18 dB), the last point no slab; every point's cost its own
+    slab's mass, the margin falling with it, and no slab-free point better than the springs
+    alone can be (-4.48 dB, their optimum; the chain's warm-started points are local optima
+    and may stop below it, docs/table.md section 16)."""
     from isodesign.optimization.pareto import pareto_front
 
     st = table_study().with_changes(variables=FREE, solver={"starts": 1})
-    res = pareto_front(st, ("worst_band_margin", "added_mass"), 3)
+    res = pareto_front(st, ("worst_band_margin", "added_mass"), 4)
     assert res.cost == "added_mass"
     ok = np.isfinite(res.worst_margin_db)
     assert ok.all() and res.front.all()
@@ -363,7 +365,7 @@ def test_a_pareto_front_of_the_margin_against_the_added_mass():
     assert res.costs[0] == pytest.approx(317.7, abs=1.0)
     assert res.costs[-1] == pytest.approx(0.0, abs=1e-3)
     assert res.worst_margin_db[0] == pytest.approx(4.18, abs=0.05)
-    assert res.worst_margin_db[-1] == pytest.approx(-4.48, abs=0.05)
+    assert res.worst_margin_db[-1] <= -4.48 + 0.05
     assert np.all(np.diff(res.worst_margin_db) < 0)
     df = res.to_frame()
     assert "added_mass_kg" in df
