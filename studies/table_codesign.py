@@ -110,7 +110,7 @@ def figure(df: pd.DataFrame):
     a1.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
                   ha="right", fontsize=7)
     a1.set_ylabel("worst margin to VC-C (dB, fine-grid analysis)")
-    a1.set_title("built-in table: springs, one lever at a time, all, layout, inertia base"
+    a1.set_title("built-in table: springs, levers, layout, inertia base"
                  + (", the default study" if "default" in set(df["case"]) else ""), fontsize=10)
     for j, n in enumerate(CODESIGN_LEVERS):  # within the wide bounds (the default study's
         a2.plot(x, df[f"{n}_in_bounds"], marker="o", ms=4, color=f"C{j}", label=n)  # inside)
