@@ -323,8 +323,12 @@ def parse_base_lever(spec: dict, table, key: str, hardware: dict | None = None,
     if not isinstance(fixed, bool):
         raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
     b = table.inertia_base
+    if b is None and fixed and not spec.get("start"):
+        return 0.0, 0.0, 0.0, True  # no slab (the table has no slab's plan size)
     if b is None:
-        raise InputError(f"{key}: the table has no [table.inertia_base]")
+        raise InputError(f"{key}: the table has no [table.inertia_base] and its box_m (or "
+                         "its isolators' extent) is no slab's plan size; give "
+                         "table.inertia_base.size_m")
     mp = table.mass_kg - b.mass_kg
     hi_max = MASS_RATIO_MAX * mp
     vals = {}

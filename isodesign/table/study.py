@@ -320,10 +320,18 @@ def _with_base(d: dict, t: Table, where: str) -> Table:
     ``box_m``'s, else the isolators' extent (docs/table.md, section 16)."""
     import dataclasses
 
-    from isodesign.table.inertia_base import MASS_RATIO_MAX, base_from_dict, with_base_mass
+    from isodesign.table.inertia_base import (
+        MASS_RATIO_MAX,
+        SIZE_RANGE_M,
+        base_from_dict,
+        with_base_mass,
+    )
     from isodesign.table.layout import layout_extent
 
     size = tuple(float(v) for v in d["box_m"][:2]) if "box_m" in d else layout_extent(t)
+    lo, hi = SIZE_RANGE_M
+    if "inertia_base" not in d and not all(lo <= v <= hi for v in size):
+        return t  # no slab declared and no slab's plan size to default to (a unit slip?)
     base = base_from_dict(d.get("inertia_base", {}), size, where)
     if base.mass_kg > MASS_RATIO_MAX * t.mass_kg:
         raise InputError(f"{where}: table.inertia_base.mass_kg = {base.mass_kg:g} kg is outside "

@@ -391,3 +391,20 @@ def test_slab_sensitivity_against_a_finite_difference_of_the_reoptimized_design(
     fd = (up.objective_value - r.objective_value) / 5.0
     assert fd > 0
     assert s["db_per_unit"] == pytest.approx(fd, rel=0.05)
+
+
+def test_a_table_without_a_slabs_plan_size_has_no_slab_until_one_is_declared():
+    """box_m in millimetres (a unit slip the study warns about) is no slab's plan size: the
+    table has no slab (the lever fixed at 0 is taken), and freeing it asks for size_m."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        st = table_study().with_changes({"table.box_m": [1500.0, 1000.0, 700.0]})
+        assert st.table.inertia_base is None and st.table.mass_kg == 600.0
+        with pytest.raises(InputError, match=r"variables\.inertia_base_mass_kg: the table has "
+                                             r"no \[table\.inertia_base\].*give "
+                                             r"table\.inertia_base\.size_m"):
+            st.with_changes(variables=FREE)
+        ok = st.with_changes(variables=FREE, table={"inertia_base": {"size_m": [1.5, 1.0]}})
+    assert ok.table.inertia_base.size_m == (1.5, 1.0)
