@@ -9,7 +9,10 @@ free within its practical bounds (docs/table.md, "Co-design levers") and the oth
 table's values, then with all four free; then the layout (the isolators' extent along x and
 y, docs/table.md section 15) alone and with the four levers, the isolators inside the table
 top's 1.5 x 1.0 m footprint and at least 0.5 m apart; (case ``groups``) each leveling
-group's own spring, its four variables free within the shared bounds; and last the default
+group's own spring, its four variables free within the shared bounds; the inertia base (a
+concrete slab of the table top's 1.5 x 1.0 m under the payload, its mass free from 0 to
+the 697 kg the supply carries, docs/table.md section 16) alone and with the four levers;
+and last the default
 study (all four levers free within the practical bounds of
 :func:`isodesign.optimization.study.default_study`, docs/table.md section 13, "The default
 study"). Each case reports the worst margin of the NLP (its grid) and of the fine-grid NumPy
@@ -36,6 +39,7 @@ import pandas as pd
 from isodesign.optimization.study import default_study, table_study
 from isodesign.optimization.table_driver import optimize_table
 from isodesign.optimization.variables import (
+    BASE_LEVERS,
     CODESIGN_LEVERS,
     GROUP_SPRING_LEVERS,
     LAYOUT_LEVERS,
@@ -47,8 +51,9 @@ from isodesign.table.layout import layout_extent
 
 #: The cases: a name and the levers it frees ("default": the default study, its own bounds).
 CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS,
-         "layout": LAYOUT_LEVERS, "all_and_layout": CODESIGN_LEVERS,
-         "groups": GROUP_SPRING_LEVERS, "default": None}
+         "layout": LAYOUT_LEVERS, "all_and_layout": TABLE_LEVERS + LAYOUT_LEVERS,
+         "groups": GROUP_SPRING_LEVERS, "inertia_base": BASE_LEVERS,
+         "all_and_inertia_base": TABLE_LEVERS + BASE_LEVERS, "default": None}
 #: The layout's constraints in the layout cases: the table top's footprint (box_m 1.5 x 1.0
 #: m about the CG) and a minimum distance between isolators.
 LAYOUT_CONSTRAINTS = {"footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
@@ -80,6 +85,7 @@ def row(name: str, levers, workers: int = 1) -> dict:
     for n in TABLE_LEVERS:
         out[n] = getattr(table.horizontal, n)
     out.update(zip(LAYOUT_LEVERS, layout_extent(table), strict=True))
+    out["inertia_base_mass_kg"] = table.inertia_base.mass_kg  # the slab (0: none)
     bounds = {v.name: (v.lower, v.upper) for v in case_study(CODESIGN_LEVERS).levers}
     for n in CODESIGN_LEVERS:  # each lever within its (default) bounds, 0 to 1
         out[f"{n}_in_bounds"] = (out[n] - bounds[n][0]) / (bounds[n][1] - bounds[n][0])
@@ -104,7 +110,7 @@ def figure(df: pd.DataFrame):
     a1.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
                   ha="right", fontsize=7)
     a1.set_ylabel("worst margin to VC-C (dB, fine-grid analysis)")
-    a1.set_title("built-in table: springs, one lever at a time, all, layout"
+    a1.set_title("built-in table: springs, levers, layout, inertia base"
                  + (", the default study" if "default" in set(df["case"]) else ""), fontsize=10)
     for j, n in enumerate(CODESIGN_LEVERS):  # within the wide bounds (the default study's
         a2.plot(x, df[f"{n}_in_bounds"], marker="o", ms=4, color=f"C{j}", label=n)  # inside)

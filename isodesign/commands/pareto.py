@@ -50,8 +50,10 @@ from isodesign.response.scope import study_scope
 OBJECTIVE_CHOICES = tuple(OBJECTIVES)
 DEFAULT_POINTS = 20
 #: The fronts of a table study: the worst margin against the total volume or, with a free
-#: layout, the isolators' footprint area (docs/table.md, section 15).
-TABLE_FRONTS = (("worst_band_margin", "total_volume"), ("worst_band_margin", "footprint_area"))
+#: layout, the isolators' footprint area (docs/table.md, section 15); with a free inertia
+#: base, its mass (section 16).
+TABLE_FRONTS = (("worst_band_margin", "total_volume"), ("worst_band_margin", "footprint_area"),
+                ("worst_band_margin", "added_mass"))
 #: Range of --points (each point is an IPOPT solve of a few tenths of a second).
 POINTS_RANGE = (2, 500)
 #: Files written by ``isodesign pareto``.

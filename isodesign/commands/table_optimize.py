@@ -113,13 +113,16 @@ def lever_lines(result) -> list[str]:
         if v.fixed:
             continue
         unit = TABLE_LEVER_UNITS[v.name]
-        label = f"{v.name.removesuffix('_n_per_m').removesuffix('_m')} ({unit})"
+        label = f"{v.name.removesuffix('_n_per_m').removesuffix('_m').removesuffix('_kg')} ({unit})"
         if v.name in GROUP_SPRING_LEVERS:  # N group 2 (-), D_c group 3 (m)
             g, base = group_lever(v.name)
             label = f"{_SHORT[base]} group {g + 1} ({unit})"
         out.append(f"  {label:<24}{v.start:>10.4g}{result.values[v.name]:>10.4g}"
                    + (f"  {notes[v.name]}" if v.name in notes else ""))
-    return out
+    from isodesign.table.inertia_base import base_summary
+
+    slab = base_summary(result.study.table_at(result.values)) if out else ""
+    return out + ([f"  {slab}"] if slab else [])
 
 
 def peak_text(result) -> str:

@@ -10,9 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from isodesign.optimization.variables import DESIGN_VARIABLES
+from isodesign.errors import InputError
+from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
+from isodesign.table.inertia_base import BASE_LEVER, base_lever_terms
 
-__all__ = ["group_values", "lever_sensitivities"]
+__all__ = ["base_objective_parts", "base_terms", "check_base_objectives",
+           "check_base_start_loads", "group_values", "lever_sensitivities"]
 
 
 def group_values(prob, ca, z_levers, shared: list) -> list:
@@ -97,3 +100,61 @@ def lever_sensitivities(prob, x: np.ndarray) -> tuple:
                     "upper": spec.upper, "at_bound": at,
                     "db_per_unit": float(lam[nzs + i] / dv_dz), "status": status})
     return tuple(out)
+
+
+# -- the inertia base's NLP terms (docs/table.md, section 16) ----------------------------
+def base_terms(prob, dv):
+    """:func:`base_lever_terms` of a table NLP at its design vector ``dv`` (spring, then every
+    co-design lever); None with the slab's lever fixed.
+
+    Parameters
+    ----------
+    prob : TableProblem
+    dv : CasADi column
+    """
+    if BASE_LEVER not in prob.lever_scaling.names:
+        return None
+    return base_lever_terms(prob.table, dv[len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index(
+        BASE_LEVER)])
+
+
+def check_base_start_loads(prob, study) -> None:
+    """The start table's loads and p0 against the study's load and supply constraints
+    (refused naming the key); with a free slab they are NLP rows (:func:`load_rows_of`).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    study : Study
+    """
+    from isodesign.table.statics import check_load_constraints
+
+    if BASE_LEVER not in prob.lever_scaling.names:
+        check_load_constraints(prob.leveling, study.constraints)
+
+
+def check_base_objectives(prob) -> None:
+    """``added_mass`` needs a free slab (refused naming ``objectives``).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    """
+    if "added_mass" in prob.objectives and BASE_LEVER not in prob.lever_scaling.names:
+        raise InputError("objectives: added_mass needs a free inertia base "
+                         "(variables.inertia_base_mass_kg, fixed = false; docs/table.md "
+                         "section 16)")
+
+
+def base_objective_parts(prob, dv) -> dict:
+    """The NLP's ``added_mass`` objective: the slab's mass in tonnes (linear, 0 allowed;
+    :data:`~isodesign.optimization.objectives.OBJECTIVES` converts it to kg).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    dv : CasADi column
+    """
+    if "added_mass" not in prob.objectives:
+        return {}
+    return {"added_mass": dv[len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index(BASE_LEVER)] / 1e3}

@@ -254,6 +254,26 @@ def _table_footprint_area(q):
     return q["ln_footprint_area"], []
 
 
+def _table_added_mass(q):
+    return q["added_mass_t"], []  # the slab's mass in tonnes (linear)
+
+
+def _table_base_only(mt, study, grid, *args):
+    raise InputError("objective.kind: added_mass is the mass of a table's inertia base (a "
+                     "study with a [table] and variables.inertia_base_mass_kg free, "
+                     "docs/table.md section 16); this study has no [table]")
+
+
+def _tonnes_to_kg(j: float) -> float:
+    return 1e3 * float(j)
+
+
+def _kg_to_tonnes(v: float) -> float:
+    if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v) or v < 0:
+        raise InputError(f"added_mass: expected a mass >= 0 kg, got {v!r:.40}")
+    return float(v) / 1e3
+
+
 # -- values on NumPy metrics ----------------------------------------------------------
 def _value_worst_band_margin(mt, study, grid) -> float:
     return float(np.min(_DB * (mt["ln_limit2"] - mt["ln_ms_band"])))
@@ -317,4 +337,11 @@ OBJECTIVES: dict[str, Objective] = {o.name: o for o in (
               from_natural=_positive_log("footprint_area"), epigraph=None, display_scale=1.0,
               display_unit="m^2", label="footprint of the isolators, length x width",
               display_format=".4g", table=_table_footprint_area),
+    Objective(name="added_mass",
+              description="the inertia base's mass under the payload, kg (min; a table study "
+                          "with variables.inertia_base_mass_kg free)", unit="kg", sense="min",
+              db=False, nlp=_table_base_only, value=_table_base_only, to_natural=_tonnes_to_kg,
+              from_natural=_kg_to_tonnes, epigraph=None, display_scale=1.0, display_unit="kg",
+              label="added mass (inertia base)", display_format=".4g",
+              table=_table_added_mass),
 )}

@@ -184,8 +184,13 @@ def check_front(study: Study, objectives) -> tuple[str, str]:
             raise InputError("objectives: footprint_area is the footprint of a table's "
                              "isolators (a study with a [table] and a free layout, "
                              "docs/table.md section 15); this study has no [table]")
+        if "added_mass" in (a, b):
+            raise InputError("objectives: added_mass is the mass of a table's inertia base "
+                             "(a study with a [table] and variables.inertia_base_mass_kg free, "
+                             "docs/table.md section 16); this study has no [table]")
         return a, b
-    fronts = (TABLE_OBJECTIVES, ("worst_band_margin", "footprint_area"))
+    fronts = (TABLE_OBJECTIVES, ("worst_band_margin", "footprint_area"),
+              ("worst_band_margin", "added_mass"))
     if (a, b) not in fronts:
         raise InputError(f"objectives: a study with a [table] has the fronts "
                          f"{' and '.join(','.join(f) for f in fronts)}, got {a},{b}")
@@ -194,6 +199,11 @@ def check_front(study: Study, objectives) -> tuple[str, str]:
         raise InputError("objectives: footprint_area needs a free layout "
                          "(variables.layout_length_m or layout_width_m, fixed = false; "
                          "docs/table.md section 15)")
+    if b == "added_mass" and not any(v.free for v in study.levers
+                                     if v.name == "inertia_base_mass_kg"):
+        raise InputError("objectives: added_mass needs a free inertia base "
+                         "(variables.inertia_base_mass_kg, fixed = false; docs/table.md "
+                         "section 16)")
     return a, b
 
 

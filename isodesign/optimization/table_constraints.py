@@ -170,9 +170,10 @@ def table_constraint_reports(prob, g, *, modes=None, stability=None, peaks=None,
             dmin = float(c["min_isolator_distance_m"])
             out.append(_report("isolator_distance", v, dmin, None, "m", math.log(v / dmin),
                                "closest two isolators"))
-    from isodesign.table.statics import load_constraint_values
+    from isodesign.table.statics import leveling_of_rows, load_constraint_values
 
-    for _, name, vals, lo, hi, unit in load_constraint_values(prob.leveling, c):
+    lev = leveling_of_rows(prob, np.asarray(g, float))  # a free inertia base's loads
+    for _, name, vals, lo, hi, unit in load_constraint_values(lev, c, lev is not prob.leveling):
         worst = float(np.min(vals)) if lo is not None and (
             hi is None or math.log(np.min(vals) / lo) < math.log(hi / np.max(vals))) \
             else float(np.max(vals))

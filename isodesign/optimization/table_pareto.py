@@ -1,7 +1,7 @@
 """Pareto front of a table study: worst margin (three axes, every point) against a cost.
 
 The cost is the total volume (default) or, with a free layout, the isolators' footprint
-area ``L W`` (docs/table.md, section 15).
+area ``L W`` (docs/table.md, section 15), or, with a free inertia base, its mass (section 16).
 
 Epsilon constraint on the :class:`~.table_problem.TableProblem` with both
 objectives: anchor A is :func:`~.table_driver.optimize_table` (multi-start, mode
@@ -24,11 +24,15 @@ import numpy as np
 
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.front import REFERENCE_MARGIN, front_reference, nondominated
+from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB
 from isodesign.optimization.table_constraints import CONTINUOUS_PEAK as PEAK_VIOLATION
 from isodesign.results import ResultDisplay
 
 __all__ = ["TableParetoResult", "table_pareto_front"]
+
+#: The frame's column of a cost other than the total volume.
+_COST_COLUMNS = {"footprint_area": "footprint_area_m2", "added_mass": "added_mass_kg"}
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -60,9 +64,9 @@ class TableParetoResult(ResultDisplay):
     settings : dict
         Method, points, reference margin, units, starts of anchor A.
     cost : str
-        Objective B: ``total_volume`` or ``footprint_area``.
+        Objective B: ``total_volume``, ``footprint_area`` or ``added_mass``.
     cost_value : ndarray or None
-        Objective B per point in its natural unit (m^3 or m^2; None: the total volume).
+        Objective B per point in its natural unit (m^3, m^2 or kg; None: the total volume).
     """
 
     worst_margin_db: np.ndarray
@@ -92,7 +96,7 @@ class TableParetoResult(ResultDisplay):
 
     @property
     def values(self) -> np.ndarray:
-        """``(n, 2)``: worst margin (dB) and the cost (m^3 or m^2) per point, as a vertical
+        """``(n, 2)``: worst margin (dB) and the cost (m^3, m^2 or kg) per point, as a vertical
         front's ``values`` (NaN where a point failed)."""
         return np.column_stack([self.worst_margin_db, self.costs])
 
@@ -102,8 +106,8 @@ class TableParetoResult(ResultDisplay):
 
         df = pd.DataFrame(list(self.designs))
         df.insert(0, "total_volume_m3", self.total_volume_m3)
-        if self.cost == "footprint_area":
-            df.insert(0, "footprint_area_m2", self.costs)
+        if self.cost in _COST_COLUMNS:
+            df.insert(0, _COST_COLUMNS[self.cost], self.costs)
         df.insert(0, "worst_margin_db", self.worst_margin_db)
         df["status"] = list(self.statuses)
         if self.peak_excess_db is not None:
@@ -136,15 +140,18 @@ class TableParetoResult(ResultDisplay):
         if ax is None:
             ax = new_figure(6.0, 4.0).subplots()
         area = self.cost == "footprint_area"
-        v, m = self.costs * (1.0 if area else 1e3), self.worst_margin_db
+        v, m = self.costs * (1.0 if self.cost != "total_volume" else 1e3), self.worst_margin_db
         ax.plot(v[self.front], m[self.front], "C0-o", ms=4, label="non-dominated")
         ax.plot(v[~self.front], m[~self.front], "x", color="0.5", label="dominated")
         ax.axhline(0.0, color="C3", lw=0.8)
+        mass = self.cost == "added_mass"
         ax.set_xlabel("footprint of the isolators, length x width (m^2)" if area else
+                      "added mass: the inertia base under the payload (kg)" if mass else
                       "total volume per isolator V_t0 (1 + N) (L)")
         ax.set_ylabel("worst margin, 3 axes, every point (dB)")
         ax.set_title(f"table study {self.study.name!r}: margin against "
-                     f"{'footprint' if area else 'volume'}", fontsize=10)
+                     f"{'footprint' if area else 'added mass' if mass else 'volume'}",
+                     fontsize=10)
         ax.grid(True, alpha=0.3)
         ax.legend(fontsize=8)
         return ax.figure
@@ -162,9 +169,10 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
         Epsilon values (>= 2), anchors included.
     progress : callable, optional
         ``progress(done, total)`` after each point.
-    cost : {'total_volume', 'footprint_area'}
-        Objective B: the total volume per isolator, or the isolators' footprint ``L W``
-        (a free layout, docs/table.md section 15).
+    cost : {'total_volume', 'footprint_area', 'added_mass'}
+        Objective B: the total volume per isolator, the isolators' footprint ``L W``
+        (a free layout, docs/table.md section 15) or the inertia base's mass (a free
+        slab, section 16).
 
     Returns
     -------
@@ -180,9 +188,9 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
 
     if isinstance(points, bool) or not isinstance(points, int) or points < 2:
         raise InputError(f"points: must be an integer >= 2, got {points!r}")
-    if cost not in ("total_volume", "footprint_area"):
-        raise InputError(f"cost: a table's front is against total_volume or footprint_area, "
-                         f"got {cost!r}")
+    if cost not in ("total_volume", "footprint_area", "added_mass"):
+        raise InputError(f"cost: a table's front is against total_volume, footprint_area or "
+                         f"added_mass, got {cost!r}")
     t0 = time.perf_counter()
     st = study.with_changes(objective={"kind": "worst_band_margin"})
     prob = Problem(st, objectives=("worst_band_margin", cost))
@@ -219,7 +227,8 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
             progress(k + 1, points)
     prob = state["prob"]
     margin = np.array([prob.worst_margin_db(s.x) if s.feasible else math.nan for s in sols])
-    costs = np.array([math.exp(s.objectives[1]) if s.feasible else math.nan for s in sols])
+    to_nat = OBJECTIVES[cost].to_natural  # exp of a log cost; the added mass in kg
+    costs = np.array([to_nat(s.objectives[1]) if s.feasible else math.nan for s in sols])
     vol = costs if cost == "total_volume" else np.array(
         [st.design_at(s.values).total_volume_m3 if s.feasible else math.nan for s in sols])
     # a point whose continuous peak stays above the bound meets the constraints on the
@@ -246,8 +255,7 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
                              settings={"method": "epsilon-constraint on the table NLP, "
                                                  "warm starts",
                                        "points": points, "reference_margin": REFERENCE_MARGIN,
-                                       "units": ("dB", "m^3" if cost == "total_volume"
-                                                 else "m^2"),
+                                       "units": ("dB", OBJECTIVES[cost].unit),
                                        "starts": st.solver["starts"]},
                              cost=cost, cost_value=None if cost == "total_volume" else costs)
 

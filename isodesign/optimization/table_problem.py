@@ -53,7 +53,7 @@ import numpy as np
 
 from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
-from isodesign.optimization import nlp
+from isodesign.optimization import lever_nlp, nlp
 from isodesign.optimization.loop_rows import (
     LOOP_MARGIN_EPS,
     LOOP_POLES_MIMO,
@@ -74,6 +74,7 @@ from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
 from isodesign.spring.capillary import statistical_resistance_function
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_velocity_gain2
+from isodesign.table import inertia_base as slab_terms
 from isodesign.table.assembly import dynamic_stiffness, geometry, solve_complex
 from isodesign.table.floor import table_grid
 from isodesign.table.layout import horizontal_stiffness, layout_extent, layout_scale
@@ -163,6 +164,7 @@ class TableProblem(NLP):
                              "(variables.layout_length_m or layout_width_m, fixed = false; "
                              "docs/table.md section 15)")
         self.table = study.table_at(None)
+        lever_nlp.check_base_objectives(self)  # added_mass: a free inertia base's
         # per-group springs (docs/table.md, section 15): each group's four variables after
         # the levers, when the study names one or its table holds a group's own spring
         self.grouped = any(v.name in GROUP_SPRING_LEVERS for v in study.levers) or \
@@ -170,9 +172,7 @@ class TableProblem(NLP):
         self.grid = table_grid(study.floor_axes, study.bands, target=study.target,
                                points_per_band=m["points_per_band"])
         self.leveling = level(self.table, study.hardware["piston_area_m2"])
-        from isodesign.table.statics import check_load_constraints
-
-        check_load_constraints(self.leveling, study.constraints)
+        lever_nlp.check_base_start_loads(self, study)  # NLP rows with a free inertia base
         self.geo = geometry(self.table, self.leveling.load_n)
         self.lever_dirs = lever_directions(self.geo, self.table)
         self.n = self.table.n_isolators
@@ -198,6 +198,7 @@ class TableProblem(NLP):
                              "margin bounds are not yet held with per-group springs; set "
                              "min_leveling_gain_margin_db and min_leveling_phase_margin_deg "
                              "to false (docs/table.md, sections 12 and 14)")
+        slab_terms.refuse_free_base_with_loop(study)
         self.loop_system = leveling_of_study(study)
         self.n_states = 12 + 2 * self.n
         self.n_loop = LOOP_POLES_MIMO + 3 if self.loop_bound_db is not None else 0
@@ -266,9 +267,9 @@ class TableProblem(NLP):
     def _assemble(self, dv, kv, kh, w, shift):
         """``D(w)``, ``B(w)`` with the free geometric levers (today's path without a free
         layout lever)."""
-        if not self._layout_free():
-            return dynamic_stiffness(self.geo, kv, kh, w, shift)
-        return lever_stiffness(self.geo, self._terms(dv, shift), kv, kh, w)
+        d, b = dynamic_stiffness(self.geo, kv, kh, w, shift) if not self._layout_free() else \
+            lever_stiffness(self.geo, self._terms(dv, shift), kv, kh, w)
+        return slab_terms.base_stiffness(d, w, self._base(dv)), b
 
     def _kh(self, dv, w, khr, khi):
         """Each isolator's horizontal stiffness (list of Cx) and the elastic-centre shift
@@ -282,14 +283,18 @@ class TableProblem(NLP):
         if h.pendulum_length_m is None and not self._lever_free("pendulum_length_m"):
             lp = None
         out = []
+        lam = slab_terms.load_scale(base := self._base(dv))  # the slab: loads scale, CG rises
         for i, ld in enumerate(self.leveling.load_n):
             if h.lateral_model is None:
-                out.append(horizontal_stiffness(w, float(ld), lp, kl, eta))
+                out.append(horizontal_stiffness(w, float(ld) * lam, lp, kl, eta))
             else:
-                out.append(Cx(khr[i], khi[i]) + (0.0 if lp is None else float(ld) / lp))
+                out.append(Cx(khr[i], khi[i]) + (0.0 if lp is None else float(ld) * lam / lp))
         shift = (ec - h.elastic_centre_height_m) if self._lever_free(
             "elastic_centre_height_m") else None
-        return out, shift
+        return out, slab_terms.centre_shift(shift, base)
+
+    def _base(self, dv):  # the inertia base's terms (docs/table.md s. 16; None: it is fixed)
+        return lever_nlp.base_terms(self, dv)
 
     def _n_dv(self) -> int:
         return self._group_off() + (3 * len(DESIGN_VARIABLES) if self.grouped else 0)
@@ -302,13 +307,14 @@ class TableProblem(NLP):
         grouped: ``dv`` holds every group's four after the levers)."""
         base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
         lv = self.leveling
+        pressures = slab_terms.scaled_pressures(self._base(dv), lv.pressure_pa)
         if not self.grouped:
-            return base, [base.replace(pressure_pa=float(p)) for p in lv.pressure_pa]
+            return base, [base.replace(pressure_pa=p) for p in pressures]
         off, nd = self._group_off(), len(DESIGN_VARIABLES)
         own = [{n: dv[off + nd * g + j] for j, n in enumerate(DESIGN_VARIABLES)}
                for g in range(3)]
-        return base, [base.replace(pressure_pa=float(p), **own[int(g)])
-                      for p, g in zip(lv.pressure_pa, lv.group_of, strict=True)]
+        return base, [base.replace(pressure_pa=p, **own[int(g)])
+                      for p, g in zip(pressures, lv.group_of, strict=True)]
 
     # -- the per-frequency physics ------------------------------------------------
     def _springs(self, ca, dv, s, y, w):
@@ -342,10 +348,10 @@ class TableProblem(NLP):
         qr, qi, _ = self._body(ca, dv, s, y, w, khr, khi)
         diag = []
         for p in range(self.k):
-            gp = self.geo.points[p]
+            gp, nzp = slab_terms.base_point_rows(self.geo.points[p], self._base(dv))
             for bb in range(3):
-                re = sum(gp[bb, r] * qr[r][bb] for r in range(6) if gp[bb, r] != 0)
-                im = sum(gp[bb, r] * qi[r][bb] for r in range(6) if gp[bb, r] != 0)
+                re = sum(gp[bb][r] * qr[r][bb] for r in range(6) if nzp[bb][r])
+                im = sum(gp[bb][r] * qi[r][bb] for r in range(6) if nzp[bb][r])
                 diag.append(re * re + im * im)
         return ca.Function("table_peak", [dv, s, y, w, khr, khi], [ca.vertcat(*diag)])
 
@@ -365,12 +371,12 @@ class TableProblem(NLP):
         qr, qi, g2 = self._body(ca, dv, s, y, w, khr, khi)
         ms, diag = [], []
         for p in range(k):
-            gp = self.geo.points[p]
+            gp, nzp = slab_terms.base_point_rows(self.geo.points[p], self._base(dv))
             for bb in range(3):
                 acc = 0
                 for a in range(3):
-                    re = sum(gp[bb, r] * qr[r][a] for r in range(6) if gp[bb, r] != 0)
-                    im = sum(gp[bb, r] * qi[r][a] for r in range(6) if gp[bb, r] != 0)
+                    re = sum(gp[bb][r] * qr[r][a] for r in range(6) if nzp[bb][r])
+                    im = sum(gp[bb][r] * qi[r][a] for r in range(6) if nzp[bb][r])
                     t2 = re * re + im * im
                     acc = acc + t2 * bw[a * nb: (a + 1) * nb]
                     if a == bb:
@@ -400,7 +406,7 @@ class TableProblem(NLP):
         _, kv, _ = self._springs(ca, dv, s, y, w)
         kh, shift = self._kh(dv, w, khr, khi)
         d, _ = self._assemble(dv, kv, kh, w, shift)
-        mass = ca.DM(self.geo.mass.reshape(1, 36))
+        mass = slab_terms.base_mass_row(self.geo, self._base(dv))
         return ca.Function("table_k", [dv, s, y, w, khr, khi],
                            [(d.re + w * w * mass).T, d.im.T])
 
@@ -472,6 +478,9 @@ class TableProblem(NLP):
             sx, sy = self._scale(v)
             ex, ey = layout_extent(self.table)
             q["ln_footprint_area"] = ca.log(sx * sy * (ex * ey))
+        slab_parts = lever_nlp.base_objective_parts(self, v)  # added_mass (t)
+        if slab_parts:
+            q["added_mass_t"] = slab_parts["added_mass"]
         js, obj_cons = [], []
         for kind in self.objectives:
             jk, ocons = OBJECTIVES[kind].table(q)
@@ -519,12 +528,13 @@ class TableProblem(NLP):
                 ca.log(designs[list(lv.group_of).index(g)].total_volume_m3) for g in range(3)])
             cons.append(("max_total_volume_m3", vol, -np.inf,
                          math.log(c["max_total_volume_m3"])))
-        k0 = [static_stiffness(di, self.dia, float(mi))
+        slab = self._base(v)  # the inertia base: loads and mass follow its lever
+        k0 = [static_stiffness(di, self.dia, float(mi) * slab_terms.load_scale(slab))
               for di, mi in zip(designs, lv.mass_per_isolator_kg, strict=True)]
         ktot = sum(k0)
         lo, hi = c.get("min_natural_frequency_hz"), c.get("max_natural_frequency_hz")
         if lo or hi:
-            ln_f = 0.5 * ca.log(ktot / table.mass_kg / (2.0 * math.pi) ** 2)
+            ln_f = 0.5 * ca.log(ktot / slab_terms.body_mass(table, slab) / (2.0 * math.pi) ** 2)
             cons.append(("natural_frequency_hz", ln_f, math.log(lo) if lo else -np.inf,
                          math.log(hi) if hi else np.inf))
         smax = c.get("max_stroke_m")
@@ -532,14 +542,15 @@ class TableProblem(NLP):
             cons.append(("max_stroke_m", s + math.log(c.get("stroke_peak_factor") or 3.0),
                          -np.inf, math.log(smax)))
         mu = c.get("min_tilt_margin")
-        if mu and table.cg_height_m > 0:  # the analysis's verdict: z condensed, quasi-static
+        if mu and (table.cg_height_m > 0 or slab is not None):  # the analysis's verdict
             from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
 
             kq = [sealed_stiffness(di, self.dia, flow=self.flow) for di in designs]
-            rows = tilt_margin_rows(kq, table.vertical_points_m,
-                                    table.weight_n * table.cg_height_m, mu, self._scale(v))
+            wh, mu = slab_terms.tilt_bound(table, slab, mu)
+            rows = tilt_margin_rows(kq, table.vertical_points_m, wh, mu, self._scale(v))
             cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
         cons += layout_rows(self.table, c, self._scale(v), self._layout_free())
+        cons += slab_terms.load_rows_of(lv, c, slab)
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows
@@ -739,7 +750,8 @@ class TableProblem(NLP):
                 continue
             if np.max(np.abs(kz @ phi)) <= 1e-9 * np.max(np.abs(phi)) and not any(
                     self._lever_free(k) for k in ("pendulum_length_m", "lateral_loss_factor",
-                                                  "lateral_stiffness_n_per_m")):
+                                                  "lateral_stiffness_n_per_m",
+                                                  "inertia_base_mass_kg")):
                 # no vertical spring moves: the horizontal element alone damps this mode
                 # (a free lever of its stiffness is a design variable: the mode keeps its row)
                 if modes.damping_ratio[j] < zmin:

@@ -160,8 +160,10 @@ TABLE_LEVERS = ("pendulum_length_m", "elastic_centre_height_m", "lateral_stiffne
 #: The layout's levers (docs/table.md, "The layout as design variables"): the isolators'
 #: extent along x and y, the layout stretched about the CG's plan position.
 LAYOUT_LEVERS = ("layout_length_m", "layout_width_m")
+#: The inertia base's lever (docs/table.md, section 16): the slab's mass under the payload.
+BASE_LEVERS = ("inertia_base_mass_kg",)
 #: Every co-design lever of a table study, in the order of ``Study.levers`` and the NLP.
-CODESIGN_LEVERS = TABLE_LEVERS + LAYOUT_LEVERS
+CODESIGN_LEVERS = TABLE_LEVERS + LAYOUT_LEVERS + BASE_LEVERS
 #: Per-group spring levers (docs/table.md, section 15): ``<variable>_group<k>``, the design
 #: variable of leveling group ``k`` (1..3); a group the study does not name shares the spring.
 GROUP_SPRING_LEVERS = tuple(f"{v}_group{k}" for k in (1, 2, 3) for v in DESIGN_VARIABLES)
@@ -181,6 +183,7 @@ LAYOUT_LEVER_RANGE = (0.5, 1.5)
 TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
                      "lateral_stiffness_n_per_m": "N/m", "lateral_loss_factor": "-",
                      "layout_length_m": "m", "layout_width_m": "m",
+                     "inertia_base_mass_kg": "kg",
                      **{f"{v}_group{k}": DESIGN_VARIABLE_UNITS[v] for k in (1, 2, 3)
                         for v in DESIGN_VARIABLES}}
 #: Practical bounds of each lever (the defaults of a free lever's lower and upper): a
@@ -303,6 +306,12 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
             raise InputError(f"{where}: [variables.{name}] must be a table (start, lower, "
                              f"upper, fixed), got {spec!r:.40}")
         key = f"{where}: variables.{name}"
+        if name in BASE_LEVERS:  # the slab's mass (isodesign.table.inertia_base)
+            from isodesign.table.inertia_base import parse_base_lever
+
+            out.append(VariableSpec(name, *parse_base_lever(spec, table, key, hardware,
+                                                            constraints)))
+            continue
         fixed = spec.get("fixed", True)
         if not isinstance(fixed, bool):
             raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
@@ -357,11 +366,12 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
     out = tuple(out) + _group_levers(variables or {}, table, where)
     _check_group_diameters(table, out, constraints or {}, where)
     check_layout_feasible(table, out, constraints or {}, where)
-    _check_loads(table, constraints or {}, hardware, where)
+    _check_loads(table, constraints or {}, hardware, where, out)
     return out
 
 
-def _check_loads(table, constraints: dict, hardware: dict | None, where: str) -> None:
+def _check_loads(table, constraints: dict, hardware: dict | None, where: str,
+                 levers=()) -> None:
     """The leveled table's loads and group p0 against ``min_isolator_load_n``,
     ``max_isolator_load_n`` and ``supply_margin_pa`` (refused when no variable can meet
     them, as the problem refuses them)."""
@@ -373,9 +383,15 @@ def _check_loads(table, constraints: dict, hardware: dict | None, where: str) ->
     keys = ("min_isolator_load_n", "max_isolator_load_n", "supply_margin_pa")
     if hardware is None or not any(constraints.get(k) for k in keys):
         return
-    from isodesign.table.statics import check_load_constraints, level
+    from isodesign.table.statics import check_load_constraints, check_scaled_loads, level
 
+    base = next((v for v in levers if v.name in BASE_LEVERS and v.free), None)
     try:
+        if base is not None:  # the loads follow the slab: some mass in its bounds must do
+            m0 = table.mass_kg - base.start
+            check_scaled_loads(level(table, hardware["piston_area_m2"]), constraints, (
+                (m0 + base.lower) / table.mass_kg, (m0 + base.upper) / table.mass_kg))
+            return
         check_load_constraints(level(table, hardware["piston_area_m2"]), constraints)
     except InputError as exc:
         raise InputError(f"{where}: {exc}") from None
@@ -563,6 +579,11 @@ def table_with_levers(table, levers, values: dict | None = None):
             groups[g][base] = float(v)
     if groups != list(table.group_springs):
         out = dataclasses.replace(out, group_springs=groups)
+    base = vals.get("inertia_base_mass_kg")
+    if base is not None and table.inertia_base is not None and base != table.inertia_base.mass_kg:
+        from isodesign.table.inertia_base import with_base_mass
+
+        out = with_base_mass(out, float(base))
     return out
 
 
@@ -639,6 +660,8 @@ def fixed_lever_changes(table, levers, values: dict) -> dict:
            "variables": {k: {"fixed": True, "start": float(values[k])} for k in free}}
     if t.group_springs != table.group_springs:  # each group's own spring
         out["table"]["group_springs"] = [dict(g) for g in t.group_springs]
+    if "inertia_base_mass_kg" in free:
+        out["table"]["inertia_base"] = {"mass_kg": float(values["inertia_base_mass_kg"])}
     if t.isolators_m is not table.isolators_m:
         out["table"]["isolators_m"] = t.isolators_m.tolist()
         out["payload"] = {"spacing_m": narrowest_spacing_m(t)}

@@ -413,6 +413,10 @@ class Table:
     group_springs : sequence of 3 dicts, optional
         Per leveling group, the spring fields (:data:`SPRING_FIELDS`) in which its isolators
         differ from the shared spring (docs/table.md, section 15); default none.
+    inertia_base : InertiaBase, optional
+        The slab under the payload whose mass is included in ``mass_kg``, ``cg_m`` and
+        ``inertia_kg_m2`` (:mod:`isodesign.table.inertia_base`, docs/table.md section 16);
+        None: no slab.
     """
 
     mass_kg: float
@@ -426,6 +430,7 @@ class Table:
     supply_pressure_pa: float = DEFAULT_SUPPLY_PRESSURE_PA
     g_m_s2: float = G_STANDARD
     group_springs: Any = None
+    inertia_base: Any = None
 
     def __post_init__(self):
         s = object.__setattr__
@@ -497,6 +502,15 @@ class Table:
             "supply_pressure_pa", _real("supply_pressure_pa", self.supply_pressure_pa), P_ATM,
             None, lo_open=True, unit="Pa"))  # fmt: skip
         s(self, "group_springs", _group_springs(self.group_springs))
+        if self.inertia_base is not None:
+            from isodesign.table.inertia_base import InertiaBase
+
+            if not isinstance(self.inertia_base, InertiaBase):
+                raise InputError(f"inertia_base: expected an InertiaBase, got "
+                                 f"{type(self.inertia_base).__name__}")
+            if not self.inertia_base.mass_kg < self.mass_kg:
+                raise InputError(f"inertia_base: the slab's {self.inertia_base.mass_kg:g} kg "
+                                 f"must be part of mass_kg ({self.mass_kg:g} kg)")
         s(self, "g_m_s2", check_range("g_m_s2", _real("g_m_s2", self.g_m_s2), 0.0, 100.0,
                                       lo_open=True, unit="m/s^2"))  # fmt: skip
 
@@ -629,7 +643,9 @@ class Table:
             "supply_pressure_pa": self.supply_pressure_pa,
             "horizontal": self.horizontal.to_dict(),
         } | ({"group_springs": [dict(g) for g in self.group_springs]}
-             if any(self.group_springs) else {})
+             if any(self.group_springs) else {}) | (
+            {"inertia_base": self.inertia_base.to_dict()}
+            if self.inertia_base is not None and self.inertia_base.mass_kg > 0 else {})
 
 
 def _group_springs(value) -> tuple:

@@ -47,9 +47,13 @@ __all__ = [
     "QUASI_STATIC_FREQUENCY_HZ",
     "Leveling",
     "check_load_constraints",
+    "check_scaled_loads",
     "condensed_rocking_stiffness",
     "level",
+    "leveling_of_rows",
     "load_constraint_values",
+    "load_rows",
+    "scaled_leveling",
     "sealed_stiffness",
     "tilt_margin_rows",
 ]
@@ -203,7 +207,119 @@ def level(table: Table, piston_area_m2: float, *, p_atm_pa: float = P_ATM) -> Le
                     g_m_s2=table.g_m_s2, group_springs=table.group_springs)  # fmt: skip
 
 
-def load_constraint_values(leveling: Leveling, constraints: dict) -> list:
+def scaled_leveling(leveling: Leveling, scale: float) -> Leveling:
+    """The leveling of the same table with its weight scaled by ``scale`` (an inertia base
+    centred under the CG, docs/table.md section 16): loads and gauge pressures scale.
+
+    Parameters
+    ----------
+    leveling : Leveling
+    scale : float
+        ``m / m_start``.
+    """
+    import dataclasses
+
+    p_atm = leveling.pressure_pa - leveling.load_n / leveling.piston_area_m2
+    pa = float(np.mean(p_atm))
+    return dataclasses.replace(
+        leveling, group_load_n=leveling.group_load_n * scale, load_n=leveling.load_n * scale,
+        group_pressure_pa=pa + (leveling.group_pressure_pa - pa) * scale,
+        pressure_pa=pa + (leveling.pressure_pa - pa) * scale)
+
+
+def load_rows(leveling: Leveling, constraints: dict, scale) -> list:
+    """The load range and the supply as NLP rows when the loads follow a design variable
+    (the inertia base's ``scale = m / m_start``, a CasADi symbol; docs/table.md, section 16).
+
+    ``isolator_load_n``: every isolator's ``scale W_i`` in kN within ``[min, max]``
+    (``min_isolator_load_n``, ``max_isolator_load_n``, when given);
+    ``supply_pressure_pa``: every group's gauge p0 ``scale (p_g - p_atm)`` in bar at most
+    ``p_supply - supply_margin_pa - p_atm`` (always: the supply is a physical limit).
+    Linear in ``scale``: no division, no ``max``.
+
+    Parameters
+    ----------
+    leveling : Leveling
+        The start table's.
+    constraints : dict
+    scale : CasADi symbol
+
+    Returns
+    -------
+    list of (name, expression, lower, upper)
+    """
+    import casadi as ca
+
+    out = []
+    lo, hi = constraints.get("min_isolator_load_n"), constraints.get("max_isolator_load_n")
+    if lo or hi:
+        out.append(("isolator_load_n", ca.vertcat(*[scale * float(w) / 1e3
+                                                    for w in leveling.load_n]),
+                    lo / 1e3 if lo else -np.inf, hi / 1e3 if hi else np.inf))
+    p_atm = float(np.mean(leveling.pressure_pa - leveling.load_n / leveling.piston_area_m2))
+    cap = leveling.supply_pressure_pa - (constraints.get("supply_margin_pa") or 0.0) - p_atm
+    out.append(("supply_pressure_pa", ca.vertcat(*[scale * (float(p) - p_atm) / 1e5
+                                                   for p in leveling.group_pressure_pa]),
+                -np.inf, cap / 1e5))
+    return out
+
+
+def leveling_of_rows(prob, g) -> Leveling:
+    """The leveling at an NLP solution: the start's scaled by the inertia base's load scale
+    read from the ``supply_pressure_pa`` rows (the start's without them).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    g : ndarray
+        The constraint values.
+    """
+    lv = prob.leveling
+    for name, row, _m in prob.con_rows:
+        if name == "supply_pressure_pa":
+            p_atm = float(np.mean(lv.pressure_pa - lv.load_n / lv.piston_area_m2))
+            return scaled_leveling(lv, float(g[row]) * 1e5 / (float(lv.group_pressure_pa[0])
+                                                              - p_atm))
+    return lv
+
+
+def check_scaled_loads(leveling: Leveling, constraints: dict, scale_range: tuple) -> None:
+    """Refuse a study whose load and supply constraints no weight in ``scale_range`` meets
+    (a free inertia base: the loads scale by ``m / m_start``), naming the key.
+
+    Parameters
+    ----------
+    leveling : Leveling
+        The start table's.
+    constraints : dict
+    scale_range : (float, float)
+        ``m / m_start`` at the slab's lower and upper bounds.
+    """
+    s_lo, s_hi = scale_range
+    lo, hi = constraints.get("min_isolator_load_n"), constraints.get("max_isolator_load_n")
+    w = np.asarray(leveling.load_n, float)
+    if hi and float(w.max()) * s_lo > hi:
+        raise InputError(f"constraints.max_isolator_load_n: the heaviest isolator carries "
+                         f"{float(w.max()) * s_lo:.5g} N with the lightest inertia base "
+                         f"(variables.inertia_base_mass_kg.lower), above {hi:g} N")
+    if lo and float(w.min()) * s_hi < lo:
+        raise InputError(f"constraints.min_isolator_load_n: the lightest isolator carries "
+                         f"{float(w.min()) * s_hi:.5g} N with the heaviest inertia base "
+                         f"(variables.inertia_base_mass_kg.upper), below {lo:g} N")
+    if lo and hi and float(w.min()) / lo > 0 and hi / float(w.max()) < lo / float(w.min()):
+        raise InputError(f"constraints.min_isolator_load_n: no weight puts every isolator's "
+                         f"load in [{lo:g}, {hi:g}] N (the loads' spread is the CG's and the "
+                         "leveling groups', not the inertia base's)")
+    margin = constraints.get("supply_margin_pa") or 0.0
+    top = scaled_leveling(leveling, s_lo).group_pressure_pa.max()
+    if top > leveling.supply_pressure_pa - margin:
+        raise InputError(f"constraints.supply_margin_pa: a group needs p0 = {top:.5g} Pa with "
+                         "the lightest inertia base (variables.inertia_base_mass_kg.lower), "
+                         f"above the supply {leveling.supply_pressure_pa:.5g} Pa minus the "
+                         f"margin {margin:g} Pa")
+
+
+def load_constraint_values(leveling: Leveling, constraints: dict, supply: bool = False) -> list:
     """The load and supply constraints of a study on a leveled table, per isolator or group.
 
     ``min_isolator_load_n <= W_i <= max_isolator_load_n`` on every isolator's static load and
@@ -217,6 +333,8 @@ def load_constraint_values(leveling: Leveling, constraints: dict) -> list:
     leveling : Leveling
     constraints : dict
         The study's constraints.
+    supply : bool
+        Report the supply without a margin too (an NLP row with a free inertia base).
 
     Returns
     -------
@@ -231,10 +349,10 @@ def load_constraint_values(leveling: Leveling, constraints: dict) -> list:
         out.append((key, "isolator_load", np.asarray(leveling.load_n, float), lo or None,
                     hi or None, "N"))
     margin = constraints.get("supply_margin_pa")
-    if margin:
+    if margin or supply:
         out.append(("supply_margin_pa", "supply_pressure",
                     np.asarray(leveling.group_pressure_pa, float), None,
-                    float(leveling.supply_pressure_pa - margin), "Pa"))
+                    float(leveling.supply_pressure_pa - (margin or 0.0)), "Pa"))
     return out
 
 

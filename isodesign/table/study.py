@@ -25,6 +25,11 @@ Schema (docs/table.md, section 8)::
     line_resistance_pa_s_per_kg = 1.0e6
     sensor_positions_m = [[0.0, -0.4], [0.6, 0.4], [-0.6, 0.4]]   # default the centroids
     fed_chamber = "top"
+    [table.inertia_base]               # a slab under the payload (docs/table.md, s. 16)
+    mass_kg = 0.0                      # its mass (the lever variables.inertia_base_mass_kg)
+    density_kg_m3 = 2400.0             # concrete
+    size_m = [1.5, 1.0]                # plan size; default box_m's, else the isolators' extent
+    top_height_m = 0.0                 # its top face above the support plane
 
 The mass and gravity are the ``[payload]``'s; ``payload.isolators`` must match.
 """
@@ -45,7 +50,8 @@ __all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection",
 TABLE_KEYS = {
     "table": {"isolators_m", "cg_m", "inertia_kg_m2", "box_m", "leveling_groups",
               "instrument_points_m", "point_names", "supply_pressure_pa", "horizontal",
-              "objective_axes", "objective_points", "leveling", "group_springs"},
+              "objective_axes", "objective_points", "leveling", "group_springs",
+              "inertia_base"},
     "table.horizontal": {"pendulum_length_m", "lateral_stiffness_n_per_m",
                          "lateral_loss_factor", "elastic_centre_height_m"},
 }
@@ -301,11 +307,39 @@ def table_from_dict(d: dict, mass_kg: float, g_m_s2: float, where: str = "<dict>
         if msg.startswith("box_m"):
             raise InputError(f"{where}: table.{msg}") from None
         raise InputError(f"{where}: table.{msg}") from None
+    t = _with_base(d, t, where)
     if "leveling" in d:  # validated here (its errors name table.leveling.<key>)
         from isodesign.table.leveling import leveling_from_dict
 
         leveling_from_dict(d["leveling"], t, where)
     return t
+
+
+def _with_base(d: dict, t: Table, where: str) -> Table:
+    """The table with its inertia base (``[table.inertia_base]``; a slab of 0 kg when the
+    study has none, so the lever ``inertia_base_mass_kg`` can free it): default plan size
+    ``box_m``'s, else the isolators' extent (docs/table.md, section 16)."""
+    import dataclasses
+
+    from isodesign.table.inertia_base import (
+        MASS_RATIO_MAX,
+        SIZE_RANGE_M,
+        base_from_dict,
+        with_base_mass,
+    )
+    from isodesign.table.layout import layout_extent
+
+    size = tuple(float(v) for v in d["box_m"][:2]) if "box_m" in d else layout_extent(t)
+    lo, hi = SIZE_RANGE_M
+    if "inertia_base" not in d and not all(lo <= v <= hi for v in size):
+        return t  # no slab declared and no slab's plan size to default to (a unit slip?)
+    base = base_from_dict(d.get("inertia_base", {}), size, where)
+    if base.mass_kg > MASS_RATIO_MAX * t.mass_kg:
+        raise InputError(f"{where}: table.inertia_base.mass_kg = {base.mass_kg:g} kg is outside "
+                         f"[0, {MASS_RATIO_MAX * t.mass_kg:g}] kg (0 to {MASS_RATIO_MAX:g} "
+                         f"times the payload's {t.mass_kg:g} kg)")
+    t = dataclasses.replace(t, inertia_base=dataclasses.replace(base, mass_kg=0.0))
+    return with_base_mass(t, base.mass_kg) if base.mass_kg else t
 
 
 def objective_selection(d: dict, table: Table) -> tuple[tuple[int, ...], tuple[int, ...]]:
@@ -393,6 +427,10 @@ def payload_from_table(payload: dict, given, table: Table, where: str = "") -> d
     out["isolators"] = table.n_isolators
     h = payload.get("cg_height_m")
     tz = float(table.cg_height_m)
+    if table.inertia_base is not None and table.inertia_base.mass_kg:  # table.cg_m as written
+        from isodesign.table.inertia_base import payload_body
+
+        tz = float(payload_body(table)[1])
     if ("cg_height_m" in given and h is not None and abs(tz) <= LENGTH_PLAUSIBLE_M
             and _num_ok(h) and abs(h - tz) > PAYLOAD_AGREEMENT * max(abs(tz), 1e-3)):
         raise InputError(f"{head}payload.cg_height_m = {h:g} m but table.cg_m puts the centre "

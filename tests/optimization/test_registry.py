@@ -32,11 +32,13 @@ def test_feasible_is_judged_by_the_one_tolerance():
 
 def test_every_study_objective_is_registered_with_its_sense_and_unit():
     assert list(OBJECTIVES) == ["worst_band_margin", "rms_velocity", "peak_transmissibility",
-                                "transmissibility_at", "total_volume", "footprint_area"]
+                                "transmissibility_at", "total_volume", "footprint_area",
+                                "added_mass"]
     assert [k for k, o in OBJECTIVES.items() if o.maximized] == ["worst_band_margin"]
     assert {k: o.unit for k, o in OBJECTIVES.items()} == {
         "worst_band_margin": "dB", "rms_velocity": "m/s", "peak_transmissibility": "dB",
-        "transmissibility_at": "dB", "total_volume": "m^3", "footprint_area": "m^2"}
+        "transmissibility_at": "dB", "total_volume": "m^3", "footprint_area": "m^2",
+        "added_mass": "kg"}
     for kind in OBJECTIVES:  # every registered objective is a valid study objective
         st = vertical_study().with_changes(objective={"kind": kind, "frequency_hz": 10.0})
         assert st.objective["kind"] == kind
@@ -44,7 +46,8 @@ def test_every_study_objective_is_registered_with_its_sense_and_unit():
 
 @pytest.mark.parametrize("kind,natural", [
     ("worst_band_margin", 5.0), ("worst_band_margin", -3.0), ("peak_transmissibility", 14.0),
-    ("transmissibility_at", -20.0), ("rms_velocity", 3e-6), ("total_volume", 6e-3)])
+    ("transmissibility_at", -20.0), ("rms_velocity", 3e-6), ("total_volume", 6e-3),
+    ("added_mass", 250.0)])
 def test_internal_and_natural_values_are_inverse(kind, natural):
     o = OBJECTIVES[kind]
     j = o.from_natural(natural)
