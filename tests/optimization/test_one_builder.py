@@ -93,7 +93,8 @@ def test_the_table_body_takes_its_objectives_from_the_one_registry(small_table_s
     from isodesign.optimization.problem import Problem
     from isodesign.optimization.table_problem import TABLE_OBJECTIVES
 
-    assert TABLE_OBJECTIVES == ("worst_band_margin", "total_volume", "footprint_area")
+    assert TABLE_OBJECTIVES == ("worst_band_margin", "total_volume", "footprint_area",
+                                "added_mass")
     assert all(OBJECTIVES[k].table is not None for k in TABLE_OBJECTIVES)
     # a registered objective without a table form is refused by name, before any build
     with pytest.raises(InputError, match=r"objective\.kind: 'rms_velocity'"):
