@@ -53,6 +53,8 @@ __all__ = ["SweepResult", "sweep"]
 KIND = "isodesign sweep"
 POINTS = "points"
 CHARTS = "charts"
+#: The binding map's file in the charts directory (a sweep of two or more keys).
+BINDING_MAP = "binding_map.png"
 LOCK = ".sweep.lock"
 #: Entries of a sweep directory that a sweep writes (an overwrite removes only these).
 OWNED = (RECORD_NAME, TABLE_NAME, "study_base.toml", POINTS, CHARTS, LOCK)
@@ -132,6 +134,24 @@ class SweepResult(ResultDisplay):
         from isodesign.plotting.sweep import design_chart
 
         return design_chart(self.table, self.keys, objective=objective)
+
+    def binding_map(self, x: str | None = None, y: str | None = None):
+        """The binding set of every point as categories over two swept keys, one panel per
+        value of the others, the boundaries where the set changes drawn
+        (:func:`isodesign.plotting.sweep.binding_map`; ``OUTDIR/charts/binding_map.png``).
+
+        Parameters
+        ----------
+        x, y : str, optional
+            Swept keys for the axes (default: the numeric keys with the most values).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from isodesign.plotting.sweep import binding_map
+
+        return binding_map(self.table, self.keys, x=x, y=y)
 
 
 # ---------------------------------------------------------------------------------------
@@ -715,13 +735,24 @@ def _finish(target, rec, rows, pts, status, where, keys, charts, error=None) -> 
 def _write_charts(target: Path, df, keys) -> list[str]:
     from isodesign.io.files import atomic_path
     from isodesign.plotting.style import save_figure
-    from isodesign.plotting.sweep import chart_objectives, design_chart
+    from isodesign.plotting.sweep import (
+        binding_map,
+        chart_objectives,
+        design_chart,
+        has_binding_map,
+    )
 
     out = []
     (target / CHARTS).mkdir(exist_ok=True)
     for obj in chart_objectives(df):
         fig = design_chart(df, keys, objective=obj)
         name = f"{CHARTS}/{obj}.png"
+        with atomic_path(target / name) as tmp:
+            save_figure(fig, tmp, dpi=110)
+        out.append(name)
+    if has_binding_map(df, keys):
+        fig = binding_map(df, keys)
+        name = f"{CHARTS}/{BINDING_MAP}"
         with atomic_path(target / name) as tmp:
             save_figure(fig, tmp, dpi=110)
         out.append(name)

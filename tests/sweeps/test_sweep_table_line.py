@@ -1,0 +1,195 @@
+"""A sweep of the built-in table (``table_study()``) over payload mass and CG height: the
+continuation along the mass line, an interrupt (an event: the second finished point) and
+its resume giving the uninterrupted table, the binding map showing each point's binding
+set as its result flags it, and the report's section of that map."""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+import pytest
+
+import isodesign
+from isodesign.optimization.study import table_study
+from isodesign.plotting.sweep import NO_DESIGN, binding_map, binding_map_data, map_axes
+
+#: Two masses x two CG heights of the table study, on a coarse grid, two starts per point.
+VARY = ["payload.mass_kg=450,650", "payload.cg_height_m=0.25,0.45"]
+#: The columns an interrupted and resumed sweep must share with an uninterrupted one.
+SAME = ("status", "feasible", "objective_value", "volume_ratio", "top_volume_m3",
+        "capillary_length_m", "capillary_diameter_m", "binding", "neighbour_starts",
+        "from_neighbour", "branch_changed")
+
+
+def _cheap_table():
+    return table_study().with_changes(models={"points_per_band": 3, "peak_points": 20},
+                                      solver={"starts": 2})
+
+
+@pytest.fixture(scope="module")
+def table_line(tmp_path_factory):
+    """The uninterrupted sweep (serial: the same points and chains as a cluster's)."""
+    out = tmp_path_factory.mktemp("table_line") / "whole"
+    return isodesign.sweep(_cheap_table(), vary=VARY, output=out, scheduler="serial")
+
+
+def _by_point(df):
+    return df.set_index("point").sort_index()
+
+
+@pytest.mark.slow
+def test_table_points_continue_along_the_mass_line(table_line):
+    df = table_line.table
+    assert len(df) == 4 and set(df["question"]) == {"table"}
+    assert set(df["status"]) <= {"complete", "infeasible"}, df[["status", "error"]]
+    continued = 0
+    for h in (0.25, 0.45):
+        light, heavy = (r for _, r in df[df["payload.cg_height_m"] == h]
+                        .sort_values("payload.mass_kg").iterrows())
+        assert light["neighbour_starts"] == 0  # a line's first point: its own starts
+        if light["status"] != "complete" or not light["feasible"]:
+            assert heavy["neighbour_starts"] == 0  # no design to start from
+            continue
+        # the heavier point's first start is the lighter one's optimum
+        assert heavy["neighbour_starts"] == 1
+        continued += 1
+        solved = isodesign.load_study(table_line.directory / heavy["run_dir"]
+                                      / "study_resolved.toml")
+        start = {v.name: v.start for v in solved.variables}
+        for k in ("volume_ratio", "top_volume_m3", "capillary_length_m",
+                  "capillary_diameter_m"):
+            assert start[k] == pytest.approx(light[k], rel=1e-9)
+    assert continued >= 1
+    # the point's identity is its own study (a rerun reuses every point, solves none)
+    again = isodesign.sweep(_cheap_table(), vary=VARY, output=table_line.directory,
+                            scheduler="serial")
+    assert again.ran == 0 and again.reused == 4
+
+
+@pytest.mark.slow
+def test_an_interrupted_table_sweep_resumes_to_the_uninterrupted_table(table_line, tmp_path):
+    out = tmp_path / "cut"
+    seen = []
+
+    def stop_after_two(done, total, row, running):
+        if row is not None:
+            seen.append(row["point"])
+            if len(seen) == 2:  # the event: the second point has finished
+                raise KeyboardInterrupt
+
+    with pytest.raises(KeyboardInterrupt):
+        isodesign.sweep(_cheap_table(), vary=VARY, output=out, scheduler="serial",
+                        progress=stop_after_two)
+    rec = json.loads((out / "record.json").read_text(encoding="utf-8"))
+    assert rec["run_status"] == "interrupted"
+    cut = isodesign.sweeps.read_table(out)
+    assert sorted(cut["point"]) == sorted(seen)
+    res = isodesign.sweep(_cheap_table(), vary=VARY, output=out, scheduler="serial")
+    assert res.status == "complete" and res.reused == 2 and res.ran == 2
+    a, b = _by_point(table_line.table), _by_point(res.table)
+    assert list(a.index) == list(b.index)
+    for col in SAME:
+        if a[col].dtype.kind == "f":
+            np.testing.assert_allclose(b[col].to_numpy(float), a[col].to_numpy(float),
+                                       rtol=1e-6, err_msg=col)
+        else:
+            assert list(b[col]) == list(a[col]), col
+
+
+def _flags(directory, run_dir) -> set[str]:
+    """The binding set a point's result flags: its binding constraints (design.json) and
+    its variables at a bound."""
+    d = json.loads((directory / run_dir / "design.json").read_text(encoding="utf-8"))
+    names = {c["name"] for c in d["constraints"] if c.get("binding")}
+    names |= {f"{k}={v['at_bound']}" for k, v in d["variables"].items() if v.get("at_bound")}
+    return names
+
+
+@pytest.mark.slow
+def test_the_binding_map_shows_each_points_binding_flags(table_line):
+    df, keys = table_line.table, list(table_line.keys)
+    data = binding_map_data(df, keys)
+    assert map_axes(df, keys) == ("payload.mass_kg", "payload.cg_height_m", [])
+    assert len(data) == 4
+    for _, r in data.iterrows():
+        row = df[df["point"] == r["point"]].iloc[0]
+        if r["category"] == NO_DESIGN:  # infeasible, or a constraint broken at the check
+            assert not row["feasible"] or row["status"] == "infeasible"
+            continue
+        shown = set(r["category"].split(";")) - {"none binding"}
+        assert shown == _flags(table_line.directory, row["run_dir"]), r["point"]
+    # the figure's cells hold the same categories (the codes index the legend's order)
+    fig = table_line.binding_map()
+    mesh = next(c for c in fig.axes[0].collections if hasattr(c, "get_array"))
+    codes = np.ma.filled(mesh.get_array(), -1).reshape(2, 2)  # rows: CG, columns: mass
+    for _, r in data.iterrows():
+        i = [0.25, 0.45].index(r["payload.cg_height_m"])
+        j = [450, 650].index(r["payload.mass_kg"])
+        assert fig.binding_categories[codes[i, j]] == r["category"]
+    assert (table_line.directory / "charts" / "binding_map.png").is_file()
+
+
+@pytest.mark.slow
+def test_the_sweep_report_has_the_binding_map(table_line, tmp_path):
+    out = tmp_path / "r.html"
+    isodesign.report(table_line.directory, out)
+    html = out.read_text(encoding="utf-8")
+    assert "Where the binding set changes" in html
+    assert html.count("<svg") == 2  # the design chart and the binding map
+    n_sets = binding_map_data(table_line.table, list(table_line.keys))["category"].nunique()
+    assert f"{n_sets} distinct sets" in html
+    assert "<strong>payload.mass_kg</strong> and <strong>payload.cg_height_m</strong>" in html
+
+
+def _synthetic():
+    """Three masses x two CG heights x two floors; the set changes once along the mass on
+    VC-A and nowhere on VC-B; one point infeasible, one changed branch."""
+    import pandas as pd
+
+    rows = []
+    for floor in ("VC-A", "VC-B"):
+        for h in (0.2, 0.4):
+            for m in (400, 500, 600):
+                b = "total_volume;peak_transmissibility" if floor == "VC-A" and m > 450 \
+                    else "volume_ratio=upper"
+                rows.append({"point": f"{floor}-{h}-{m}", "payload.mass_kg": m,
+                             "payload.cg_height_m": h, "floor.criterion": floor,
+                             "task": "optimize", "objective": "worst_band_margin",
+                             "status": "complete", "feasible": (floor, h, m) != ("VC-B", 0.4,
+                                                                                  600),
+                             "binding": b, "branch_changed": (floor, h, m) == ("VC-A", 0.2,
+                                                                               500)})
+    return pd.DataFrame(rows)
+
+
+def test_the_binding_map_facets_by_the_third_key_and_draws_the_boundaries():
+    df = _synthetic()
+    keys = ["payload.mass_kg", "payload.cg_height_m", "floor.criterion"]
+    assert map_axes(df, keys) == ("payload.mass_kg", "payload.cg_height_m",
+                                  ["floor.criterion"])
+    data = binding_map_data(df, keys)
+    assert sorted(set(data["facet"])) == ["floor.criterion=VC-A", "floor.criterion=VC-B"]
+    assert data.loc[data["point"] == "VC-B-0.4-600", "category"].item() == NO_DESIGN
+    fig = binding_map(df, keys)
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    assert [ax.get_title() for ax in axes] == ["floor.criterion=VC-A", "floor.criterion=VC-B"]
+
+    def segments(ax):
+        from matplotlib.collections import LineCollection
+
+        return [s for c in ax.collections if isinstance(c, LineCollection)
+                for s in c.get_segments()]
+
+    # VC-A: the set changes between 400 and 500 kg at both heights: two vertical edges at
+    # the cells' shared edge (450 kg); VC-B: only around the infeasible corner (two edges)
+    a = segments(axes[0])
+    assert len(a) == 2 and all(np.allclose(s[:, 0], 450.0) for s in a)
+    assert len(segments(axes[1])) == 2
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]
+    assert "total_volume, peak_transmissibility" in legend and NO_DESIGN in legend
+    assert any(t.startswith("branch changed") for t in legend)
+    dots = [ln for ln in axes[0].get_lines() if ln.get_marker() == "o"]
+    assert len(dots) == 1 and list(dots[0].get_xdata()) == [500.0]
+    with pytest.raises(isodesign.InputError, match="no swept key"):
+        binding_map(df, keys, x="payload.spacing_m")
