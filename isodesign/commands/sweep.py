@@ -174,7 +174,6 @@ def run(args) -> int:
     """Run ``isodesign sweep``."""
     import signal
 
-    from isodesign.commands.pareto import parse_objectives
     from isodesign.errors import InputError
     from isodesign.optimization.study import default_study, load_study
     from isodesign.sweeps.runner import sweep
@@ -185,6 +184,10 @@ def run(args) -> int:
         check_count(args.pareto_points, "--pareto-points", 2, 500)
     options = {}
     if args.task == "pareto":
+        # imported only here: isodesign.commands.pareto imports the optimize and response
+        # commands (about a second), which a sweep's own process does not need
+        from isodesign.commands.pareto import parse_objectives
+
         options = {"objectives": list(parse_objectives(args.objectives))
                    if args.objectives else None, "points": args.pareto_points}
     elif args.objectives or args.pareto_points:

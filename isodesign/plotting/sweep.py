@@ -357,7 +357,7 @@ def _label_of(category: str) -> str:
 
 
 def binding_map(df, keys, *, x: str | None = None, y: str | None = None,
-                title: str | None = None, ncols: int | None = None):
+                title: str | None = None, ncols: int | None = None, order=None):
     """The binding constraint set of every point as categories over two swept keys.
 
     One panel per combination of the other swept keys (the facets); in each, one cell per
@@ -377,6 +377,11 @@ def binding_map(df, keys, *, x: str | None = None, y: str | None = None,
     title : str, optional
     ncols : int, optional
         Panels per row (default up to 3).
+    order : dict, optional
+        Each key's values in the sweep's order (``record.json["sweep"]["values"]``,
+        :attr:`isodesign.sweeps.SweepResult.values`): the axes span every value (a point
+        not run yet is a blank cell) and text values and panels follow it. Default: the
+        values in the table, numbers sorted, text in order of appearance.
 
     Returns
     -------
@@ -401,12 +406,32 @@ def binding_map(df, keys, *, x: str | None = None, y: str | None = None,
     cmap = ListedColormap(colours)
     norm = BoundaryNorm(np.arange(len(cats) + 1) - 0.5, len(cats))
     code = {c: i for i, c in enumerate(cats)}
-    xv = _ordered(data[x])
-    yv = _ordered(data[y]) if y else [0]
+    order = dict(order or {})
+
+    def values(k):
+        given = [v for v in order.get(k) or () if not isinstance(v, bool)]
+        seen = _ordered(data[k])
+        if given and set(seen) <= set(given):
+            return sorted(given) if _numeric(given) else list(given)
+        return seen
+
+    xv = values(x)
+    yv = values(y) if y else [0]
     xnum, ynum = _numeric(xv), (y is not None and _numeric(yv))
     xe = _edges(xv if xnum else range(len(xv)))
     ye = _edges(yv if ynum else range(len(yv)))
     panels = list(dict.fromkeys(data["facet"]))
+    if len(facets) == 1 and order.get(facets[0]):  # every value a panel, run or not
+        panels += [f"{facets[0]}={v}" for v in values(facets[0])
+                   if f"{facets[0]}={v}" not in panels]
+    if facets:  # the panels in the sweep's order of the facet keys' values
+        rank = [{v: i for i, v in enumerate(values(k))} for k in facets]
+        first = {f: tuple(r.get(v, len(r)) for r, v in zip(rank, row, strict=True))
+                 for f, row in zip(data["facet"], zip(*(data[k] for k in facets),
+                                                      strict=True), strict=True)}
+        if len(facets) == 1:
+            first.update({f"{facets[0]}={v}": (i,) for v, i in rank[0].items()})
+        panels.sort(key=lambda f: first[f])
     ncols = max(1, min(ncols or 3, len(panels)))
     nrows = math.ceil(len(panels) / ncols)
     fig = new_figure(max(3.6 * ncols + 0.6, 8.0),
@@ -454,7 +479,10 @@ def binding_map(df, keys, *, x: str | None = None, y: str | None = None,
         ax.set_xlabel(x)
     for ax in axes[::ncols]:
         ax.set_ylabel(y or "")
-    handles = [Patch(facecolor=colours[i], edgecolor="0.3", label=_label_of(c))
+    import textwrap
+
+    handles = [Patch(facecolor=colours[i], edgecolor="0.3",
+                     label=textwrap.fill(_label_of(c), 62, subsequent_indent="  "))
                for i, c in enumerate(cats)]
     if data["branch_changed"].any():
         from matplotlib.lines import Line2D

@@ -99,7 +99,8 @@ def sweep_context(directory, *, command=None, title=None) -> dict:
 
         x, y, facets = map_axes(df, keys)
         data = binding_map_data(df, keys)
-        binding = {"svg": figure_svg(binding_map(df, keys)), "x": x, "y": y,
+        order = sw.get("values")
+        binding = {"svg": figure_svg(binding_map(df, keys, order=order)), "x": x, "y": y,
                    "facets": ", ".join(facets), "points": len(data),
                    "sets": int(data["category"].nunique()),
                    "changed": int(data["branch_changed"].sum())}

@@ -62,9 +62,18 @@ def test_table_points_continue_along_the_mass_line(table_line):
             assert start[k] == pytest.approx(light[k], rel=1e-9)
     assert continued >= 1
     # the point's identity is its own study (a rerun reuses every point, solves none)
+    charts = sorted((table_line.directory / "charts").glob("*.png"))
+    assert [c.name for c in charts] == ["binding_map.png", "worst_band_margin.png"]
+    drawn = [c.stat().st_mtime_ns for c in charts]
     again = isodesign.sweep(_cheap_table(), vary=VARY, output=table_line.directory,
                             scheduler="serial")
     assert again.ran == 0 and again.reused == 4
+    # nothing ran: the charts drawn after the last point are kept, not drawn again
+    assert [c.stat().st_mtime_ns for c in charts] == drawn
+    rec = json.loads((table_line.directory / "record.json").read_text(encoding="utf-8"))
+    assert rec["charts"] == ["charts/worst_band_margin.png", "charts/binding_map.png"]
+    assert rec["sweep"]["values"] == {"payload.mass_kg": [450, 650],
+                                      "payload.cg_height_m": [0.25, 0.45]}
 
 
 @pytest.mark.slow
@@ -193,3 +202,41 @@ def test_the_binding_map_facets_by_the_third_key_and_draws_the_boundaries():
     assert len(dots) == 1 and list(dots[0].get_xdata()) == [500.0]
     with pytest.raises(isodesign.InputError, match="no swept key"):
         binding_map(df, keys, x="payload.spacing_m")
+
+
+def test_a_table_sweeps_cg_height_moves_the_tables_cg():
+    from isodesign.optimization.study import vertical_study
+    from isodesign.sweeps.spec import build_points, combine, parse_vary
+
+    base = table_study()
+    pts, _ = build_points(base, combine([parse_vary("payload.cg_height_m=0.2,0.5")]))
+    for p, h in zip(pts, (0.2, 0.5), strict=True):
+        assert p.study.raw["table"]["cg_m"] == [0.0, 0.0, h]  # over the same x, y
+        assert p.study.table.cg_height_m == pytest.approx(h)
+        assert p.study.raw["payload"]["cg_height_m"] == h
+        # the instrument points stay on the table top
+        assert p.study.raw["table"]["instrument_points_m"] == \
+            base.raw["table"]["instrument_points_m"]
+    # a point that gives both must make them agree (the study's own check)
+    with pytest.raises(isodesign.InputError, match="disagree"):
+        build_points(base, [{"payload.cg_height_m": 0.3, "table.cg_m": [0.0, 0.0, 0.4]}])
+    # a vertical study has no table: its CG height is the payload's alone
+    (v,), _ = build_points(vertical_study(), [{"payload.cg_height_m": 0.5}])
+    assert v.study.raw.get("table") is None and v.study.raw["payload"]["cg_height_m"] == 0.5
+
+
+def test_the_binding_map_spans_the_sweeps_values_and_orders_its_panels():
+    df = _synthetic()
+    keys = ["payload.mass_kg", "payload.cg_height_m", "floor.criterion"]
+    part = df[df["payload.mass_kg"] < 600]  # the 600 kg column not run yet
+    order = {"payload.mass_kg": [400, 500, 600], "payload.cg_height_m": [0.2, 0.4],
+             "floor.criterion": ["VC-B", "VC-A", "VC-C"]}
+    fig = binding_map(part, keys, order=order)
+    axes = [ax for ax in fig.axes if ax.get_visible()]
+    # the panels in the sweep's order, VC-C (no point yet) blank
+    assert [ax.get_title() for ax in axes] == [f"floor.criterion={f}" for f in
+                                               ("VC-B", "VC-A", "VC-C")]
+    mesh = next(c for c in axes[0].collections if hasattr(c, "get_array"))
+    arr = mesh.get_array()
+    assert arr.shape == (2, 3) and arr.mask[:, 2].all() and not arr.mask[:, :2].any()
+    assert axes[0].get_xlim() == (350.0, 650.0)
