@@ -9,8 +9,11 @@ robust design) as one Dask task: on a LocalCluster of this machine's cores (127.
 no dashboard), or on the scheduler of --scheduler / DASK_SCHEDULER_ADDRESS. Writes, as
 each point finishes, its run directory OUTDIR/points/HASH/ (docs/cli.md contract) and
 the table OUTDIR/sweep.parquet (one row per point, written whole each time); at the end
-the design charts OUTDIR/charts/OBJECTIVE.png. A rerun of the same sweep skips finished
-points (matched by the resolved study's hash) and runs only new or failed ones; a worker
+the design charts OUTDIR/charts/OBJECTIVE.png and, for two or more swept keys, the binding
+map OUTDIR/charts/binding_map.png (the binding set per point over two keys, one panel per
+value of the others, the boundaries where it changes drawn). A rerun of the same sweep
+skips finished points (matched by the resolved study's hash) and runs only new or failed
+ones; a worker
 that dies loses nothing (its task is retried elsewhere); a point that fails twice is
 recorded failed with its error. Render with: isodesign report OUTDIR -o report.html.
 See docs/sweep.md. Exit status 0: every point finished; 1: some point failed; 2: bad

@@ -309,9 +309,22 @@ def binding_map_data(df, keys, *, x: str | None = None, y: str | None = None):
         order; :data:`NO_BINDING` when nothing binds, :data:`NO_DESIGN` without a
         feasible design or with status ``infeasible``, a constraint broken at the
         optimum's check; :data:`FAILED` for a failed point) and ``branch_changed``.
+
+    Raises
+    ------
+    InputError
+        The table's points have no binding sets (not the ``optimize`` task), or ``x`` /
+        ``y`` is no swept key (:func:`map_axes`).
     """
     import pandas as pd
 
+    from isodesign.errors import InputError
+
+    tasks = set(df["task"].dropna()) if "task" in df else {"optimize"}
+    if "binding" not in df or "optimize" not in tasks:
+        raise InputError(f"binding map: the sweep's points have no binding sets (task "
+                         f"{', '.join(sorted(map(str, tasks))) or 'none'}); the optimize "
+                         "task's points have them")
     objs = chart_objectives(df)
     if objs:
         df = df[(df["objective"] == objs[0]) | df["objective"].isna()]
@@ -388,6 +401,11 @@ def binding_map(df, keys, *, x: str | None = None, y: str | None = None,
     matplotlib.figure.Figure
         Each panel's cells are a ``QuadMesh`` whose array holds the category codes, the
         index of the category in the figure legend's labels (masked: no point).
+
+    Raises
+    ------
+    InputError
+        As :func:`binding_map_data`.
     """
     from matplotlib.collections import LineCollection
     from matplotlib.colors import BoundaryNorm, ListedColormap

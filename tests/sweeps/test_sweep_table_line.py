@@ -202,6 +202,8 @@ def test_the_binding_map_facets_by_the_third_key_and_draws_the_boundaries():
     assert len(dots) == 1 and list(dots[0].get_xdata()) == [500.0]
     with pytest.raises(isodesign.InputError, match="no swept key"):
         binding_map(df, keys, x="payload.spacing_m")
+    with pytest.raises(isodesign.InputError, match=r"no binding sets \(task response\)"):
+        binding_map(df.assign(task="response"), keys)
 
 
 def test_a_table_sweeps_cg_height_moves_the_tables_cg():
