@@ -242,3 +242,64 @@ def test_the_binding_map_spans_the_sweeps_values_and_orders_its_panels():
     arr = mesh.get_array()
     assert arr.shape == (2, 3) and arr.mask[:, 2].all() and not arr.mask[:, :2].any()
     assert axes[0].get_xlim() == (350.0, 650.0)
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not __import__("sys").platform.startswith("linux"),
+                    reason="process groups and signals as on Linux")
+def test_a_table_sweep_on_a_local_cluster_interrupted_by_sigint_resumes_to_the_same_table(
+        table_line, tmp_path):
+    """``isodesign sweep`` of the table on a local Dask cluster (one worker: the chains in
+    order), SIGINT to its process group at the event of its first finished point (the
+    point's row in place), exit 130; the same command again finishes it, and the table
+    equals the uninterrupted one."""
+    import os
+    import signal
+    import subprocess
+    import sys
+    import time
+    from pathlib import Path
+
+    from isodesign.io.record import study_toml
+
+    study = tmp_path / "table.toml"
+    study.write_text(study_toml(_cheap_table()), encoding="utf-8")
+    out = tmp_path / "sw"
+    env = dict(os.environ)
+    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2]) + os.pathsep + \
+        env.get("PYTHONPATH", "")
+    env.pop("DASK_SCHEDULER_ADDRESS", None)
+    cmd = [sys.executable, "-m", "isodesign", "sweep", str(study), *(
+        a for v in VARY for a in ("--vary", v)), "--workers", "1", "-o", str(out),
+        "--quiet", "--no-plots"]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            env=env, start_new_session=True)
+    t0 = time.monotonic()
+    while not any(q for q in (out / "points").glob("*/sweep_point.json")
+                  if not q.parent.name.startswith(".")):  # the event: a point in place
+        if proc.poll() is not None or time.monotonic() - t0 > 600:
+            proc.kill()
+            pytest.fail(f"no point finished (status {proc.returncode}): "
+                        f"{proc.communicate()[1]}")
+        time.sleep(0.01)
+    os.killpg(proc.pid, signal.SIGINT)
+    _, err = proc.communicate(timeout=120)
+    rec = json.loads((out / "record.json").read_text(encoding="utf-8"))
+    if proc.returncode == 0:  # the interrupt came after the last point: nothing to resume
+        pytest.skip("every point had finished before the interrupt arrived")
+    assert proc.returncode == 130 and rec["run_status"] == "interrupted", err
+    cut = isodesign.sweeps.read_table(out)
+    assert 1 <= len(cut) < 4
+    again = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=900)
+    assert again.returncode == 0, again.stderr
+    res = isodesign.sweeps.read_table(out)
+    cols = ["payload.mass_kg", "payload.cg_height_m"]
+    a = table_line.table.set_index(cols).sort_index()
+    b = res.set_index(cols).sort_index()
+    assert list(a.index) == list(b.index)
+    for col in SAME:
+        if a[col].dtype.kind == "f":
+            np.testing.assert_allclose(b[col].to_numpy(float), a[col].to_numpy(float),
+                                       rtol=1e-6, err_msg=col)
+        else:
+            assert list(b[col]) == list(a[col]), col
