@@ -9,8 +9,11 @@ robust design) as one Dask task: on a LocalCluster of this machine's cores (127.
 no dashboard), or on the scheduler of --scheduler / DASK_SCHEDULER_ADDRESS. Writes, as
 each point finishes, its run directory OUTDIR/points/HASH/ (docs/cli.md contract) and
 the table OUTDIR/sweep.parquet (one row per point, written whole each time); at the end
-the design charts OUTDIR/charts/OBJECTIVE.png. A rerun of the same sweep skips finished
-points (matched by the resolved study's hash) and runs only new or failed ones; a worker
+the design charts OUTDIR/charts/OBJECTIVE.png and, for two or more swept keys, the binding
+map OUTDIR/charts/binding_map.png (the binding set per point over two keys, one panel per
+value of the others, the boundaries where it changes drawn). A rerun of the same sweep
+skips finished points (matched by the resolved study's hash) and runs only new or failed
+ones; a worker
 that dies loses nothing (its task is retried elsewhere); a point that fails twice is
 recorded failed with its error. Render with: isodesign report OUTDIR -o report.html.
 See docs/sweep.md. Exit status 0: every point finished; 1: some point failed; 2: bad
@@ -174,7 +177,6 @@ def run(args) -> int:
     """Run ``isodesign sweep``."""
     import signal
 
-    from isodesign.commands.pareto import parse_objectives
     from isodesign.errors import InputError
     from isodesign.optimization.study import default_study, load_study
     from isodesign.sweeps.runner import sweep
@@ -185,6 +187,10 @@ def run(args) -> int:
         check_count(args.pareto_points, "--pareto-points", 2, 500)
     options = {}
     if args.task == "pareto":
+        # imported only here: isodesign.commands.pareto imports the optimize and response
+        # commands (about a second), which a sweep's own process does not need
+        from isodesign.commands.pareto import parse_objectives
+
         options = {"objectives": list(parse_objectives(args.objectives))
                    if args.objectives else None, "points": args.pareto_points}
     elif args.objectives or args.pareto_points:

@@ -3,7 +3,9 @@
 ``isodesign report SWEEP_DIR -o report.html`` (:func:`isodesign.reporting.render.report`
 with one sweep directory) renders ``templates/sweep.html.j2``: what was swept and how it
 ran, one design chart per objective (:func:`isodesign.plotting.sweep.design_chart`, inline
-SVG), the table of every point (swept keys, status, objective, the optimum's variables,
+SVG), the binding map of a sweep over two or more keys (the binding set per point over two
+swept keys, faceted by the others: :func:`isodesign.plotting.sweep.binding_map`), the table
+of every point (swept keys, status, objective, the optimum's variables,
 worst-band margin, binding constraints, time, worker), the failed points with their
 errors, and the provenance. Self-contained like every report: no script, no external
 resource.
@@ -89,6 +91,19 @@ def sweep_context(directory, *, command=None, title=None) -> dict:
         n = int((df["objective"] == obj).sum())
         charts.append({"objective": obj, "points": n,
                        "svg": figure_svg(design_chart(df, keys, objective=obj))})
+    binding = None
+    from isodesign.plotting.sweep import has_binding_map
+
+    if has_binding_map(df, keys):
+        from isodesign.plotting.sweep import binding_map, binding_map_data, map_axes
+
+        x, y, facets = map_axes(df, keys)
+        data = binding_map_data(df, keys)
+        order = sw.get("values")
+        binding = {"svg": figure_svg(binding_map(df, keys, order=order)), "x": x, "y": y,
+                   "facets": ", ".join(facets), "points": len(data),
+                   "sets": int(data["category"].nunique()),
+                   "changed": int(data["branch_changed"].sum())}
     head = [*keys, *(h for _, h, _, _ in _COLUMNS)]
     rows, failed = [], []
     for _, r in df.iterrows():
@@ -127,7 +142,8 @@ def sweep_context(directory, *, command=None, title=None) -> dict:
     return {
         "title": title or f"Sweep report: {sw.get('task')} of {base_name!r} over "
                           f"{', '.join(sw.get('keys') or []) or 'a points file'}",
-        "summary": summary, "charts": charts, "head": head, "rows": rows, "failed": failed,
+        "summary": summary, "charts": charts, "binding": binding, "head": head,
+        "rows": rows, "failed": failed,
         "provenance": {
             "version": __version__, "python": env["python"], "platform": env["platform"],
             "packages": [(k, v or "not installed") for k, v in env["packages"].items()],

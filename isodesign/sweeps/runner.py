@@ -51,13 +51,21 @@ from isodesign.results import ResultDisplay
 from isodesign.sweeps.continuation import chains
 from isodesign.sweeps.spec import build_points, combine, parse_vary, read_points, study_hash
 from isodesign.sweeps.table import TABLE_NAME, collect_rows, frame, write_table
-from isodesign.sweeps.tasks import FINISHED, get_task, record_failed_point, run_point
+from isodesign.sweeps.tasks import (
+    FINISHED,
+    POINT_FILE,
+    get_task,
+    record_failed_point,
+    run_point,
+)
 
 __all__ = ["SweepResult", "sweep"]
 
 KIND = "isodesign sweep"
 POINTS = "points"
 CHARTS = "charts"
+#: The binding map's file in the charts directory (a sweep of two or more keys).
+BINDING_MAP = "binding_map.png"
 LOCK = ".sweep.lock"
 #: Entries of a sweep directory that a sweep writes (an overwrite removes only these).
 OWNED = (RECORD_NAME, TABLE_NAME, "study_base.toml", POINTS, CHARTS, LOCK)
@@ -93,6 +101,8 @@ class SweepResult(ResultDisplay):
     nlp_builds : int
         NLPs built by the points computed now (one per structure and worker process;
         ``docs/sweep.md``, section 7).
+    values : dict
+        Each swept key's values in the sweep's order.
     """
 
     directory: Path
@@ -108,6 +118,8 @@ class SweepResult(ResultDisplay):
     point_wall_s: tuple = field(default_factory=tuple)
     #: NLPs built by the points run now (one per structure and worker: docs/sweep.md).
     nlp_builds: int = 0
+    #: Each swept key's values in the sweep's order (the binding map's axes and panels).
+    values: dict = field(default_factory=dict)
 
     def to_frame(self):
         """The table (a copy)."""
@@ -137,6 +149,24 @@ class SweepResult(ResultDisplay):
         from isodesign.plotting.sweep import design_chart
 
         return design_chart(self.table, self.keys, objective=objective)
+
+    def binding_map(self, x: str | None = None, y: str | None = None):
+        """The binding set of every point as categories over two swept keys, one panel per
+        value of the others, the boundaries where the set changes drawn
+        (:func:`isodesign.plotting.sweep.binding_map`; ``OUTDIR/charts/binding_map.png``).
+
+        Parameters
+        ----------
+        x, y : str, optional
+            Swept keys for the axes (default: the numeric keys with the most values).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from isodesign.plotting.sweep import binding_map
+
+        return binding_map(self.table, self.keys, x=x, y=y, order=self.values)
 
 
 # ---------------------------------------------------------------------------------------
@@ -424,6 +454,7 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
            "sweep": {"identity": identity, "task": task, "options": options, "keys": keys,
                      "combine": mode_combine, "points": len(pts),
                      "duplicates_dropped": dropped, "base_study_source": base.source,
+                     "values": key_values(pts, keys),
                      "base_study": resolved_study_dict(base)},
            "table": TABLE_NAME}
     prev = read_run_record(target)
@@ -548,12 +579,12 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
             _clean_leftovers(points_dir)
         rec["nlp_builds"] = builds[0]
         _finish(target, rec, rows, pts, status, where, keys,
-                charts and status != "interrupted", error)
+                charts and status != "interrupted", error, ran=done > 0)
     return SweepResult(directory=target, table=table_now(), keys=tuple(keys),
                        task=task, ran=done, reused=reused, failed=failed,
                        wall_s=time.perf_counter() - t_all, where=where, status=status,
                        point_wall_s=tuple(walls),
-                       nlp_builds=rec["nlp_builds"])
+                       nlp_builds=rec["nlp_builds"], values=rec["sweep"]["values"])
 
 
 @contextlib.contextmanager
@@ -707,7 +738,17 @@ def _branch_pass(pts, rows: dict, order, task: str, solve, ran: set) -> None:
         todo = nxt
 
 
-def _finish(target, rec, rows, pts, status, where, keys, charts, error=None) -> None:
+def key_values(pts, keys) -> dict:
+    """Each swept key's distinct values in the sweep's order (the charts' axes and panels
+    follow it: floors as given, not sorted by name); ``{}`` past 10,000 values in all."""
+    out = {k: list(dict.fromkeys(p.changes[k] for p in pts if k in p.changes
+                                 and isinstance(p.changes[k], str | int | float | bool)))
+           for k in keys}
+    return out if sum(len(v) for v in out.values()) <= 10_000 else {}
+
+
+def _finish(target, rec, rows, pts, status, where, keys, charts, error=None,
+            ran: bool = True) -> None:
     ours = [rows[p.study_hash] for p in pts if p.study_hash in rows]
     counts = {s: sum(1 for r in ours if r.get("status") == s)
               for s in ("complete", "infeasible", "failed")}
@@ -724,24 +765,45 @@ def _finish(target, rec, rows, pts, status, where, keys, charts, error=None) -> 
                         "same command to run the others")
     if charts and rows:
         with contextlib.suppress(Exception):  # a chart never costs the results
-            rec["charts"] = _write_charts(target, frame(rows.values(), keys), keys)
+            rec["charts"] = _write_charts(target, frame(rows.values(), keys), keys, ran,
+                                          order=(rec.get("sweep") or {}).get("values"))
     _write_record(target, rec)
 
 
-def _write_charts(target: Path, df, keys) -> list[str]:
+def _write_charts(target: Path, df, keys, ran: bool = True, order=None) -> list[str]:
+    """The design charts and the binding map into ``target/charts``. A rerun that ran no
+    point keeps the charts drawn since the last point finished (drawing them imports
+    matplotlib: most of such a rerun's time)."""
+    from isodesign.plotting.sweep import chart_objectives, has_binding_map
+
+    names = [f"{CHARTS}/{obj}.png" for obj in chart_objectives(df)]
+    if has_binding_map(df, keys):
+        names.append(f"{CHARTS}/{BINDING_MAP}")
+    if not ran and _charts_current(target, names):
+        return names
     from isodesign.io.files import atomic_path
     from isodesign.plotting.style import save_figure
-    from isodesign.plotting.sweep import chart_objectives, design_chart
+    from isodesign.plotting.sweep import binding_map, design_chart
 
-    out = []
     (target / CHARTS).mkdir(exist_ok=True)
-    for obj in chart_objectives(df):
-        fig = design_chart(df, keys, objective=obj)
-        name = f"{CHARTS}/{obj}.png"
+    for name in names:
+        if name.endswith("/" + BINDING_MAP):
+            fig = binding_map(df, keys, order=order)
+        else:
+            fig = design_chart(df, keys, objective=name[len(CHARTS) + 1: -len(".png")])
         with atomic_path(target / name) as tmp:
             save_figure(fig, tmp, dpi=110)
-        out.append(name)
-    return out
+    return names
+
+
+def _charts_current(target: Path, names: list[str]) -> bool:
+    """Every chart exists and was drawn after every point's row was written."""
+    try:
+        drawn = min((target / n).stat().st_mtime for n in names) if names else 0.0
+        rows = (p.stat().st_mtime for p in (target / POINTS).glob("*/" + POINT_FILE))
+        return bool(names) and all(t < drawn for t in rows)
+    except OSError:
+        return False
 
 
 def sweep_record(directory) -> dict | None:

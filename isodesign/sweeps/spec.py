@@ -428,9 +428,42 @@ def build_points(base: Study, tables: list[dict], option: str = "--vary"
     return points, dropped
 
 
+def point_tree(base: Study, t: dict) -> dict:
+    """The nested changes of a point, a table study's CG height carried into its table.
+
+    A table study's model takes the CG from ``table.cg_m`` (``payload.cg_height_m`` must
+    agree with its height). A point that changes ``payload.cg_height_m`` alone moves the
+    table's CG to that height, over the same ``x, y`` (the instrument points stay where
+    they are): ``--vary payload.cg_height_m=0.2:0.6:5`` sweeps the table's CG height. A
+    point that also gives ``table.cg_m`` keeps it (the study checks that both agree).
+
+    Parameters
+    ----------
+    base : Study
+        The base study.
+    t : dict
+        The point's changes (dotted key -> value).
+
+    Returns
+    -------
+    dict
+        Nested changes for :meth:`~isodesign.optimization.study.Study.with_changes`.
+    """
+    tree = nest(t)
+    h = tree.get("payload", {}).get("cg_height_m") if isinstance(tree.get("payload"),
+                                                                 dict) else None
+    table = (base.raw or {}).get("table")
+    if (h is not None and isinstance(table, dict) and table.get("cg_m") is not None
+            and not (isinstance(tree.get("table"), dict) and "cg_m" in tree["table"])):
+        cg = list(table["cg_m"])
+        if len(cg) == 3 and isinstance(h, int | float) and not isinstance(h, bool):
+            tree.setdefault("table", {})["cg_m"] = [cg[0], cg[1], h]
+    return tree
+
+
 def _point_study(base: Study, t: dict, option: str) -> Study:
     """The base study with the change table ``t`` (InputError naming the point's changes)."""
-    tree = nest(t)
+    tree = point_tree(base, t)
     tree.setdefault("solver", {})["workers"] = 1  # starts run serially inside a task
     try:
         return base.with_changes(**tree)
@@ -468,6 +501,6 @@ def _check_values_first(base: Study, tables: list[dict], option: str) -> None:
         try:
             with warnings.catch_warnings():  # the points' own checks warn, once
                 warnings.simplefilter("ignore")
-                base.with_changes(**nest({k: tables[i][k]}))
+                base.with_changes(**point_tree(base, {k: tables[i][k]}))
         except InputError:
             _point_study(base, tables[i], option)  # raises, naming the point, if it fails

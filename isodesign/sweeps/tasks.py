@@ -191,6 +191,10 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
     extra: dict = {}
     if kind == "vertical":
         result, extra = _optimize_vertical(study, options)
+    elif kind == "table":
+        # solved from the neighbour's optimum: its files record the study solved (the
+        # replay starts where the point did)
+        result, extra, study = _optimize_table(study, options)
     else:
         result = optimize(study)
     plots = bool(options.get("plots", False))
@@ -273,6 +277,73 @@ def _optimize_vertical(study, options: dict):
                            if best is not None and best.index >= n_own else -1),
         "branch_changed": changed,
         "resolved": bool(options.get("_resolved", False))}
+
+
+def table_continuation_study(study, neighbours):
+    """The study a table point is solved as: its first start its neighbour's optimum.
+
+    The table's NLP takes its starts from the study (:func:`~isodesign.optimization.
+    multistart.start_points`: the study's start, then ``solver.starts - 1`` Latin-hypercube
+    starts drawn in the variables' boxes, independent of the start). So a table point
+    continues from a finished neighbour by starting its free design variables at the
+    neighbour's optimum in place of the study's start; its Latin-hypercube starts are
+    unchanged. The point's identity (hash, run directory) stays its own study's.
+
+    Parameters
+    ----------
+    study : Study
+        The point's table study.
+    neighbours : sequence of dict or None
+        Finished neighbours' rows; the first feasible one is used.
+
+    Returns
+    -------
+    (Study, dict or None)
+        The study to solve and the neighbour's values it starts from (None: no feasible
+        neighbour, the point's own study).
+    """
+    from isodesign.sweeps.continuation import neighbour_starts
+
+    free = {v.name: v for v in study.variables if v.free}
+    for vals in neighbour_starts(neighbours):
+        start = {k: min(max(v, free[k].lower), free[k].upper)
+                 for k, v in vals.items() if k in free}
+        if start:
+            return study.with_changes(variables={k: {"start": v} for k, v in start.items()}), \
+                start
+    return study, None
+
+
+def _optimize_table(study, options: dict):
+    """The table optimum, its first start the finished neighbour's optimum (continuation
+    along the line; :func:`table_continuation_study`), and the row's continuation fields.
+
+    The table's NLP is built per point: its masses, CG and floor are numbers of the NLP
+    (``isodesign.table.problem``), not parameters; a parametric table NLP belongs to the
+    one-optimizer work (docs/sweep.md, section 7)."""
+    from isodesign.optimization.dispatch import optimize
+    from isodesign.optimization.refine import flat_tolerance
+
+    given = list(options.get("_neighbours") or ())
+    if options.get("_resolved"):  # the branch pass: the later neighbour's branch first
+        given = given[::-1]
+    solve, start = table_continuation_study(study, given)
+    result = optimize(solve)  # its study_resolved.toml: the study solved, with that start
+    changed = from_nb = False
+    recs = [r for r in result.starts if r[2]]  # (index, status, feasible, iter, wall, J)
+    if start is not None and recs:
+        best_j = min(r[5] for r in recs)
+        first = next((r for r in recs if r[0] == 0), None)
+        tol = flat_tolerance(result.objective)
+        from_nb = first is not None and first[5] <= best_j + 1e-4
+        # the answer left the branch the continuation followed: the neighbour's start did
+        # not reach the best start's objective (within the tie-break's flat tolerance)
+        changed = first is None or first[5] > best_j + tol
+    return result, {"nlp_built": True, "neighbour_starts": int(start is not None),
+                    "from_neighbour": bool(from_nb),
+                    "best_neighbour": 0 if from_nb else -1,
+                    "branch_changed": bool(changed),
+                    "resolved": bool(options.get("_resolved", False))}, solve
 
 
 def _at_bounds(result) -> list[str]:
