@@ -184,7 +184,18 @@ def slab_body(payload_mass_kg, payload_cg_height_m, slab_mass_kg, base: InertiaB
 
 
 def payload_body(table):
-    """The payload alone (mass, CG height, inertia about its CG) of a table with its slab."""
+    """The payload alone (mass, CG height, inertia about its CG) of a table with its slab.
+
+    Parameters
+    ----------
+    table : Table
+        A table whose ``inertia_base`` (if any) is part of its mass, CG and inertia.
+
+    Returns
+    -------
+    tuple
+        ``(mass_kg, cg_height_m, inertia_kg_m2)`` of the payload without the slab.
+    """
     b = table.inertia_base
     m, h = table.mass_kg, table.cg_height_m
     if b is None or b.mass_kg == 0.0:
@@ -318,6 +329,10 @@ def parse_base_lever(spec: dict, table, key: str, hardware: dict | None = None,
         The study's table (its slab at its start).
     key : str
         ``<file>: variables.inertia_base_mass_kg``, for errors.
+    hardware : dict, optional
+        The study's ``[hardware]`` (the piston area the supply limit follows from).
+    constraints : dict, optional
+        The study's ``[constraints]`` (``supply_margin_pa``).
     """
     fixed = spec.get("fixed", True)
     if not isinstance(fixed, bool):
@@ -371,7 +386,17 @@ def parse_base_lever(spec: dict, table, key: str, hardware: dict | None = None,
 
 def refuse_free_base_with_loop(study) -> None:
     """A free slab with the leveling loop's margin bounds: refused naming the key (its rows
-    hold the start table's loads)."""
+    hold the start table's loads).
+
+    Parameters
+    ----------
+    study : Study
+
+    Raises
+    ------
+    InputError
+        ``constraints.min_leveling_gain_margin_db: ...`` when both are asked for.
+    """
     from isodesign.table.leveling import leveling_margin_bounds
 
     free = any(v.name == BASE_LEVER and v.free for v in study.levers)
@@ -446,7 +471,15 @@ def base_point_rows(points: np.ndarray, terms) -> tuple[list, list]:
 
 def base_mass_row(geo, base):
     """The mass matrix ``M`` flattened (1, 36) with the inertia base's change (a CasADi row
-    when ``base`` holds symbols; :class:`~isodesign.table.inertia_base.BaseTerms`)."""
+    when ``base`` holds symbols; :class:`~isodesign.table.inertia_base.BaseTerms`).
+
+    Parameters
+    ----------
+    geo : Geometry
+        The table's geometry (:func:`isodesign.table.assembly.geometry`), its mass matrix.
+    base : BaseTerms or None
+        The slab's terms at the design (None: the table's own mass matrix).
+    """
     import casadi as ca
 
     m = list(geo.mass.reshape(36).tolist())
@@ -486,17 +519,38 @@ def base_stiffness(d, omega, base):
 
 
 def load_scale(terms):
-    """``m / m_start`` (1.0 without a free slab)."""
+    """``m / m_start`` (1.0 without a free slab).
+
+    Parameters
+    ----------
+    terms : BaseTerms or None
+        The slab's terms at the design (None: no free slab).
+    """
     return 1.0 if terms is None else terms.load_scale
 
 
 def body_mass(table, terms):
-    """The body's mass, kg (the table's without a free slab)."""
+    """The body's mass, kg (the table's without a free slab).
+
+    Parameters
+    ----------
+    table : Table
+    terms : BaseTerms or None
+        The slab's terms at the design (None: no free slab).
+    """
     return table.mass_kg if terms is None else terms.mass
 
 
 def centre_shift(shift, terms):
-    """The elastic centres' shift with the slab: their height from the CG drops by ``dh``."""
+    """The elastic centres' shift with the slab: their height from the CG drops by ``dh``.
+
+    Parameters
+    ----------
+    shift : float, CasADi expression or None
+        The shift without the slab (the support-height lever's; None: no shift).
+    terms : BaseTerms or None
+        The slab's terms at the design (None: no free slab).
+    """
     if terms is None:
         return shift
     return -terms.dh if shift is None else shift - terms.dh
