@@ -131,3 +131,21 @@ def optimum():
         return cache[key]
 
     return solve
+
+
+@pytest.fixture(scope="session")
+def builtin_table_run(tmp_path_factory):
+    """``isodesign optimize --builtin table --starts 1 --workers 1 -o DIR``, run once for the
+    tests that read it (an xdist group, tests/conftest.py): (what it printed, DIR)."""
+    import contextlib
+    import io
+
+    from isodesign.cli import main
+
+    out = tmp_path_factory.mktemp("builtin_table") / "o"
+    o, e = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(o), contextlib.redirect_stderr(e):
+        status = main(["optimize", "--builtin", "table", "--starts", "1", "--workers", "1",
+                       "-o", str(out)])
+    assert status == 0, e.getvalue()
+    return o.getvalue(), out
