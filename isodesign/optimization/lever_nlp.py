@@ -15,7 +15,8 @@ from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
 from isodesign.table.inertia_base import BASE_LEVER, base_lever_terms
 
 __all__ = ["base_objective_parts", "base_terms", "check_base_objectives",
-           "check_base_start_loads", "group_values", "lever_sensitivities"]
+           "check_base_start_loads", "group_values", "lever_sensitivities", "load_rows_of",
+           "refuse_free_base_with_loop"]
 
 
 def group_values(prob, ca, z_levers, shared: list) -> list:
@@ -158,3 +159,44 @@ def base_objective_parts(prob, dv) -> dict:
     if "added_mass" not in prob.objectives:
         return {}
     return {"added_mass": dv[len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index(BASE_LEVER)] / 1e3}
+
+
+def refuse_free_base_with_loop(study) -> None:
+    """A free slab with the leveling loop's margin bounds: refused naming the key (its rows
+    hold the start table's loads).
+
+    Parameters
+    ----------
+    study : Study
+
+    Raises
+    ------
+    InputError
+        ``constraints.min_leveling_gain_margin_db: ...`` when both are asked for.
+    """
+    from isodesign.table.leveling import leveling_margin_bounds
+
+    free = any(v.name == BASE_LEVER and v.free for v in study.levers)
+    if free and leveling_margin_bounds(study) != (None, None):
+        raise InputError("constraints.min_leveling_gain_margin_db: the leveling loop's margin "
+                         "bounds are not yet held with a free inertia base "
+                         "(variables.inertia_base_mass_kg); set min_leveling_gain_margin_db "
+                         "and min_leveling_phase_margin_deg to false (docs/table.md, "
+                         "section 16)")
+
+
+def load_rows_of(leveling, constraints: dict, terms) -> list:
+    """The load and supply rows with a free slab (:func:`~isodesign.table.statics.
+    load_rows` at its load scale); none without.
+
+    Parameters
+    ----------
+    leveling : Leveling
+    constraints : dict
+    terms : BaseTerms or None
+    """
+    if terms is None:
+        return []
+    from isodesign.table.statics import load_rows
+
+    return load_rows(leveling, constraints, terms.load_scale)

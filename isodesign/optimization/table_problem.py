@@ -198,7 +198,7 @@ class TableProblem(NLP):
                              "margin bounds are not yet held with per-group springs; set "
                              "min_leveling_gain_margin_db and min_leveling_phase_margin_deg "
                              "to false (docs/table.md, sections 12 and 14)")
-        slab_terms.refuse_free_base_with_loop(study)
+        lever_nlp.refuse_free_base_with_loop(study)
         self.loop_system = leveling_of_study(study)
         self.n_states = 12 + 2 * self.n
         self.n_loop = LOOP_POLES_MIMO + 3 if self.loop_bound_db is not None else 0
@@ -550,7 +550,7 @@ class TableProblem(NLP):
             rows = tilt_margin_rows(kq, table.vertical_points_m, wh, mu, self._scale(v))
             cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
         cons += layout_rows(self.table, c, self._scale(v), self._layout_free())
-        cons += slab_terms.load_rows_of(lv, c, slab)
+        cons += lever_nlp.load_rows_of(lv, c, slab)
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows

@@ -307,7 +307,7 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
                              f"upper, fixed), got {spec!r:.40}")
         key = f"{where}: variables.{name}"
         if name in BASE_LEVERS:  # the slab's mass (isodesign.table.inertia_base)
-            from isodesign.table.inertia_base import parse_base_lever
+            from isodesign.table.study import parse_base_lever
 
             out.append(VariableSpec(name, *parse_base_lever(spec, table, key, hardware,
                                                             constraints)))

@@ -32,9 +32,8 @@ from isodesign.errors import InputError
 
 __all__ = ["BASE_KEYS", "BASE_LEVER", "DENSITY_RANGE_KG_M3", "InertiaBase", "base_from_dict",
            "base_lever_terms", "base_mass_row", "base_point_rows", "base_stiffness",
-           "base_summary", "body_mass", "centre_shift", "load_rows_of", "load_scale",
-           "parse_base_lever", "payload_body", "refuse_free_base_with_loop",
-           "scaled_pressures", "slab_body", "supply_limited_mass_kg", "tilt_bound",
+           "base_summary", "body_mass", "centre_shift", "load_scale",
+           "payload_body", "scaled_pressures", "slab_body", "tilt_bound",
            "with_base_mass"]
 
 #: The lever's name (``[variables.inertia_base_mass_kg]``).
@@ -289,123 +288,10 @@ def base_lever_terms(table, slab_mass_kg) -> BaseTerms:
                      d_gravity=-(g * m * h - g * m0 * h0), weight_height=g * m * h)
 
 
-def supply_limited_mass_kg(table, piston_area_m2: float, margin_pa: float = 0.0) -> float:
-    """The heaviest slab the supply carries: every group's p0 at most ``p_supply -
-    margin`` (the loads scale with the weight, docs/table.md section 16), kg.
-
-    Parameters
-    ----------
-    table : Table
-        With its slab.
-    piston_area_m2 : float
-    margin_pa : float
-        ``constraints.supply_margin_pa`` (0: none).
-    """
-    from isodesign.table.statics import level
-
-    lv = level(table, piston_area_m2)
-    p_atm = float(np.mean(lv.pressure_pa - lv.load_n / lv.piston_area_m2))
-    scale = (table.supply_pressure_pa - margin_pa - p_atm) / (float(lv.group_pressure_pa.max())
-                                                              - p_atm)
-    b = table.inertia_base
-    return scale * table.mass_kg - (table.mass_kg - (b.mass_kg if b is not None else 0.0))
 
 
-def parse_base_lever(spec: dict, table, key: str, hardware: dict | None = None,
-                     constraints: dict | None = None) -> tuple:
-    """``[variables.inertia_base_mass_kg]``: ``(start, lower, upper, fixed)``.
-
-    Fixed unless ``fixed = false``, at ``table.inertia_base.mass_kg`` (default 0: no slab)
-    or its own ``start``; free within ``lower`` (default 0) and ``upper`` (default twice
-    the payload's mass, or the heaviest slab the supply carries if lighter:
-    :func:`supply_limited_mass_kg`), both in ``[0, 50 m_payload]``; an ``upper`` above the
-    supply's limit is refused (a drawn start there could not be leveled).
-
-    Parameters
-    ----------
-    spec : dict
-        The table as written (``fixed``, ``start``, ``lower``, ``upper``).
-    table : Table
-        The study's table (its slab at its start).
-    key : str
-        ``<file>: variables.inertia_base_mass_kg``, for errors.
-    hardware : dict, optional
-        The study's ``[hardware]`` (the piston area the supply limit follows from).
-    constraints : dict, optional
-        The study's ``[constraints]`` (``supply_margin_pa``).
-    """
-    fixed = spec.get("fixed", True)
-    if not isinstance(fixed, bool):
-        raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
-    b = table.inertia_base
-    if b is None and fixed and not spec.get("start"):
-        return 0.0, 0.0, 0.0, True  # no slab (the table has no slab's plan size)
-    if b is None:
-        raise InputError(f"{key}: the table has no [table.inertia_base] and its box_m (or "
-                         "its isolators' extent) is no slab's plan size; give "
-                         "table.inertia_base.size_m")
-    mp = table.mass_kg - b.mass_kg
-    hi_max = MASS_RATIO_MAX * mp
-    vals = {}
-    for k in ("start", "lower", "upper"):
-        if k in spec:
-            v = spec[k]
-            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
-                raise InputError(f"{key}.{k}: expected a finite number, got {v!r:.40}")
-            if not 0.0 <= v <= hi_max:
-                raise InputError(f"{key}.{k} = {v:g} kg is outside [0, {hi_max:g}] kg (0 to "
-                                 f"{MASS_RATIO_MAX:g} times the payload's {mp:g} kg)")
-            vals[k] = float(v)
-    start = vals.get("start", b.mass_kg)
-    cap = math.inf
-    if hardware is not None and not fixed:
-        margin = (constraints or {}).get("supply_margin_pa") or 0.0
-        cap = supply_limited_mass_kg(table, hardware["piston_area_m2"], margin)
-        if "upper" in vals and vals["upper"] > cap:
-            raise InputError(f"{key}.upper = {vals['upper']:g} kg is above {cap:.5g} kg, the "
-                             "heaviest slab the supply carries (table.supply_pressure_pa minus "
-                             "constraints.supply_margin_pa, every group's p0 on its pistons)")
-    if fixed:
-        if start != b.mass_kg:  # the table holds a fixed slab (every entry point reads it)
-            raise InputError(f"{key}.start ({start:g} kg) differs from the fixed slab's "
-                             f"table.inertia_base.mass_kg ({b.mass_kg:g} kg): set the mass "
-                             "there, or free the lever (fixed = false)")
-        if not vals.get("lower", start) <= start <= vals.get("upper", start):
-            raise InputError(f"{key}.start ({start:g}) is fixed outside its own bounds [lower, "
-                             f"upper] = [{vals.get('lower', start):g}, "
-                             f"{vals.get('upper', start):g}] kg")
-        return start, start, start, True
-    lo, hi = vals.get("lower", 0.0), vals.get("upper", min(2.0 * mp, cap))
-    if not lo < hi:
-        raise InputError(f"{key}: need 0 <= lower < upper, got lower = {lo:g}, upper = {hi:g} kg")
-    if not lo <= start <= hi:
-        raise InputError(f"{key}.start ({start:g}) must lie in [lower, upper] = [{lo:g}, "
-                         f"{hi:g}] kg")
-    return start, lo, hi, False
 
 
-def refuse_free_base_with_loop(study) -> None:
-    """A free slab with the leveling loop's margin bounds: refused naming the key (its rows
-    hold the start table's loads).
-
-    Parameters
-    ----------
-    study : Study
-
-    Raises
-    ------
-    InputError
-        ``constraints.min_leveling_gain_margin_db: ...`` when both are asked for.
-    """
-    from isodesign.table.leveling import leveling_margin_bounds
-
-    free = any(v.name == BASE_LEVER and v.free for v in study.levers)
-    if free and leveling_margin_bounds(study) != (None, None):
-        raise InputError("constraints.min_leveling_gain_margin_db: the leveling loop's margin "
-                         "bounds are not yet held with a free inertia base "
-                         "(variables.inertia_base_mass_kg); set min_leveling_gain_margin_db "
-                         "and min_leveling_phase_margin_deg to false (docs/table.md, "
-                         "section 16)")
 
 
 def scaled_pressures(terms, pressure_pa) -> list:
@@ -574,22 +460,3 @@ def base_summary(table) -> str:
             f"{b.density_kg_m3:g} kg/m^3, top {b.top_height_m:g} m): {table.mass_kg:.4g} kg "
             f"with the payload, CG {table.cg_height_m:.3g} m above the support plane (the "
             f"payload's {hp:.3g} m)")
-
-
-
-
-def load_rows_of(leveling, constraints: dict, terms) -> list:
-    """The load and supply rows with a free slab (:func:`~isodesign.table.statics.
-    load_rows` at its load scale); none without.
-
-    Parameters
-    ----------
-    leveling : Leveling
-    constraints : dict
-    terms : BaseTerms or None
-    """
-    if terms is None:
-        return []
-    from isodesign.table.statics import load_rows
-
-    return load_rows(leveling, constraints, terms.load_scale)

@@ -55,6 +55,7 @@ __all__ = [
     "load_rows",
     "scaled_leveling",
     "sealed_stiffness",
+    "supply_limited_mass_kg",
     "tilt_margin_rows",
 ]
 
@@ -488,3 +489,23 @@ def tilt_margin_rows(k_vertical, points_m, overturning_n_m: float, minimum: floa
     d22 = a22 / overturning_n_m - minimum
     d12 = a12 / overturning_n_m
     return d11, d22, d11 * d22 - d12 * d12
+
+
+def supply_limited_mass_kg(table, piston_area_m2: float, margin_pa: float = 0.0) -> float:
+    """The heaviest slab the supply carries: every group's p0 at most ``p_supply -
+    margin`` (the loads scale with the weight, docs/table.md section 16), kg.
+
+    Parameters
+    ----------
+    table : Table
+        With its slab.
+    piston_area_m2 : float
+    margin_pa : float
+        ``constraints.supply_margin_pa`` (0: none).
+    """
+    lv = level(table, piston_area_m2)
+    p_atm = float(np.mean(lv.pressure_pa - lv.load_n / lv.piston_area_m2))
+    scale = (table.supply_pressure_pa - margin_pa - p_atm) / (float(lv.group_pressure_pa.max())
+                                                              - p_atm)
+    b = table.inertia_base
+    return scale * table.mass_kg - (table.mass_kg - (b.mass_kg if b is not None else 0.0))

@@ -43,7 +43,7 @@ import numpy as np
 from isodesign.errors import InputError, did_you_mean
 from isodesign.table.layout import HorizontalElement, Table, box_inertia, check_numbers
 
-__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection",
+__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection", "parse_base_lever",
            "payload_from_table", "table_from_dict", "table_unit_slips"]
 
 #: Keys of ``[table]`` and ``[table.horizontal]``.
@@ -454,3 +454,80 @@ def payload_from_table(payload: dict, given, table: Table, where: str = "") -> d
 
 def _num_ok(v) -> bool:
     return isinstance(v, int | float) and not isinstance(v, bool) and math.isfinite(v)
+
+
+def parse_base_lever(spec: dict, table, key: str, hardware: dict | None = None,
+                     constraints: dict | None = None) -> tuple:
+    """``[variables.inertia_base_mass_kg]``: ``(start, lower, upper, fixed)``.
+
+    Fixed unless ``fixed = false``, at ``table.inertia_base.mass_kg`` (default 0: no slab)
+    or its own ``start``; free within ``lower`` (default 0) and ``upper`` (default twice
+    the payload's mass, or the heaviest slab the supply carries if lighter:
+    :func:`~isodesign.table.statics.supply_limited_mass_kg`), both in ``[0, 50 m_payload]``;
+    an ``upper`` above the supply's limit is refused (a drawn start there could not be
+    leveled).
+
+    Parameters
+    ----------
+    spec : dict
+        The table as written (``fixed``, ``start``, ``lower``, ``upper``).
+    table : Table
+        The study's table (its slab at its start).
+    key : str
+        ``<file>: variables.inertia_base_mass_kg``, for errors.
+    hardware : dict, optional
+        The study's ``[hardware]`` (the piston area the supply limit follows from).
+    constraints : dict, optional
+        The study's ``[constraints]`` (``supply_margin_pa``).
+    """
+    from isodesign.table.inertia_base import MASS_RATIO_MAX
+    from isodesign.table.statics import supply_limited_mass_kg
+
+    fixed = spec.get("fixed", True)
+    if not isinstance(fixed, bool):
+        raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
+    b = table.inertia_base
+    if b is None and fixed and not spec.get("start"):
+        return 0.0, 0.0, 0.0, True  # no slab (the table has no slab's plan size)
+    if b is None:
+        raise InputError(f"{key}: the table has no [table.inertia_base] and its box_m (or "
+                         "its isolators' extent) is no slab's plan size; give "
+                         "table.inertia_base.size_m")
+    mp = table.mass_kg - b.mass_kg
+    hi_max = MASS_RATIO_MAX * mp
+    vals = {}
+    for k in ("start", "lower", "upper"):
+        if k in spec:
+            v = spec[k]
+            if isinstance(v, bool) or not isinstance(v, int | float) or not math.isfinite(v):
+                raise InputError(f"{key}.{k}: expected a finite number, got {v!r:.40}")
+            if not 0.0 <= v <= hi_max:
+                raise InputError(f"{key}.{k} = {v:g} kg is outside [0, {hi_max:g}] kg (0 to "
+                                 f"{MASS_RATIO_MAX:g} times the payload's {mp:g} kg)")
+            vals[k] = float(v)
+    start = vals.get("start", b.mass_kg)
+    cap = math.inf
+    if hardware is not None and not fixed:
+        margin = (constraints or {}).get("supply_margin_pa") or 0.0
+        cap = supply_limited_mass_kg(table, hardware["piston_area_m2"], margin)
+        if "upper" in vals and vals["upper"] > cap:
+            raise InputError(f"{key}.upper = {vals['upper']:g} kg is above {cap:.5g} kg, the "
+                             "heaviest slab the supply carries (table.supply_pressure_pa minus "
+                             "constraints.supply_margin_pa, every group's p0 on its pistons)")
+    if fixed:
+        if start != b.mass_kg:  # the table holds a fixed slab (every entry point reads it)
+            raise InputError(f"{key}.start ({start:g} kg) differs from the fixed slab's "
+                             f"table.inertia_base.mass_kg ({b.mass_kg:g} kg): set the mass "
+                             "there, or free the lever (fixed = false)")
+        if not vals.get("lower", start) <= start <= vals.get("upper", start):
+            raise InputError(f"{key}.start ({start:g}) is fixed outside its own bounds [lower, "
+                             f"upper] = [{vals.get('lower', start):g}, "
+                             f"{vals.get('upper', start):g}] kg")
+        return start, start, start, True
+    lo, hi = vals.get("lower", 0.0), vals.get("upper", min(2.0 * mp, cap))
+    if not lo < hi:
+        raise InputError(f"{key}: need 0 <= lower < upper, got lower = {lo:g}, upper = {hi:g} kg")
+    if not lo <= start <= hi:
+        raise InputError(f"{key}.start ({start:g}) must lie in [lower, upper] = [{lo:g}, "
+                         f"{hi:g}] kg")
+    return start, lo, hi, False
