@@ -26,7 +26,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from isodesign.optimization.constraints import _NATURAL, ACTIVE_MARGIN
+from isodesign.optimization.constraint_registry import natural_value
+from isodesign.optimization.constraints import ACTIVE_MARGIN
 from isodesign.optimization.objectives import OBJECTIVES
 
 __all__ = ["Sensitivity", "design_sensitivities", "reoptimized_sensitivities"]
@@ -138,10 +139,10 @@ def design_sensitivities(block, x: np.ndarray, theta, slot_hz=None) -> list[Sens
         gi = g[row: row + n]
         marg = np.minimum(gi - c.lo, c.hi - gi)
         i = row + int(np.argmin(marg))
-        conv, unit = _NATURAL.get(c.name, (math.exp, ""))
         val = g[i]
+        nat, unit = natural_value(c.name, float(val))
         d = total_g[i]
-        d_nat = (_DB * d if c.name in _DB_ROWS else conv(val) * d) * pct
+        d_nat = (_DB * d if c.name in _DB_ROWS else nat * d) * pct
         binding = float(np.min(marg)) < ACTIVE_MARGIN
         for k, name in enumerate(space.names):
             out.append(Sensitivity(c.name, name, float(d_nat[k]), unit, units[k],
