@@ -1,12 +1,14 @@
 """The constraint table of a table optimum: the NLP's rows and the exact checks.
 
 The constraints whose NLP rows are the log of a quantity (the total volume, the vertical
-natural frequency, ``ln |T|^2`` of the peak at the grid's and the refinement's frequencies)
-are reported from those rows by :func:`isodesign.optimization.constraints.constraint_reports`,
-under the names the vertical optimizer uses (so :mod:`isodesign.optimization.explain` words
-them the same way). The constraints the NLP writes in a smooth surrogate form (the rocking
-matrix, the frozen modes' Rayleigh quotients) are reported from the exact quantities at the
-optimum: the rocking margin with gravity (:func:`isodesign.table.modes.rocking_stability`),
+natural frequency, the stroke, ``ln |T|^2`` of the peak at the grid's and the refinement's
+frequencies) are reported from those rows by
+:func:`isodesign.optimization.constraints.constraint_reports`, under the registry's names,
+units and words (:mod:`isodesign.optimization.constraint_registry`, the same entries as the
+vertical body's, so :mod:`isodesign.optimization.explain` words them the same way). The
+constraints the NLP writes in a smooth surrogate form (the rocking matrix, the frozen
+modes' Rayleigh quotients) are reported from the exact quantities at the optimum: the
+rocking margin with gravity (:func:`isodesign.table.modes.rocking_stability`),
 the damping ratio and frequency of the exact modes, the continuous peak of |T| from
 below the lowest mode (:mod:`isodesign.table.peaks`), and the leveling loop's gain and
 phase margins (python-control, :mod:`isodesign.table.leveling_loop`). Binding: within
@@ -20,30 +22,26 @@ import math
 
 import numpy as np
 
+from isodesign.optimization.constraint_registry import CONSTRAINTS, TABLE_ROWS, Constraint
 from isodesign.optimization.constraints import (
     BINDING_TOL,
-    Constraint,
     ConstraintReport,
     constraint_reports,
 )
 
+#: The table body's kinds reported from their NLP rows (a log of the quantity, or
+#: ``ln |T|^2``), by row key.
+_ROW_KINDS = {CONSTRAINTS[k].key: CONSTRAINTS[k] for k in TABLE_ROWS
+              if CONSTRAINTS[k].form in ("log", "db")}
+
 __all__ = ["CONTINUOUS_PEAK", "LEVELING_GAIN_MARGIN", "LEVELING_PHASE_MARGIN",
-           "NLP_ROW_NAMES", "leveling_reports", "table_constraint_reports"]
+           "leveling_reports", "row_reports", "table_constraint_reports"]
 
 #: Name of the continuous peak's row (and of its violation).
 CONTINUOUS_PEAK = "continuous_peak_transmissibility"
 #: Names of the leveling loop's margin rows (and of their violations).
 LEVELING_GAIN_MARGIN = "leveling_gain_margin"
 LEVELING_PHASE_MARGIN = "leveling_phase_margin"
-#: The table NLP's constraint groups reported from their rows: NLP name -> (report name,
-#: description).
-NLP_ROW_NAMES = {
-    "max_total_volume_m3": ("total_volume", "V_t0 (1 + N) of one isolator"),
-    "natural_frequency_hz": ("natural_frequency",
-                             "vertical mode sqrt(sum K0_i / m) of the leveled table"),
-    "max_peak_transmissibility_db": ("peak_transmissibility",
-                                     "|T_p,aa| at the NLP's grid and refinement frequencies"),
-}
 _LN10 = math.log(10.0)
 
 
@@ -110,6 +108,32 @@ def _binding_either_side(r: ConstraintReport) -> ConstraintReport:
     return dataclasses.replace(r, active=bool(abs(r.margin) < BINDING_TOL))
 
 
+def row_reports(prob, g) -> list[ConstraintReport]:
+    """The table's constraints reported from their NLP rows, in row order: the registry's
+    kinds in the log of the quantity or in ``ln |T|^2`` (total volume, vertical mode, stroke,
+    peak |T| at the grid's and the refinement's frequencies), under the kind's name, unit
+    and words (:func:`~isodesign.optimization.constraints.constraint_reports`).
+
+    Parameters
+    ----------
+    prob : TableProblem
+        Its ``con_rows``, ``lbg``, ``ubg`` and study.
+    g : ndarray
+        The NLP's constraint values at the design.
+
+    Returns
+    -------
+    list of ConstraintReport
+    """
+    rows = []
+    for key, row, m in prob.con_rows:
+        k = _ROW_KINDS.get(key)
+        if k is not None:
+            rows.append((Constraint(k.name, None, float(prob.lbg[row]), float(prob.ubg[row]), m,
+                                    k.words(prob.study), key=key, kind=k.name), row, m))
+    return constraint_reports(rows, np.asarray(g, float))
+
+
 def table_constraint_reports(prob, g, *, modes=None, stability=None, peaks=None,
                              leveling=None) -> list[ConstraintReport]:
     """The constraints of a table design, in natural units, with margins and binding flags.
@@ -135,28 +159,13 @@ def table_constraint_reports(prob, g, *, modes=None, stability=None, peaks=None,
     list of ConstraintReport
     """
     c = prob.study.constraints
-    rows = []
-    for name, row, m in prob.con_rows:
-        if name not in NLP_ROW_NAMES:
-            continue
-        rep, desc = NLP_ROW_NAMES[name]
-        rows.append((Constraint(rep, None, float(prob.lbg[row]), float(prob.ubg[row]), m,
-                                desc), row, m))
-    out = constraint_reports(rows, np.asarray(g, float))
+    out = row_reports(prob, g)
     pk = c.get("max_peak_transmissibility_db")
     if peaks is not None and pk is not None and pk is not False:
         p, a, v, f = peaks.worst()
         out.append(_report(CONTINUOUS_PEAK, v, None, float(pk), "dB", (pk - v) * _LN10 / 10.0,
                            f"|T| between the grid's frequencies, {peaks.f_low_hz:.3g}-"
                            f"{peaks.f_high_hz:.3g} Hz (worst {p} {a} at {f:.3g} Hz)"))
-    smax = c.get("max_stroke_m")
-    for name, row, m in prob.con_rows if smax else ():
-        if name == "max_stroke_m":  # ln(peak factor x sigma_i) <= ln max_stroke_m
-            gi = np.asarray(g, float)[row: row + m]
-            v = float(np.exp(np.max(gi)))
-            out.append(_report("stroke", v, None, float(smax), "m", math.log(smax / v),
-                               f"{c.get('stroke_peak_factor'):g} x RMS vertical stroke, "
-                               "worst isolator, against its travel"))
     for name, row, m in prob.con_rows:  # the layout's rows (docs/table.md, section 15)
         gi = np.asarray(g, float)[row: row + m]
         if name == "footprint_m":  # clearances x_i - x_min, x_max - x_i, ... (m)

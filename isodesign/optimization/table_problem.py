@@ -54,6 +54,7 @@ import numpy as np
 from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization import lever_nlp, nlp
+from isodesign.optimization.constraint_registry import TABLE_ROWS, constraint_rows_of
 from isodesign.optimization.loop_rows import (
     LOOP_MARGIN_EPS,
     LOOP_POLES_MIMO,
@@ -518,39 +519,39 @@ class TableProblem(NLP):
         self.solver = ca.nlpsol("isodesign_table", "ipopt",
                                 {"x": x, "f": j_total, "g": gg, "p": pp}, self.ipopt_options())
 
+    def _rows(self, q: dict) -> list:
+        """The rows of the kinds whose quantities ``q`` holds, as ``(key, expr, lo, hi)``:
+        the registry's (:func:`~.constraint_registry.constraint_rows_of`, the kinds
+        :data:`~.constraint_registry.TABLE_ROWS` requests, in its order)."""
+        return [(c.key, c.expr, c.lo, c.hi)
+                for c in constraint_rows_of(self.study, q, TABLE_ROWS)]
+
     def _constraints(self, ca, d, v, s, y, out, out_slots=None) -> list:
+        """The rows on the design's quantities: volume, vertical mode, stroke, tilt,
+        layout, loads, peak |T| (the registry's entries; this body measures them)."""
         c = self.study.constraints
         table, lv = self.table, self.leveling
-        cons = []
         _, designs = self._designs(v)
-        if c.get("max_total_volume_m3"):  # every group's spring with per-group springs
-            vol = ca.log(d.total_volume_m3) if not self.grouped else ca.vertcat(*[
-                ca.log(designs[list(lv.group_of).index(g)].total_volume_m3) for g in range(3)])
-            cons.append(("max_total_volume_m3", vol, -np.inf,
-                         math.log(c["max_total_volume_m3"])))
+        # every group's spring with per-group springs
+        q = {"ln_total_volume": ca.log(d.total_volume_m3) if not self.grouped else ca.vertcat(*[
+            ca.log(designs[list(lv.group_of).index(g)].total_volume_m3) for g in range(3)])}
         slab = self._base(v)  # the inertia base: loads and mass follow its lever
         k0 = [static_stiffness(di, self.dia, float(mi) * slab_terms.load_scale(slab))
               for di, mi in zip(designs, lv.mass_per_isolator_kg, strict=True)]
-        ktot = sum(k0)
-        lo, hi = c.get("min_natural_frequency_hz"), c.get("max_natural_frequency_hz")
-        if lo or hi:
-            ln_f = 0.5 * ca.log(ktot / slab_terms.body_mass(table, slab) / (2.0 * math.pi) ** 2)
-            cons.append(("natural_frequency_hz", ln_f, math.log(lo) if lo else -np.inf,
-                         math.log(hi) if hi else np.inf))
-        smax = c.get("max_stroke_m")
-        if smax:  # peak factor x RMS vertical stroke of every isolator: ln, linear in s
-            cons.append(("max_stroke_m", s + math.log(c.get("stroke_peak_factor") or 3.0),
-                         -np.inf, math.log(smax)))
+        q["ln_fn"] = 0.5 * ca.log(sum(k0) / slab_terms.body_mass(table, slab)
+                                  / (2.0 * math.pi) ** 2)
+        # peak factor x RMS vertical stroke of every isolator: ln, linear in s
+        q["ln_stroke"] = s + math.log(c.get("stroke_peak_factor") or 3.0)
         mu = c.get("min_tilt_margin")
         if mu and (table.cg_height_m > 0 or slab is not None):  # the analysis's verdict
             from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
 
             kq = [sealed_stiffness(di, self.dia, flow=self.flow) for di in designs]
             wh, mu = slab_terms.tilt_bound(table, slab, mu)
-            rows = tilt_margin_rows(kq, table.vertical_points_m, wh, mu, self._scale(v))
-            cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
-        cons += layout_rows(self.table, c, self._scale(v), self._layout_free())
-        cons += lever_nlp.load_rows_of(lv, c, slab)
+            q["tilt_rows"] = ca.vertcat(*tilt_margin_rows(kq, table.vertical_points_m, wh, mu,
+                                                          self._scale(v)))
+        q["layout_rows"] = layout_rows(self.table, c, self._scale(v), self._layout_free())
+        q["load_rows"] = lever_nlp.load_rows_of(lv, c, slab)
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows
@@ -563,9 +564,8 @@ class TableProblem(NLP):
             rows = ca.vec(out[:, cols.tolist()].T)
             if out_slots is not None:
                 rows = ca.vertcat(rows, ca.vec(out_slots.T))
-            cons.append(("max_peak_transmissibility_db", ca.log(rows), -np.inf,
-                         pk * _LN10 / 10.0))
-        return cons
+            q["ln_T2_peak"] = ca.log(rows)
+        return self._rows(q)
 
     def _peak_cut_hz(self) -> float:
         """Top of the peak rows: :data:`PEAK_ROWS_MAX_HZ`, or twice the highest rigid-body
@@ -611,20 +611,21 @@ class TableProblem(NLP):
         return act, q_r, q_i
 
     def _damping(self, ca, v, s, y, p_modes) -> list:
+        """The frozen modes' rows (damping, rocking frequencies; the registry's entries)."""
         c = self.study.constraints
         zmin = c.get("min_damping_ratio")
         f_lo, f_hi = c.get("min_rocking_frequency_hz"), c.get("max_rocking_frequency_hz")
         if not (zmin or f_lo or f_hi):
             return []
         kfn = self._stiffness_function(ca)
-        out = []
+        q = {}
         if zmin:
             rows = []
             for j in range(self.n_modes):
                 act, q_r, q_i = self._frozen_quotients(ca, kfn, v, s, y,
                                                        p_modes[14 * j: 14 * (j + 1)])
                 rows.append(act * (q_i - 2.0 * zmin * q_r) / ca.fmax(q_r, 1e-30))
-            out.append(("min_damping_ratio", ca.vertcat(*rows), 0.0, np.inf))
+            q["damping_rows"] = ca.vertcat(*rows)
         if f_lo or f_hi:  # Rayleigh quotient w^2 = phi^H K' phi (phi^H M phi = 1)
             lo_rows, hi_rows = [], []
             off = 14 * self.n_modes
@@ -638,15 +639,16 @@ class TableProblem(NLP):
                     w2 = (2 * math.pi * f_hi) ** 2
                     hi_rows.append(act * (w2 - q_r) / w2)
             if f_lo:
-                out.append(("min_rocking_frequency_hz", ca.vertcat(*lo_rows), 0.0, np.inf))
+                q["rocking_lo_rows"] = ca.vertcat(*lo_rows)
             if f_hi:
-                out.append(("max_rocking_frequency_hz", ca.vertcat(*hi_rows), 0.0, np.inf))
-        return out
+                q["rocking_hi_rows"] = ca.vertcat(*hi_rows)
+        return self._rows(q)
 
     # -- the leveling loop's gain margin (isodesign.optimization.loop_rows) -------------------
     def _loop_rows(self, ca, v, p_loop) -> list:
-        """The gain-margin rows (:func:`~isodesign.optimization.loop_rows.loop_rows`)."""
-        return loop_rows(self, ca, v, p_loop)
+        """The gain-margin rows (:func:`~isodesign.optimization.loop_rows.loop_rows`; the
+        registry's ``leveling_loop`` entry)."""
+        return self._rows({"loop_rows": loop_rows(self, ca, v, p_loop)})
 
     def clear_loop(self) -> None:
         """Switch the gain-margin rows off (every frozen pole inactive)."""
