@@ -100,6 +100,11 @@ class ConstraintKind:
         ``study -> bool``: further conditions (the acoustics, the flow model's checks).
     scale : float
         The kept fraction of a model-validity limit (:data:`VALIDITY_MARGIN`), 1 otherwise.
+    exact : callable or None
+        A surrogate's rows back in its exact quantity, ``(rows, constraints) -> values``
+        (a frozen mode's damping ratio or frequency): with the modes frozen at the design's
+        own, equal to the exact modes' (the re-check of the frozen-mode rows). The other
+        forms are re-checked by :meth:`values` on the NumPy path's quantities.
     """
 
     name: str
@@ -111,6 +116,7 @@ class ConstraintKind:
     bounds: Callable | None = None
     when: Callable = field(default=lambda study: True)
     scale: float = 1.0
+    exact: Callable | None = None
 
     def on(self, study) -> bool:
         """Whether the study asks for this constraint (its bound is set).
@@ -228,14 +234,20 @@ CONSTRAINTS: dict[str, ConstraintKind] = {k.name: k for k in (
                    when=lambda st: bool(st.constraints.get("min_tilt_margin"))),
     ConstraintKind("damping_rows", "min_damping_ratio", "-", "surrogate", "damping_rows",
                    "frozen modes below 5 Hz: phi^H K'' phi >= 2 zeta_min phi^H K' phi",
-                   when=lambda st: bool(st.constraints.get("min_damping_ratio"))),
+                   when=lambda st: bool(st.constraints.get("min_damping_ratio")),
+                   # row = eta - 2 zeta_min, the loss factor eta = 2 zeta of the mode
+                   exact=lambda r, c: 0.5 * r + c["min_damping_ratio"]),
     # the table's own
     ConstraintKind("min_rocking_frequency", "min_rocking_frequency_hz", "Hz", "surrogate",
                    "rocking_lo_rows", "frozen rocking modes: phi^H K' phi >= (2 pi f_min)^2",
-                   when=lambda st: bool(st.constraints.get("min_rocking_frequency_hz"))),
+                   when=lambda st: bool(st.constraints.get("min_rocking_frequency_hz")),
+                   # row = w^2 / w_min^2 - 1
+                   exact=lambda r, c: c["min_rocking_frequency_hz"] * (1.0 + r) ** 0.5),
     ConstraintKind("max_rocking_frequency", "max_rocking_frequency_hz", "Hz", "surrogate",
                    "rocking_hi_rows", "frozen rocking modes: phi^H K' phi <= (2 pi f_max)^2",
-                   when=lambda st: bool(st.constraints.get("max_rocking_frequency_hz"))),
+                   when=lambda st: bool(st.constraints.get("max_rocking_frequency_hz")),
+                   # row = 1 - w^2 / w_max^2
+                   exact=lambda r, c: c["max_rocking_frequency_hz"] * (1.0 - r) ** 0.5),
     ConstraintKind("layout", "footprint_m", "m", "given", "layout_rows",
                    "isolators inside the footprint and apart by the minimum distance"),
     ConstraintKind("loads", "isolator_load", "N", "given", "load_rows",

@@ -35,7 +35,8 @@ _ROW_KINDS = {CONSTRAINTS[k].key: CONSTRAINTS[k] for k in TABLE_ROWS
               if CONSTRAINTS[k].form in ("log", "db")}
 
 __all__ = ["CONTINUOUS_PEAK", "LEVELING_GAIN_MARGIN", "LEVELING_PHASE_MARGIN",
-           "leveling_reports", "row_reports", "table_constraint_reports"]
+           "leveling_reports", "row_reports", "table_constraint_reports",
+           "table_quantities"]
 
 #: Name of the continuous peak's row (and of its violation).
 CONTINUOUS_PEAK = "continuous_peak_transmissibility"
@@ -218,3 +219,75 @@ def table_constraint_reports(prob, g, *, modes=None, stability=None, peaks=None,
     if leveling is not None:
         out += leveling_reports(*leveling)
     return out
+
+
+def table_quantities(prob, values: dict | None = None) -> dict:
+    """The table body's constraint quantities at a design, on the NumPy analysis path.
+
+    The NumPy re-check of the registry's rows (:mod:`.constraint_registry`): the same kinds
+    the NLP requests (:data:`~.constraint_registry.TABLE_ROWS`), on quantities the NumPy
+    analysis measures: the closure (:func:`isodesign.table.response.solve_table_closure`),
+    each isolator's leveled spring (:func:`isodesign.table.model.table_model`), ``|T_p,aa|``
+    from the model's outputs (:meth:`~isodesign.table.model.TableModel.outputs`, as the
+    continuous peak, :mod:`isodesign.table.peaks`) at the NLP's peak-row frequencies and
+    movable slots, the tilt condition on the sealed springs. ``constraint_rows_of(study, q,
+    TABLE_ROWS)`` on them gives each row's value to compare with the NLP's ``g``. The
+    frozen-mode rows (damping, rocking) are re-checked by the exact modes
+    (:func:`table_constraint_reports`); the layout, load and loop rows by their modules.
+
+    Parameters
+    ----------
+    prob : TableProblem
+        The NLP (its grid, peak rows' frequencies, slots and leveling).
+    values : dict, optional
+        Design-variable values (default: the study's starts). A free inertia base is not
+        covered (its loads follow the slab).
+
+    Returns
+    -------
+    dict
+        ``ln_total_volume``, ``ln_fn``, ``ln_stroke``, ``ln_T2_peak`` and, with a tilt bound
+        and a CG above the supports, ``tilt_rows``.
+    """
+    from isodesign.response.isolator import static_stiffness
+    from isodesign.table import inertia_base as slab_terms
+    from isodesign.table.model import table_model
+    from isodesign.table.peaks import closure_springs
+    from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
+
+    st = prob.study
+    values = values or {v.name: v.start for v in st.variables}
+    d = st.design_at(values)
+    table = st.table_at(values)
+    model = table_model(d, table, flow=prob.flow, amplitude_mode=st.models["amplitude_mode"],
+                        diaphragm=prob.dia)
+    lv = model.leveling
+    designs = model.designs
+    sigma, sigma_u = prob.closure(d, values)
+    c = st.constraints
+    q = {"ln_total_volume": math.log(d.total_volume_m3) if not prob.grouped else np.log([
+        designs[list(lv.group_of).index(g)].total_volume_m3 for g in range(3)])}
+    k0 = [static_stiffness(di, prob.dia, float(mi))
+          for di, mi in zip(designs, lv.mass_per_isolator_kg, strict=True)]
+    q["ln_fn"] = 0.5 * math.log(float(sum(k0)) / slab_terms.body_mass(table, None)
+                                / (2.0 * math.pi) ** 2)
+    q["ln_stroke"] = np.log(sigma) + math.log(c.get("stroke_peak_factor") or 3.0)
+    mu = c.get("min_tilt_margin")
+    if mu and table.cg_height_m > 0:
+        kq = [sealed_stiffness(di, prob.dia, flow=prob.flow) for di in designs]
+        wh, mu = slab_terms.tilt_bound(table, None, mu)
+        q["tilt_rows"] = np.asarray(tilt_margin_rows(kq, table.vertical_points_m, wh, mu),
+                                    float)
+    pk = c.get("max_peak_transmissibility_db")
+    if pk is not None and pk is not False:
+        f = prob.grid.frequency_hz
+        f = np.concatenate([f[f <= prob._peak_cut_hz()], prob.slot_hz])
+        w = 2.0 * math.pi * f
+        out = model.outputs(closure_springs(model, sigma, sigma_u)(w), w)
+        diag = np.diagonal(out.points, axis1=2, axis2=3)  # (f, k, 3)
+        t2 = (diag.real ** 2 + diag.imag ** 2).reshape(f.size, -1)  # (f, 3k), point-major
+        n_grid = f.size - prob.slot_hz.size
+        # the NLP's order: per point and axis, the grid's frequencies, then the slots'
+        q["ln_T2_peak"] = np.log(np.concatenate([t2[:n_grid].T.ravel(),
+                                                 t2[n_grid:].T.ravel()]))
+    return q
