@@ -260,15 +260,75 @@ class NLP:
 
     A subclass sets ``study``, ``objectives``, ``scaling`` (and ``lever_scaling`` with
     ``n_levers`` free levers after the spring in ``z``), ``solver``, ``lbx``, ``ubx``,
-    ``lbg``, ``ubg``, ``n_eq``, ``con_rows`` (:func:`constraint_rows`), and defines
-    :meth:`objective_values`, :meth:`hessian_approximation` and :meth:`_param_tail`.
+    ``lbg``, ``ubg``, ``n_eq``, ``nz``, ``nx``, ``con_rows`` (:func:`constraint_rows`; its
+    rows from the constraint registry, :mod:`.constraint_registry`), and defines
+    :meth:`objective_values`, :attr:`hessian_info`, :meth:`closure`, :meth:`_fill_guess` and
+    :meth:`_param_tail`.
     """
 
     n_levers = 0
 
-    def hessian_approximation(self) -> str:
-        """IPOPT's Hessian of this NLP (``exact`` or ``limited-memory``)."""
+    @property
+    def hessian_info(self) -> dict:
+        """IPOPT's Hessian of this NLP and why (``hessian``, ``reason``)."""
         raise NotImplementedError
+
+    def hessian_approximation(self) -> str:
+        """IPOPT's Hessian of this NLP (``exact`` or ``limited-memory``; :attr:`hessian_info`)."""
+        return self.hessian_info["hessian"]
+
+    def closure(self, d, values: dict | None = None):
+        """``(sigma, sigma_u)`` of a design from the body's NumPy closure.
+
+        Parameters
+        ----------
+        d : SpringDesign
+        values : dict, optional
+            Design-variable values (a table's levers); default their starts.
+        """
+        raise NotImplementedError
+
+    def _reference_sigma(self):
+        """The closure of the study's start design: the scale of the implicit unknowns'
+        rows."""
+        return self.closure(self.study.start_design())
+
+    def _fill_guess(self, x0: np.ndarray, d, sigma, sigma_u) -> None:
+        """Set the implicit unknowns and the dependent variables of ``x0`` (in place)."""
+        raise NotImplementedError
+
+    def scaled_design(self, values: dict) -> np.ndarray:
+        """The scaled design ``z`` at design values (the spring's, then the free levers'),
+        clipped to its box [-1, 1].
+
+        Parameters
+        ----------
+        values : dict
+            Design-variable values (SI); a missing lever at its start.
+        """
+        nzs = len(self.scaling.names)
+        z = np.zeros(nzs + self.n_levers)
+        z[:nzs] = np.clip(self.scaling.to_z(values), -1.0, 1.0)
+        if self.n_levers:
+            lev = {v.name: values.get(v.name, v.start) for v in self.study.levers}
+            z[nzs:] = np.clip(self.lever_scaling.to_z(lev), -1.0, 1.0)
+        return z
+
+    def initial_guess(self, values: dict) -> np.ndarray:
+        """A consistent ``x0`` at a design: the scaled design, the implicit unknowns from the
+        body's NumPy closure, the dependent variables (partial sums, epigraphs) tight.
+
+        Parameters
+        ----------
+        values : dict
+            Design-variable values (SI).
+        """
+        d = self.study.design_at(values)
+        sigma, sigma_u = self.closure(d, values)
+        x0 = np.zeros(self.nx)
+        x0[: self.nz] = self.scaled_design(values)
+        self._fill_guess(x0, d, sigma, sigma_u)
+        return x0
 
     def _param_tail(self) -> np.ndarray:
         """The parameters after the objectives' (:func:`objective_params`)."""

@@ -471,10 +471,6 @@ class Problem(NLP):
                                     nlp, parallel_allowed(self.study.solver["workers"]),
                                     hessian=exact)})
 
-    def hessian_approximation(self) -> str:
-        """IPOPT's Hessian of this NLP (:attr:`hessian_info`)."""
-        return self.hessian_info["hessian"]
-
     @property
     def hessian_info(self) -> dict:
         """IPOPT's Hessian of this NLP and why
@@ -509,9 +505,9 @@ class Problem(NLP):
     def _chain_fn(self, x_core):
         return self._chain_fn_p(x_core, self._fn_params())
 
-    def closure(self, d) -> tuple[float, float | None]:
+    def closure(self, d, values: dict | None = None) -> tuple[float, float | None]:
         """``(sigma, sigma_u)`` of a design from the NumPy closure (``sigma_u``: ``None``
-        for the harmonic closure)."""
+        for the harmonic closure; ``values`` unused: no levers)."""
         st = self.study
         sigma, info = solve_stroke_rms(
             d, st.payload, self.grid.response, flow=st.models["flow"],
@@ -519,16 +515,9 @@ class Problem(NLP):
             random_method="statistical" if self.statistical else "equivalent_amplitude")
         return sigma, info.get("tube_velocity_rms_m_s")
 
-    def _reference_sigma(self) -> tuple[float, float | None]:
-        return self.closure(self.study.start_design())
-
-    # -- starting points -------------------------------------------------------------
-    def initial_guess(self, values: dict) -> np.ndarray:
-        """A consistent x0 at a design: implicit unknowns from the NumPy solvers."""
-        d = self.study.design_at(values)
-        sigma, sigma_u = self.closure(d)
-        x0 = np.zeros(self.nx)
-        x0[: self.nz] = np.clip(self.scaling.to_z(values), -1.0, 1.0)
+    # -- starting points (NLP.initial_guess) -------------------------------------------
+    def _fill_guess(self, x0: np.ndarray, d, sigma, sigma_u) -> None:
+        """ln sigma, ln sigma_u or ln U from the NumPy solvers; partial sums, epigraphs."""
         x0[self.nz] = math.log(sigma)
         if self.statistical:
             x0[self.nz + 1] = math.log(sigma_u)
@@ -536,7 +525,6 @@ class Problem(NLP):
             u = self.velocity(d, sigma)
             x0[self.nz + 1: self.nz + 1 + self.ny] = np.log(u)
         self.fill_dependent(x0)
-        return x0
 
     def retighten(self, sol: Solution) -> Solution:
         """A solution with its epigraph variables made tight and J, g re-evaluated."""

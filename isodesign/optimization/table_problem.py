@@ -445,7 +445,7 @@ class TableProblem(NLP):
             v, s, y, ca.DM(g.omega).T, ca.DM(self.kh_re), ca.DM(self.kh_im),
             ca.DM(g.stroke_weight), ca.DM(bw))  # red: summed over the grid
         self._n_t = 9 * k
-        self.sigma_ref, self.tube_ref = self._reference()
+        self.sigma_ref, self.tube_ref = self._reference_sigma()
         rows_eq = []
         for i in range(n):
             rows_eq.append((ca.exp(2 * s[i]) - red[i]) / self.sigma_ref[i] ** 2)
@@ -686,13 +686,6 @@ class TableProblem(NLP):
         sigma, sigma_u, _ = solve_table_closure(TableStatistical(model, self.grid))
         return sigma, sigma_u
 
-    def _reference(self):
-        return self.closure(self.study.start_design())
-
-    def hessian_approximation(self) -> str:
-        """IPOPT's Hessian of this NLP (the ``hessian`` it was built with)."""
-        return self.hessian
-
     @property
     def hessian_info(self) -> dict:
         """IPOPT's Hessian of this NLP and why: the rule's
@@ -767,27 +760,13 @@ class TableProblem(NLP):
             p[14 * j: 14 * (j + 1)] = blk
         self.mode_params = p
 
-    def initial_guess(self, values: dict) -> np.ndarray:
-        """A consistent x0: the closure from the NumPy solver, the epigraph tight.
-
-        Parameters
-        ----------
-        values : dict
-            Design-variable values (SI).
-        """
-        d = self.study.design_at(values)
-        sigma, sigma_u = self.closure(d, values)
-        x0 = np.zeros(self.nx)
-        nzs = len(self.scaling.names)
-        x0[:nzs] = np.clip(self.scaling.to_z(values), -1.0, 1.0)
-        if self.n_levers:
-            lev = {v.name: values.get(v.name, v.start) for v in self.study.levers}
-            x0[nzs: self.nz] = np.clip(self.lever_scaling.to_z(lev), -1.0, 1.0)
+    def _fill_guess(self, x0: np.ndarray, d, sigma, sigma_u) -> None:
+        """ln sigma_i, ln sigma_u,i from the NumPy closure, the epigraph tight
+        (:meth:`~.nlp.NLP.initial_guess`)."""
         x0[self.nz: self.nz + self.n] = np.log(sigma)
         x0[self.nz + self.n: self.nz + 2 * self.n] = np.log(sigma_u)
         if self.nx > self.nz + 2 * self.n:
             x0[-1] = float(np.min(np.asarray(self._margins_fn(x0))))
-        return x0
 
     def objective_values(self, x: np.ndarray) -> np.ndarray:
         """Internal values J of every objective at ``x``.
