@@ -33,9 +33,21 @@ from isodesign.spring.capillary import LAMINAR_REYNOLDS_LIMIT, QUASI_STEADY_WOME
 from isodesign.spring.diagnostics import LUMPED_LIMIT
 from isodesign.spring.flow_models import flow_model
 
-__all__ = ["CONSTRAINTS", "TABLE_ROWS", "VALIDITY_MARGIN", "VERTICAL_ROWS", "Constraint",
-           "ConstraintKind",
-           "constraint_rows_of", "kind_of", "natural_value", "vertical_rows"]
+__all__ = [
+    "CONSTRAINTS",
+    "REPORTED_KEYS",
+    "TABLE_ROWS",
+    "VALIDITY_MARGIN",
+    "VERTICAL_ROWS",
+    "Constraint",
+    "ConstraintKind",
+    "constraint_rows_of",
+    "kind_of",
+    "model_validity_names",
+    "natural_value",
+    "study_keys",
+    "vertical_rows",
+]
 
 _LN10 = math.log(10.0)
 _INF = math.inf
@@ -100,6 +112,9 @@ class ConstraintKind:
         ``study -> bool``: further conditions (the acoustics, the flow model's checks).
     scale : float
         The kept fraction of a model-validity limit (:data:`VALIDITY_MARGIN`), 1 otherwise.
+    validity : bool
+        A limit of the model's validity (not a requirement of the study; the binding
+        explanation says so, :mod:`.explain`).
     exact : callable or None
         A surrogate's rows back in its exact quantity, ``(rows, constraints) -> values``
         (a frozen mode's damping ratio or frequency): with the modes frozen at the design's
@@ -116,6 +131,7 @@ class ConstraintKind:
     bounds: Callable | None = None
     when: Callable = field(default=lambda study: True)
     scale: float = 1.0
+    validity: bool = False
     exact: Callable | None = None
 
     def on(self, study) -> bool:
@@ -256,7 +272,8 @@ CONSTRAINTS: dict[str, ConstraintKind] = {k.name: k for k in (
                    "the leveling loop's frozen poles at the raised gain stay stable"),
     # the vertical body's model validity
     ConstraintKind("mach", "max_mach", "-", "log", "ln_mach",
-                   "capillary Mach number <= max at every grid frequency", _upper("max_mach")),
+                   "capillary Mach number <= max at every grid frequency", _upper("max_mach"),
+                   validity=True),
     ConstraintKind("chamber_pressure", "max_pressure_pa", "Pa", "log", "ln_chamber_pressure",
                    "static chamber pressure p0 <= max (set by the payload)",
                    _upper("max_pressure_pa")),
@@ -264,23 +281,23 @@ CONSTRAINTS: dict[str, ConstraintKind] = {k.name: k for k in (
                      f"ln_plane_wave_{ch}", f"{ch.replace('_', ' ')} below its first "
                      "transverse mode: w D / (1.8412 c) <= 1", lambda c: (None, 1.0),
                      lambda st: _validity(st) and st.start_design().acoustics != "lumped",
-                     VALIDITY_MARGIN)
+                     VALIDITY_MARGIN, True)
       for ch in ("top_chamber", "bottom_chamber")),
     *(ConstraintKind(f"lumped_{part}", "model_validity", "w l/c", "log", f"ln_lumped_{part}",
                      f"acoustically compact {part.replace('_', ' ')}: w l / c <= "
                      f"{LUMPED_LIMIT}", lambda c: (None, LUMPED_LIMIT),
-                     _lumped, VALIDITY_MARGIN)
+                     _lumped, VALIDITY_MARGIN, True)
       for part in ("tube", "top_chamber", "bottom_chamber")),
     ConstraintKind("laminar", "model_validity", "Re", "log", "ln_re",
                    "peak Reynolds number <= 2300 (laminar model)",
                    lambda c: (None, LAMINAR_REYNOLDS_LIMIT), _flow_check("laminar"),
-                   VALIDITY_MARGIN),
+                   VALIDITY_MARGIN, True),
     # the per-point check of quasi_steady bounds the error in k (evaluated both ways, NumPy);
     # its design-space guard in the NLP is the Womersley bound, under its former name
     ConstraintKind("quasi_steady_alpha", "model_validity", "alpha", "log", "ln_alpha_max",
                    "Womersley number <= 3.4 at the highest grid frequency",
                    lambda c: (None, QUASI_STEADY_WOMERSLEY_LIMIT),
-                   _flow_check("quasi_steady_alpha", "quasi_steady_k"), VALIDITY_MARGIN),
+                   _flow_check("quasi_steady_alpha", "quasi_steady_k"), VALIDITY_MARGIN, True),
 )}
 
 #: The rows the vertical body (the exact z reduction) requests, in the order of its ``g``.
@@ -293,6 +310,50 @@ VERTICAL_ROWS = ("total_volume", "tilt_margin", "natural_frequency", "peak_trans
 TABLE_ROWS = ("total_volume", "natural_frequency", "stroke", "tilt_margin_rows", "layout",
               "loads", "peak_transmissibility", "damping_rows", "min_rocking_frequency",
               "max_rocking_frequency", "leveling_loop")
+
+
+#: The table's constraints reported from exact quantities rather than from a kind's rows
+#: (:func:`~.table_constraints.table_constraint_reports`), by report name: the study key
+#: that bounds each.
+REPORTED_KEYS = {
+    "continuous_peak_transmissibility": "max_peak_transmissibility_db",
+    "rocking_frequency": "min/max_rocking_frequency_hz",
+    "leveling_gain_margin": "min_leveling_gain_margin_db",
+    "leveling_phase_margin": "min_leveling_phase_margin_deg",
+    "footprint": "footprint_m",
+    "isolator_distance": "min_isolator_distance_m",
+    "isolator_load": "min/max_isolator_load_n",
+    "supply_pressure": "supply_margin_pa",
+}
+
+
+def study_keys() -> dict[str, str]:
+    """The study key (``constraints.<key>``) that sets the bound of each reported
+    constraint, by name: the registry's kinds with a key of their own (not the limits
+    ``model_validity`` switches on) and the table's exactly reported constraints
+    (:data:`REPORTED_KEYS`).
+
+    Returns
+    -------
+    dict
+    """
+    out = {}
+    for k in CONSTRAINTS.values():
+        if k.form in ("log", "db") and k.key != "model_validity":
+            key = "min/max_natural_frequency_hz" if k.key == "natural_frequency_hz" else k.key
+            out[k.name] = f"constraints.{key}"
+    out.update({n: f"constraints.{key}" for n, key in REPORTED_KEYS.items()})
+    return out
+
+
+def model_validity_names() -> frozenset:
+    """The names of the registry's model-validity limits (:attr:`ConstraintKind.validity`).
+
+    Returns
+    -------
+    frozenset of str
+    """
+    return frozenset(k.name for k in CONSTRAINTS.values() if k.validity)
 
 
 def kind_of(name: str) -> ConstraintKind | None:

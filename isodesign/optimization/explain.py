@@ -13,14 +13,13 @@ from __future__ import annotations
 
 import math
 
+from isodesign.optimization.constraint_registry import model_validity_names, study_keys
+
 __all__ = ["BINDING_NOTE", "MODEL_VALIDITY_CONSTRAINTS", "STUDY_KEYS", "constraint_table_rows",
            "limiting_factors", "limiting_summary", "variables_at_bounds"]
 
 #: Constraints that keep the design inside a model's validity, not user requirements.
-MODEL_VALIDITY_CONSTRAINTS = frozenset({
-    "mach", "laminar", "quasi_steady_alpha", "lumped_tube", "lumped_top_chamber",
-    "lumped_bottom_chamber", "plane_wave_top_chamber", "plane_wave_bottom_chamber",
-})
+MODEL_VALIDITY_CONSTRAINTS = model_validity_names()  # the registry's (constraint_registry)
 
 #: For the lumped-model limits: the design quantity each caps, how it scales with the
 #: constrained value (w l / c grows as V^(1/3) for a chamber, as L_c for the tube), unit.
@@ -69,21 +68,7 @@ def variables_at_bounds(result, rtol: float = 1e-4) -> dict:
 
 
 #: The study key that sets each constraint's bound (named in the sentences).
-STUDY_KEYS = {
-    "total_volume": "constraints.max_total_volume_m3",
-    "tilt_margin": "constraints.min_tilt_margin",
-    "natural_frequency": "constraints.min/max_natural_frequency_hz",
-    "peak_transmissibility": "constraints.max_peak_transmissibility_db",
-    "damping_ratio": "constraints.min_damping_ratio",
-    "mach": "constraints.max_mach",
-    "chamber_pressure": "constraints.max_pressure_pa",
-    "leveling_gain_margin": "constraints.min_leveling_gain_margin_db",
-    "leveling_phase_margin": "constraints.min_leveling_phase_margin_deg",
-    "footprint": "constraints.footprint_m",
-    "isolator_distance": "constraints.min_isolator_distance_m",
-    "isolator_load": "constraints.min/max_isolator_load_n",
-    "supply_pressure": "constraints.supply_margin_pa",
-}
+STUDY_KEYS = study_keys()  # the registry's (constraint_registry)
 
 
 def _bound_text(c) -> str:

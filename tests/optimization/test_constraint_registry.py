@@ -152,3 +152,16 @@ def test_both_bodies_report_the_shared_kinds_alike():
         k = CONSTRAINTS[name]
         assert vr[name].unit == tr[name].unit == k.unit
         assert vr[name].description == tr[name].description == k.describe
+
+
+def test_binding_explanation_names_every_kinds_study_key():
+    # one binding explanation: its study keys and model-validity limits are the registry's
+    from isodesign.optimization.explain import MODEL_VALIDITY_CONSTRAINTS, STUDY_KEYS
+
+    for k in CONSTRAINTS.values():
+        if k.form in ("log", "db") and k.key != "model_validity":
+            assert STUDY_KEYS[k.name].startswith("constraints.")
+        assert (k.name in MODEL_VALIDITY_CONSTRAINTS) == k.validity
+    assert STUDY_KEYS["stroke"] == "constraints.max_stroke_m"
+    assert STUDY_KEYS["natural_frequency"] == "constraints.min/max_natural_frequency_hz"
+    assert STUDY_KEYS["rocking_frequency"] == "constraints.min/max_rocking_frequency_hz"
