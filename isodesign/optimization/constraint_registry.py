@@ -14,11 +14,11 @@ order (:data:`VERTICAL_ROWS`, :data:`TABLE_ROWS`); :func:`constraint_rows_of` tu
 the rows' values are the same expressions (:meth:`ConstraintKind.values`).
 
 A vertical study is the symmetric special case: the rows both bodies share (total volume,
-vertical natural frequency, peak |T| per point and axis, tilt margin, damping, stroke) are
-the same entries; the table's own (rocking frequencies, layout, loads, the leveling loop) are
-entries the vertical body does not request, and the vertical's model-validity rows (Mach,
-Reynolds and Womersley numbers, acoustic compactness, chamber pressure) are entries the
-table body does not request (yet).
+vertical natural frequency, peak |T| per point and axis, tilt margin, damping, the model's
+validity: Mach, Reynolds and Womersley numbers, acoustic compactness or plane waves) are the
+same entries; the table's own (stroke, rocking frequencies, layout, loads, the leveling
+loop) are entries the vertical body does not request, and the vertical's constant chamber
+pressure row one the table body does not (its leveling's supply rows hold p0).
 """
 
 from __future__ import annotations
@@ -133,6 +133,12 @@ class ConstraintKind:
     scale: float = 1.0
     validity: bool = False
     exact: Callable | None = None
+
+    @property
+    def row_key(self) -> str:
+        """The table body's row name: :attr:`key`, or :attr:`name` for the limits
+        ``model_validity`` switches on together."""
+        return self.name if self.key == "model_validity" else self.key
 
     def on(self, study) -> bool:
         """Whether the study asks for this constraint (its bound is set).
@@ -308,8 +314,10 @@ VERTICAL_ROWS = ("total_volume", "tilt_margin", "natural_frequency", "peak_trans
 #: The rows the table body requests, in the order of its ``g`` (after the objectives'
 #: epigraph rows): the shared kinds, its smooth forms of tilt and damping, its own.
 TABLE_ROWS = ("total_volume", "natural_frequency", "stroke", "tilt_margin_rows", "layout",
-              "loads", "peak_transmissibility", "damping_rows", "min_rocking_frequency",
-              "max_rocking_frequency", "leveling_loop")
+              "loads", "peak_transmissibility", "mach", "plane_wave_top_chamber",
+              "plane_wave_bottom_chamber", "lumped_tube", "lumped_top_chamber",
+              "lumped_bottom_chamber", "laminar", "quasi_steady_alpha", "damping_rows",
+              "min_rocking_frequency", "max_rocking_frequency", "leveling_loop")
 
 
 #: The table's constraints reported from exact quantities rather than from a kind's rows
@@ -417,7 +425,7 @@ def constraint_rows_of(study, q: dict, kinds) -> list:
             continue
         v = k.values(q)
         lo, hi = k.nlp_bounds(study)
-        out.append(Constraint(k.name, v, lo, hi, _size(v), k.words(study), key=k.key,
+        out.append(Constraint(k.name, v, lo, hi, _size(v), k.words(study), key=k.row_key,
                               kind=name))
     return out
 

@@ -36,7 +36,8 @@ from isodesign.spring.equations import air_stiffness, spring_stiffness, tube_vel
 from isodesign.spring.flow_models import resistance_function
 from isodesign.spring.transmission_line import TRANSVERSE_MODE_FACTOR
 
-__all__ = ["combine", "design_quantities", "metrics", "point_quantities", "statistical"]
+__all__ = ["combine", "design_quantities", "metrics", "point_quantities", "statistical",
+           "tube_flow_quantities", "validity_quantities"]
 
 
 def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
@@ -103,8 +104,7 @@ def point_quantities(study, d, omega, velocity, sigma, dia, c_nl=None) -> dict:
     out = {
         "T": transmissibility(k, m_i, omega),
         "R": relative_transmissibility(k, m_i, omega),
-        "ln_mach": bk.log(velocity / d.speed_of_sound_m_s),
-        "ln_re": bk.log(d.density_kg_m3 * velocity * d.capillary_diameter_m / d.viscosity_pa_s),
+        **tube_flow_quantities(d, velocity),
     }
     if c_nl is not None:
         out["G2"] = tube_velocity_gain2(d, omega, c, flow)
@@ -152,24 +152,66 @@ def design_quantities(study, grid, d, dia) -> dict:
         out["ln_tilt"] = bk.log(tilt_margin(k0, study.payload))
     out["ln_fn"] = bk.log(natural_frequency_hz(k0, m_i))
     out["ln_zeta"] = bk.log(zener_damping_ratio(d, m_i))
-    w_max = float(np.max(grid.omega))
-    # acoustic compactness of the lumped model (diagnostics.LUMPED_LIMIT), one
-    # smooth constraint per length instead of a max
-    c = d.speed_of_sound_m_s
-    out["ln_lumped"] = [
-        bk.log(w_max * d.capillary_length_m / c),
-        bk.log(w_max * bk.power(d.top_volume_m3, 1.0 / 3.0) / c),
-        bk.log(w_max * bk.power(d.bottom_volume_m3, 1.0 / 3.0) / c),
-    ]
-    # plane waves in the chambers (the distributed model): w_max D / (1.8412 c) per chamber
-    out["ln_plane_wave"] = [
-        bk.log(w_max * chamber_dimensions(d, v)[1] / (TRANSVERSE_MODE_FACTOR * c))
-        for v in (d.top_volume_m3, d.bottom_volume_m3)
-    ]
-    out["ln_alpha_max"] = 0.5 * bk.log(
-        d.density_kg_m3 * w_max * d.capillary_diameter_m**2 / d.viscosity_pa_s
-    ) - math.log(2.0)
+    out.update(validity_quantities(d, float(np.max(grid.omega))))
     return out
+
+
+def tube_flow_quantities(d, velocity) -> dict:
+    """The tube flow's validity quantities at a velocity amplitude, any backend.
+
+    Parameters
+    ----------
+    d : SpringDesign
+    velocity : float, ndarray or CasADi symbol
+        The tube velocity amplitude, m/s.
+
+    Returns
+    -------
+    dict
+        ``ln_mach``, the log of the Mach number ``U / c``; ``ln_re``, the log of the Reynolds
+        number ``rho U D_c / mu``.
+    """
+    return {
+        "ln_mach": bk.log(velocity / d.speed_of_sound_m_s),
+        "ln_re": bk.log(d.density_kg_m3 * velocity * d.capillary_diameter_m / d.viscosity_pa_s),
+    }
+
+
+def validity_quantities(d, w_max: float) -> dict:
+    """The spring's design-level validity quantities at the grid's top, any backend.
+
+    Parameters
+    ----------
+    d : SpringDesign
+    w_max : float
+        The grid's highest angular frequency, rad/s.
+
+    Returns
+    -------
+    dict
+        ``ln_lumped``, a list of three: ``w_max L_c / c``, ``w_max V_t0^(1/3) / c`` and
+        ``w_max V_b0^(1/3) / c`` (acoustic compactness of tube and chambers, the lumped
+        model's validity, one smooth row per length instead of their ``max``);
+        ``ln_plane_wave``, a list of two: ``w_max D / (1.8412 c)`` for each chamber's
+        diameter (plane waves below the first transverse mode: the distributed model's
+        validity); ``ln_alpha_max``, the Womersley number ``(D_c / 2) sqrt(w_max rho /
+        mu)``. Natural logs.
+    """
+    c = d.speed_of_sound_m_s
+    return {
+        "ln_lumped": [
+            bk.log(w_max * d.capillary_length_m / c),
+            bk.log(w_max * bk.power(d.top_volume_m3, 1.0 / 3.0) / c),
+            bk.log(w_max * bk.power(d.bottom_volume_m3, 1.0 / 3.0) / c),
+        ],
+        "ln_plane_wave": [
+            bk.log(w_max * chamber_dimensions(d, v)[1] / (TRANSVERSE_MODE_FACTOR * c))
+            for v in (d.top_volume_m3, d.bottom_volume_m3)
+        ],
+        "ln_alpha_max": 0.5 * bk.log(
+            d.density_kg_m3 * w_max * d.capillary_diameter_m**2 / d.viscosity_pa_s
+        ) - math.log(2.0),
+    }
 
 
 def combine(study, grid, pq: dict, dq: dict) -> dict:

@@ -31,7 +31,7 @@ from isodesign.optimization.constraints import (
 
 #: The table body's kinds reported from their NLP rows (a log of the quantity, or
 #: ``ln |T|^2``), by row key.
-_ROW_KINDS = {CONSTRAINTS[k].key: CONSTRAINTS[k] for k in TABLE_ROWS
+_ROW_KINDS = {CONSTRAINTS[k].row_key: CONSTRAINTS[k] for k in TABLE_ROWS
               if CONSTRAINTS[k].form in ("log", "db")}
 
 __all__ = ["CONTINUOUS_PEAK", "LEVELING_GAIN_MARGIN", "LEVELING_PHASE_MARGIN",
@@ -246,8 +246,12 @@ def table_quantities(prob, values: dict | None = None) -> dict:
     Returns
     -------
     dict
-        ``ln_total_volume``, ``ln_fn``, ``ln_stroke``, ``ln_T2_peak`` and, with a tilt bound
-        and a CG above the supports, ``tilt_rows``.
+        ``ln_total_volume``, ``ln_fn``, ``ln_stroke``, ``ln_T2_peak``, with a tilt bound
+        and a CG above the supports ``tilt_rows``, with ``model_validity`` the validity
+        quantities (:func:`~isodesign.optimization.metrics.validity_quantities`, per spring,
+        and per isolator the Womersley number and
+        :func:`~isodesign.optimization.metrics.tube_flow_quantities` at ``sqrt(2)
+        sigma_u``).
     """
     from isodesign.response.isolator import static_stiffness
     from isodesign.table import inertia_base as slab_terms
@@ -290,4 +294,21 @@ def table_quantities(prob, values: dict | None = None) -> dict:
         # the NLP's order: per point and axis, the grid's frequencies, then the slots'
         q["ln_T2_peak"] = np.log(np.concatenate([t2[:n_grid].T.ravel(),
                                                  t2[n_grid:].T.ravel()]))
+    if c.get("model_validity"):
+        from isodesign.optimization.metrics import tube_flow_quantities, validity_quantities
+
+        w_max = float(np.max(prob.grid.omega))
+        springs = [designs[list(lv.group_of).index(g)] for g in range(3)] if prob.grouped \
+            else [d]
+        per = [validity_quantities(di, w_max) for di in springs]
+        for i, ch in enumerate(("top_chamber", "bottom_chamber")):
+            q[f"ln_plane_wave_{ch}"] = np.array([float(p["ln_plane_wave"][i]) for p in per])
+        for i, part in enumerate(("tube", "top_chamber", "bottom_chamber")):
+            q[f"ln_lumped_{part}"] = np.array([float(p["ln_lumped"][i]) for p in per])
+        flow = [tube_flow_quantities(di, math.sqrt(2.0) * float(su))
+                for di, su in zip(designs, sigma_u, strict=True)]
+        q["ln_mach"] = np.array([f["ln_mach"] for f in flow], float)
+        q["ln_re"] = np.array([f["ln_re"] for f in flow], float)
+        q["ln_alpha_max"] = np.array([validity_quantities(di, w_max)["ln_alpha_max"]
+                                      for di in designs], float)
     return q

@@ -46,7 +46,8 @@ def test_registry_is_one_table_of_kinds():
     for name in (*VERTICAL_ROWS, *TABLE_ROWS):
         assert CONSTRAINTS[name].name == name
     shared = set(VERTICAL_ROWS) & set(TABLE_ROWS)
-    assert {"total_volume", "natural_frequency", "peak_transmissibility"} <= shared
+    assert {"total_volume", "natural_frequency", "peak_transmissibility", "mach", "laminar",
+            "quasi_steady_alpha", "lumped_tube", "plane_wave_top_chamber"} <= shared
     # rows only the table holds are entries the vertical body does not request
     for name in ("min_rocking_frequency", "max_rocking_frequency", "layout", "loads",
                  "leveling_loop", "stroke"):
@@ -105,7 +106,8 @@ def test_table_rows_recheck_on_numpy():
             np.testing.assert_allclose(g[row: row + n], v, rtol=0, atol=ROW_TOL, err_msg=key)
             checked.add(rows[key].kind)
     assert checked == {"total_volume", "natural_frequency", "stroke", "tilt_margin_rows",
-                       "peak_transmissibility"}
+                       "peak_transmissibility", "mach", "laminar", "plane_wave_top_chamber",
+                       "plane_wave_bottom_chamber"}
 
 
 def test_table_frozen_mode_rows_give_the_exact_modes():
