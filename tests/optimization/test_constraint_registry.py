@@ -88,11 +88,14 @@ def test_vertical_rows_recheck_on_numpy(changes):
     assert expected <= seen
 
 
-def test_table_rows_recheck_on_numpy():
+@pytest.mark.parametrize("changes", [{}, {"models.acoustics": "lumped"},
+                                     {"models.flow": "quasi_steady"}],
+                         ids=["table_study", "lumped", "quasi_steady"])
+def test_table_rows_recheck_on_numpy(changes):
     from isodesign.optimization.table_constraints import table_quantities
     from isodesign.optimization.table_problem import TableProblem
 
-    study = table_study().with_changes({"constraints.max_stroke_m": 0.01})
+    study = table_study().with_changes({"constraints.max_stroke_m": 0.01, **changes})
     prob = TableProblem(study)
     values = _starts(study)
     g, _ = _g(prob, values)
@@ -105,9 +108,12 @@ def test_table_rows_recheck_on_numpy():
             assert v.size == n
             np.testing.assert_allclose(g[row: row + n], v, rtol=0, atol=ROW_TOL, err_msg=key)
             checked.add(rows[key].kind)
+    validity = {"lumped_tube", "lumped_top_chamber", "lumped_bottom_chamber"} \
+        if changes.get("models.acoustics") else {"plane_wave_top_chamber",
+                                                 "plane_wave_bottom_chamber"}
+    validity |= {"quasi_steady_alpha"} if changes.get("models.flow") else {"laminar"}
     assert checked == {"total_volume", "natural_frequency", "stroke", "tilt_margin_rows",
-                       "peak_transmissibility", "mach", "laminar", "plane_wave_top_chamber",
-                       "plane_wave_bottom_chamber"}
+                       "peak_transmissibility", "mach"} | validity
 
 
 def test_table_frozen_mode_rows_give_the_exact_modes():
