@@ -36,7 +36,7 @@ _ROW_KINDS = {CONSTRAINTS[k].row_key: CONSTRAINTS[k] for k in TABLE_ROWS
 
 __all__ = ["CONTINUOUS_PEAK", "LEVELING_GAIN_MARGIN", "LEVELING_PHASE_MARGIN",
            "leveling_reports", "row_reports", "table_constraint_reports",
-           "table_quantities"]
+           "table_quantities", "validity_quantities"]
 
 #: Name of the continuous peak's row (and of its violation).
 CONTINUOUS_PEAK = "continuous_peak_transmissibility"
@@ -295,20 +295,62 @@ def table_quantities(prob, values: dict | None = None) -> dict:
         q["ln_T2_peak"] = np.log(np.concatenate([t2[:n_grid].T.ravel(),
                                                  t2[n_grid:].T.ravel()]))
     if c.get("model_validity"):
-        from isodesign.optimization.metrics import tube_flow_quantities, validity_quantities
+        q.update(validity_quantities(d, designs, np.log(sigma_u), float(np.max(prob.grid.omega)),
+                                     lv.group_of if prob.grouped else None))
+    return q
 
-        w_max = float(np.max(prob.grid.omega))
-        springs = [designs[list(lv.group_of).index(g)] for g in range(3)] if prob.grouped \
-            else [d]
-        per = [validity_quantities(di, w_max) for di in springs]
-        for i, ch in enumerate(("top_chamber", "bottom_chamber")):
-            q[f"ln_plane_wave_{ch}"] = np.array([float(p["ln_plane_wave"][i]) for p in per])
-        for i, part in enumerate(("tube", "top_chamber", "bottom_chamber")):
-            q[f"ln_lumped_{part}"] = np.array([float(p["ln_lumped"][i]) for p in per])
-        flow = [tube_flow_quantities(di, math.sqrt(2.0) * float(su))
-                for di, su in zip(designs, sigma_u, strict=True)]
-        q["ln_mach"] = np.array([f["ln_mach"] for f in flow], float)
-        q["ln_re"] = np.array([f["ln_re"] for f in flow], float)
-        q["ln_alpha_max"] = np.array([validity_quantities(di, w_max)["ln_alpha_max"]
-                                      for di in designs], float)
+
+def validity_quantities(d, designs, ln_sigma_u, w_max: float, group_of=None) -> dict:
+    """The table body's model-validity quantities, any backend (the NLP's rows and their
+    NumPy re-check).
+
+    Per isolator the tube's Mach and Reynolds numbers at the closure's velocity amplitude
+    ``sqrt(2) sigma_u`` (the statistical closure's, as the vertical body's;
+    :func:`~isodesign.optimization.metrics.tube_flow_quantities`) and the Womersley number at
+    the grid's top; per spring (each group's with per-group springs) the acoustic
+    compactness and the plane waves (:func:`~isodesign.optimization.metrics.
+    validity_quantities`).
+
+    Parameters
+    ----------
+    d : SpringDesign
+        The shared spring.
+    designs : sequence of SpringDesign
+        Each isolator's (its p0, its group's spring).
+    ln_sigma_u : sequence
+        ``ln sigma_u`` per isolator (CasADi in the NLP, NumPy in the re-check).
+    w_max : float
+        The grid's highest angular frequency, rad/s.
+    group_of : sequence of int, optional
+        Each isolator's group, with per-group springs.
+
+    Returns
+    -------
+    dict
+        ``ln_plane_wave_*``, ``ln_lumped_*`` (per spring), ``ln_mach``, ``ln_re``,
+        ``ln_alpha_max`` (per isolator), column vectors.
+    """
+    from isodesign.numerics import backend as bk
+    from isodesign.optimization import metrics
+
+    def stack(xs):
+        if any(bk.is_casadi(x) for x in xs):
+            import casadi as ca
+
+            return ca.vertcat(*xs)
+        return np.array([float(x) for x in xs])
+
+    springs = [designs[list(group_of).index(g)] for g in range(3)] if group_of is not None \
+        else [d]
+    per = [metrics.validity_quantities(di, w_max) for di in springs]
+    q = {f"ln_plane_wave_{ch}": stack([p["ln_plane_wave"][i] for p in per])
+         for i, ch in enumerate(("top_chamber", "bottom_chamber"))}
+    q.update({f"ln_lumped_{part}": stack([p["ln_lumped"][i] for p in per])
+              for i, part in enumerate(("tube", "top_chamber", "bottom_chamber"))})
+    flow = [metrics.tube_flow_quantities(di, math.sqrt(2.0) * bk.exp(ln_sigma_u[i]))
+            for i, di in enumerate(designs)]
+    q["ln_mach"] = stack([f["ln_mach"] for f in flow])
+    q["ln_re"] = stack([f["ln_re"] for f in flow])
+    q["ln_alpha_max"] = stack([metrics.validity_quantities(di, w_max)["ln_alpha_max"]
+                               for di in designs])
     return q

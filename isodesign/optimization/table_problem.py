@@ -63,6 +63,7 @@ from isodesign.optimization.loop_rows import (
 )
 from isodesign.optimization.nlp import NLP
 from isodesign.optimization.objectives import OBJECTIVES
+from isodesign.optimization.table_constraints import validity_quantities
 from isodesign.optimization.variables import (
     CODESIGN_LEVERS,
     DESIGN_VARIABLES,
@@ -565,33 +566,10 @@ class TableProblem(NLP):
             if out_slots is not None:
                 rows = ca.vertcat(rows, ca.vec(out_slots.T))
             q["ln_T2_peak"] = ca.log(rows)
-        if c.get("model_validity"):
-            q.update(self._validity(ca, d, designs, y))
+        if c.get("model_validity"):  # the Mach, Reynolds, Womersley numbers, the acoustics'
+            q.update(validity_quantities(d, designs, y, float(np.max(self.grid.omega)),
+                                         lv.group_of if self.grouped else None))
         return self._rows(q)
-
-    def _validity(self, ca, d, designs, y) -> dict:
-        """The model's validity quantities (the registry's validity kinds, as the vertical
-        body's): per isolator the tube's Mach and Reynolds numbers at the closure's velocity
-        amplitude ``sqrt(2) sigma_u`` and the Womersley number at the grid's top; per spring
-        (each group's with per-group springs) the acoustic compactness and plane waves."""
-        from isodesign.optimization.metrics import tube_flow_quantities, validity_quantities
-
-        w_max = float(np.max(self.grid.omega))
-        lv = self.leveling
-        springs = [designs[list(lv.group_of).index(g)] for g in range(3)] if self.grouped \
-            else [d]
-        per = [validity_quantities(di, w_max) for di in springs]
-        q = {f"ln_plane_wave_{ch}": ca.vertcat(*[p["ln_plane_wave"][i] for p in per])
-             for i, ch in enumerate(("top_chamber", "bottom_chamber"))}
-        q.update({f"ln_lumped_{part}": ca.vertcat(*[p["ln_lumped"][i] for p in per])
-                  for i, part in enumerate(("tube", "top_chamber", "bottom_chamber"))})
-        flow = [tube_flow_quantities(di, math.sqrt(2.0) * ca.exp(y[i]))
-                for i, di in enumerate(designs)]
-        q["ln_mach"] = ca.vertcat(*[f["ln_mach"] for f in flow])
-        q["ln_re"] = ca.vertcat(*[f["ln_re"] for f in flow])
-        q["ln_alpha_max"] = ca.vertcat(*[validity_quantities(di, w_max)["ln_alpha_max"]
-                                         for di in designs])
-        return q
 
     def _peak_cut_hz(self) -> float:
         """Top of the peak rows: :data:`PEAK_ROWS_MAX_HZ`, or twice the highest rigid-body
