@@ -92,7 +92,8 @@ class ConstraintKind:
         the binding explanation (:mod:`.explain`).
     key : str
         The study key it bounds (``constraints.<key>``; ``natural_frequency_hz`` for the
-        pair ``min_``/``max_natural_frequency_hz``), and the table body's row key.
+        pair ``min_``/``max_natural_frequency_hz``; ``model_validity`` for the limits it
+        switches on), and the table body's row key (:attr:`row_key`).
     unit : str
         SI unit of its value in the constraint table (``-`` for a ratio).
     form : {'log', 'db', 'surrogate', 'given'}
