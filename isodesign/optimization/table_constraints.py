@@ -331,7 +331,8 @@ def validity_quantities(d, designs, ln_sigma_u, w_max: float, group_of=None) -> 
         ``ln_alpha_max`` (per isolator), column vectors.
     """
     from isodesign.numerics import backend as bk
-    from isodesign.optimization import metrics
+    from isodesign.optimization.metrics import tube_flow_quantities
+    from isodesign.optimization.metrics import validity_quantities as spring_validity
 
     def stack(xs):
         if any(bk.is_casadi(x) for x in xs):
@@ -342,15 +343,15 @@ def validity_quantities(d, designs, ln_sigma_u, w_max: float, group_of=None) -> 
 
     springs = [designs[list(group_of).index(g)] for g in range(3)] if group_of is not None \
         else [d]
-    per = [metrics.validity_quantities(di, w_max) for di in springs]
+    per = [spring_validity(di, w_max) for di in springs]
     q = {f"ln_plane_wave_{ch}": stack([p["ln_plane_wave"][i] for p in per])
          for i, ch in enumerate(("top_chamber", "bottom_chamber"))}
     q.update({f"ln_lumped_{part}": stack([p["ln_lumped"][i] for p in per])
               for i, part in enumerate(("tube", "top_chamber", "bottom_chamber"))})
-    flow = [metrics.tube_flow_quantities(di, math.sqrt(2.0) * bk.exp(ln_sigma_u[i]))
+    flow = [tube_flow_quantities(di, math.sqrt(2.0) * bk.exp(ln_sigma_u[i]))
             for i, di in enumerate(designs)]
     q["ln_mach"] = stack([f["ln_mach"] for f in flow])
     q["ln_re"] = stack([f["ln_re"] for f in flow])
-    q["ln_alpha_max"] = stack([metrics.validity_quantities(di, w_max)["ln_alpha_max"]
+    q["ln_alpha_max"] = stack([spring_validity(di, w_max)["ln_alpha_max"]
                                for di in designs])
     return q
