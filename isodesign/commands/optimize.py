@@ -615,7 +615,14 @@ def run_optimization(study, args, *, background: list | None = None):
 
     gc.freeze()  # the modules imported so far: the build's collections skip them too
     try:
-        problem = _PrefetchingProblem(study)
+        # no collections during the build: CasADi's expressions and Matplotlib's import (in
+        # the prefetch thread) made some 150 of them, about 0.17 s of CPU, for little
+        # garbage; everything alive after it is frozen (_PrefetchingProblem)
+        gc.disable()
+        try:
+            problem = _PrefetchingProblem(study)
+        finally:
+            gc.enable()
         with StartProgress(progress_enabled(args), study.solver["starts"],
                            study.objective["kind"]) as bar:
             result = optimize(study, progress=bar, problem=problem)
