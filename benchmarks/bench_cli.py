@@ -9,10 +9,10 @@ time to the start of the NLP build (interpreter start, imports, study, run direc
 NLP build, the starts, the tie-break and peak refinement, the re-check and band analyses,
 the output files, the plot and the exit. Each phase's median over the processes is shown
 (the medians need not add up to the median total), and the CPU time of each phase in the
-main process and of the forked workers (on a shared machine the steadier figure). Then the same runs import a
-byte-compiled copy of the package: without ``.pyc`` files (``PYTHONDONTWRITEBYTECODE`` set,
-as on the team's machines) every process compiles the package's sources, which an
-installed wheel never does.
+main process and of the forked workers (on a shared machine the steadier figure). Then the
+same runs import a byte-compiled copy of the package: without ``.pyc`` files
+(``PYTHONDONTWRITEBYTECODE`` set, as on the team's machines) every process compiles the
+package's sources, which an installed wheel never does.
 
 Run alone with ``python benchmarks/bench_cli.py`` or ``python benchmarks/run.py cli``
 (about 40 s).
