@@ -8,10 +8,11 @@ teardown) in a few fresh processes, with wall-clock marks at the phases' boundar
 time to the start of the NLP build (interpreter start, imports, study, run directory), the
 NLP build, the starts, the tie-break and peak refinement, the re-check and band analyses,
 the output files, the plot and the exit. Each phase's median over the processes is shown
-(the medians need not add up to the median total). Then the same runs import a
-byte-compiled copy of the package: without ``.pyc`` files (``PYTHONDONTWRITEBYTECODE`` set,
-as on the team's machines) every process compiles the package's sources, which an
-installed wheel never does.
+(the medians need not add up to the median total), and the CPU time of each phase in the
+main process and of the forked workers (on a shared machine the steadier figure). Then the
+same runs import a byte-compiled copy of the package: without ``.pyc`` files
+(``PYTHONDONTWRITEBYTECODE`` set, as on the team's machines) every process compiles the
+package's sources, which an installed wheel never does.
 
 Run alone with ``python benchmarks/bench_cli.py`` or ``python benchmarks/run.py cli``
 (about 40 s).
@@ -34,12 +35,18 @@ REPEATS = 3
 #: runs the command line as the program; the marks are printed by an atexit handler
 #: (the program ends with os._exit after the atexit handlers).
 _CHILD = r"""
-import atexit, json, sys, time
+import atexit, json, os, sys, time
 T0 = time.perf_counter()
-marks = []
+marks, cpu = [], []
 def mark(name):
     marks.append((name, time.perf_counter() - T0))
-atexit.register(lambda: print("MARKS " + json.dumps(marks), flush=True))
+    cpu.append((name, time.process_time()))
+def report():
+    t = os.times()  # the forked workers, waited for by their pools
+    print("MARKS " + json.dumps(marks), flush=True)
+    print("CPU " + json.dumps(cpu + [("workers", t.children_user + t.children_system)]),
+          flush=True)
+atexit.register(report)
 import isodesign.commands.optimize as cmd
 import isodesign.optimization.driver as drv
 import isodesign.optimization.problem as pb
@@ -97,8 +104,21 @@ def _one_run(package_dir: str | None = None) -> dict:
         raise RuntimeError(f"isodesign optimize exited {p.returncode}: {p.stderr[-300:]}")
     line = next(x for x in p.stdout.splitlines() if x.startswith("MARKS "))
     m = dict(json.loads(line[6:]))
+    line = next(x for x in p.stdout.splitlines() if x.startswith("CPU "))
+    c = dict(json.loads(line[4:]))
     plot = m["plot end"] - m["plot start"]
-    return {
+    cpu = {  # CPU time of the main process (its threads) in each phase, and of the workers
+        "to the NLP build": c["build start"],
+        "NLP build": c["build end"] - c["build start"],
+        "starts": c["starts end"] - c["starts start"],
+        "refinement": c["refine end"] - c["refine start"],
+        "re-check, analyses": c["outputs start"] - c["refine end"],
+        "output files": c["outputs end"] - c["outputs start"] - (c["plot end"]
+                                                                  - c["plot start"]),
+        "response.png": c["plot end"] - c["plot start"],
+        "workers": c["workers"],
+    }
+    return {"cpu": cpu, **{
         "to the NLP build": m["build start"],
         "NLP build": m["build end"] - m["build start"],
         "starts": m["starts end"] - m["starts start"],
@@ -108,7 +128,7 @@ def _one_run(package_dir: str | None = None) -> dict:
         "response.png": plot,
         "exit (and interpreter start)": wall - m["outputs end"],
         "total": wall,
-    }
+    }}
 
 
 def _compiled_copy(dest: Path) -> str:
@@ -129,8 +149,10 @@ def bench_cli_breakdown() -> dict:
     fresh processes."""
     load0 = _load()
     runs = [_one_run() for _ in range(REPEATS)]
-    med = {k: statistics.median(r[k] for r in runs) for k in runs[0]}
+    med = {k: statistics.median(r[k] for r in runs) for k in runs[0] if k != "cpu"}
     parts = "; ".join(f"{k} {v:.2f} s" for k, v in med.items() if k != "total")
+    cmed = {k: statistics.median(r["cpu"][k] for r in runs) for k in runs[0]["cpu"]}
+    cpu_parts = "; ".join(f"{k} {v:.2f} s" for k, v in cmed.items() if k != "workers")
     # without bytecode (PYTHONDONTWRITEBYTECODE, or a source tree nobody imported yet)
     # every process compiles the package's modules from source: compare with the
     # bytecode an installed wheel carries
@@ -141,7 +163,7 @@ def bench_cli_breakdown() -> dict:
     with tempfile.TemporaryDirectory(prefix="bench_cli_pyc_") as tmp:
         pkg = _compiled_copy(Path(tmp))
         runs_c = [_one_run(pkg) for _ in range(REPEATS)]
-    med_c = {k: statistics.median(r[k] for r in runs_c) for k in runs_c[0]}
+    med_c = {k: statistics.median(r[k] for r in runs_c) for k in runs_c[0] if k != "cpu"}
     bytecode = (
         f"The package as imported here {'has' if has_pyc else 'has NO'} bytecode "
         f"(PYTHONDONTWRITEBYTECODE={os.environ.get('PYTHONDONTWRITEBYTECODE', 'unset')}); a "
@@ -161,7 +183,9 @@ def bench_cli_breakdown() -> dict:
         "notes": f"medians of {REPEATS} fresh processes (`python -m isodesign`, which ends "
         f"like the script), {load0} before, {_load()} after: {parts}. 'to the NLP build': "
         f"imports, study, run directory; 'exit' includes the interpreter's start before "
-        f"the first mark. {bytecode}",
+        f"the first mark. CPU time (user + system; steadier than the wall times on a "
+        f"shared machine), medians: the main process {cpu_parts}; its forked workers (the "
+        f"starts and the refinement) {cmed['workers']:.2f} s. {bytecode}",
     }
 
 

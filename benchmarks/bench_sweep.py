@@ -10,7 +10,8 @@ with the load average. Then every point of the new sweep must be within 0.01 dB 
 on the parametric NLP of :mod:`isodesign.optimization.parametric`, which is the point's
 own NLP: tests/optimization/test_parametric.py; run in 2 forked workers). And ``isodesign
 optimize`` of the vertical study, whole process (``python -m isodesign optimize FILE -o
-DIR --quiet``), against c243645's, interleaved: target at most 0.75x.
+DIR --quiet``), against c243645's, interleaved: target at most 0.75x (alone, without the
+sweep rows: ``ISODESIGN_BENCH_SWEEP_ROWS=optimize python benchmarks/run.py sweep``).
 
 The machine is shared: the rows say the load average during each arm.
 
@@ -284,14 +285,20 @@ def _sweep_arm(tree: Path) -> dict:
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 
-def _optimize_arm(tree: Path, study_file: Path, tmp: Path, tag: str) -> float:
+def _optimize_arm(tree: Path, study_file: Path, tmp: Path, tag: str) -> tuple[float, float]:
+    """Wall time and CPU time (the process and its worker processes, user + system) of one
+    ``python -m isodesign optimize`` of ``tree`` at the niceness of this process."""
     import subprocess
 
+    c0 = os.times()
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "isodesign", "optimize", str(study_file), "-o",
                     str(tmp / tag), "--quiet"], env=_env(tree), cwd=str(tree), check=True,
                    stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
-    return time.perf_counter() - t0
+    wall = time.perf_counter() - t0
+    c1 = os.times()
+    return wall, (c1.children_user - c0.children_user) + (c1.children_system
+                                                           - c0.children_system)
 
 
 def _points() -> list[tuple[float, str]]:
@@ -362,6 +369,48 @@ def _walls(arms) -> str:
     return ", ".join(f"{a['wall_s']:.1f}" for a in arms)
 
 
+def optimize_process_row(old: Path, repeats: int | None = None) -> dict:
+    """The row ``isodesign optimize`` whole process (vertical study) against c243645's.
+
+    ``python -m isodesign optimize vertical.toml -o DIR --quiet`` of both trees,
+    interleaved (old, new, old, new...), ``repeats`` times each (default
+    ``ISODESIGN_BENCH_OPTIMIZE_REPEATS``, else 3); the ratio of the median wall times, with
+    each arm's CPU time (user + system of the process and its workers) in the notes: on a
+    shared machine the CPU times are the steadier figure. Run alone (without the sweep
+    rows) with ``ISODESIGN_BENCH_SWEEP_ROWS=optimize python benchmarks/run.py sweep``.
+    """
+    from isodesign.io.record import study_toml
+    from isodesign.optimization.study import vertical_study
+
+    if repeats is None:
+        repeats = int(os.environ.get("ISODESIGN_BENCH_OPTIMIZE_REPEATS", "3"))
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        study_file = tmp / "vertical.toml"
+        study_file.write_text(study_toml(vertical_study()), encoding="utf-8")
+        t_o, t_n = [], []
+        l0 = os.getloadavg()[0]
+        for i in range(repeats):
+            t_o.append(_optimize_arm(old, study_file, tmp, f"old{i}"))
+            t_n.append(_optimize_arm(ROOT, study_file, tmp, f"new{i}"))
+        l1 = os.getloadavg()[0]
+    w_o = statistics.median(t[0] for t in t_o)
+    w_n = statistics.median(t[0] for t in t_n)
+    c_o = statistics.median(t[1] for t in t_o)
+    c_n = statistics.median(t[1] for t in t_n)
+    r = w_n / w_o
+    return {"name": f"optimize: whole process, vertical study, vs {OLD_COMMIT}",
+            "target": f"<= {TARGET_OPTIMIZE_RATIO}", "median": r, "unit": "x",
+            "ratio": r / TARGET_OPTIMIZE_RATIO, "passed": r <= TARGET_OPTIMIZE_RATIO,
+            "repeats": repeats,
+            "notes": f"python -m isodesign optimize vertical.toml -o DIR --quiet, interleaved: "
+                     f"{OLD_COMMIT} median {w_o:.1f} s "
+                     f"({', '.join(f'{t[0]:.1f}' for t in t_o)}), this {w_n:.1f} s "
+                     f"({', '.join(f'{t[0]:.1f}' for t in t_n)}); CPU time (process and "
+                     f"workers, user + system) medians {c_o:.2f} s and {c_n:.2f} s (ratio "
+                     f"{c_n / c_o:.2f}); load average {l0:.1f} -> {l1:.1f}"}
+
+
 def run(repeats: int | None = None) -> list[dict]:
     """The issue-27 rows: sweep speed-up (target 3.5), gap to 8-start optima (target 0.01
     dB), ``isodesign optimize`` whole-process ratio (target 0.75).
@@ -369,12 +418,12 @@ def run(repeats: int | None = None) -> list[dict]:
     ``repeats``: interleaved runs of each arm (default ``ISODESIGN_BENCH_SWEEP_REPEATS``,
     else 2). The 8-start reference is computed by another process meanwhile, or read from
     ``ISODESIGN_BENCH_SWEEP_REFERENCE`` (a ``--reference PATH`` run started beforehand;
-    waited for).
+    waited for). ``ISODESIGN_BENCH_SWEEP_ROWS=optimize``: only the optimize row
+    (:func:`optimize_process_row`).
     """
-    from isodesign.io.record import study_toml
-    from isodesign.optimization.study import vertical_study
-
     warnings.simplefilter("ignore")
+    if os.environ.get("ISODESIGN_BENCH_SWEEP_ROWS", "").strip() == "optimize":
+        return [optimize_process_row(_old_tree())]
     if repeats is None:
         repeats = int(os.environ.get("ISODESIGN_BENCH_SWEEP_REPEATS", "2"))
     old = _old_tree()
@@ -424,26 +473,7 @@ def run(repeats: int | None = None) -> list[dict]:
                   f"{OLD_COMMIT}'s one-start sweep: worst {worst_old:.3f} dB, "
                   f"{sum(g > TARGET_GAP_DB for g in gaps_old)} points beyond"},
     ]
-    study_file = None
-    with tempfile.TemporaryDirectory() as tmp:
-        tmp = Path(tmp)
-        study_file = tmp / "vertical.toml"
-        study_file.write_text(study_toml(vertical_study()), encoding="utf-8")
-        t_o, t_n = [], []
-        l0 = os.getloadavg()[0]
-        for i in range(3):
-            t_o.append(_optimize_arm(old, study_file, tmp, f"old{i}"))
-            t_n.append(_optimize_arm(ROOT, study_file, tmp, f"new{i}"))
-        l1 = os.getloadavg()[0]
-    r = statistics.median(t_n) / statistics.median(t_o)
-    rows.append(
-        {"name": f"optimize: whole process, vertical study, vs {OLD_COMMIT}",
-         "target": f"<= {TARGET_OPTIMIZE_RATIO}", "median": r, "unit": "x",
-         "ratio": r / TARGET_OPTIMIZE_RATIO, "passed": r <= TARGET_OPTIMIZE_RATIO,
-         "repeats": 3,
-         "notes": f"python -m isodesign optimize vertical.toml -o DIR --quiet, interleaved: "
-                  f"{OLD_COMMIT} median {statistics.median(t_o):.1f} s, this "
-                  f"{statistics.median(t_n):.1f} s; load average {l0:.1f} -> {l1:.1f}"})
+    rows.append(optimize_process_row(old))
     return rows
 
 

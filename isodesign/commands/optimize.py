@@ -470,14 +470,16 @@ def failure_report(result) -> str:
     return "\n".join(lines)
 
 
-def bands_frame(result):
-    """``analysis.to_frame()`` of the optimum plus the start design's columns."""
-    df = result.analysis.to_frame()
+def bands_frame(result) -> dict:
+    """The columns of ``bands.csv``: ``analysis.columns()`` of the optimum (its
+    ``to_frame()``'s) plus the start design's columns (a mapping: written without pandas,
+    :meth:`~isodesign.io.rundir.RunDirectory.write_csv`)."""
+    cols = dict(result.analysis.columns())
     s = result.start_analysis
-    df["start_payload_velocity_rms_m_s"] = s.payload_velocity_rms_m_s
-    df["start_margin_db"] = s.margin_db
-    df["start_passes"] = s.band_passes
-    return df
+    cols["start_payload_velocity_rms_m_s"] = s.payload_velocity_rms_m_s
+    cols["start_margin_db"] = s.margin_db
+    cols["start_passes"] = s.band_passes
+    return cols
 
 
 def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
@@ -495,7 +497,8 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
         run.record.setdefault("parts", {})[prefix.rstrip("/")] = rec
     else:
         run.record.update(rec)
-    written.append(run.write_csv(prefix + "starts.csv", result.starts_frame()))
+    # the tables as columns: written without importing pandas (half a second of CPU)
+    written.append(run.write_csv(prefix + "starts.csv", result.starts_columns()))
     name = prefix + "study_resolved.toml"
     written.append(run.write_text(name, study_toml(result.study, header=(
         f"Resolved study of an isodesign optimize run (defaults filled in, command-line\n"
@@ -522,8 +525,9 @@ def write_outputs(result, run, args, *, plots: bool, prefix: str = "") -> list:
     return written
 
 
-#: Modules the output writing needs, imported while CasADi builds the NLP.
-PREFETCHED_MODULES = ("pandas", "matplotlib.figure", "matplotlib.backends.backend_agg")
+#: Modules the output writing needs, imported while CasADi builds the NLP (not pandas: the
+#: run's CSV tables are written without it, :mod:`isodesign.io.csvtable`).
+PREFETCHED_MODULES = ("matplotlib.figure", "matplotlib.backends.backend_agg")
 
 
 def prefetch_imports(modules=PREFETCHED_MODULES, *, then=()):
@@ -533,7 +537,7 @@ def prefetch_imports(modules=PREFETCHED_MODULES, *, then=()):
     caches to fill, like :func:`isodesign.io.record.environment`'s package versions).
 
     CasADi releases the GIL while it builds the NLP's derivatives (about half a second),
-    so the imports that writing the outputs needs (pandas, Matplotlib: a few tenths of a
+    so the imports that writing the outputs needs (Matplotlib: a few tenths of a
     second) run meanwhile on the other core. Join the thread before anything forks (the
     starts' worker processes): a fork while a thread holds the import lock could leave a
     child waiting on it for ever. An import that fails here is left to fail where it is
@@ -611,7 +615,14 @@ def run_optimization(study, args, *, background: list | None = None):
 
     gc.freeze()  # the modules imported so far: the build's collections skip them too
     try:
-        problem = _PrefetchingProblem(study)
+        # no collections during the build: CasADi's expressions and Matplotlib's import (in
+        # the prefetch thread) made some 150 of them, about 0.17 s of CPU, for little
+        # garbage; everything alive after it is frozen (_PrefetchingProblem)
+        gc.disable()
+        try:
+            problem = _PrefetchingProblem(study)
+        finally:
+            gc.enable()
         with StartProgress(progress_enabled(args), study.solver["starts"],
                            study.objective["kind"]) as bar:
             result = optimize(study, progress=bar, problem=problem)

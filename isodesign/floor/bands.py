@@ -175,17 +175,24 @@ class Bands:
         """
         import pandas as pd
 
-        return pd.DataFrame(
-            {
-                "index": np.array(self.index, dtype=int),
-                "label": list(self.labels),
-                "nominal_hz": self.nominal_hz,
-                "centre_hz": self.centre_hz,
-                "lower_hz": self.lower_hz,
-                "upper_hz": self.upper_hz,
-                "bandwidth_hz": self.bandwidth_hz,
-            }
-        )
+        return pd.DataFrame(self.columns())
+
+    def columns(self) -> dict:
+        """The columns of :meth:`to_frame` (name -> array or list), without pandas.
+
+        Returns
+        -------
+        dict
+        """
+        return {
+            "index": np.array(self.index, dtype=int),
+            "label": list(self.labels),
+            "nominal_hz": self.nominal_hz,
+            "centre_hz": self.centre_hz,
+            "lower_hz": self.lower_hz,
+            "upper_hz": self.upper_hz,
+            "bandwidth_hz": self.bandwidth_hz,
+        }
 
 
 def third_octave_bands(f_min_hz: float = 1.0, f_max_hz: float = 80.0) -> Bands:

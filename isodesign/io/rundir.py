@@ -57,7 +57,7 @@ import shutil
 import sys
 import tempfile
 import warnings
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
@@ -414,7 +414,15 @@ class RunDirectory:
         return self.write_text(name, json.dumps(_jsonable(data), indent=2) + "\n")
 
     def write_csv(self, name: str, frame) -> Path:
-        """Write a pandas DataFrame as CSV (no index)."""
+        """Write a pandas DataFrame, or a mapping of columns, as CSV (no index).
+
+        A mapping (column name -> values) is written without pandas, as the same text
+        (:func:`isodesign.io.csvtable.columns_csv`).
+        """
+        if isinstance(frame, Mapping):
+            from isodesign.io.csvtable import columns_csv
+
+            return self.write_text(name, columns_csv(frame))
         return self.write_text(name, frame.to_csv(index=False))
 
     # -- the end of the run -------------------------------------------------------

@@ -8,7 +8,8 @@ import numpy as np
 from isodesign.errors import SolverError
 from isodesign.optimization.executor import available_cores, executor_for
 
-__all__ = ["DEFAULT_WORKERS", "available_cores", "map_in_workers", "run_starts", "start_points"]
+__all__ = ["DEFAULT_WORKERS", "available_cores", "map_in_workers", "run_starts",
+           "runs_in_parallel", "start_points"]
 
 #: Worker processes for the starts when none is asked for (capped by the cores
 #: available to the process, like any asked-for number).
@@ -113,6 +114,25 @@ def map_in_workers(fn, items, *, workers=None, progress=None) -> list:
     finally:
         _TASK = outer
     return results
+
+
+def runs_in_parallel(workers, n: int) -> bool:
+    """Whether :func:`map_in_workers` of ``n`` items with ``workers`` asked for runs them in
+    more than one process (the executor it would use has more than one worker).
+
+    Parameters
+    ----------
+    workers : int or None
+        As for :func:`map_in_workers`.
+    n : int
+        Number of items.
+
+    Returns
+    -------
+    bool
+    """
+    workers = min(DEFAULT_WORKERS if workers is None else workers, available_cores())
+    return n > 1 and executor_for(workers, n).workers > 1
 
 
 def _solve_start(prob, params, vals: dict):

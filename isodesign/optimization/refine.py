@@ -24,7 +24,7 @@ import numpy as np
 
 from isodesign.errors import SolverError
 from isodesign.numerics.cplx import Cx
-from isodesign.optimization.multistart import map_in_workers
+from isodesign.optimization.multistart import map_in_workers, runs_in_parallel
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS
 from isodesign.response.isolator import transmissibility
@@ -482,18 +482,34 @@ def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) ->
         except SolverError as exc:
             return exc
 
+    items = ([None] if alongside is not None else []) + list(range(len(branches)))
+    # in parallel, the worker that refines the best sampled branch (the likely winner) also
+    # finishes it (its tie-break, _finish) while the other branches are refined: the
+    # tie-break no longer runs alone after them. Used only if that branch wins (the same
+    # computation on the same NLP, so the same result as finishing it afterwards).
+    ahead = (bool(study.solver["tie_break"]) and len(branches) > 1
+             and runs_in_parallel(study.solver.get("workers"), len(items)))
+
     def task(k):
         if k is None:  # the task run alongside, from the study's peak grid too
             if not np.array_equal(prob.slot_hz, slots0):
                 prob.set_slots(slots0)
             return alongside()
-        return refine(k)
+        r = refine(k)
+        if k == 0 and ahead and isinstance(r, Refined):
+            try:
+                return r, _finish(study, prob, r, tol_j)
+            except SolverError as exc:
+                return r, exc
+        return r
 
     # the branches are independent: refined in the start workers' processes when the
     # cores allow (each worker's copy of the NLP moves its own peak frequencies)
-    items = ([None] if alongside is not None else []) + list(range(len(branches)))
     results = map_in_workers(task, items, workers=study.solver.get("workers"))
     side = results.pop(0) if alongside is not None else None
+    finished = {}  # the first branch's finished form, computed beside the others
+    if results and isinstance(results[0], tuple):
+        results[0], finished[0] = results[0]
     done: list[Refined] = []
     merged: list[tuple[int, Refined]] = []  # (start, the refined branch it joined)
     error = None
@@ -520,7 +536,8 @@ def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) ->
         raise error
     done.sort(key=lambda r: r.best.objective)  # stable: equal optima keep the start order
     if study.solver["tie_break"]:
-        done = _finish_best(study, prob, done, tol_j)
+        pre = {id(results[0]): finished[0]} if finished else {}
+        done = _finish_best(study, prob, done, tol_j, pre)
     win = done[0]
     if not np.array_equal(prob.slot_hz, win.slot_hz):
         prob.set_slots(win.slot_hz)
@@ -531,7 +548,7 @@ def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) ->
                    tuple(rows), side)
 
 
-def _finish_best(study, prob, done: list, tol_j: float) -> list:
+def _finish_best(study, prob, done: list, tol_j: float, pre: dict | None = None) -> list:
     """Tie-break the best refined branch (:func:`_finish`); the branches, best first.
 
     ``done``: the refined branches, best refined optimum first. Only the winner needs the
@@ -539,12 +556,22 @@ def _finish_best(study, prob, done: list, tol_j: float) -> list:
     which can cost it its lead: then the next branch is finished too, until the best
     finished branch is still ahead of every unfinished one. A branch whose finishing fails
     (a re-solve infeasible) drops out; :class:`SolverError` when all of them fail.
+    ``pre``: ``id(branch) -> its _finish result`` (a Refined, or the SolverError it raised)
+    already computed (in the worker that refined it): used instead of finishing it again.
     """
     out: list = []
     error = None
+    pre = pre or {}
     for k, r in enumerate(done):
         try:
-            out.append(_finish(study, prob, r, tol_j))
+            f = pre.get(id(r))
+            if f is None:
+                f = _finish(study, prob, r, tol_j)
+            elif isinstance(f, SolverError):
+                raise f
+            else:
+                prob.set_slots(f.slot_hz)  # where _finish leaves the NLP
+            out.append(f)
         except SolverError as exc:
             error = error or exc
         if out:

@@ -247,6 +247,13 @@ class StudyResult(ResultDisplay):
 
         return pd.DataFrame(self._start_rows())
 
+    def starts_columns(self) -> dict:
+        """The columns of :meth:`starts_frame` (name -> list), without pandas (a run's
+        ``starts.csv``: :func:`isodesign.io.csvtable.columns_csv`)."""
+        from isodesign.io.csvtable import records_columns
+
+        return records_columns(self._start_rows())
+
     def to_frame(self):
         """Design variables (start and optimum), the objective, the worst margin, then the
         constraints (value, margin, binding).

@@ -175,14 +175,9 @@ class BandResponse(ResultDisplay):
 
     def to_frame(self):
         """One row per band: floor, payload (v, x, a), target, margin and pass."""
-        df = self.bands.to_frame()
-        df["floor_velocity_rms_m_s"] = self.floor_velocity_rms_m_s
-        df["payload_velocity_rms_m_s"] = self.payload_velocity_rms_m_s
-        df["payload_displacement_rms_m"] = self.payload_displacement_rms_m
-        df["payload_acceleration_rms_m_s2"] = self.payload_acceleration_rms_m_s2
-        df["limit_velocity_rms_m_s"] = self.limit_velocity_rms_m_s
-        df["margin_db"] = self.margin_db
-        df["passes"] = self.band_passes
+        import pandas as pd
+
+        df = pd.DataFrame(self.columns())
         df.attrs.update(
             floor=self.floor_name,
             target=self.target_name,
@@ -195,6 +190,23 @@ class BandResponse(ResultDisplay):
             verdict=self.verdict(),
         )
         return df
+
+    def columns(self) -> dict:
+        """The columns of :meth:`to_frame` (name -> array or list), without pandas (a run's
+        ``bands.csv``: :func:`isodesign.io.csvtable.columns_csv`).
+
+        Returns
+        -------
+        dict
+        """
+        return {**self.bands.columns(),
+                "floor_velocity_rms_m_s": self.floor_velocity_rms_m_s,
+                "payload_velocity_rms_m_s": self.payload_velocity_rms_m_s,
+                "payload_displacement_rms_m": self.payload_displacement_rms_m,
+                "payload_acceleration_rms_m_s2": self.payload_acceleration_rms_m_s2,
+                "limit_velocity_rms_m_s": self.limit_velocity_rms_m_s,
+                "margin_db": self.margin_db,
+                "passes": self.band_passes}
 
     def transmissibility_frame(self):
         """``T`` on the grid: final linearization and linear regime."""

@@ -160,3 +160,54 @@ def test_a_winner_that_loses_its_lead_in_the_finish_lets_the_next_branch_in(monk
     after.update({0: None, 1: None, 2: None})
     with pytest.raises(SolverError, match="branch 0"):
         refine._finish_best(None, None, done, 0.01)
+
+
+@pytest.mark.parametrize("peak_points", [
+    30,  # the best sampled branch wins: its tie-break from the worker is used
+    pytest.param(10, marks=pytest.mark.slow),  # another branch wins: it is finished here
+])
+def test_the_likely_winner_is_tie_broken_beside_the_other_branches(monkeypatch, peak_points):
+    """With the branches refined in worker processes, the worker that refines the best
+    sampled branch also tie-breaks it (refine._finish) while the others are refined; that
+    finished branch is the one returned when it wins, exactly the result of finishing it
+    afterwards in this process (workers = 1); when another branch wins, that one is
+    finished here, as one after the other."""
+    import os
+
+    import numpy as np
+
+    from isodesign.optimization.multistart import run_starts, runs_in_parallel, start_points
+    from isodesign.optimization.problem import Problem
+
+    st = vertical_study().with_changes(models={**COARSE, "peak_points": peak_points},
+                                       solver={"starts": 4})
+    prob = Problem(st)
+    slots0 = prob.slot_hz.copy()
+    sols = run_starts(prob, start_points(st, prob.scaling), workers=1)
+    good = {i: s for i, s in enumerate(sols) if not isinstance(s, str) and s.feasible}
+    objs = sorted(s.objective for s in good.values())
+    assert objs[-1] - objs[0] > refine.BRANCH_TOLERANCE  # more than one branch to refine
+    main, calls, orig = os.getpid(), [], refine._finish
+
+    def spy(*args, **kwargs):
+        if os.getpid() == main:
+            calls.append(args[2].start)
+        return orig(*args, **kwargs)
+
+    monkeypatch.setattr(refine, "_finish", spy)
+    tol = refine.flat_tolerance(prob.objective)
+    par = refine.refine_branches(st, prob, good, tol)
+    in_main = list(calls)
+    calls.clear()
+    prob.set_slots(slots0)
+    ser = refine.refine_branches(st.with_changes(solver={"workers": 1}), prob, good, tol)
+    assert par.start == ser.start and par.branches == ser.branches
+    assert par.final.values == ser.final.values and par.best.objective == ser.best.objective
+    assert par.flat == ser.flat and par.peak == ser.peak
+    assert np.array_equal(par.slot_hz, ser.slot_hz) and np.array_equal(prob.slot_hz,
+                                                                        ser.slot_hz)
+    assert ser.start in calls  # one after the other: the winner finished here
+    if runs_in_parallel(None, len(par.branches)):
+        first = min(good, key=lambda i: (good[i].objective, i))  # the best sampled branch
+        assert first not in in_main  # finished in its worker, never again here
+        assert (par.start in in_main) == (par.start != first)
