@@ -340,6 +340,8 @@ class ProblemCache:
             Ready for :func:`~.driver.optimize_vertical` (``problem=``).
         """
         objectives = tuple(objectives or (study.objective["kind"],))
+        if getattr(study, "table", None) is not None and self._factory is ParametricProblem:
+            return self._table(study, objectives)
         extra = tuple(extra_peak_hz)
         grid = build_grid(study, objectives=objectives, extra_peak_hz=extra, slots=PEAK_SLOTS)
         skey = structure_key(study, objectives, extra, grid)
@@ -353,6 +355,29 @@ class ProblemCache:
         self.builds += 1
         self._built[key] = prob
         return prob.at(study, grid=grid, key=skey) or prob
+
+    def _table(self, study, objectives: tuple):
+        """A table study's problem (:class:`~.table_parametric.TableParametricProblem`):
+        one NLP per structure, and one more with movable peak frequencies when a point's
+        refinement needs them (both counted)."""
+        from isodesign.optimization.table_parametric import (
+            TableParametricProblem,
+            table_structure_key,
+        )
+
+        key = ("table", table_structure_key(study, objectives), objectives)
+        prob = self._built.get(key)
+        if prob is not None:
+            view = prob.at(study)
+            if view is not None:
+                return view
+
+        def count():
+            self.builds += 1
+
+        prob = TableParametricProblem(study, objectives, family={"on_build": count})
+        self._built[key] = prob
+        return prob.at(study) or prob
 
     def __len__(self) -> int:
         return len(self._built)
