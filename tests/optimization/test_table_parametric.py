@@ -97,3 +97,28 @@ def test_the_whole_table_optimize_on_a_view_is_the_fresh_optimize(base, cache):
     assert a.objective_value == pytest.approx(b.objective_value, abs=1e-6)
     for k, v in b.values.items():
         assert a.values[k] == pytest.approx(v, rel=1e-5), k
+
+
+def test_a_table_optimize_builds_its_nlp_once_in_its_process(base, tmp_path, monkeypatch):
+    """The multi-start's workers (forked) inherit the built NLP: every build is the
+    calling process's, one per structure (the NLP, and the one with movable peak
+    frequencies when the refinement needs it)."""
+    import os
+
+    from isodesign.optimization.table_driver import optimize_table
+
+    log = tmp_path / "builds.txt"
+    real = TableProblem._build
+
+    def counted(self, ca):
+        with open(log, "a", encoding="utf-8") as fh:  # forked workers append here too
+            fh.write(f"{os.getpid()} {self.n_slots}\n")
+        return real(self, ca)
+
+    monkeypatch.setattr(TableProblem, "_build", counted)
+    res = optimize_table(base.with_changes(solver={"starts": 3, "workers": 2}), workers=2,
+                         analyze=False)
+    builds = [line.split() for line in log.read_text(encoding="utf-8").splitlines()]
+    assert {pid for pid, _ in builds} == {str(os.getpid())}
+    slots = [int(n) for _, n in builds]
+    assert slots[0] == 0 and len(slots) == 1 + (res.peak["rounds"] > 0)
