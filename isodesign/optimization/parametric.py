@@ -310,7 +310,10 @@ class ProblemCache:
     """Built :class:`ParametricProblem` s by structure: one build per structure.
 
     A sweep worker (or a process) keeps one and asks it for every point's problem;
-    ``builds`` counts the NLPs built (what the sweep reports).
+    ``builds`` counts the NLPs built (what the sweep reports). A table study's problems are
+    :class:`~isodesign.optimization.table_parametric.TableParametricProblem` s, kept the
+    same way (with the factory's default), their NLPs with movable peak frequencies
+    counted too.
 
     Parameters
     ----------
@@ -321,7 +324,7 @@ class ProblemCache:
 
     def __init__(self, factory=None):
         self._factory = factory or ParametricProblem
-        self._built: dict[tuple, ParametricProblem] = {}
+        self._built: dict[tuple, object] = {}
         self.builds = 0
 
     def get(self, study, objectives: tuple | None = None,
@@ -366,9 +369,9 @@ class ProblemCache:
         )
 
         key = ("table", table_structure_key(study, objectives), objectives)
-        prob = self._built.get(key)
-        if prob is not None:
-            view = prob.at(study)
+        # the same key, another grid or count of peak rows (checked by at): kept side by side
+        for i in range(len(self._built.get(key, ()))):
+            view = self._built[key][i].at(study)
             if view is not None:
                 return view
 
@@ -376,7 +379,7 @@ class ProblemCache:
             self.builds += 1
 
         prob = TableParametricProblem(study, objectives, family={"on_build": count})
-        self._built[key] = prob
+        self._built.setdefault(key, []).append(prob)
         return prob.at(study) or prob
 
     def __len__(self) -> int:
