@@ -63,11 +63,17 @@ _SOLVER_NLP_KEYS = ("max_iter", "tol")
 def _digest(*arrays) -> str:
     h = hashlib.sha256()
     for a in arrays:
-        a = np.asarray(a, float)
+        a = np.asarray(a, float).ravel()
         h.update(str(a.shape).encode())
         # 10 significant digits: a grid computed twice from the same inputs matches
-        h.update(np.array2string(a.ravel(), precision=10, floatmode="maxprec",
-                                 threshold=a.size + 1).encode())
+        # (mantissa rounded to 10 digits and the decimal exponent, as integers: the
+        # text of the numbers costed 40 ms a point)
+        m = np.abs(a)
+        e = np.floor(np.log10(np.where(np.isfinite(m) & (m > 0), m, 1.0)))
+        q = np.round(np.nan_to_num(a, nan=0.0, posinf=0.0, neginf=0.0) * 10.0 ** (9 - e))
+        h.update(q.astype(np.int64).tobytes())
+        h.update(e.astype(np.int64).tobytes())
+        h.update(np.isfinite(a).tobytes())
     return h.hexdigest()[:16]
 
 
@@ -251,7 +257,7 @@ class ParametricProblem(Problem):
                                 1.0 / tube_ref**2 if tube_ref else 1.0],
                                2.0 * np.log(grid.target_limit_m_s), peak])
 
-    def at(self, study) -> ParametricProblem | None:
+    def at(self, study, *, grid=None, key: str | None = None) -> ParametricProblem | None:
         """The problem of ``study`` on this built NLP, or None when its structure differs.
 
         Parameters
@@ -259,6 +265,9 @@ class ParametricProblem(Problem):
         study : Study
             A study of the same :func:`structure_key` (e.g. the base with another payload
             mass, floor level or target criterion).
+        grid, key : optional
+            The study's grid and :func:`structure_key` when the caller has them
+            (:meth:`ProblemCache.get`: computed once a point).
 
         Returns
         -------
@@ -267,9 +276,12 @@ class ParametricProblem(Problem):
             references, parameters and constraint bounds; None when ``study`` needs an NLP
             of its own (another structure, or a floor that is not the base one scaled).
         """
-        grid = build_grid(study, objectives=self.objectives, extra_peak_hz=self.extra_peak_hz,
-                          slots=PEAK_SLOTS)
-        if structure_key(study, self.objectives, self.extra_peak_hz, grid) != self.key:
+        if grid is None:
+            grid = build_grid(study, objectives=self.objectives,
+                              extra_peak_hz=self.extra_peak_hz, slots=PEAK_SLOTS)
+        if key is None:
+            key = structure_key(study, self.objectives, self.extra_peak_hz, grid)
+        if key != self.key:
             return None
         sw, bw = _floor_weights(grid)
         sw0, bw0 = self._base_weights
@@ -298,7 +310,10 @@ class ProblemCache:
     """Built :class:`ParametricProblem` s by structure: one build per structure.
 
     A sweep worker (or a process) keeps one and asks it for every point's problem;
-    ``builds`` counts the NLPs built (what the sweep reports).
+    ``builds`` counts the NLPs built (what the sweep reports). A table study's problems are
+    :class:`~isodesign.optimization.table_parametric.TableParametricProblem` s, kept the
+    same way (with the factory's default), their NLPs with movable peak frequencies
+    counted too.
 
     Parameters
     ----------
@@ -309,7 +324,7 @@ class ProblemCache:
 
     def __init__(self, factory=None):
         self._factory = factory or ParametricProblem
-        self._built: dict[tuple, ParametricProblem] = {}
+        self._built: dict[tuple, object] = {}
         self.builds = 0
 
     def get(self, study, objectives: tuple | None = None,
@@ -328,16 +343,43 @@ class ProblemCache:
             Ready for :func:`~.driver.optimize_vertical` (``problem=``).
         """
         objectives = tuple(objectives or (study.objective["kind"],))
-        key = (structure_key(study, objectives, tuple(extra_peak_hz)), objectives,
-               tuple(extra_peak_hz))
+        if getattr(study, "table", None) is not None and self._factory is ParametricProblem:
+            return self._table(study, objectives)
+        extra = tuple(extra_peak_hz)
+        grid = build_grid(study, objectives=objectives, extra_peak_hz=extra, slots=PEAK_SLOTS)
+        skey = structure_key(study, objectives, extra, grid)
+        key = (skey, objectives, extra)
         prob = self._built.get(key)
         if prob is not None:
-            view = prob.at(study)
+            view = prob.at(study, grid=grid, key=skey)
             if view is not None:
                 return view
-        prob = self._factory(study, objectives, tuple(extra_peak_hz))
+        prob = self._factory(study, objectives, extra)
         self.builds += 1
         self._built[key] = prob
+        return prob.at(study, grid=grid, key=skey) or prob
+
+    def _table(self, study, objectives: tuple):
+        """A table study's problem (:class:`~.table_parametric.TableParametricProblem`):
+        one NLP per structure, and one more with movable peak frequencies when a point's
+        refinement needs them (both counted)."""
+        from isodesign.optimization.table_parametric import (
+            TableParametricProblem,
+            table_structure_key,
+        )
+
+        key = ("table", table_structure_key(study, objectives), objectives)
+        # the same key, another grid or count of peak rows (checked by at): kept side by side
+        for i in range(len(self._built.get(key, ()))):
+            view = self._built[key][i].at(study)
+            if view is not None:
+                return view
+
+        def count():
+            self.builds += 1
+
+        prob = TableParametricProblem(study, objectives, family={"on_build": count})
+        self._built.setdefault(key, []).append(prob)
         return prob.at(study) or prob
 
     def __len__(self) -> int:

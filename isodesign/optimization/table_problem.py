@@ -442,17 +442,16 @@ class TableProblem(NLP):
         point = self._point_function(ca)
         nb = g.n_bands
         bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)  # (3 nb, nf)
+        head = self._parameter_head(ca, X, bw)  # the floor, limits and references
         red, diag = point.map("table_map", "serial", nf, [0, 1, 2], [0])(
             v, s, y, ca.DM(g.omega).T, ca.DM(self.kh_re), ca.DM(self.kh_im),
-            ca.DM(g.stroke_weight), ca.DM(bw))  # red: summed over the grid
+            head["stroke_weight"], head["band_weight"])  # red: summed over the grid
         self._n_t = 9 * k
-        self.sigma_ref, self.tube_ref = self._reference_sigma()
         rows_eq = []
         for i in range(n):
-            rows_eq.append((ca.exp(2 * s[i]) - red[i]) / self.sigma_ref[i] ** 2)
-            rows_eq.append((ca.exp(2 * y[i]) - red[n + i]) / self.tube_ref[i] ** 2)
-        lim2 = np.tile(np.asarray(g.limit_velocity_m_s, float) ** 2, 3 * k)
-        margins = (10.0 / _LN10) * (ca.log(ca.DM(lim2)) - ca.log(red[2 * n: 2 * n + 3 * k * nb]))
+            rows_eq.append((ca.exp(2 * s[i]) - red[i]) * head["k_s"][i])
+            rows_eq.append((ca.exp(2 * y[i]) - red[n + i]) * head["k_u"][i])
+        margins = (10.0 / _LN10) * (head["ln_limit2"] - ca.log(red[2 * n: 2 * n + 3 * k * nb]))
         # the objective's axes and points ([table] objective_axes / objective_points)
         axes, pts = self.objective_axes, self.objective_points
         keep = [(p * 3 + b) * nb + j for p in pts for b in axes for j in range(nb)]
@@ -502,7 +501,7 @@ class TableProblem(NLP):
             j_total = j_total + p_w[i] * jk
             cons.append((f"bound_{self.objectives[i]}", jk - p_eps[i], -np.inf, 0.0))
         x = ca.vertcat(z, s, y, t)
-        pp = ca.vertcat(p_w, p_wd, p_eps, p_modes, p_slot, p_loop)
+        pp = ca.vertcat(p_w, p_wd, p_eps, p_modes, p_slot, p_loop, head["q"])
         gg = ca.vertcat(*rows_eq, *[c[1] for c in cons])
         self.n_eq = 2 * n
         self.lbg, self.ubg, self.con_rows = nlp.constraint_rows(
@@ -513,9 +512,7 @@ class TableProblem(NLP):
             (n, math.log(nlp.SIGMA_BOUNDS_M[0]), math.log(nlp.SIGMA_BOUNDS_M[1])),
             (n, math.log(nlp.VELOCITY_BOUNDS_M_S[0]), math.log(nlp.VELOCITY_BOUNDS_M_S[1])),
             (int(t.numel()), -nlp.EPIGRAPH_BOUND, nlp.EPIGRAPH_BOUND))
-        self._margins_fn = ca.Function("margins", [x], [judged])
-        self._all_margins_fn = ca.Function("all_margins", [x], [margins])
-        self._j_fn = ca.Function("objectives", [x], [ca.vertcat(*js)])
+        self._x_functions(ca, x, judged, margins, ca.vertcat(*js))
         self.eval_fn = ca.Function("eval", [x, pp], [j_total, gg])
         self.solver = ca.nlpsol("isodesign_table", "ipopt",
                                 {"x": x, "f": j_total, "g": gg, "p": pp}, self.ipopt_options())
@@ -526,6 +523,28 @@ class TableProblem(NLP):
         :data:`~.constraint_registry.TABLE_ROWS` requests, in its order)."""
         return [(c.key, c.expr, c.lo, c.hi)
                 for c in constraint_rows_of(self.study, q, TABLE_ROWS)]
+
+    # -- the parameter head: what a parametric table NLP takes as parameters -----------
+    def _parameter_head(self, ca, X, bw) -> dict:
+        """The floor's weights (``stroke_weight`` (3, nf), ``band_weight`` (3 nb, nf)), the
+        squared band limits (``ln_limit2``, every point and axis), the closure's references
+        (``k_s = 1 / sigma_ref^2``, ``k_u = 1 / sigma_u,ref^2`` per isolator) and ``q``, the
+        parameters they take: here numbers of this study (``q`` empty);
+        :class:`~isodesign.optimization.table_parametric.TableParametricProblem` makes
+        them parameters (docs/sweep.md, section 7)."""
+        g = self.grid
+        self.sigma_ref, self.tube_ref = self._reference_sigma()
+        lim2 = np.tile(np.asarray(g.limit_velocity_m_s, float) ** 2, 3 * self.k)
+        return {"stroke_weight": ca.DM(g.stroke_weight), "band_weight": ca.DM(bw),
+                "ln_limit2": ca.log(ca.DM(lim2)), "k_s": 1.0 / self.sigma_ref ** 2,
+                "k_u": 1.0 / self.tube_ref ** 2, "q": X(0, 1)}
+
+    def _x_functions(self, ca, x, judged, margins, js) -> None:
+        """The margins and objectives at ``x`` (Functions of ``x``; of ``x`` and the
+        parameters on a parametric NLP)."""
+        self._margins_fn = ca.Function("margins", [x], [judged])
+        self._all_margins_fn = ca.Function("all_margins", [x], [margins])
+        self._j_fn = ca.Function("objectives", [x], [js])
 
     def _constraints(self, ca, d, v, s, y, out, out_slots=None) -> list:
         """The rows on the design's quantities: volume, vertical mode, stroke, tilt,

@@ -549,10 +549,9 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
                              todo_hashes)
         elif todo:
             where = conn.where
+            # the branch pass runs as the chains go (_run_dask): no serial tail after them
             _run_dask(conn.client, pts, order, todo_hashes, rows, task, options, points_dir,
-                      finished)
-            _branch_pass(pts, rows, order, task, lambda items: _run_dask_items(
-                conn.client, pts, items, task, options, points_dir, again), todo_hashes)
+                      finished, again=again)
     except KeyboardInterrupt:
         status = "interrupted"
         raise
@@ -640,11 +639,14 @@ def _worker_addresses(client) -> list[str]:
 
 
 def _run_dask(client, pts, order, todo_hashes, rows, task, options, points_dir,
-              finished) -> None:
+              finished, again=None) -> None:
     """Submit every point as a task, each chain's points in order (a point's task takes its
     predecessor's future: its row arrives as the neighbour), each chain on one worker (the
     chains dealt round the workers, a preference Dask keeps unless the worker is lost);
-    hand each row to ``finished`` as it completes."""
+    hand each row to ``finished`` as it completes. With ``again``, the branch pass
+    (:func:`_branch_pass`) runs while the chains go on: a row that changed branch submits
+    its predecessor's re-solve at once (:func:`_resolve_next`), whose row goes to
+    ``again``; the sweep ends when the chains and the re-solves have."""
     tag = uuid.uuid4().hex[:8]
     futures = {}
     workers = _worker_addresses(client)
@@ -660,15 +662,48 @@ def _run_dask(client, pts, order, todo_hashes, rows, task, options, points_dir,
                           [prev] if prev is not None else [], worker=w)
             futures[fut] = p
             prev = fut
-    _collect(client, futures, task, points_dir, finished)
+    if again is None or task != "optimize":
+        _collect(client, futures, task, points_dir, finished)
+        return
+    index = {p.study_hash: i for i, p in enumerate(pts)}
+    where = {i: (c, k) for c, ch in enumerate(order) for k, i in enumerate(ch)}
+    tried: set[int] = set()
+    resolving: set = set()
 
+    def done(p, row, write=True):
+        first = p.study_hash not in resolving
+        resolving.discard(p.study_hash)
+        (finished if first else again)(p, row, write=write)
+        more = {}
+        for a, nb in _resolve_next(pts, rows, order, where, index[p.study_hash], row, first,
+                                   todo_hashes, tried):
+            resolving.add(pts[a].study_hash)
+            more[_submit(client, pts[a], task, options, points_dir, f"{tag}-again", nb,
+                         resolve=True)] = pts[a]
+        return more
 
-def _run_dask_items(client, pts, items, task, options, points_dir, done) -> None:
-    """The branch pass's points (``(index, neighbour rows, resolve)``) as tasks."""
-    tag = uuid.uuid4().hex[:8]
-    futures = {_submit(client, pts[i], task, options, points_dir, tag, nb, again): pts[i]
-               for i, nb, again in items}
     _collect(client, futures, task, points_dir, done)
+
+
+def _resolve_next(pts, rows, order, where, i, row, first, ran, tried) -> list:
+    """The re-solve the row of point ``i`` calls for, as :func:`_branch_pass` decides it:
+    a chain point (``first``) that changed branch, its predecessor; a re-solved point whose
+    answer is its later neighbour's branch (``best_neighbour`` 1), its predecessor too.
+    ``[(index, neighbour rows)]`` (empty: none); ``tried`` grows."""
+    c, k = where[i]
+    ch = order[c]
+    if not k or ch[k - 1] in tried or pts[ch[k - 1]].study_hash not in ran:
+        return []
+    a = ch[k - 1]
+    ra = rows.get(pts[a].study_hash) or {}
+    if first:
+        if not (row.get("branch_changed") and ra.get("question") == "vertical"
+                and ra.get("feasible")):
+            return []
+    elif row.get("best_neighbour") != 1:
+        return []
+    tried.add(a)
+    return [(a, [rows.get(pts[ch[k - 2]].study_hash) if k > 1 else None, row])]
 
 
 def _collect(client, futures: dict, task, points_dir, finished) -> None:
@@ -677,7 +712,9 @@ def _collect(client, futures: dict, task, points_dir, finished) -> None:
     try:
         # the futures finished since the last batch (usually one): their rows, then one
         # rewrite of the table (a large cluster finishes points faster than whole rewrites)
-        for batch in as_completed(list(futures), loop=client.loop).batches():
+        # (``finished`` may return more futures, point by future: waited for too)
+        pending = as_completed(list(futures), loop=client.loop)
+        for batch in pending.batches():
             for i, fut in enumerate(batch):
                 p = futures.pop(fut)
                 try:
@@ -687,7 +724,10 @@ def _collect(client, futures: dict, task, points_dir, finished) -> None:
                     row = record_failed_point(task, p.study_hash, p.changes,
                                               str(points_dir / p.key),
                                               f"{type(exc).__name__}: {msg}")
-                finished(p, row, write=i == len(batch) - 1)
+                more = finished(p, row, write=i == len(batch) - 1)
+                for f, q in (more or {}).items():
+                    futures[f] = q
+                    pending.add(f)
     except BaseException:
         with contextlib.suppress(Exception):
             client.cancel(list(futures), force=True)

@@ -318,9 +318,11 @@ def _optimize_table(study, options: dict):
     """The table optimum, its first start the finished neighbour's optimum (continuation
     along the line; :func:`table_continuation_study`), and the row's continuation fields.
 
-    The table's NLP is built per point: its masses, CG and floor are numbers of the NLP
-    (``isodesign.table.problem``), not parameters; a parametric table NLP belongs to the
-    one-optimizer work (docs/sweep.md, section 7)."""
+    On this worker's table NLP of the point's structure
+    (:class:`~isodesign.optimization.table_parametric.TableParametricProblem`: the floor,
+    the target's limits and the start are parameters; the payload's mass and CG, the
+    layout, the levers and the constraints' values are the structure: docs/sweep.md,
+    section 7)."""
     from isodesign.optimization.dispatch import optimize
     from isodesign.optimization.refine import flat_tolerance
 
@@ -328,7 +330,10 @@ def _optimize_table(study, options: dict):
     if options.get("_resolved"):  # the branch pass: the later neighbour's branch first
         given = given[::-1]
     solve, start = table_continuation_study(study, given)
-    result = optimize(solve)  # its study_resolved.toml: the study solved, with that start
+    cache = problem_cache()
+    before = cache.builds
+    # its study_resolved.toml: the study solved, with that start
+    result = optimize(solve, problem=cache.get(solve))
     changed = from_nb = False
     recs = [r for r in result.starts if r[2]]  # (index, status, feasible, iter, wall, J)
     if start is not None and recs:
@@ -339,7 +344,8 @@ def _optimize_table(study, options: dict):
         # the answer left the branch the continuation followed: the neighbour's start did
         # not reach the best start's objective (within the tie-break's flat tolerance)
         changed = first is None or first[5] > best_j + tol
-    return result, {"nlp_built": True, "neighbour_starts": int(start is not None),
+    return result, {"nlp_built": cache.builds > before, "nlp_builds_worker": cache.builds,
+                    "neighbour_starts": int(start is not None),
                     "from_neighbour": bool(from_nb),
                     "best_neighbour": 0 if from_nb else -1,
                     "branch_changed": bool(changed),

@@ -79,7 +79,8 @@ def test_the_rows_of_a_batch_cut_short_by_an_interrupt_reach_the_table(tmp_path,
     import isodesign.sweeps.runner as runner
     from isodesign.sweeps.tasks import run_point
 
-    def fake_dask(client, pts, order, todo_hashes, rows, task, options, points_dir, finished):
+    def fake_dask(client, pts, order, todo_hashes, rows, task, options, points_dir, finished,
+                  again=None):
         todo = [pts[i] for ch in order for i in ch if pts[i].study_hash in todo_hashes]
         for p in todo[:2]:
             row = run_point(task, runner.resolved_study_dict(p.study), p.study_hash,

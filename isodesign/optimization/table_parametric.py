@@ -1,0 +1,241 @@
+"""One table NLP for many table studies: the floor, the limits and the references as parameters.
+
+A table sweep's points that differ in the floor (its level in each axis, or any floor
+spectrum on the same frequency grid), the target's criterion (its band limits) or the
+spring's start (a continued point starts from its neighbour's optimum) share one NLP: a
+:class:`TableParametricProblem` is :class:`~.table_problem.TableProblem` whose parameter
+head (:meth:`~.table_problem.TableProblem._parameter_head`) is CasADi parameters:
+
+* the floor's stroke weights ``sw`` (3 axes x nf frequencies) and band weights ``bw``
+  (3 n_bands x nf): the quadrature of the strokes' variances and of the band mean squares,
+  linear in each axis's floor PSD;
+* ``ln lim_b^2``: the target's squared band limits (n_bands);
+* ``k_s = 1 / sigma_ref,i^2`` and ``k_u = 1 / sigma_u,ref,i^2``: the scaling of the closure
+  rows, from the point's start design (as a fresh build takes them).
+
+:meth:`TableParametricProblem.at` gives the problem of another study (a shallow copy that
+shares the built IPOPT solver, with the point's study, grid and parameter values). What is
+not a parameter is the NLP's structure (:func:`table_structure_key`): the payload's mass
+and CG (they enter the six-degree-of-freedom geometry and the leveling statics as numbers),
+the isolators and their layout, the horizontal element, the levers and which are free,
+the objectives, the models, the variables' boxes, the constraints' values, the frequency
+grid and the peak rows' count; a study that differs there builds its own NLP
+(:class:`~.parametric.ProblemCache` counts the builds). With these the parametric NLP is,
+at every point, the same function as a fresh build of that point's study
+(tests/optimization/test_table_parametric.py solves both). See ``docs/sweep.md``.
+"""
+
+from __future__ import annotations
+
+import copy
+import hashlib
+import json
+
+import numpy as np
+
+from isodesign.errors import InputError
+from isodesign.optimization.table_problem import (
+    PEAK_SLOTS_PER_ROUND,
+    TABLE_PEAK_ROUNDS,
+    TableProblem,
+)
+
+__all__ = ["TableParametricProblem", "table_structure_key"]
+
+#: Tables of the resolved study that enter the table NLP through its parameters only.
+_PARAMETER_TABLES = ("floor", "target")
+#: Solver settings that are the NLP's (starts, seed, workers, tie-break are not).
+_SOLVER_NLP_KEYS = ("max_iter", "tol")
+
+
+def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> str:
+    """The part of a table study that shapes its NLP: equal keys, one
+    :class:`TableParametricProblem` (given the same frequency grid and peak rows, which
+    :meth:`TableParametricProblem.at` checks).
+
+    Parameters
+    ----------
+    study : Study
+        With ``[table]``, without ``[scenarios]``.
+    objectives : tuple of str
+        The NLP's objectives (default: the study's).
+    peak_slots : int
+        Movable peak frequencies.
+
+    Returns
+    -------
+    str
+        A hash of the resolved study without its name, description, floor and target
+        tables, the starts of its free design variables and the solver's starts, seed,
+        workers and tie-break; of the objectives and the peak slots.
+    """
+    from isodesign.io.record import resolved_study_dict
+
+    objectives = tuple(objectives or (study.objective["kind"],))
+    d = resolved_study_dict(study)
+    for k in ("name", "description", *_PARAMETER_TABLES):
+        d.pop(k, None)
+    free = {v.name for v in study.variables if v.free}
+    d["variables"] = {k: ({kk: vv for kk, vv in v.items() if kk != "start"}
+                          if k in free and isinstance(v, dict) else v)
+                      for k, v in (d.get("variables") or {}).items()}
+    d["solver"] = {k: (d.get("solver") or {}).get(k) for k in _SOLVER_NLP_KEYS}
+    text = json.dumps({"study": d, "objectives": list(objectives),
+                       "peak_slots": int(peak_slots)}, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+class TableParametricProblem(TableProblem):
+    """:class:`~.table_problem.TableProblem` whose floor, band limits and closure references
+    are parameters (module doc); :meth:`at` gives another study's problem on it.
+
+    Parameters
+    ----------
+    study : Study
+        The base table study (no ``[scenarios]``).
+    objectives : tuple of str, optional
+    hessian : str, optional
+    peak_slots : int
+    family : dict, optional
+        Shared by the problems of one structure (the one with movable peak frequencies
+        is built once for all of them, :meth:`with_peak_slots`); ``family["on_build"]``,
+        when given, is called once per NLP built.
+    """
+
+    def __init__(self, study, objectives: tuple | None = None, *, hessian: str | None = None,
+                 peak_slots: int = 0, family: dict | None = None):
+        if getattr(study, "table", None) is None:
+            raise InputError("study: has no [table]; the vertical study's parametric NLP is "
+                             "isodesign.optimization.parametric.ParametricProblem")
+        if getattr(study, "scenarios", None) is not None:
+            raise InputError("[scenarios]: a robust table study builds its own NLPs")
+        self._family = family if family is not None else {}
+        super().__init__(study, objectives, hessian=hessian, peak_slots=peak_slots)
+        if self._family.get("on_build"):
+            self._family["on_build"]()
+        self.key = table_structure_key(study, self.objectives, self.n_slots)
+        self._n_peak_columns = self._peak_columns()
+        self.q = self._point_values()
+
+    # -- the parameter head ----------------------------------------------------------
+    def _parameter_head(self, ca, X, bw) -> dict:
+        g, n = self.grid, self.n
+        nf, nb = g.n_points, g.n_bands
+        self.sigma_ref, self.tube_ref = self._reference_sigma()
+        sw = X.sym("floor_stroke_weight", 3, nf)
+        bq = X.sym("floor_band_weight", 3 * nb, nf)
+        lnl = X.sym("ln_limit2", nb)
+        ks, ku = X.sym("k_s", n), X.sym("k_u", n)
+        self._q_sym = ca.vertcat(ca.vec(sw), ca.vec(bq), lnl, ks, ku)
+        return {"stroke_weight": sw, "band_weight": bq,
+                "ln_limit2": ca.repmat(lnl, 3 * self.k, 1), "k_s": ks, "k_u": ku,
+                "q": self._q_sym}
+
+    def _x_functions(self, ca, x, judged, margins, js) -> None:
+        q = self._q_sym
+        self._margins_q = ca.Function("margins", [x, q], [judged])
+        self._all_margins_q = ca.Function("all_margins", [x, q], [margins])
+        self._j_q = ca.Function("objectives", [x, q], [js])
+
+    def _margins_fn(self, x):
+        return self._margins_q(x, self.q)
+
+    def _all_margins_fn(self, x):
+        return self._all_margins_q(x, self.q)
+
+    def _j_fn(self, x):
+        return self._j_q(x, self.q)
+
+    def _param_tail(self) -> np.ndarray:
+        return np.concatenate([super()._param_tail(), self.q])
+
+    def _point_values(self) -> np.ndarray:
+        """This problem's parameter values: its grid's floor weights and limits, its
+        references."""
+        g = self.grid
+        bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)
+        # CasADi's vec stacks the columns (column-major)
+        return np.concatenate([np.asarray(g.stroke_weight, float).ravel(order="F"),
+                               np.asarray(bw, float).ravel(order="F"),
+                               2.0 * np.log(np.asarray(g.limit_velocity_m_s, float)),
+                               1.0 / np.asarray(self.sigma_ref, float) ** 2,
+                               1.0 / np.asarray(self.tube_ref, float) ** 2])
+
+    def _peak_columns(self) -> int:
+        """The peak rows' frequencies (a structure: the start design sets their top)."""
+        pk = self.study.constraints.get("max_peak_transmissibility_db")
+        if pk is None or pk is False:
+            return 0
+        return int(np.sum(self.grid.frequency_hz <= self._peak_cut_hz()))
+
+    # -- points ------------------------------------------------------------------------
+    def at(self, study) -> TableParametricProblem | None:
+        """The problem of ``study`` on this built NLP, or None when its structure differs.
+
+        Parameters
+        ----------
+        study : Study
+            A table study of the same :func:`table_structure_key` (the base with another
+            floor, target criterion or start).
+
+        Returns
+        -------
+        TableParametricProblem or None
+            A shallow copy sharing the solver, with the point's study, grid, references
+            and parameters (its frozen modes, loop poles and movable frequencies start as
+            a fresh build's); None when ``study`` needs an NLP of its own (another
+            structure, frequency grid or count of peak rows).
+        """
+        from isodesign.table.floor import table_grid
+
+        if getattr(study, "table", None) is None or getattr(study, "scenarios", None) \
+                is not None or table_structure_key(study, self.objectives,
+                                                   self.n_slots) != self.key:
+            return None
+        grid = table_grid(study.floor_axes, study.bands, target=study.target,
+                          points_per_band=study.models["points_per_band"])
+        g0 = self.grid
+        if grid.omega.shape != g0.omega.shape or grid.n_bands != g0.n_bands \
+                or not np.allclose(grid.omega, g0.omega, rtol=1e-12, atol=0.0):
+            return None
+        view = copy.copy(self)
+        view.study, view.grid = study, grid
+        if view._peak_columns() != self._n_peak_columns:
+            return None
+        view.sigma_ref, view.tube_ref = view._reference_sigma()
+        view.q = view._point_values()
+        view.mode_params = np.tile(np.r_[0.0, 2 * np.pi, np.zeros(12)], 2 * self.n_modes)
+        if self.n_loop:
+            from isodesign.table.leveling import leveling_of_study
+
+            view.loop_system = leveling_of_study(study)
+        view.clear_loop()
+        view.set_slots(np.full(self.n_slots, float(grid.frequency_hz[0])))
+        return view
+
+    def with_peak_slots(self, n: int = PEAK_SLOTS_PER_ROUND * TABLE_PEAK_ROUNDS
+                        ) -> TableParametricProblem:
+        """This study's problem with ``n`` movable peak frequencies: the family's NLP with
+        them, built on the first call of any study of this structure (its frozen modes and
+        loop poles this one's).
+
+        Parameters
+        ----------
+        n : int
+
+        Returns
+        -------
+        TableParametricProblem
+        """
+        slotted = self._family.get(("slots", n))
+        if slotted is None:
+            slotted = TableParametricProblem(self.study, self.objectives, hessian=self.hessian,
+                                             peak_slots=n, family=self._family)
+            self._family[("slots", n)] = slotted
+        view = slotted.at(self.study)
+        if view is None:  # pragma: no cover - the same structure but its slots
+            view = TableParametricProblem(self.study, self.objectives, hessian=self.hessian,
+                                          peak_slots=n, family=self._family)
+        view.mode_params = self.mode_params.copy()
+        view.loop_params = self.loop_params.copy()
+        return view

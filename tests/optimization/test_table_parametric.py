@@ -1,0 +1,124 @@
+"""The table study's parametric NLP (isodesign.optimization.table_parametric): a point solved
+on the shared NLP is the point's own freshly built NLP (the same function, the same
+optimum), and the cache builds one NLP per structure (docs/sweep.md, section 7)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from isodesign.errors import InputError
+from isodesign.optimization.parametric import ProblemCache
+from isodesign.optimization.table_parametric import TableParametricProblem
+from isodesign.optimization.table_problem import TableProblem
+
+#: What a table sweep varies without changing the NLP's structure.
+CHANGES = [{"floor.criterion": "VC-B"},
+           {"floor.x": {"scale": 0.5}},  # one axis's level
+           {"target.criterion": "VC-D"},
+           {"variables.capillary_length_m.start": 0.02}]  # a continued point's start
+
+
+@pytest.fixture(scope="module")
+def base(small_table_study):
+    return small_table_study()  # table_study(), 3 points per band, 4-20 Hz
+
+
+@pytest.fixture(scope="module")
+def cache(base):
+    c = ProblemCache()
+    c.get(base)
+    return c
+
+
+def _start(study):
+    return {v.name: v.start for v in study.variables}
+
+
+@pytest.mark.parametrize("change", CHANGES, ids=lambda c: next(iter(c)))
+def test_a_table_point_on_the_shared_nlp_is_its_own_fresh_nlp(base, cache, change):
+    st = base.with_changes(change)
+    view = cache.get(st)
+    assert isinstance(view, TableParametricProblem) and cache.builds == 1
+    fresh = TableProblem(st)
+    x0v, x0f = view.initial_guess(_start(st)), fresh.initial_guess(_start(st))
+    np.testing.assert_allclose(x0v, x0f, rtol=1e-12, atol=1e-12)
+    jv, gv = view.eval_fn(x0v, view.params())
+    jf, gf = fresh.eval_fn(x0f, fresh.params())
+    assert float(jv) == pytest.approx(float(jf), rel=1e-12, abs=1e-12)
+    np.testing.assert_allclose(np.asarray(gv), np.asarray(gf), rtol=1e-10, atol=1e-12)
+    np.testing.assert_array_equal(view.lbg, fresh.lbg)
+    np.testing.assert_array_equal(view.ubg, fresh.ubg)
+    sv, sf = view.solve(x0v), fresh.solve(x0f)
+    assert sv.feasible and sf.feasible
+    # the same optimum: the worst margin in dB to 1e-6 dB, the design to 1e-6 relative
+    assert view.worst_margin_db(sv.x) == pytest.approx(fresh.worst_margin_db(sf.x), abs=1e-6)
+    for k, v in sf.values.items():
+        assert sv.values[k] == pytest.approx(v, rel=1e-6), k
+
+
+def test_the_cache_builds_one_table_nlp_per_structure(base):
+    c = ProblemCache()
+    for ch in [{}, *CHANGES]:
+        c.get(base.with_changes(ch))
+    assert c.builds == 1 and len(c) == 1
+    # the payload's mass, another objective: another structure each
+    c.get(base.with_changes({"payload.mass_kg": 700.0}))
+    assert c.builds == 2
+    c.get(base.with_changes({"objective.kind": "total_volume"}))
+    assert c.builds == 3
+    # back to the first structure: no build
+    c.get(base.with_changes({"floor.criterion": "VC-C"}))
+    assert c.builds == 3 and len(c) == 3
+
+
+def test_a_grid_of_other_frequencies_is_another_structure(base, cache):
+    prob = cache.get(base)
+    assert prob.at(base.with_changes({"models.points_per_band": 4})) is None
+    assert prob.at(base.with_changes({"target.band_max_hz": 40.0})) is None
+
+
+def test_a_vertical_or_robust_study_is_not_a_table_parametric_nlp(base):
+    from isodesign.optimization.study import vertical_study
+
+    with pytest.raises(InputError, match=r"\[table\]"):
+        TableParametricProblem(vertical_study())
+    assert TableParametricProblem.at(ProblemCache().get(base), vertical_study()) is None
+
+
+@pytest.mark.slow
+def test_the_whole_table_optimize_on_a_view_is_the_fresh_optimize(base, cache):
+    from isodesign.optimization.table_driver import optimize_table
+
+    st = base.with_changes({"floor.criterion": "VC-B"})
+    a = optimize_table(st, workers=1, analyze=False, problem=cache.get(st))
+    b = optimize_table(st, workers=1, analyze=False)
+    assert a.feasible and b.feasible
+    assert a.objective_value == pytest.approx(b.objective_value, abs=1e-6)
+    for k, v in b.values.items():
+        assert a.values[k] == pytest.approx(v, rel=1e-5), k
+
+
+def test_a_table_optimize_builds_its_nlp_once_in_its_process(base, tmp_path, monkeypatch):
+    """The multi-start's workers (forked) inherit the built NLP: every build is the
+    calling process's, one per structure (the NLP, and the one with movable peak
+    frequencies when the refinement needs it)."""
+    import os
+
+    from isodesign.optimization.table_driver import optimize_table
+
+    log = tmp_path / "builds.txt"
+    real = TableProblem._build
+
+    def counted(self, ca):
+        with open(log, "a", encoding="utf-8") as fh:  # forked workers append here too
+            fh.write(f"{os.getpid()} {self.n_slots}\n")
+        return real(self, ca)
+
+    monkeypatch.setattr(TableProblem, "_build", counted)
+    res = optimize_table(base.with_changes(solver={"starts": 3, "workers": 2}), workers=2,
+                         analyze=False)
+    builds = [line.split() for line in log.read_text(encoding="utf-8").splitlines()]
+    assert {pid for pid, _ in builds} == {str(os.getpid())}
+    slots = [int(n) for _, n in builds]
+    assert slots[0] == 0 and len(slots) == 1 + (res.peak["rounds"] > 0)
