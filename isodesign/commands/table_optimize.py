@@ -313,8 +313,11 @@ def execute_table(study, run, args, result=None, *, prefix: str = "") -> int:
         with run.writing(prefix + "response.png") as tmp:
             save_figure(res.analysis.plot(), tmp)
         with run.writing(prefix + "layout.png") as tmp:
-            save_figure(layout_figure(study.table_at(res.values), res.analysis.model.leveling),
-                        tmp)
+            from isodesign.table.study import study_footprint
+
+            fp, dmin = study_footprint(study)  # the footprint and spacing (free positions)
+            save_figure(layout_figure(study.table_at(res.values), res.analysis.model.leveling,
+                                      footprint=fp, min_distance_m=dmin), tmp)
     if args.quiet:
         print(f"{study.name}: worst margin {res.objective_value:+.2f} dB (NLP grid); "
               f"{res.verdict()}")

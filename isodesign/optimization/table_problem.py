@@ -262,12 +262,13 @@ class TableProblem(NLP):
         for name, sk in (("layout_length_m", sx), ("layout_width_m", sy)):
             if self._lever_free(name):
                 terms.append((sk - 1.0, self.lever_dirs[name]))
-        return terms
+        return terms + lever_nlp.position_terms(self, dv)  # free positions
 
     def _assemble(self, dv, kv, kh, w, shift):
         """``D(w)``, ``B(w)`` with the free geometric levers (today's path without a free
         layout lever)."""
-        d, b = dynamic_stiffness(self.geo, kv, kh, w, shift) if not self._layout_free() else \
+        d, b = dynamic_stiffness(self.geo, kv, kh, w, shift) if not (
+            self._layout_free() or lever_nlp.positions_free(self)) else \
             lever_stiffness(self.geo, self._terms(dv, shift), kv, kh, w)
         return slab_terms.base_stiffness(d, w, self._base(dv)), b
 
@@ -283,12 +284,12 @@ class TableProblem(NLP):
         if h.pendulum_length_m is None and not self._lever_free("pendulum_length_m"):
             lp = None
         out = []
-        lam = slab_terms.load_scale(base := self._base(dv))  # the slab: loads scale, CG rises
-        for i, ld in enumerate(self.leveling.load_n):
+        base = self._base(dv)  # the slab: loads scale, CG rises; free positions: loads move
+        for i, ld in enumerate(lever_nlp.isolator_loads(self, dv)):
             if h.lateral_model is None:
-                out.append(horizontal_stiffness(w, float(ld) * lam, lp, kl, eta))
+                out.append(horizontal_stiffness(w, ld, lp, kl, eta))
             else:
-                out.append(Cx(khr[i], khi[i]) + (0.0 if lp is None else float(ld) * lam / lp))
+                out.append(Cx(khr[i], khi[i]) + (0.0 if lp is None else ld / lp))
         shift = (ec - h.elastic_centre_height_m) if self._lever_free(
             "elastic_centre_height_m") else None
         return out, slab_terms.centre_shift(shift, base)
@@ -296,8 +297,9 @@ class TableProblem(NLP):
     def _base(self, dv):  # the inertia base's terms (docs/table.md s. 16; None: it is fixed)
         return lever_nlp.base_terms(self, dv)
 
-    def _n_dv(self) -> int:
-        return self._group_off() + (3 * len(DESIGN_VARIABLES) if self.grouped else 0)
+    def _n_dv(self) -> int:  # spring, levers, groups' springs, free positions
+        return self._group_off() + (3 * len(DESIGN_VARIABLES) if self.grouped else 0) + \
+            lever_nlp.n_position_values(self)
 
     def _group_off(self) -> int:
         return len(DESIGN_VARIABLES) + (len(CODESIGN_LEVERS) if self.n_levers else 0)
@@ -307,7 +309,7 @@ class TableProblem(NLP):
         grouped: ``dv`` holds every group's four after the levers)."""
         base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
         lv = self.leveling
-        pressures = slab_terms.scaled_pressures(self._base(dv), lv.pressure_pa)
+        pressures = lever_nlp.isolator_pressures(self, dv)  # the slab's, the positions'
         if not self.grouped:
             return base, [base.replace(pressure_pa=p) for p in pressures]
         off, nd = self._group_off(), len(DESIGN_VARIABLES)
@@ -436,6 +438,8 @@ class TableProblem(NLP):
             from isodesign.optimization.lever_nlp import group_values
 
             vals += group_values(self, ca, z[nzs:], vals)
+        if lever_nlp.positions_free(self):  # each isolator's x and y, last
+            vals += lever_nlp.position_values(self, z[nzs:])
         v = ca.vertcat(*vals)
         point = self._point_function(ca)
         nb = g.n_bands
@@ -529,8 +533,8 @@ class TableProblem(NLP):
             cons.append(("max_total_volume_m3", vol, -np.inf,
                          math.log(c["max_total_volume_m3"])))
         slab = self._base(v)  # the inertia base: loads and mass follow its lever
-        k0 = [static_stiffness(di, self.dia, float(mi) * slab_terms.load_scale(slab))
-              for di, mi in zip(designs, lv.mass_per_isolator_kg, strict=True)]
+        k0 = [static_stiffness(di, self.dia, mi)
+              for di, mi in zip(designs, lever_nlp.isolator_masses(self, v), strict=True)]
         ktot = sum(k0)
         lo, hi = c.get("min_natural_frequency_hz"), c.get("max_natural_frequency_hz")
         if lo or hi:
@@ -547,10 +551,12 @@ class TableProblem(NLP):
 
             kq = [sealed_stiffness(di, self.dia, flow=self.flow) for di in designs]
             wh, mu = slab_terms.tilt_bound(table, slab, mu)
-            rows = tilt_margin_rows(kq, table.vertical_points_m, wh, mu, self._scale(v))
+            rows = tilt_margin_rows(kq, lever_nlp.tilt_points(self, v), wh, mu, self._scale(v))
             cons.append(("min_tilt_margin", ca.vertcat(*rows), 0.0, np.inf))
-        cons += layout_rows(self.table, c, self._scale(v), self._layout_free())
-        cons += lever_nlp.load_rows_of(lv, c, slab)
+        if not lever_nlp.positions_free(self):  # free positions: position_rows below
+            cons += layout_rows(self.table, c, self._scale(v), self._layout_free())
+        # free positions: footprint, spacing, loads and supply rows; else a free slab's loads
+        cons += lever_nlp.position_rows(self, v) or lever_nlp.load_rows_of(lv, c, slab)
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows
