@@ -20,6 +20,7 @@ __all__ = ["MIN_GROUP_LOAD_FRACTION", "SCREEN_MIN", "SCREEN_PER_START", "SUPPLY_
            "base_terms", "check_base_objectives", "check_base_start_loads", "draw_positions",
            "group_values",
            "isolator_loads", "isolator_masses", "isolator_pressures", "lever_sensitivities",
+           "live_mass_quotient",
            "load_rows_of", "n_position_values", "position_rows", "position_sensitivities",
            "position_terms",
            "position_values", "positions", "positions_free", "refuse_free_base_with_loop",
@@ -194,6 +195,37 @@ def base_terms(prob, dv):
         return None
     return base_lever_terms(prob.table, dv[len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index(
         BASE_LEVER)])
+
+
+def live_mass_quotient(prob, ca, dv, blk, q_r):
+    """A frozen mode's Rayleigh quotient with the live mass matrix (docs/table.md,
+    section 16): ``phi^H K' phi / phi^H M(m_s) phi`` with ``M(m_s)`` the combined body's at
+    the slab's lever (:func:`~isodesign.table.inertia_base.base_mass_row`, on symbols), so
+    the rocking-frequency rows hold ``Re mu = w^2`` of the mode at the design, whatever the
+    slab the mode was frozen at (its shape normalized with another mass). ``q_r`` itself
+    (``phi^H M_start phi = 1``) with the slab fixed.
+
+    Parameters
+    ----------
+    prob : TableProblem
+    ca : module
+        CasADi.
+    dv : CasADi column
+        The design vector.
+    blk : MX
+        The frozen mode's 14 parameters ``[active, w, phi_re (6), phi_im (6)]``.
+    q_r : MX
+        ``phi^H K' phi``.
+    """
+    base = prob._base(dv)
+    if base is None:
+        return q_r
+    from isodesign.table.inertia_base import base_mass_row
+
+    m = ca.reshape(base_mass_row(prob.geo, base), 6, 6).T
+    phr, phi = blk[2:8], blk[8:14]
+    q_m = ca.mtimes([phr.T, m, phr]) + ca.mtimes([phi.T, m, phi])
+    return q_r / (q_m + (1.0 - blk[0]))  # an inactive mode (phi = 0): its q_r, no 0 / 0
 
 
 def check_base_start_loads(prob, study) -> None:

@@ -635,8 +635,9 @@ class TableProblem(NLP):
             lo_rows, hi_rows = [], []
             off = 14 * self.n_modes
             for j in range(self.n_modes):
-                act, q_r, _ = self._frozen_quotients(
-                    ca, kfn, v, s, y, p_modes[off + 14 * j: off + 14 * (j + 1)])
+                blk = p_modes[off + 14 * j: off + 14 * (j + 1)]
+                act, q_r, _ = self._frozen_quotients(ca, kfn, v, s, y, blk)
+                q_r = lever_nlp.live_mass_quotient(self, ca, v, blk, q_r)  # a free slab's M
                 if f_lo:
                     w2 = (2 * math.pi * f_lo) ** 2
                     lo_rows.append(act * (q_r - w2) / w2)
