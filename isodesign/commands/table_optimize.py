@@ -119,6 +119,8 @@ def lever_lines(result) -> list[str]:
             label = f"{_SHORT[base]} group {g + 1} ({unit})"
         out.append(f"  {label:<24}{v.start:>10.4g}{result.values[v.name]:>10.4g}"
                    + (f"  {notes[v.name]}" if v.name in notes else ""))
+    out += [f"  {k}: {note}" for k, note in notes.items()  # free positions' binding rows
+            if k not in result.values]
     from isodesign.table.inertia_base import base_summary
 
     slab = base_summary(result.study.table_at(result.values)) if out else ""

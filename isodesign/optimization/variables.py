@@ -15,7 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from isodesign.errors import InputError
-from isodesign.table.layout import POSITION_LEVER, is_position_lever, position_lever_names
+from isodesign.table.layout import (
+    MAX_TABLE_ISOLATORS,
+    POSITION_LEVER,
+    is_position_lever,
+    position_lever_names,
+)
 
 __all__ = [
     "CODESIGN_LEVERS",
@@ -186,7 +191,8 @@ TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
                      "layout_length_m": "m", "layout_width_m": "m",
                      "inertia_base_mass_kg": "kg",
                      **{f"{v}_group{k}": DESIGN_VARIABLE_UNITS[v] for k in (1, 2, 3)
-                        for v in DESIGN_VARIABLES}}
+                        for v in DESIGN_VARIABLES},
+                     **dict.fromkeys(position_lever_names(MAX_TABLE_ISOLATORS), "m")}
 #: Practical bounds of each lever (the defaults of a free lever's lower and upper): a
 #: pendulum of 5-60 cm, an elastic centre 0.2 m below to 0.5 m above the support plane
 #: (re-entrant or pedestal mounts), a diaphragm shear stiffness of 1-100 kN/m and loss

@@ -81,6 +81,7 @@ def test_polygon_checks_and_oler_bound():
     # bound is above that and below the diagonal
     b = max_spacing_bound_m(p, 4)
     assert 1.0 <= b < np.hypot(1.5, 1.0)
+    assert b == pytest.approx(1.283, abs=5e-4)  # docs/table.md, section 15
     assert max_spacing_bound_m(p, 2) == pytest.approx(np.hypot(1.5, 1.0))
 
 
@@ -236,11 +237,16 @@ def test_footprint_sensitivity_against_a_finite_difference_of_the_reoptimized_de
     edge = s["footprint_edge_1"]  # y = -0.5
     assert "on the footprint's edge 1, (-0.75, -0.5) to (0.75, -0.5) m" in edge["binding"]
     assert "footprint_edge_1" in r.lever_notes()
+    from isodesign.commands.table_optimize import lever_lines
+
+    text = "\n".join(lever_lines(r))  # the command line's summary names them too
+    assert "isolator_1_x (m)" in text and "footprint_edge_1: isolator" in text
     xy = [[r.values[f"isolator_{i}_x_m"], r.values[f"isolator_{i}_y_m"]] for i in range(1, 5)]
     up = optimize_table(study(dy=0.005, start=xy), workers=1, analyze=False)
     dn = optimize_table(study(dy=-0.005, start=xy), workers=1, analyze=False)
     fd = (up.objective_value - dn.objective_value) / 0.01
     assert fd > 0 and edge["db_per_unit"] == pytest.approx(fd, rel=0.02)
+    assert edge["db_per_unit"] == pytest.approx(4.36, abs=0.05)  # docs/table.md, section 15
     if "min_isolator_distance_m" in s:  # the spacing binds: its sensitivity too
         d = s["min_isolator_distance_m"]
         up = optimize_table(study(dmin=0.505, start=xy), workers=1, analyze=False)
@@ -293,3 +299,22 @@ def test_held_out_sampling_and_polish_finds_nothing_better_than_the_optimum():
             polished.append(r.objective_value)
     assert polished
     assert best.objective_value >= max(polished) - 0.05
+
+
+def test_the_polygon_study_scripts_cases_are_the_documented_studies():
+    """studies/table_polygon_layout.py: its cases build (the chamfered footprint is convex
+    and holds the CG 0.5 m inside; the positions free only in the positions cases); the
+    optimizations are the script's."""
+    import importlib.util
+    from pathlib import Path
+
+    path = Path(__file__).parents[2] / "studies" / "table_polygon_layout.py"
+    spec = importlib.util.spec_from_file_location("table_polygon_layout", path)
+    mod = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(mod)
+    for name in mod.CASES:
+        st = mod.case_study(name, starts=1)
+        free = {v.name for v in st.levers if v.free}
+        assert (free == set(position_lever_names(4))) == name.startswith("positions")
+    oct_ = footprint_polygon("k", mod.OCTAGON)
+    assert len(oct_) == 8 and point_in_polygon(oct_, [[0.0, 0.0]])[0] == pytest.approx(0.5)
