@@ -876,7 +876,8 @@ def refuse_free_levers(study, what: str) -> None:
     InputError
         Naming the first free lever's ``variables.<name>.fixed``.
     """
-    free = [v.name for v in getattr(study, "levers", ()) if v.free]
+    free = [POSITION_LEVER if is_position_lever(v.name) else v.name  # as typed
+            for v in getattr(study, "levers", ()) if v.free]
     if free:
         raise InputError(f"variables.{free[0]}.fixed: {what} of a table with free co-design "
                          "levers is not available yet (docs/table.md, section 13); fix the "

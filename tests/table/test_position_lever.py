@@ -318,3 +318,22 @@ def test_the_polygon_study_scripts_cases_are_the_documented_studies():
         assert (free == set(position_lever_names(4))) == name.startswith("positions")
     oct_ = footprint_polygon("k", mod.OCTAGON)
     assert len(oct_) == 8 and point_in_polygon(oct_, [[0.0, 0.0]])[0] == pytest.approx(0.5)
+
+
+def test_other_entry_points_refuse_free_positions_naming_the_key_as_typed():
+    """One question, one answer: yield and robust design refuse free positions in one line
+    naming variables.isolator_positions_m.fixed (not a per-coordinate name the user never
+    typed); a vertical study naming the lever is refused."""
+    from isodesign.optimization.robust_table import robust_optimize_table
+    from isodesign.optimization.study import vertical_study
+    from isodesign.optimization.yields import estimate_yield
+
+    st = _free().with_changes(scenarios={"payload_mass_kg": {"relative": 0.1}})
+    vals = {v.name: v.start for v in st.variables}
+    with pytest.raises(InputError, match=r"variables\.isolator_positions_m\.fixed: yield"):
+        estimate_yield(st, vals, samples=4)
+    with pytest.raises(InputError, match=r"variables\.isolator_positions_m\.fixed: robust"):
+        robust_optimize_table(st)
+    with pytest.raises(InputError, match=r"variables\.isolator_positions_m is a lever of a "
+                                         r"table study"):
+        vertical_study().with_changes(variables=FREE)
