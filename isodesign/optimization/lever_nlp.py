@@ -271,8 +271,8 @@ def base_objective_parts(prob, dv) -> dict:
 
 
 def refuse_free_base_with_loop(study) -> None:
-    """A free slab with the leveling loop's margin bounds: refused naming the key (its rows
-    hold the start table's loads).
+    """A free slab or free positions with the leveling loop's margin bounds: refused naming
+    the key (its rows hold the start table's loads and layout).
 
     Parameters
     ----------
@@ -285,6 +285,13 @@ def refuse_free_base_with_loop(study) -> None:
     """
     from isodesign.table.leveling import leveling_margin_bounds
 
+    moved = any(is_position_lever(v.name) and v.free for v in study.levers)
+    if moved and leveling_margin_bounds(study) != (None, None):  # the plant's geometry
+        raise InputError("constraints.min_leveling_gain_margin_db: the leveling loop's margin "
+                         "bounds are not yet held with free isolator positions "
+                         "(variables.isolator_positions_m); set min_leveling_gain_margin_db "
+                         "and min_leveling_phase_margin_deg to false (docs/table.md, "
+                         "section 15)")
     free = any(v.name == BASE_LEVER and v.free for v in study.levers)
     if free and leveling_margin_bounds(study) != (None, None):
         raise InputError("constraints.min_leveling_gain_margin_db: the leveling loop's margin "

@@ -337,3 +337,13 @@ def test_other_entry_points_refuse_free_positions_naming_the_key_as_typed():
     with pytest.raises(InputError, match=r"variables\.isolator_positions_m is a lever of a "
                                          r"table study"):
         vertical_study().with_changes(variables=FREE)
+
+
+def test_free_positions_with_leveling_loop_bounds_are_refused_naming_the_key():
+    """The loop's margin rows hold the start layout's plant: refused with free positions."""
+    from isodesign.optimization.table_problem import TableProblem
+
+    st = _free(min_isolator_distance_m=0.5, min_leveling_gain_margin_db=6.0)
+    with pytest.raises(InputError, match=r"constraints\.min_leveling_gain_margin_db: .*"
+                                         r"variables\.isolator_positions_m"):
+        TableProblem(st)
