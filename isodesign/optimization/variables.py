@@ -655,6 +655,10 @@ def _check_lever_value(name: str, x: float) -> None:
                 if slip is not None else ""
             raise InputError(f"{key} = {x:g} is outside the plausible range of "
                              f"table.horizontal.{name}, |value| <= {hi:g}{hint}")
+    elif is_position_lever(name) and abs(x) > LAYOUT_PLAUSIBLE_M:  # an isolator's x or y
+        raise InputError(f"{key} = {x:g} m is outside the plausible range of a table's "
+                         f"footprint (+-{LAYOUT_PLAUSIBLE_M:g} m); a unit slip? {x:g} mm "
+                         f"would be {x * 1e-3:g} m")
     elif name in GROUP_SPRING_LEVERS:
         lo, hi, unit = DESIGN_DOMAIN[group_lever(name)[1]]
         if not lo <= x <= hi:

@@ -347,3 +347,19 @@ def test_free_positions_with_leveling_loop_bounds_are_refused_naming_the_key():
     with pytest.raises(InputError, match=r"constraints\.min_leveling_gain_margin_db: .*"
                                          r"variables\.isolator_positions_m"):
         TableProblem(st)
+
+
+def test_position_values_are_checked_and_the_layout_figure_draws_the_footprint():
+    from isodesign.table.plots import layout_figure
+    from isodesign.table.study import study_footprint
+
+    st = _free()
+    with pytest.raises(InputError, match=r"values\['isolator_2_x_m'\] = 600 m is outside"):
+        st.table_at({"isolator_2_x_m": 600.0})
+    fp, dmin = study_footprint(st)
+    assert dmin == 0.5 and fp.shape == (4, 2)
+    fixed = st.with_levers_fixed({v.name: v.start for v in st.levers if v.free})
+    assert study_footprint(fixed)[0] == pytest.approx(fp)  # a co-designed run keeps it
+    fig = layout_figure(st.table, footprint=fp, min_distance_m=dmin)
+    labels = fig.axes[0].get_legend_handles_labels()[1]
+    assert "footprint" in labels and "half the minimum distance (0.5 m)" in labels
