@@ -101,6 +101,8 @@ def lever_sensitivities(prob, x: np.ndarray) -> tuple:
     vals = ls.to_values(np.clip(xs[nzs: prob.nz], -1.0, 1.0))
     out = []
     for i, name in enumerate(ls.names):
+        if is_position_lever(name):  # its box never binds: the footprint's rows (below)
+            continue
         zi = xs[nzs + i]
         at = "upper" if zi > 1 - 1e-6 else "lower" if zi < -1 + 1e-6 else None
         spec = next(v for v in prob.study.levers if v.name == name)
