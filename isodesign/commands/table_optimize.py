@@ -119,6 +119,8 @@ def lever_lines(result) -> list[str]:
             label = f"{_SHORT[base]} group {g + 1} ({unit})"
         out.append(f"  {label:<24}{v.start:>10.4g}{result.values[v.name]:>10.4g}"
                    + (f"  {notes[v.name]}" if v.name in notes else ""))
+    out += [f"  {k}: {note}" for k, note in notes.items()  # free positions' binding rows
+            if k not in result.values]
     from isodesign.table.inertia_base import base_summary
 
     slab = base_summary(result.study.table_at(result.values)) if out else ""
@@ -313,8 +315,11 @@ def execute_table(study, run, args, result=None, *, prefix: str = "") -> int:
         with run.writing(prefix + "response.png") as tmp:
             save_figure(res.analysis.plot(), tmp)
         with run.writing(prefix + "layout.png") as tmp:
-            save_figure(layout_figure(study.table_at(res.values), res.analysis.model.leveling),
-                        tmp)
+            from isodesign.table.study import study_footprint
+
+            fp, dmin = study_footprint(study)  # the footprint and spacing (free positions)
+            save_figure(layout_figure(study.table_at(res.values), res.analysis.model.leveling,
+                                      footprint=fp, min_distance_m=dmin), tmp)
     if args.quiet:
         print(f"{study.name}: worst margin {res.objective_value:+.2f} dB (NLP grid); "
               f"{res.verdict()}")

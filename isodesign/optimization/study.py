@@ -72,6 +72,7 @@ from isodesign.optimization.variables import (
     DESIGN_VARIABLES,
     GROUP_SPRING_LEVERS,
     LAYOUT_CONSTRAINTS,
+    POSITION_LEVER,
     VariableSpec,
     check_load_range,
     fixed_lever_changes,
@@ -160,7 +161,8 @@ _KEYS = {
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
                "peak_points", "acoustics"},
-    "variables": set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS) | set(GROUP_SPRING_LEVERS),
+    "variables": set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS) | set(GROUP_SPRING_LEVERS)
+    | {POSITION_LEVER},
     "variable": {"start", "lower", "upper", "fixed"},
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
                     "min_natural_frequency_hz", "max_natural_frequency_hz",
@@ -496,7 +498,8 @@ def _check_all_keys(d: dict, where: str) -> None:
     if "gas" in d.get("hardware", {}):
         _check_keys(d["hardware"]["gas"], "hardware.gas", where)
     for name, spec in d.get("variables", {}).items():
-        _check_keys(spec, "variable", f"{where} [variables.{name}]")
+        if name != POSITION_LEVER:  # its keys: table.study.parse_position_lever's
+            _check_keys(spec, "variable", f"{where} [variables.{name}]")
 
 
 def _resolve(d: dict, fill_defaults: bool) -> dict:

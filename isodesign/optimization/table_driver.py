@@ -59,6 +59,7 @@ from isodesign.optimization.table_constraints import (
     table_constraint_reports,
 )
 from isodesign.optimization.table_problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
+from isodesign.table.layout import is_position_lever
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
 
 __all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
@@ -203,8 +204,10 @@ class TableOptimizationResult(StudyResult):
 
         out = {}
         for s in self.lever_sensitivity:
-            unit = TABLE_LEVER_UNITS[s["name"]]
-            if s["at_bound"] is None:
+            unit = TABLE_LEVER_UNITS.get(s["name"], "m")  # an isolator's x or y: m
+            if s["at_bound"] == "binding":  # a footprint edge or the spacing (free positions)
+                out[s["name"]] = f"{s['binding']}: {s['db_per_unit']:+.3g} dB per m"
+            elif s["at_bound"] is None:
                 out[s["name"]] = "inside its bounds (sensitivity 0)"
             else:
                 out[s["name"]] = (f"at {s['at_bound']} bound {s[s['at_bound']]:g} {unit}: "
@@ -214,8 +217,9 @@ class TableOptimizationResult(StudyResult):
     def _kind_items(self) -> list[tuple[str, str]]:
         items = [("starts at best", f"{self.n_reached_best} of {len(self.starts)}")]
         if self.lever_sensitivity:
-            items.append(("levers", "; ".join(f"{k} {self.values[k]:.4g} ({v})" for k, v in
-                                              self.lever_notes().items())))
+            items.append(("levers", "; ".join(
+                f"{k} {self.values[k]:.4g} ({v})" if k in self.values else f"{k} ({v})"
+                for k, v in self.lever_notes().items())))
         return items
 
     def _figure(self):
@@ -442,8 +446,14 @@ def _lever_starts(study, prob, starts: list) -> list:
     strata = np.column_stack([rng.permutation(n) for _ in range(d)])
     z = 2.0 * (strata + rng.random((n, d))) / n - 1.0
     out = [dict(s) for s in starts]
-    for s, zi in zip(starts[1:], z, strict=True):
-        out.append({**s, **ls.to_values(0.98 * zi)})
+    from isodesign.optimization.lever_nlp import draw_positions
+
+    # free positions: feasible layouts drawn in the footprint (a box's draw may not carry
+    # the CG), docs/table.md section 15
+    pos = draw_positions(study, n, [int(study.solver["seed"]), 24, 1])
+    for j, (s, zi) in enumerate(zip(starts[1:], z, strict=True)):
+        out.append({**s, **{k: v for k, v in ls.to_values(0.98 * zi).items()
+                            if not is_position_lever(k)}, **(pos[j] if j < len(pos) else {})})
     return out
 
 

@@ -264,12 +264,13 @@ class TableProblem(NLP):
         for name, sk in (("layout_length_m", sx), ("layout_width_m", sy)):
             if self._lever_free(name):
                 terms.append((sk - 1.0, self.lever_dirs[name]))
-        return terms
+        return terms + lever_nlp.position_terms(self, dv)  # free positions
 
     def _assemble(self, dv, kv, kh, w, shift):
         """``D(w)``, ``B(w)`` with the free geometric levers (today's path without a free
         layout lever)."""
-        d, b = dynamic_stiffness(self.geo, kv, kh, w, shift) if not self._layout_free() else \
+        d, b = dynamic_stiffness(self.geo, kv, kh, w, shift) if not (
+            self._layout_free() or lever_nlp.positions_free(self)) else \
             lever_stiffness(self.geo, self._terms(dv, shift), kv, kh, w)
         return slab_terms.base_stiffness(d, w, self._base(dv)), b
 
@@ -285,12 +286,12 @@ class TableProblem(NLP):
         if h.pendulum_length_m is None and not self._lever_free("pendulum_length_m"):
             lp = None
         out = []
-        lam = slab_terms.load_scale(base := self._base(dv))  # the slab: loads scale, CG rises
-        for i, ld in enumerate(self.leveling.load_n):
+        base = self._base(dv)  # the slab: loads scale, CG rises; free positions: loads move
+        for i, ld in enumerate(lever_nlp.isolator_loads(self, dv)):
             if h.lateral_model is None:
-                out.append(horizontal_stiffness(w, float(ld) * lam, lp, kl, eta))
+                out.append(horizontal_stiffness(w, ld, lp, kl, eta))
             else:
-                out.append(Cx(khr[i], khi[i]) + (0.0 if lp is None else float(ld) * lam / lp))
+                out.append(Cx(khr[i], khi[i]) + (0.0 if lp is None else ld / lp))
         shift = (ec - h.elastic_centre_height_m) if self._lever_free(
             "elastic_centre_height_m") else None
         return out, slab_terms.centre_shift(shift, base)
@@ -298,8 +299,9 @@ class TableProblem(NLP):
     def _base(self, dv):  # the inertia base's terms (docs/table.md s. 16; None: it is fixed)
         return lever_nlp.base_terms(self, dv)
 
-    def _n_dv(self) -> int:
-        return self._group_off() + (3 * len(DESIGN_VARIABLES) if self.grouped else 0)
+    def _n_dv(self) -> int:  # spring, levers, groups' springs, free positions
+        return self._group_off() + (3 * len(DESIGN_VARIABLES) if self.grouped else 0) + \
+            lever_nlp.n_position_values(self)
 
     def _group_off(self) -> int:
         return len(DESIGN_VARIABLES) + (len(CODESIGN_LEVERS) if self.n_levers else 0)
@@ -309,7 +311,7 @@ class TableProblem(NLP):
         grouped: ``dv`` holds every group's four after the levers)."""
         base = self.study.design_at({n: dv[i] for i, n in enumerate(DESIGN_VARIABLES)})
         lv = self.leveling
-        pressures = slab_terms.scaled_pressures(self._base(dv), lv.pressure_pa)
+        pressures = lever_nlp.isolator_pressures(self, dv)  # the slab's, the positions'
         if not self.grouped:
             return base, [base.replace(pressure_pa=p) for p in pressures]
         off, nd = self._group_off(), len(DESIGN_VARIABLES)
@@ -438,6 +440,8 @@ class TableProblem(NLP):
             from isodesign.optimization.lever_nlp import group_values
 
             vals += group_values(self, ca, z[nzs:], vals)
+        if lever_nlp.positions_free(self):  # each isolator's x and y, last
+            vals += lever_nlp.position_values(self, z[nzs:])
         v = ca.vertcat(*vals)
         point = self._point_function(ca)
         nb = g.n_bands
@@ -556,8 +560,8 @@ class TableProblem(NLP):
         q = {"ln_total_volume": ca.log(d.total_volume_m3) if not self.grouped else ca.vertcat(*[
             ca.log(designs[list(lv.group_of).index(g)].total_volume_m3) for g in range(3)])}
         slab = self._base(v)  # the inertia base: loads and mass follow its lever
-        k0 = [static_stiffness(di, self.dia, float(mi) * slab_terms.load_scale(slab))
-              for di, mi in zip(designs, lv.mass_per_isolator_kg, strict=True)]
+        k0 = [static_stiffness(di, self.dia, mi)
+              for di, mi in zip(designs, lever_nlp.isolator_masses(self, v), strict=True)]
         q["ln_fn"] = 0.5 * ca.log(sum(k0) / slab_terms.body_mass(table, slab)
                                   / (2.0 * math.pi) ** 2)
         # peak factor x RMS vertical stroke of every isolator: ln, linear in s
@@ -568,10 +572,19 @@ class TableProblem(NLP):
 
             kq = [sealed_stiffness(di, self.dia, flow=self.flow) for di in designs]
             wh, mu = slab_terms.tilt_bound(table, slab, mu)
-            q["tilt_rows"] = ca.vertcat(*tilt_margin_rows(kq, table.vertical_points_m, wh, mu,
-                                                          self._scale(v)))
-        q["layout_rows"] = layout_rows(self.table, c, self._scale(v), self._layout_free())
-        q["load_rows"] = lever_nlp.load_rows_of(lv, c, slab)
+            q["tilt_rows"] = ca.vertcat(*tilt_margin_rows(
+                kq, lever_nlp.tilt_points(self, v), wh, mu, self._scale(v)))
+        # free positions: the footprint polygon and spacing (layout) and the loads and
+        # supply of the live statics (loads), lever_nlp.position_rows; else the parametric
+        # layout's rows and a free slab's loads
+        pos = lever_nlp.position_rows(self, v)
+        if pos:
+            geo = ("footprint_polygon_m", "isolator_distance_m2")
+            q["layout_rows"] = [r for r in pos if r[0] in geo]
+            q["load_rows"] = [r for r in pos if r[0] not in geo]
+        else:
+            q["layout_rows"] = layout_rows(self.table, c, self._scale(v), self._layout_free())
+            q["load_rows"] = lever_nlp.load_rows_of(lv, c, slab)
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows
@@ -653,8 +666,9 @@ class TableProblem(NLP):
             lo_rows, hi_rows = [], []
             off = 14 * self.n_modes
             for j in range(self.n_modes):
-                act, q_r, _ = self._frozen_quotients(
-                    ca, kfn, v, s, y, p_modes[off + 14 * j: off + 14 * (j + 1)])
+                blk = p_modes[off + 14 * j: off + 14 * (j + 1)]
+                act, q_r, _ = self._frozen_quotients(ca, kfn, v, s, y, blk)
+                q_r = lever_nlp.live_mass_quotient(self, ca, v, blk, q_r)  # a free slab's M
                 if f_lo:
                     w2 = (2 * math.pi * f_lo) ** 2
                     lo_rows.append(act * (q_r - w2) / w2)

@@ -15,6 +15,12 @@ from dataclasses import dataclass
 import numpy as np
 
 from isodesign.errors import InputError
+from isodesign.table.layout import (
+    MAX_TABLE_ISOLATORS,
+    POSITION_LEVER,
+    is_position_lever,
+    position_lever_names,
+)
 
 __all__ = [
     "CODESIGN_LEVERS",
@@ -185,7 +191,8 @@ TABLE_LEVER_UNITS = {"pendulum_length_m": "m", "elastic_centre_height_m": "m",
                      "layout_length_m": "m", "layout_width_m": "m",
                      "inertia_base_mass_kg": "kg",
                      **{f"{v}_group{k}": DESIGN_VARIABLE_UNITS[v] for k in (1, 2, 3)
-                        for v in DESIGN_VARIABLES}}
+                        for v in DESIGN_VARIABLES},
+                     **dict.fromkeys(position_lever_names(MAX_TABLE_ISOLATORS), "m")}
 #: Practical bounds of each lever (the defaults of a free lever's lower and upper): a
 #: pendulum of 5-60 cm, an elastic centre 0.2 m below to 0.5 m above the support plane
 #: (re-entrant or pedestal mounts), a diaphragm shear stiffness of 1-100 kN/m and loss
@@ -289,7 +296,8 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
     InputError
         A lever in a study without ``[table]``, or bounds that do not hold the start.
     """
-    named = [n for n in (*CODESIGN_LEVERS, *GROUP_SPRING_LEVERS) if n in (variables or {})]
+    named = [n for n in (*CODESIGN_LEVERS, *GROUP_SPRING_LEVERS, POSITION_LEVER)
+             if n in (variables or {})]
     if table is None:
         if named:
             raise InputError(f"{where}: variables.{named[0]} is a lever of a table study; this "
@@ -364,6 +372,12 @@ def parse_levers(variables: dict, table, where: str, constraints: dict | None = 
                              f"[{lo:g}, {hi:g}]")
         out.append(VariableSpec(name, float(start), float(lo), float(hi), False))
     out = tuple(out) + _group_levers(variables or {}, table, where)
+    if POSITION_LEVER in (variables or {}):  # free positions in a footprint polygon
+        from isodesign.table.study import parse_position_lever
+
+        out += tuple(VariableSpec(*p) for p in parse_position_lever(
+            variables[POSITION_LEVER], table, f"{where}: variables.{POSITION_LEVER}",
+            constraints, any(v.free for v in out if v.name in LAYOUT_LEVERS)))
     _check_group_diameters(table, out, constraints or {}, where)
     check_layout_feasible(table, out, constraints or {}, where)
     _check_loads(table, constraints or {}, hardware, where, out)
@@ -386,6 +400,8 @@ def _check_loads(table, constraints: dict, hardware: dict | None, where: str,
     from isodesign.table.statics import check_load_constraints, check_scaled_loads, level
 
     base = next((v for v in levers if v.name in BASE_LEVERS and v.free), None)
+    if any(is_position_lever(v.name) for v in levers):
+        return  # free positions: the loads and p0 are NLP rows (docs/table.md, section 15)
     try:
         if base is not None:  # the loads follow the slab: some mass in its bounds must do
             m0 = table.mass_kg - base.start
@@ -572,6 +588,13 @@ def table_with_levers(table, levers, values: dict | None = None):
     lay = [float(vals.get(k, e)) for k, e in zip(LAYOUT_LEVERS, ext, strict=True)]
     if any(abs(v - e) > 1e-12 * e for v, e in zip(lay, ext, strict=True)):
         out = stretch_layout(out, *lay)
+    if any(is_position_lever(k) for k in vals):  # free positions (docs/table.md, s. 15)
+        from isodesign.table.layout import with_positions
+
+        xy = [[vals[n] for n in position_lever_names(table.n_isolators)[2 * i: 2 * i + 2]]
+              for i in range(table.n_isolators)]
+        if not np.array_equal(np.asarray(xy, float), table.isolators_m):
+            out = with_positions(out, xy)
     groups = [dict(g) for g in table.group_springs]
     for k, v in vals.items():
         if k in GROUP_SPRING_LEVERS:
@@ -632,6 +655,10 @@ def _check_lever_value(name: str, x: float) -> None:
                 if slip is not None else ""
             raise InputError(f"{key} = {x:g} is outside the plausible range of "
                              f"table.horizontal.{name}, |value| <= {hi:g}{hint}")
+    elif is_position_lever(name) and abs(x) > LAYOUT_PLAUSIBLE_M:  # an isolator's x or y
+        raise InputError(f"{key} = {x:g} m is outside the plausible range of a table's "
+                         f"footprint (+-{LAYOUT_PLAUSIBLE_M:g} m); a unit slip? {x:g} mm "
+                         f"would be {x * 1e-3:g} m")
     elif name in GROUP_SPRING_LEVERS:
         lo, hi, unit = DESIGN_DOMAIN[group_lever(name)[1]]
         if not lo <= x <= hi:
@@ -657,7 +684,10 @@ def fixed_lever_changes(table, levers, values: dict) -> dict:
     _check_lever_values(levers, values, require=free)
     t = table_with_levers(table, levers, values)
     out = {"table": {"horizontal": {k: float(values[k]) for k in free if k in TABLE_LEVERS}},
-           "variables": {k: {"fixed": True, "start": float(values[k])} for k in free}}
+           "variables": {k: {"fixed": True, "start": float(values[k])} for k in free
+                         if not is_position_lever(k)}}
+    if any(is_position_lever(k) for k in free):  # the positions: the table's isolators
+        out["variables"][POSITION_LEVER] = {"fixed": True, "start": t.isolators_m.tolist()}
     if t.group_springs != table.group_springs:  # each group's own spring
         out["table"]["group_springs"] = [dict(g) for g in t.group_springs]
     if "inertia_base_mass_kg" in free:
@@ -779,6 +809,8 @@ def check_layout_feasible(table, levers, constraints: dict, where: str) -> None:
     from isodesign.table.layout import layout_extent
 
     spec = {v.name: v for v in levers if v.name in LAYOUT_LEVERS}
+    if any(is_position_lever(v.name) for v in levers):
+        return  # free positions: their rows (table.study.parse_position_lever checked them)
     if not any(v.free for v in spec.values()):  # a fixed layout: checked as it stands
         if constraints.get("footprint_m") or constraints.get("min_isolator_distance_m"):
             from isodesign.table.lever_geometry import layout_rows
@@ -848,7 +880,8 @@ def refuse_free_levers(study, what: str) -> None:
     InputError
         Naming the first free lever's ``variables.<name>.fixed``.
     """
-    free = [v.name for v in getattr(study, "levers", ()) if v.free]
+    free = [POSITION_LEVER if is_position_lever(v.name) else v.name  # as typed
+            for v in getattr(study, "levers", ()) if v.free]
     if free:
         raise InputError(f"variables.{free[0]}.fixed: {what} of a table with free co-design "
                          "levers is not available yet (docs/table.md, section 13); fix the "

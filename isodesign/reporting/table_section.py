@@ -63,6 +63,9 @@ def table_section(case) -> dict | None:
                            ((getattr(st, "raw", None) or {}).get("table") or {}).get("leveling")
                            else "the default valves (the study has no [table.leveling])")
     stab = stability["static"][0]
+    from isodesign.table.study import study_footprint
+
+    footprint = study_footprint(st)  # the layout's footprint and spacing (section 15)
     head = ["band (Hz)", "limit (um/s)"] + [f"{n} {a}" for n in res.point_names for a in _AXES]
     rows = []
     for b, lab in enumerate(res.bands.labels):
@@ -110,7 +113,8 @@ def table_section(case) -> dict | None:
         "axis_margins": ", ".join(f"{ax} {v:+.2f} dB" for ax, v in
                                   zip(_AXES, res.axis_margin_db(), strict=True)),
         "notes": list(res.notes),
-        "layout_svg": figure_svg(layout_figure(model.table, lev)),
+        "layout_svg": figure_svg(layout_figure(model.table, lev, footprint=footprint[0],
+                                               min_distance_m=footprint[1])),
         "bands_svg": figure_svg(table_bands_figure(res)),
         "transmissibility_svg": figure_svg(table_transmissibility_figure(res)),
         "band_head": head,

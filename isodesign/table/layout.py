@@ -29,6 +29,7 @@ from isodesign.spring.gas import G_STANDARD, P_ATM
 
 __all__ = [
     "DEFAULT_SUPPLY_PRESSURE_PA",
+    "POSITION_LEVER",
     "SPRING_FIELDS",
     "HorizontalElement",
     "Table",
@@ -36,8 +37,11 @@ __all__ = [
     "check_numbers",
     "default_leveling_groups",
     "horizontal_stiffness",
+    "is_position_lever",
     "layout_extent",
+    "position_lever_names",
     "stretch_layout",
+    "with_positions",
 ]
 
 #: Default supply pressure of the leveling valves: 6 bar gauge (absolute, Pa).
@@ -272,6 +276,52 @@ def stretch_layout(table, length_m: float, width_m: float):
     c = table.cg_m[:2]
     xy = c + (table.isolators_m - c) * np.array([sx, sy])
     return dataclasses.replace(table, isolators_m=xy)
+
+
+#: The lever of free isolator positions: ``[variables.isolator_positions_m]``; each
+#: isolator's x and y become the scalar levers :func:`position_lever_names`.
+POSITION_LEVER = "isolator_positions_m"
+
+
+def position_lever_names(n: int) -> tuple[str, ...]:
+    """The scalar levers of ``n`` free isolator positions: ``isolator_<i>_x_m``,
+    ``isolator_<i>_y_m`` (``i`` from 1), isolator by isolator.
+
+    Parameters
+    ----------
+    n : int
+        The number of isolators.
+    """
+    return tuple(f"isolator_{i + 1}_{ax}_m" for i in range(n) for ax in "xy")
+
+
+def is_position_lever(name: str) -> bool:
+    """``name`` is one of :func:`position_lever_names` (``isolator_<i>_<x|y>_m``).
+
+    Parameters
+    ----------
+    name : str
+    """
+    parts = str(name).split("_")
+    return (len(parts) == 4 and parts[0] == "isolator" and parts[1].isdigit()
+            and parts[2] in ("x", "y") and parts[3] == "m")
+
+
+
+def with_positions(table, xy):
+    """The table with its isolators at ``xy`` (the free positions' lever, docs/table.md
+    section 15): the leveling groups, the CG, the instrument points and the inertia stay;
+    the loads follow (the leveling solves them again).
+
+    Parameters
+    ----------
+    table : Table
+    xy : array_like, shape (n, 2)
+        Each isolator's position, m.
+    """
+    import dataclasses
+
+    return dataclasses.replace(table, isolators_m=np.asarray(xy, dtype=float).reshape(-1, 2))
 
 
 @dataclass(frozen=True)

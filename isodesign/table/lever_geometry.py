@@ -22,8 +22,12 @@ from isodesign.errors import InputError
 from isodesign.numerics import backend as bk
 from isodesign.numerics.cplx import Cx
 from isodesign.table.assembly import Geometry, dynamic_stiffness
+from isodesign.table.layout import POSITION_LEVER, is_position_lever, position_lever_names
 
-__all__ = ["layout_rows", "lever_directions", "lever_stiffness", "vertical_vectors"]
+__all__ = ["POSITION_LEVER", "footprint_polygon", "is_position_lever", "layout_rows",
+           "lever_directions", "lever_stiffness", "max_spacing_bound_m", "point_in_polygon",
+           "polygon_area_perimeter", "polygon_edges", "position_directions",
+           "position_lever_names", "position_rows", "vertical_vectors"]
 
 
 def lever_directions(geo: Geometry, table) -> dict[str, np.ndarray]:
@@ -221,4 +225,217 @@ def layout_rows(table, constraints: dict, scale_xy, free: bool) -> list:
             dx, dy = (float(v) for v in off[i] - off[j])
             rows.append(0.5 * ca.log(sx * sx * dx * dx + sy * sy * dy * dy))
         out.append(("min_isolator_distance_m", ca.vertcat(*rows), float(np.log(dmin)), np.inf))
+    return out
+
+
+# -- free isolator positions inside a footprint polygon (docs/table.md, section 15) -------
+def _cross(o, a, b) -> float:
+    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+
+def _segments_cross(p1, p2, q1, q2) -> bool:
+    """The closed segments p1-p2 and q1-q2 meet (touching counts)."""
+    d1, d2 = _cross(q1, q2, p1), _cross(q1, q2, p2)
+    d3, d4 = _cross(p1, p2, q1), _cross(p1, p2, q2)
+    if ((d1 > 0) != (d2 > 0)) and ((d3 > 0) != (d4 > 0)) and 0 not in (d1, d2, d3, d4):
+        return True
+
+    def on(a, b, c, d):  # c on segment a-b, collinear
+        return d == 0 and min(a[0], b[0]) <= c[0] <= max(a[0], b[0]) and \
+            min(a[1], b[1]) <= c[1] <= max(a[1], b[1])
+
+    return on(q1, q2, p1, d1) or on(q1, q2, p2, d2) or on(p1, p2, q1, d3) or on(p1, p2, q2, d4)
+
+
+def footprint_polygon(key: str, value, plausible_m: float = 20.0) -> np.ndarray:
+    """A footprint polygon as the study gives it, checked: counter-clockwise vertices (m).
+
+    The isolators' positions stay inside it by one linear row per edge and isolator
+    (:func:`position_rows`), exact for a convex polygon; a non-convex one is refused (give
+    its convex hull, or the convex part the isolators may use).
+
+    Parameters
+    ----------
+    key : str
+        The key as the user typed it, for errors.
+    value : list of [x, y]
+        The vertices in order (either orientation), m.
+    plausible_m : float
+        A coordinate beyond it is a unit slip (mm typed as m).
+
+    Returns
+    -------
+    ndarray, shape (m, 2)
+        The vertices, counter-clockwise.
+
+    Raises
+    ------
+    InputError
+        Fewer than 3 vertices, a non-number, a coordinate beyond ``plausible_m``, repeated
+        vertices, a self-intersecting or non-convex polygon, no area.
+    """
+    bad = (isinstance(value, str | bytes | dict) or not isinstance(value, list | tuple)
+           or any(not isinstance(p, list | tuple) or len(p) != 2 or any(
+               isinstance(c, bool) or not isinstance(c, int | float) or not np.isfinite(c)
+               for c in p) for p in value))
+    if bad:
+        raise InputError(f"{key}: expected a list of [x, y] vertices in m (at least 3, a convex "
+                         f"polygon in order), got {value!r:.60}")
+    p = np.array(value, dtype=float)
+    if p.shape[0] < 3:
+        raise InputError(f"{key}: a polygon needs at least 3 vertices, got {p.shape[0]}")
+    big = float(np.max(np.abs(p)))
+    if big > plausible_m:
+        raise InputError(f"{key}: a coordinate of {big:g} m is outside the plausible range "
+                         f"of a table's footprint (+-{plausible_m:g} m); a unit slip? it is in "
+                         f"m, and {big:g} mm would be {big * 1e-3:g} m")
+    m = p.shape[0]
+    for i in range(m):
+        if np.allclose(p[i], p[(i + 1) % m], rtol=0, atol=1e-9):
+            raise InputError(f"{key}: vertices {i + 1} and {(i + 1) % m + 1} (from 1) coincide")
+    for i in range(m):
+        for j in range(i + 2, m):
+            if i == 0 and j == m - 1:
+                continue  # adjacent through the closing edge
+            if _segments_cross(p[i], p[(i + 1) % m], p[j], p[(j + 1) % m]):
+                raise InputError(f"{key}: the polygon intersects itself (edge {i + 1} meets "
+                                 f"edge {j + 1}, from 1); give its vertices in order around it")
+    area2 = float(np.sum(p[:, 0] * np.roll(p[:, 1], -1) - np.roll(p[:, 0], -1) * p[:, 1]))
+    scale = float(np.ptp(p, axis=0).max())
+    if abs(area2) < 1e-9 * scale * scale:
+        raise InputError(f"{key}: the polygon has no area (its vertices lie on one line)")
+    if area2 < 0:
+        p = p[::-1].copy()
+    for i in range(m):
+        if _cross(p[i - 1], p[i], p[(i + 1) % m]) < -1e-12 * scale * scale:
+            raise InputError(f"{key}: the polygon is not convex (at the vertex "
+                             f"({p[i, 0]:g}, {p[i, 1]:g}) m); the containment rows are exact "
+                             "for a convex footprint only: give its convex hull, or the convex "
+                             "part the isolators may stand in")
+    p.flags.writeable = False
+    return p
+
+
+def polygon_edges(poly: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Unit inward normals ``n_k`` and offsets ``c_k`` of a counter-clockwise convex polygon:
+    a point ``q`` is inside when ``n_k . q - c_k >= 0`` for every edge ``k`` (its distance
+    from the edge's line, m).
+
+    Parameters
+    ----------
+    poly : ndarray, shape (m, 2)
+        Counter-clockwise vertices (:func:`footprint_polygon`).
+    """
+    e = np.roll(poly, -1, axis=0) - poly
+    nrm = np.column_stack([-e[:, 1], e[:, 0]]) / np.hypot(e[:, 0], e[:, 1])[:, None]
+    return nrm, np.einsum("ij,ij->i", nrm, poly)
+
+
+def polygon_area_perimeter(poly: np.ndarray) -> tuple[float, float]:
+    """Area (m^2) and perimeter (m) of a simple polygon.
+
+    Parameters
+    ----------
+    poly : ndarray, shape (m, 2)
+    """
+    x, y = poly[:, 0], poly[:, 1]
+    area = 0.5 * abs(float(np.sum(x * np.roll(y, -1) - np.roll(x, -1) * y)))
+    per = float(np.sum(np.hypot(*(np.roll(poly, -1, axis=0) - poly).T)))
+    return area, per
+
+
+def max_spacing_bound_m(poly: np.ndarray, n: int) -> float:
+    """An upper bound on the smallest distance ``n`` points in a convex polygon can keep
+    (Oler's inequality: ``n <= 2 A / (sqrt(3) d^2) + P / (2 d) + 1`` for ``n`` points at
+    least ``d`` apart in a convex region of area ``A`` and perimeter ``P``; also at most the
+    polygon's diameter), m. A ``min_isolator_distance_m`` above it cannot be met.
+
+    Parameters
+    ----------
+    poly : ndarray, shape (m, 2)
+    n : int
+        Points (isolators), >= 2.
+    """
+    area, per = polygon_area_perimeter(poly)
+    diam = max(float(np.hypot(*(a - b))) for a in poly for b in poly)
+    if n <= 2:
+        return diam
+    # (2 A / sqrt 3) u^2 + (P / 2) u - (n - 1) = 0 with u = 1 / d
+    qa, qb, qc = 2.0 * area / np.sqrt(3.0), 0.5 * per, -(n - 1.0)
+    u = (-qb + np.sqrt(qb * qb - 4.0 * qa * qc)) / (2.0 * qa)
+    return float(min(diam, 1.0 / u))
+
+
+def point_in_polygon(poly: np.ndarray, xy) -> np.ndarray:
+    """Each point's smallest clearance to the edges of a convex counter-clockwise polygon
+    (negative: outside), m.
+
+    Parameters
+    ----------
+    poly : ndarray, shape (m, 2)
+    xy : ndarray, shape (n, 2)
+    """
+    nrm, c = polygon_edges(poly)
+    return (np.asarray(xy, float) @ nrm.T - c).min(axis=1)
+
+
+def position_directions(geo: Geometry) -> list[np.ndarray]:
+    """The direction arrays ``C_k`` (3n, 6) of each isolator's x and y (in
+    :func:`position_lever_names` order), rows as ``geo.g``: moving isolator ``i`` by ``dx``
+    turns its vertical element's ``r x e_z = (r_y, -r_x, 0)`` by ``-dx e_ry`` and its y
+    element's ``r x e_y = (-r_z, 0, r_x)`` by ``dx e_rz``; by ``dy``: ``dy e_rx`` on the
+    vertical element and ``-dy e_rz`` on the x element (``r x e_x = (0, r_z, -r_y)``).
+
+    Parameters
+    ----------
+    geo : Geometry
+    """
+    n = geo.n_isolators
+    out = []
+    for i in range(n):
+        cx, cy = np.zeros((3 * n, 6)), np.zeros((3 * n, 6))
+        cx[i, 4] = -1.0
+        cx[2 * n + i, 5] = 1.0
+        cy[i, 3] = 1.0
+        cy[n + i, 5] = -1.0
+        out += [cx, cy]
+    return out
+
+
+def position_rows(xy, poly: np.ndarray | None, dmin: float | None) -> list:
+    """The free positions' layout rows, smooth (docs/table.md, section 15).
+
+    ``footprint_polygon_m``: ``n_k . q_i - c_k >= 0`` for every edge ``k`` and isolator
+    ``i`` (m, linear: :func:`polygon_edges`), isolator by isolator; ``isolator_distance_m2``:
+    ``|q_i - q_j|^2 >= d_min^2`` for every pair (squared: no square root at 0).
+
+    Parameters
+    ----------
+    xy : list of (x, y)
+        Each isolator's position (floats or CasADi symbols), m.
+    poly : ndarray or None
+        The footprint (counter-clockwise, convex).
+    dmin : float or None
+        ``constraints.min_isolator_distance_m``.
+
+    Returns
+    -------
+    list of (name, expression, lower, upper)
+    """
+    import casadi as ca
+
+    out = []
+    n = len(xy)
+    if poly is not None:
+        nrm, c = polygon_edges(poly)
+        rows = [float(nrm[k, 0]) * x + float(nrm[k, 1]) * y - float(c[k])
+                for x, y in xy for k in range(len(c))]
+        out.append(("footprint_polygon_m", ca.vertcat(*rows), 0.0, np.inf))
+    if dmin:
+        rows = []
+        for i in range(n):
+            for j in range(i + 1, n):
+                dx, dy = xy[i][0] - xy[j][0], xy[i][1] - xy[j][1]
+                rows.append(dx * dx + dy * dy)
+        out.append(("isolator_distance_m2", ca.vertcat(*rows), float(dmin) ** 2, np.inf))
     return out

@@ -51,9 +51,11 @@ def table_bands_figure(res, *, axes=None):
     return fig
 
 
-def layout_figure(table, leveling=None, *, ax=None):
+def layout_figure(table, leveling=None, *, ax=None, footprint=None, min_distance_m=None):
     """Top view of the table: isolators (numbered, coloured by leveling valve), the support
-    polygon, the CG and the instrument points.
+    polygon, the CG and the instrument points; with a footprint, the polygon the isolators
+    stand in and a circle of half the minimum distance around each (two circles that touch:
+    a binding spacing).
 
     Parameters
     ----------
@@ -61,6 +63,10 @@ def layout_figure(table, leveling=None, *, ax=None):
     leveling : Leveling, optional
         Adds each isolator's load.
     ax : matplotlib Axes, optional
+    footprint : ndarray (m, 2), optional
+        The footprint polygon (:func:`~isodesign.table.study.study_footprint`), m.
+    min_distance_m : float, optional
+        ``constraints.min_isolator_distance_m``.
 
     Returns
     -------
@@ -73,6 +79,16 @@ def layout_figure(table, leveling=None, *, ax=None):
     hull = table.support_polygon()
     closed = np.vstack([hull, hull[:1]])
     ax.plot(closed[:, 0], closed[:, 1], color="0.6", lw=1.0, ls=":", label="support polygon")
+    if footprint is not None:
+        fp = np.vstack([footprint, footprint[:1]])
+        ax.plot(fp[:, 0], fp[:, 1], color="k", lw=1.5, label="footprint")
+    if min_distance_m:
+        t = np.linspace(0.0, 2 * np.pi, 73)
+        for i, (x, y) in enumerate(table.isolators_m):
+            ax.plot(x + 0.5 * min_distance_m * np.cos(t), y + 0.5 * min_distance_m * np.sin(t),
+                    color="0.5", lw=0.8, ls="--",
+                    label=f"half the minimum distance ({min_distance_m:g} m)" if i == 0
+                    else None)
     xy = table.isolators_m
     for g, grp in enumerate(table.leveling_groups):
         st = candidate_style(g)

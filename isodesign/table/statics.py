@@ -267,7 +267,8 @@ def load_rows(leveling: Leveling, constraints: dict, scale) -> list:
 
 def leveling_of_rows(prob, g) -> Leveling:
     """The leveling at an NLP solution: the start's scaled by the inertia base's load scale
-    read from the ``supply_pressure_pa`` rows (the start's without them).
+    read from the ``supply_pressure_pa`` rows, or with free positions the groups' loads
+    read from the ``group_load_kn`` rows (the start's without either).
 
     Parameters
     ----------
@@ -276,6 +277,15 @@ def leveling_of_rows(prob, g) -> Leveling:
         The constraint values.
     """
     lv = prob.leveling
+    for name, row, _m in prob.con_rows:
+        if name == "group_load_kn":  # free positions: every group's load per isolator
+            import dataclasses
+
+            p = np.asarray(g[row: row + 3], float) * 1e3
+            p_atm = lv.pressure_pa - lv.load_n / lv.piston_area_m2
+            pg = float(np.mean(p_atm)) + p / lv.piston_area_m2
+            return dataclasses.replace(lv, group_load_n=p, load_n=p[lv.group_of],
+                                       group_pressure_pa=pg, pressure_pa=pg[lv.group_of])
     for name, row, _m in prob.con_rows:
         if name == "supply_pressure_pa":
             p_atm = float(np.mean(lv.pressure_pa - lv.load_n / lv.piston_area_m2))
@@ -436,17 +446,21 @@ def condensed_rocking_stiffness(k_vertical, points_m) -> tuple:
     ----------
     k_vertical : sequence
         Each isolator's vertical stiffness, N/m.
-    points_m : ndarray (n, 3)
-        The vertical-force points from the CG (:attr:`Table.vertical_points_m`), m.
+    points_m : ndarray (n, 3) or list of (a, b)
+        The vertical-force points from the CG (:attr:`Table.vertical_points_m`), m; a list
+        of plan offsets (floats or CasADi symbols) with free isolator positions.
 
     Returns
     -------
     (a11, a12, a22)
         The symmetric 2x2 on ``(rx, ry)``, N m/rad.
     """
-    r = np.asarray(points_m, dtype=float)
+    if isinstance(points_m, np.ndarray):
+        r = np.asarray(points_m, dtype=float)
+        a, b = r[:, 0].tolist(), r[:, 1].tolist()
+    else:  # free positions (docs/table.md, section 15): offsets that may be symbols
+        a, b = [p[0] for p in points_m], [p[1] for p in points_m]
     k = list(k_vertical)
-    a, b = r[:, 0].tolist(), r[:, 1].tolist()
     total = sum(k)
     s1 = sum(ki * bi for ki, bi in zip(k, b, strict=True))
     s2 = -sum(ki * ai for ki, ai in zip(k, a, strict=True))
@@ -509,3 +523,36 @@ def supply_limited_mass_kg(table, piston_area_m2: float, margin_pa: float = 0.0)
                                                               - p_atm)
     b = table.inertia_base
     return scale * table.mass_kg - (table.mass_kg - (b.mass_kg if b is not None else 0.0))
+
+
+def group_loads_at(table: Table, xy) -> list:
+    """Each leveling group's load per isolator with the isolators at ``xy``, any backend.
+
+    The leveling's three equations (section 3) about the CG's plan position, ``sum_g n_g P_g
+    = W``, ``sum_g S^a_g P_g = 0``, ``sum_g S^b_g P_g = 0`` with ``S^a_g = sum_{i in g} (x_i -
+    c_x)`` (``S^b`` likewise in y), solved in closed form: with the rows ``r_0 = (n_g)``,
+    ``r_1 = (S^a_g)``, ``r_2 = (S^b_g)`` and ``c = r_1 x r_2``, ``P = W c / (r_0 . c)``
+    (``r_1 . c = r_2 . c = 0``): rational and smooth in the positions while the groups'
+    centroids span a triangle (docs/table.md, section 15).
+
+    Parameters
+    ----------
+    table : Table
+        Its CG, weight and leveling groups (its own positions are not used).
+    xy : sequence of (x, y)
+        Each isolator's position, m (floats or CasADi symbols).
+
+    Returns
+    -------
+    list of 3
+        ``P_g``, N, groups in ``table.leveling_groups`` order.
+    """
+    cx, cy = float(table.cg_m[0]), float(table.cg_m[1])
+    r0 = [float(len(g)) for g in table.leveling_groups]
+    r1 = [sum(xy[i][0] - cx for i in g) for g in table.leveling_groups]
+    r2 = [sum(xy[i][1] - cy for i in g) for g in table.leveling_groups]
+    c = [r1[1] * r2[2] - r1[2] * r2[1], r1[2] * r2[0] - r1[0] * r2[2],
+         r1[0] * r2[1] - r1[1] * r2[0]]
+    det = r0[0] * c[0] + r0[1] * c[1] + r0[2] * c[2]
+    w = float(table.weight_n)
+    return [w * ck / det for ck in c]

@@ -43,8 +43,18 @@ import numpy as np
 from isodesign.errors import InputError, did_you_mean
 from isodesign.table.layout import HorizontalElement, Table, box_inertia, check_numbers
 
-__all__ = ["TABLE_KEYS", "narrowest_spacing_m", "objective_selection", "parse_base_lever",
-           "payload_from_table", "table_from_dict", "table_unit_slips"]
+__all__ = [
+    "POSITION_KEYS",
+    "TABLE_KEYS",
+    "narrowest_spacing_m",
+    "objective_selection",
+    "parse_base_lever",
+    "parse_position_lever",
+    "payload_from_table",
+    "position_polygon",
+    "table_from_dict",
+    "table_unit_slips",
+]
 
 #: Keys of ``[table]`` and ``[table.horizontal]``.
 TABLE_KEYS = {
@@ -531,3 +541,179 @@ def parse_base_lever(spec: dict, table, key: str, hardware: dict | None = None,
         raise InputError(f"{key}.start ({start:g}) must lie in [lower, upper] = [{lo:g}, "
                          f"{hi:g}] kg")
     return start, lo, hi, False
+
+
+#: Keys of ``[variables.isolator_positions_m]`` (docs/table.md, section 15).
+POSITION_KEYS = ("fixed", "start", "polygon_m")
+#: A fixed layout is inside its footprint and its minimum distance within this, m (an
+#: optimum on a row, within the solver's tolerance, written back by ``with_levers_fixed``).
+POSITION_TOL_M = 1e-6
+#: The free positions' variable boxes: the polygon's bounding box widened by this fraction
+#: of its span on each side (the polygon's rows bind, not the boxes).
+POSITION_BOX_MARGIN = 0.01
+
+
+def position_polygon(spec: dict, constraints: dict, key: str):
+    """The footprint polygon of the free positions: ``polygon_m`` of
+    ``[variables.isolator_positions_m]``, else ``constraints.footprint_m``'s rectangle, else
+    None (checked by :func:`~isodesign.table.lever_geometry.footprint_polygon`).
+
+    Parameters
+    ----------
+    spec : dict
+        ``[variables.isolator_positions_m]`` as written.
+    constraints : dict
+        The parsed constraints.
+    key : str
+        ``<file>: variables.isolator_positions_m``, for errors.
+    """
+    from isodesign.table.lever_geometry import footprint_polygon
+
+    if spec.get("polygon_m") is not None:
+        return footprint_polygon(f"{key}.polygon_m", spec["polygon_m"], LENGTH_PLAUSIBLE_M)
+    fp = (constraints or {}).get("footprint_m")
+    if fp:
+        x0, y0, x1, y1 = fp
+        return footprint_polygon("constraints.footprint_m",
+                                 [[x0, y0], [x1, y0], [x1, y1], [x0, y1]], LENGTH_PLAUSIBLE_M)
+    return None
+
+
+def parse_position_lever(spec: dict, table, key: str, constraints: dict | None = None,
+                         layout_free: bool = False) -> tuple:
+    """``[variables.isolator_positions_m]``: free isolator positions inside a footprint
+    polygon with a minimum distance between isolators (docs/table.md, section 15).
+
+    Fixed unless ``fixed = false`` (at ``table.isolators_m``); free, every isolator's x and
+    y is a lever (:func:`~isodesign.table.lever_geometry.position_lever_names`) bounded by
+    the polygon's bounding box, started at ``start`` (default ``table.isolators_m``), and the
+    NLP keeps each isolator inside ``polygon_m`` (a convex polygon, m; default
+    ``constraints.footprint_m``'s rectangle) and ``constraints.min_isolator_distance_m``
+    from every other.
+
+    Parameters
+    ----------
+    spec : dict
+        The table as written (``fixed``, ``start``, ``polygon_m``).
+    table : Table
+    key : str
+        ``<file>: variables.isolator_positions_m``, for errors.
+    constraints : dict, optional
+        The parsed constraints (``footprint_m``, ``min_isolator_distance_m``).
+    layout_free : bool
+        A layout lever (``layout_length_m``, ``layout_width_m``) is free: refused with free
+        positions (the positions already hold the layout).
+
+    Returns
+    -------
+    tuple of (name, start, lower, upper, fixed)
+        Empty with the positions fixed (the table's own, checked against the polygon and
+        the distance).
+
+    Raises
+    ------
+    InputError
+        Naming the key as typed and its valid range.
+    """
+    from isodesign.table.lever_geometry import (
+        max_spacing_bound_m,
+        point_in_polygon,
+        position_lever_names,
+    )
+
+    if not isinstance(spec, dict):
+        raise InputError(f"{key}: expected a table (fixed, start, polygon_m), got {spec!r:.40}")
+    for k in spec:
+        if k not in POSITION_KEYS:
+            raise InputError(f"{key}: unknown key {k!r}{did_you_mean(k, POSITION_KEYS)}; valid: "
+                             f"{', '.join(POSITION_KEYS)}")
+    fixed = spec.get("fixed", True)
+    if not isinstance(fixed, bool):
+        raise InputError(f"{key}.fixed: expected true or false, got {fixed!r:.40}")
+    c = constraints or {}
+    n = table.n_isolators
+    xy0 = np.asarray(table.isolators_m, float)
+    xy = xy0
+    if "start" in spec:
+        s = spec["start"]
+        ok = isinstance(s, list | tuple) and len(s) == n and all(
+            isinstance(p, list | tuple) and len(p) == 2 and all(_num_ok(v) for v in p)
+            for p in s)
+        if not ok:
+            raise InputError(f"{key}.start: expected {n} [x, y] positions in m (one per "
+                             f"isolator of table.isolators_m), got {s!r:.60}")
+        xy = np.array(s, dtype=float)
+    poly = position_polygon(spec, c, key)
+    where = f"{key.split(': ')[-1]}.polygon_m" if spec.get("polygon_m") is not None else \
+        "constraints.footprint_m"
+    dmin = c.get("min_isolator_distance_m")
+    if fixed:
+        if not np.allclose(xy, xy0, rtol=0.0, atol=1e-12):
+            raise InputError(f"{key}.start differs from table.isolators_m with the positions "
+                             "fixed: set them there, or free the lever (fixed = false)")
+        if poly is not None:
+            clear = point_in_polygon(poly, xy)
+            i = int(np.argmin(clear))
+            if clear[i] < -POSITION_TOL_M:
+                raise InputError(f"{where}: isolator {i + 1} (from 1) at ({xy[i, 0]:.4g}, "
+                                 f"{xy[i, 1]:.4g}) m lies {-clear[i]:.3g} m outside the footprint "
+                                 "polygon, and the positions are fixed (free them: "
+                                 f"{key.split(': ')[-1]}.fixed = false)")
+        if dmin and n > 1:
+            pairs = [(i, j) for i in range(n) for j in range(i + 1, n)]
+            d = [float(np.hypot(*(xy[i] - xy[j]))) for i, j in pairs]
+            k = int(np.argmin(d))
+            if d[k] < dmin - POSITION_TOL_M:
+                raise InputError(f"constraints.min_isolator_distance_m: isolators "
+                                 f"{pairs[k][0] + 1} and {pairs[k][1] + 1} (from 1) are "
+                                 f"{d[k]:.4g} m apart, below {dmin:g} m, and the positions "
+                                 "are fixed")
+        return ()
+    if layout_free:
+        raise InputError(f"{key}: free positions already hold the layout; fix "
+                         "variables.layout_length_m and layout_width_m")
+    if poly is None:
+        raise InputError(f"{key}.polygon_m: free positions need a footprint: give polygon_m "
+                         "(a convex polygon's [x, y] vertices in m) or constraints.footprint_m")
+    cg = np.asarray(table.cg_m[:2], float)
+    if point_in_polygon(poly, cg[None, :])[0] <= 0.0:
+        raise InputError(f"{where}: the CG's plan position ({cg[0]:g}, {cg[1]:g}) m lies "
+                         "outside the footprint polygon: no layout inside it carries the table")
+    if dmin:
+        top = max_spacing_bound_m(poly, n)
+        if dmin >= top:
+            raise InputError(f"constraints.min_isolator_distance_m = {dmin:g} m cannot be met "
+                             f"by {n} isolators inside {where}: valid (0, {top:.4g}) m (Oler's "
+                             "bound for points in a convex polygon; docs/table.md section 15)")
+    # the boxes of the scaled levers: the polygon's bounding box widened by
+    # POSITION_BOX_MARGIN of its span, so the polygon's rows alone bind (their multipliers
+    # are the footprint's sensitivities, lever_nlp.position_sensitivities)
+    span = np.ptp(poly, axis=0)
+    lo, hi = poly.min(axis=0) - POSITION_BOX_MARGIN * span, \
+        poly.max(axis=0) + POSITION_BOX_MARGIN * span
+    out = []
+    for name, v, ax in zip(position_lever_names(n), xy.ravel(), [0, 1] * n, strict=True):
+        if not lo[ax] <= v <= hi[ax]:
+            raise InputError(f"{key}.start: {name} = {v:g} m lies outside the footprint's "
+                             f"{'xy'[ax]} range [{lo[ax]:g}, {hi[ax]:g}] m")
+        out.append((name, float(v), float(lo[ax]), float(hi[ax]), False))
+    return tuple(out)
+
+
+def study_footprint(study) -> tuple:
+    """The footprint polygon (counter-clockwise, m; None without one) and the minimum
+    distance (m or None) a study's isolators keep, for the layout's figure: the free
+    positions' ``polygon_m`` (kept when a co-designed run fixes them), else
+    ``constraints.footprint_m``'s rectangle.
+
+    Parameters
+    ----------
+    study : Study
+    """
+    from isodesign.table.layout import POSITION_LEVER
+
+    spec = ((getattr(study, "raw", None) or {}).get("variables") or {}).get(POSITION_LEVER)
+    c = study.constraints or {}
+    poly = position_polygon(spec if isinstance(spec, dict) else {}, c,
+                            f"variables.{POSITION_LEVER}")
+    return poly, c.get("min_isolator_distance_m") or None

@@ -94,7 +94,8 @@ def test_default_study_file_loads(tmp_path):
         ({"solver": {"iterations": 10}}, "iterations", "[solver]",
          {"starts", "seed", "max_iter", "tol", "tie_break", "workers"}),
         ({"variables": {"n": {"start": 1.0}}}, "n", "[variables]",
-         set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS) | set(GROUP_SPRING_LEVERS)),
+         set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS) | set(GROUP_SPRING_LEVERS)
+         | {"isolator_positions_m"}),
         ({"variables": {"volume_ratio": {"begin": 1.0}}}, "begin", "variables.volume_ratio",
          {"start", "lower", "upper", "fixed"}),
         ({"hardware": {"gas": {"gamma": 1.4}}}, "gamma", "[hardware.gas]",

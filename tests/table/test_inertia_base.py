@@ -408,3 +408,40 @@ def test_a_table_without_a_slabs_plan_size_has_no_slab_until_one_is_declared():
             st.with_changes(variables=FREE)
         ok = st.with_changes(variables=FREE, table={"inertia_base": {"size_m": [1.5, 1.0]}})
     assert ok.table.inertia_base.size_m == (1.5, 1.0)
+
+
+def test_rocking_rows_hold_the_live_mass_matrix_at_a_slab_other_than_the_start():
+    """The rocking-frequency rows with a free slab: a frozen mode's Rayleigh quotient
+    ``phi^H K' phi / phi^H M(m_s) phi`` with the combined body's mass at the lever, so at
+    450 kg (the NLP built at the start's 0 kg, the mode frozen at 450 kg) each active row
+    gives the NumPy modes' ``(2 pi f)^2`` of the table with that slab (``Re mu = w^2`` at
+    the converged mode); the start's frozen mass would be off by the inertia's ratio."""
+    from isodesign.optimization.table_driver import _modes_at
+    from isodesign.optimization.table_problem import ROCKING_ENERGY_FRACTION, TableProblem
+
+    f_lo = 0.3
+    st = table_study().with_changes(variables=FREE,
+                                    constraints={"min_rocking_frequency_hz": f_lo})
+    p = TableProblem(st)
+    vals = {v.name: v.start for v in st.variables}
+    lev = {**vals, "inertia_base_mass_kg": 450.0}
+    assert p.table.inertia_base.mass_kg == 0.0
+    modes = _modes_at(p, st.design_at(vals), values={"inertia_base_mass_kg": 450.0})
+    p.set_modes(modes)
+    x = p.initial_guess(lev)
+    g = np.asarray(p.eval_fn(x, p.params())[1]).ravel()
+    row, _m = next((r, k) for n, r, k in p.con_rows if n == "min_rocking_frequency_hz")
+    rock = [j for j in range(6) if np.isfinite(modes.frequency_hz[j])
+            and modes.energy_fraction[j, 3:5].sum() >= ROCKING_ENERGY_FRACTION]
+    assert len(rock) >= 2
+    w2 = (2 * np.pi * f_lo) ** 2
+    for j in rock:  # the row: (q_r / q_m - w_lo^2) / w_lo^2
+        f = np.sqrt((g[row + j] + 1.0) * w2) / (2 * np.pi)
+        assert f == pytest.approx(modes.frequency_hz[j], rel=1e-6)
+    # the start table's (frozen) mass would answer another table: at least 5 % off
+    frozen = p.geo.mass
+    for j in rock:
+        phi = modes.shapes[:, j]
+        live = np.real(np.vdot(phi, st.table_at({"inertia_base_mass_kg": 450.0}).mass_matrix
+                               @ phi))
+        assert abs(live / np.real(np.vdot(phi, frozen @ phi)) - 1.0) > 0.05
