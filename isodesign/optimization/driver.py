@@ -145,11 +145,13 @@ def _solves(win, obj, t_all) -> tuple[dict, ...]:
     if win.peak.get("rounds"):
         out.append({"stage": "refinement", "start": win.start,
                     "finished_s": win.best.finished_at - t_all,
-                    "objective": obj.to_natural(win.best.objective)})
+                    "objective": obj.to_natural(win.best.objective),
+                    "values": dict(win.best.values)})
     if win.final is not win.best:
         out.append({"stage": "tie-break", "start": win.start,
                     "finished_s": win.final.finished_at - t_all,
-                    "objective": obj.to_natural(win.final.objective)})
+                    "objective": obj.to_natural(win.final.objective),
+                    "values": dict(win.final.values)})
     return tuple(out)
 
 

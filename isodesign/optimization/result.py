@@ -618,7 +618,8 @@ class OptimizationResult(StudyResult):
     #: re-solve, present when it took rounds; ``tie-break``: the solve whose point was
     #: returned, present when the tie-break moved it), ``start`` (the branch's start),
     #: ``finished_s`` (s since the optimize call began, the clock of
-    #: :attr:`StartRecord.finished_s`) and ``objective`` (natural).
+    #: :attr:`StartRecord.finished_s`), ``objective`` (natural) and ``values`` (the
+    #: design variables there, SI).
     solves: tuple[dict, ...] = ()
 
     def _checked(self) -> bool:
