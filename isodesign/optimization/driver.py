@@ -92,12 +92,16 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
     if getattr(study, "scenarios", None) is not None and not nominal:
         raise InputError("[scenarios]: the vertical nominal optimizer does not answer a robust "
                          "study; use isodesign.optimize (robust design)")
+    # the instants of the result (StartRecord.finished_s, solves) are time.perf_counter()
+    # readings less this one: on Linux perf_counter is CLOCK_MONOTONIC, one clock for the
+    # whole system, so the instants stamped in the forked workers (Solution.finished_at)
+    # compare with the driver's
     t_all = time.perf_counter()
     prob = problem if problem is not None else Problem(study)
     starts = start_points(study, prob.scaling) + [dict(v) for v in extra_starts]
     results = run_starts(prob, starts, workers=study.solver.get("workers"),
                          progress=progress)
-    records, sols = _start_records(prob, starts, results)
+    records, sols = _start_records(prob, starts, results, t_all)
     good = {i: sols[i] for i, r in enumerate(records) if r.feasible and sols[i] is not None}
     if not good:
         return _infeasible_result(study, prob, starts[0], records, sols, t_all)
@@ -130,8 +134,25 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
         recheck_max_rel_diff=diff, analysis=analysis, start_analysis=start_analysis,
         peak=win.peak, wall_s=time.perf_counter() - t_all, settings=solver_settings(study),
         branches=tuple((i, obj.to_natural(j)) for i, j in win.branches),
-        hessian_info=prob.hessian_info,
+        hessian_info=prob.hessian_info, solves=_solves(win, obj, t_all),
     )
+
+
+def _solves(win, obj, t_all) -> tuple[dict, ...]:
+    """The winner's refinement and tie-break solves with their finish instants
+    (:attr:`.result.OptimizationResult.solves`)."""
+    out = []
+    if win.peak.get("rounds"):
+        out.append({"stage": "refinement", "start": win.start,
+                    "finished_s": win.best.finished_at - t_all,
+                    "objective": obj.to_natural(win.best.objective),
+                    "values": dict(win.best.values)})
+    if win.final is not win.best:
+        out.append({"stage": "tie-break", "start": win.start,
+                    "finished_s": win.final.finished_at - t_all,
+                    "objective": obj.to_natural(win.final.objective),
+                    "values": dict(win.final.values)})
+    return tuple(out)
 
 
 #: The former name of :func:`optimize_vertical` (same guards: a table or robust study is
@@ -139,8 +160,10 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
 optimize = optimize_vertical
 
 
-def _start_records(prob, starts, results) -> tuple[list[StartRecord], list]:
-    """One record per start; the solutions (None where the initial guess failed)."""
+def _start_records(prob, starts, results, t_all: float = math.nan
+                   ) -> tuple[list[StartRecord], list]:
+    """One record per start; the solutions (None where the initial guess failed).
+    ``t_all``: the optimize call's start on ``time.perf_counter`` (``finished_s``)."""
     records: list[StartRecord] = []
     sols = []
     to_nat = OBJECTIVES[prob.objective].to_natural
@@ -152,7 +175,8 @@ def _start_records(prob, starts, results) -> tuple[list[StartRecord], list]:
             continue
         records.append(StartRecord(i, vals, out.status, out.success, out.feasible,
                                    out.iterations, out.wall_s, to_nat(out.objective),
-                                   out.max_violation, out.values))
+                                   out.max_violation, out.values,
+                                   finished_s=out.finished_at - t_all))
         sols.append(out)
     return records, sols
 

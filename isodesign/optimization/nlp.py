@@ -389,6 +389,7 @@ class NLP:
             status=stats.get("return_status", "unknown"),
             success=bool(stats.get("success", False)),
             iterations=int(stats.get("iter_count", -1)), wall_s=wall,
+            finished_at=t0 + wall,  # perf_counter: system-wide, compares across forked workers
         )
 
     def violations(self, g: np.ndarray) -> list[tuple[str, float]]:

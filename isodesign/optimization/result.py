@@ -3,6 +3,7 @@ kind), :class:`OptimizationResult` (the vertical kind) and its start records."""
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -242,7 +243,9 @@ class StudyResult(ResultDisplay):
 
     def starts_frame(self):
         """One row per start of the (nominal) multi-start: ``start``, ``status``,
-        ``feasible``, ``iterations``, ``wall_s`` and the objective."""
+        ``feasible``, ``iterations``, ``wall_s`` and the objective; a vertical result also
+        ``finished_s`` (when the start's solve finished, s since the optimize call began:
+        where the time of a multi-start went)."""
         import pandas as pd
 
         return pd.DataFrame(self._start_rows())
@@ -394,7 +397,13 @@ class StudyResult(ResultDisplay):
 
 @dataclass(frozen=True)
 class StartRecord:
-    """One start of the multi-start run."""
+    """One start of the multi-start run.
+
+    ``wall_s`` is IPOPT's time for the start, s; ``finished_s`` the instant its solve
+    finished, s since the optimize call began (on ``time.perf_counter``, system-wide on
+    Linux, so a forked worker's instant compares with the driver's; NaN when the start's
+    initial guess failed). ``objective`` is natural (the margin in dB for ``worst_margin``).
+    """
 
     index: int
     start: dict
@@ -406,11 +415,13 @@ class StartRecord:
     objective: float
     max_violation: float
     final: dict
+    finished_s: float = math.nan
 
     def row(self) -> dict:
         """Flat dict for a table."""
         r = {"start": self.index, "status": self.status, "success": self.success,
              "feasible": self.feasible, "iterations": self.iterations, "wall_s": self.wall_s,
+             "finished_s": self.finished_s,
              "objective": self.objective, "max_violation": self.max_violation}
         r.update({f"start_{k}": v for k, v in self.start.items()})
         r.update({f"final_{k}": v for k, v in self.final.items()})
@@ -602,6 +613,14 @@ class OptimizationResult(StudyResult):
     peak: dict | None = None
     branches: tuple[tuple[int, float], ...] = ()
     hessian_info: dict = field(default_factory=dict)
+    #: The solves after the multi-start that made the returned design, in finish order:
+    #: dicts with ``stage`` (``refinement``: the winning branch's last peak-refinement
+    #: re-solve, present when it took rounds; ``tie-break``: the solve whose point was
+    #: returned, present when the tie-break moved it), ``start`` (the branch's start),
+    #: ``finished_s`` (s since the optimize call began, the clock of
+    #: :attr:`StartRecord.finished_s`), ``objective`` (natural) and ``values`` (the
+    #: design variables there, SI).
+    solves: tuple[dict, ...] = ()
 
     def _checked(self) -> bool:
         return self.recheck_max_rel_diff is not None

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -39,6 +40,12 @@ class Solution:
         IPOPT's success flag.
     iterations : int
     wall_s : float
+        IPOPT's wall time, s.
+    finished_at : float
+        The instant the solve returned, s, on ``time.perf_counter`` (NaN when unknown).
+        On Linux that clock is CLOCK_MONOTONIC, one system-wide clock: a reading in a
+        forked worker compares with one in its parent, so a driver turns it into a time
+        since its own start (``finished_s`` of the start records).
     """
 
     x: np.ndarray
@@ -51,6 +58,7 @@ class Solution:
     success: bool
     iterations: int
     wall_s: float
+    finished_at: float = math.nan
 
     @property
     def max_violation(self) -> float:
