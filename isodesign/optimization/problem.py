@@ -306,6 +306,11 @@ class Problem(NLP):
     def _adjust_metrics(self, nlp) -> None:
         """Change the NLP's metrics after :func:`.metrics.combine` (nothing here)."""
 
+    def _closure_resistance(self, nlp, c_nl):
+        """The nonlinear drop's equivalent resistance the grid sees (``c_nl`` here; the
+        distortion's gain, :mod:`.distortion_rows`)."""
+        return c_nl
+
     def _chain_factors(self, nlp) -> tuple:
         """Factors of the stroke (and tube) chains: the floor weights' scale and
         ``1 / sigma_ref^2`` (``1 / sigma_u,ref^2``)."""
@@ -352,6 +357,7 @@ class Problem(NLP):
             y_row = X.zeros(1, nlp.n_all)
         c_nl = (gaussian_equivalent_resistance(st.models["flow"], nlp.d, ca.exp(nlp.y[0]))
                 if self.statistical else X(0))  # fmt: skip
+        c_nl = self._closure_resistance(nlp, c_nl)
         w_sym = self._omega_column(nlp)
         # v, s and c_nl keep their shape: map broadcasts them (and sums their derivatives)
         outs = mapped(v, nlp.s, y_row, c_nl, w_sym.T, *args)

@@ -70,7 +70,12 @@ def recheck(prob, sol, d) -> float:
     st = prob.study
     sigma, sigma_u = prob.closure(d)
     u = None if prob.statistical else prob.velocity(d, sigma)
-    mt_np = metrics(st, prob.grid, d, u, sigma, diaphragm=prob.dia, tube_rms=sigma_u)
+    # the distortion power (an NLP that carries it, :mod:`.distortion_rows`): the NumPy
+    # terms at d against the terms the NLP used at its answer
+    carried = getattr(prob, "distortion", False)
+    dist_np = prob.distortion_terms(d) if carried else None
+    mt_np = metrics(st, prob.grid, d, u, sigma, diaphragm=prob.dia, tube_rms=sigma_u,
+                    distortion=dist_np)
     # the same quantities from the NLP's solution
     x = sol.x
     d_nlp = st.design_at(prob.values(x))
@@ -82,7 +87,8 @@ def recheck(prob, sol, d) -> float:
     else:
         u_nlp = prob.velocity(d_nlp, sig_nlp)
     mt_nlp = metrics(st, prob.grid, d_nlp, u_nlp, sig_nlp, diaphragm=prob.dia,
-                     tube_rms=prob.tube_rms(x))
+                     tube_rms=prob.tube_rms(x),
+                     distortion=prob.nlp_terms(x, sol.outer_params) if carried else None)
     worst = abs(sigma / sig_nlp - 1.0)
     if prob.statistical:
         worst = max(worst, abs(sigma_u / prob.tube_rms(x) - 1.0))

@@ -39,6 +39,11 @@ class Solution:
         IPOPT's success flag.
     iterations : int
     wall_s : float
+    outer_rounds : int
+        Rounds of an outer fixed point around the NLP (the distortion power's,
+        :mod:`.distortion_rows`; 0: none).
+    outer_params : ndarray or None
+        The outer fixed point's parameters of the last round (its linearization).
     """
 
     x: np.ndarray
@@ -51,6 +56,8 @@ class Solution:
     success: bool
     iterations: int
     wall_s: float
+    outer_rounds: int = 0
+    outer_params: np.ndarray | None = None
 
     @property
     def max_violation(self) -> float:

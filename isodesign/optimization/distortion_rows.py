@@ -1,0 +1,322 @@
+"""The distortion power in the optimizer's NLP: an outer fixed point (NumPy terms, linearized).
+
+The statistical closure's distortion power (``docs/random-response.md`` sections 3a-3c) is
+computed by the NumPy physics: binned spectra, FFT convolutions, the tube velocity's kurtosis
+and the translation process's weights. It enters the NLP (``docs/random-response.md``
+section 3d, ``docs/optimization.md`` section 3) as the terms it adds to the closure and to
+the bands,
+
+* the added stroke and tube-velocity variances ``dS``, ``dU`` (in the last rows of the two
+  partial-sum chains: ``e^{2s} = sum + dS``, ``e^{2y} = sum + dU``),
+* the minor loss's gain ratio ``g`` (its equivalent resistance scaled, the non-Gaussian
+  correction, section 3c),
+* the added payload band mean squares ``dB_b`` (``ms_b = sum_j W_bj |T_j|^2 + dB_b``),
+
+each a function of the scaled design ``z`` written in the NLP as its first-order expansion
+about the design ``z_0`` of the last outer round: ``q(z) = q_0 exp(a . (z - z_0))`` for the
+positive powers and variances, ``g(z) = g_0 + b . (z - z_0)`` for the gain, the values and
+slopes NLP parameters (central differences of the NumPy terms, :data:`DISTORTION_FD_STEP`).
+At ``z = z_0`` the NLP's terms and their gradient are the NumPy ones: a solution whose
+design is (to :data:`DISTORTION_FIXED_POINT_RTOL`) the one the terms were expanded at is a
+KKT point of the problem with the distortion. :meth:`DistortionMixin.solve` re-solves warm
+from each solution with the terms expanded there until the terms the NLP used at its answer
+agree with the NumPy terms there (:data:`DISTORTION_FIXED_POINT_RTOL`) and records the
+rounds (``Solution.outer_rounds``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from isodesign.optimization.metrics import add_band_distortion
+from isodesign.response.non_gaussian import minor_loss_gain_shift
+from isodesign.response.random_input import solve_stroke_rms
+
+__all__ = [
+    "DISTORTION_FD_STEP",
+    "DISTORTION_FIXED_POINT_RTOL",
+    "DISTORTION_MAX_ROUNDS",
+    "DistortionMixin",
+    "DistortionTerms",
+    "vertical_distortion_terms",
+]
+
+#: Central-difference step of the terms' slopes, in the scaled design ``z`` (a box of
+#: half-width 1): both closures are solved to 1e-12, so the slopes carry about 1e-8 of
+#: rounding and ``h^2`` of truncation.
+DISTORTION_FD_STEP = 1e-4
+#: The outer fixed point stops when every term the NLP used at its answer agrees with the
+#: NumPy term there to this fraction of the term (the gain ratio: absolutely); the
+#: distortion is at most 12 % of a band's power, so the answer's bands are within about
+#: 1e-8 of the NumPy analysis's, inside the re-check's 1e-6.
+DISTORTION_FIXED_POINT_RTOL = 1e-7
+#: Outer rounds at most (each a warm re-solve).
+DISTORTION_MAX_ROUNDS = 8
+#: The closures' tolerance on the NumPy side (the slopes are differences of them).
+_CLOSURE_RTOL = 1e-12
+
+
+@dataclass(frozen=True)
+class DistortionTerms:
+    """What the distortion power adds to the statistical closure, at one design.
+
+    Attributes
+    ----------
+    stroke_variance : float
+        The stroke variance added to the closure's, m^2.
+    tube_velocity_variance : float
+        The tube-velocity variance added, (m/s)^2.
+    gain_ratio : float
+        The minor loss's equivalent gain over the Gaussian one (docs/random-response.md 3c).
+    band_ms : ndarray
+        The payload band mean squares added, (m/s)^2, per band of the response grid.
+    """
+
+    stroke_variance: float
+    tube_velocity_variance: float
+    gain_ratio: float
+    band_ms: np.ndarray
+
+    def vector(self) -> np.ndarray:
+        """``[dS, dU, g, dB_1 .. dB_n]``."""
+        return np.concatenate([[self.stroke_variance, self.tube_velocity_variance,
+                                self.gain_ratio], np.asarray(self.band_ms, float)])
+
+    @classmethod
+    def from_vector(cls, v) -> DistortionTerms:
+        """The inverse of :meth:`vector`."""
+        v = np.asarray(v, float)
+        return cls(float(v[0]), float(v[1]), float(v[2]), v[3:].copy())
+
+
+def vertical_distortion_terms(study, grid, diaphragm, design):
+    """The NumPy closure with the distortion on the NLP's grid, for the vertical body.
+
+    Parameters
+    ----------
+    study : Study
+        Its payload and models.
+    grid : Grid
+        The NLP's grid (its response part: the floor's quadrature and the bands).
+    diaphragm : diaphragm model
+    design : SpringDesign
+
+    Returns
+    -------
+    sigma, sigma_u : float
+        The closure's state with the distortion (RMS stroke, m; tube velocity, m/s).
+    DistortionTerms
+        The terms at that state (the variances and gain the closure was solved with, the
+        band powers of the distortion at the final state: ``band_response``'s figures).
+    """
+    sigma, info = solve_stroke_rms(
+        design, study.payload, grid.response, flow=study.models["flow"],
+        amplitude_mode=study.models["amplitude_mode"], diaphragm=diaphragm,
+        random_method="statistical", distortion=True, rtol=_CLOSURE_RTOL)
+    dist = info["distortion"]
+    bands = grid.response.bands
+    band_ms = dist.band_mean_square(bands.lower_hz, bands.upper_hz, 0)
+    off = info["distortion_offset"]
+    return sigma, info["tube_velocity_rms_m_s"], DistortionTerms(
+        float(off[0]), float(off[1]), float(info["distortion_gain_ratio"]),
+        np.asarray(band_ms, float))
+
+
+#: Entries of the terms' vector expanded linearly (the gain ratio); the others
+#: exponentially (positive powers).
+_LINEAR = (2,)
+
+
+def _expand(v0, slopes, dz, ca=None):
+    """The terms at ``z_0 + dz`` from their values and slopes (NumPy or CasADi)."""
+    if ca is None:
+        lin = slopes @ np.asarray(dz, float)
+        out = v0 * np.exp(lin)
+        for i in _LINEAR:
+            out[i] = v0[i] + lin[i]
+        return out
+    lin = ca.mtimes(slopes, dz)
+    rows = [v0[i] + lin[i] if i in _LINEAR else v0[i] * ca.exp(lin[i])
+            for i in range(v0.numel())]
+    return ca.vertcat(*rows)
+
+
+class DistortionMixin:
+    """The distortion power in a :class:`~isodesign.optimization.problem.Problem`'s NLP.
+
+    Put before the body's class (``class P(DistortionMixin, Problem)``). Its parameters,
+    after the body's own: ``[z_0, q_0, A]`` (``A`` the slopes, ``(terms, nz)``, column
+    major); the terms enter the closure's resistance (:meth:`_closure_resistance`), the two
+    chains' last rows (:meth:`_stroke_chain`) and the bands (:meth:`_adjust_metrics`).
+    """
+
+    #: This NLP carries the distortion power.
+    distortion = True
+
+    # -- the NumPy side ----------------------------------------------------------------
+    def distortion_terms(self, design) -> DistortionTerms:
+        """The NumPy terms at a design (cached: the last few designs)."""
+        return self._numpy_state(design)[2]
+
+    def _numpy_state(self, design):
+        cache = self.__dict__.setdefault("_dist_cache", {})
+        key = repr(design)
+        if key not in cache:
+            if len(cache) > 32:
+                cache.clear()
+            cache[key] = vertical_distortion_terms(self.study, self.grid, self.dia, design)
+        return cache[key]
+
+    def closure(self, d):
+        """``(sigma, sigma_u)`` of the closure with the distortion (NumPy)."""
+        sigma, sigma_u, _ = self._numpy_state(d)
+        return sigma, sigma_u
+
+    def _terms_at_z(self, z) -> np.ndarray:
+        vals = {v.name: v.start for v in self.study.variables}
+        vals.update(self.scaling.to_values(np.clip(z, -1.0, 1.0)))
+        return self.distortion_terms(self.study.design_at(vals)).vector()
+
+    def expansion(self, z0, v0=None) -> np.ndarray:
+        """The parameters ``[z_0, q_0, A]`` of the terms' expansion about ``z_0`` (central
+        differences of the NumPy terms, :data:`DISTORTION_FD_STEP`)."""
+        z0 = np.asarray(z0, float)
+        v0 = self._terms_at_z(z0) if v0 is None else np.asarray(v0, float)
+        nz, m = z0.size, v0.size
+        slopes = np.zeros((m, nz))
+        h = DISTORTION_FD_STEP
+        for i in range(nz):
+            zp, zm = z0.copy(), z0.copy()
+            # one-sided at a bound of the box (the terms outside it are not defined)
+            zp[i] = min(z0[i] + h, 1.0)
+            zm[i] = max(z0[i] - h, -1.0)
+            vp, vm = self._terms_at_z(zp), self._terms_at_z(zm)
+            dzi = zp[i] - zm[i]
+            for k in range(m):
+                if k in _LINEAR:
+                    slopes[k, i] = (vp[k] - vm[k]) / dzi
+                elif vp[k] > 0 and vm[k] > 0:
+                    slopes[k, i] = (math.log(vp[k]) - math.log(vm[k])) / dzi
+        return np.concatenate([z0, v0, slopes.ravel(order="F")])
+
+    def _unpack(self, p):
+        nz, m = self.nz, self._n_terms
+        return p[:nz], p[nz:nz + m], p[nz + m:].reshape((m, nz), order="F")
+
+    def nlp_terms(self, x, p) -> DistortionTerms:
+        """The terms the NLP uses at ``x`` with the expansion ``p`` (NumPy)."""
+        z0, v0, slopes = self._unpack(np.asarray(p, float))
+        return DistortionTerms.from_vector(_expand(v0, slopes, np.asarray(x[:self.nz]) - z0))
+
+    # -- the NLP's rows ----------------------------------------------------------------
+    def _decision_variables(self, nlp) -> None:
+        super()._decision_variables(nlp)
+        ca = nlp.ca
+        nz = int(nlp.z.numel())
+        m = self._n_terms = 3 + len(self.grid.response.bands.lower_hz)
+        nlp.p_dist = nlp.X.sym("distortion", nz + m + m * nz)
+        z0, v0 = nlp.p_dist[:nz], nlp.p_dist[nz:nz + m]
+        slopes = ca.reshape(nlp.p_dist[nz + m:], m, nz)
+        nlp.dist = _expand(v0, slopes, nlp.z - z0, ca)
+        self._dist_p = None
+
+    def _closure_resistance(self, nlp, c_nl):
+        c_nl = super()._closure_resistance(nlp, c_nl)
+        if self.study.models["flow"] == "poiseuille":
+            return c_nl
+        return c_nl + minor_loss_gain_shift(nlp.d, nlp.ca.exp(nlp.y[0]), nlp.dist[2])
+
+    def _adjust_metrics(self, nlp) -> None:
+        super()._adjust_metrics(nlp)
+        add_band_distortion(nlp.mt, nlp.dist[3:])
+
+    def _stroke_chain(self, nlp) -> None:
+        super()._stroke_chain(nlp)
+        ca = nlp.ca
+        k_s = 1.0 / self.sigma_ref ** 2
+        k_u = 1.0 / self.tube_rms_ref ** 2
+        nlp.res_s = ca.vertcat(nlp.res_s[:-1], nlp.res_s[-1] - k_s * nlp.dist[0])
+        nlp.res_u = ca.vertcat(nlp.res_u[:-1], nlp.res_u[-1] - k_u * nlp.dist[1])
+
+    def _assemble(self, nlp) -> None:
+        super()._assemble(nlp)
+        nlp.p = nlp.ca.vertcat(nlp.p, nlp.p_dist)
+        self.np = int(nlp.p.numel())
+        self._n_dist = int(nlp.p_dist.numel())
+
+    def _fn_param_sym(self, nlp):
+        return nlp.ca.vertcat(super()._fn_param_sym(nlp), nlp.p_dist)
+
+    def _current_dist(self) -> np.ndarray:
+        if self._dist_p is None:
+            self._dist_p = self.expansion(self.scaling.to_z(
+                {v.name: v.start for v in self.study.variables}))
+        return self._dist_p
+
+    def _fn_params(self) -> np.ndarray:
+        return np.concatenate([super()._fn_params(), self._current_dist()])
+
+    def _param_tail(self) -> np.ndarray:
+        return np.concatenate([super()._param_tail(), self._current_dist()])
+
+    # -- the outer fixed point ---------------------------------------------------------
+    def solve(self, x0, p=None):
+        """IPOPT from ``x0``, re-solved warm with the terms expanded at each answer until the
+        terms it used there are the NumPy ones (:data:`DISTORTION_FIXED_POINT_RTOL`).
+
+        Parameters
+        ----------
+        x0 : ndarray
+            Initial point.
+        p : ndarray, optional
+            Parameters (:meth:`params`); their distortion part is replaced each round.
+
+        Returns
+        -------
+        Solution
+            With ``outer_rounds`` and ``outer_params`` (the expansion of the last round).
+        """
+        p = np.array(self.params() if p is None else p, float)
+        x = np.asarray(x0, float)
+        self._dist_p = self.expansion(x[:self.nz])
+        wall = 0.0
+        its = 0
+        for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
+            p[-self._n_dist:] = self._dist_p
+            sol = super().solve(x, p)
+            wall += sol.wall_s
+            its += sol.iterations
+            z = np.clip(sol.x[:self.nz], -1.0, 1.0)
+            used = self.nlp_terms(sol.x, self._dist_p).vector()
+            true = self._terms_at_z(z)
+            done = (_mismatch(used, true) <= DISTORTION_FIXED_POINT_RTOL
+                    or not np.all(np.isfinite(sol.x)))
+            if done or rounds == DISTORTION_MAX_ROUNDS:
+                break
+            self._dist_p = self.expansion(z, true)
+            x = sol.x
+        return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
+                           wall_s=wall, iterations=its)
+
+    def retighten(self, sol):
+        """As the body's, with the expansion the solution was found with."""
+        if sol.outer_params is not None:
+            self._dist_p = np.asarray(sol.outer_params, float)
+        return super().retighten(sol)
+
+
+def _mismatch(used, true) -> float:
+    """The largest difference of two term vectors: relative to each term (the band powers
+    and variances; a band's below 1e-9 of the largest band's: to that), absolute for the
+    gain ratio."""
+    used, true = np.asarray(used, float), np.asarray(true, float)
+    scale = np.abs(true).copy()
+    bands = scale[3:]
+    if bands.size:
+        bands[:] = np.maximum(bands, 1e-9 * float(np.max(bands)))
+    scale[2] = 1.0
+    scale = np.where(scale > 0, scale, 1.0)
+    return float(np.max(np.abs(used - true) / scale))
