@@ -57,6 +57,7 @@ from isodesign.io.plausible import unit_slips, warn_unit_slips
 from isodesign.optimization.study_parsers import (  # noqa: F401  (their home before the split)
     _KEYS,
     _OBJECTIVE_OPTIONS,
+    DISTORTION_DEFAULT,
     _bool,
     _check_bands_covered,
     _constraints,
@@ -69,6 +70,7 @@ from isodesign.optimization.study_parsers import (  # noqa: F401  (their home be
     _table,
     _target,
     _variables,
+    refuse_distortion,
 )
 from isodesign.optimization.study_tables import (
     _check_acoustics,
@@ -124,6 +126,7 @@ _DEFAULT = {
         "points_per_band": 6,
         "peak_points": 80,
         "acoustics": "distributed",
+        "distortion": DISTORTION_DEFAULT,
     },
     "variables": {
         "volume_ratio": {"start": 1.5e-3 / 8.1e-4, "lower": 0.5, "upper": 8.0},
@@ -459,6 +462,7 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
         from isodesign.optimization.uncertainty import parse_scenarios
 
         st = dataclasses.replace(st, scenarios=parse_scenarios(raw["scenarios"], where, st))
+    refuse_distortion(st, where)
     return st
 
 

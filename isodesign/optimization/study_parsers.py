@@ -48,7 +48,7 @@ _KEYS = {
     "floor": FLOOR_KEYS,
     "target": {"criterion", "band_min_hz", "band_max_hz"},
     "models": {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
-               "peak_points", "acoustics"},
+               "peak_points", "acoustics", "distortion"},
     "variables": set(DESIGN_VARIABLES) | set(CODESIGN_LEVERS) | set(GROUP_SPRING_LEVERS),
     "variable": {"start", "lower", "upper", "fixed"},
     "constraints": {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
@@ -242,10 +242,42 @@ def _models(m: dict, where: str, source: str) -> dict:
                  ACOUSTIC_MODELS)
     ppb = _int_in(where, "models.points_per_band", m.get("points_per_band", 6), 3, 200)
     npk = _int_in(where, "models.peak_points", m.get("peak_points", 80), 10, 2000)
+    dist = _distortion(m, where)
     return {"flow": flow, "amplitude_mode": m.get("amplitude_mode", "self_consistent"),
             "diaphragm": dia, "random_method": m.get("random_method", "statistical"),
             "points_per_band": ppb, "peak_points": npk,
-            "acoustics": m.get("acoustics", ACOUSTIC_MODELS[0])}
+            "acoustics": m.get("acoustics", ACOUSTIC_MODELS[0]), "distortion": dist}
+
+
+#: ``models.distortion``'s default (docs/random-response.md section 3d).
+DISTORTION_DEFAULT = False
+
+
+def _distortion(m: dict, where: str) -> bool:
+    """``models.distortion``: the tubes' distortion power in the statistical closure
+    (docs/random-response.md 3a-3d), true or false."""
+    dist = m.get("distortion", DISTORTION_DEFAULT)
+    if not isinstance(dist, bool):
+        raise InputError(f"{where}: models.distortion must be true or false, got {dist!r:.40}")
+    if dist and m.get("random_method", "statistical") != "statistical":
+        raise InputError(f"{where}: models.distortion = true is the statistical closure's "
+                         "residual; valid with models.random_method = 'statistical' only "
+                         "(or models.distortion = false)")
+    return dist
+
+
+def refuse_distortion(study, where: str) -> None:
+    """A study with ``models.distortion = true`` that no optimizer of its kind carries yet:
+    one line naming the key (every entry point loads the study through here)."""
+    if not study.models.get("distortion"):
+        return
+    if study.scenarios is not None:
+        raise InputError(f"{where}: models.distortion = true: a robust study ([scenarios]) "
+                         "does not carry the distortion power yet; set models.distortion = "
+                         "false")
+    if study.table is not None:
+        raise InputError(f"{where}: models.distortion = true: the table study's NLP does not "
+                         "carry the distortion power yet; set models.distortion = false")
 
 
 def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:

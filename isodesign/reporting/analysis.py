@@ -164,13 +164,15 @@ def analyse(case: Case) -> CaseAnalysis:
     m = case.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"],
           "diaphragm": m["diaphragm"]}
+    dist = bool(m.get("distortion", False))  # models.distortion: the random closure's
     judged = vertical_band_response(case.design, st.payload, st.floor, st.target,
                                     bands=st.bands, random_method=m["random_method"],
-                                    derive_pressure=False, warn=False, **kw)
+                                    derive_pressure=False, warn=False, distortion=dist, **kw)
     try:
         all_b = vertical_band_response(case.design, st.payload, st.floor, st.target,
                                        bands=None, random_method=m["random_method"],
-                                       derive_pressure=False, warn=False, **kw)
+                                       derive_pressure=False, warn=False, distortion=dist,
+                                       **kw)
     except Exception:  # a floor narrower than the target's bands: the judged ones only
         all_b = judged
     lo, hi = case.judged_hz
