@@ -84,7 +84,7 @@ def analyze(study, values: dict | None = None, scenario=None, *, bands="study",
 
         return table_band_response(d, st.table_at(vals), st.floor_axes, st.target, bands=b,
                                    points_per_band=points_per_band, warn=warn, strict=strict,
-                                   **kw)  # fmt: skip
+                                   distortion=bool(m.get("distortion", False)), **kw)  # fmt: skip
     return vertical_band_response(d, st.payload, st.floor, st.target, bands=b,
                                   points_per_band=points_per_band, derive_pressure=False,
                                   warn=warn, strict=strict, p_atm_pa=p_atm,

@@ -41,6 +41,8 @@ __all__ = [
     "DISTORTION_MAX_ROUNDS",
     "DistortionMixin",
     "DistortionTerms",
+    "TableDistortionMixin",
+    "table_distortion_terms",
     "vertical_distortion_terms",
 ]
 
@@ -125,60 +127,31 @@ def vertical_distortion_terms(study, grid, diaphragm, design):
         np.asarray(band_ms, float))
 
 
-#: Entries of the terms' vector expanded linearly (the gain ratio); the others
-#: exponentially (positive powers).
-_LINEAR = (2,)
-
-
-def _expand(v0, slopes, dz, ca=None):
-    """The terms at ``z_0 + dz`` from their values and slopes (NumPy or CasADi)."""
+def _expand(v0, slopes, dz, linear, ca=None):
+    """The terms at ``z_0 + dz`` from their values and slopes (NumPy or CasADi): the entries
+    ``linear`` (the gain ratios) linearly, the others (positive powers) exponentially."""
     if ca is None:
         lin = slopes @ np.asarray(dz, float)
         out = v0 * np.exp(lin)
-        for i in _LINEAR:
-            out[i] = v0[i] + lin[i]
+        out[list(linear)] = v0[list(linear)] + lin[list(linear)]
         return out
     lin = ca.mtimes(slopes, dz)
-    rows = [v0[i] + lin[i] if i in _LINEAR else v0[i] * ca.exp(lin[i])
+    rows = [v0[i] + lin[i] if i in linear else v0[i] * ca.exp(lin[i])
             for i in range(v0.numel())]
     return ca.vertcat(*rows)
 
 
-class DistortionMixin:
-    """The distortion power in a :class:`~isodesign.optimization.problem.Problem`'s NLP.
+class OuterFixedPoint:
+    """The outer fixed point of an NLP with the distortion's terms as parameters, either body.
 
-    Put before the body's class (``class P(DistortionMixin, Problem)``). Its parameters,
-    after the body's own: ``[z_0, q_0, A]`` (``A`` the slopes, ``(terms, nz)``, column
-    major); the terms enter the closure's resistance (:meth:`_closure_resistance`), the two
-    chains' last rows (:meth:`_stroke_chain`) and the bands (:meth:`_adjust_metrics`).
+    The body's mixin provides :meth:`_terms_at_z` (the NumPy terms' vector at a scaled
+    design), :attr:`_linear` (the entries expanded linearly), :attr:`_n_terms` and the
+    NLP's parameter block ``[z_0, q_0, A]`` (``A`` the slopes, ``(terms, nz)``, column
+    major) after the body's own parameters.
     """
 
     #: This NLP carries the distortion power.
     distortion = True
-
-    # -- the NumPy side ----------------------------------------------------------------
-    def distortion_terms(self, design) -> DistortionTerms:
-        """The NumPy terms at a design (cached: the last few designs)."""
-        return self._numpy_state(design)[2]
-
-    def _numpy_state(self, design):
-        cache = self.__dict__.setdefault("_dist_cache", {})
-        key = repr(design)
-        if key not in cache:
-            if len(cache) > 32:
-                cache.clear()
-            cache[key] = vertical_distortion_terms(self.study, self.grid, self.dia, design)
-        return cache[key]
-
-    def closure(self, d):
-        """``(sigma, sigma_u)`` of the closure with the distortion (NumPy)."""
-        sigma, sigma_u, _ = self._numpy_state(d)
-        return sigma, sigma_u
-
-    def _terms_at_z(self, z) -> np.ndarray:
-        vals = {v.name: v.start for v in self.study.variables}
-        vals.update(self.scaling.to_values(np.clip(z, -1.0, 1.0)))
-        return self.distortion_terms(self.study.design_at(vals)).vector()
 
     def expansion(self, z0, v0=None) -> np.ndarray:
         """The parameters ``[z_0, q_0, A]`` of the terms' expansion about ``z_0`` (central
@@ -196,7 +169,7 @@ class DistortionMixin:
             vp, vm = self._terms_at_z(zp), self._terms_at_z(zm)
             dzi = zp[i] - zm[i]
             for k in range(m):
-                if k in _LINEAR:
+                if k in self._linear:
                     slopes[k, i] = (vp[k] - vm[k]) / dzi
                 elif vp[k] > 0 and vm[k] > 0:
                     slopes[k, i] = (math.log(vp[k]) - math.log(vm[k])) / dzi
@@ -206,61 +179,43 @@ class DistortionMixin:
         nz, m = self.nz, self._n_terms
         return p[:nz], p[nz:nz + m], p[nz + m:].reshape((m, nz), order="F")
 
-    def nlp_terms(self, x, p) -> DistortionTerms:
-        """The terms the NLP uses at ``x`` with the expansion ``p`` (NumPy)."""
+    def nlp_vector(self, x, p) -> np.ndarray:
+        """The terms' vector the NLP uses at ``x`` with the expansion ``p`` (NumPy)."""
         z0, v0, slopes = self._unpack(np.asarray(p, float))
-        return DistortionTerms.from_vector(_expand(v0, slopes, np.asarray(x[:self.nz]) - z0))
-
-    # -- the NLP's rows ----------------------------------------------------------------
-    def _decision_variables(self, nlp) -> None:
-        super()._decision_variables(nlp)
-        ca = nlp.ca
-        nz = int(nlp.z.numel())
-        m = self._n_terms = 3 + len(self.grid.response.bands.lower_hz)
-        nlp.p_dist = nlp.X.sym("distortion", nz + m + m * nz)
-        z0, v0 = nlp.p_dist[:nz], nlp.p_dist[nz:nz + m]
-        slopes = ca.reshape(nlp.p_dist[nz + m:], m, nz)
-        nlp.dist = _expand(v0, slopes, nlp.z - z0, ca)
-        self._dist_p = None
-
-    def _closure_resistance(self, nlp, c_nl):
-        c_nl = super()._closure_resistance(nlp, c_nl)
-        if self.study.models["flow"] == "poiseuille":
-            return c_nl
-        return c_nl + minor_loss_gain_shift(nlp.d, nlp.ca.exp(nlp.y[0]), nlp.dist[2])
-
-    def _adjust_metrics(self, nlp) -> None:
-        super()._adjust_metrics(nlp)
-        add_band_distortion(nlp.mt, nlp.dist[3:])
-
-    def _stroke_chain(self, nlp) -> None:
-        super()._stroke_chain(nlp)
-        ca = nlp.ca
-        k_s = 1.0 / self.sigma_ref ** 2
-        k_u = 1.0 / self.tube_rms_ref ** 2
-        nlp.res_s = ca.vertcat(nlp.res_s[:-1], nlp.res_s[-1] - k_s * nlp.dist[0])
-        nlp.res_u = ca.vertcat(nlp.res_u[:-1], nlp.res_u[-1] - k_u * nlp.dist[1])
-
-    def _assemble(self, nlp) -> None:
-        super()._assemble(nlp)
-        nlp.p = nlp.ca.vertcat(nlp.p, nlp.p_dist)
-        self.np = int(nlp.p.numel())
-        self._n_dist = int(nlp.p_dist.numel())
-
-    def _fn_param_sym(self, nlp):
-        return nlp.ca.vertcat(super()._fn_param_sym(nlp), nlp.p_dist)
+        return _expand(v0, slopes, np.asarray(x[:self.nz]) - z0, self._linear)
 
     def _current_dist(self) -> np.ndarray:
-        if self._dist_p is None:
-            self._dist_p = self.expansion(self.scaling.to_z(
-                {v.name: v.start for v in self.study.variables}))
+        if getattr(self, "_dist_p", None) is None:
+            start = {v.name: v.start for v in self.study.variables}
+            start.update({v.name: v.start for v in getattr(self.study, "levers", ())})
+            self._dist_p = self.expansion(self._z_of(start))
         return self._dist_p
 
-    def _fn_params(self) -> np.ndarray:
-        return np.concatenate([super()._fn_params(), self._current_dist()])
+    def _z_of(self, values) -> np.ndarray:
+        z = self.scaling.to_z(values)
+        if getattr(self, "n_levers", 0):
+            z = np.concatenate([z, self.lever_scaling.to_z(values)])
+        return np.clip(z, -1.0, 1.0)
 
-    def _param_tail(self) -> np.ndarray:
-        return np.concatenate([super()._param_tail(), self._current_dist()])
+    def _values_at_z(self, z) -> dict:
+        return self.values(np.concatenate([np.asarray(z, float), [0.0]]))
+
+    def closure(self, d, values: dict | None = None):
+        """The closure with the distortion (NumPy): ``(sigma, sigma_u)`` at a design."""
+        return self._numpy_state(d, values)[:2]
+
+    def _numpy_state(self, design, values=None):
+        cache = self.__dict__.setdefault("_dist_cache", {})
+        key = repr(design) + repr(sorted((values or {}).items()))
+        if key not in cache:
+            if len(cache) > 32:
+                cache.clear()
+            cache[key] = self._numpy_terms(design, values)
+        return cache[key]
+
+    def _terms_at_z(self, z) -> np.ndarray:
+        vals = self._values_at_z(z)
+        return self._vector(self._numpy_state(self.study.design_at(vals), vals)[2])
 
     # -- the outer fixed point ---------------------------------------------------------
     def solve(self, x0, p=None):
@@ -290,9 +245,9 @@ class DistortionMixin:
             wall += sol.wall_s
             its += sol.iterations
             z = np.clip(sol.x[:self.nz], -1.0, 1.0)
-            used = self.nlp_terms(sol.x, self._dist_p).vector()
+            used = self.nlp_vector(sol.x, self._dist_p)
             true = self._terms_at_z(z)
-            done = (_mismatch(used, true) <= DISTORTION_FIXED_POINT_RTOL
+            done = (_mismatch(used, true, self._blocks()) <= DISTORTION_FIXED_POINT_RTOL
                     or not np.all(np.isfinite(sol.x)))
             if done or rounds == DISTORTION_MAX_ROUNDS:
                 break
@@ -308,15 +263,188 @@ class DistortionMixin:
         return super().retighten(sol)
 
 
-def _mismatch(used, true) -> float:
-    """The largest difference of two term vectors: relative to each term (the band powers
-    and variances; a band's below 1e-9 of the largest band's: to that), absolute for the
-    gain ratio."""
+class DistortionMixin(OuterFixedPoint):
+    """The distortion power in a :class:`~isodesign.optimization.problem.Problem`'s NLP.
+
+    Put before the body's class (``class P(DistortionMixin, Problem)``). The terms enter the
+    closure's resistance (:meth:`_closure_resistance`), the two chains' last rows
+    (:meth:`_stroke_chain`) and the bands (:meth:`_adjust_metrics`).
+    """
+
+    _linear = (2,)
+
+    def _blocks(self) -> list:
+        return [(slice(0, 1), True), (slice(1, 2), True), (slice(2, 3), False),
+                (slice(3, None), True)]
+
+    def distortion_terms(self, design) -> DistortionTerms:
+        """The NumPy terms at a design (cached: the last few designs)."""
+        return self._numpy_state(design)[2]
+
+    def _numpy_terms(self, design, values=None):
+        return vertical_distortion_terms(self.study, self.grid, self.dia, design)
+
+    @staticmethod
+    def _vector(terms) -> np.ndarray:
+        return terms.vector()
+
+    def closure(self, d):
+        """``(sigma, sigma_u)`` of the closure with the distortion (NumPy)."""
+        return self._numpy_state(d)[:2]
+
+    def nlp_terms(self, x, p) -> DistortionTerms:
+        """The terms the NLP uses at ``x`` with the expansion ``p`` (NumPy)."""
+        return DistortionTerms.from_vector(self.nlp_vector(x, p))
+
+    # -- the NLP's rows ----------------------------------------------------------------
+    def _decision_variables(self, nlp) -> None:
+        super()._decision_variables(nlp)
+        ca = nlp.ca
+        nz = int(nlp.z.numel())
+        m = self._n_terms = 3 + len(self.grid.response.bands.lower_hz)
+        nlp.p_dist = nlp.X.sym("distortion", nz + m + m * nz)
+        z0, v0 = nlp.p_dist[:nz], nlp.p_dist[nz:nz + m]
+        slopes = ca.reshape(nlp.p_dist[nz + m:], m, nz)
+        nlp.dist = _expand(v0, slopes, nlp.z - z0, self._linear, ca)
+        self._dist_p = None
+
+    def _closure_resistance(self, nlp, c_nl):
+        c_nl = super()._closure_resistance(nlp, c_nl)
+        if self.study.models["flow"] == "poiseuille":
+            return c_nl
+        return c_nl + minor_loss_gain_shift(nlp.d, nlp.ca.exp(nlp.y[0]), nlp.dist[2])
+
+    def _adjust_metrics(self, nlp) -> None:
+        super()._adjust_metrics(nlp)
+        add_band_distortion(nlp.mt, nlp.dist[3:])
+
+    def _stroke_chain(self, nlp) -> None:
+        super()._stroke_chain(nlp)
+        ca = nlp.ca
+        k_s = 1.0 / self.sigma_ref ** 2
+        k_u = 1.0 / self.tube_rms_ref ** 2
+        nlp.res_s = ca.vertcat(nlp.res_s[:-1], nlp.res_s[-1] - k_s * nlp.dist[0])
+        nlp.res_u = ca.vertcat(nlp.res_u[:-1], nlp.res_u[-1] - k_u * nlp.dist[1])
+
+    def _assemble(self, nlp) -> None:
+        super()._assemble(nlp)
+        nlp.p = nlp.ca.vertcat(nlp.p, nlp.p_dist)
+        self.np = int(nlp.p.numel())
+        self._n_dist = int(nlp.p_dist.numel())
+
+    def _fn_param_sym(self, nlp):
+        return nlp.ca.vertcat(super()._fn_param_sym(nlp), nlp.p_dist)
+
+    def _fn_params(self) -> np.ndarray:
+        return np.concatenate([super()._fn_params(), self._current_dist()])
+
+    def _param_tail(self) -> np.ndarray:
+        return np.concatenate([super()._param_tail(), self._current_dist()])
+
+
+def _mismatch(used, true, blocks) -> float:
+    """The largest difference of two term vectors: relative to each term, a term below 1e-9
+    of its block's largest (the bands, the isolators' variances) to that; the blocks of
+    ``None`` scale (the gain ratios) absolutely."""
     used, true = np.asarray(used, float), np.asarray(true, float)
-    scale = np.abs(true).copy()
-    bands = scale[3:]
-    if bands.size:
-        bands[:] = np.maximum(bands, 1e-9 * float(np.max(bands)))
-    scale[2] = 1.0
-    scale = np.where(scale > 0, scale, 1.0)
-    return float(np.max(np.abs(used - true) / scale))
+    worst = 0.0
+    for idx, relative in blocks:
+        t, u = true[idx], used[idx]
+        if not t.size:
+            continue
+        scale = np.maximum(np.abs(t), 1e-9 * float(np.max(np.abs(t)))) if relative else 1.0
+        scale = np.where(scale > 0, scale, 1.0)
+        worst = max(worst, float(np.max(np.abs(u - t) / scale)))
+    return worst
+
+
+#: The table's closure tolerance on the NumPy side (its fixed point with Anderson mixing).
+_TABLE_CLOSURE_RTOL = 1e-11
+
+
+def table_distortion_terms(prob, design, values=None):
+    """The NumPy closure with the distortion on a table NLP's grid.
+
+    Parameters
+    ----------
+    prob : TableProblem
+        Its study, grid, flow and diaphragm.
+    design : SpringDesign
+    values : dict, optional
+        Lever values (the table at ``study.table_at``); default the NLP's table.
+
+    Returns
+    -------
+    sigma, sigma_u : ndarray (n,)
+        The closure's state with the distortion.
+    ndarray
+        The terms: ``[dS (n), dU (n), g (n), dB (points x 3 axes x bands)]``: the variances
+        and gains the closure was solved with, the band powers at its final state
+        (``table_band_response``'s figures).
+    """
+    from isodesign.table.model import table_model
+    from isodesign.table.response import TableStatistical, solve_table_closure_with_distortion
+
+    table = prob.table if values is None else prob.study.table_at(values)
+    model = table_model(design, table, flow=prob.flow,
+                        amplitude_mode=prob.study.models["amplitude_mode"], diaphragm=prob.dia)
+    first: list = []
+    sigma, sigma_u, dist, _ = solve_table_closure_with_distortion(
+        TableStatistical(model, prob.grid), rtol=_TABLE_CLOSURE_RTOL,
+        first_rtol=_TABLE_CLOSURE_RTOL, first=first)
+    d1 = first[0]
+    vec = np.concatenate([d1.stroke_variance, d1.tube_velocity_variance, d1.gain_ratio,
+                          np.asarray(dist.band_mean_square, float).ravel()])
+    return np.asarray(sigma, float), np.asarray(sigma_u, float), vec
+
+
+class TableDistortionMixin(OuterFixedPoint):
+    """The distortion power in a :class:`~isodesign.optimization.table_problem.TableProblem`'s
+    NLP (``class P(TableDistortionMixin, TableProblem)``).
+
+    The terms add to the mapped reductions (each isolator's stroke and tube-velocity
+    variance, every point's, axis's and band's mean square); the gains scale each minor
+    loss's equivalent resistance, written as the springs' ``ln sigma_u`` shifted by
+    ``ln g`` (exact for ``womersley``, whose nonlinear resistance is the minor loss's alone,
+    linear in ``sigma_u``; ``quasi_steady``'s friction excess is not: refused).
+    """
+
+    def _blocks(self) -> list:
+        n = self.n
+        return [(slice(0, n), True), (slice(n, 2 * n), True), (slice(2 * n, 3 * n), False),
+                (slice(3 * n, None), True)]
+
+    def _numpy_terms(self, design, values=None):
+        return table_distortion_terms(self, design, values)
+
+    @staticmethod
+    def _vector(terms) -> np.ndarray:
+        return terms
+
+    def distortion_terms(self, design, values=None) -> np.ndarray:
+        """The NumPy terms' vector at a design (and lever values)."""
+        return self._numpy_state(design, values)[2]
+
+    def _distortion_parts(self, ca, X, z, y) -> tuple:
+        from isodesign.errors import InputError
+
+        if self.flow == "quasi_steady":
+            raise InputError("models.distortion = true: the table's NLP carries it with "
+                             "models.flow = 'womersley' or 'poiseuille'; set "
+                             "models.distortion = false or another flow")
+        n, nz = self.n, int(z.numel())
+        m = self._n_terms = 3 * n + 3 * self.k * self.grid.n_bands
+        self._linear = tuple(range(2 * n, 3 * n))
+        p = X.sym("distortion", nz + m + m * nz)
+        self._n_dist = int(p.numel())
+        self._dist_p = None
+        z0, v0 = p[:nz], p[nz:nz + m]
+        q = _expand(v0, ca.reshape(p[nz + m:], m, nz), z - z0, self._linear, ca)
+        added = ca.vertcat(q[:2 * n], q[3 * n:])
+        y_k = y + ca.log(q[2 * n:3 * n]) if self.flow != "poiseuille" else y
+        return p, added, y_k
+
+    def use_solution(self, sol) -> None:
+        """The NLP's parameters at ``sol``: the expansion it was found with."""
+        if sol.outer_params is not None:
+            self._dist_p = np.asarray(sol.outer_params, float)

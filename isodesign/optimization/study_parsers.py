@@ -275,9 +275,7 @@ def refuse_distortion(study, where: str) -> None:
         raise InputError(f"{where}: models.distortion = true: a robust study ([scenarios]) "
                          "does not carry the distortion power yet; set models.distortion = "
                          "false")
-    if study.table is not None:
-        raise InputError(f"{where}: models.distortion = true: the table study's NLP does not "
-                         "carry the distortion power yet; set models.distortion = false")
+
 
 
 def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:

@@ -308,6 +308,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     d = study.design_at(best.values)
     sig_rel = margin_db = math.nan
     if best.feasible:
+        getattr(prob, "use_solution", lambda sol: None)(best)  # models.distortion's terms
         sigma, sigma_u = prob.closure(d, best.values)
         sig_rel = float(max(np.max(np.abs(sigma / prob.sigma(best.x) - 1)),
                             np.max(np.abs(sigma_u / prob.tube_rms(best.x) - 1))))
@@ -717,7 +718,8 @@ def _analyze(study, d, values=None):
         res = table_band_response(d, study.table_at(values), study.floor_axes, study.target,
                                   bands=study.bands, flow=m["flow"],
                                   amplitude_mode=m["amplitude_mode"],
-                                  diaphragm=m["diaphragm"], warn=False)  # fmt: skip
+                                  diaphragm=m["diaphragm"], warn=False,
+                                  distortion=bool(m.get("distortion", False)))  # fmt: skip
     model = res.model
     modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
                                                         res.tube_velocity_rms_m_s))

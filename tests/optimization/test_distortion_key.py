@@ -42,18 +42,21 @@ def test_refusals_name_the_key():
     with pytest.raises(InputError, match=r"models\.distortion = true.*random_method"):
         study_from_dict({"models": {"distortion": True,
                                     "random_method": "equivalent_amplitude"}})
-    with pytest.raises(InputError, match=r"models\.distortion = true: the table study's NLP"):
-        table_study().with_changes({"models.distortion": True})
+    with pytest.raises(InputError, match=r"models\.distortion = true: the table's NLP"):
+        Problem(table_study().with_changes({"models.distortion": True,
+                                            "models.flow": "quasi_steady"}))
     with pytest.raises(InputError, match=r"models\.distortion = true: a robust study"):
         vertical_study().with_changes(
             {"models.distortion": True},
             scenarios={"payload_mass_kg": {"min": 540.0, "max": 660.0}})
 
 
-def test_problem_of_the_study_carries_it():
+def test_problem_of_the_study_carries_it(small_table_study):
     st = small_vertical(distortion=True)
     assert type(Problem(st)) is VerticalDistortionProblem
     assert type(Problem(small_vertical())) is Problem
+    tb = Problem(small_table_study().with_changes({"models.distortion": True}))
+    assert type(tb).__name__ == "TableDistortionProblem"
 
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -80,6 +83,17 @@ def test_optimize_answers_with_the_distortion(api_result):
     assert abs(evaluate_design(plain, res.values)["objectives"]["worst_band_margin"]
                - res.objective_value) > 1e-4
     assert abs(analyze(plain, res.values).worst_margin_db - res.worst_margin_db) > 1e-4
+
+
+def test_table_optimize_and_analysis_answer_with_it(small_table_study):
+    """The table study: isodesign.optimize's analysis is analyze()'s with the key on."""
+    st = small_table_study().with_changes({"models.distortion": True})
+    res = isodesign.optimize(st)
+    assert res.feasible and res.recheck_margin_db < 1e-6
+    a = analyze(st, res.values)
+    assert abs(a.worst_margin_db - res.analysis.worst_margin_db) < 1e-9
+    plain = small_table_study()
+    assert abs(analyze(plain, res.values).worst_margin_db - a.worst_margin_db) > 1e-5
 
 
 def test_a_sweep_point_refuses_with_one_line(tmp_path):

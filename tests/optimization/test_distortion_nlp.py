@@ -103,3 +103,67 @@ def test_answer_is_a_local_optimum_with_distortion(vertical_solved):
     j_plain, viol = _true_point(prob, p_sol.values)
     assert viol > 1e-6 or j_plain >= j_star - 1e-6
     assert checked >= 1
+
+
+# -- the table (6 DOF) -------------------------------------------------------------------
+
+@pytest.fixture(scope="module")
+def table_solved(small_table_study):
+    st = small_table_study()
+    st = st.with_changes({"models.distortion": True})
+    prob = Problem(st)
+    vals = {v.name: v.start for v in st.variables}
+    sol = prob.solve(prob.initial_guess(vals))
+    return st, prob, sol
+
+
+def _table_true(prob, values):
+    """The table problem with the distortion at a design: the NumPy closure's state and
+    terms (the expansion at its design, slopes zero: only the values matter here)."""
+    z = prob._z_of(values)
+    v0 = prob._terms_at_z(z)
+    prob._dist_p = np.concatenate([z, v0, np.zeros(v0.size * z.size)])
+    x = prob.initial_guess(values)
+    _, g = prob.eval_fn(x, prob.params())
+    g = np.asarray(g).ravel()
+    return float(prob.objective_values(x)[0]), max(v for _, v in prob.violations(g))
+
+
+def test_table_answer_is_the_table_analysis_with_distortion(table_solved):
+    from isodesign.table.response import table_band_response
+
+    st, prob, sol = table_solved
+    assert type(prob).__name__ == "TableDistortionProblem"
+    assert sol.success and sol.feasible and sol.outer_rounds >= 2
+    d = st.design_at(sol.values)
+    m = st.models
+    kw = {"bands": st.bands, "points_per_band": m["points_per_band"], "flow": m["flow"],
+          "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"], "warn": False}
+    table = st.table_at(sol.values)
+    with_d = table_band_response(d, table, st.floor_axes, st.target, distortion=True, **kw)
+    plain = table_band_response(d, table, st.floor_axes, st.target, **kw)
+    prob.use_solution(sol)
+    # the NLP's grid is the analysis's at the study's points per band: one figure
+    assert abs(prob.worst_margin_db(sol.x) - with_d.worst_margin_db) < 1e-6
+    assert abs(prob.worst_margin_db(sol.x) - plain.worst_margin_db) > 1e-5
+    assert np.max(np.abs(with_d.stroke_rms_m / prob.sigma(sol.x) - 1.0)) < 1e-5
+    assert np.max(np.abs(with_d.tube_velocity_rms_m_s / prob.tube_rms(sol.x) - 1.0)) < 1e-5
+
+
+def test_table_answer_is_a_local_optimum_with_distortion(table_solved):
+    _, prob, sol = table_solved
+    z = sol.x[:prob.nz]
+    used = prob._unpack(sol.outer_params)
+    here = prob._unpack(prob.expansion(z))
+    assert np.max(np.abs(used[2] - here[2])) < 1e-3 * max(1.0, np.max(np.abs(here[2])))
+    j_star, viol = _table_true(prob, sol.values)
+    assert viol <= 1e-6 and abs(j_star - sol.objective) < 1e-6
+    rng = np.random.default_rng(26)
+    checked = 0
+    for _ in range(4):
+        zz = np.clip(z + 0.01 * rng.standard_normal(z.size), -1.0, 1.0)
+        j, viol = _table_true(prob, prob._values_at_z(zz))
+        if viol <= 1e-6:
+            checked += 1
+            assert j >= j_star - 1e-6
+    assert checked >= 1
