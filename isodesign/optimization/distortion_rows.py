@@ -236,7 +236,9 @@ class OuterFixedPoint:
         """
         p = np.array(self.params() if p is None else p, float)
         x = np.asarray(x0, float)
-        self._dist_p = self.expansion(x[:self.nz])
+        cur = getattr(self, "_dist_p", None)
+        if cur is None or not np.array_equal(cur[:self.nz], x[:self.nz]):
+            self._dist_p = self.expansion(x[:self.nz])  # else: a re-solve from its design
         wall = 0.0
         its = 0
         for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):

@@ -149,6 +149,9 @@ class TableOptimizationResult(StudyResult):
         None: none down to a thousandth of the study's, or no miss).
     wall_s : float
     hessian : str
+    distortion_outer_rounds : int
+        ``models.distortion``: the outer fixed point's rounds of the returned solve
+        (docs/random-response.md 3d; 0 without it).
     """
 
     KIND = "table"
@@ -184,6 +187,7 @@ class TableOptimizationResult(StudyResult):
     #: (:meth:`~isodesign.optimization.table_problem.TableProblem.lever_sensitivities`).
     lever_sensitivity: tuple = ()
     hessian_info: dict = field(default_factory=dict)
+    distortion_outer_rounds: int = 0
 
     def _start_values(self) -> dict:
         return {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
@@ -363,7 +367,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
         leveling=loop, leveling_gain_hint_kg_s_per_m=gain_hint, lever_sensitivity=lever_sens,
-        hessian_info=choice,
+        hessian_info=choice, distortion_outer_rounds=int(best.outer_rounds),
     )
 
 
