@@ -238,7 +238,14 @@ class OuterFixedPoint:
         x = np.asarray(x0, float)
         cur = getattr(self, "_dist_p", None)
         if cur is None or not np.array_equal(cur[:self.nz], x[:self.nz]):
-            self._dist_p = self.expansion(x[:self.nz])  # else: a re-solve from its design
+            # a start: the first round with the terms' values alone (the slopes only matter
+            # at the answer; a start is far from it), then expanded at each answer
+            z0 = np.clip(x[:self.nz], -1.0, 1.0)
+            v0 = self._terms_at_z(z0)
+            self._dist_p = np.concatenate([z0, v0, np.zeros(v0.size * z0.size)])
+            sloped = False
+        else:  # a re-solve from the design of its expansion
+            sloped = bool(np.any(cur[self.nz + self._n_terms:] != 0.0))
         wall = 0.0
         its = 0
         for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
@@ -249,11 +256,12 @@ class OuterFixedPoint:
             z = np.clip(sol.x[:self.nz], -1.0, 1.0)
             used = self.nlp_vector(sol.x, self._dist_p)
             true = self._terms_at_z(z)
-            done = (_mismatch(used, true, self._blocks()) <= DISTORTION_FIXED_POINT_RTOL
-                    or not np.all(np.isfinite(sol.x)))
+            done = ((sloped and _mismatch(used, true, self._blocks())
+                     <= DISTORTION_FIXED_POINT_RTOL) or not np.all(np.isfinite(sol.x)))
             if done or rounds == DISTORTION_MAX_ROUNDS:
                 break
             self._dist_p = self.expansion(z, true)
+            sloped = True
             x = sol.x
         return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
                            wall_s=wall, iterations=its)
