@@ -18,10 +18,10 @@ positive powers and variances, ``g(z) = g_0 + b . (z - z_0)`` for the gain, the 
 slopes NLP parameters (central differences of the NumPy terms, :data:`DISTORTION_FD_STEP`).
 At ``z = z_0`` the NLP's terms and their gradient are the NumPy ones: a solution whose
 design is (to :data:`DISTORTION_FIXED_POINT_RTOL`) the one the terms were expanded at is a
-KKT point of the problem with the distortion. :meth:`DistortionMixin.solve` re-solves warm
-from each solution with the terms expanded there until the terms the NLP used at its answer
-agree with the NumPy terms there (:data:`DISTORTION_FIXED_POINT_RTOL`) and records the
-rounds (``Solution.outer_rounds``).
+KKT point of the problem with the distortion. :meth:`OuterFixedPoint.solve` solves a start
+with the terms' values alone, then re-solves warm from each answer with the terms expanded
+there until the terms the NLP used at its answer agree with the NumPy terms there
+(:data:`DISTORTION_FIXED_POINT_RTOL`), and records the rounds (``Solution.outer_rounds``).
 """
 
 from __future__ import annotations
@@ -186,10 +186,23 @@ class OuterFixedPoint:
 
     def _current_dist(self) -> np.ndarray:
         if getattr(self, "_dist_p", None) is None:
-            start = {v.name: v.start for v in self.study.variables}
-            start.update({v.name: v.start for v in getattr(self.study, "levers", ())})
-            self._dist_p = self.expansion(self._z_of(start))
+            self._dist_p = self._values_only({})
         return self._dist_p
+
+    def _values_only(self, values: dict) -> np.ndarray:
+        """The terms' values at a design (the study's starts for what ``values`` omits),
+        slopes zero."""
+        start = {v.name: v.start for v in self.study.variables}
+        start.update({v.name: v.start for v in getattr(self.study, "levers", ())})
+        z = self._z_of({**start, **values})
+        v0 = self._terms_at_z(z)
+        return np.concatenate([z, v0, np.zeros(v0.size * z.size)])
+
+    def initial_guess(self, values: dict) -> np.ndarray:
+        """The body's consistent x0 with the terms' values at its design (a solve from it
+        starts with them: :meth:`solve`)."""
+        self._dist_p = self._values_only(values)
+        return super().initial_guess(values)
 
     def _z_of(self, values) -> np.ndarray:
         z = self.scaling.to_z(values)
