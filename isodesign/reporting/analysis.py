@@ -83,7 +83,8 @@ def model_caveats(models: dict, acoustics: str | None = None) -> list[tuple[str,
     Parameters
     ----------
     models : dict
-        ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method``.
+        ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method`` (and ``distortion``,
+        ``models.distortion``, when true).
     acoustics : str, optional
         The design's acoustic model (:attr:`SpringDesign.acoustics`); a row is added when
         given. The paper's flow models are always evaluated lumped, and the row says so.
@@ -95,7 +96,8 @@ def model_caveats(models: dict, acoustics: str | None = None) -> list[tuple[str,
         ("tube velocity amplitude", models.get("amplitude_mode", ""),
          AMPLITUDE_CAVEATS.get(models.get("amplitude_mode"), "")),
         ("diaphragm", dia, DIAPHRAGM_CAVEATS.get(dia_key, "")),
-        ("random closure", models.get("random_method", ""),
+        ("random closure", models.get("random_method", "")
+         + (" with the distortion power" if models.get("distortion") else ""),
          RANDOM_CAVEATS.get(models.get("random_method"), "")),
     ]
     if acoustics is not None:

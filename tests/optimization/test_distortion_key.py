@@ -125,3 +125,20 @@ def test_the_cli_gives_the_api_answer_and_replays_the_key(tmp_path, api_result):
     assert design["derived"]["worst_band_margin_db"] == pytest.approx(
         api.analysis.worst_margin_db, abs=1e-6)
     assert load_study(tmp_path / "cli" / "study_resolved.toml").models["distortion"] is True
+
+
+def test_a_study_case_carries_the_key_to_the_report_and_response(tmp_path):
+    """``isodesign report`` / ``isodesign response`` of a study file: its case's models say
+    the closure carries the distortion (and the report's model table names it)."""
+    from isodesign.io.record import study_toml
+    from isodesign.reporting.analysis import model_caveats
+    from isodesign.reporting.inputs import load_case
+
+    f = tmp_path / "d.toml"
+    f.write_text(study_toml(small_vertical(distortion=True)))
+    case = load_case(f)
+    assert case.models["distortion"] is True
+    rows = {what: model for what, model, _ in model_caveats(case.models)}
+    assert rows["random closure"] == "statistical with the distortion power"
+    f.write_text(study_toml(small_vertical()))
+    assert "distortion" not in load_case(f).models
