@@ -57,6 +57,11 @@ DISTORTION_FD_STEP = 1e-4
 DISTORTION_FIXED_POINT_RTOL = 1e-7
 #: Outer rounds at most (each a warm re-solve).
 DISTORTION_MAX_ROUNDS = 8
+#: Expansions kept per NLP, and how near (max norm in the scaled design) a re-solve's start
+#: must be to one of their designs to start from it instead of the terms' values alone (the
+#: answer is accepted only after the same check: a stale expansion costs a round at most).
+_KEPT_EXPANSIONS = 8
+_NEAR_Z = 0.02
 #: The closures' tolerance on the NumPy side (the slopes are differences of them).
 _CLOSURE_RTOL = 1e-12
 
@@ -200,9 +205,17 @@ class OuterFixedPoint:
 
     def initial_guess(self, values: dict) -> np.ndarray:
         """The body's consistent x0 with the terms' values at its design (a solve from it
-        starts with them: :meth:`solve`)."""
+        starts with them: :meth:`solve`); the NLP's parameters stay those of the last
+        solution (a start's objective evaluated after the optimum does not move them)."""
+        prev = getattr(self, "_dist_p", None)
         self._dist_p = self._values_only(values)
-        return super().initial_guess(values)
+        starts = self.__dict__.setdefault("_start_terms", {})
+        starts[self._dist_p[:self.nz].tobytes()] = self._dist_p
+        try:
+            return super().initial_guess(values)
+        finally:
+            if prev is not None:
+                self._dist_p = prev
 
     def _z_of(self, values) -> np.ndarray:
         z = self.scaling.to_z(values)
@@ -250,15 +263,22 @@ class OuterFixedPoint:
         p = np.array(self.params() if p is None else p, float)
         x = np.asarray(x0, float)
         cur = getattr(self, "_dist_p", None)
-        if cur is None or not np.array_equal(cur[:self.nz], x[:self.nz]):
+        near = self._nearby_expansion(x[:self.nz])
+        if cur is not None and np.array_equal(cur[:self.nz], x[:self.nz]):
+            # a re-solve from the design of its expansion
+            sloped = bool(np.any(cur[self.nz + self._n_terms:] != 0.0))
+        elif near is not None:  # a re-solve near an answer: its expansion (then confirmed)
+            self._dist_p, sloped = near, True
+        elif np.clip(x[:self.nz], -1.0, 1.0).tobytes() in self.__dict__.get("_start_terms", {}):
+            self._dist_p = self._start_terms[np.clip(x[:self.nz], -1.0, 1.0).tobytes()]
+            sloped = False  # an initial guess's values (:meth:`initial_guess`)
+        else:
             # a start: the first round with the terms' values alone (the slopes only matter
             # at the answer; a start is far from it), then expanded at each answer
             z0 = np.clip(x[:self.nz], -1.0, 1.0)
             v0 = self._terms_at_z(z0)
             self._dist_p = np.concatenate([z0, v0, np.zeros(v0.size * z0.size)])
             sloped = False
-        else:  # a re-solve from the design of its expansion
-            sloped = bool(np.any(cur[self.nz + self._n_terms:] != 0.0))
         wall = 0.0
         its = 0
         for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
@@ -274,10 +294,28 @@ class OuterFixedPoint:
             if done or rounds == DISTORTION_MAX_ROUNDS:
                 break
             self._dist_p = self.expansion(z, true)
+            self._remember(self._dist_p)
             sloped = True
             x = sol.x
         return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
                            wall_s=wall, iterations=its)
+
+    def _remember(self, expansion) -> None:
+        """Keep the last few expansions (a re-solve near one of their designs starts from
+        it: :meth:`_nearby_expansion`)."""
+        kept = self.__dict__.setdefault("_expansions", [])
+        kept.append(np.asarray(expansion, float).copy())
+        del kept[:-_KEPT_EXPANSIONS]
+
+    def _nearby_expansion(self, z):
+        """The kept expansion whose design is nearest ``z`` within :data:`_NEAR_Z` (max
+        norm), else ``None``."""
+        best, dist = None, _NEAR_Z
+        for e in self.__dict__.get("_expansions", ()):
+            d = float(np.max(np.abs(e[:self.nz] - np.asarray(z, float))))
+            if d <= dist:
+                best, dist = e, d
+        return None if best is None else best.copy()
 
     def retighten(self, sol):
         """As the body's, with the expansion the solution was found with."""

@@ -311,8 +311,8 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
                                                       rounds, peak)
     d = study.design_at(best.values)
     sig_rel = margin_db = math.nan
+    getattr(prob, "use_solution", lambda sol: None)(best)  # models.distortion's terms
     if best.feasible:
-        getattr(prob, "use_solution", lambda sol: None)(best)  # models.distortion's terms
         sigma, sigma_u = prob.closure(d, best.values)
         sig_rel = float(max(np.max(np.abs(sigma / prob.sigma(best.x) - 1)),
                             np.max(np.abs(sigma_u / prob.tube_rms(best.x) - 1))))

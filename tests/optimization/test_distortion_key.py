@@ -92,6 +92,9 @@ def test_table_optimize_and_analysis_answer_with_it(small_table_study):
     assert res.feasible and res.recheck_margin_db < 1e-6 and res.distortion_outer_rounds >= 1
     a = analyze(st, res.values)
     assert abs(a.worst_margin_db - res.analysis.worst_margin_db) < 1e-9
+    # the NLP's figure: the table analysis with the distortion on the NLP's own grid
+    coarse = analyze(st, res.values, points_per_band=st.models["points_per_band"])
+    assert abs(coarse.worst_margin_db - res.objective_value) < 1e-6
     plain = small_table_study()
     assert abs(analyze(plain, res.values).worst_margin_db - a.worst_margin_db) > 1e-5
 
