@@ -300,6 +300,14 @@ class OuterFixedPoint:
         return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
                            wall_s=wall, iterations=its)
 
+    def _dist_for(self, x) -> np.ndarray:
+        """The parameters at which a figure of ``x`` is evaluated: an initial guess's design
+        with its own terms (:meth:`initial_guess`), any other point with the last
+        solution's expansion."""
+        key = np.clip(np.asarray(x, float)[:self.nz], -1.0, 1.0).tobytes()
+        own = self.__dict__.get("_start_terms", {}).get(key)
+        return own if own is not None else self._current_dist()
+
     def _remember(self, expansion) -> None:
         """Keep the last few expansions (a re-solve near one of their designs starts from
         it: :meth:`_nearby_expansion`)."""
@@ -356,6 +364,15 @@ class DistortionMixin(OuterFixedPoint):
     def nlp_terms(self, x, p) -> DistortionTerms:
         """The terms the NLP uses at ``x`` with the expansion ``p`` (NumPy)."""
         return DistortionTerms.from_vector(self.nlp_vector(x, p))
+
+    def objective_values(self, x) -> np.ndarray:
+        """As the body's, at :meth:`_dist_for` ``x`` (a start's figure with its own terms)."""
+        prev = getattr(self, "_dist_p", None)
+        self._dist_p = self._dist_for(x)
+        try:
+            return super().objective_values(x)
+        finally:
+            self._dist_p = prev
 
     # -- the NLP's rows ----------------------------------------------------------------
     def _decision_variables(self, nlp) -> None:
@@ -504,6 +521,10 @@ class TableDistortionMixin(OuterFixedPoint):
         added = ca.vertcat(q[:2 * n], q[3 * n:])
         y_k = y + ca.log(q[2 * n:3 * n]) if self.flow != "poiseuille" else y
         return p, added, y_k
+
+    def _bound(self, fn):
+        """``fn(x, p_dist)`` as a function of ``x``, at :meth:`_dist_for` ``x``."""
+        return lambda x: fn(x, self._dist_for(x))
 
     def use_solution(self, sol) -> None:
         """The NLP's parameters at ``sol``: the expansion it was found with."""

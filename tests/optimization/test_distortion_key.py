@@ -77,6 +77,8 @@ def test_optimize_answers_with_the_distortion(api_result):
     assert res.settings["distortion_outer_rounds"] >= 1
     ev = evaluate_design(st, res.values)
     assert abs(ev["objectives"]["worst_band_margin"] - res.objective_value) < 1e-6
+    start = evaluate_design(st, {v.name: v.start for v in st.variables})
+    assert abs(start["objectives"]["worst_band_margin"] - res.start_objective) < 1e-6
     a = analyze(st, res.values)
     assert abs(a.worst_margin_db - res.worst_margin_db) < 1e-9
     plain = small_vertical()
@@ -95,6 +97,9 @@ def test_table_optimize_and_analysis_answer_with_it(small_table_study):
     # the NLP's figure: the table analysis with the distortion on the NLP's own grid
     coarse = analyze(st, res.values, points_per_band=st.models["points_per_band"])
     assert abs(coarse.worst_margin_db - res.objective_value) < 1e-6
+    start = {v.name: v.start for v in st.variables}
+    at_start = analyze(st, start, points_per_band=st.models["points_per_band"])
+    assert abs(at_start.worst_margin_db - res.start_objective) < 1e-6
     plain = small_table_study()
     assert abs(analyze(plain, res.values).worst_margin_db - a.worst_margin_db) > 1e-5
 
