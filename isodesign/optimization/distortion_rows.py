@@ -286,11 +286,12 @@ class OuterFixedPoint:
             sol = super().solve(x, p)
             wall += sol.wall_s
             its += sol.iterations
+            if not sol.success or not np.all(np.isfinite(sol.x)):
+                break  # a failed solve is returned as it is (its status says so)
             z = np.clip(sol.x[:self.nz], -1.0, 1.0)
             used = self.nlp_vector(sol.x, self._dist_p)
             true = self._terms_at_z(z)
-            done = ((sloped and _mismatch(used, true, self._blocks())
-                     <= DISTORTION_FIXED_POINT_RTOL) or not np.all(np.isfinite(sol.x)))
+            done = sloped and _mismatch(used, true, self._blocks()) <= DISTORTION_FIXED_POINT_RTOL
             if done or rounds == DISTORTION_MAX_ROUNDS:
                 break
             self._dist_p = self.expansion(z, true)
