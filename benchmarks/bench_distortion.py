@@ -3,6 +3,12 @@ over the one without, interleaved medians in one run, for the vertical study's s
 (``isodesign.optimization.study.vertical_study()``, the 1-DOF ``band_response``) and the
 built-in table (``table_study()``, ``table_band_response``), target <= 1.5 each.
 
+The optimizer's cost with the distortion (``[models] distortion = true``, the outer fixed point
+of ``docs/random-response.md`` section 3d): ``isodesign.optimize`` of the same two studies with
+and without it, interleaved pairs (:data:`OPTIMIZE_PAIRS`, each a whole optimization), the
+ratio of the medians; reported, no target of its own (the decision on the default is in the
+docs, section 3d).
+
 Run alone with ``python benchmarks/bench_distortion.py`` (prints the rows) or through
 ``python benchmarks/run.py distortion -o /tmp/out.md``.
 """
@@ -15,6 +21,9 @@ import warnings
 
 #: Target: the band response with the distortion power at most this times the one without.
 TARGET_DISTORTION_RATIO = 1.5
+#: Interleaved (without, with) pairs of the optimize rows: each is a whole optimization
+#: (``ISODESIGN_BENCH_OPT_PAIRS`` overrides).
+OPTIMIZE_PAIRS = 2
 
 
 def _vertical():
@@ -136,6 +145,53 @@ def bench_table_distortion() -> dict:
                       _table(), describe)
 
 
+def bench_optimize_distortion(which: str) -> dict:
+    """``isodesign.optimize`` of the built-in ``which`` study (``vertical`` or ``table``) with
+    ``models.distortion = true`` over without, interleaved pairs.
+
+    Parameters
+    ----------
+    which : {'vertical', 'table'}
+        ``vertical_study()`` or ``table_study()``.
+
+    Returns
+    -------
+    dict
+        A result row.
+    """
+    import os
+
+    import isodesign
+    from isodesign.optimization.study import table_study, vertical_study
+
+    base = vertical_study() if which == "vertical" else table_study()
+    studies = {d: base.with_changes({"models.distortion": d}) for d in (False, True)}
+    pairs = int(os.environ.get("ISODESIGN_BENCH_OPT_PAIRS", OPTIMIZE_PAIRS))
+    times: dict[bool, list[float]] = {False: [], True: []}
+    res = {}
+    for _ in range(max(1, pairs)):
+        for dist in (False, True):
+            t0 = time.perf_counter()
+            res[dist] = isodesign.optimize(studies[dist])
+            times[dist].append(time.perf_counter() - t0)
+    med = {k: statistics.median(v) for k, v in times.items()}
+    ratio = med[True] / med[False]
+    pr = [w / wo for w, wo in zip(times[True], times[False], strict=True)]
+    r0, r1 = res[False], res[True]
+    rounds = (r1.settings.get("distortion_outer_rounds") if which == "vertical"
+              else r1.distortion_outer_rounds)
+    return {
+        "name": f"{which} study: optimize with the distortion / without",
+        "target": "reported", "unit": "ratio", "median": ratio, "min": min(pr),
+        "max": max(pr), "repeats": len(pr), "ratio": "", "passed": None,
+        "notes": (f"medians {med[True]:.1f} s with, {med[False]:.1f} s without "
+                  f"({studies[True].solver['starts']} starts); worst margin (NLP) "
+                  f"{r1.objective_value:.4f} dB with, {r0.objective_value:.4f} dB without; "
+                  f"analysis {r1.worst_margin_db:.4f} dB with, {r0.worst_margin_db:.4f} dB "
+                  f"without; {rounds} outer rounds for the answer"),
+    }
+
+
 def run() -> list[dict]:
     """The distortion's cost rows.
 
@@ -146,7 +202,8 @@ def run() -> list[dict]:
     """
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
-        return [bench_vertical_distortion(), bench_table_distortion()]
+        return [bench_vertical_distortion(), bench_table_distortion(),
+                bench_optimize_distortion("vertical"), bench_optimize_distortion("table")]
 
 
 if __name__ == "__main__":

@@ -164,7 +164,7 @@ def run_table_response(args, job) -> int:
     res = table_band_response(job.design, table, floor, job.target, bands=job.bands,
                               points_per_band=args.points_per_band, flow=m["flow"],
                               amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"],
-                              warn=False)  # fmt: skip
+                              warn=False, distortion=bool(m.get("distortion", False)))  # fmt: skip
     for line in res.flags:
         warnings.warn(f"spring model at the closure: {line}", ModelValidityWarning,
                       stacklevel=2)
@@ -183,7 +183,8 @@ def run_table_response(args, job) -> int:
             mc_closure = table_band_response(
                 twin, table, floor, job.target, bands=job.bands,
                 points_per_band=args.points_per_band, flow=m["flow"],
-                amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"], warn=False)
+                amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"], warn=False,
+                distortion=bool(m.get("distortion", False)))
             in_force = res
     if not to_stdout:
         md = table_modes(model)

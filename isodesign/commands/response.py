@@ -527,7 +527,7 @@ def run(args) -> int:
     kw = {"points_per_band": args.points_per_band, "flow": m["flow"],
           "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
           "random_method": m["random_method"], "derive_pressure": not args.design_pressure,
-          "warn": False}
+          "warn": False, "distortion": bool(m.get("distortion", False))}
     try:
         with option_names(**RESPONSE_OPTION_NAMES):
             res = vertical_band_response(job.design, job.payload, job.floor, job.target,

@@ -227,6 +227,7 @@ def execute_table(study, run, args, result=None, *, prefix: str = "") -> int:
                             "iterations": it, "wall_s": w}
                            for i, stt, f, it, w, _ in res.starts],
                 "hessian": res.hessian, "mode_rounds": res.mode_rounds,
+                "distortion_outer_rounds": res.distortion_outer_rounds,
                 "recheck_max_rel_diff": res.recheck_sigma_rel,
                 "recheck_sigma_rel": res.recheck_sigma_rel,
                 "recheck_margin_db": res.recheck_margin_db,

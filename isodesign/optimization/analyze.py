@@ -84,17 +84,19 @@ def analyze(study, values: dict | None = None, scenario=None, *, bands="study",
 
         return table_band_response(d, st.table_at(vals), st.floor_axes, st.target, bands=b,
                                    points_per_band=points_per_band, warn=warn, strict=strict,
-                                   **kw)  # fmt: skip
+                                   distortion=bool(m.get("distortion", False)), **kw)  # fmt: skip
     return vertical_band_response(d, st.payload, st.floor, st.target, bands=b,
                                   points_per_band=points_per_band, derive_pressure=False,
-                                  warn=warn, strict=strict, p_atm_pa=p_atm, **kw)
+                                  warn=warn, strict=strict, p_atm_pa=p_atm,
+                                  distortion=bool(m.get("distortion", False)), **kw)
 
 
 def vertical_band_response(design, payload, floor, target, *, bands=None,
                            points_per_band: int = 50, flow: str = "quasi_steady",
                            amplitude_mode: str = "self_consistent", diaphragm="viscoelastic",
                            random_method: str = "statistical", derive_pressure: bool = True,
-                           warn: bool = True, strict: bool = True, p_atm_pa: float = P_ATM):
+                           warn: bool = True, strict: bool = True, p_atm_pa: float = P_ATM,
+                           distortion: bool = False):
     """The vertical band response of a payload, through its symmetric table.
 
     The payload's symmetric table (:func:`~isodesign.table.symmetric.payload_table`) is
@@ -120,6 +122,11 @@ def vertical_band_response(design, payload, floor, target, *, bands=None,
         As in :func:`~isodesign.response.random_input.band_response`.
     p_atm_pa : float
         Ambient pressure of the leveling, Pa.
+    distortion : bool
+        The closure with the tubes' distortion power (``models.distortion``,
+        docs/random-response.md 3a-3d): the z DOF's own
+        :func:`~isodesign.response.random_input.band_response` with ``distortion=True``, at
+        the design's p0 (the leveled table's z DOF, as without it).
 
     Returns
     -------
@@ -132,6 +139,10 @@ def vertical_band_response(design, payload, floor, target, *, bands=None,
                          f"{type(design).__name__} {design!r:.40}")
     kw = {"flow": flow, "amplitude_mode": amplitude_mode, "diaphragm": diaphragm,
           "random_method": random_method}
+    if distortion:
+        return band_response(design, payload, floor, target, bands=bands,
+                             points_per_band=points_per_band, derive_pressure=derive_pressure,
+                             warn=warn, strict=strict, distortion=True, **kw)  # fmt: skip
     if not _table_able(design, payload, derive_pressure, p_atm_pa):
         return band_response(design, payload, floor, target, bands=bands,
                              points_per_band=points_per_band, derive_pressure=derive_pressure,

@@ -132,7 +132,9 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
         constraints=tuple(constraint_reports(prob.con_rows, final.g)), starts=tuple(records),
         n_reached_best=n_best, violations=violations, flat_direction=win.flat,
         recheck_max_rel_diff=diff, analysis=analysis, start_analysis=start_analysis,
-        peak=win.peak, wall_s=time.perf_counter() - t_all, settings=solver_settings(study),
+        peak=win.peak, wall_s=time.perf_counter() - t_all,
+        settings={**solver_settings(study), **({"distortion_outer_rounds": final.outer_rounds}
+                                                if final.outer_rounds else {})},
         branches=tuple((i, obj.to_natural(j)) for i, j in win.branches),
         hessian_info=prob.hessian_info, solves=_solves(win, obj, t_all),
     )
@@ -209,7 +211,8 @@ def _analyses(study, prob, d, start_vals):
     symmetric table (:func:`~.analyze.vertical_band_response`, :func:`~.analyze.analyze`'s
     answer for a study without ``[table]``)."""
     kw = {"flow": study.models["flow"], "amplitude_mode": study.models["amplitude_mode"],
-          "diaphragm": prob.dia, "random_method": study.models["random_method"]}
+          "diaphragm": prob.dia, "random_method": study.models["random_method"],
+          "distortion": bool(study.models.get("distortion", False))}
     analysis = vertical_band_response(d, study.payload, study.floor, study.target,
                                       bands=study.bands, derive_pressure=False, warn=False, **kw)
     start_analysis = vertical_band_response(study.design_at(start_vals), study.payload,

@@ -29,6 +29,7 @@ from isodesign.response.linearization import (
     stroke_variance,
     stroke_weighted_sum,
 )
+from isodesign.response.non_gaussian import minor_loss_gain_shift
 from isodesign.spring.capillary import gaussian_equivalent_resistance, linear_resistance
 from isodesign.spring.chamber import chamber_dimensions
 from isodesign.spring.diaphragm import diaphragm_model
@@ -293,7 +294,31 @@ def statistical(study) -> bool:
     return study.models.get("random_method") == "statistical"
 
 
-def metrics(study, grid, d, velocity, sigma, *, diaphragm=None, tube_rms=None) -> dict:
+def add_band_distortion(mt: dict, band_ms) -> dict:
+    """The distortion power's band mean squares added to the payload's (any backend).
+
+    ``ms_all`` and ``ln_ms_band`` of ``mt`` (:func:`combine`) are replaced by the sums with
+    ``band_ms`` ((m/s)^2 per band of the response grid; docs/random-response.md 3a, 3d).
+
+    Parameters
+    ----------
+    mt : dict
+        :func:`combine`'s output (changed in place and returned).
+    band_ms : array or CasADi column
+        The added band mean squares.
+
+    Returns
+    -------
+    dict
+    """
+    ms = mt["ms_all"] + band_ms
+    mt["ms_all"] = ms
+    mt["ln_ms_band"] = bk.log(ms)
+    return mt
+
+
+def metrics(study, grid, d, velocity, sigma, *, diaphragm=None, tube_rms=None,
+            distortion=None) -> dict:
     """Objective and constraint quantities of a design (NumPy or CasADi).
 
     :func:`point_quantities` on every grid frequency, :func:`design_quantities`
@@ -317,6 +342,9 @@ def metrics(study, grid, d, velocity, sigma, *, diaphragm=None, tube_rms=None) -
         and Reynolds checks ``sqrt(2) sigma_u``.
     diaphragm : diaphragm model, optional
         Default: the study's.
+    distortion : DistortionTerms, optional
+        The distortion power's terms (:mod:`.distortion_rows`; statistical closure): the
+        minor loss's gain ratio in the equivalent resistance, the band mean squares added.
 
     Returns
     -------
@@ -330,6 +358,11 @@ def metrics(study, grid, d, velocity, sigma, *, diaphragm=None, tube_rms=None) -
     c_nl = None
     if tube_rms is not None:
         c_nl = gaussian_equivalent_resistance(study.models["flow"], d, tube_rms)
+        if distortion is not None and study.models["flow"] != "poiseuille":
+            c_nl = c_nl + minor_loss_gain_shift(d, tube_rms, distortion.gain_ratio)
         velocity = math.sqrt(2.0) * tube_rms + 0.0 * grid.omega
     pq = point_quantities(study, d, grid.omega, velocity, sigma, dia, c_nl)
-    return combine(study, grid, pq, design_quantities(study, grid, d, dia))
+    out = combine(study, grid, pq, design_quantities(study, grid, d, dia))
+    if distortion is not None:
+        add_band_distortion(out, np.asarray(distortion.band_ms, float))
+    return out

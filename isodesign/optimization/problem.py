@@ -30,9 +30,10 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from isodesign.errors import SolverError
+from isodesign.errors import InputError, SolverError
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization.constraints import Constraint, build_constraints
+from isodesign.optimization.distortion_rows import DistortionMixin
 from isodesign.optimization.executor import parallel_allowed
 from isodesign.optimization.grid import build_grid, take
 from isodesign.optimization.metrics import (
@@ -64,6 +65,7 @@ __all__ = [
     "PEAK_ROUNDS",
     "PEAK_SLOTS",
     "Problem",
+    "VerticalDistortionProblem",
     "derivative_functions",
     "hoisted_map",
 ]
@@ -218,11 +220,16 @@ class Problem(NLP):
             from isodesign.optimization.table_problem import TableProblem
 
             return TableProblem(study, *args, **kwargs)
+        if _distortion(study) and not issubclass(cls, DistortionMixin):
+            return super().__new__(_with_distortion(cls))  # the closure with its distortion
         return super().__new__(cls)
 
     def __init__(self, study, objectives: tuple | None = None, extra_peak_hz: tuple = ()):
         import casadi as ca
 
+        if _distortion(study) and not getattr(self, "distortion", False):
+            raise InputError("models.distortion = true: this NLP does not carry the "
+                             "distortion power yet; set models.distortion = false")
         self.study = study
         self.objectives = tuple(objectives or (study.objective["kind"],))
         self.objective = self.objectives[0]
@@ -306,6 +313,11 @@ class Problem(NLP):
     def _adjust_metrics(self, nlp) -> None:
         """Change the NLP's metrics after :func:`.metrics.combine` (nothing here)."""
 
+    def _closure_resistance(self, nlp, c_nl):
+        """The nonlinear drop's equivalent resistance the grid sees (``c_nl`` here; the
+        distortion's gain, :mod:`.distortion_rows`)."""
+        return c_nl
+
     def _chain_factors(self, nlp) -> tuple:
         """Factors of the stroke (and tube) chains: the floor weights' scale and
         ``1 / sigma_ref^2`` (``1 / sigma_u,ref^2``)."""
@@ -352,6 +364,7 @@ class Problem(NLP):
             y_row = X.zeros(1, nlp.n_all)
         c_nl = (gaussian_equivalent_resistance(st.models["flow"], nlp.d, ca.exp(nlp.y[0]))
                 if self.statistical else X(0))  # fmt: skip
+        c_nl = self._closure_resistance(nlp, c_nl)
         w_sym = self._omega_column(nlp)
         # v, s and c_nl keep their shape: map broadcasts them (and sums their derivatives)
         outs = mapped(v, nlp.s, y_row, c_nl, w_sym.T, *args)
@@ -576,3 +589,31 @@ class Problem(NLP):
     def tube_rms(self, x: np.ndarray) -> float | None:
         """RMS tube velocity sigma_u at x (m/s; statistical closure), else ``None``."""
         return math.exp(x[self.nz + 1]) if self.statistical else None
+
+
+def _distortion(study) -> bool:
+    """The study asks for the closure with its distortion power (``models.distortion``)."""
+    return bool(getattr(study, "models", {}).get("distortion", False))
+
+
+class VerticalDistortionProblem(DistortionMixin, Problem):
+    """The vertical body with the distortion power's rows (:mod:`.distortion_rows`):
+    ``Problem(study)`` of a study with ``models.distortion = true``."""
+
+
+_COMPOSED: dict = {Problem: VerticalDistortionProblem}
+
+
+def _with_distortion(cls):
+    """``cls`` with the distortion's rows, for a subclass whose NLP is its study's own (one
+    that overrides none of the hooks of further parameters, e.g. the command line's
+    prefetching build); any other (a parametric NLP, whose point is not its study's) keeps
+    ``cls`` and refuses the key in ``__init__``."""
+    own = all(getattr(cls, h) is getattr(Problem, h)
+              for h in ("_point_inputs", "_point_study", "_point_args", "_nlp_study"))
+    if not own:
+        return cls
+    if cls not in _COMPOSED:
+        _COMPOSED[cls] = type(f"{cls.__name__}WithDistortion", (DistortionMixin, cls),
+                              {"__module__": cls.__module__, "__doc__": cls.__doc__})
+    return _COMPOSED[cls]

@@ -70,7 +70,12 @@ def recheck(prob, sol, d) -> float:
     st = prob.study
     sigma, sigma_u = prob.closure(d)
     u = None if prob.statistical else prob.velocity(d, sigma)
-    mt_np = metrics(st, prob.grid, d, u, sigma, diaphragm=prob.dia, tube_rms=sigma_u)
+    # the distortion power (an NLP that carries it, :mod:`.distortion_rows`): the NumPy
+    # terms at d against the terms the NLP used at its answer
+    carried = getattr(prob, "distortion", False)
+    dist_np = prob.distortion_terms(d) if carried else None
+    mt_np = metrics(st, prob.grid, d, u, sigma, diaphragm=prob.dia, tube_rms=sigma_u,
+                    distortion=dist_np)
     # the same quantities from the NLP's solution
     x = sol.x
     d_nlp = st.design_at(prob.values(x))
@@ -82,7 +87,8 @@ def recheck(prob, sol, d) -> float:
     else:
         u_nlp = prob.velocity(d_nlp, sig_nlp)
     mt_nlp = metrics(st, prob.grid, d_nlp, u_nlp, sig_nlp, diaphragm=prob.dia,
-                     tube_rms=prob.tube_rms(x))
+                     tube_rms=prob.tube_rms(x),
+                     distortion=prob.nlp_terms(x, sol.outer_params) if carried else None)
     worst = abs(sigma / sig_nlp - 1.0)
     if prob.statistical:
         worst = max(worst, abs(sigma_u / prob.tube_rms(x) - 1.0))
@@ -158,7 +164,9 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
     ``equivalent_amplitude`` the stiffness is at ``A* = 1.880 sigma`` and the tube velocity
     amplitudes at ``A*`` are self-consistent
     (:func:`isodesign.spring.amplitude.solve_velocity_amplitude`) or kinematic, as
-    ``models.amplitude_mode`` says.
+    ``models.amplitude_mode`` says. With ``models.distortion = true`` the closure carries
+    the distortion power (:func:`.distortion_rows.vertical_distortion_terms`: the
+    problem the optimizer's NLP solves).
     """
 
     kinds = tuple(objectives) or (study.objective["kind"],)
@@ -169,11 +177,18 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
     stat = statistical(study)
     # the closure of the study's symmetric table (its z DOF; docs/table.md, section 14)
     theta = getattr(study, "theta", None) or {}
-    sigma, info = vertical_stroke_rms(
-        d, study.payload, grid.response, flow=study.models["flow"],
-        amplitude_mode=study.models["amplitude_mode"], diaphragm=dia,
-        random_method="statistical" if stat else "equivalent_amplitude",
-        p_atm_pa=float(theta.get("ambient_pressure_pa", P_ATM)))
+    terms = None
+    if stat and study.models.get("distortion"):  # the closure with its distortion power
+        from isodesign.optimization.distortion_rows import vertical_distortion_terms
+
+        sigma, sigma_u, terms = vertical_distortion_terms(study, grid, dia, d)
+        info = {"tube_velocity_rms_m_s": sigma_u}
+    else:
+        sigma, info = vertical_stroke_rms(
+            d, study.payload, grid.response, flow=study.models["flow"],
+            amplitude_mode=study.models["amplitude_mode"], diaphragm=dia,
+            random_method="statistical" if stat else "equivalent_amplitude",
+            p_atm_pa=float(theta.get("ambient_pressure_pa", P_ATM)))
     a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
     if stat:
         u = None
@@ -182,7 +197,7 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
     else:
         u = kinematic_velocity(d, grid.omega, a)
     mt = metrics(study, grid, d, u, sigma, diaphragm=dia,
-                 tube_rms=info.get("tube_velocity_rms_m_s"))
+                 tube_rms=info.get("tube_velocity_rms_m_s"), distortion=terms)
     objs = {kind: OBJECTIVES[kind].value(mt, study, grid)
             for kind in kinds}
     cons = {}

@@ -46,6 +46,11 @@ class Solution:
         On Linux that clock is CLOCK_MONOTONIC, one system-wide clock: a reading in a
         forked worker compares with one in its parent, so a driver turns it into a time
         since its own start (``finished_s`` of the start records).
+    outer_rounds : int
+        Rounds of an outer fixed point around the NLP (the distortion power's,
+        :mod:`.distortion_rows`; 0: none).
+    outer_params : ndarray or None
+        The outer fixed point's parameters of the last round (its linearization).
     """
 
     x: np.ndarray
@@ -59,6 +64,8 @@ class Solution:
     iterations: int
     wall_s: float
     finished_at: float = math.nan
+    outer_rounds: int = 0
+    outer_params: np.ndarray | None = None
 
     @property
     def max_violation(self) -> float:

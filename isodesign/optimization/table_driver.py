@@ -150,6 +150,9 @@ class TableOptimizationResult(StudyResult):
         None: none down to a thousandth of the study's, or no miss).
     wall_s : float
     hessian : str
+    distortion_outer_rounds : int
+        ``models.distortion``: the outer fixed point's rounds of the returned solve
+        (docs/random-response.md 3d; 0 without it).
     """
 
     KIND = "table"
@@ -185,6 +188,7 @@ class TableOptimizationResult(StudyResult):
     #: (:meth:`~isodesign.optimization.table_problem.TableProblem.lever_sensitivities`).
     lever_sensitivity: tuple = ()
     hessian_info: dict = field(default_factory=dict)
+    distortion_outer_rounds: int = 0
 
     def _start_values(self) -> dict:
         return {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
@@ -311,6 +315,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
                                                       rounds, peak)
     d = study.design_at(best.values)
     sig_rel = margin_db = math.nan
+    getattr(prob, "use_solution", lambda sol: None)(best)  # models.distortion's terms
     if best.feasible:
         sigma, sigma_u = prob.closure(d, best.values)
         sig_rel = float(max(np.max(np.abs(sigma / prob.sigma(best.x) - 1)),
@@ -366,7 +371,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
         leveling=loop, leveling_gain_hint_kg_s_per_m=gain_hint, lever_sensitivity=lever_sens,
-        hessian_info=choice,
+        hessian_info=choice, distortion_outer_rounds=int(best.outer_rounds),
     )
 
 
@@ -727,7 +732,8 @@ def _analyze(study, d, values=None):
         res = table_band_response(d, study.table_at(values), study.floor_axes, study.target,
                                   bands=study.bands, flow=m["flow"],
                                   amplitude_mode=m["amplitude_mode"],
-                                  diaphragm=m["diaphragm"], warn=False)  # fmt: skip
+                                  diaphragm=m["diaphragm"], warn=False,
+                                  distortion=bool(m.get("distortion", False)))  # fmt: skip
     model = res.model
     modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
                                                         res.tube_velocity_rms_m_s))

@@ -55,6 +55,7 @@ from isodesign.errors import InputError
 from isodesign.numerics.cplx import Cx
 from isodesign.optimization import lever_nlp, nlp
 from isodesign.optimization.constraint_registry import TABLE_ROWS, constraint_rows_of
+from isodesign.optimization.distortion_rows import TableDistortionMixin
 from isodesign.optimization.loop_rows import (
     LOOP_MARGIN_EPS,
     LOOP_POLES_MIMO,
@@ -132,9 +133,20 @@ class TableProblem(NLP):
         refinement does not carry them.
     """
 
+    def __new__(cls, study=None, *args, **kwargs):
+        # models.distortion: the table's NLP with the distortion power's rows
+        # (optimization.distortion_rows); a subclass of another NLP refuses it in __init__
+        if cls is TableProblem and study is not None and study.models.get("distortion"):
+            return super().__new__(TableDistortionProblem)
+        return super().__new__(cls)
+
     def __init__(self, study, objectives: tuple | None = None, *,
                  hessian: str | None = None, peak_slots: int = 0):
         import casadi as ca
+
+        if study.models.get("distortion") and not getattr(self, "distortion", False):
+            raise InputError("models.distortion = true: this NLP does not carry the "
+                             "distortion power yet; set models.distortion = false")
 
         from isodesign.optimization.hessian import hessian_choice
 
@@ -443,13 +455,18 @@ class TableProblem(NLP):
         if lever_nlp.positions_free(self):  # each isolator's x and y, last
             vals += lever_nlp.position_values(self, z[nzs:])
         v = ca.vertcat(*vals)
+        # the distortion power's terms (models.distortion, optimization.distortion_rows):
+        # parameters, the minor loss's gain as the resistance's ln sigma_u shift y_k - y
+        p_dist, added, y_k = self._distortion_parts(ca, X, z, y)
         point = self._point_function(ca)
         nb = g.n_bands
         bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)  # (3 nb, nf)
         head = self._parameter_head(ca, X, bw)  # the floor, limits and references
         red, diag = point.map("table_map", "serial", nf, [0, 1, 2], [0])(
-            v, s, y, ca.DM(g.omega).T, ca.DM(self.kh_re), ca.DM(self.kh_im),
+            v, s, y_k, ca.DM(g.omega).T, ca.DM(self.kh_re), ca.DM(self.kh_im),
             head["stroke_weight"], head["band_weight"])  # red: summed over the grid
+        if added is not None:  # [stroke, tube velocity variances, band mean squares]
+            red = red + added
         self._n_t = 9 * k
         rows_eq = []
         for i in range(n):
@@ -470,7 +487,7 @@ class TableProblem(NLP):
             pkr = ca.reshape(p_slot[ns: ns + n * ns], n, ns)
             pki = ca.reshape(p_slot[ns + n * ns:], n, ns)
             out_slots = self._peak_function(ca).map("table_peak_map", "serial", ns,
-                                                    [0, 1, 2], [])(v, s, y, pw, pkr, pki)
+                                                    [0, 1, 2], [])(v, s, y_k, pw, pkr, pki)
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
         cons = self._constraints(ca, d, v, s, y, out, out_slots)
         _, designs = self._designs(v)
@@ -497,7 +514,7 @@ class TableProblem(NLP):
         p_eps = X.sym("eps", len(self.objectives))
         p_modes = X.sym("modes", self.mode_params.size)
         self._p_modes_sym = p_modes
-        cons += self._damping(ca, v, s, y, p_modes)
+        cons += self._damping(ca, v, s, y_k, p_modes)
         p_loop = X.sym("loop", self.loop_params.size)
         cons += self._loop_rows(ca, v, p_loop)
         j_total = p_wd * ca.log(d.capillary_diameter_m)
@@ -505,7 +522,9 @@ class TableProblem(NLP):
             j_total = j_total + p_w[i] * jk
             cons.append((f"bound_{self.objectives[i]}", jk - p_eps[i], -np.inf, 0.0))
         x = ca.vertcat(z, s, y, t)
-        pp = ca.vertcat(p_w, p_wd, p_eps, p_modes, p_slot, p_loop, head["q"])
+        # the parameters: a parametric NLP's head last (p_dist is empty there: it refuses
+        # models.distortion; head["q"] is empty on the distortion's NLP)
+        pp = ca.vertcat(p_w, p_wd, p_eps, p_modes, p_slot, p_loop, p_dist, head["q"])
         gg = ca.vertcat(*rows_eq, *[c[1] for c in cons])
         self.n_eq = 2 * n
         self.lbg, self.ubg, self.con_rows = nlp.constraint_rows(
@@ -516,6 +535,7 @@ class TableProblem(NLP):
             (n, math.log(nlp.SIGMA_BOUNDS_M[0]), math.log(nlp.SIGMA_BOUNDS_M[1])),
             (n, math.log(nlp.VELOCITY_BOUNDS_M_S[0]), math.log(nlp.VELOCITY_BOUNDS_M_S[1])),
             (int(t.numel()), -nlp.EPIGRAPH_BOUND, nlp.EPIGRAPH_BOUND))
+        self._p_dist_sym = p_dist
         self._x_functions(ca, x, judged, margins, ca.vertcat(*js))
         self.eval_fn = ca.Function("eval", [x, pp], [j_total, gg])
         self.solver = ca.nlpsol("isodesign_table", "ipopt",
@@ -546,9 +566,10 @@ class TableProblem(NLP):
     def _x_functions(self, ca, x, judged, margins, js) -> None:
         """The margins and objectives at ``x`` (Functions of ``x``; of ``x`` and the
         parameters on a parametric NLP)."""
-        self._margins_fn = ca.Function("margins", [x], [judged])
-        self._all_margins_fn = ca.Function("all_margins", [x], [margins])
-        self._j_fn = ca.Function("objectives", [x], [js])
+        pd = self._p_dist_sym  # the distortion's parameters (none without it)
+        self._margins_fn = self._bound(ca.Function("margins", [x, pd], [judged]))
+        self._all_margins_fn = self._bound(ca.Function("all_margins", [x, pd], [margins]))
+        self._j_fn = self._bound(ca.Function("objectives", [x, pd], [js]))
 
     def _constraints(self, ca, d, v, s, y, out, out_slots=None) -> list:
         """The rows on the design's quantities: volume, vertical mode, stroke, tilt,
@@ -735,7 +756,21 @@ class TableProblem(NLP):
         """Frozen modes (:meth:`set_modes`), movable peak frequencies (:meth:`set_slots`),
         frozen loop poles (:meth:`set_loop`), after the objectives' parameters
         (:meth:`~.nlp.NLP.params`)."""
-        return np.concatenate([self.mode_params, self.slot_params, self.loop_params])
+        return np.concatenate([self.mode_params, self.slot_params, self.loop_params,
+                               self._current_dist()])
+
+    # hooks of the distortion power's rows (:class:`~.distortion_rows.TableDistortionMixin`)
+    def _distortion_parts(self, ca, X, z, y) -> tuple:
+        """``(parameters, added reductions or None, y of the springs)``: none here."""
+        return X.sym("distortion", 0), None, y
+
+    def _current_dist(self) -> np.ndarray:
+        """The distortion's parameter values (none here)."""
+        return np.zeros(0)
+
+    def _bound(self, fn):
+        """``fn(x, p_dist)`` as a function of ``x``, at :meth:`_current_dist`."""
+        return lambda x: fn(x, self._current_dist())
 
     def set_slots(self, frequencies_hz) -> None:
         """Move the peak constraint's movable frequencies (NLP parameters, no rebuild).
@@ -853,3 +888,7 @@ class TableProblem(NLP):
         x : ndarray
         """
         return np.exp(x[self.nz + self.n: self.nz + 2 * self.n])
+
+
+class TableDistortionProblem(TableDistortionMixin, TableProblem):
+    """The table's NLP with the distortion power's rows (``models.distortion = true``)."""

@@ -83,7 +83,8 @@ def model_caveats(models: dict, acoustics: str | None = None) -> list[tuple[str,
     Parameters
     ----------
     models : dict
-        ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method``.
+        ``flow``, ``amplitude_mode``, ``diaphragm``, ``random_method`` (and ``distortion``,
+        ``models.distortion``, when true).
     acoustics : str, optional
         The design's acoustic model (:attr:`SpringDesign.acoustics`); a row is added when
         given. The paper's flow models are always evaluated lumped, and the row says so.
@@ -95,7 +96,8 @@ def model_caveats(models: dict, acoustics: str | None = None) -> list[tuple[str,
         ("tube velocity amplitude", models.get("amplitude_mode", ""),
          AMPLITUDE_CAVEATS.get(models.get("amplitude_mode"), "")),
         ("diaphragm", dia, DIAPHRAGM_CAVEATS.get(dia_key, "")),
-        ("random closure", models.get("random_method", ""),
+        ("random closure", models.get("random_method", "")
+         + (" with the distortion power" if models.get("distortion") else ""),
          RANDOM_CAVEATS.get(models.get("random_method"), "")),
     ]
     if acoustics is not None:
@@ -164,13 +166,15 @@ def analyse(case: Case) -> CaseAnalysis:
     m = case.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"],
           "diaphragm": m["diaphragm"]}
+    dist = bool(m.get("distortion", False))  # models.distortion: the random closure's
     judged = vertical_band_response(case.design, st.payload, st.floor, st.target,
                                     bands=st.bands, random_method=m["random_method"],
-                                    derive_pressure=False, warn=False, **kw)
+                                    derive_pressure=False, warn=False, distortion=dist, **kw)
     try:
         all_b = vertical_band_response(case.design, st.payload, st.floor, st.target,
                                        bands=None, random_method=m["random_method"],
-                                       derive_pressure=False, warn=False, **kw)
+                                       derive_pressure=False, warn=False, distortion=dist,
+                                       **kw)
     except Exception:  # a floor narrower than the target's bands: the judged ones only
         all_b = judged
     lo, hi = case.judged_hz

@@ -144,7 +144,10 @@ def input_kind(path) -> str:
 
 
 def _study_models(study: Study) -> dict:
-    return {k: str(study.models.get(k, MODEL_DEFAULTS[k])) for k in _MODEL_NAMES}
+    out = {k: str(study.models.get(k, MODEL_DEFAULTS[k])) for k in _MODEL_NAMES}
+    if study.models.get("distortion"):  # models.distortion: the closure with its distortion
+        out["distortion"] = True
+    return out
 
 
 def _design_case(p: Path, study: Study | None, label: str | None) -> Case:

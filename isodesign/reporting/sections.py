@@ -357,7 +357,8 @@ def _start_vs_optimum_svg(a: CaseAnalysis) -> str:
     start_design = st.design_at(c.record["start_design"])
     m = c.models
     kw = {"flow": m["flow"], "amplitude_mode": m["amplitude_mode"], "diaphragm": m["diaphragm"],
-          "random_method": m["random_method"], "derive_pressure": False, "warn": False}
+          "random_method": m["random_method"], "derive_pressure": False, "warn": False,
+          "distortion": bool(m.get("distortion", False))}
     start = vertical_band_response(start_design, st.payload, st.floor, st.target,
                                    bands=st.bands, **kw)
     start_all = vertical_band_response(start_design, st.payload, st.floor, st.target,

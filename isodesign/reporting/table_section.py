@@ -49,7 +49,8 @@ def table_section(case) -> dict | None:
         res = table_band_response(case.design, table, st.floor_axes, st.target,
                                   bands=st.bands, flow=m["flow"],
                                   amplitude_mode=m["amplitude_mode"],
-                                  diaphragm=m["diaphragm"], warn=False)  # fmt: skip
+                                  diaphragm=m["diaphragm"], warn=False,
+                                  distortion=bool(m.get("distortion", False)))  # fmt: skip
     model = res.model
     modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
                                                         res.tube_velocity_rms_m_s))
@@ -258,7 +259,8 @@ def _start_vs_optimum_svg(case, res) -> str | None:
         start = table_band_response(st.design_at(rec["start_design"]), st.table, st.floor_axes,
                                     st.target, bands=st.bands, flow=m["flow"],
                                     amplitude_mode=m["amplitude_mode"],
-                                    diaphragm=m["diaphragm"], warn=False)  # fmt: skip
+                                    diaphragm=m["diaphragm"], warn=False,
+                                    distortion=bool(m.get("distortion", False)))  # fmt: skip
     fig = new_figure(11.0, 3.6)
     axes = fig.subplots(1, 3, sharey=True)
     x = np.asarray(res.bands.centre_hz, float)

@@ -221,11 +221,11 @@ def _distortion_at(st: _Statistical, sigma: float, sigma_u: float):
 
 
 def _with_distortion(st: _Statistical, x: float, y: float, rtol: float, max_iter: int,
-                     slope: float | None = None):
+                     slope: float | None = None, first=None):
     """The closure with the distortion power added to its variances: one pass of the
     distortion at the plain closure's state, the closure solved again with it (from there),
     and the distortion at the new state. Returns ``(x, y, DistortionPower, evaluations)``."""
-    dist = _distortion_at(st, math.exp(x), math.exp(y))
+    dist = (first or _distortion_at)(st, math.exp(x), math.exp(y))
     st.offset = (dist.stroke_variance, dist.tube_velocity_variance)
     st.gain_ratio = dist.gain_ratio
     # start one fixed-point step on: the plain closure's variances plus the distortion's
@@ -319,6 +319,7 @@ def solve_stroke_rms(
     rtol: float = 1e-12,
     max_iter: int = 50,
     random_method: str = "equivalent_amplitude",
+    distortion: bool = False,
 ) -> tuple[float, dict]:
     """RMS stroke sigma of the random-input closure on a given response grid (NumPy).
 
@@ -345,19 +346,31 @@ def solve_stroke_rms(
         Secant iterations before the Brent fallback.
     random_method : {'equivalent_amplitude', 'statistical'}
         The closure.
+    distortion : bool
+        With the statistical closure: the closure with the minor loss's distortion power
+        (:func:`band_response`'s ``distortion=True``, docs/random-response.md 3a-3c), both
+        of its closures solved to ``rtol`` (the optimizer differentiates it).
 
     Returns
     -------
     sigma : float
-        RMS stroke, m.
+        RMS stroke, m (with ``distortion``: the closure's state, its variances including the
+        distortion's at the plain closure's state).
     info : dict
         ``iterations`` and ``closure_slope``; for ``statistical`` also
         ``tube_velocity_rms_m_s`` (``sigma_u``) and ``linearization`` (the closure's state
-        on ``grid``, which :func:`band_response_at` reuses).
+        on ``grid``, which :func:`band_response_at` reuses); with ``distortion`` also
+        ``distortion`` (the :class:`~isodesign.response.distortion.DistortionPower` at the
+        final state, whose band powers :func:`band_response` adds), ``distortion_offset``
+        (the added stroke and tube-velocity variances the closure was solved with) and
+        ``distortion_gain_ratio`` (the minor loss's gain ratio it was solved with).
     """
     check_choice("random_method", random_method, ("equivalent_amplitude", "statistical"))
     model = spring_model(design, payload, flow, amplitude_mode, diaphragm, derive_pressure)
     f, w = grid.frequency_hz, grid.omega
+    if distortion and random_method != "statistical":
+        raise InputError("distortion: the distortion power is the statistical closure's "
+                         "residual; valid with random_method='statistical' only")
     if random_method == "statistical":
         if flow not in STATISTICAL_FLOW_MODELS:
             raise InputError(f"flow: {flow!r} has no time-domain law to linearize "
@@ -370,9 +383,26 @@ def solve_stroke_rms(
         x, y, _, n_it, slope = _statistical_closure(
             st, 0.5 * math.log(s2_lin), 0.5 * math.log(max(su2_lin, 1e-300)), rtol,
             int(max_iter))  # fmt: skip
+        info = {}
+        if distortion:
+            st.tube_slope = 0.0
+            offset0 = None
+
+            def first(stt, sig, sig_u):
+                nonlocal offset0
+                dist0 = _distortion_at(stt, sig, sig_u)
+                offset0 = (dist0.stroke_variance, dist0.tube_velocity_variance,
+                           dist0.gain_ratio)
+                return dist0
+
+            x, y, dist, n_more = _with_distortion(st, x, y, rtol, int(max_iter), slope,
+                                                  first=first)
+            n_it += n_more
+            info = {"distortion": dist, "distortion_offset": offset0[:2],
+                    "distortion_gain_ratio": offset0[2]}
         return math.exp(x), {"iterations": n_it, "closure_slope": slope,
                              "tube_velocity_rms_m_s": math.exp(y),
-                             "linearization": st}  # fmt: skip
+                             "linearization": st, **info}  # fmt: skip
     k_lin = model.k(f, LINEAR_REFERENCE_AMPLITUDE_M)
     s2_lin = float(
         stroke_variance(relative_transmissibility(Cx.from_complex(k_lin), model.mass, w), grid)

@@ -429,7 +429,8 @@ def _response(study, run: RunDirectory, options: dict) -> dict:
     analysis = vertical_band_response(  # through the payload's symmetric table (one model)
         study.start_design(), study.payload, study.floor, study.target, bands=study.bands,
         derive_pressure=False, warn=False, flow=m["flow"], amplitude_mode=m["amplitude_mode"],
-        diaphragm=m["diaphragm"], random_method=m["random_method"])
+        diaphragm=m["diaphragm"], random_method=m["random_method"],
+        distortion=bool(m.get("distortion", False)))
     values = {v.name: v.start for v in study.variables}
     run.record.update({"study": resolved_study_dict(study), "study_source": study.source,
                        "design": values})

@@ -836,7 +836,9 @@ class _WithOffset:
 
 
 def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1e-10,
-                                        max_iter: int = 100, non_gaussian: bool = True):
+                                        max_iter: int = 100, non_gaussian: bool = True,
+                                        first_rtol: float | None = None,
+                                        first: list | None = None):
     """The per-isolator closure with the tubes' distortion power, self-consistently.
 
     As the vertical payload's (``docs/random-response.md`` 3a): the distortion at the plain
@@ -854,6 +856,10 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
     non_gaussian : bool
         The residuals and the minor loss's gains at the tube velocities' predicted kurtosis
         (docs/random-response.md 3c; False: Gaussian).
+    first_rtol : float, optional
+        The plain closure's tolerance (default: ``DISTORTION_FIRST_RTOL`` or ``rtol``).
+    first : list, optional
+        Appended with the plain closure's :class:`TableDistortion` (the second's offsets).
 
     Returns
     -------
@@ -866,9 +872,12 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
     record: list = []
     # the plain closure only as close as the distortion evaluated there needs (the second
     # closure is solved to rtol; docs/random-response.md 3a)
-    first = max(rtol, DISTORTION_FIRST_RTOL) if non_gaussian else rtol
-    sigma, sigma_u, n_it = solve_table_closure(st, rtol=first, max_iter=max_iter, record=record)
+    tol0 = max(rtol, DISTORTION_FIRST_RTOL) if non_gaussian else rtol
+    tol0 = tol0 if first_rtol is None else first_rtol
+    sigma, sigma_u, n_it = solve_table_closure(st, rtol=tol0, max_iter=max_iter, record=record)
     dist = table_distortion(st, sigma, sigma_u, non_gaussian=non_gaussian)
+    if first is not None:
+        first.append(dist)
     # the second closure's map is the first's with the offset added to its variances,
     # g'(x) = ln(exp(2 g(x)) + offset) / 2, exactly: the first solve's evaluations are the
     # second's too, and its mixing starts from them (at the plain solution) at no cost;

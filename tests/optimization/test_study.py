@@ -82,7 +82,7 @@ def test_default_study_file_loads(tmp_path):
          {"mass_kg", "isolators", "spacing_m", "cg_height_m"}),
         ({"models": {"flow_model": "womersley"}}, "flow_model", "[models]",
          {"flow", "amplitude_mode", "diaphragm", "random_method", "points_per_band",
-          "peak_points", "acoustics"}),
+          "peak_points", "acoustics", "distortion"}),
         ({"constraints": {"max_volume": 1e-3}}, "max_volume", "[constraints]",
          {"max_total_volume_m3", "min_capillary_diameter_m", "min_tilt_margin",
           "min_natural_frequency_hz", "max_natural_frequency_hz",

@@ -1,0 +1,533 @@
+"""The distortion power in the optimizer's NLP: an outer fixed point (NumPy terms, linearized).
+
+The statistical closure's distortion power (``docs/random-response.md`` sections 3a-3c) is
+computed by the NumPy physics: binned spectra, FFT convolutions, the tube velocity's kurtosis
+and the translation process's weights. It enters the NLP (``docs/random-response.md``
+section 3d, ``docs/optimization.md`` section 3) as the terms it adds to the closure and to
+the bands,
+
+* the added stroke and tube-velocity variances ``dS``, ``dU`` (in the last rows of the two
+  partial-sum chains: ``e^{2s} = sum + dS``, ``e^{2y} = sum + dU``),
+* the minor loss's gain ratio ``g`` (its equivalent resistance scaled, the non-Gaussian
+  correction, section 3c),
+* the added payload band mean squares ``dB_b`` (``ms_b = sum_j W_bj |T_j|^2 + dB_b``),
+
+each a function of the scaled design ``z`` written in the NLP as its first-order expansion
+about the design ``z_0`` of the last outer round: ``q(z) = q_0 exp(a . (z - z_0))`` for the
+positive powers and variances, ``g(z) = g_0 + b . (z - z_0)`` for the gain, the values and
+slopes NLP parameters (central differences of the NumPy terms, :data:`DISTORTION_FD_STEP`).
+At ``z = z_0`` the NLP's terms and their gradient are the NumPy ones: a solution whose
+design is (to :data:`DISTORTION_FIXED_POINT_RTOL`) the one the terms were expanded at is a
+KKT point of the problem with the distortion. :meth:`OuterFixedPoint.solve` solves a start
+with the terms' values alone, then re-solves warm from each answer with the terms expanded
+there until the terms the NLP used at its answer agree with the NumPy terms there
+(:data:`DISTORTION_FIXED_POINT_RTOL`), and records the rounds (``Solution.outer_rounds``).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from isodesign.optimization.metrics import add_band_distortion
+from isodesign.response.non_gaussian import minor_loss_gain_shift
+from isodesign.response.random_input import solve_stroke_rms
+
+__all__ = [
+    "DISTORTION_FD_STEP",
+    "DISTORTION_FIXED_POINT_RTOL",
+    "DISTORTION_MAX_ROUNDS",
+    "DistortionMixin",
+    "DistortionTerms",
+    "TableDistortionMixin",
+    "table_distortion_terms",
+    "vertical_distortion_terms",
+]
+
+#: Central-difference step of the terms' slopes, in the scaled design ``z`` (a box of
+#: half-width 1): both closures are solved to 1e-12, so the slopes carry about 1e-8 of
+#: rounding and ``h^2`` of truncation.
+DISTORTION_FD_STEP = 1e-4
+#: The outer fixed point stops when every term the NLP used at its answer agrees with the
+#: NumPy term there to this fraction of the term (the gain ratio: absolutely); the
+#: distortion is at most 12 % of a band's power, so the answer's bands are within about
+#: 1e-8 of the NumPy analysis's, inside the re-check's 1e-6.
+DISTORTION_FIXED_POINT_RTOL = 1e-7
+#: Outer rounds at most (each a warm re-solve).
+DISTORTION_MAX_ROUNDS = 8
+#: Expansions kept per NLP, and how near (max norm in the scaled design) a re-solve's start
+#: must be to one of their designs to start from it instead of the terms' values alone (the
+#: answer is accepted only after the same check: a stale expansion costs a round at most).
+_KEPT_EXPANSIONS = 8
+_NEAR_Z = 0.02
+#: The closures' tolerance on the NumPy side (the slopes are differences of them).
+_CLOSURE_RTOL = 1e-12
+
+
+@dataclass(frozen=True)
+class DistortionTerms:
+    """What the distortion power adds to the statistical closure, at one design.
+
+    Attributes
+    ----------
+    stroke_variance : float
+        The stroke variance added to the closure's, m^2.
+    tube_velocity_variance : float
+        The tube-velocity variance added, (m/s)^2.
+    gain_ratio : float
+        The minor loss's equivalent gain over the Gaussian one (docs/random-response.md 3c).
+    band_ms : ndarray
+        The payload band mean squares added, (m/s)^2, per band of the response grid.
+    """
+
+    stroke_variance: float
+    tube_velocity_variance: float
+    gain_ratio: float
+    band_ms: np.ndarray
+
+    def vector(self) -> np.ndarray:
+        """``[dS, dU, g, dB_1 .. dB_n]``."""
+        return np.concatenate([[self.stroke_variance, self.tube_velocity_variance,
+                                self.gain_ratio], np.asarray(self.band_ms, float)])
+
+    @classmethod
+    def from_vector(cls, v) -> DistortionTerms:
+        """The inverse of :meth:`vector`."""
+        v = np.asarray(v, float)
+        return cls(float(v[0]), float(v[1]), float(v[2]), v[3:].copy())
+
+
+def vertical_distortion_terms(study, grid, diaphragm, design):
+    """The NumPy closure with the distortion on the NLP's grid, for the vertical body.
+
+    Parameters
+    ----------
+    study : Study
+        Its payload and models.
+    grid : Grid
+        The NLP's grid (its response part: the floor's quadrature and the bands).
+    diaphragm : diaphragm model
+    design : SpringDesign
+
+    Returns
+    -------
+    sigma, sigma_u : float
+        The closure's state with the distortion (RMS stroke, m; tube velocity, m/s).
+    DistortionTerms
+        The terms at that state (the variances and gain the closure was solved with, the
+        band powers of the distortion at the final state: ``band_response``'s figures).
+    """
+    sigma, info = solve_stroke_rms(
+        design, study.payload, grid.response, flow=study.models["flow"],
+        amplitude_mode=study.models["amplitude_mode"], diaphragm=diaphragm,
+        random_method="statistical", distortion=True, rtol=_CLOSURE_RTOL)
+    dist = info["distortion"]
+    bands = grid.response.bands
+    band_ms = dist.band_mean_square(bands.lower_hz, bands.upper_hz, 0)
+    off = info["distortion_offset"]
+    return sigma, info["tube_velocity_rms_m_s"], DistortionTerms(
+        float(off[0]), float(off[1]), float(info["distortion_gain_ratio"]),
+        np.asarray(band_ms, float))
+
+
+def _expand(v0, slopes, dz, linear, ca=None):
+    """The terms at ``z_0 + dz`` from their values and slopes (NumPy or CasADi): the entries
+    ``linear`` (the gain ratios) linearly, the others (positive powers) exponentially."""
+    if ca is None:
+        lin = slopes @ np.asarray(dz, float)
+        out = v0 * np.exp(lin)
+        out[list(linear)] = v0[list(linear)] + lin[list(linear)]
+        return out
+    lin = ca.mtimes(slopes, dz)
+    rows = [v0[i] + lin[i] if i in linear else v0[i] * ca.exp(lin[i])
+            for i in range(v0.numel())]
+    return ca.vertcat(*rows)
+
+
+class OuterFixedPoint:
+    """The outer fixed point of an NLP with the distortion's terms as parameters, either body.
+
+    The body's mixin provides :meth:`_terms_at_z` (the NumPy terms' vector at a scaled
+    design), :attr:`_linear` (the entries expanded linearly), :attr:`_n_terms` and the
+    NLP's parameter block ``[z_0, q_0, A]`` (``A`` the slopes, ``(terms, nz)``, column
+    major) after the body's own parameters.
+    """
+
+    #: This NLP carries the distortion power.
+    distortion = True
+
+    def expansion(self, z0, v0=None) -> np.ndarray:
+        """The parameters ``[z_0, q_0, A]`` of the terms' expansion about ``z_0`` (central
+        differences of the NumPy terms, :data:`DISTORTION_FD_STEP`)."""
+        z0 = np.asarray(z0, float)
+        v0 = self._terms_at_z(z0) if v0 is None else np.asarray(v0, float)
+        nz, m = z0.size, v0.size
+        slopes = np.zeros((m, nz))
+        h = DISTORTION_FD_STEP
+        for i in range(nz):
+            zp, zm = z0.copy(), z0.copy()
+            # one-sided at a bound of the box (the terms outside it are not defined)
+            zp[i] = min(z0[i] + h, 1.0)
+            zm[i] = max(z0[i] - h, -1.0)
+            vp, vm = self._terms_at_z(zp), self._terms_at_z(zm)
+            dzi = zp[i] - zm[i]
+            for k in range(m):
+                if k in self._linear:
+                    slopes[k, i] = (vp[k] - vm[k]) / dzi
+                elif vp[k] > 0 and vm[k] > 0:
+                    slopes[k, i] = (math.log(vp[k]) - math.log(vm[k])) / dzi
+        return np.concatenate([z0, v0, slopes.ravel(order="F")])
+
+    def _unpack(self, p):
+        nz, m = self.nz, self._n_terms
+        return p[:nz], p[nz:nz + m], p[nz + m:].reshape((m, nz), order="F")
+
+    def nlp_vector(self, x, p) -> np.ndarray:
+        """The terms' vector the NLP uses at ``x`` with the expansion ``p`` (NumPy)."""
+        z0, v0, slopes = self._unpack(np.asarray(p, float))
+        return _expand(v0, slopes, np.asarray(x[:self.nz]) - z0, self._linear)
+
+    def _current_dist(self) -> np.ndarray:
+        if getattr(self, "_dist_p", None) is None:
+            self._dist_p = self._values_only({})
+        return self._dist_p
+
+    def _values_only(self, values: dict) -> np.ndarray:
+        """The terms' values at a design (the study's starts for what ``values`` omits),
+        slopes zero."""
+        start = {v.name: v.start for v in self.study.variables}
+        start.update({v.name: v.start for v in getattr(self.study, "levers", ())})
+        z = self._z_of({**start, **values})
+        v0 = self._terms_at_z(z)
+        return np.concatenate([z, v0, np.zeros(v0.size * z.size)])
+
+    def initial_guess(self, values: dict) -> np.ndarray:
+        """The body's consistent x0 with the terms' values at its design (a solve from it
+        starts with them: :meth:`solve`); the NLP's parameters stay those of the last
+        solution (a start's objective evaluated after the optimum does not move them)."""
+        prev = getattr(self, "_dist_p", None)
+        self._dist_p = self._values_only(values)
+        starts = self.__dict__.setdefault("_start_terms", {})
+        starts[self._dist_p[:self.nz].tobytes()] = self._dist_p
+        try:
+            return super().initial_guess(values)
+        finally:
+            if prev is not None:
+                self._dist_p = prev
+
+    def _z_of(self, values) -> np.ndarray:
+        z = self.scaling.to_z(values)
+        if getattr(self, "n_levers", 0):
+            z = np.concatenate([z, self.lever_scaling.to_z(values)])
+        return np.clip(z, -1.0, 1.0)
+
+    def _values_at_z(self, z) -> dict:
+        return self.values(np.concatenate([np.asarray(z, float), [0.0]]))
+
+    def closure(self, d, values: dict | None = None):
+        """The closure with the distortion (NumPy): ``(sigma, sigma_u)`` at a design."""
+        return self._numpy_state(d, values)[:2]
+
+    def _numpy_state(self, design, values=None):
+        cache = self.__dict__.setdefault("_dist_cache", {})
+        key = repr(design) + repr(sorted((values or {}).items()))
+        if key not in cache:
+            if len(cache) > 32:
+                cache.clear()
+            cache[key] = self._numpy_terms(design, values)
+        return cache[key]
+
+    def _terms_at_z(self, z) -> np.ndarray:
+        vals = self._values_at_z(z)
+        return self._vector(self._numpy_state(self.study.design_at(vals), vals)[2])
+
+    # -- the outer fixed point ---------------------------------------------------------
+    def solve(self, x0, p=None):
+        """IPOPT from ``x0``, re-solved warm with the terms expanded at each answer until the
+        terms it used there are the NumPy ones (:data:`DISTORTION_FIXED_POINT_RTOL`).
+
+        Parameters
+        ----------
+        x0 : ndarray
+            Initial point.
+        p : ndarray, optional
+            Parameters (:meth:`params`); their distortion part is replaced each round.
+
+        Returns
+        -------
+        Solution
+            With ``outer_rounds`` and ``outer_params`` (the expansion of the last round).
+        """
+        p = np.array(self.params() if p is None else p, float)
+        x = np.asarray(x0, float)
+        cur = getattr(self, "_dist_p", None)
+        near = self._nearby_expansion(x[:self.nz])
+        if cur is not None and np.array_equal(cur[:self.nz], x[:self.nz]):
+            # a re-solve from the design of its expansion
+            sloped = bool(np.any(cur[self.nz + self._n_terms:] != 0.0))
+        elif near is not None:  # a re-solve near an answer: its expansion (then confirmed)
+            self._dist_p, sloped = near, True
+        elif np.clip(x[:self.nz], -1.0, 1.0).tobytes() in self.__dict__.get("_start_terms", {}):
+            self._dist_p = self._start_terms[np.clip(x[:self.nz], -1.0, 1.0).tobytes()]
+            sloped = False  # an initial guess's values (:meth:`initial_guess`)
+        else:
+            # a start: the first round with the terms' values alone (the slopes only matter
+            # at the answer; a start is far from it), then expanded at each answer
+            z0 = np.clip(x[:self.nz], -1.0, 1.0)
+            v0 = self._terms_at_z(z0)
+            self._dist_p = np.concatenate([z0, v0, np.zeros(v0.size * z0.size)])
+            sloped = False
+        wall = 0.0
+        its = 0
+        for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
+            p[-self._n_dist:] = self._dist_p
+            sol = super().solve(x, p)
+            wall += sol.wall_s
+            its += sol.iterations
+            if not sol.success or not np.all(np.isfinite(sol.x)):
+                break  # a failed solve is returned as it is (its status says so)
+            z = np.clip(sol.x[:self.nz], -1.0, 1.0)
+            used = self.nlp_vector(sol.x, self._dist_p)
+            true = self._terms_at_z(z)
+            done = sloped and _mismatch(used, true, self._blocks()) <= DISTORTION_FIXED_POINT_RTOL
+            if done or rounds == DISTORTION_MAX_ROUNDS:
+                break
+            self._dist_p = self.expansion(z, true)
+            self._remember(self._dist_p)
+            sloped = True
+            x = sol.x
+        return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
+                           wall_s=wall, iterations=its)
+
+    def _dist_for(self, x) -> np.ndarray:
+        """The parameters at which a figure of ``x`` is evaluated: an initial guess's design
+        with its own terms (:meth:`initial_guess`), any other point with the last
+        solution's expansion."""
+        key = np.clip(np.asarray(x, float)[:self.nz], -1.0, 1.0).tobytes()
+        own = self.__dict__.get("_start_terms", {}).get(key)
+        return own if own is not None else self._current_dist()
+
+    def _remember(self, expansion) -> None:
+        """Keep the last few expansions (a re-solve near one of their designs starts from
+        it: :meth:`_nearby_expansion`)."""
+        kept = self.__dict__.setdefault("_expansions", [])
+        kept.append(np.asarray(expansion, float).copy())
+        del kept[:-_KEPT_EXPANSIONS]
+
+    def _nearby_expansion(self, z):
+        """The kept expansion whose design is nearest ``z`` within :data:`_NEAR_Z` (max
+        norm), else ``None``."""
+        best, dist = None, _NEAR_Z
+        for e in self.__dict__.get("_expansions", ()):
+            d = float(np.max(np.abs(e[:self.nz] - np.asarray(z, float))))
+            if d <= dist:
+                best, dist = e, d
+        return None if best is None else best.copy()
+
+    def retighten(self, sol):
+        """As the body's, with the expansion the solution was found with."""
+        if sol.outer_params is not None:
+            self._dist_p = np.asarray(sol.outer_params, float)
+        return super().retighten(sol)
+
+
+class DistortionMixin(OuterFixedPoint):
+    """The distortion power in a :class:`~isodesign.optimization.problem.Problem`'s NLP.
+
+    Put before the body's class (``class P(DistortionMixin, Problem)``). The terms enter the
+    closure's resistance (:meth:`_closure_resistance`), the two chains' last rows
+    (:meth:`_stroke_chain`) and the bands (:meth:`_adjust_metrics`).
+    """
+
+    _linear = (2,)
+
+    def _blocks(self) -> list:
+        return [(slice(0, 1), True), (slice(1, 2), True), (slice(2, 3), False),
+                (slice(3, None), True)]
+
+    def distortion_terms(self, design) -> DistortionTerms:
+        """The NumPy terms at a design (cached: the last few designs)."""
+        return self._numpy_state(design)[2]
+
+    def _numpy_terms(self, design, values=None):
+        return vertical_distortion_terms(self.study, self.grid, self.dia, design)
+
+    @staticmethod
+    def _vector(terms) -> np.ndarray:
+        return terms.vector()
+
+    def closure(self, d, values: dict | None = None):
+        """``(sigma, sigma_u)`` of the closure with the distortion (NumPy)."""
+        return self._numpy_state(d)[:2]
+
+    def nlp_terms(self, x, p) -> DistortionTerms:
+        """The terms the NLP uses at ``x`` with the expansion ``p`` (NumPy)."""
+        return DistortionTerms.from_vector(self.nlp_vector(x, p))
+
+    def objective_values(self, x) -> np.ndarray:
+        """As the body's, at :meth:`_dist_for` ``x`` (a start's figure with its own terms)."""
+        prev = getattr(self, "_dist_p", None)
+        self._dist_p = self._dist_for(x)
+        try:
+            return super().objective_values(x)
+        finally:
+            self._dist_p = prev
+
+    # -- the NLP's rows ----------------------------------------------------------------
+    def _decision_variables(self, nlp) -> None:
+        super()._decision_variables(nlp)
+        ca = nlp.ca
+        nz = int(nlp.z.numel())
+        m = self._n_terms = 3 + len(self.grid.response.bands.lower_hz)
+        nlp.p_dist = nlp.X.sym("distortion", nz + m + m * nz)
+        z0, v0 = nlp.p_dist[:nz], nlp.p_dist[nz:nz + m]
+        slopes = ca.reshape(nlp.p_dist[nz + m:], m, nz)
+        nlp.dist = _expand(v0, slopes, nlp.z - z0, self._linear, ca)
+        self._dist_p = None
+
+    def _closure_resistance(self, nlp, c_nl):
+        c_nl = super()._closure_resistance(nlp, c_nl)
+        if self.study.models["flow"] == "poiseuille":
+            return c_nl
+        return c_nl + minor_loss_gain_shift(nlp.d, nlp.ca.exp(nlp.y[0]), nlp.dist[2])
+
+    def _adjust_metrics(self, nlp) -> None:
+        super()._adjust_metrics(nlp)
+        add_band_distortion(nlp.mt, nlp.dist[3:])
+
+    def _stroke_chain(self, nlp) -> None:
+        super()._stroke_chain(nlp)
+        ca = nlp.ca
+        k_s = 1.0 / self.sigma_ref ** 2
+        k_u = 1.0 / self.tube_rms_ref ** 2
+        nlp.res_s = ca.vertcat(nlp.res_s[:-1], nlp.res_s[-1] - k_s * nlp.dist[0])
+        nlp.res_u = ca.vertcat(nlp.res_u[:-1], nlp.res_u[-1] - k_u * nlp.dist[1])
+
+    def _assemble(self, nlp) -> None:
+        super()._assemble(nlp)
+        nlp.p = nlp.ca.vertcat(nlp.p, nlp.p_dist)
+        self.np = int(nlp.p.numel())
+        self._n_dist = int(nlp.p_dist.numel())
+
+    def _fn_param_sym(self, nlp):
+        return nlp.ca.vertcat(super()._fn_param_sym(nlp), nlp.p_dist)
+
+    def _fn_params(self) -> np.ndarray:
+        return np.concatenate([super()._fn_params(), self._current_dist()])
+
+    def _param_tail(self) -> np.ndarray:
+        return np.concatenate([super()._param_tail(), self._current_dist()])
+
+
+def _mismatch(used, true, blocks) -> float:
+    """The largest difference of two term vectors: relative to each term, a term below 1e-9
+    of its block's largest (the bands, the isolators' variances) to that; the blocks of
+    ``None`` scale (the gain ratios) absolutely."""
+    used, true = np.asarray(used, float), np.asarray(true, float)
+    worst = 0.0
+    for idx, relative in blocks:
+        t, u = true[idx], used[idx]
+        if not t.size:
+            continue
+        scale = np.maximum(np.abs(t), 1e-9 * float(np.max(np.abs(t)))) if relative else 1.0
+        scale = np.where(scale > 0, scale, 1.0)
+        worst = max(worst, float(np.max(np.abs(u - t) / scale)))
+    return worst
+
+
+#: The table's closure tolerance on the NumPy side (its fixed point with Anderson mixing).
+_TABLE_CLOSURE_RTOL = 1e-11
+
+
+def table_distortion_terms(prob, design, values=None):
+    """The NumPy closure with the distortion on a table NLP's grid.
+
+    Parameters
+    ----------
+    prob : TableProblem
+        Its study, grid, flow and diaphragm.
+    design : SpringDesign
+    values : dict, optional
+        Lever values (the table at ``study.table_at``); default the NLP's table.
+
+    Returns
+    -------
+    sigma, sigma_u : ndarray (n,)
+        The closure's state with the distortion.
+    ndarray
+        The terms: ``[dS (n), dU (n), g (n), dB (points x 3 axes x bands)]``: the variances
+        and gains the closure was solved with, the band powers at its final state
+        (``table_band_response``'s figures).
+    """
+    from isodesign.table.model import table_model
+    from isodesign.table.response import TableStatistical, solve_table_closure_with_distortion
+
+    table = prob.table if values is None else prob.study.table_at(values)
+    model = table_model(design, table, flow=prob.flow,
+                        amplitude_mode=prob.study.models["amplitude_mode"], diaphragm=prob.dia)
+    first: list = []
+    sigma, sigma_u, dist, _ = solve_table_closure_with_distortion(
+        TableStatistical(model, prob.grid), rtol=_TABLE_CLOSURE_RTOL,
+        first_rtol=_TABLE_CLOSURE_RTOL, first=first)
+    d1 = first[0]
+    vec = np.concatenate([d1.stroke_variance, d1.tube_velocity_variance, d1.gain_ratio,
+                          np.asarray(dist.band_mean_square, float).ravel()])
+    return np.asarray(sigma, float), np.asarray(sigma_u, float), vec
+
+
+class TableDistortionMixin(OuterFixedPoint):
+    """The distortion power in a :class:`~isodesign.optimization.table_problem.TableProblem`'s
+    NLP (``class P(TableDistortionMixin, TableProblem)``).
+
+    The terms add to the mapped reductions (each isolator's stroke and tube-velocity
+    variance, every point's, axis's and band's mean square); the gains scale each minor
+    loss's equivalent resistance, written as the springs' ``ln sigma_u`` shifted by
+    ``ln g`` (exact for ``womersley``, whose nonlinear resistance is the minor loss's alone,
+    linear in ``sigma_u``; ``quasi_steady``'s friction excess is not: refused).
+    """
+
+    def _blocks(self) -> list:
+        n = self.n
+        return [(slice(0, n), True), (slice(n, 2 * n), True), (slice(2 * n, 3 * n), False),
+                (slice(3 * n, None), True)]
+
+    def _numpy_terms(self, design, values=None):
+        return table_distortion_terms(self, design, values)
+
+    @staticmethod
+    def _vector(terms) -> np.ndarray:
+        return terms
+
+    def distortion_terms(self, design, values=None) -> np.ndarray:
+        """The NumPy terms' vector at a design (and lever values)."""
+        return self._numpy_state(design, values)[2]
+
+    def _distortion_parts(self, ca, X, z, y) -> tuple:
+        from isodesign.errors import InputError
+
+        if self.flow == "quasi_steady":
+            raise InputError("models.distortion = true: the table's NLP carries it with "
+                             "models.flow = 'womersley' or 'poiseuille'; set "
+                             "models.distortion = false or another flow")
+        n, nz = self.n, int(z.numel())
+        m = self._n_terms = 3 * n + 3 * self.k * self.grid.n_bands
+        self._linear = tuple(range(2 * n, 3 * n))
+        p = X.sym("distortion", nz + m + m * nz)
+        self._n_dist = int(p.numel())
+        self._dist_p = None
+        z0, v0 = p[:nz], p[nz:nz + m]
+        q = _expand(v0, ca.reshape(p[nz + m:], m, nz), z - z0, self._linear, ca)
+        added = ca.vertcat(q[:2 * n], q[3 * n:])
+        y_k = y + ca.log(q[2 * n:3 * n]) if self.flow != "poiseuille" else y
+        return p, added, y_k
+
+    def _bound(self, fn):
+        """``fn(x, p_dist)`` as a function of ``x``, at :meth:`_dist_for` ``x``."""
+        return lambda x: fn(x, self._dist_for(x))
+
+    def use_solution(self, sol) -> None:
+        """The NLP's parameters at ``sol``: the expansion it was found with."""
+        if sol.outer_params is not None:
+            self._dist_p = np.asarray(sol.outer_params, float)
