@@ -40,12 +40,28 @@ from isodesign.optimization.table_problem import (
     TableProblem,
 )
 
-__all__ = ["TableParametricProblem", "table_structure_key"]
+__all__ = ["BOUND_KINDS", "TableParametricProblem", "table_structure_key"]
 
 #: Tables of the resolved study that enter the table NLP through its parameters only.
 _PARAMETER_TABLES = ("floor", "target")
 #: Solver settings that are the NLP's (starts, seed, workers, tie-break are not).
 _SOLVER_NLP_KEYS = ("max_iter", "tol")
+#: The table's constraint kinds whose study values enter only their rows' bounds
+#: (``lbg``/``ubg``, IPOPT's per solve): which are on is structure, their values are not
+#: (:meth:`TableParametricProblem.at` sets the point's bounds). The surrogate rows (tilt,
+#: damping, rocking) hold their bound inside the row: their values stay structure.
+BOUND_KINDS = ("total_volume", "natural_frequency", "stroke", "peak_transmissibility")
+
+
+def _bound_keys() -> dict:
+    """Study key (``constraints.<key>``) -> whether a value switches it on, for the keys of
+    :data:`BOUND_KINDS`."""
+    from isodesign.optimization.constraint_registry import _given
+
+    return {"max_total_volume_m3": bool, "min_natural_frequency_hz": bool,
+            "max_natural_frequency_hz": bool, "max_stroke_m": bool,
+            "max_peak_transmissibility_db":
+                lambda v: _given({"k": v}, "k")}
 
 
 def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> str:
@@ -80,6 +96,11 @@ def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> s
                           if k in free and isinstance(v, dict) else v)
                       for k, v in (d.get("variables") or {}).items()}
     d["solver"] = {k: (d.get("solver") or {}).get(k) for k in _SOLVER_NLP_KEYS}
+    cons = dict(d.get("constraints") or {})
+    for k, on in _bound_keys().items():  # the rows' bounds: on or off only
+        if k in cons:
+            cons[k] = "on" if on(cons[k]) else "off"
+    d["constraints"] = cons
     text = json.dumps({"study": d, "objectives": list(objectives),
                        "peak_slots": int(peak_slots)}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -161,6 +182,20 @@ class TableParametricProblem(TableProblem):
                                1.0 / np.asarray(self.sigma_ref, float) ** 2,
                                1.0 / np.asarray(self.tube_ref, float) ** 2])
 
+    def _point_bounds(self, study) -> tuple:
+        """``(lbg, ubg)`` of ``study``: this NLP's, with the rows of :data:`BOUND_KINDS` at
+        the study's bounds (the registry's :meth:`~.constraint_registry.ConstraintKind.
+        nlp_bounds`, as a fresh build takes them)."""
+        from isodesign.optimization.constraint_registry import CONSTRAINTS
+
+        lbg, ubg = self.lbg.copy(), self.ubg.copy()
+        kinds = {CONSTRAINTS[k].row_key: CONSTRAINTS[k] for k in BOUND_KINDS}
+        for key, row, n in self.con_rows:
+            kind = kinds.get(key)
+            if kind is not None:
+                lbg[row: row + n], ubg[row: row + n] = kind.nlp_bounds(study)
+        return lbg, ubg
+
     def _peak_columns(self) -> int:
         """The peak rows' frequencies (a structure: the start design sets their top)."""
         pk = self.study.constraints.get("max_peak_transmissibility_db")
@@ -204,6 +239,7 @@ class TableParametricProblem(TableProblem):
             return None
         view.sigma_ref, view.tube_ref = view._reference_sigma()
         view.q = view._point_values()
+        view.lbg, view.ubg = self._point_bounds(study)
         view.mode_params = np.tile(np.r_[0.0, 2 * np.pi, np.zeros(12)], 2 * self.n_modes)
         if self.n_loop:
             from isodesign.table.leveling import leveling_of_study

@@ -16,7 +16,12 @@ from isodesign.optimization.table_problem import TableProblem
 CHANGES = [{"floor.criterion": "VC-B"},
            {"floor.x": {"scale": 0.5}},  # one axis's level
            {"target.criterion": "VC-D"},
-           {"variables.capillary_length_m.start": 0.02}]  # a continued point's start
+           {"variables.capillary_length_m.start": 0.02},  # a continued point's start
+           # the constraints' bounds: only the rows' lbg/ubg (set per point)
+           {"constraints.max_total_volume_m3": 0.004},
+           {"constraints.max_natural_frequency_hz": 2.0},
+           {"constraints.min_natural_frequency_hz": 1.2},
+           {"constraints.max_peak_transmissibility_db": 12.0}]
 
 
 @pytest.fixture(scope="module")
@@ -70,6 +75,13 @@ def test_the_cache_builds_one_table_nlp_per_structure(base):
     # back to the first structure: no build
     c.get(base.with_changes({"floor.criterion": "VC-C"}))
     assert c.builds == 3 and len(c) == 3
+    # a bound switched on or off adds or drops rows: another structure; its value alone not
+    on = c.get(base.with_changes({"constraints.max_stroke_m": 0.01}))
+    assert c.builds == 4
+    assert c.get(base.with_changes({"constraints.max_stroke_m": 0.02})).key == on.key
+    assert c.builds == 4
+    c.get(base.with_changes({"constraints.max_natural_frequency_hz": None}))
+    assert c.builds == 5
 
 
 def test_a_grid_of_other_frequencies_is_another_structure(base, cache):
