@@ -64,6 +64,52 @@ def _bound_keys() -> dict:
                 lambda v: _given({"k": v}, "k")}
 
 
+def payload_parametric(study) -> bool:
+    """Whether the table NLP of ``study`` takes the payload's mass, CG height and principal
+    inertia as parameters: not with a free inertia base (its lever moves them), free
+    isolator positions (their leveling solves the loads), the leveling loop's margin rows
+    (their plant is the start's) or a CG at or below the support plane (no tilt rows).
+
+    Parameters
+    ----------
+    study : Study
+        A table study.
+
+    Returns
+    -------
+    bool
+    """
+    from isodesign.table.inertia_base import BASE_LEVER
+    from isodesign.table.layout import is_position_lever
+    from isodesign.table.leveling import leveling_margin_bounds
+
+    free = {v.name for v in study.levers if v.free}
+    return not (BASE_LEVER in free or any(is_position_lever(n) for n in free)
+                or leveling_margin_bounds(study)[0] is not None
+                or not study.table.cg_height_m > 0)
+
+
+def _payload_structure(d: dict) -> None:
+    """The resolved study ``d`` without the payload's parameters: its mass and CG height
+    (the CG's plan position and its height's sign stay), the principal inertia (the
+    products of inertia stay)."""
+    pay = dict(d.get("payload") or {})
+    pay.pop("mass_kg", None)
+    if pay.get("cg_height_m") is not None:
+        pay["cg_height_m"] = "above"
+    d["payload"] = pay
+    tab = dict(d.get("table") or {})
+    cg = tab.get("cg_m")
+    if isinstance(cg, list | tuple) and len(cg) == 3:
+        tab["cg_m"] = [cg[0], cg[1], "above"]
+    inert = tab.get("inertia_kg_m2")
+    if inert is not None:
+        a = np.asarray(inert, float)
+        tab["inertia_kg_m2"] = "principal" if a.ndim == 1 else \
+            (a - np.diag(np.diag(a))).tolist()
+    d["table"] = tab
+
+
 def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> str:
     """The part of a table study that shapes its NLP: equal keys, one
     :class:`TableParametricProblem` (given the same frequency grid and peak rows, which
@@ -101,6 +147,8 @@ def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> s
         if k in cons:
             cons[k] = "on" if on(cons[k]) else "off"
     d["constraints"] = cons
+    if payload_parametric(study):
+        _payload_structure(d)
     text = json.dumps({"study": d, "objectives": list(objectives),
                        "peak_slots": int(peak_slots)}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -131,7 +179,10 @@ class TableParametricProblem(TableProblem):
         if getattr(study, "scenarios", None) is not None:
             raise InputError("[scenarios]: a robust table study builds its own NLPs")
         self._family = family if family is not None else {}
+        self._n_payload = 5 if payload_parametric(study) else 0
+        self._table0 = study.table_at(None)  # the table the geometry is built on
         super().__init__(study, objectives, hessian=hessian, peak_slots=peak_slots)
+        self._leveling0 = self.leveling
         if self._family.get("on_build"):
             self._family["on_build"]()
         self.key = table_structure_key(study, self.objectives, self.n_slots)
@@ -147,10 +198,62 @@ class TableParametricProblem(TableProblem):
         bq = X.sym("floor_band_weight", 3 * nb, nf)
         lnl = X.sym("ln_limit2", nb)
         ks, ku = X.sym("k_s", n), X.sym("k_u", n)
-        self._q_sym = ca.vertcat(ca.vec(sw), ca.vec(bq), lnl, ks, ku)
+        self._q_sym = ca.vertcat(ca.vec(sw), ca.vec(bq), lnl, ks, ku,
+                                 *([self._payload_sym] if self._n_payload else []))
         return {"stroke_weight": sw, "band_weight": bq,
                 "ln_limit2": ca.repmat(lnl, 3 * self.k, 1), "k_s": ks, "k_u": ku,
                 "q": self._q_sym}
+
+    # -- the payload: mass, CG height, principal inertia (table.statics.payload_terms) ----
+    def _payload_values(self, ca, X) -> list:
+        if not self._n_payload:
+            return []
+        self._payload_sym = X.sym("payload", self._n_payload)
+        return [self._payload_sym[j] for j in range(self._n_payload)]
+
+    def _base(self, dv):
+        """The slab's terms (a free inertia base), else the payload's parameters as the same
+        terms (:func:`~isodesign.table.statics.payload_terms` from the built table)."""
+        if not self._n_payload:
+            return super()._base(dv)
+        from isodesign.table.statics import payload_terms
+
+        k = self._n_dv() - self._n_payload
+        return payload_terms(self._table0, dv[k], dv[k + 1], [dv[k + 2 + j] for j in range(3)])
+
+    def _tilt_bound(self, slab, mu) -> tuple:
+        if not self._n_payload:
+            return super()._tilt_bound(slab, mu)
+        return slab.weight_height, mu  # the rows A / (W h) - mu I of a fresh build
+
+    def _kh(self, dv, w, khr, khi):
+        """:meth:`TableProblem._kh`; without free levers the parameters hold the built
+        table's pendulum ``W_i / L_p``: the payload's load scale moves it (linear in the
+        load) and its CG height the elastic centres (as the slab's, ``centre_shift``)."""
+        kh, shift = super()._kh(dv, w, khr, khi)
+        if not self._n_payload or self.n_levers:  # the levers' path has the live loads
+            return kh, shift
+        from isodesign.table import inertia_base as slab_terms
+
+        base = self._base(dv)
+        lam = base.load_scale
+        pend = [float(self.table.horizontal.pendulum_stiffness(ld))
+                for ld in self._leveling_built().load_n]
+        kh = [k + (lam - 1.0) * p for k, p in zip(kh, pend, strict=True)]
+        return kh, slab_terms.centre_shift(shift, base)
+
+    def _leveling_built(self):
+        return getattr(self, "_leveling0", None) or self.leveling
+
+    def _kh_params(self, w):
+        """The horizontal stiffness parameters at the built table's loads (the payload's
+        scale is in :meth:`_kh`)."""
+        lv0 = self._leveling_built()
+        if lv0 is self.leveling:
+            return super()._kh_params(w)
+        view = copy.copy(self)
+        view.leveling, view.table = lv0, self._table0
+        return TableProblem._kh_params(view, w)
 
     def _x_functions(self, ca, x, judged, margins, js) -> None:
         q = self._q_sym
@@ -175,12 +278,15 @@ class TableParametricProblem(TableProblem):
         references."""
         g = self.grid
         bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)
+        t = self.table
+        pay = np.r_[t.mass_kg, t.cg_height_m, np.diag(np.asarray(t.inertia_kg_m2, float))] \
+            if self._n_payload else np.zeros(0)
         # CasADi's vec stacks the columns (column-major)
         return np.concatenate([np.asarray(g.stroke_weight, float).ravel(order="F"),
                                np.asarray(bw, float).ravel(order="F"),
                                2.0 * np.log(np.asarray(g.limit_velocity_m_s, float)),
                                1.0 / np.asarray(self.sigma_ref, float) ** 2,
-                               1.0 / np.asarray(self.tube_ref, float) ** 2])
+                               1.0 / np.asarray(self.tube_ref, float) ** 2, pay])
 
     def _point_bounds(self, study) -> tuple:
         """``(lbg, ubg)`` of ``study``: this NLP's, with the rows of :data:`BOUND_KINDS` at
@@ -235,6 +341,14 @@ class TableParametricProblem(TableProblem):
             return None
         view = copy.copy(self)
         view.study, view.grid = study, grid
+        if self._n_payload:  # the point's table, statics and geometry (its numbers)
+            from isodesign.table.assembly import geometry
+            from isodesign.table.statics import check_load_constraints, level
+
+            view.table = study.table_at(None)
+            view.leveling = level(view.table, study.hardware["piston_area_m2"])
+            check_load_constraints(view.leveling, study.constraints)  # as a fresh build
+            view.geo = geometry(view.table, view.leveling.load_n)
         if view._peak_columns() != self._n_peak_columns:
             return None
         view.sigma_ref, view.tube_ref = view._reference_sigma()

@@ -21,7 +21,13 @@ CHANGES = [{"floor.criterion": "VC-B"},
            {"constraints.max_total_volume_m3": 0.004},
            {"constraints.max_natural_frequency_hz": 2.0},
            {"constraints.min_natural_frequency_hz": 1.2},
-           {"constraints.max_peak_transmissibility_db": 12.0}]
+           {"constraints.max_peak_transmissibility_db": 12.0},
+           # the payload: its mass, CG height, both (the loads, p0, mass matrix, tilt rows,
+           # pendulum and body points follow as parameters)
+           {"payload.mass_kg": 700.0},
+           {"payload.mass_kg": 480.0},
+           {"table.cg_m": [0.0, 0.0, 0.5]},
+           {"payload.mass_kg": 650.0, "table.cg_m": [0.0, 0.0, 0.25]}]
 
 
 @pytest.fixture(scope="module")
@@ -67,8 +73,13 @@ def test_the_cache_builds_one_table_nlp_per_structure(base):
     for ch in [{}, *CHANGES]:
         c.get(base.with_changes(ch))
     assert c.builds == 1 and len(c) == 1
-    # the payload's mass, another objective: another structure each
+    # the payload's mass: a parameter; another isolator count, another objective: another
+    # structure each
     c.get(base.with_changes({"payload.mass_kg": 700.0}))
+    assert c.builds == 1
+    c.get(base.with_changes(table={**base.raw["table"], "isolators_m": [
+        [-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4], [0.0, 0.45]],
+        "leveling_groups": [[1, 2], [3, 5], [4]]}))
     assert c.builds == 2
     c.get(base.with_changes({"objective.kind": "total_volume"}))
     assert c.builds == 3
