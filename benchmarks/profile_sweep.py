@@ -11,7 +11,9 @@ run directory's files, the parametric NLP's build and its per-point view).
 
 ``python benchmarks/profile_sweep.py --table`` runs the built-in table (``table_study()``, 3
 points per band, one start) over ``floor.criterion = VC-A,VC-B,VC-C`` x ``floor.x.scale =
-0.5,1.0`` serially and prints the NLPs built (the table's parametric NLP, section 7).
+0.5,1.0`` serially and prints the NLPs built (the table's parametric NLP, section 7);
+``--table-payload`` the same table over ``payload.mass_kg = 500,600,700`` x
+``payload.cg_height_m = 0.25,0.45`` (the payload's mass and CG height as parameters).
 """
 
 from __future__ import annotations
@@ -78,7 +80,7 @@ def _vertical(n: int) -> None:
         print(f"  {label:<45} {cum:6.2f}")
 
 
-def _table() -> None:
+def _table(payload: bool = False) -> None:
     import copy
 
     import isodesign
@@ -90,19 +92,20 @@ def _table() -> None:
     base = study_from_dict(raw, source="small_table.toml", fill_defaults=False)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        res = isodesign.sweep(base, ["floor.criterion=VC-A,VC-B,VC-C",
-                                     "floor.x.scale=0.5,1.0"],
-                              output=f"{tmp}/s", scheduler="serial", charts=False)
+        vary = ["payload.mass_kg=500,600,700", "payload.cg_height_m=0.25,0.45"] if payload \
+            else ["floor.criterion=VC-A,VC-B,VC-C", "floor.x.scale=0.5,1.0"]
+        res = isodesign.sweep(base, vary, output=f"{tmp}/s", scheduler="serial", charts=False)
         wall = time.perf_counter() - t0
-    print(res.table[["floor.criterion", "floor.x.scale", "status", "objective_value",
-                     "nlp_built", "nlp_builds_worker", "wall_s"]].to_string())
+    cols = [v.split("=")[0] for v in vary]
+    print(res.table[[*cols, "status", "objective_value", "nlp_built", "nlp_builds_worker",
+                     "wall_s"]].to_string())
     print(f"\n{len(res.table)} points in {wall:.1f} s, {res.nlp_builds} NLPs built")
 
 
 if __name__ == "__main__":
     warnings.simplefilter("ignore")
-    if "--table" in sys.argv[1:]:
-        _table()
+    if "--table" in sys.argv[1:] or "--table-payload" in sys.argv[1:]:
+        _table(payload="--table-payload" in sys.argv[1:])
     else:
         args = [a for a in sys.argv[1:] if not a.startswith("-")]
         _vertical(int(args[0]) if args else 8)

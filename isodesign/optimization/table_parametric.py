@@ -12,14 +12,25 @@ head (:meth:`~.table_problem.TableProblem._parameter_head`) is CasADi parameters
 * ``ln lim_b^2``: the target's squared band limits (n_bands);
 * ``k_s = 1 / sigma_ref,i^2`` and ``k_u = 1 / sigma_u,ref,i^2``: the scaling of the closure
   rows, from the point's start design (as a fresh build takes them).
+* the payload's mass ``m``, CG height ``h`` and principal inertia ``I_xx, I_yy, I_zz``
+  (:func:`payload_parametric`): the design vector's last entries, so every function of it
+  (the per-frequency physics, the tilt, damping and rocking rows) takes them; the NLP
+  evaluates them as the change from the built table
+  (:func:`~isodesign.table.statics.payload_terms`, the inertia base's path): loads and p0
+  scale, the mass matrix, the overturning ``-W h``, the body points' heights, the pendulum.
+
+The values of the constraints whose rows hold only their bounds (:data:`BOUND_KINDS`) are
+the point's ``lbg``/``ubg``, set by :meth:`TableParametricProblem.at`.
 
 :meth:`TableParametricProblem.at` gives the problem of another study (a shallow copy that
 shares the built IPOPT solver, with the point's study, grid and parameter values). What is
-not a parameter is the NLP's structure (:func:`table_structure_key`): the payload's mass
-and CG (they enter the six-degree-of-freedom geometry and the leveling statics as numbers),
-the isolators and their layout, the horizontal element, the levers and which are free,
-the objectives, the models, the variables' boxes, the constraints' values, the frequency
-grid and the peak rows' count; a study that differs there builds its own NLP
+not a parameter is the NLP's structure (:func:`table_structure_key`): the CG's plan
+position (the leveling's load fractions) and its height's sign, the products of inertia,
+the payload altogether with a free inertia base, free positions or the leveling loop's
+margin rows, the isolators and their layout, the horizontal element, the levers and which
+are free, the objectives, the models, the variables' boxes, which constraints are on and
+the values of those inside their rows (tilt, damping, rocking), the frequency grid and the
+peak rows' count; a study that differs there builds its own NLP
 (:class:`~.parametric.ProblemCache` counts the builds). With these the parametric NLP is,
 at every point, the same function as a fresh build of that point's study
 (tests/optimization/test_table_parametric.py solves both). See ``docs/sweep.md``.
@@ -40,7 +51,7 @@ from isodesign.optimization.table_problem import (
     TableProblem,
 )
 
-__all__ = ["BOUND_KINDS", "TableParametricProblem", "table_structure_key"]
+__all__ = ["BOUND_KINDS", "TableParametricProblem", "payload_parametric", "table_structure_key"]
 
 #: Tables of the resolved study that enter the table NLP through its parameters only.
 _PARAMETER_TABLES = ("floor", "target")
