@@ -178,3 +178,20 @@ def test_the_payload_on_the_co_designed_tables_nlp_is_its_fresh_nlp():
     sv, sf = view.solve(x0), fresh.solve(x0)
     assert sv.feasible and sf.feasible
     assert view.worst_margin_db(sv.x) == pytest.approx(fresh.worst_margin_db(sf.x), abs=1e-6)
+
+
+def test_the_payload_is_structure_where_its_own_path_holds_the_start_loads(base):
+    """A free inertia base moves the mass and CG through its lever (and its rows hold the
+    start's loads): there the payload's values are structure; the CG's plan position is
+    structure everywhere (the leveling's load fractions); its height and the mass not."""
+    from isodesign.optimization.table_parametric import payload_parametric, table_structure_key
+
+    assert payload_parametric(base)
+    k0 = table_structure_key(base)
+    assert table_structure_key(base.with_changes({"payload.mass_kg": 700.0,
+                                                  "table.cg_m": [0.0, 0.0, 0.5]})) == k0
+    assert table_structure_key(base.with_changes({"table.cg_m": [0.05, 0.0, 0.35]})) != k0
+    slab = base.with_changes(variables={"inertia_base_mass_kg": {"fixed": False}})
+    assert not payload_parametric(slab)
+    assert table_structure_key(slab.with_changes({"payload.mass_kg": 700.0})) != \
+        table_structure_key(slab)
