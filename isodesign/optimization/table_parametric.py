@@ -51,7 +51,8 @@ from isodesign.optimization.table_problem import (
     TableProblem,
 )
 
-__all__ = ["BOUND_KINDS", "TableParametricProblem", "payload_parametric", "table_structure_key"]
+__all__ = ["BOUND_KINDS", "TableParametricProblem", "cg_plan_parametric", "payload_parametric",
+           "table_structure_key"]
 
 #: Tables of the resolved study that enter the table NLP through its parameters only.
 _PARAMETER_TABLES = ("floor", "target")
@@ -100,10 +101,27 @@ def payload_parametric(study) -> bool:
                 or not study.table.cg_height_m > 0)
 
 
-def _payload_structure(d: dict) -> None:
+def cg_plan_parametric(study) -> bool:
+    """Whether the CG's plan position ``(c_x, c_y)`` is a parameter too: with the payload's
+    (:func:`payload_parametric`) unless a layout lever is free (it stretches the layout
+    about the CG).
+
+    Parameters
+    ----------
+    study : Study
+
+    Returns
+    -------
+    bool
+    """
+    free = {v.name for v in study.levers if v.free}
+    return payload_parametric(study) and not free & {"layout_length_m", "layout_width_m"}
+
+
+def _payload_structure(d: dict, plan: bool) -> None:
     """The resolved study ``d`` without the payload's parameters: its mass and CG height
-    (the CG's plan position and its height's sign stay), the principal inertia (the
-    products of inertia stay)."""
+    (its height's sign stays), the CG's plan position when ``plan``, the principal inertia
+    (the products of inertia stay)."""
     pay = dict(d.get("payload") or {})
     pay.pop("mass_kg", None)
     if pay.get("cg_height_m") is not None:
@@ -112,7 +130,7 @@ def _payload_structure(d: dict) -> None:
     tab = dict(d.get("table") or {})
     cg = tab.get("cg_m")
     if isinstance(cg, list | tuple) and len(cg) == 3:
-        tab["cg_m"] = [cg[0], cg[1], "above"]
+        tab["cg_m"] = ["plan", "plan", "above"] if plan else [cg[0], cg[1], "above"]
     inert = tab.get("inertia_kg_m2")
     if inert is not None:
         a = np.asarray(inert, float)
@@ -159,7 +177,7 @@ def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> s
             cons[k] = "on" if on(cons[k]) else "off"
     d["constraints"] = cons
     if payload_parametric(study):
-        _payload_structure(d)
+        _payload_structure(d, cg_plan_parametric(study))
     text = json.dumps({"study": d, "objectives": list(objectives),
                        "peak_slots": int(peak_slots)}, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
@@ -190,7 +208,8 @@ class TableParametricProblem(TableProblem):
         if getattr(study, "scenarios", None) is not None:
             raise InputError("[scenarios]: a robust table study builds its own NLPs")
         self._family = family if family is not None else {}
-        self._n_payload = 5 if payload_parametric(study) else 0
+        self._n_payload = (7 if cg_plan_parametric(study) else 5) \
+            if payload_parametric(study) else 0
         self._table0 = study.table_at(None)  # the table the geometry is built on
         super().__init__(study, objectives, hessian=hessian, peak_slots=peak_slots)
         self._leveling0 = self.leveling
@@ -232,6 +251,72 @@ class TableParametricProblem(TableProblem):
         k = self._n_dv() - self._n_payload
         return payload_terms(self._table0, dv[k], dv[k + 1], [dv[k + 2 + j] for j in range(3)])
 
+    # -- the CG's plan position: every isolator and point moves by -(c - c_0) from the CG --
+    def _cg_shift(self, dv):
+        """``(c_x - c_x0, c_y - c_y0)`` on the parameters, or None (not a parameter)."""
+        if self._n_payload < 7:
+            return None
+        k = self._n_dv() - self._n_payload
+        t0 = self._table0
+        return dv[k + 5] - float(t0.cg_m[0]), dv[k + 6] - float(t0.cg_m[1])
+
+    def _live_loads(self, dv):
+        """Each isolator's load with the CG at the parameters: the leveling's closed form at
+        the isolators seen from the moved CG (:func:`~isodesign.table.statics.
+        group_loads_at`, the free positions' path) times ``m / m_0``."""
+        d = self._cg_shift(dv)
+        if d is None:
+            return None
+        from isodesign.table.statics import group_loads_at
+
+        t0 = self._table0
+        xy = [(float(x) - d[0], float(y) - d[1]) for x, y in t0.isolators_m]
+        lam = self._base(dv).load_scale
+        pg = group_loads_at(t0, xy)
+        return [lam * pg[int(g)] for g in t0.group_of]
+
+    def _live_points(self, dv):
+        """The vertical forces' plan offsets from the moved CG (the tilt rows' points)."""
+        d = self._cg_shift(dv)
+        if d is None:
+            return None
+        t0 = self._table0
+        return [(float(x) - float(t0.cg_m[0]) - d[0], float(y) - float(t0.cg_m[1]) - d[1])
+                for x, y in t0.isolators_m]
+
+    def _terms(self, dv, shift) -> list:
+        terms = super()._terms(dv, shift)
+        d = self._cg_shift(dv)
+        if d is None:
+            return terms
+        if getattr(self, "_cg_dirs", None) is None:
+            from isodesign.table.lever_geometry import position_directions
+
+            dirs = position_directions(self.geo)  # the built table's (every isolator's)
+            self._cg_dirs = (-sum(dirs[0::2]), -sum(dirs[1::2]))
+        return [*terms, (d[0], self._cg_dirs[0]), (d[1], self._cg_dirs[1])]
+
+    def _assemble(self, dv, kv, kh, w, shift):
+        if self._cg_shift(dv) is None:
+            return super()._assemble(dv, kv, kh, w, shift)
+        from isodesign.table import inertia_base as slab_terms
+        from isodesign.table.lever_geometry import lever_stiffness
+
+        d, b = lever_stiffness(self.geo, self._terms(dv, shift), kv, kh, w)
+        return slab_terms.base_stiffness(d, w, self._base(dv)), b
+
+    def _point_rows(self, p: int, dv) -> tuple:
+        """``G_r = [I, -[r]x]`` with ``r = p - c``: ``r_x`` and ``r_y`` drop by the CG's
+        shift (its height's, ``base_point_rows``)."""
+        rows, nz = super()._point_rows(p, dv)
+        d = self._cg_shift(dv)
+        if d is None:
+            return rows, nz
+        dx, dy = d
+        rows[1][5], rows[2][4] = rows[1][5] - dx, rows[2][4] + dx
+        rows[0][5], rows[2][3] = rows[0][5] + dy, rows[2][3] - dy
+        return rows, [[not (isinstance(v, float) and v == 0.0) for v in row] for row in rows]
+
     def _tilt_bound(self, slab, mu) -> tuple:
         if not self._n_payload:
             return super()._tilt_bound(slab, mu)
@@ -247,10 +332,13 @@ class TableParametricProblem(TableProblem):
         from isodesign.table import inertia_base as slab_terms
 
         base = self._base(dv)
-        lam = base.load_scale
-        pend = [float(self.table.horizontal.pendulum_stiffness(ld))
-                for ld in self._leveling_built().load_n]
-        kh = [k + (lam - 1.0) * p for k, p in zip(kh, pend, strict=True)]
+        lp = self.table.horizontal.pendulum_length_m
+        if lp is not None:  # W_i / L_p: the parameters hold the built loads' W_i,0 / L_p
+            w0 = [float(v) for v in self._leveling_built().load_n]
+            live = self._live_loads(dv)
+            dw = [base.load_scale * v - v for v in w0] if live is None else \
+                [wi - v for wi, v in zip(live, w0, strict=True)]
+            kh = [k + dwi / lp for k, dwi in zip(kh, dw, strict=True)]
         return kh, slab_terms.centre_shift(shift, base)
 
     def _leveling_built(self):
@@ -290,8 +378,8 @@ class TableParametricProblem(TableProblem):
         g = self.grid
         bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)
         t = self.table
-        pay = np.r_[t.mass_kg, t.cg_height_m, np.diag(np.asarray(t.inertia_kg_m2, float))] \
-            if self._n_payload else np.zeros(0)
+        pay = np.r_[t.mass_kg, t.cg_height_m, np.diag(np.asarray(t.inertia_kg_m2, float)),
+                    np.asarray(t.cg_m, float)[:2]][: self._n_payload]
         # CasADi's vec stacks the columns (column-major)
         return np.concatenate([np.asarray(g.stroke_weight, float).ravel(order="F"),
                                np.asarray(bw, float).ravel(order="F"),

@@ -313,6 +313,16 @@ class TableProblem(NLP):
         parameters)."""
         return []
 
+    def _live_loads(self, dv):
+        """Each isolator's static load as a function of the parameters (None: the table's
+        leveling, or the levers' own path; :mod:`~isodesign.optimization.lever_nlp`)."""
+        return None
+
+    def _point_rows(self, p: int, dv) -> tuple:
+        """Instrument point ``p``'s ``G_r`` rows (:func:`~isodesign.table.inertia_base.
+        base_point_rows`)."""
+        return slab_terms.base_point_rows(self.geo.points[p], self._base(dv))
+
     def _tilt_bound(self, slab, mu) -> tuple:
         """``(W h, mu)`` of the tilt rows (:func:`~isodesign.table.inertia_base.tilt_bound`)."""
         return slab_terms.tilt_bound(self.table, slab, mu)
@@ -366,7 +376,7 @@ class TableProblem(NLP):
         qr, qi, _ = self._body(ca, dv, s, y, w, khr, khi)
         diag = []
         for p in range(self.k):
-            gp, nzp = slab_terms.base_point_rows(self.geo.points[p], self._base(dv))
+            gp, nzp = self._point_rows(p, dv)
             for bb in range(3):
                 re = sum(gp[bb][r] * qr[r][bb] for r in range(6) if nzp[bb][r])
                 im = sum(gp[bb][r] * qi[r][bb] for r in range(6) if nzp[bb][r])
@@ -389,7 +399,7 @@ class TableProblem(NLP):
         qr, qi, g2 = self._body(ca, dv, s, y, w, khr, khi)
         ms, diag = [], []
         for p in range(k):
-            gp, nzp = slab_terms.base_point_rows(self.geo.points[p], self._base(dv))
+            gp, nzp = self._point_rows(p, dv)
             for bb in range(3):
                 acc = 0
                 for a in range(3):

@@ -27,7 +27,10 @@ CHANGES = [{"floor.criterion": "VC-B"},
            {"payload.mass_kg": 700.0},
            {"payload.mass_kg": 480.0},
            {"table.cg_m": [0.0, 0.0, 0.5]},
-           {"payload.mass_kg": 650.0, "table.cg_m": [0.0, 0.0, 0.25]}]
+           {"payload.mass_kg": 650.0, "table.cg_m": [0.0, 0.0, 0.25]},
+           # the CG's plan position: the leveling's load fractions, every lever arm
+           {"table.cg_m": [0.06, -0.04, 0.35]},
+           {"payload.mass_kg": 560.0, "table.cg_m": [-0.05, 0.03, 0.45]}]
 
 
 @pytest.fixture(scope="module")
@@ -111,7 +114,7 @@ def test_a_vertical_or_robust_study_is_not_a_table_parametric_nlp(base):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("change", [{"floor.criterion": "VC-B"},
-                                    {"payload.mass_kg": 700.0, "table.cg_m": [0.0, 0.0, 0.5]}],
+                                    {"payload.mass_kg": 700.0, "table.cg_m": [0.04, -0.03, 0.5]}],
                          ids=["floor", "payload"])
 def test_the_whole_table_optimize_on_a_view_is_the_fresh_optimize(base, cache, change):
     from isodesign.optimization.table_driver import optimize_table
@@ -182,15 +185,22 @@ def test_the_payload_on_the_co_designed_tables_nlp_is_its_fresh_nlp():
 
 def test_the_payload_is_structure_where_its_own_path_holds_the_start_loads(base):
     """A free inertia base moves the mass and CG through its lever (and its rows hold the
-    start's loads): there the payload's values are structure; the CG's plan position is
-    structure everywhere (the leveling's load fractions); its height and the mass not."""
-    from isodesign.optimization.table_parametric import payload_parametric, table_structure_key
+    start's loads): there the payload's values are structure; a free layout lever stretches
+    the layout about the CG: there the CG's plan position is structure."""
+    from isodesign.optimization.table_parametric import (
+        cg_plan_parametric,
+        payload_parametric,
+        table_structure_key,
+    )
 
-    assert payload_parametric(base)
+    assert payload_parametric(base) and cg_plan_parametric(base)
     k0 = table_structure_key(base)
     assert table_structure_key(base.with_changes({"payload.mass_kg": 700.0,
-                                                  "table.cg_m": [0.0, 0.0, 0.5]})) == k0
-    assert table_structure_key(base.with_changes({"table.cg_m": [0.05, 0.0, 0.35]})) != k0
+                                                  "table.cg_m": [0.05, 0.0, 0.5]})) == k0
+    lay = base.with_changes(variables={"layout_length_m": {"fixed": False}})
+    assert payload_parametric(lay) and not cg_plan_parametric(lay)
+    assert table_structure_key(lay.with_changes({"table.cg_m": [0.05, 0.0, 0.35]})) != \
+        table_structure_key(lay)
     slab = base.with_changes(variables={"inertia_base_mass_kg": {"fixed": False}})
     assert not payload_parametric(slab)
     assert table_structure_key(slab.with_changes({"payload.mass_kg": 700.0})) != \
