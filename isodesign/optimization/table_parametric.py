@@ -13,20 +13,23 @@ head (:meth:`~.table_problem.TableProblem._parameter_head`) is CasADi parameters
 * ``k_s = 1 / sigma_ref,i^2`` and ``k_u = 1 / sigma_u,ref,i^2``: the scaling of the closure
   rows, from the point's start design (as a fresh build takes them).
 * the payload's mass ``m``, CG height ``h`` and principal inertia ``I_xx, I_yy, I_zz``
-  (:func:`payload_parametric`): the design vector's last entries, so every function of it
+  (:func:`payload_parametric`) and the CG's plan position ``c_x, c_y``
+  (:func:`cg_plan_parametric`): the design vector's last entries, so every function of it
   (the per-frequency physics, the tilt, damping and rocking rows) takes them; the NLP
   evaluates them as the change from the built table
   (:func:`~isodesign.table.statics.payload_terms`, the inertia base's path): loads and p0
-  scale, the mass matrix, the overturning ``-W h``, the body points' heights, the pendulum.
+  scale, the mass matrix, the overturning ``-W h``, the body points' heights, the pendulum;
+  the plan position as the free positions' path (every isolator moved by ``-(c - c_0)``:
+  the leveling's closed form, the position levers' directions).
 
 The values of the constraints whose rows hold only their bounds (:data:`BOUND_KINDS`) are
 the point's ``lbg``/``ubg``, set by :meth:`TableParametricProblem.at`.
 
 :meth:`TableParametricProblem.at` gives the problem of another study (a shallow copy that
 shares the built IPOPT solver, with the point's study, grid and parameter values). What is
-not a parameter is the NLP's structure (:func:`table_structure_key`): the CG's plan
-position (the leveling's load fractions) and its height's sign, the products of inertia,
-the payload altogether with a free inertia base, free positions or the leveling loop's
+not a parameter is the NLP's structure (:func:`table_structure_key`): the CG height's
+sign, the products of inertia, the CG's plan position with a free layout lever, the
+payload altogether with a free inertia base, free positions or the leveling loop's
 margin rows, the isolators and their layout, the horizontal element, the levers and which
 are free, the objectives, the models, the variables' boxes, which constraints are on and
 the values of those inside their rows (tilt, damping, rocking), the frequency grid and the
