@@ -304,7 +304,7 @@ class TableProblem(NLP):
             lever_nlp.n_position_values(self) + self._n_payload
 
     #: The payload's values the design vector carries last (a parametric NLP's mass, CG
-    #: height and inertia, :meth:`_payload_values`; none here: numbers of the geometry).
+    #: height, inertia and CG plan position, :meth:`_payload_values`; none here: numbers).
     _n_payload = 0
 
     def _payload_values(self, ca, X) -> list:
