@@ -18,19 +18,21 @@ CHANGES = [{"floor.criterion": "VC-B"},
            {"target.criterion": "VC-D"},
            {"variables.capillary_length_m.start": 0.02},  # a continued point's start
            # the constraints' bounds: only the rows' lbg/ubg (set per point)
-           {"constraints.max_total_volume_m3": 0.004},
            {"constraints.max_natural_frequency_hz": 2.0},
-           {"constraints.min_natural_frequency_hz": 1.2},
-           {"constraints.max_peak_transmissibility_db": 12.0},
            # the payload: its mass, CG height, both (the loads, p0, mass matrix, tilt rows,
            # pendulum and body points follow as parameters)
-           {"payload.mass_kg": 700.0},
-           {"payload.mass_kg": 480.0},
-           {"table.cg_m": [0.0, 0.0, 0.5]},
            {"payload.mass_kg": 650.0, "table.cg_m": [0.0, 0.0, 0.25]},
            # the CG's plan position: the leveling's load fractions, every lever arm
-           {"table.cg_m": [0.06, -0.04, 0.35]},
-           {"payload.mass_kg": 560.0, "table.cg_m": [-0.05, 0.03, 0.45]}]
+           {"payload.mass_kg": 560.0, "table.cg_m": [-0.05, 0.03, 0.45]},
+           # the same kinds once more each, in the slow phase
+           *(pytest.param(c, marks=pytest.mark.slow) for c in (
+               {"constraints.max_total_volume_m3": 0.004},
+               {"constraints.min_natural_frequency_hz": 1.2},
+               {"constraints.max_peak_transmissibility_db": 12.0},
+               {"payload.mass_kg": 700.0},
+               {"payload.mass_kg": 480.0},
+               {"table.cg_m": [0.0, 0.0, 0.5]},
+               {"table.cg_m": [0.06, -0.04, 0.35]}))]
 
 
 @pytest.fixture(scope="module")
@@ -73,7 +75,7 @@ def test_a_table_point_on_the_shared_nlp_is_its_own_fresh_nlp(base, cache, chang
 
 def test_the_cache_builds_one_table_nlp_per_structure(base):
     c = ProblemCache()
-    for ch in [{}, *CHANGES]:
+    for ch in [{}, *(c if isinstance(c, dict) else c.values[0] for c in CHANGES)]:
         c.get(base.with_changes(ch))
     assert c.builds == 1 and len(c) == 1
     # the payload's mass: a parameter; another isolator count, another objective: another
