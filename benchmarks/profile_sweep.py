@@ -11,7 +11,11 @@ run directory's files, the parametric NLP's build and its per-point view).
 
 ``python benchmarks/profile_sweep.py --table`` runs the built-in table (``table_study()``, 3
 points per band, one start) over ``floor.criterion = VC-A,VC-B,VC-C`` x ``floor.x.scale =
-0.5,1.0`` serially and prints the NLPs built (the table's parametric NLP, section 7).
+0.5,1.0`` serially and prints the NLPs built (the table's parametric NLP, section 7);
+``--table-payload`` the same table over ``payload.mass_kg = 500,600,700`` x
+``payload.cg_height_m = 0.25,0.45`` (the payload's mass and CG height as parameters);
+``--table-nlp [--codesign]`` the build's and a solve's CPU time of the table's parametric
+NLP against a fresh build at one payload point (``table_study()``, or ``default_study()``).
 """
 
 from __future__ import annotations
@@ -78,7 +82,7 @@ def _vertical(n: int) -> None:
         print(f"  {label:<45} {cum:6.2f}")
 
 
-def _table() -> None:
+def _table(payload: bool = False) -> None:
     import copy
 
     import isodesign
@@ -90,19 +94,58 @@ def _table() -> None:
     base = study_from_dict(raw, source="small_table.toml", fill_defaults=False)
     with tempfile.TemporaryDirectory() as tmp:
         t0 = time.perf_counter()
-        res = isodesign.sweep(base, ["floor.criterion=VC-A,VC-B,VC-C",
-                                     "floor.x.scale=0.5,1.0"],
-                              output=f"{tmp}/s", scheduler="serial", charts=False)
+        vary = ["payload.mass_kg=500,600,700", "payload.cg_height_m=0.25,0.45"] if payload \
+            else ["floor.criterion=VC-A,VC-B,VC-C", "floor.x.scale=0.5,1.0"]
+        res = isodesign.sweep(base, vary, output=f"{tmp}/s", scheduler="serial", charts=False)
         wall = time.perf_counter() - t0
-    print(res.table[["floor.criterion", "floor.x.scale", "status", "objective_value",
-                     "nlp_built", "nlp_builds_worker", "wall_s"]].to_string())
+    cols = [v.split("=")[0] for v in vary]
+    print(res.table[[*cols, "status", "objective_value", "nlp_built", "nlp_builds_worker",
+                     "wall_s"]].to_string())
     print(f"\n{len(res.table)} points in {wall:.1f} s, {res.nlp_builds} NLPs built")
+
+
+def _table_nlp(codesign: bool) -> None:
+    """The table's parametric NLP against a fresh build of one point (a heavier payload with
+    another CG height): the build's CPU time and three solves' CPU time each, from the same
+    start (the same optimum and iterations)."""
+    import copy
+
+    from isodesign.optimization.study import default_study, study_from_dict, table_study
+    from isodesign.optimization.table_parametric import TableParametricProblem
+    from isodesign.optimization.table_problem import TableProblem
+
+    raw = copy.deepcopy((default_study if codesign else table_study)().raw)
+    raw["solver"].update(starts=1, workers=1)
+    raw["models"]["points_per_band"] = 3
+    raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
+    base = study_from_dict(raw, source="small_table.toml", fill_defaults=False)
+    st = base.with_changes({"payload.mass_kg": 700.0, "table.cg_m": [0.0, 0.0, 0.45]})
+    t = time.process_time()
+    shared = TableParametricProblem(base)
+    build_p = time.process_time() - t
+    t = time.process_time()
+    fresh = TableProblem(st)
+    build_f = time.process_time() - t
+    view = shared.at(st)
+    x0 = view.initial_guess({v.name: v.start for v in st.variables})
+    for name, prob in (("parametric", view), ("fresh", fresh)):
+        cpu = []
+        for _ in range(3):
+            t = time.process_time()
+            sol = prob.solve(x0)
+            cpu.append(time.process_time() - t)
+        print(f"{name}: solve CPU {', '.join(f'{c:.3f}' for c in cpu)} s, "
+              f"{prob.solver.stats()['iter_count']} iterations, worst margin "
+              f"{prob.worst_margin_db(sol.x):.9f} dB")
+    print(f"build CPU: parametric {build_p:.2f} s, fresh {build_f:.2f} s")
 
 
 if __name__ == "__main__":
     warnings.simplefilter("ignore")
-    if "--table" in sys.argv[1:]:
-        _table()
+    if "--table-nlp" in sys.argv[1:]:
+        _table_nlp("--codesign" in sys.argv[1:])
+    elif "--table" in sys.argv[1:] or "--table-payload" in sys.argv[1:]:
+        _table(payload="--table-payload" in sys.argv[1:])
     else:
         args = [a for a in sys.argv[1:] if not a.startswith("-")]
         _vertical(int(args[0]) if args else 8)

@@ -416,6 +416,9 @@ def isolator_loads(prob, dv) -> list:
     """
     from isodesign.table.inertia_base import load_scale
 
+    live = getattr(prob, "_live_loads", lambda _: None)(dv)  # a parametric payload's
+    if live is not None:
+        return live
     if not positions_free(prob):
         lam = load_scale(prob._base(dv))
         return [float(ld) * lam for ld in prob.leveling.load_n]
@@ -434,7 +437,7 @@ def isolator_pressures(prob, dv) -> list:
     from isodesign.table.inertia_base import scaled_pressures
 
     lv = prob.leveling
-    if not positions_free(prob):
+    if not positions_free(prob) and getattr(prob, "_live_loads", lambda _: None)(dv) is None:
         return scaled_pressures(prob._base(dv), lv.pressure_pa)
     p_atm = float(np.mean(lv.pressure_pa - lv.load_n / lv.piston_area_m2))
     return [p_atm + w / lv.piston_area_m2 for w in isolator_loads(prob, dv)]
@@ -460,6 +463,9 @@ def tilt_points(prob, dv):
     prob : TableProblem
     dv : CasADi column
     """
+    live = getattr(prob, "_live_points", lambda _: None)(dv)  # a parametric CG's
+    if live is not None:
+        return live
     if not positions_free(prob):
         return prob.table.vertical_points_m
     cx, cy = (float(v) for v in prob.table.cg_m[:2])

@@ -311,9 +311,33 @@ class TableProblem(NLP):
     def _base(self, dv):  # the inertia base's terms (docs/table.md s. 16; None: it is fixed)
         return lever_nlp.base_terms(self, dv)
 
-    def _n_dv(self) -> int:  # spring, levers, groups' springs, free positions
+    def _n_dv(self) -> int:  # spring, levers, groups' springs, free positions, payload
         return self._group_off() + (3 * len(DESIGN_VARIABLES) if self.grouped else 0) + \
-            lever_nlp.n_position_values(self)
+            lever_nlp.n_position_values(self) + self._n_payload
+
+    #: The payload's values the design vector carries last (a parametric NLP's mass, CG
+    #: height, inertia and CG plan position, :meth:`_payload_values`; none here: numbers).
+    _n_payload = 0
+
+    def _payload_values(self, ca, X) -> list:
+        """The design vector's payload entries (none: the payload is the table's numbers;
+        :class:`~isodesign.optimization.table_parametric.TableParametricProblem` gives
+        parameters)."""
+        return []
+
+    def _live_loads(self, dv):
+        """Each isolator's static load as a function of the parameters (None: the table's
+        leveling, or the levers' own path; :mod:`~isodesign.optimization.lever_nlp`)."""
+        return None
+
+    def _point_rows(self, p: int, dv) -> tuple:
+        """Instrument point ``p``'s ``G_r`` rows (:func:`~isodesign.table.inertia_base.
+        base_point_rows`)."""
+        return slab_terms.base_point_rows(self.geo.points[p], self._base(dv))
+
+    def _tilt_bound(self, slab, mu) -> tuple:
+        """``(W h, mu)`` of the tilt rows (:func:`~isodesign.table.inertia_base.tilt_bound`)."""
+        return slab_terms.tilt_bound(self.table, slab, mu)
 
     def _group_off(self) -> int:
         return len(DESIGN_VARIABLES) + (len(CODESIGN_LEVERS) if self.n_levers else 0)
@@ -364,7 +388,7 @@ class TableProblem(NLP):
         qr, qi, _ = self._body(ca, dv, s, y, w, khr, khi)
         diag = []
         for p in range(self.k):
-            gp, nzp = slab_terms.base_point_rows(self.geo.points[p], self._base(dv))
+            gp, nzp = self._point_rows(p, dv)
             for bb in range(3):
                 re = sum(gp[bb][r] * qr[r][bb] for r in range(6) if nzp[bb][r])
                 im = sum(gp[bb][r] * qi[r][bb] for r in range(6) if nzp[bb][r])
@@ -387,7 +411,7 @@ class TableProblem(NLP):
         qr, qi, g2 = self._body(ca, dv, s, y, w, khr, khi)
         ms, diag = [], []
         for p in range(k):
-            gp, nzp = slab_terms.base_point_rows(self.geo.points[p], self._base(dv))
+            gp, nzp = self._point_rows(p, dv)
             for bb in range(3):
                 acc = 0
                 for a in range(3):
@@ -454,6 +478,7 @@ class TableProblem(NLP):
             vals += group_values(self, ca, z[nzs:], vals)
         if lever_nlp.positions_free(self):  # each isolator's x and y, last
             vals += lever_nlp.position_values(self, z[nzs:])
+        vals += self._payload_values(ca, X)  # a parametric NLP's payload, last
         v = ca.vertcat(*vals)
         # the distortion power's terms (models.distortion, optimization.distortion_rows):
         # parameters, the minor loss's gain as the resistance's ln sigma_u shift y_k - y
@@ -592,7 +617,7 @@ class TableProblem(NLP):
             from isodesign.table.statics import sealed_stiffness, tilt_margin_rows
 
             kq = [sealed_stiffness(di, self.dia, flow=self.flow) for di in designs]
-            wh, mu = slab_terms.tilt_bound(table, slab, mu)
+            wh, mu = self._tilt_bound(slab, mu)
             q["tilt_rows"] = ca.vertcat(*tilt_margin_rows(
                 kq, lever_nlp.tilt_points(self, v), wh, mu, self._scale(v)))
         # free positions: the footprint polygon and spacing (layout) and the loads and
@@ -605,7 +630,7 @@ class TableProblem(NLP):
             q["load_rows"] = [r for r in pos if r[0] not in geo]
         else:
             q["layout_rows"] = layout_rows(self.table, c, self._scale(v), self._layout_free())
-            q["load_rows"] = lever_nlp.load_rows_of(lv, c, slab)
+            q["load_rows"] = lever_nlp.load_rows_of(lv, c, lever_nlp.base_terms(self, v))
         pk = c.get("max_peak_transmissibility_db")
         if pk is not None and pk is not False:
             # resonance peaks of a table on air springs lie at its rigid-body modes: the rows

@@ -320,9 +320,9 @@ def _optimize_table(study, options: dict):
 
     On this worker's table NLP of the point's structure
     (:class:`~isodesign.optimization.table_parametric.TableParametricProblem`: the floor,
-    the target's limits and the start are parameters; the payload's mass and CG, the
-    layout, the levers and the constraints' values are the structure: docs/sweep.md,
-    section 7)."""
+    the target's limits, the start, the payload's mass, CG position and principal inertia
+    and the constraints' bounds are parameters; the layout, the levers and which
+    constraints are on are the structure: docs/sweep.md, section 7)."""
     from isodesign.optimization.dispatch import optimize
     from isodesign.optimization.refine import flat_tolerance
 

@@ -53,6 +53,7 @@ __all__ = [
     "leveling_of_rows",
     "load_constraint_values",
     "load_rows",
+    "payload_terms",
     "scaled_leveling",
     "sealed_stiffness",
     "supply_limited_mass_kg",
@@ -556,3 +557,43 @@ def group_loads_at(table: Table, xy) -> list:
     det = r0[0] * c[0] + r0[1] * c[1] + r0[2] * c[2]
     w = float(table.weight_n)
     return [w * ck / det for ck in c]
+
+
+def payload_terms(table: Table, mass_kg, cg_height_m, inertia_diag_kg_m2):
+    """The payload's mass, CG height and principal inertia as the change of the table NLP's
+    statics and rigid body from ``table`` (the one it was built on), any backend.
+
+    At a fixed CG plan position the leveling's loads are ``m g`` times fractions set by the
+    isolators' and the CG's plan positions alone (the force and the two moment balances,
+    :func:`level`; the CG height does not enter them), so every isolator's load and gauge
+    p0 scale by ``m / m_0``; the mass matrix is ``diag(m, m, m, I_xx, I_yy, I_zz)`` (the
+    products of inertia fixed); the overturning term on rx and ry is ``-W h``
+    (:func:`~isodesign.table.assembly.gravity_stiffness` at equilibrium); every body point's
+    height from the CG drops by ``h - h_0`` (the elastic centres' and the instrument
+    points'; the vertical forces' lines of action do not move). The same terms a free
+    inertia base gives (:class:`~isodesign.table.inertia_base.BaseTerms`, docs/table.md
+    section 16), so the NLP evaluates them on one path (docs/sweep.md, section 7).
+
+    Parameters
+    ----------
+    table : Table
+        The table the NLP's geometry was built on.
+    mass_kg, cg_height_m : float or CasADi symbol
+        The payload's mass (kg) and CG height above the support plane (m).
+    inertia_diag_kg_m2 : sequence of 3 (float or CasADi symbol)
+        ``I_xx, I_yy, I_zz`` about the CG, kg m^2.
+
+    Returns
+    -------
+    BaseTerms
+    """
+    from isodesign.table.inertia_base import BaseTerms
+
+    m0, h0, g = table.mass_kg, table.cg_height_m, table.g_m_s2
+    i0 = np.diag(np.asarray(table.inertia_kg_m2, float))
+    m, h = mass_kg, cg_height_m
+    dm = m - m0
+    return BaseTerms(load_scale=m / m0, dh=h - h0, mass=m,
+                     d_mass=(dm, dm, dm, *(inertia_diag_kg_m2[j] - float(i0[j])
+                                           for j in range(3))),
+                     d_gravity=-(g * m * h - g * m0 * h0), weight_height=g * m * h)

@@ -16,7 +16,23 @@ from isodesign.optimization.table_problem import TableProblem
 CHANGES = [{"floor.criterion": "VC-B"},
            {"floor.x": {"scale": 0.5}},  # one axis's level
            {"target.criterion": "VC-D"},
-           {"variables.capillary_length_m.start": 0.02}]  # a continued point's start
+           {"variables.capillary_length_m.start": 0.02},  # a continued point's start
+           # the constraints' bounds: only the rows' lbg/ubg (set per point)
+           {"constraints.max_natural_frequency_hz": 2.0},
+           # the payload: its mass, CG height, both (the loads, p0, mass matrix, tilt rows,
+           # pendulum and body points follow as parameters)
+           {"payload.mass_kg": 650.0, "table.cg_m": [0.0, 0.0, 0.25]},
+           # the CG's plan position: the leveling's load fractions, every lever arm
+           {"payload.mass_kg": 560.0, "table.cg_m": [-0.05, 0.03, 0.45]},
+           # the same kinds once more each, in the slow phase
+           *(pytest.param(c, marks=pytest.mark.slow) for c in (
+               {"constraints.max_total_volume_m3": 0.004},
+               {"constraints.min_natural_frequency_hz": 1.2},
+               {"constraints.max_peak_transmissibility_db": 12.0},
+               {"payload.mass_kg": 700.0},
+               {"payload.mass_kg": 480.0},
+               {"table.cg_m": [0.0, 0.0, 0.5]},
+               {"table.cg_m": [0.06, -0.04, 0.35]}))]
 
 
 @pytest.fixture(scope="module")
@@ -59,17 +75,29 @@ def test_a_table_point_on_the_shared_nlp_is_its_own_fresh_nlp(base, cache, chang
 
 def test_the_cache_builds_one_table_nlp_per_structure(base):
     c = ProblemCache()
-    for ch in [{}, *CHANGES]:
+    for ch in [{}, *(c if isinstance(c, dict) else c.values[0] for c in CHANGES)]:
         c.get(base.with_changes(ch))
     assert c.builds == 1 and len(c) == 1
-    # the payload's mass, another objective: another structure each
+    # the payload's mass: a parameter; another isolator count, another objective: another
+    # structure each
     c.get(base.with_changes({"payload.mass_kg": 700.0}))
+    assert c.builds == 1
+    c.get(base.with_changes(table={**base.raw["table"], "isolators_m": [
+        [-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4], [0.0, 0.45]],
+        "leveling_groups": [[1, 2], [3, 5], [4]]}))
     assert c.builds == 2
     c.get(base.with_changes({"objective.kind": "total_volume"}))
     assert c.builds == 3
     # back to the first structure: no build
     c.get(base.with_changes({"floor.criterion": "VC-C"}))
     assert c.builds == 3 and len(c) == 3
+    # a bound switched on or off adds or drops rows: another structure; its value alone not
+    on = c.get(base.with_changes({"constraints.max_stroke_m": 0.01}))
+    assert c.builds == 4
+    assert c.get(base.with_changes({"constraints.max_stroke_m": 0.02})).key == on.key
+    assert c.builds == 4
+    c.get(base.with_changes({"constraints.max_natural_frequency_hz": None}))
+    assert c.builds == 5
 
 
 def test_a_grid_of_other_frequencies_is_another_structure(base, cache):
@@ -87,10 +115,13 @@ def test_a_vertical_or_robust_study_is_not_a_table_parametric_nlp(base):
 
 
 @pytest.mark.slow
-def test_the_whole_table_optimize_on_a_view_is_the_fresh_optimize(base, cache):
+@pytest.mark.parametrize("change", [{"floor.criterion": "VC-B"},
+                                    {"payload.mass_kg": 700.0, "table.cg_m": [0.04, -0.03, 0.5]}],
+                         ids=["floor", "payload"])
+def test_the_whole_table_optimize_on_a_view_is_the_fresh_optimize(base, cache, change):
     from isodesign.optimization.table_driver import optimize_table
 
-    st = base.with_changes({"floor.criterion": "VC-B"})
+    st = base.with_changes(change)
     a = optimize_table(st, workers=1, analyze=False, problem=cache.get(st))
     b = optimize_table(st, workers=1, analyze=False)
     assert a.feasible and b.feasible
@@ -122,3 +153,57 @@ def test_a_table_optimize_builds_its_nlp_once_in_its_process(base, tmp_path, mon
     assert {pid for pid, _ in builds} == {str(os.getpid())}
     slots = [int(n) for _, n in builds]
     assert slots[0] == 0 and len(slots) == 1 + (res.peak["rounds"] > 0)
+
+
+def test_the_payload_on_the_co_designed_tables_nlp_is_its_fresh_nlp():
+    """default_study() (four horizontal levers free: the loads enter the pendulum and the
+    elastic centres through the levers' path): a heavier payload with a lower CG on the
+    shared NLP is its fresh build (every row to 1e-10, the optimum to 1e-6 dB)."""
+    import copy
+
+    from isodesign.optimization.study import default_study, study_from_dict
+
+    raw = copy.deepcopy(default_study().raw)
+    raw["solver"].update(starts=1, workers=1)
+    raw["models"]["points_per_band"] = 3
+    raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
+    base = study_from_dict(raw, source="small_codesign.toml", fill_defaults=False)
+    assert any(v.free for v in base.levers)
+    c = ProblemCache()
+    c.get(base)
+    st = base.with_changes({"payload.mass_kg": 720.0, "table.cg_m": [0.0, 0.0, 0.25]})
+    view, fresh = c.get(st), TableProblem(st)
+    assert c.builds == 1
+    x0 = view.initial_guess(_start(st))
+    np.testing.assert_allclose(x0, fresh.initial_guess(_start(st)), rtol=1e-12, atol=1e-12)
+    jv, gv = view.eval_fn(x0, view.params())
+    jf, gf = fresh.eval_fn(x0, fresh.params())
+    assert float(jv) == pytest.approx(float(jf), rel=1e-12, abs=1e-12)
+    np.testing.assert_allclose(np.asarray(gv), np.asarray(gf), rtol=1e-10, atol=1e-12)
+    sv, sf = view.solve(x0), fresh.solve(x0)
+    assert sv.feasible and sf.feasible
+    assert view.worst_margin_db(sv.x) == pytest.approx(fresh.worst_margin_db(sf.x), abs=1e-6)
+
+
+def test_the_payload_is_structure_where_its_own_path_holds_the_start_loads(base):
+    """A free inertia base moves the mass and CG through its lever (and its rows hold the
+    start's loads): there the payload's values are structure; a free layout lever stretches
+    the layout about the CG: there the CG's plan position is structure."""
+    from isodesign.optimization.table_parametric import (
+        cg_plan_parametric,
+        payload_parametric,
+        table_structure_key,
+    )
+
+    assert payload_parametric(base) and cg_plan_parametric(base)
+    k0 = table_structure_key(base)
+    assert table_structure_key(base.with_changes({"payload.mass_kg": 700.0,
+                                                  "table.cg_m": [0.05, 0.0, 0.5]})) == k0
+    lay = base.with_changes(variables={"layout_length_m": {"fixed": False}})
+    assert payload_parametric(lay) and not cg_plan_parametric(lay)
+    assert table_structure_key(lay.with_changes({"table.cg_m": [0.05, 0.0, 0.35]})) != \
+        table_structure_key(lay)
+    slab = base.with_changes(variables={"inertia_base_mass_kg": {"fixed": False}})
+    assert not payload_parametric(slab)
+    assert table_structure_key(slab.with_changes({"payload.mass_kg": 700.0})) != \
+        table_structure_key(slab)

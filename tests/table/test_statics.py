@@ -112,3 +112,42 @@ def test_default_groups_and_box_inertia():
     assert all(len(g) == 2 for g in groups)
     np.testing.assert_allclose(np.diag(box_inertia(12.0, (1.0, 2.0, 3.0))),
                                [13.0, 10.0, 5.0])
+
+
+def test_payload_terms_are_the_statics_and_rigid_body_of_another_payload():
+    """payload_terms (the table NLP's parametric payload, docs/sweep.md section 7) against
+    the point's own table solved by level(), its mass matrix and its gravity term."""
+    import casadi as ca
+
+    from isodesign.optimization.study import table_study
+    from isodesign.table.assembly import geometry
+    from isodesign.table.statics import level, payload_terms
+
+    base = table_study()
+    t0 = base.table
+    area = base.hardware["piston_area_m2"]
+    lv0 = level(t0, area)
+    for ch in ({"payload.mass_kg": 720.0}, {"table.cg_m": [0.0, 0.0, 0.52]},
+               {"payload.mass_kg": 455.0, "table.cg_m": [0.0, 0.0, 0.2]}):
+        t = base.with_changes(ch).table
+        lv = level(t, area)
+        terms = payload_terms(t0, t.mass_kg, t.cg_height_m, np.diag(t.inertia_kg_m2))
+        np.testing.assert_allclose(terms.load_scale * lv0.load_n, lv.load_n, rtol=1e-12)
+        p_atm = lv0.pressure_pa - lv0.load_n / area
+        np.testing.assert_allclose(p_atm + terms.load_scale * (lv0.pressure_pa - p_atm),
+                                   lv.pressure_pa, rtol=1e-12)
+        np.testing.assert_allclose(np.diag(t0.mass_matrix) + np.asarray(terms.d_mass, float),
+                                   np.diag(t.mass_matrix), rtol=1e-12)
+        kg0, kg = geometry(t0, lv0.load_n).gravity, geometry(t, lv.load_n).gravity
+        np.testing.assert_allclose(kg0[3, 3] + terms.d_gravity, kg[3, 3], rtol=1e-12)
+        np.testing.assert_allclose(kg0[4, 4] + terms.d_gravity, kg[4, 4], rtol=1e-12)
+        assert terms.weight_height == pytest.approx(t.weight_n * t.cg_height_m, rel=1e-12)
+        assert terms.dh == pytest.approx(t.cg_height_m - t0.cg_height_m, abs=1e-15)
+    # on CasADi symbols: the same numbers
+    m, h = ca.SX.sym("m"), ca.SX.sym("h")
+    ii = ca.SX.sym("i", 3)
+    sym = payload_terms(t0, m, h, [ii[0], ii[1], ii[2]])
+    f = ca.Function("f", [m, h, ii], [sym.load_scale, sym.d_gravity, sym.weight_height])
+    num = payload_terms(t0, 700.0, 0.4, [90.0, 160.0, 190.0])
+    got = [float(v) for v in f(700.0, 0.4, [90.0, 160.0, 190.0])]
+    assert got == pytest.approx([num.load_scale, num.d_gravity, num.weight_height], rel=1e-14)
