@@ -388,3 +388,28 @@ def test_robust_table_optimum_holds_at_every_corner():
         assert c["max_violation"] <= 1e-6
         assert c["gap"] <= 0.01
     assert any(r["worst"] for r in res.scenarios)
+
+
+def test_the_table_stack_is_the_vertical_construction_and_one_scenario_is_the_nominal_nlp():
+    """The robust stack is one construction for both bodies (robust.stack_scenarios): the
+    table's stack of the nominal scenario alone, solved from the start design, is the
+    nominal table NLP's optimum from there (the built-in table, coarse grid)."""
+    from isodesign.optimization import robust
+    from isodesign.optimization.robust_table import TableStack, _Scenarios
+    from isodesign.optimization.table_driver import _modes_at
+
+    st = _table_study({"payload_mass_kg": {"min": 560.0, "max": 640.0},
+                       "cg_offset_y_m": {"absolute": 0.03}})
+    start = {v.name: v.start for v in st.variables}
+    pr = _Scenarios(st).problem(st.scenarios.nominal())
+    pr.set_modes(_modes_at(pr, pr.study.design_at(start)))
+    ref = pr.solve(pr.initial_guess(start))
+    stack = TableStack([pr])
+    assert stack.solver.name() == "isodesign_table_robust"
+    sol = robust.best_solve(stack, [start], st)
+    assert sol.feasible and ref.feasible
+    assert sol.epigraph == pytest.approx(ref.objective, abs=1e-6)
+    for n, v in ref.values.items():
+        assert sol.values[n] == pytest.approx(v, rel=1e-5)
+    # the stack's rows: the scenario's, its epigraph row, the epsilon row (nlp.stacked_bounds)
+    assert stack.lbg.size == pr.lbg.size + 2
