@@ -162,3 +162,32 @@ def test_the_docs_peaks_of_the_builtin_table():
     y = res.peak_db()[:, :, 1].max(axis=1)
     assert y[0] == pytest.approx(18.3, abs=0.1) and y[1] == pytest.approx(16.9, abs=0.1)
     assert res.closure_peaks.peak_db[:, 1].max() == pytest.approx(13.9, abs=0.1)
+
+
+def test_an_optimize_run_of_a_table_is_answered_at_its_optimum(builtin_table_run, capsys):
+    """A table optimize run directory: the optimum's table (CLI and API alike), its closure
+    peak the one the run's report prints."""
+    from isodesign.cli import main
+    from isodesign.reporting.inputs import load_case
+    from isodesign.reporting.table_section import table_section
+
+    _, run = builtin_table_run
+    assert main(["transmissibility", str(run), "--freq", "0.5:5:30",
+                 "--floor-amplitude", "1um"]) == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"transmissibility of the table: optimum of study 'table' ({run})")
+    case = load_case(run)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        api = isodesign.transmissibility(case.study, case.design,
+                                         np.geomspace(0.5, 5.0, 30), 1e-6,
+                                         values=case.record.get("design"),
+                                         models=dict(case.models))
+        line = table_section(case)["peak_line"]
+    for _, r in api.peaks_frame().iterrows():
+        assert f"{r.point[:10]:>10}  {r.axis:>4}  {r.peak_db:>8.2f}" in out
+    for i, ax in enumerate("xyz"):
+        m = re.search(rf"{ax} ([+-][\d.]+) dB at ([\d.]+) Hz", line)
+        assert float(m.group(1)) == pytest.approx(api.closure_peaks.peak_db[:, i].max(),
+                                                  abs=0.006)
+        assert f"{ax} {float(m.group(1)):+.2f} dB" in out
