@@ -12,9 +12,12 @@ epigraph over the scenarios' objectives, every constraint in every scenario.
 
 The exchange as the vertical one (:func:`.exchange.robust_optimize`): each round solves the
 stack from the last design, the nominal optimum and the best robust design so far, keeping
-the best feasible solution (:func:`.robust.best_solve`); then the box's corners (at most
-:data:`MAX_CORNERS`) and centre are scored at the new design with each scenario's NumPy
-closure and the table NLP's own constraint expressions, and the worst is added. What the
+the best feasible solution (:func:`.robust.best_solve`); movable peak frequencies are
+placed where a scenario's continuous peak of ``|T_p,aa|`` exceeds its bound
+(:meth:`_Scenarios.place_peak_slots`; such a round solves again without a new scenario);
+then the box's corners (at most :data:`MAX_CORNERS`) and centre are scored at the new design
+with each scenario's NumPy closure and the table NLP's own constraint expressions, and the
+worst is added. What the
 vertical exchange has besides: uniform samples and a local maximization in the box (a table
 scenario is a compiled NLP of its own, 2-3 s each), and the scenario values as NLP
 parameters (here sensitivities by central differences, :func:`table_sensitivities`).
@@ -115,11 +118,72 @@ class _Scenarios:
         self.cache: dict = {}
 
     def problem(self, theta):
-        key = tuple(np.round(np.asarray(theta, float), 12))
+        key = self.key(theta)
         if key not in self.cache:
             st = table_scenario(self.study, theta)
             self.cache[key] = Problem(st)  # a table study: the table body
         return self.cache[key]
+
+    @staticmethod
+    def key(theta) -> tuple:
+        """The cache key of a scenario."""
+        return tuple(np.round(np.asarray(theta, float), 12))
+
+    def place_peak_slots(self, thetas, stack, sol, values: dict, placed: dict) -> tuple:
+        """The vertical exchange's peak refinement per scenario (``_place_peak_slots``) on
+        the table: where a scenario's continuous peak of ``|T_p,aa|`` at the stacked
+        solution (its own closure state, its modes) exceeds the bound by more than
+        :data:`~.refine.PEAK_TOLERANCE_DB`, movable peak frequencies are placed at it
+        (:func:`.table_driver.add_peak_frequencies`, at most
+        :data:`~.table_problem.TABLE_PEAK_ROUNDS` rounds per scenario).
+
+        Parameters
+        ----------
+        thetas : list of array
+        stack : TableStack
+            The stack ``sol`` solved (its problems in ``thetas`` order).
+        sol : RobustSolution
+        values : dict
+            The design at ``sol``.
+        placed : dict
+            Scenario key -> frequencies placed so far (updated).
+
+        Returns
+        -------
+        (bool, float)
+            Whether a frequency was placed (solve again), and the largest excess (dB) left
+            over a scenario whose rounds are spent (0 when none).
+        """
+        from isodesign.optimization.refine import PEAK_TOLERANCE_DB
+        from isodesign.optimization.table_driver import add_peak_frequencies, measure_peaks
+        from isodesign.optimization.table_problem import (
+            PEAK_SLOTS_PER_ROUND,
+            TABLE_PEAK_ROUNDS,
+        )
+
+        limit = self.study.constraints.get("max_peak_transmissibility_db")
+        if limit is None or limit is False:
+            return False, 0.0
+        moved, left = False, 0.0
+        for k, (th, pr) in enumerate(zip(thetas, stack.probs, strict=True)):
+            xk = stack.block_x(sol, k)
+            sigma, sigma_u = pr.sigma(xk), pr.tube_rms(xk)
+            d = pr.study.design_at(values)
+            modes = _modes_at(pr, d, sigma, sigma_u, values=values)
+            over = measure_peaks(pr, d, sigma, sigma_u, modes, values=values).above(
+                limit, PEAK_TOLERANCE_DB)
+            if not over:
+                continue
+            used = placed.setdefault(self.key(th), [])
+            if len(used) < PEAK_SLOTS_PER_ROUND * TABLE_PEAK_ROUNDS:
+                new_pr, new = add_peak_frequencies(pr, over, used)
+                if new:
+                    used += new
+                    self.cache[self.key(th)] = new_pr
+                    moved = True
+                    continue
+            left = max(left, over[0][0])
+        return moved, left
 
     def check(self, theta, values: dict, reference: float | None) -> dict:
         """Objective J and violations of scenario ``theta`` at a drawn design (NumPy
@@ -164,6 +228,12 @@ class TableStack:
         b = stacked_bounds(self.probs, self.nz, extra_rows=1)  # t <= epsilon
         self.lbg, self.ubg, self.lbx, self.ubx = b["lbg"], b["ubg"], b["lbx"], b["ubx"]
         self.solver = ca.nlpsol("isodesign_table_robust", "ipopt", nlp, p0.ipopt_options())
+
+    def block_x(self, sol, k: int) -> np.ndarray:
+        """Scenario ``k``'s variables ``[z, w_k]`` at a solution."""
+        start = self.nz + sum(pr.nx - self.nz for pr in self.probs[:k])
+        return np.concatenate([sol.x[:self.nz],
+                               sol.x[start: start + self.probs[k].nx - self.nz]])
 
     def params(self) -> np.ndarray:
         """Every scenario NLP's parameters, then the global ones (minimize ``t``)."""
@@ -361,6 +431,8 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         thetas.append(first[1])
     rounds, converged, sol_js, status = [], False, None, ""
     best_values = dict(values)
+    placed: dict = {}  # scenario -> the movable peak frequencies placed for it
+    peak_left = 0.0
     for r in range(settings["max_rounds"] + 1):
         t0 = time.perf_counter()
         probs = [sc.problem(th) for th in thetas]
@@ -368,7 +440,8 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
             pr.set_modes(_modes_at(pr, pr.study.design_at(values)))
         # as the vertical exchange: solved from the last design, the nominal optimum and the
         # best robust design so far; the feasible solution with the best worst case is kept
-        sol = best_solve(TableStack(probs), [values, nominal.values, best_values], study)
+        stack = TableStack(probs)
+        sol = best_solve(stack, [values, nominal.values, best_values], study)
         status = sol.status
         g = sol.g
         if not sol.feasible:
@@ -385,17 +458,22 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         values = dict(sol.values)
         best_values = dict(values)
         t_star = sol.epigraph
+        moved, peak_left = sc.place_peak_slots(thetas, stack, sol, values, placed)
         s, th_w, _ = search(t_star)
         rounds.append({"round": r, "scenarios": len(thetas), "objective": _natural(kind, t_star),
                        "iterations": sol.iterations, "worst_score": s,
+                       "peak_slots_moved": moved, "peak_excess_left_db": peak_left,
                        "wall_s": time.perf_counter() - t0})
         sol_js = t_star
-        if s <= 1.0:
-            converged = True
+        if s <= 1.0 and not moved:
+            converged = peak_left == 0.0  # a peak left above its bound: not held
             break
-        if r == settings["max_rounds"] or any(np.allclose(th_w, t) for t in thetas):
+        if r == settings["max_rounds"]:
             break
-        thetas.append(np.asarray(th_w, float))
+        if s > 1.0 and not any(np.allclose(th_w, t) for t in thetas):
+            thetas.append(np.asarray(th_w, float))
+        elif not moved:
+            break
     reports = _scenario_constraints(space, probs, thetas, g)
     rows = []
     for k, th in enumerate(thetas):
