@@ -254,9 +254,13 @@ def table_transmissibility(design, table, frequency_hz, floor_amplitude_m, *,
     -------
     TableTransmissibility
     """
+    from isodesign.errors import check_positive
     from isodesign.table.harmonic import table_harmonic_response
 
-    amps = np.atleast_1d(np.asarray(floor_amplitude_m, dtype=float))
+    if np.ndim(floor_amplitude_m) > 1:
+        raise InputError("floor_amplitude_m: expected one or more amplitudes in m, > 0")
+    amps = np.atleast_1d(check_positive("floor_amplitude_m", floor_amplitude_m, unit="m",
+                                        allow_array=True)).astype(float)
     if amps.ndim != 1 or not amps.size:
         raise InputError("floor_amplitude_m: expected one or more amplitudes in m, > 0")
     t_cols, s_cols, c_cols = [], [], []
@@ -365,6 +369,9 @@ def transmissibility(study, design=None, frequency_hz=DEFAULT_FREQUENCY_HZ,
     if not isinstance(study, Study):
         raise InputError(f"study: expected a Study (load_study(path) or table_study()), got "
                          f"{type(study).__name__} {study!r:.40}")
+    if models is not None and not isinstance(models, dict):
+        raise InputError(f"models: expected a dict (flow, amplitude_mode, diaphragm), got "
+                         f"{type(models).__name__}")
     if values is not None and not isinstance(values, dict):
         raise InputError(f"values: expected a dict of design values by name, got "
                          f"{type(values).__name__}")

@@ -191,3 +191,20 @@ def test_an_optimize_run_of_a_table_is_answered_at_its_optimum(builtin_table_run
         assert float(m.group(1)) == pytest.approx(api.closure_peaks.peak_db[:, i].max(),
                                                   abs=0.006)
         assert f"{ax} {float(m.group(1)):+.2f} dB" in out
+
+
+@pytest.mark.parametrize("kw, name", [
+    ({"floor_amplitude_m": "x"}, "floor_amplitude_m"),
+    ({"floor_amplitude_m": [1e-6, "y"]}, "floor_amplitude_m"),
+    ({"floor_amplitude_m": -1.0}, "floor_amplitude_m"),
+    ({"floor_amplitude_m": [[1e-6]]}, "floor_amplitude_m"),
+    ({"frequency_hz": []}, "frequency_hz"),
+    ({"frequency_hz": [1.0, float("nan")]}, "frequency_hz"),
+    ({"values": 3}, "values"),
+    ({"models": 3}, "models"),
+    ({"study": "table.toml"}, "study"),
+])
+def test_bad_api_input_is_an_input_error_naming_the_parameter(kw, name):
+    args = {"study": table_study(), "frequency_hz": [1.0], **kw}
+    with pytest.raises(InputError, match=rf"^{name}: "):
+        isodesign.transmissibility(**args)
