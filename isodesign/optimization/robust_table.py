@@ -134,8 +134,8 @@ class _Scenarios:
         the table: where a scenario's continuous peak of ``|T_p,aa|`` at the stacked
         solution (its own closure state, its modes) exceeds the bound by more than
         :data:`~.refine.PEAK_TOLERANCE_DB`, movable peak frequencies are placed at it
-        (:func:`.table_driver.add_peak_frequencies`, at most
-        :data:`~.table_problem.TABLE_PEAK_ROUNDS` rounds per scenario).
+        (:func:`.table_driver.add_peak_frequencies`, until the scenario NLP's
+        ``PEAK_SLOTS_PER_ROUND x TABLE_PEAK_ROUNDS`` movable frequencies are spent).
 
         Parameters
         ----------
@@ -175,6 +175,8 @@ class _Scenarios:
             if not over:
                 continue
             used = placed.setdefault(self.key(th), [])
+            # until the scenario NLP's movable frequencies (the nominal optimizer's number,
+            # TableProblem.with_peak_slots) are spent
             if len(used) < PEAK_SLOTS_PER_ROUND * TABLE_PEAK_ROUNDS:
                 new_pr, new = add_peak_frequencies(pr, over, used)
                 if new:
@@ -459,18 +461,20 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         best_values = dict(values)
         t_star = sol.epigraph
         moved, peak_left = sc.place_peak_slots(thetas, stack, sol, values, placed)
-        s, th_w, _ = search(t_star)
+        # a round that placed peak frequencies solves again first: the box is searched at
+        # a design that holds its scenarios' peaks (a search costs a compiled NLP per corner)
+        s, th_w = (None, None) if moved else search(t_star)[:2]
         rounds.append({"round": r, "scenarios": len(thetas), "objective": _natural(kind, t_star),
                        "iterations": sol.iterations, "worst_score": s,
                        "peak_slots_moved": moved, "peak_excess_left_db": peak_left,
                        "wall_s": time.perf_counter() - t0})
         sol_js = t_star
-        if s <= 1.0 and not moved:
+        if not moved and s <= 1.0:
             converged = peak_left == 0.0  # a peak left above its bound: not held
             break
         if r == settings["max_rounds"]:
             break
-        if s > 1.0 and not any(np.allclose(th_w, t) for t in thetas):
+        if th_w is not None and s > 1.0 and not any(np.allclose(th_w, t) for t in thetas):
             thetas.append(np.asarray(th_w, float))
         elif not moved:
             break
@@ -494,7 +498,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
                              wall_s=time.perf_counter() - t_all, constraints=reports,
                              first_worst_case=_natural(kind, first[2]["j"]),
                              first_worst_scenario=space.describe(first[1]),
-                             last_search_score=float(s),
+                             last_search_score=None if s is None else float(s),
                              robust_at_nominal=_natural(kind, at_nominal))
 
 
