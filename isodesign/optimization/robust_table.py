@@ -434,6 +434,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     rounds, converged, sol_js, status = [], False, None, ""
     best_values = dict(values)
     placed: dict = {}  # scenario -> the movable peak frequencies placed for it
+    last_s = first[0]  # the score of the last search of the box
     peak_left = 0.0
     for r in range(settings["max_rounds"] + 1):
         t0 = time.perf_counter()
@@ -464,6 +465,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         # a round that placed peak frequencies solves again first: the box is searched at
         # a design that holds its scenarios' peaks (a search costs a compiled NLP per corner)
         s, th_w = (None, None) if moved else search(t_star)[:2]
+        last_s = last_s if s is None else s
         rounds.append({"round": r, "scenarios": len(thetas), "objective": _natural(kind, t_star),
                        "iterations": sol.iterations, "worst_score": s,
                        "peak_slots_moved": moved, "peak_excess_left_db": peak_left,
@@ -498,7 +500,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
                              wall_s=time.perf_counter() - t_all, constraints=reports,
                              first_worst_case=_natural(kind, first[2]["j"]),
                              first_worst_scenario=space.describe(first[1]),
-                             last_search_score=None if s is None else float(s),
+                             last_search_score=float(last_s),
                              robust_at_nominal=_natural(kind, at_nominal))
 
 
