@@ -10,7 +10,8 @@ The public API, importable from the top level (``isodesign.complex_stiffness``, 
   :func:`third_octave_bands`;
 * design studies: :func:`load_study`, :func:`default_study` (the built-in table co-designed),
   :func:`table_study`, :func:`vertical_study`, :func:`optimize`, :func:`analyze`,
-  :func:`pareto_front` (the subpackage is :mod:`isodesign.optimization`);
+  :func:`pareto_front`, :func:`transmissibility` (of a table per point and axis, or of a
+  payload; the subpackage is :mod:`isodesign.optimization`);
 * sweeps of many studies on Dask: :func:`sweep` (:mod:`isodesign.sweeps`);
 * verification: :func:`simulate_stiffness` (time-domain rig);
 * errors: :class:`InputError`, :class:`SolverError`, :class:`ModelValidityWarning`.
@@ -79,6 +80,8 @@ _EXPORTS = {
     "OptimizationResult": "optimization.result",
     "StudyResult": "optimization.result",
     "pareto_front": "optimization.pareto",
+    "transmissibility": "optimization.transmissibility",
+    "TableTransmissibility": "optimization.transmissibility",
     "ParetoResult": "optimization.pareto",
     # sweeps (Dask)
     "sweep": "sweeps.runner",

@@ -1,6 +1,14 @@
-"""Transmissibility of a payload on its isolators for harmonic floor motion.
+"""Transmissibility for harmonic floor motion: of a table per point and axis, or of a payload.
 
-For every frequency (--freq) and floor displacement amplitude (--floor-amplitude) the
+A study with a [table] (a study file or an optimize run directory of one) is answered in six
+degrees of freedom: for every floor amplitude the floor translates along x, y and z in turn,
+each isolator's spring closed on its own stroke amplitude; prints the peak |T| per point and
+axis (and the continuous peak at the band response's closure, the report's figure); -o writes
+one CSV row per amplitude, frequency, point, floor axis and point axis, --plot |T| per axis
+(:func:`isodesign.optimization.transmissibility.transmissibility`, the same answer in
+Python). --payload-kg, --isolators, --design-pressure and --branch are refused there.
+
+Otherwise, for every frequency (--freq) and floor displacement amplitude (--floor-amplitude) the
 spring's stroke X_s = |T(X_s) - 1| X_f is solved self-consistently; where several strokes
 exist (jump phenomenon near resonance) the --branch one is returned and the point is
 counted. Prints the peak |T| per floor amplitude; -o writes one CSV row per point, --plot
@@ -62,9 +70,10 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
     )
     parser.add_argument(
         "--branch",
-        default="upper",
         choices=BRANCHES,
-        help="stroke returned where several exist: upper (largest, default) or lower",
+        help="stroke returned where several exist: upper (largest, default) or lower (a "
+        "payload without [table]; a table's closure follows the branch reached from small "
+        "amplitudes)",
     )
     parser.add_argument(
         "-o",
@@ -123,10 +132,8 @@ def run(args) -> int:
     check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     with option_names(floor="--floor", target="--target", diaphragm="--diaphragm"):
         job = resolve_job(args)
-    if job.study is not None:  # the 1-DOF payload's |T|: not a table's (six DOFs)
-        from isodesign.optimization.dispatch import refuse
-
-        refuse(job.study, "isodesign transmissibility", scenarios=False)
+    if job.study is not None and job.study.table is not None:  # six DOFs, every point
+        return run_table(args, job, freq, amp)
     check_payload_pressure(job.design, job.payload, not args.design_pressure)
     m = job.models
     with option_names(diaphragm="--diaphragm"):
@@ -139,7 +146,7 @@ def run(args) -> int:
             amplitude_mode=m["amplitude_mode"],
             diaphragm=m["diaphragm"],
             derive_pressure=not args.design_pressure,
-            branch=args.branch,
+            branch=args.branch or "upper",
             warn=False,
         )
     for line in res.warnings:
@@ -151,6 +158,71 @@ def run(args) -> int:
         peak = job.study.constraints.get("max_peak_transmissibility_db") if job.study else None
         peak = peak if isinstance(peak, int | float) and not isinstance(peak, bool) else None
         save_plot(res.plot(peak_limit_db=peak), args.plot)
+        if not to_stdout:
+            print(f"wrote {args.plot}")
+    return status
+
+
+def table_summary(res, label: str, models: dict, models_source: str) -> str:
+    """Header and peaks of a table's transmissibility (:class:`TableTransmissibility`)."""
+    t = res.model.table
+    f = res.frequency_hz
+    return "\n".join([
+        f"transmissibility of the table: {label}; {t.mass_kg:g} kg on {t.n_isolators} "
+        f"isolators, CG ({', '.join(f'{v:g}' for v in t.cg_m)}) m; points "
+        + ", ".join(res.point_names),
+        models_line({k: models.get(k) for k in ("flow", "amplitude_mode", "diaphragm")}
+                    | {"acoustics": getattr(res.model.designs[0], "acoustics", None)},
+                    models_source),
+        f"  {f.size} frequencies {f.min():.4g}..{f.max():.4g} Hz; harmonic floor motion along "
+        "x, y, z in turn, each isolator closed on its own stroke (the branch reached from "
+        "small amplitudes)",
+        res.text(),
+    ])
+
+
+def run_table(args, job, freq, amp) -> int:
+    """``isodesign transmissibility`` of a study with a [table]: every point and axis.
+
+    Parameters
+    ----------
+    args : argparse.Namespace
+    job : types.SimpleNamespace
+        :func:`~isodesign.commands.response.resolve_job`'s job (its study has a table).
+    freq, amp : list of float
+        The parsed ``--freq`` and ``--floor-amplitude``.
+    """
+    from isodesign.errors import InputError
+    from isodesign.optimization.transmissibility import transmissibility
+    from isodesign.reporting.inputs import input_kind, load_case
+
+    for opt, given in (("--design-pressure", args.design_pressure),
+                       ("--payload-kg", args.payload_kg is not None),
+                       ("--isolators", args.isolators is not None),
+                       ("--branch", args.branch is not None)):
+        if given:
+            raise InputError(f"{opt}: not available for a study with a [table] (its loads and "
+                             "pressures come from the table's leveling, each isolator closed "
+                             "on its own stroke; docs/table.md)")
+    values = None
+    if input_kind(args.design) == "optimize":  # a co-designed optimum: its levers' values
+        values = (load_case(args.design).record or {}).get("design")
+    m = job.models
+    models = {k: m[k] for k in ("flow", "amplitude_mode", "diaphragm")}
+    with option_names(frequency_hz="--freq", floor_amplitude_m="--floor-amplitude"):
+        res = transmissibility(job.study, job.design, freq, amp, values=values, models=models)
+    if not res.converged.all():
+        warnings_line = (f"table closure did not converge at {int((~res.converged).sum())} of "
+                         f"{res.converged.size} frequency-amplitude-axis points (flagged in "
+                         "the CSV's converged column)")
+        import warnings
+
+        warnings.warn(warnings_line, ModelValidityWarning, stacklevel=2)
+    to_stdout = args.output == "-"
+    status = write_result(res, without_plot(args), "" if to_stdout else table_summary(
+        res, job.label, models, job.models_source))
+    if args.plot:
+        save_plot(res.plot(), args.plot)
         if not to_stdout:
             print(f"wrote {args.plot}")
     return status

@@ -30,10 +30,9 @@ import time
 
 import numpy as np
 
-from isodesign.errors import InputError, SolverError
+from isodesign.errors import InputError
 from isodesign.optimization.driver import optimize_vertical
 from isodesign.optimization.grid import build_grid
-from isodesign.optimization.multistart import map_in_workers
 from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS
 from isodesign.optimization.refine import (
@@ -42,7 +41,7 @@ from isodesign.optimization.refine import (
     continuous_peak_db,
     peak_slots,
 )
-from isodesign.optimization.robust import RobustProblem, ScenarioBlock
+from isodesign.optimization.robust import RobustProblem, ScenarioBlock, best_solve
 from isodesign.optimization.robust_result import (
     RobustResult,
     scenario_constraints,
@@ -213,7 +212,7 @@ def robust_optimize(study, *, nominal=None, progress=None):
             prob = built[len(thetas)] = RobustProblem(block, thetas)
         prob.thetas = [np.asarray(t, float) for t in thetas]
         prob.slots = [s.copy() for s in slots]
-        sol = _best_solve(prob, [values, nominal.values, best_values], study)
+        sol = best_solve(prob, [values, nominal.values, best_values], study)
         if sol.feasible:
             best_values = dict(sol.values)
         if not sol.feasible:
@@ -250,34 +249,6 @@ def robust_optimize(study, *, nominal=None, progress=None):
         scenarios=tuple(rows), first_search=first, last_search=last, problem=prob,
         solution=sol, wall_s=time.perf_counter() - t_all,
         constraints=scenario_constraints(study, prob, sol))
-
-
-def _best_solve(prob, starts: list, study):
-    """Solve the stacked NLP from each distinct start (in forked workers); the best.
-
-    A new scenario can push IPOPT from the last design onto a worse branch (a restoration
-    phase far from it): the last design, the nominal optimum and the best robust design so
-    far are each tried and the feasible solution with the best worst case is kept (the
-    first on a tie, the last design being first)."""
-    distinct = []
-    for v in starts:
-        if not any(all(abs(v[k] / w[k] - 1.0) < 1e-9 for k in v) for w in distinct):
-            distinct.append(dict(v))
-
-    def one(v):
-        try:
-            return prob.solve(prob.initial_guess(v))
-        except Exception as exc:
-            return str(exc)
-
-    sols = [s for s in map_in_workers(one, distinct, workers=study.solver.get("workers"))
-            if not isinstance(s, str)]
-    if not sols:
-        raise SolverError("robust NLP: no start could be initialized")
-    feas = [s for s in sols if s.feasible]
-    if feas:
-        return min(feas, key=lambda s: s.objective)
-    return min(sols, key=lambda s: s.max_violation)
 
 
 def _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds) -> bool:

@@ -71,15 +71,17 @@ def variables_at_bounds(result, rtol: float = 1e-4) -> dict:
 STUDY_KEYS = study_keys()  # the registry's (constraint_registry)
 
 
+def _bounds(d: dict, fmt: str) -> list[str]:
+    """``[">= lower", "<= upper"]`` of a constraint's display (the bounds it has), each
+    number in format ``fmt``."""
+    return [f"{op} {d[k]:{fmt}}" for op, k in ((">=", "lower"), ("<=", "upper"))
+            if d[k] is not None]
+
+
 def _bound_text(c) -> str:
     d = c.display()
-    parts = []
-    if d["lower"] is not None:
-        parts.append(f">= {d['lower']:.4g}")
-    if d["upper"] is not None:
-        parts.append(f"<= {d['upper']:.4g}")
     unit = "" if d["unit"] in ("-", "") else f" {d['unit']}"
-    return f"{d['value']:.4g}{unit}, bound " + " and ".join(parts) + unit
+    return f"{d['value']:.4g}{unit}, bound " + " and ".join(_bounds(d, ".4g")) + unit
 
 
 def limiting_factors(result) -> list[str]:
@@ -223,12 +225,7 @@ def constraint_table_rows(result) -> list[list[str]]:
     out = []
     for c in result.constraints:
         d = c.display()
-        bounds = []
-        if d["lower"] is not None:
-            bounds.append(f">= {d['lower']:.5g}")
-        if d["upper"] is not None:
-            bounds.append(f"<= {d['upper']:.5g}")
         margin = "n/a" if d["margin"] is None else f"{d['margin']:.3g}"
         out.append(["*" if d["binding"] else "", d["name"], f"{d['value']:.5g}",
-                    ", ".join(bounds), margin, d["unit"]])
+                    ", ".join(_bounds(d, ".5g")), margin, d["unit"]])
     return out

@@ -44,7 +44,146 @@ from isodesign.spring.capillary import gaussian_equivalent_resistance
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import amplitude_residual, kinematic_velocity
 
-__all__ = ["RobustProblem", "RobustSolution", "ScenarioBlock"]
+__all__ = ["RobustProblem", "RobustSolution", "ScenarioBlock", "best_solve",
+           "block_function", "global_params", "stack_scenarios"]
+
+
+def stack_scenarios(groups, nz: int, scaling) -> tuple[dict, object]:
+    """The robust NLP of scenario blocks sharing the scaled design: one construction for
+    every body.
+
+    Each block is a CasADi Function ``block(z, w, p) -> (g, J)`` (the shared scaled design,
+    the block's own unknowns, its parameters; its constraint rows and its objectives). The
+    vertical body's one :class:`ScenarioBlock` with the scenario as parameters is mapped over
+    its K scenarios (one group); the table's scenario NLPs, each compiled for its scenario
+    (:func:`block_function`), are one group each. The stacked NLP has the layout of
+    :func:`.nlp.stacked_bounds`::
+
+        x = [z, w_1 .. w_K, t]          p = [p_1 .. p_K, w_t, w_D, eps]
+        g = [g_1 .. g_K, J_k - t (K rows), t - eps]
+        minimize  w_t t + w_D ln D_c
+
+    (``J_k`` the first objective of block ``k``; ``w_t``, ``w_D``, ``eps``:
+    :func:`global_params`).
+
+    Parameters
+    ----------
+    groups : sequence of (casadi.Function, int)
+        Each block Function and how many consecutive scenarios it answers (mapped).
+    nz : int
+        The shared design's size.
+    scaling : LogScaling
+        The spring's scaling (``ln D_c`` of the tie-break, when ``D_c`` is free).
+
+    Returns
+    -------
+    nlp : dict
+        ``x``, ``f``, ``g``, ``p`` for ``casadi.nlpsol``.
+    j_fn : casadi.Function
+        ``(x, p) -> J_k`` of every scenario.
+    """
+    import casadi as ca
+
+    z = ca.MX.sym("z", nz)
+    t = ca.MX.sym("t")
+    pg = ca.MX.sym("global", 3)  # weight of t, weight of ln D_c, epsilon bound on t
+    ws, ps, gs, js = [], [], [], []
+    for fn, count in groups:
+        w = ca.MX.sym("w", fn.size1_in(1), count)
+        p = ca.MX.sym("p", fn.size1_in(2), count)
+        g_all, j_all = fn.map(count)(z, w, p)
+        ws.append(ca.vec(w))
+        ps.append(ca.vec(p))
+        gs.append(ca.vec(g_all))
+        js.append(j_all[0, :].T)
+    j_vec = ca.vertcat(*js)
+    ln_d = 0
+    if "capillary_diameter_m" in scaling.names:
+        i = scaling.names.index("capillary_diameter_m")
+        ln_d = scaling.center[i] + scaling.half[i] * z[i]
+    x = ca.vertcat(z, *ws, t)
+    p = ca.vertcat(*ps, pg)
+    nlp = {"x": x, "f": pg[0] * t + pg[1] * ln_d,
+           "g": ca.vertcat(*gs, j_vec - t, t - pg[2]), "p": p}
+    return nlp, ca.Function("scenario_objectives", [x, p], [j_vec])
+
+
+def global_params(weight: float = 1.0, diameter_weight: float = 0.0,
+                  eps: float | None = None) -> list:
+    """The stacked NLP's last parameters: the weights of ``t`` and ``ln D_c``, the epsilon
+    bound on ``t`` (None: :data:`.nlp.NO_BOUND`).
+
+    Parameters
+    ----------
+    weight, diameter_weight : float
+    eps : float, optional
+    """
+    return [weight, diameter_weight, NO_BOUND if eps is None else eps]
+
+
+def block_function(nlp, nz: int):
+    """A scenario NLP (its ``eval_fn(x, p) -> (J, g)``, ``nx`` variables) as the block
+    Function ``block(z, w, p) -> (g, J)`` of :func:`stack_scenarios`.
+
+    Parameters
+    ----------
+    nlp : NLP
+        A built NLP of one scenario (the table's :class:`.table_problem.TableProblem`).
+    nz : int
+        Its first ``nz`` variables are the shared design.
+    """
+    import casadi as ca
+
+    z = ca.MX.sym("z", nz)
+    w = ca.MX.sym("w", nlp.nx - nz)
+    p = ca.MX.sym("p", int(np.asarray(nlp.params()).size))
+    j, g = nlp.eval_fn(ca.vertcat(z, w), p)
+    return ca.Function("block", [z, w, p], [g, j])
+
+
+def best_solve(prob, starts: list, study):
+    """Solve a stacked NLP from each distinct start (in forked workers); the best.
+
+    A new scenario can push IPOPT from the last design onto a worse branch (a restoration
+    phase far from it): the exchange of either body tries the last design, the nominal
+    optimum and the best robust design so far, and keeps the feasible solution with the best
+    worst case (the first on a tie, the last design being first), else the least violating.
+
+    Parameters
+    ----------
+    prob : RobustProblem or TableStack
+        With ``initial_guess(values)`` and ``solve(x0) -> RobustSolution``.
+    starts : list of dict
+        Designs (SI values by name), the last design first.
+    study : Study
+        Its ``solver.workers``.
+
+    Returns
+    -------
+    RobustSolution
+    """
+    from isodesign.errors import SolverError
+    from isodesign.optimization.multistart import map_in_workers
+
+    distinct = []
+    for v in starts:
+        if not any(all(abs(v[k] / w[k] - 1.0) < 1e-9 for k in v) for w in distinct):
+            distinct.append(dict(v))
+
+    def one(v):
+        try:
+            return prob.solve(prob.initial_guess(v))
+        except Exception as exc:
+            return str(exc)
+
+    sols = [s for s in map_in_workers(one, distinct, workers=study.solver.get("workers"))
+            if not isinstance(s, str)]
+    if not sols:
+        raise SolverError("robust NLP: no start could be initialized")
+    feas = [s for s in sols if s.feasible]
+    if feas:
+        return min(feas, key=lambda s: s.objective)
+    return min(sols, key=lambda s: s.max_violation)
 
 
 class ScenarioBlock(Problem):
@@ -243,33 +382,17 @@ class RobustProblem:
         b = block
         nw = b.nx - b.nz
         self.nz, self.nw, self.K = b.nz, nw, len(self.thetas)
-        # MX over the block Function mapped K times: the block's derivatives are generated
-        # once, so adding a scenario costs a rebuild of about a second, not K inlined copies
-        z = ca.MX.sym("z", b.nz)
-        w_all = ca.MX.sym("w", nw, self.K)
-        p_all = ca.MX.sym("p", b.np, self.K)
-        t = ca.MX.sym("t")
-        pg = ca.MX.sym("global", 3)  # weight of t, weight of ln D_c, epsilon bound on t
-        g_all, j_all = b.block.map(self.K)(z, w_all, p_all)
-        j_vec = j_all[0, :].T
-        ln_d = 0
-        if "capillary_diameter_m" in b.scaling.names:
-            i = b.scaling.names.index("capillary_diameter_m")
-            ln_d = b.scaling.center[i] + b.scaling.half[i] * z[i]
-        f = pg[0] * t + pg[1] * ln_d
-        g = ca.vertcat(ca.vec(g_all), j_vec - t, t - pg[2])
-        x = ca.vertcat(z, ca.vec(w_all), t)
-        p = ca.vertcat(ca.vec(p_all), pg)
-        gs = [g_all[:, 0]]
-        self.ng_block = int(gs[0].numel())
+        # the block Function mapped K times (one group): its derivatives are generated once,
+        # so adding a scenario costs a rebuild of about a second, not K inlined copies
+        nlp, self.j_fn = stack_scenarios([(b.block, self.K)], b.nz, b.scaling)
+        x = nlp["x"]
+        self.ng_block = int(b.block.size1_out(0))
         bounds = stacked_bounds([b] * self.K, b.nz, extra_rows=1)  # t <= epsilon
         self.lbg, self.ubg, self.lbx, self.ubx = (bounds[k] for k in ("lbg", "ubg", "lbx",
                                                                        "ubx"))
         self.nx = int(x.numel())
-        self.j_fn = ca.Function("scenario_objectives", [x, p], [j_vec])
         self.hessian_info = hessian_choice(b.study, b.nx, scenarios=self.K)
-        self.solver = ca.nlpsol("isodesign_robust", "ipopt",
-                                {"x": x, "f": f, "g": g, "p": p},
+        self.solver = ca.nlpsol("isodesign_robust", "ipopt", nlp,
                                 ipopt_options(b.study, self.hessian_info["hessian"]))
         self.build_s = time.perf_counter() - t0
 
@@ -279,7 +402,7 @@ class RobustProblem:
         """Every block's parameters (its scenario and slots), then the global ones."""
         parts = [self.block.block_params(th, sl) for th, sl in
                  zip(self.thetas, self.slots, strict=True)]
-        parts.append([weight, diameter_weight, NO_BOUND if eps is None else eps])
+        parts.append(global_params(weight, diameter_weight, eps))
         return np.concatenate(parts)
 
     def theta_slice(self, k: int) -> slice:

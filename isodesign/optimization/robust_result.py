@@ -82,7 +82,33 @@ def scenario_constraints(study, prob, sol) -> tuple:
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class RobustResult(RobustStudyResult):
+class RobustFields(RobustStudyResult):
+    """The fields both robust answers carry, declared once (:class:`RobustResult`,
+    :class:`~.robust_table.TableRobustResult`): the study, the nominal optimum, the robust
+    design's ``values``, the objective's kind and worst case, feasibility, convergence and
+    solver status, then the exchange's ``rounds`` and final ``scenarios``, the wall time,
+    the scenario that cannot be met (``infeasible_scenario``), further record entries
+    (``extra``) and the constraint table (each constraint in the scenario where its margin
+    is smallest)."""
+
+    study: Any
+    nominal: Any
+    values: dict
+    objective: str
+    objective_value: float | None
+    feasible: bool
+    converged: bool
+    status: str
+    rounds: tuple = ()
+    scenarios: tuple = ()
+    wall_s: float = 0.0
+    infeasible_scenario: dict | None = None
+    extra: dict = field(default_factory=dict)
+    constraints: tuple = ()
+
+
+@dataclass(frozen=True, eq=False, repr=False)
+class RobustResult(RobustFields):
     """The answer to a ``robust`` study (:func:`isodesign.optimization.exchange.robust_optimize`).
 
     The common interface is :class:`~.result.StudyResult`'s (and
@@ -102,25 +128,12 @@ class RobustResult(RobustStudyResult):
 
     KIND = "robust"
 
-    study: Any
-    nominal: Any
-    values: dict
-    design: Any
-    objective: str
-    objective_value: float | None
-    feasible: bool
-    converged: bool
-    status: str
-    rounds: tuple = ()
-    scenarios: tuple = ()
+    #: the robust spring (a :class:`~isodesign.spring.design.SpringDesign`)
+    design: Any = None
     first_search: dict | None = None
     last_search: dict | None = None
     problem: Any = None
     solution: Any = None
-    wall_s: float = 0.0
-    infeasible_scenario: dict | None = None
-    extra: dict = field(default_factory=dict)
-    constraints: tuple = ()
 
     # -- construction of failures ---------------------------------------------------------
     @classmethod

@@ -4,32 +4,39 @@ The same layer as :mod:`.robust` and :mod:`.exchange`, on the table NLP
 (:class:`.table_problem.TableProblem`): every scenario is the table study under
 that scenario's payload mass, centre-of-gravity offset (``cg_offset_x_m``,
 ``cg_offset_y_m``), temperature, and the built spring's tolerances
-(:class:`.uncertainty.ScenarioStudy`), its own TableProblem (the leveling pressures and
-the mass matrix follow the payload and the CG); the stacked NLP shares the scaled design
-``z``, each scenario keeps its closure unknowns, and the worst case is an epigraph over
-the scenarios' objectives with every constraint in every scenario. The exchange method
-scores the box's corners (at most :data:`MAX_CORNERS`) and centre with each scenario's
-NumPy closure and the table NLP's own constraint expressions, adds the worst and repeats.
+(:func:`.table_scenario.table_scenario`), its own TableProblem (the leveling pressures and
+the mass matrix follow the payload and the CG). :class:`TableStack` stacks them by the one
+construction of both bodies (:func:`.robust.stack_scenarios`, one block per scenario): the
+scaled design ``z`` shared, each scenario's closure unknowns its own, the worst case an
+epigraph over the scenarios' objectives, every constraint in every scenario.
 
-What the vertical layer has that this one has not (yet): the scenario values as NLP
-parameters (here each scenario is compiled numerically, so no parametric sensitivities),
-a local maximization inside the box (corners and centre only), the yield and the CLI
-summary figures.
+The exchange as the vertical one (:func:`.exchange.robust_optimize`): each round solves the
+stack from the last design, the nominal optimum and the best robust design so far, keeping
+the best feasible solution (:func:`.robust.best_solve`); movable peak frequencies are
+placed where a scenario's continuous peak of ``|T_p,aa|`` exceeds its bound
+(:meth:`_Scenarios.place_peak_slots`; such a round solves again without a new scenario);
+then the box's corners (at most :data:`MAX_CORNERS`) and centre are scored at the new design
+with each scenario's NumPy closure and the table NLP's own constraint expressions, and the
+worst is added. What the
+vertical exchange has besides: uniform samples and a local maximization in the box (a table
+scenario is a compiled NLP of its own, 2-3 s each), and the scenario values as NLP
+parameters (here sensitivities by central differences, :func:`table_sensitivities`).
 """
 
 from __future__ import annotations
 
 import math
 import time
-from dataclasses import dataclass, field
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 
 from isodesign.errors import InputError
 from isodesign.optimization.nlp import stacked_bounds
 from isodesign.optimization.problem import Problem
-from isodesign.optimization.result import RobustStudyResult, worst_constraint_reports
+from isodesign.optimization.result import worst_constraint_reports
+from isodesign.optimization.robust import best_solve
+from isodesign.optimization.robust_result import RobustFields
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.table_constraints import table_constraint_reports
 from isodesign.optimization.table_driver import _modes_at, optimize_table
@@ -60,11 +67,11 @@ def table_sensitivities(study, values: dict, theta=None) -> list:
     Parameters
     ----------
     study : Study
-        With ``[table]`` and ``[scenarios]``.
+        A table study with its ``[scenarios]`` box.
     values : dict
-        The design (SI).
+        The held design: SI values by variable name.
     theta : array, optional
-        The scenario (default the nominal values of the parameters).
+        Where the derivatives are taken (default the nominal values of the parameters).
 
     Returns
     -------
@@ -111,11 +118,74 @@ class _Scenarios:
         self.cache: dict = {}
 
     def problem(self, theta):
-        key = tuple(np.round(np.asarray(theta, float), 12))
+        key = self.key(theta)
         if key not in self.cache:
             st = table_scenario(self.study, theta)
             self.cache[key] = Problem(st)  # a table study: the table body
         return self.cache[key]
+
+    @staticmethod
+    def key(theta) -> tuple:
+        """The cache key of a scenario."""
+        return tuple(np.round(np.asarray(theta, float), 12))
+
+    def place_peak_slots(self, thetas, stack, sol, values: dict, placed: dict) -> tuple:
+        """The vertical exchange's peak refinement per scenario (``_place_peak_slots``) on
+        the table: where a scenario's continuous peak of ``|T_p,aa|`` at the stacked
+        solution (its own closure state, its modes) exceeds the bound by more than
+        :data:`~.refine.PEAK_TOLERANCE_DB`, movable peak frequencies are placed at it
+        (:func:`.table_driver.add_peak_frequencies`, until the scenario NLP's
+        ``PEAK_SLOTS_PER_ROUND x TABLE_PEAK_ROUNDS`` movable frequencies are spent).
+
+        Parameters
+        ----------
+        thetas : list of array
+        stack : TableStack
+            The stack ``sol`` solved (its problems in ``thetas`` order).
+        sol : RobustSolution
+        values : dict
+            The design at ``sol``.
+        placed : dict
+            Scenario key -> frequencies placed so far (updated).
+
+        Returns
+        -------
+        (bool, float)
+            Whether a frequency was placed (solve again), and the largest excess (dB) left
+            over a scenario whose rounds are spent (0 when none).
+        """
+        from isodesign.optimization.refine import PEAK_TOLERANCE_DB
+        from isodesign.optimization.table_driver import add_peak_frequencies, measure_peaks
+        from isodesign.optimization.table_problem import (
+            PEAK_SLOTS_PER_ROUND,
+            TABLE_PEAK_ROUNDS,
+        )
+
+        limit = self.study.constraints.get("max_peak_transmissibility_db")
+        if limit is None or limit is False:
+            return False, 0.0
+        moved, left = False, 0.0
+        for k, (th, pr) in enumerate(zip(thetas, stack.probs, strict=True)):
+            xk = stack.block_x(sol, k)
+            sigma, sigma_u = pr.sigma(xk), pr.tube_rms(xk)
+            d = pr.study.design_at(values)
+            modes = _modes_at(pr, d, sigma, sigma_u, values=values)
+            over = measure_peaks(pr, d, sigma, sigma_u, modes, values=values).above(
+                limit, PEAK_TOLERANCE_DB)
+            if not over:
+                continue
+            used = placed.setdefault(self.key(th), [])
+            # until the scenario NLP's movable frequencies (the nominal optimizer's number,
+            # TableProblem.with_peak_slots) are spent
+            if len(used) < PEAK_SLOTS_PER_ROUND * TABLE_PEAK_ROUNDS:
+                new_pr, new = add_peak_frequencies(pr, over, used)
+                if new:
+                    used += new
+                    self.cache[self.key(th)] = new_pr
+                    moved = True
+                    continue
+            left = max(left, over[0][0])
+        return moved, left
 
     def check(self, theta, values: dict, reference: float | None) -> dict:
         """Objective J and violations of scenario ``theta`` at a drawn design (NumPy
@@ -135,32 +205,80 @@ class _Scenarios:
                 "gap": None if reference is None else j - reference, "margin_db": margin}
 
 
-def _stack(probs, study):
-    """The stacked NLP of the scenarios' TableProblems sharing z."""
-    import casadi as ca
+class TableStack:
+    """The table's scenario NLPs stacked, sharing the design: the vertical body's
+    construction (:func:`.robust.stack_scenarios`, one block per scenario, each its
+    :class:`.table_problem.TableProblem` compiled for that scenario) with the interface of
+    :class:`.robust.RobustProblem` that :func:`.robust.best_solve` uses.
 
-    p0 = probs[0]
-    nz = p0.nz
-    z = ca.MX.sym("z", nz)
-    t = ca.MX.sym("t")
-    xs, ps, gs, js = [], [], [], []
-    for k, pr in enumerate(probs):
-        w = ca.MX.sym(f"w{k}", pr.nx - nz)
-        p = ca.MX.sym(f"p{k}", pr.params().size)
-        jk, gk = pr.eval_fn(ca.vertcat(z, w), p)
-        xs.append(w)
-        ps.append(p)
-        gs.append(gk)
-        js.append(jk)
-    g = ca.vertcat(*gs, *[j - t for j in js])
-    x = ca.vertcat(z, *xs, t)
-    solver = ca.nlpsol("isodesign_table_robust", "ipopt",
-                       {"x": x, "f": t, "g": g, "p": ca.vertcat(*ps)}, p0.ipopt_options())
-    return solver, stacked_bounds(probs, nz)
+    Parameters
+    ----------
+    probs : sequence of TableProblem
+        One per scenario, their frozen modes set.
+    """
+
+    def __init__(self, probs):
+        import casadi as ca
+
+        from isodesign.optimization.robust import block_function, stack_scenarios
+
+        self.probs = list(probs)
+        p0 = self.probs[0]
+        self.nz = p0.nz
+        nlp, self.j_fn = stack_scenarios([(block_function(pr, self.nz), 1) for pr in probs],
+                                         self.nz, p0.scaling)
+        b = stacked_bounds(self.probs, self.nz, extra_rows=1)  # t <= epsilon
+        self.lbg, self.ubg, self.lbx, self.ubx = b["lbg"], b["ubg"], b["lbx"], b["ubx"]
+        self.solver = ca.nlpsol("isodesign_table_robust", "ipopt", nlp, p0.ipopt_options())
+
+    def block_x(self, sol, k: int) -> np.ndarray:
+        """Scenario ``k``'s variables ``[z, w_k]`` at a solution."""
+        start = self.nz + sum(pr.nx - self.nz for pr in self.probs[:k])
+        return np.concatenate([sol.x[:self.nz],
+                               sol.x[start: start + self.probs[k].nx - self.nz]])
+
+    def params(self) -> np.ndarray:
+        """Every scenario NLP's parameters, then the global ones (minimize ``t``)."""
+        from isodesign.optimization.robust import global_params
+
+        return np.concatenate([*[pr.params() for pr in self.probs], global_params()])
+
+    def initial_guess(self, values: dict) -> np.ndarray:
+        """``x0`` at a design: each scenario's unknowns from its NumPy closure, ``t`` the
+        worst of their objectives."""
+        x0s = [pr.initial_guess(values) for pr in self.probs]
+        js0 = [float(np.asarray(pr._j_fn(x)).ravel()[0]) for pr, x in zip(self.probs, x0s,
+                                                                           strict=True)]
+        return np.concatenate([x0s[0][:self.nz], *[x[self.nz:] for x in x0s], [max(js0)]])
+
+    def solve(self, x0: np.ndarray, p=None):
+        """IPOPT on the stacked NLP from ``x0``; a :class:`.robust.RobustSolution` (every
+        scenario's violations, its objective the worst scenario's)."""
+        from isodesign.optimization.robust import RobustSolution
+
+        t0 = time.perf_counter()
+        p = self.params() if p is None else np.asarray(p, float)
+        res = self.solver(x0=x0, p=p, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg)
+        stats = self.solver.stats()
+        x = np.asarray(res["x"]).ravel()
+        g = np.asarray(res["g"]).ravel()
+        viol, row = {}, 0
+        for k, pr in enumerate(self.probs):
+            ng = pr.lbg.size
+            viol[k] = list(pr.violations(g[row: row + ng]))
+            row += ng
+        js = np.asarray(self.j_fn(x, p)).ravel()
+        return RobustSolution(
+            x=x, g=g, values=self.probs[0].values(x[:self.nz]), objective=float(np.max(js)),
+            epigraph=float(x[-1]), scenario_objectives=js, violations=viol,
+            status=stats.get("return_status", "unknown"),
+            success=bool(stats.get("success", False)),
+            iterations=int(stats.get("iter_count", -1)), wall_s=time.perf_counter() - t0,
+            params=p)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
-class TableRobustResult(RobustStudyResult):
+class TableRobustResult(RobustFields):
     """The answer to a ``robust table`` study (:func:`robust_optimize_table`).
 
     The common interface is :class:`~.result.StudyResult`'s (and
@@ -176,20 +294,6 @@ class TableRobustResult(RobustStudyResult):
 
     KIND = "robust table"
 
-    study: Any
-    nominal: Any
-    values: dict
-    objective: str
-    objective_value: float | None
-    feasible: bool
-    converged: bool
-    status: str
-    rounds: tuple = ()
-    scenarios: tuple = ()
-    wall_s: float = 0.0
-    infeasible_scenario: dict | None = None
-    extra: dict = field(default_factory=dict)
-    constraints: tuple = ()
     first_worst_case: float | None = None
     first_worst_scenario: str | None = None
     last_search_score: float | None = None
@@ -328,53 +432,54 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     if first[0] > 1.0 and not np.allclose(first[1], thetas[0]):
         thetas.append(first[1])
     rounds, converged, sol_js, status = [], False, None, ""
+    best_values = dict(values)
+    placed: dict = {}  # scenario -> the movable peak frequencies placed for it
+    last_s = first[0]  # the score of the last search of the box
+    peak_left = 0.0
     for r in range(settings["max_rounds"] + 1):
         t0 = time.perf_counter()
         probs = [sc.problem(th) for th in thetas]
         for pr in probs:
             pr.set_modes(_modes_at(pr, pr.study.design_at(values)))
-        solver, b = _stack(probs, study)
-        x0s = [pr.initial_guess(values) for pr in probs]
-        nz = probs[0].nz
-        js0 = [float(np.asarray(pr._j_fn(x)).ravel()[0]) for pr, x in zip(probs, x0s,
-                                                                           strict=True)]
-        x0 = np.concatenate([x0s[0][:nz], *[x[nz:] for x in x0s], [max(js0)]])
-        p = np.concatenate([pr.params() for pr in probs])
-        res = solver(x0=x0, p=p, **b)
-        stats = solver.stats()
-        status = stats.get("return_status", "unknown")
-        x = np.asarray(res["x"]).ravel()
-        g = np.asarray(res["g"]).ravel()
-        row, worst = 0, (0, "", 0.0)
-        for k, pr in enumerate(probs):
-            ng = pr.lbg.size
-            for n, v in pr.violations(g[row: row + ng]):
-                if v > worst[2]:
-                    worst = (k, n, v)
-            row += ng
-        if worst[2] > FEASIBILITY_TOLERANCE:
-            th = thetas[worst[0]]
+        # as the vertical exchange: solved from the last design, the nominal optimum and the
+        # best robust design so far; the feasible solution with the best worst case is kept
+        stack = TableStack(probs)
+        sol = best_solve(stack, [values, nominal.values, best_values], study)
+        status = sol.status
+        g = sol.g
+        if not sol.feasible:
+            k, cname, amount = sol.worst_scenario()
+            th = thetas[k]
             return TableRobustResult(
                 study, nominal, values, kind, None, False, False, status,
                 rounds=tuple(rounds), wall_s=time.perf_counter() - t_all,
                 first_worst_case=_natural(kind, first[2]["j"]),
                 constraints=_scenario_constraints(space, probs, thetas, g),
                 infeasible_scenario={"description": space.describe(th),
-                                     "theta": space.as_dict(th), "constraint": worst[1],
-                                     "violation": float(worst[2])})
-        values = probs[0].values(x[:nz])
-        t_star = float(x[-1])
-        s, th_w, _ = search(t_star)
+                                     "theta": space.as_dict(th), "constraint": cname,
+                                     "violation": float(amount)})
+        values = dict(sol.values)
+        best_values = dict(values)
+        t_star = sol.epigraph
+        moved, peak_left = sc.place_peak_slots(thetas, stack, sol, values, placed)
+        # a round that placed peak frequencies solves again first: the box is searched at
+        # a design that holds its scenarios' peaks (a search costs a compiled NLP per corner)
+        s, th_w = (None, None) if moved else search(t_star)[:2]
+        last_s = last_s if s is None else s
         rounds.append({"round": r, "scenarios": len(thetas), "objective": _natural(kind, t_star),
-                       "iterations": int(stats.get("iter_count", -1)), "worst_score": s,
+                       "iterations": sol.iterations, "worst_score": s,
+                       "peak_slots_moved": moved, "peak_excess_left_db": peak_left,
                        "wall_s": time.perf_counter() - t0})
         sol_js = t_star
-        if s <= 1.0:
-            converged = True
+        if not moved and s <= 1.0:
+            converged = peak_left == 0.0  # a peak left above its bound: not held
             break
-        if r == settings["max_rounds"] or any(np.allclose(th_w, t) for t in thetas):
+        if r == settings["max_rounds"]:
             break
-        thetas.append(np.asarray(th_w, float))
+        if th_w is not None and s > 1.0 and not any(np.allclose(th_w, t) for t in thetas):
+            thetas.append(np.asarray(th_w, float))
+        elif not moved:
+            break
     reports = _scenario_constraints(space, probs, thetas, g)
     rows = []
     for k, th in enumerate(thetas):
@@ -395,7 +500,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
                              wall_s=time.perf_counter() - t_all, constraints=reports,
                              first_worst_case=_natural(kind, first[2]["j"]),
                              first_worst_scenario=space.describe(first[1]),
-                             last_search_score=float(s),
+                             last_search_score=float(last_s),
                              robust_at_nominal=_natural(kind, at_nominal))
 
 

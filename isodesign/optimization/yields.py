@@ -304,6 +304,7 @@ class YieldResult(ResultDisplay):
         Parameters
         ----------
         ax : matplotlib Axes, optional
+            Draw into it (default: a new figure).
 
         Returns
         -------

@@ -233,20 +233,6 @@ def test_pareto_of_a_robust_study_is_refused_with_the_same_line_in_api_and_cli(t
     assert not (tmp_path / "sw").exists()
 
 
-def test_transmissibility_refuses_a_table_study_by_name(tmp_path, small_table_study):
-    from isodesign.optimization.dispatch import refuse
-
-    st = small_table_study()
-    with pytest.raises(InputError) as api:
-        refuse(st, "isodesign transmissibility", scenarios=False)
-    f = tmp_path / "t.toml"
-    f.write_text(study_toml(st))
-    p = cli("transmissibility", str(f))
-    assert p.returncode == 2
-    assert p.stderr.strip().splitlines() == [refusal_line(api)]
-    assert str(api.value).startswith("[table]: ")
-
-
 def test_a_table_sweep_response_point_is_the_tables_band_response(tmp_path, small_table_study):
     st = small_table_study()
     res = isodesign.sweep(st, vary={"payload.mass_kg": [600.0]}, output=tmp_path / "sw",
