@@ -280,7 +280,8 @@ def refine_peak(study, prob, final, best, flat, *, known=(), tie_break_after=Non
             break
         info["added_frequencies_hz"] += peak_slots(prob, info["rounds"], f_pk)
         info["rounds"] += 1
-        sol = prob.solve(prob.initial_guess(vals))
+        # the same point: warm-started from its multipliers (nlp.WARM_OPTIONS)
+        sol = prob.solve(prob.initial_guess(vals), warm=best)
         if not sol.feasible:
             raise SolverError(
                 f"peak refinement: the re-solve with frequencies added near {f_pk:.4g} Hz "
@@ -335,7 +336,7 @@ def tie_break(prob, best, tol_j: float):
     sols = {}
     for name, wd in (("max", -1.0), ("min", 1.0)):
         sol = prob.solve(best.x, prob.params(weights=[0.0] * len(prob.objectives),
-                                             diameter_weight=wd, eps=eps))
+                                             diameter_weight=wd, eps=eps), warm=best)
         sols[name] = sol if sol.feasible else None
     d_opt = best.values["capillary_diameter_m"]
     rng = {k: (v.values if v is not None else None) for k, v in sols.items()}

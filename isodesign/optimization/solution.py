@@ -39,6 +39,9 @@ class Solution:
         IPOPT's success flag.
     iterations : int
     wall_s : float
+    lam_x, lam_g : ndarray or None
+        IPOPT's multipliers of the bounds and the constraints at ``x`` (a warm re-solve
+        of the same point starts from them: :meth:`~.nlp.NLP.solve` ``warm=``).
     """
 
     x: np.ndarray
@@ -51,6 +54,8 @@ class Solution:
     success: bool
     iterations: int
     wall_s: float
+    lam_x: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    lam_g: np.ndarray | None = dataclasses.field(default=None, repr=False)
 
     @property
     def max_violation(self) -> float:
