@@ -419,7 +419,7 @@ def run(repeats: int | None = None) -> list[dict]:
     else 2). The 8-start reference is computed by another process meanwhile, or read from
     ``ISODESIGN_BENCH_SWEEP_REFERENCE`` (a ``--reference PATH`` run started beforehand;
     waited for). ``ISODESIGN_BENCH_SWEEP_ROWS=optimize``: only the optimize row
-    (:func:`optimize_process_row`).
+    (:func:`optimize_process_row`); ``=sweep``: only the sweep rows.
     """
     warnings.simplefilter("ignore")
     if os.environ.get("ISODESIGN_BENCH_SWEEP_ROWS", "").strip() == "optimize":
@@ -473,7 +473,8 @@ def run(repeats: int | None = None) -> list[dict]:
                   f"{OLD_COMMIT}'s one-start sweep: worst {worst_old:.3f} dB, "
                   f"{sum(g > TARGET_GAP_DB for g in gaps_old)} points beyond"},
     ]
-    rows.append(optimize_process_row(old))
+    if os.environ.get("ISODESIGN_BENCH_SWEEP_ROWS", "").strip() != "sweep":
+        rows.append(optimize_process_row(old))
     return rows
 
 
