@@ -416,10 +416,10 @@ def run(repeats: int | None = None) -> list[dict]:
     dB), ``isodesign optimize`` whole-process ratio (target 0.75).
 
     ``repeats``: interleaved runs of each arm (default ``ISODESIGN_BENCH_SWEEP_REPEATS``,
-    else 2). The 8-start reference is computed by another process meanwhile, or read from
+    else 2). The 8-start reference is computed by another process after the arms, or read from
     ``ISODESIGN_BENCH_SWEEP_REFERENCE`` (a ``--reference PATH`` run started beforehand;
     waited for). ``ISODESIGN_BENCH_SWEEP_ROWS=optimize``: only the optimize row
-    (:func:`optimize_process_row`).
+    (:func:`optimize_process_row`); ``=sweep``: only the sweep rows.
     """
     warnings.simplefilter("ignore")
     if os.environ.get("ISODESIGN_BENCH_SWEEP_ROWS", "").strip() == "optimize":
@@ -432,8 +432,7 @@ def run(repeats: int | None = None) -> list[dict]:
     if given:  # a reference run started beforehand (python bench_sweep.py --reference PATH)
         ref_file, ref_proc = Path(given), None
     else:
-        ref_file = Path(ref_dir.name) / "reference.json"
-        ref_proc = _reference_in_background(ref_file)
+        ref_file, ref_proc = Path(ref_dir.name) / "reference.json", None
     new, olds, loads = [], [], []
     for _ in range(repeats):  # interleaved
         o = _sweep_arm(old)
@@ -441,6 +440,10 @@ def run(repeats: int | None = None) -> list[dict]:
         olds.append(o)
         new.append(n)
         loads += o["load"] + n["load"]
+    if not given:
+        # after the arms, not beside them: run beside the first pair it took the cores
+        # from the first arm (c243645's) for most of its run and from the second for less
+        ref_proc = _reference_in_background(ref_file)
     t_old = statistics.median(a["wall_s"] for a in olds)
     t_new = statistics.median(a["wall_s"] for a in new)
     speedup = t_old / t_new
@@ -473,7 +476,8 @@ def run(repeats: int | None = None) -> list[dict]:
                   f"{OLD_COMMIT}'s one-start sweep: worst {worst_old:.3f} dB, "
                   f"{sum(g > TARGET_GAP_DB for g in gaps_old)} points beyond"},
     ]
-    rows.append(optimize_process_row(old))
+    if os.environ.get("ISODESIGN_BENCH_SWEEP_ROWS", "").strip() != "sweep":
+        rows.append(optimize_process_row(old))
     return rows
 
 

@@ -45,8 +45,8 @@ def _vertical(n: int) -> None:
     solves = collections.defaultdict(lambda: [0, 0, 0.0])  # caller -> n, iterations, s
     real = nlp.NLP.solve
 
-    def solve(self, x0, p=None):
-        sol = real(self, x0, p)
+    def solve(self, x0, p=None, **kw):
+        sol = real(self, x0, p, **kw)
         caller = traceback.extract_stack(limit=2)[0].name  # who called solve
         s = solves[caller]
         s[0] += 1

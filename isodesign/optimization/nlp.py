@@ -64,6 +64,19 @@ IPOPT_OPTIONS = {
     "ipopt.slack_bound_frac": 1e-9,
     "ipopt.mumps_pivot_order": 0,
 }
+#: A warm re-solve of the same point (:meth:`NLP.solve` ``warm=``: the peak refinement's
+#: re-solves and the tie-break's): IPOPT starts from the previous solution's primal and
+#: dual values with a small barrier parameter and tiny pushes off the bounds, so the
+#: active set it had carries over (docs/sweep.md, section 6).
+WARM_OPTIONS = {
+    "ipopt.warm_start_init_point": "yes",
+    "ipopt.mu_init": 1e-6,
+    "ipopt.warm_start_bound_push": 1e-9,
+    "ipopt.warm_start_bound_frac": 1e-9,
+    "ipopt.warm_start_slack_bound_push": 1e-9,
+    "ipopt.warm_start_slack_bound_frac": 1e-9,
+    "ipopt.warm_start_mult_bound_push": 1e-9,
+}
 #: IPOPT's constraint violation tolerance (``ipopt.constr_viol_tol``).
 CONSTRAINT_VIOLATION_TOL = 1e-9
 #: Boxes on the implicit unknowns of the NLP (far outside any physical solution).
@@ -361,7 +374,31 @@ class NLP:
         return np.concatenate([objective_params(len(self.objectives), weights,
                                                 diameter_weight, eps), self._param_tail()])
 
-    def solve(self, x0: np.ndarray, p=None) -> Solution:
+    @staticmethod
+    def warm_solver_factory(ca, funcs: dict, opts: dict):
+        """A function building, on first call, the IPOPT solver of warm re-solves
+        (:data:`WARM_OPTIONS`) from the same NLP and derivative functions (no new
+        derivatives: CasADi reuses the given ``jac_g`` and ``hess_lag``); shared by the
+        shallow copies of a parametric NLP.
+
+        Parameters
+        ----------
+        ca : module
+            CasADi.
+        funcs, opts : dict
+            The ``nlpsol`` expressions and options of the cold solver.
+        """
+        built = []
+
+        def get():
+            if not built:
+                built.append(ca.nlpsol("isodesign_warm", "ipopt", funcs,
+                                       {**opts, **WARM_OPTIONS}))
+            return built[0]
+
+        return get
+
+    def solve(self, x0: np.ndarray, p=None, warm: Solution | None = None) -> Solution:
         """Run IPOPT from ``x0``.
 
         Parameters
@@ -370,6 +407,10 @@ class NLP:
             Initial point (``initial_guess``).
         p : ndarray, optional
             Parameters (:meth:`params`; default: minimize the first objective).
+        warm : Solution, optional
+            A solution of the same point (its multipliers): IPOPT is warm-started from
+            ``x0`` and its multipliers (:data:`WARM_OPTIONS`). Without multipliers, or an
+            NLP without a warm solver, a cold solve.
 
         Returns
         -------
@@ -377,9 +418,15 @@ class NLP:
         """
         t0 = time.perf_counter()
         p = self.params() if p is None else np.asarray(p, float)
-        res = self.solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p)
+        solver, extra = self.solver, {}
+        get_warm = getattr(self, "_warm_solver", None)
+        if (warm is not None and warm.lam_g is not None and get_warm is not None
+                and len(warm.lam_g) == len(self.lbg) and len(warm.lam_x) == len(x0)):
+            solver, extra = get_warm(), {"lam_x0": warm.lam_x, "lam_g0": warm.lam_g}
+        res = solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p,
+                     **extra)
         wall = time.perf_counter() - t0
-        stats = self.solver.stats()
+        stats = solver.stats()
         x = np.asarray(res["x"]).ravel()
         g = np.asarray(res["g"]).ravel()
         j_all = self.objective_values(x)
@@ -390,6 +437,7 @@ class NLP:
             success=bool(stats.get("success", False)),
             iterations=int(stats.get("iter_count", -1)), wall_s=wall,
             finished_at=t0 + wall,  # perf_counter: system-wide, compares across forked workers
+            lam_x=np.asarray(res["lam_x"]).ravel(), lam_g=np.asarray(res["lam_g"]).ravel(),
         )
 
     def violations(self, g: np.ndarray) -> list[tuple[str, float]]:

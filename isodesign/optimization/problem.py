@@ -478,11 +478,11 @@ class Problem(NLP):
                                      [mt["ln_ms_band"] - mt["ln_limit2"], mt["ln_T2_peak"],
                                       mt["ms_all"]])
         exact = self.hessian_info["hessian"] == "exact"
-        self.solver = ca.nlpsol("isodesign", "ipopt",
-                                {"x": nlp.x, "f": nlp.j_total, "g": nlp.g, "p": nlp.p},
-                                {**self.ipopt_options(), **derivative_functions(
-                                    nlp, parallel_allowed(self.study.solver["workers"]),
-                                    hessian=exact)})
+        funcs = {"x": nlp.x, "f": nlp.j_total, "g": nlp.g, "p": nlp.p}
+        opts = {**self.ipopt_options(), **derivative_functions(
+            nlp, parallel_allowed(self.study.solver["workers"]), hessian=exact)}
+        self.solver = ca.nlpsol("isodesign", "ipopt", funcs, opts)
+        self._warm_solver = self.warm_solver_factory(ca, funcs, opts)
 
     @property
     def hessian_info(self) -> dict:

@@ -51,6 +51,9 @@ class Solution:
         :mod:`.distortion_rows`; 0: none).
     outer_params : ndarray or None
         The outer fixed point's parameters of the last round (its linearization).
+    lam_x, lam_g : ndarray or None
+        IPOPT's multipliers of the bounds and the constraints at ``x`` (a warm re-solve
+        of the same point starts from them: :meth:`~.nlp.NLP.solve` ``warm=``).
     """
 
     x: np.ndarray
@@ -66,6 +69,8 @@ class Solution:
     finished_at: float = math.nan
     outer_rounds: int = 0
     outer_params: np.ndarray | None = None
+    lam_x: np.ndarray | None = dataclasses.field(default=None, repr=False)
+    lam_g: np.ndarray | None = dataclasses.field(default=None, repr=False)
 
     @property
     def max_violation(self) -> float:
