@@ -21,7 +21,8 @@ __all__ = ["MIN_GROUP_LOAD_FRACTION", "SCREEN_MIN", "SCREEN_PER_START", "SUPPLY_
            "group_values",
            "isolator_loads", "isolator_masses", "isolator_pressures", "lever_sensitivities",
            "live_mass_quotient",
-           "load_rows_of", "n_position_values", "position_rows", "position_sensitivities",
+           "load_rows_of", "n_position_values", "position_rows", "position_rows_numpy",
+           "position_sensitivities",
            "position_terms",
            "position_values", "positions", "positions_free", "refuse_free_base_with_loop",
            "tilt_points"]
@@ -493,6 +494,43 @@ def position_rows(prob, dv) -> list:
     """
     if not positions_free(prob):
         return []
+    return _position_rows_from(prob, positions(prob, dv), _group_loads(prob, dv),
+                               isolator_loads(prob, dv))
+
+
+def position_rows_numpy(prob, table, leveling) -> list:
+    """The free positions' rows (:func:`position_rows`) on the NumPy analysis path: the
+    table at the design's positions and its leveling solved by
+    :func:`~isodesign.table.statics.level` (the analysis's statics, not the NLP's closed
+    form), with the same bounds (none with the positions fixed). Their re-check
+    (:func:`~isodesign.optimization.table_constraints.table_quantities`).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    table : Table
+        The table at the design (``study.table_at(values)``).
+    leveling : Leveling
+        Its leveling (:func:`~isodesign.table.statics.level`); a fixed inertia base.
+
+    Returns
+    -------
+    list of (name, ndarray, lower, upper)
+    """
+    if not positions_free(prob):
+        return []
+    import casadi as ca
+
+    xy = [(float(x), float(y)) for x, y in np.asarray(table.isolators_m, float)[:, :2]]
+    rows = _position_rows_from(prob, xy, [float(p) for p in leveling.group_load_n],
+                               [float(w) for w in leveling.load_n])
+    return [(name, np.asarray(ca.DM(expr), float).ravel(), lo, hi)
+            for name, expr, lo, hi in rows]
+
+
+def _position_rows_from(prob, xy, group_loads, loads) -> list:
+    """The free positions' rows from the positions, each group's load per isolator and each
+    isolator's load (N), any backend: :func:`position_rows` and its NumPy re-check."""
     import casadi as ca
 
     from isodesign.table.lever_geometry import position_rows as geometric_rows
@@ -501,14 +539,14 @@ def position_rows(prob, dv) -> list:
     st, c, lv = prob.study, prob.study.constraints, prob.leveling
     spec = (st.raw.get("variables") or {}).get(POSITION_LEVER) or {}
     poly = position_polygon(spec, c, f"variables.{POSITION_LEVER}")
-    out = geometric_rows(positions(prob, dv), poly, c.get("min_isolator_distance_m"))
-    p = _group_loads(prob, dv)
+    out = geometric_rows(xy, poly, c.get("min_isolator_distance_m"))
+    p = group_loads
     mean = prob.table.weight_n / prob.table.n_isolators
     out.append(("group_load_kn", ca.vertcat(*[pg / 1e3 for pg in p]),
                 MIN_GROUP_LOAD_FRACTION * mean / 1e3, np.inf))
     lo, hi = c.get("min_isolator_load_n"), c.get("max_isolator_load_n")
     if lo or hi:
-        out.append(("isolator_load_n", ca.vertcat(*[w / 1e3 for w in isolator_loads(prob, dv)]),
+        out.append(("isolator_load_n", ca.vertcat(*[w / 1e3 for w in loads]),
                     lo / 1e3 if lo else -np.inf, hi / 1e3 if hi else np.inf))
     p_atm = float(np.mean(lv.pressure_pa - lv.load_n / lv.piston_area_m2))
     cap = lv.supply_pressure_pa - (c.get("supply_margin_pa") or 0.0) - p_atm

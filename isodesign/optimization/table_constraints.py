@@ -233,7 +233,10 @@ def table_quantities(prob, values: dict | None = None) -> dict:
     movable slots, the tilt condition on the sealed springs. ``constraint_rows_of(study, q,
     TABLE_ROWS)`` on them gives each row's value to compare with the NLP's ``g``. The
     frozen-mode rows (damping, rocking) are re-checked by the exact modes
-    (:func:`table_constraint_reports`); the layout, load and loop rows by their modules.
+    (:func:`table_constraint_reports`), the loop rows by the exact loop; the free
+    positions' layout and load rows here, on the table at the design's positions and its
+    leveling by :func:`isodesign.table.statics.level`
+    (:func:`~isodesign.optimization.lever_nlp.position_rows_numpy`).
 
     Parameters
     ----------
@@ -247,7 +250,8 @@ def table_quantities(prob, values: dict | None = None) -> dict:
     -------
     dict
         ``ln_total_volume``, ``ln_fn``, ``ln_stroke``, ``ln_T2_peak``, with a tilt bound
-        and a CG above the supports ``tilt_rows``, with ``model_validity`` the validity
+        and a CG above the supports ``tilt_rows``, with free positions ``layout_rows`` and
+        ``load_rows`` (``(key, values, lower, upper)`` each), with ``model_validity`` the validity
         quantities (:func:`~isodesign.optimization.metrics.validity_quantities`, per spring,
         and per isolator the Womersley number and
         :func:`~isodesign.optimization.metrics.tube_flow_quantities` at ``sqrt(2)
@@ -294,6 +298,15 @@ def table_quantities(prob, values: dict | None = None) -> dict:
         # the NLP's order: per point and axis, the grid's frequencies, then the slots'
         q["ln_T2_peak"] = np.log(np.concatenate([t2[:n_grid].T.ravel(),
                                                  t2[n_grid:].T.ravel()]))
+    # free positions: the footprint, spacing, group loads and supply of the table at the
+    # design's positions, leveled by the analysis's statics (lever_nlp.position_rows_numpy)
+    from isodesign.optimization.lever_nlp import position_rows_numpy
+
+    pos = position_rows_numpy(prob, table, lv)
+    if pos:
+        geo = ("footprint_polygon_m", "isolator_distance_m2")
+        q["layout_rows"] = [r for r in pos if r[0] in geo]
+        q["load_rows"] = [r for r in pos if r[0] not in geo]
     if c.get("model_validity"):
         q.update(validity_quantities(d, designs, np.log(sigma_u), float(np.max(prob.grid.omega)),
                                      lv.group_of if prob.grouped else None))
