@@ -15,7 +15,8 @@ from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
 from isodesign.table.inertia_base import BASE_LEVER, base_lever_terms
 from isodesign.table.layout import POSITION_LEVER, is_position_lever, position_lever_names
 
-__all__ = ["MIN_GROUP_LOAD_FRACTION", "SCREEN_MIN", "SCREEN_PER_START", "SUPPLY_ROW_MARGIN_PA",
+__all__ = ["MIN_GROUP_LOAD_FRACTION", "SAFE_LOAD_FRACTION", "SCREEN_MIN", "SCREEN_PER_START",
+           "SUPPLY_ROW_MARGIN_PA",
            "base_objective_parts",
            "base_terms", "check_base_objectives", "check_base_start_loads", "draw_positions",
            "group_values",
@@ -25,6 +26,7 @@ __all__ = ["MIN_GROUP_LOAD_FRACTION", "SCREEN_MIN", "SCREEN_PER_START", "SUPPLY_
            "position_sensitivities",
            "position_terms",
            "position_values", "positions", "positions_free", "refuse_free_base_with_loop",
+           "safe_mass",
            "tilt_points"]
 
 
@@ -444,12 +446,48 @@ def isolator_pressures(prob, dv) -> list:
 def isolator_masses(prob, dv) -> list:
     """Each isolator's statically carried mass ``W_i / g`` at the design, kg.
 
+    With free positions a group's load is a rational function of the positions that IPOPT's
+    trial steps can drive negative, where the vertical mode's row (``sqrt(K / m)`` in
+    :func:`~isodesign.response.isolator.static_stiffness`) is NaN. The mass is then
+    safeguarded (:func:`safe_mass`): equal to ``W_i / g`` wherever the load is above
+    :data:`SAFE_LOAD_FRACTION` of the mean (every design that meets the ``group_load_kn``
+    rows, twice that), positive, finite and C1 below.
+
     Parameters
     ----------
     prob : TableProblem
     dv : CasADi column
     """
-    return [w / prob.table.g_m_s2 for w in isolator_loads(prob, dv)]
+    m = [w / prob.table.g_m_s2 for w in isolator_loads(prob, dv)]
+    if not positions_free(prob):
+        return m
+    floor = SAFE_LOAD_FRACTION * prob.table.weight_n / prob.table.n_isolators / \
+        prob.table.g_m_s2
+    return [safe_mass(mi, floor) for mi in m]
+
+
+def safe_mass(m, floor: float):
+    """``m`` where ``m >= floor``, ``floor exp(m / floor - 1)`` below: positive, finite,
+    continuous with its first derivative at ``floor``, any backend (a switch between two
+    branches that agree there, :func:`isodesign.numerics.backend.where`; the exponential's
+    argument is 0 on the other branch, so neither branch overflows).
+
+    Parameters
+    ----------
+    m : float, ndarray or CasADi expression
+        The exact mass, kg.
+    floor : float
+        Where the two branches meet, kg (> 0).
+
+    Returns
+    -------
+    same type as ``m``
+    """
+    from isodesign.numerics import backend as bk
+
+    above = m >= floor
+    u = bk.where(above, 0.0, m / floor - 1.0)
+    return bk.where(above, m, floor * bk.exp(u))
 
 
 def tilt_points(prob, dv):
@@ -473,6 +511,9 @@ SUPPLY_ROW_MARGIN_PA = 100.0
 #: The smallest load of a leveling group with free positions, as a fraction of the mean
 #: isolator load (``group_load_kn``'s lower bound): every valve carries load.
 MIN_GROUP_LOAD_FRACTION = 0.02
+#: Below this fraction of the mean isolator load (half the ``group_load_kn`` rows' bound)
+#: the vertical mode's row takes the safeguarded mass (:func:`isolator_masses`).
+SAFE_LOAD_FRACTION = 0.5 * MIN_GROUP_LOAD_FRACTION
 
 
 def position_rows(prob, dv) -> list:
