@@ -8,6 +8,7 @@ import numpy as np
 
 from isodesign.errors import SolverError
 from isodesign.optimization.analyze import vertical_stroke_rms
+from isodesign.optimization.constraint_registry import CONSTRAINTS
 from isodesign.optimization.constraints import build_constraints
 from isodesign.optimization.grid import build_grid
 from isodesign.optimization.metrics import metrics, statistical
@@ -28,8 +29,8 @@ _METRIC_KEYS = ("stroke_variance", "tube_velocity_variance", "ln_ms_band", "ln_T
                 "ln_total_volume", "ln_tilt", "ln_lumped", "ln_plane_wave", "ln_fn", "ln_zeta",
                 "ln_mach", "ln_re", "ln_T2_point")
 #: A re-checked row breaks its bound when its NumPy value lies outside it by more than this,
-#: in the row's units (a log, ``ln |T|^2``, or a given row's own), relative to the bound
-#: when the bound exceeds 1 in magnitude.
+#: in the row's units (a log, ``ln |T|^2``: a relative excess of the quantity; a given row's
+#: own, relative to the bound where it exceeds 1 in magnitude).
 RECHECK_VIOLATION_TOL = 1e-6
 
 
@@ -41,9 +42,11 @@ class RowRecheck:
     ----------
     rows : tuple of (str, str, float, float)
         Each re-checked row (a vector constraint once): its key (the NLP's row name), its
-        registry kind, the largest difference between its NumPy and NLP values (the row's
-        units; relative to the value when it exceeds 1 in magnitude), and its NumPy value's
-        worst violation of its bounds (0 when inside).
+        registry kind, the largest difference between its NumPy and NLP values (a log or
+        ``ln |T|^2`` row: absolute, a relative difference of the quantity; a given row in its
+        own unit: relative to the value where it exceeds 1 in magnitude), and its NumPy
+        value's worst violation of its bounds (0 when inside; a given row's relative to the
+        bound where it exceeds 1 in magnitude).
     max_difference : float
         The largest difference over the rows (and, from :func:`recheck_design` and the
         table driver, the closure and the objectives).
@@ -127,9 +130,13 @@ def recheck_rows(numpy_rows, con_rows, g, *, tol: float = RECHECK_RTOL,
             raise SolverError(f"{what}: the NumPy re-check of {key} has {v.size} rows, the "
                               f"NLP {n}")
         gi = g[row: row + n]
-        diff = float(np.max(np.abs(v - gi) / np.maximum(1.0, np.abs(v)))) if n else 0.0
-        scale_lo = max(1.0, abs(c.lo)) if np.isfinite(c.lo) else 1.0
-        scale_hi = max(1.0, abs(c.hi)) if np.isfinite(c.hi) else 1.0
+        # a log or ln |T|^2 row: absolute (a relative difference of the quantity); a given
+        # row in its own unit (m, kN, bar): relative where it exceeds 1 in magnitude
+        given = c.kind not in CONSTRAINTS or CONSTRAINTS[c.kind].form == "given"
+        diff = float(np.max(np.abs(v - gi) / (np.maximum(1.0, np.abs(v)) if given else 1.0))) \
+            if n else 0.0
+        scale_lo = max(1.0, abs(c.lo)) if given and np.isfinite(c.lo) else 1.0
+        scale_hi = max(1.0, abs(c.hi)) if given and np.isfinite(c.hi) else 1.0
         out = np.maximum(np.maximum((c.lo - v) / scale_lo, (v - c.hi) / scale_hi), 0.0)
         viol = float(np.max(out)) if n else 0.0
         name = c.kind if c.kind and c.kind not in ("layout", "loads") else key
