@@ -26,7 +26,7 @@ __all__ = ["MIN_GROUP_LOAD_FRACTION", "SAFE_LOAD_FRACTION", "SCREEN_MIN", "SCREE
            "position_sensitivities",
            "position_terms",
            "position_values", "positions", "positions_free", "refuse_free_base_with_loop",
-           "safe_mass",
+           "safe_load",
            "tilt_points"]
 
 
@@ -410,7 +410,14 @@ def _group_loads(prob, dv) -> list:
 def isolator_loads(prob, dv) -> list:
     """Each isolator's static load at the design, N: the start's times the slab's load
     scale, or with free positions its group's load from the leveling at the positions
-    (:func:`~isodesign.table.statics.group_loads_at`).
+    (:func:`~isodesign.table.statics.group_loads_at`), safeguarded.
+
+    A group's load is a rational function of the positions that IPOPT's trial steps can
+    drive negative, where p0 and the vertical mode's ``sqrt(K / m)`` are NaN. The load the
+    physics takes (p0, the carried mass, the pendulums) is then :func:`safe_load`: equal
+    to the exact one wherever it is above :data:`SAFE_LOAD_FRACTION` of the mean (every
+    design that meets the ``group_load_kn`` rows, at twice that), positive, finite and C1
+    below. The rows on the loads (:func:`position_rows`) take the exact loads.
 
     Parameters
     ----------
@@ -422,6 +429,13 @@ def isolator_loads(prob, dv) -> list:
     if not positions_free(prob):
         lam = load_scale(prob._base(dv))
         return [float(ld) * lam for ld in prob.leveling.load_n]
+    floor = SAFE_LOAD_FRACTION * prob.table.weight_n / prob.table.n_isolators
+    p = [safe_load(pg, floor) for pg in _group_loads(prob, dv)]
+    return [p[int(g)] for g in prob.leveling.group_of]
+
+
+def _exact_isolator_loads(prob, dv) -> list:
+    """Each isolator's exact load with free positions (its group's), N: the rows'."""
     p = _group_loads(prob, dv)
     return [p[int(g)] for g in prob.leveling.group_of]
 
@@ -444,50 +458,39 @@ def isolator_pressures(prob, dv) -> list:
 
 
 def isolator_masses(prob, dv) -> list:
-    """Each isolator's statically carried mass ``W_i / g`` at the design, kg.
-
-    With free positions a group's load is a rational function of the positions that IPOPT's
-    trial steps can drive negative, where the vertical mode's row (``sqrt(K / m)`` in
-    :func:`~isodesign.response.isolator.static_stiffness`) is NaN. The mass is then
-    safeguarded (:func:`safe_mass`): equal to ``W_i / g`` wherever the load is above
-    :data:`SAFE_LOAD_FRACTION` of the mean (every design that meets the ``group_load_kn``
-    rows, twice that), positive, finite and C1 below.
+    """Each isolator's statically carried mass ``W_i / g`` at the design, kg (the
+    safeguarded load with free positions, :func:`isolator_loads`).
 
     Parameters
     ----------
     prob : TableProblem
     dv : CasADi column
     """
-    m = [w / prob.table.g_m_s2 for w in isolator_loads(prob, dv)]
-    if not positions_free(prob):
-        return m
-    floor = SAFE_LOAD_FRACTION * prob.table.weight_n / prob.table.n_isolators / \
-        prob.table.g_m_s2
-    return [safe_mass(mi, floor) for mi in m]
+    return [w / prob.table.g_m_s2 for w in isolator_loads(prob, dv)]
 
 
-def safe_mass(m, floor: float):
-    """``m`` where ``m >= floor``, ``floor exp(m / floor - 1)`` below: positive, finite,
+def safe_load(w, floor: float):
+    """``w`` where ``w >= floor``, ``floor exp(w / floor - 1)`` below: positive, finite,
     continuous with its first derivative at ``floor``, any backend (a switch between two
     branches that agree there, :func:`isodesign.numerics.backend.where`; the exponential's
     argument is 0 on the other branch, so neither branch overflows).
 
     Parameters
     ----------
-    m : float, ndarray or CasADi expression
-        The exact mass, kg.
+    w : float, ndarray or CasADi expression
+        The exact load (N; any positive quantity).
     floor : float
-        Where the two branches meet, kg (> 0).
+        Where the two branches meet (> 0).
 
     Returns
     -------
-    same type as ``m``
+    same type as ``w``
     """
     from isodesign.numerics import backend as bk
 
-    above = m >= floor
-    u = bk.where(above, 0.0, m / floor - 1.0)
-    return bk.where(above, m, floor * bk.exp(u))
+    above = w >= floor
+    u = bk.where(above, 0.0, w / floor - 1.0)
+    return bk.where(above, w, floor * bk.exp(u))
 
 
 def tilt_points(prob, dv):
@@ -512,7 +515,7 @@ SUPPLY_ROW_MARGIN_PA = 100.0
 #: isolator load (``group_load_kn``'s lower bound): every valve carries load.
 MIN_GROUP_LOAD_FRACTION = 0.02
 #: Below this fraction of the mean isolator load (half the ``group_load_kn`` rows' bound)
-#: the vertical mode's row takes the safeguarded mass (:func:`isolator_masses`).
+#: the physics takes the safeguarded load (:func:`isolator_loads`, :func:`safe_load`).
 SAFE_LOAD_FRACTION = 0.5 * MIN_GROUP_LOAD_FRACTION
 
 
@@ -536,7 +539,7 @@ def position_rows(prob, dv) -> list:
     if not positions_free(prob):
         return []
     return _position_rows_from(prob, positions(prob, dv), _group_loads(prob, dv),
-                               isolator_loads(prob, dv))
+                               _exact_isolator_loads(prob, dv))
 
 
 def position_rows_numpy(prob, table, leveling) -> list:

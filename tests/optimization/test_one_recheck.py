@@ -155,23 +155,48 @@ def test_position_rows_numpy_equal_the_nlp_rows_at_a_layout():
         assert (lo, hi) == (float(prob.lbg[row]), float(prob.ubg[row]))
 
 
-def test_safe_mass_is_exact_above_its_floor_and_smooth_below():
+def test_safe_load_is_exact_above_its_floor_and_smooth_below():
     import casadi as ca
 
-    from isodesign.optimization.lever_nlp import safe_mass
+    from isodesign.optimization.lever_nlp import safe_load
 
     floor = 2.0
     m = np.array([-50.0, -1.0, 0.0, 1.0, 2.0, 3.0, 100.0])
-    v = safe_mass(m, floor)
+    v = safe_load(m, floor)
     assert np.all(np.isfinite(v)) and np.all(v > 0)
     np.testing.assert_array_equal(v[m >= floor], m[m >= floor])  # the exact mass
     s = ca.SX.sym("m")
-    f = ca.Function("f", [s], [safe_mass(s, floor), ca.jacobian(safe_mass(s, floor), s)])
+    f = ca.Function("f", [s], [safe_load(s, floor), ca.jacobian(safe_load(s, floor), s)])
     for mi in m:
         val, der = (float(a) for a in f(mi))
-        assert val == pytest.approx(float(safe_mass(np.array(mi), floor)), rel=1e-15)
+        assert val == pytest.approx(float(safe_load(np.array(mi), floor)), rel=1e-15)
         assert math.isfinite(der) and der > 0
     # C1 at the floor: value and slope from both sides
     lo, hi = f(floor - 1e-9), f(floor + 1e-9)
     assert float(lo[0]) == pytest.approx(float(hi[0]), abs=1e-8)
     assert float(lo[1]) == pytest.approx(float(hi[1]), abs=1e-8)
+
+
+def test_rows_are_finite_where_a_group_load_is_negative():
+    """A layout inside the pentagon whose leveling leaves group 2 with a negative load (an
+    IPOPT trial step): every row of the free-positions NLP is finite (the exact loads gave
+    NaN in 421 rows, the vertical mode's first); the group-load row still sees the exact,
+    negative load."""
+    from isodesign.optimization.table_problem import TableProblem
+    from isodesign.table.statics import group_loads_at
+
+    st = _free_positions()
+    prob = TableProblem(st)
+    x = prob.initial_guess({v.name: v.start for v in st.variables})
+    xy = [[-0.6, -0.4], [0.6, -0.4], [0.6, 0.4], [0.2, 0.45]]
+    loads = group_loads_at(st.table, xy)
+    assert loads[1] < 0
+    ls, nzs = prob.lever_scaling, len(prob.scaling.names)
+    for i, (a, b) in enumerate(xy):
+        for name, val in ((f"isolator_{i + 1}_x_m", a), (f"isolator_{i + 1}_y_m", b)):
+            j = ls.names.index(name)
+            x[nzs + j] = (val - ls.center[j]) / ls.half[j]
+    g = np.asarray(prob.eval_fn(x, prob.params())[1], float).ravel()
+    assert np.all(np.isfinite(g))
+    row, n = next((r, m) for k, r, m in prob.con_rows if k == "group_load_kn")
+    np.testing.assert_allclose(g[row: row + n], np.asarray(loads) / 1e3, rtol=1e-12)
