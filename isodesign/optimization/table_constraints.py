@@ -236,7 +236,8 @@ def table_quantities(prob, values: dict | None = None) -> dict:
     (:func:`table_constraint_reports`), the loop rows by the exact loop; the free
     positions' layout and load rows here, on the table at the design's positions and its
     leveling by :func:`isodesign.table.statics.level`
-    (:func:`~isodesign.optimization.lever_nlp.position_rows_numpy`).
+    (:func:`~isodesign.optimization.lever_nlp.position_rows_numpy`), a stretched layout's
+    rows on the stretched table (``study.table_at``) with no further stretch.
 
     Parameters
     ----------
@@ -307,6 +308,13 @@ def table_quantities(prob, values: dict | None = None) -> dict:
         geo = ("footprint_polygon_m", "isolator_distance_m2")
         q["layout_rows"] = [r for r in pos if r[0] in geo]
         q["load_rows"] = [r for r in pos if r[0] not in geo]
+    elif prob._layout_free():  # the stretched layout's rows on the stretched table itself
+        import casadi as ca
+
+        from isodesign.table.lever_geometry import layout_rows
+
+        q["layout_rows"] = [(key, np.asarray(ca.DM(e), float).ravel(), lo, hi)
+                            for key, e, lo, hi in layout_rows(table, c, (1.0, 1.0), True)]
     if c.get("model_validity"):
         q.update(validity_quantities(d, designs, np.log(sigma_u), float(np.max(prob.grid.omega)),
                                      lv.group_of if prob.grouped else None))

@@ -200,3 +200,24 @@ def test_rows_are_finite_where_a_group_load_is_negative():
     assert np.all(np.isfinite(g))
     row, n = next((r, m) for k, r, m in prob.con_rows if k == "group_load_kn")
     np.testing.assert_allclose(g[row: row + n], np.asarray(loads) / 1e3, rtol=1e-12)
+
+
+def test_stretched_layout_rows_rechecked_on_the_stretched_table():
+    """Free layout levers (the rectangle stretched about the CG): the footprint and distance
+    rows on the NumPy path are the stretched table's own, equal to the NLP's at a stretch."""
+    from isodesign.optimization.table_constraints import table_quantities
+    from isodesign.optimization.table_problem import TableProblem
+
+    st = table_study().with_changes(
+        variables={"layout_length_m": {"fixed": False}, "layout_width_m": {"fixed": False}},
+        constraints={"footprint_m": [[-0.8, -0.6], [0.8, 0.6]], "min_isolator_distance_m": 0.5})
+    prob = TableProblem(st)
+    values = {v.name: v.start for v in st.variables}
+    values.update(layout_length_m=1.3, layout_width_m=0.9)
+    x = prob.initial_guess(values)
+    g = np.asarray(prob.eval_fn(x, prob.params())[1], float).ravel()
+    rows = constraint_rows_of(st, table_quantities(prob, values), TABLE_ROWS)
+    rc = recheck_rows(rows, prob.con_rows, g)
+    kinds = {key: kind for key, kind, _, _ in rc.rows}
+    assert kinds["footprint_m"] == kinds["min_isolator_distance_m"] == "layout"
+    assert rc.max_difference <= 1e-9 and rc.violations == ()
