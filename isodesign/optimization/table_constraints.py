@@ -244,8 +244,9 @@ def table_quantities(prob, values: dict | None = None) -> dict:
     prob : TableProblem
         The NLP (its grid, peak rows' frequencies, slots and leveling).
     values : dict, optional
-        Design-variable values (default: the study's starts). A free inertia base is not
-        covered (its loads follow the slab).
+        Design-variable values (default: the study's starts). With a free inertia base the
+        tilt rows take the slab's terms at its value, as the NLP; its load and supply rows
+        are not re-checked here.
 
     Returns
     -------
@@ -282,11 +283,16 @@ def table_quantities(prob, values: dict | None = None) -> dict:
                                 / (2.0 * math.pi) ** 2)
     q["ln_stroke"] = np.log(sigma) + math.log(c.get("stroke_peak_factor") or 3.0)
     mu = c.get("min_tilt_margin")
-    if mu and table.cg_height_m > 0:
+    slab = _free_slab(prob, values)  # a free inertia base: the NLP's terms at its value
+    if mu and (table.cg_height_m > 0 or slab is not None):
         kq = [sealed_stiffness(di, prob.dia, flow=prob.flow) for di in designs]
-        wh, mu = slab_terms.tilt_bound(table, None, mu)
-        q["tilt_rows"] = np.asarray(tilt_margin_rows(kq, table.vertical_points_m, wh, mu),
-                                    float)
+        if slab is None:
+            wh, mu = slab_terms.tilt_bound(table, None, mu)
+            pts = table.vertical_points_m
+        else:  # the start table with the slab's terms, as the NLP
+            wh, mu = slab_terms.tilt_bound(prob.table, slab, mu)
+            pts = prob.table.vertical_points_m
+        q["tilt_rows"] = np.asarray(tilt_margin_rows(kq, pts, wh, mu), float)
     pk = c.get("max_peak_transmissibility_db")
     if pk is not None and pk is not False:
         f = prob.grid.frequency_hz
@@ -319,6 +325,19 @@ def table_quantities(prob, values: dict | None = None) -> dict:
         q.update(validity_quantities(d, designs, np.log(sigma_u), float(np.max(prob.grid.omega)),
                                      lv.group_of if prob.grouped else None))
     return q
+
+
+def _free_slab(prob, values: dict):
+    """The inertia base's terms at a design whose slab is a free lever (None otherwise)."""
+    from isodesign.optimization.lever_nlp import base_terms
+    from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
+    from isodesign.table.inertia_base import BASE_LEVER
+
+    if BASE_LEVER not in prob.lever_scaling.names:
+        return None
+    dv = np.zeros(len(DESIGN_VARIABLES) + len(CODESIGN_LEVERS))
+    dv[len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index(BASE_LEVER)] = float(values[BASE_LEVER])
+    return base_terms(prob, dv)
 
 
 def validity_quantities(d, designs, ln_sigma_u, w_max: float, group_of=None) -> dict:

@@ -221,3 +221,24 @@ def test_stretched_layout_rows_rechecked_on_the_stretched_table():
     kinds = {key: kind for key, kind, _, _ in rc.rows}
     assert kinds["footprint_m"] == kinds["min_isolator_distance_m"] == "layout"
     assert rc.max_difference <= 1e-9 and rc.violations == ()
+
+
+def test_free_slab_rows_rechecked_with_the_slabs_terms():
+    """A free inertia base at a mass other than its start: the vertical mode, tilt and peak
+    rows on the NumPy path equal the NLP's (the tilt rows with the slab's terms); its load
+    and supply rows are listed as not re-checked."""
+    from isodesign.optimization.table_constraints import table_quantities
+    from isodesign.optimization.table_problem import TableProblem
+
+    st = table_study().with_changes(variables={"inertia_base_mass_kg": {"fixed": False}},
+                                    constraints={"max_isolator_load_n": 2500.0})
+    prob = TableProblem(st)
+    values = {v.name: v.start for v in st.variables} | {"inertia_base_mass_kg": 250.0}
+    x = prob.initial_guess(values)
+    g = np.asarray(prob.eval_fn(x, prob.params())[1], float).ravel()
+    rc = recheck_rows(constraint_rows_of(st, table_quantities(prob, values), TABLE_ROWS),
+                      prob.con_rows, g)
+    kinds = {kind for _, kind, _, _ in rc.rows}
+    assert {"natural_frequency", "tilt_margin_rows", "peak_transmissibility"} <= kinds
+    assert rc.max_difference <= 1e-9
+    assert {"isolator_load_n", "supply_pressure_pa"} <= set(rc.unchecked)
