@@ -61,8 +61,13 @@ def table_summary_text(result) -> str:
         lines.append(f"  {'worst margin ' + ax + ' (dB)':<24}{a0.axis_margin_db()[i]:>+10.2f}"
                      f"{a1.axis_margin_db()[i]:>+10.2f}")
     lines.append(peak_text(result))
+    rc = getattr(result, "recheck_rows", None)  # the one row re-check (recheck.recheck_rows)
+    rows = ""
+    if rc is not None:
+        worst = max((d for _, _, d, _ in rc.rows), default=0.0)
+        rows = f", {len(rc.rows)} constraint rows to {worst:.2g}"
     lines.append(f"  re-check: NumPy closure = NLP to {result.recheck_sigma_rel:.2g} (sigma), "
-                 f"{result.recheck_margin_db:.2g} dB (worst margin); mode refreshes "
+                 f"{result.recheck_margin_db:.2g} dB (worst margin){rows}; mode refreshes "
                  f"{result.mode_rounds}")
     lines.append("  modes of the optimum (springs at its closure):")
     lines.append(modes_text(result.modes))
@@ -231,6 +236,8 @@ def execute_table(study, run, args, result=None, *, prefix: str = "") -> int:
                 "recheck_max_rel_diff": res.recheck_sigma_rel,
                 "recheck_sigma_rel": res.recheck_sigma_rel,
                 "recheck_margin_db": res.recheck_margin_db,
+                "recheck_rows": [[k, kind, d, v] for k, kind, d, v in res.recheck_rows.rows]
+                if getattr(res, "recheck_rows", None) is not None else [],
                 "violations": [[n, v] for n, v in res.violations],
                 "nlp_violations": [[n, v] for n, v in res.nlp_violations],
                 "constraints": constraint_rows(res),

@@ -244,7 +244,7 @@ class OuterFixedPoint:
         return self._vector(self._numpy_state(self.study.design_at(vals), vals)[2])
 
     # -- the outer fixed point ---------------------------------------------------------
-    def solve(self, x0, p=None):
+    def solve(self, x0, p=None, warm=None):
         """IPOPT from ``x0``, re-solved warm with the terms expanded at each answer until the
         terms it used there are the NumPy ones (:data:`DISTORTION_FIXED_POINT_RTOL`).
 
@@ -254,6 +254,9 @@ class OuterFixedPoint:
             Initial point.
         p : ndarray, optional
             Parameters (:meth:`params`); their distortion part is replaced each round.
+        warm : Solution, optional
+            A solution of the same point: the first round starts from its multipliers
+            (:meth:`~.nlp.NLP.solve`); the later rounds from ``x`` of the round before.
 
         Returns
         -------
@@ -283,7 +286,7 @@ class OuterFixedPoint:
         its = 0
         for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
             p[-self._n_dist:] = self._dist_p
-            sol = super().solve(x, p)
+            sol = super().solve(x, p, warm=warm if rounds == 1 else None)
             wall += sol.wall_s
             its += sol.iterations
             if not sol.success or not np.all(np.isfinite(sol.x)):

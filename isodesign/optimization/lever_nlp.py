@@ -15,15 +15,18 @@ from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
 from isodesign.table.inertia_base import BASE_LEVER, base_lever_terms
 from isodesign.table.layout import POSITION_LEVER, is_position_lever, position_lever_names
 
-__all__ = ["MIN_GROUP_LOAD_FRACTION", "SCREEN_MIN", "SCREEN_PER_START", "SUPPLY_ROW_MARGIN_PA",
+__all__ = ["MIN_GROUP_LOAD_FRACTION", "SAFE_LOAD_FRACTION", "SCREEN_MIN", "SCREEN_PER_START",
+           "SUPPLY_ROW_MARGIN_PA",
            "base_objective_parts",
            "base_terms", "check_base_objectives", "check_base_start_loads", "draw_positions",
            "group_values",
            "isolator_loads", "isolator_masses", "isolator_pressures", "lever_sensitivities",
            "live_mass_quotient",
-           "load_rows_of", "n_position_values", "position_rows", "position_sensitivities",
+           "load_rows_of", "n_position_values", "position_rows", "position_rows_numpy",
+           "position_sensitivities",
            "position_terms",
            "position_values", "positions", "positions_free", "refuse_free_base_with_loop",
+           "safe_load",
            "tilt_points"]
 
 
@@ -407,7 +410,14 @@ def _group_loads(prob, dv) -> list:
 def isolator_loads(prob, dv) -> list:
     """Each isolator's static load at the design, N: the start's times the slab's load
     scale, or with free positions its group's load from the leveling at the positions
-    (:func:`~isodesign.table.statics.group_loads_at`).
+    (:func:`~isodesign.table.statics.group_loads_at`), safeguarded.
+
+    A group's load is a rational function of the positions that IPOPT's trial steps can
+    drive negative, where p0 and the vertical mode's ``sqrt(K / m)`` are NaN. The load the
+    physics takes (p0, the carried mass, the pendulums) is then :func:`safe_load`: equal
+    to the exact one wherever it is above :data:`SAFE_LOAD_FRACTION` of the mean (every
+    design that meets the ``group_load_kn`` rows, at twice that), positive, finite and C1
+    below. The rows on the loads (:func:`position_rows`) take the exact loads.
 
     Parameters
     ----------
@@ -422,6 +432,13 @@ def isolator_loads(prob, dv) -> list:
     if not positions_free(prob):
         lam = load_scale(prob._base(dv))
         return [float(ld) * lam for ld in prob.leveling.load_n]
+    floor = SAFE_LOAD_FRACTION * prob.table.weight_n / prob.table.n_isolators
+    p = [safe_load(pg, floor) for pg in _group_loads(prob, dv)]
+    return [p[int(g)] for g in prob.leveling.group_of]
+
+
+def _exact_isolator_loads(prob, dv) -> list:
+    """Each isolator's exact load with free positions (its group's), N: the rows'."""
     p = _group_loads(prob, dv)
     return [p[int(g)] for g in prob.leveling.group_of]
 
@@ -444,7 +461,8 @@ def isolator_pressures(prob, dv) -> list:
 
 
 def isolator_masses(prob, dv) -> list:
-    """Each isolator's statically carried mass ``W_i / g`` at the design, kg.
+    """Each isolator's statically carried mass ``W_i / g`` at the design, kg (the
+    safeguarded load with free positions, :func:`isolator_loads`).
 
     Parameters
     ----------
@@ -452,6 +470,30 @@ def isolator_masses(prob, dv) -> list:
     dv : CasADi column
     """
     return [w / prob.table.g_m_s2 for w in isolator_loads(prob, dv)]
+
+
+def safe_load(w, floor: float):
+    """``w`` where ``w >= floor``, ``floor exp(w / floor - 1)`` below: positive, finite,
+    continuous with its first derivative at ``floor``, any backend (a switch between two
+    branches that agree there, :func:`isodesign.numerics.backend.where`; the exponential's
+    argument is 0 on the other branch, so neither branch overflows).
+
+    Parameters
+    ----------
+    w : float, ndarray or CasADi expression
+        The exact load (N; any positive quantity).
+    floor : float
+        Where the two branches meet (> 0).
+
+    Returns
+    -------
+    same type as ``w``
+    """
+    from isodesign.numerics import backend as bk
+
+    above = w >= floor
+    u = bk.where(above, 0.0, w / floor - 1.0)
+    return bk.where(above, w, floor * bk.exp(u))
 
 
 def tilt_points(prob, dv):
@@ -478,6 +520,9 @@ SUPPLY_ROW_MARGIN_PA = 100.0
 #: The smallest load of a leveling group with free positions, as a fraction of the mean
 #: isolator load (``group_load_kn``'s lower bound): every valve carries load.
 MIN_GROUP_LOAD_FRACTION = 0.02
+#: Below this fraction of the mean isolator load (half the ``group_load_kn`` rows' bound)
+#: the physics takes the safeguarded load (:func:`isolator_loads`, :func:`safe_load`).
+SAFE_LOAD_FRACTION = 0.5 * MIN_GROUP_LOAD_FRACTION
 
 
 def position_rows(prob, dv) -> list:
@@ -499,6 +544,43 @@ def position_rows(prob, dv) -> list:
     """
     if not positions_free(prob):
         return []
+    return _position_rows_from(prob, positions(prob, dv), _group_loads(prob, dv),
+                               _exact_isolator_loads(prob, dv))
+
+
+def position_rows_numpy(prob, table, leveling) -> list:
+    """The free positions' rows (:func:`position_rows`) on the NumPy analysis path: the
+    table at the design's positions and its leveling solved by
+    :func:`~isodesign.table.statics.level` (the analysis's statics, not the NLP's closed
+    form), with the same bounds (none with the positions fixed). Their re-check
+    (:func:`~isodesign.optimization.table_constraints.table_quantities`).
+
+    Parameters
+    ----------
+    prob : TableProblem
+    table : Table
+        The table at the design (``study.table_at(values)``).
+    leveling : Leveling
+        Its leveling (:func:`~isodesign.table.statics.level`); a fixed inertia base.
+
+    Returns
+    -------
+    list of (name, ndarray, lower, upper)
+    """
+    if not positions_free(prob):
+        return []
+    import casadi as ca
+
+    xy = [(float(x), float(y)) for x, y in np.asarray(table.isolators_m, float)[:, :2]]
+    rows = _position_rows_from(prob, xy, [float(p) for p in leveling.group_load_n],
+                               [float(w) for w in leveling.load_n])
+    return [(name, np.asarray(ca.DM(expr), float).ravel(), lo, hi)
+            for name, expr, lo, hi in rows]
+
+
+def _position_rows_from(prob, xy, group_loads, loads) -> list:
+    """The free positions' rows from the positions, each group's load per isolator and each
+    isolator's load (N), any backend: :func:`position_rows` and its NumPy re-check."""
     import casadi as ca
 
     from isodesign.table.lever_geometry import position_rows as geometric_rows
@@ -507,14 +589,14 @@ def position_rows(prob, dv) -> list:
     st, c, lv = prob.study, prob.study.constraints, prob.leveling
     spec = (st.raw.get("variables") or {}).get(POSITION_LEVER) or {}
     poly = position_polygon(spec, c, f"variables.{POSITION_LEVER}")
-    out = geometric_rows(positions(prob, dv), poly, c.get("min_isolator_distance_m"))
-    p = _group_loads(prob, dv)
+    out = geometric_rows(xy, poly, c.get("min_isolator_distance_m"))
+    p = group_loads
     mean = prob.table.weight_n / prob.table.n_isolators
     out.append(("group_load_kn", ca.vertcat(*[pg / 1e3 for pg in p]),
                 MIN_GROUP_LOAD_FRACTION * mean / 1e3, np.inf))
     lo, hi = c.get("min_isolator_load_n"), c.get("max_isolator_load_n")
     if lo or hi:
-        out.append(("isolator_load_n", ca.vertcat(*[w / 1e3 for w in isolator_loads(prob, dv)]),
+        out.append(("isolator_load_n", ca.vertcat(*[w / 1e3 for w in loads]),
                     lo / 1e3 if lo else -np.inf, hi / 1e3 if hi else np.inf))
     p_atm = float(np.mean(lv.pressure_pa - lv.load_n / lv.piston_area_m2))
     cap = lv.supply_pressure_pa - (c.get("supply_margin_pa") or 0.0) - p_atm

@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
+
 import numpy as np
 
 from isodesign.errors import SolverError
 from isodesign.optimization.analyze import vertical_stroke_rms
+from isodesign.optimization.constraint_registry import CONSTRAINTS
 from isodesign.optimization.constraints import build_constraints
 from isodesign.optimization.grid import build_grid
 from isodesign.optimization.metrics import metrics, statistical
@@ -16,7 +19,8 @@ from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import kinematic_velocity
 from isodesign.spring.gas import P_ATM
 
-__all__ = ["RECHECK_RTOL", "evaluate_design", "recheck"]
+__all__ = ["RECHECK_RTOL", "RECHECK_VIOLATION_TOL", "RowRecheck", "evaluate_design", "recheck",
+           "recheck_design", "recheck_rows"]
 
 #: Agreement required between the NLP and the NumPy re-check: relative, and absolute
 #: (dB) for the objectives in dB.
@@ -24,10 +28,158 @@ RECHECK_RTOL = 1e-6
 _METRIC_KEYS = ("stroke_variance", "tube_velocity_variance", "ln_ms_band", "ln_T2_peak",
                 "ln_total_volume", "ln_tilt", "ln_lumped", "ln_plane_wave", "ln_fn", "ln_zeta",
                 "ln_mach", "ln_re", "ln_T2_point")
+#: A re-checked row breaks its bound when its NumPy value lies outside it by more than this,
+#: in the row's units (a log, ``ln |T|^2``: a relative excess of the quantity; a given row's
+#: own, relative to the bound where it exceeds 1 in magnitude).
+RECHECK_VIOLATION_TOL = 1e-6
+
+
+@dataclass(frozen=True)
+class RowRecheck:
+    """The NumPy re-check of an optimum's constraint rows (:func:`recheck_rows`).
+
+    Attributes
+    ----------
+    rows : tuple of (str, str, float, float)
+        Each re-checked row (a vector constraint once): its key (the NLP's row name), its
+        registry kind, the largest difference between its NumPy and NLP values (a log or
+        ``ln |T|^2`` row: absolute, a relative difference of the quantity; a given row in its
+        own unit: relative to the value where it exceeds 1 in magnitude), and its NumPy
+        value's worst violation of its bounds (0 when inside; a given row's relative to the
+        bound where it exceeds 1 in magnitude).
+    max_difference : float
+        The largest difference over the rows (and, from :func:`recheck_design` and the
+        table driver, the closure and the objectives).
+    violations : tuple of (str, float)
+        The rows whose NumPy value breaks a bound by more than
+        :data:`RECHECK_VIOLATION_TOL`: their kind's name (the key for a given row) and the
+        violation, in the row's units.
+    unchecked : tuple of str
+        The NLP's rows without a NumPy quantity (the frozen-mode and loop rows, reported
+        from the exact modes and loop; the objectives' epigraph rows).
+    """
+
+    rows: tuple
+    max_difference: float
+    violations: tuple
+    unchecked: tuple = ()
+
+    def merged(self, difference: float) -> RowRecheck:
+        """This re-check with a further difference (the closure's, an objective's) folded
+        into :attr:`max_difference`.
+
+        Parameters
+        ----------
+        difference : float
+        """
+        return RowRecheck(self.rows, max(self.max_difference, float(difference)),
+                          self.violations, self.unchecked)
+
+
+def _label_key(label) -> str:
+    """The row key of an entry of ``con_rows`` (a Constraint, or its key)."""
+    return getattr(label, "key", None) or getattr(label, "name", None) or str(label)
+
+
+def recheck_rows(numpy_rows, con_rows, g, *, tol: float = RECHECK_RTOL,
+                 what: str = "optimization") -> RowRecheck:
+    """Re-check an optimum's constraint rows: each row's NumPy value against its NLP value
+    and its bounds. The one re-check of every body (docs/optimization.md, "The NumPy
+    re-check").
+
+    Parameters
+    ----------
+    numpy_rows : list of Constraint
+        The registry's rows on the NumPy analysis's quantities
+        (:func:`~.constraint_registry.constraint_rows_of`,
+        :func:`~.constraint_registry.vertical_rows`), with their bounds.
+    con_rows : sequence of (label, int, int)
+        The NLP's rows: each constraint (a :class:`~.constraint_registry.Constraint` or its
+        key), its first row in ``g`` and its number of rows.
+    g : ndarray
+        The NLP's constraint values at the optimum.
+    tol : float
+        The agreement required (:data:`RECHECK_RTOL`).
+    what : str
+        The optimizer's name in the error message.
+
+    Returns
+    -------
+    RowRecheck
+
+    Raises
+    ------
+    SolverError
+        When a row's NumPy value and its NLP value disagree by more than ``tol`` (a bug,
+        never a silently wrong design), or a row has a different size.
+    """
+    g = np.asarray(g, float).ravel()
+    by_key = {}
+    for c in numpy_rows:
+        by_key.setdefault(c.key, c)
+    rows, viols, unchecked, bad = [], [], [], []
+    worst = 0.0
+    for label, row, n in con_rows:
+        key = _label_key(label)
+        c = by_key.get(key)
+        if c is None:
+            unchecked.append(key)
+            continue
+        v = np.atleast_1d(np.asarray(c.expr, float)).ravel()
+        if v.size != n:
+            raise SolverError(f"{what}: the NumPy re-check of {key} has {v.size} rows, the "
+                              f"NLP {n}")
+        gi = g[row: row + n]
+        # a log or ln |T|^2 row: absolute (a relative difference of the quantity); a given
+        # row in its own unit (m, kN, bar): relative where it exceeds 1 in magnitude
+        given = c.kind not in CONSTRAINTS or CONSTRAINTS[c.kind].form == "given"
+        diff = float(np.max(np.abs(v - gi) / (np.maximum(1.0, np.abs(v)) if given else 1.0))) \
+            if n else 0.0
+        scale_lo = max(1.0, abs(c.lo)) if given and np.isfinite(c.lo) else 1.0
+        scale_hi = max(1.0, abs(c.hi)) if given and np.isfinite(c.hi) else 1.0
+        out = np.maximum(np.maximum((c.lo - v) / scale_lo, (v - c.hi) / scale_hi), 0.0)
+        viol = float(np.max(out)) if n else 0.0
+        name = c.kind if c.kind and c.kind not in ("layout", "loads") else key
+        rows.append((key, c.kind, diff, viol))
+        worst = max(worst, diff)
+        if not diff <= tol:
+            bad.append(f"{key} {diff:.2e}")
+        if viol > RECHECK_VIOLATION_TOL:
+            viols.append((name, viol))
+    if bad:
+        raise SolverError(f"{what}: the NLP optimum disagrees with the NumPy analysis's "
+                          f"constraint rows (> {tol:g}: {', '.join(bad)}); the design is not "
+                          "returned")
+    return RowRecheck(tuple(rows), worst, tuple(viols), tuple(unchecked))
 
 
 def recheck(prob, sol, d) -> float:
     """Re-evaluate the optimum with the NumPy analysis path; return the max rel. diff.
+
+    :func:`recheck_design`'s :attr:`RowRecheck.max_difference` (the same checks; a design
+    whose re-checked rows break a bound is the caller's to report, with
+    :func:`recheck_design`).
+
+    Parameters
+    ----------
+    prob : Problem
+    sol : Solution
+    d : SpringDesign
+
+    Returns
+    -------
+    float
+
+    Raises
+    ------
+    SolverError
+        When they disagree.
+    """
+    return recheck_design(prob, sol, d).max_difference
+
+
+def recheck_design(prob, sol, d) -> RowRecheck:
+    """Re-evaluate the vertical optimum with the NumPy analysis path.
 
     The NumPy path solves sigma and the velocity amplitudes with its own
     solvers (not the NLP's values) and evaluates :func:`.metrics.metrics` on them.
@@ -50,11 +202,16 @@ def recheck(prob, sol, d) -> float:
         The design at the optimum (``study.design_at(sol.values)``), on which the
         NumPy path solves sigma and the velocities afresh.
 
+    Every constraint row of the NLP is then re-checked by :func:`recheck_rows` (the one
+    re-check of both bodies): the registry's rows on the NumPy metrics
+    (:func:`~.constraints.build_constraints`, the NLP's own call) against the NLP's ``g``
+    and the bounds.
+
     Returns
     -------
-    float
-        The largest relative difference found: ``|sigma_np / sigma_nlp - 1|`` (and the
-        same for ``sigma_u``); for
+    RowRecheck
+        ``max_difference``, the largest relative difference found:
+        ``|sigma_np / sigma_nlp - 1|`` (and the same for ``sigma_u``); for
         each metric ``|exp(a - b) - 1|`` on the ``ln_*`` quantities (a relative
         difference of the quantity itself) and ``|a / b - 1|`` otherwise, worst over
         the vector's rows; for each objective in natural units, ``|v_nlp - v_np|``
@@ -117,7 +274,9 @@ def recheck(prob, sol, d) -> float:
             f"the NLP optimum disagrees with the NumPy analysis (max relative difference "
             f"{worst:.2e} > {RECHECK_RTOL:g}: {bad or 'sigma'}); the design is not returned"
         )
-    return worst
+    rows = recheck_rows(build_constraints(st, mt_np, prob.grid.omega.size), prob.con_rows,
+                        sol.g, what="vertical optimization")
+    return rows.merged(worst)
 
 
 def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -> dict:

@@ -233,21 +233,27 @@ def table_quantities(prob, values: dict | None = None) -> dict:
     movable slots, the tilt condition on the sealed springs. ``constraint_rows_of(study, q,
     TABLE_ROWS)`` on them gives each row's value to compare with the NLP's ``g``. The
     frozen-mode rows (damping, rocking) are re-checked by the exact modes
-    (:func:`table_constraint_reports`); the layout, load and loop rows by their modules.
+    (:func:`table_constraint_reports`), the loop rows by the exact loop; the free
+    positions' layout and load rows here, on the table at the design's positions and its
+    leveling by :func:`isodesign.table.statics.level`
+    (:func:`~isodesign.optimization.lever_nlp.position_rows_numpy`), a stretched layout's
+    rows on the stretched table (``study.table_at``) with no further stretch.
 
     Parameters
     ----------
     prob : TableProblem
         The NLP (its grid, peak rows' frequencies, slots and leveling).
     values : dict, optional
-        Design-variable values (default: the study's starts). A free inertia base is not
-        covered (its loads follow the slab).
+        Design-variable values (default: the study's starts). With a free inertia base the
+        tilt rows take the slab's terms at its value, as the NLP; its load and supply rows
+        are not re-checked here.
 
     Returns
     -------
     dict
         ``ln_total_volume``, ``ln_fn``, ``ln_stroke``, ``ln_T2_peak``, with a tilt bound
-        and a CG above the supports ``tilt_rows``, with ``model_validity`` the validity
+        and a CG above the supports ``tilt_rows``, with free positions ``layout_rows`` and
+        ``load_rows`` (``(key, values, lower, upper)`` each), with ``model_validity`` the validity
         quantities (:func:`~isodesign.optimization.metrics.validity_quantities`, per spring,
         and per isolator the Womersley number and
         :func:`~isodesign.optimization.metrics.tube_flow_quantities` at ``sqrt(2)
@@ -277,27 +283,67 @@ def table_quantities(prob, values: dict | None = None) -> dict:
                                 / (2.0 * math.pi) ** 2)
     q["ln_stroke"] = np.log(sigma) + math.log(c.get("stroke_peak_factor") or 3.0)
     mu = c.get("min_tilt_margin")
-    if mu and table.cg_height_m > 0:
+    slab = _free_slab(prob, values)  # a free inertia base: the NLP's terms at its value
+    if mu and (table.cg_height_m > 0 or slab is not None):
         kq = [sealed_stiffness(di, prob.dia, flow=prob.flow) for di in designs]
-        wh, mu = slab_terms.tilt_bound(table, None, mu)
-        q["tilt_rows"] = np.asarray(tilt_margin_rows(kq, table.vertical_points_m, wh, mu),
-                                    float)
+        if slab is None:
+            wh, mu = slab_terms.tilt_bound(table, None, mu)
+            pts = table.vertical_points_m
+        else:  # the start table with the slab's terms, as the NLP
+            wh, mu = slab_terms.tilt_bound(prob.table, slab, mu)
+            pts = prob.table.vertical_points_m
+        q["tilt_rows"] = np.asarray(tilt_margin_rows(kq, pts, wh, mu), float)
     pk = c.get("max_peak_transmissibility_db")
     if pk is not None and pk is not False:
         f = prob.grid.frequency_hz
         f = np.concatenate([f[f <= prob._peak_cut_hz()], prob.slot_hz])
         w = 2.0 * math.pi * f
-        out = model.outputs(closure_springs(model, sigma, sigma_u)(w), w)
+        # models.distortion: the springs at the minor loss's gain, as the NLP's (its y_k,
+        # optimization.distortion_rows: sigma_u times the gain ratio of the NumPy terms)
+        sig_u = sigma_u
+        if getattr(prob, "distortion", False) and prob.flow != "poiseuille":
+            n = prob.n
+            sig_u = sigma_u * prob.distortion_terms(d, values)[2 * n:3 * n]
+        out = model.outputs(closure_springs(model, sigma, sig_u)(w), w)
         diag = np.diagonal(out.points, axis1=2, axis2=3)  # (f, k, 3)
         t2 = (diag.real ** 2 + diag.imag ** 2).reshape(f.size, -1)  # (f, 3k), point-major
         n_grid = f.size - prob.slot_hz.size
         # the NLP's order: per point and axis, the grid's frequencies, then the slots'
         q["ln_T2_peak"] = np.log(np.concatenate([t2[:n_grid].T.ravel(),
                                                  t2[n_grid:].T.ravel()]))
+    # free positions: the footprint, spacing, group loads and supply of the table at the
+    # design's positions, leveled by the analysis's statics (lever_nlp.position_rows_numpy)
+    from isodesign.optimization.lever_nlp import position_rows_numpy
+
+    pos = position_rows_numpy(prob, table, lv)
+    if pos:
+        geo = ("footprint_polygon_m", "isolator_distance_m2")
+        q["layout_rows"] = [r for r in pos if r[0] in geo]
+        q["load_rows"] = [r for r in pos if r[0] not in geo]
+    elif prob._layout_free():  # the stretched layout's rows on the stretched table itself
+        import casadi as ca
+
+        from isodesign.table.lever_geometry import layout_rows
+
+        q["layout_rows"] = [(key, np.asarray(ca.DM(e), float).ravel(), lo, hi)
+                            for key, e, lo, hi in layout_rows(table, c, (1.0, 1.0), True)]
     if c.get("model_validity"):
         q.update(validity_quantities(d, designs, np.log(sigma_u), float(np.max(prob.grid.omega)),
                                      lv.group_of if prob.grouped else None))
     return q
+
+
+def _free_slab(prob, values: dict):
+    """The inertia base's terms at a design whose slab is a free lever (None otherwise)."""
+    from isodesign.optimization.lever_nlp import base_terms
+    from isodesign.optimization.variables import CODESIGN_LEVERS, DESIGN_VARIABLES
+    from isodesign.table.inertia_base import BASE_LEVER
+
+    if BASE_LEVER not in prob.lever_scaling.names:
+        return None
+    dv = np.zeros(len(DESIGN_VARIABLES) + len(CODESIGN_LEVERS))
+    dv[len(DESIGN_VARIABLES) + CODESIGN_LEVERS.index(BASE_LEVER)] = float(values[BASE_LEVER])
+    return base_terms(prob, dv)
 
 
 def validity_quantities(d, designs, ln_sigma_u, w_max: float, group_of=None) -> dict:

@@ -23,9 +23,14 @@ then:
    exceeds the bound, the loop's poles are frozen at the current design and the NLP is
    solved again (at most :data:`LOOP_ROUNDS`). After the last round a gain or phase margin
    below its bound is a violation (:data:`LEVELING_VIOLATIONS`).
-3. **Re-check.** The NumPy closure (:func:`~isodesign.table.response.solve_table_closure`)
-   at the optimum on the NLP's grid must give the NLP's stroke RMS values to 1e-6 and its
-   worst margin to 1e-6 dB, else :class:`~isodesign.errors.SolverError`.
+3. **Re-check** (:func:`recheck_table`). The NumPy closure
+   (:func:`~isodesign.table.response.solve_table_closure`) at the optimum on the NLP's grid
+   must give the NLP's stroke RMS values to 1e-6 and its worst margin to 1e-6 dB, and
+   every constraint row the registry re-checks its NLP value to 1e-6
+   (:func:`~isodesign.optimization.recheck.recheck_rows`, the vertical driver's one
+   re-check), else :class:`~isodesign.errors.SolverError`; a row whose NumPy value breaks
+   its bound by more than :data:`~isodesign.optimization.recheck.RECHECK_VIOLATION_TOL` is
+   a violation (no PASS).
 4. **Constraint table.** The constraints at the returned design with margins and binding
    flags (:mod:`isodesign.optimization.table_constraints`), for the sentence naming what stopped it
    (:mod:`isodesign.optimization.explain`).
@@ -63,7 +68,8 @@ from isodesign.table.layout import is_position_lever
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
 
 __all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
-           "closure_springs", "leveling_check", "measure_peaks", "optimize_table"]
+           "closure_springs", "leveling_check", "measure_peaks", "optimize_table",
+           "recheck_table"]
 
 #: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``): what
 #: :func:`~isodesign.optimization.hessian.hessian_choice` gives a table study.
@@ -125,7 +131,9 @@ class TableOptimizationResult(StudyResult):
         run the NLP's violated groups; for a feasible one the continuous peak of |T| above
         its limit after the last refinement round (:data:`PEAK_VIOLATION`, dB), the exact
         modes' damping or rocking-frequency misses, and the leveling loop's gain or phase
-        margin below its bound (:data:`LEVELING_VIOLATIONS`, the shortfall in dB or deg).
+        margin below its bound (:data:`LEVELING_VIOLATIONS`, the shortfall in dB or deg),
+        and every re-checked row whose NumPy value breaks its bound
+        (:attr:`recheck_rows`, :func:`recheck_table`).
         A result with violations is not a
         :attr:`success` and its :meth:`verdict` is never PASS.
     peak : dict
@@ -189,6 +197,9 @@ class TableOptimizationResult(StudyResult):
     lever_sensitivity: tuple = ()
     hessian_info: dict = field(default_factory=dict)
     distortion_outer_rounds: int = 0
+    #: The NumPy re-check of the returned design's constraint rows
+    #: (:class:`~isodesign.optimization.recheck.RowRecheck`; None for an infeasible run).
+    recheck_rows: Any = None
 
     def _start_values(self) -> dict:
         return {v.name: v.start for v in (*self.study.variables, *self.study.levers)}
@@ -316,18 +327,9 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     d = study.design_at(best.values)
     sig_rel = margin_db = math.nan
     getattr(prob, "use_solution", lambda sol: None)(best)  # models.distortion's terms
+    checked = None
     if best.feasible:
-        sigma, sigma_u = prob.closure(d, best.values)
-        sig_rel = float(max(np.max(np.abs(sigma / prob.sigma(best.x) - 1)),
-                            np.max(np.abs(sigma_u / prob.tube_rms(best.x) - 1))))
-        x = best.x.copy()
-        x[prob.nz: prob.nz + prob.n] = np.log(sigma)
-        x[prob.nz + prob.n: prob.nz + 2 * prob.n] = np.log(sigma_u)
-        margin_db = abs(prob.worst_margin_db(x) - prob.worst_margin_db(best.x))
-        if sig_rel > RECHECK_TOL or margin_db > RECHECK_TOL:
-            raise SolverError(f"table optimization: the NLP and the NumPy closure disagree at "
-                              f"the optimum (sigma {sig_rel:.3g} relative, worst margin "
-                              f"{margin_db:.3g} dB)")
+        checked, sig_rel, margin_db = recheck_table(prob, best)
     j0 = None
     try:
         x00 = prob.initial_guess(starts[0])
@@ -350,6 +352,8 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         stab = rocking_stability(_model(study, d, best.values))
     loop, gm_min, pm_min = leveling_check(study, d, best.values)
     violations = _violations(study, prob, best, nlp_modes, peak)
+    if checked is not None:  # rows whose NumPy value breaks a bound: no PASS
+        violations += checked.violations
     gain_hint = None
     if best.feasible:
         misses = _leveling_misses(loop, gm_min, pm_min)
@@ -367,12 +371,66 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
         objective_value=_natural(prob, best.x, best.objective), start_objective=j0,
         starts=tuple(recs), n_reached_best=n_best, constraints=tuple(reports),
         mode_rounds=rounds, recheck_sigma_rel=sig_rel, recheck_margin_db=margin_db,
+        recheck_rows=checked,
         analysis=analysis, start_analysis=start_analysis, modes=modes, start_modes=modes0,
         stability=stab, wall_s=time.perf_counter() - t0, hessian=prob.hessian,
         nlp_violations=tuple(best.violations), violations=violations, peak=peak,
         leveling=loop, leveling_gain_hint_kg_s_per_m=gain_hint, lever_sensitivity=lever_sens,
         hessian_info=choice, distortion_outer_rounds=int(best.outer_rounds),
     )
+
+
+def recheck_table(prob, best) -> tuple:
+    """The NumPy re-check of a table optimum: every constraint row the registry re-checks
+    (:func:`~isodesign.optimization.recheck.recheck_rows` on
+    :func:`~isodesign.optimization.table_constraints.table_quantities`, the one re-check of
+    both bodies), the closure (stroke and tube-velocity RMS) and the worst-margin
+    objective at the NumPy closure.
+
+    Parameters
+    ----------
+    prob : TableProblem
+        The NLP of ``best`` (its slots where the refinement left them).
+    best : Solution
+        A feasible optimum.
+
+    Returns
+    -------
+    checked : RowRecheck
+        The rows' re-check, :attr:`~.recheck.RowRecheck.max_difference` including the
+        closure's relative difference and the margin's (dB).
+    sigma_rel : float
+        ``|sigma_np / sigma_nlp - 1|``, worst over the isolators (and ``sigma_u``).
+    margin_db : float
+        The worst margin's difference at the NumPy closure, dB.
+
+    Raises
+    ------
+    SolverError
+        The NLP's optimum and the NumPy analysis disagree by more than
+        :data:`RECHECK_TOL` (a bug, never a silently wrong design).
+    """
+    from isodesign.optimization.constraint_registry import TABLE_ROWS, constraint_rows_of
+    from isodesign.optimization.recheck import recheck_rows
+    from isodesign.optimization.table_constraints import table_quantities
+
+    study = prob.study
+    d = study.design_at(best.values)
+    sigma, sigma_u = prob.closure(d, best.values)
+    sig_rel = float(max(np.max(np.abs(sigma / prob.sigma(best.x) - 1)),
+                        np.max(np.abs(sigma_u / prob.tube_rms(best.x) - 1))))
+    x = best.x.copy()
+    x[prob.nz: prob.nz + prob.n] = np.log(sigma)
+    x[prob.nz + prob.n: prob.nz + 2 * prob.n] = np.log(sigma_u)
+    margin_db = abs(prob.worst_margin_db(x) - prob.worst_margin_db(best.x))
+    if sig_rel > RECHECK_TOL or margin_db > RECHECK_TOL:
+        raise SolverError(f"table optimization: the NLP and the NumPy closure disagree at "
+                          f"the optimum (sigma {sig_rel:.3g} relative, worst margin "
+                          f"{margin_db:.3g} dB)")
+    rows = constraint_rows_of(study, table_quantities(prob, best.values), TABLE_ROWS)
+    checked = recheck_rows(rows, prob.con_rows, best.g, tol=RECHECK_TOL,
+                           what="table optimization")
+    return checked.merged(max(sig_rel, margin_db)), sig_rel, margin_db
 
 
 def leveling_check(study, d, values=None) -> tuple:
