@@ -1,0 +1,168 @@
+"""The multi-start with each branch refined as soon as its start finishes (pipelined).
+
+:func:`starts_and_branches` runs the starts and the branches' peak refinements
+(:func:`.refine._refine_one`) in one pool of forked workers
+(:func:`.multistart.run_starts_pipelined`): a start whose optimum is new (its objective J
+more than :data:`.refine.BRANCH_TOLERANCE` from every start already given a refinement)
+is refined in the next free worker, before the starts not yet begun; a start that
+coincides with a refined one is not refined again. :func:`select_branch` then applies the
+rule of :func:`.refine.refine_branches` to these refinements: the same branches' order
+(sampled objective, best first), the same test of a branch joining a better one (now on
+the objectives of the re-solves it made, recorded in the worker), the same choice and
+tie-break of the winner. See ``docs/optimization.md`` sections 8 and 13.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from isodesign.errors import SolverError
+from isodesign.optimization.multistart import run_starts_pipelined
+from isodesign.optimization.refine import (
+    BRANCH_TOLERANCE,
+    Refined,
+    _finish_best,
+    _peak_refined,
+    _refine_one,
+)
+
+__all__ = ["select_branch", "starts_and_branches"]
+
+
+class _Recording:
+    """The NLP, with the objective J of every feasible solve recorded (the re-solves of a
+    refinement, in order): all else is passed to the NLP."""
+
+    def __init__(self, prob):
+        self._prob = prob
+        self.objectives: list[float] = []
+
+    def __getattr__(self, name):
+        return getattr(self._prob, name)
+
+    def solve(self, *args, **kwargs):
+        sol = self._prob.solve(*args, **kwargs)
+        if sol.feasible:  # an infeasible re-solve ends the refinement before its join test
+            self.objectives.append(float(sol.objective))
+        return sol
+
+
+def starts_and_branches(study, prob, starts, tol_j: float, *, progress=None):
+    """The starts and, pipelined with them, the refinement of every new branch.
+
+    Parameters
+    ----------
+    study : Study
+        Gives ``solver.workers`` and the peak bound.
+    prob : Problem
+        The built NLP (its movable peak frequencies: the study's).
+    starts : list of dict
+        The starts' design-variable values (SI).
+    tol_j : float
+        The tie-break's tolerance on J (:func:`.refine.flat_tolerance`).
+    progress : callable, optional
+        ``progress(done, total, result)`` after each start.
+
+    Returns
+    -------
+    (list, dict) or None
+        The starts' results in start order (as :func:`.multistart.run_starts`) and
+        ``{start: (Refined or SolverError, re-solve objectives J)}`` of the starts refined;
+        ``None`` when nothing is refined (no peak bound, peak objective absent) or the starts
+        would not run in forked local workers: the caller runs the starts and
+        :func:`.refine.refine_branches` one after the other.
+    """
+    if not _peak_refined(study, prob):
+        return None
+
+    def after(i, sol):
+        rec = _Recording(prob)
+        try:
+            r = _refine_one(study, rec, i, sol, tol_j)
+        except SolverError as exc:
+            r = exc
+        return r, rec.objectives
+
+    def is_new(sol, taken):
+        return sol.feasible and not any(abs(sol.objective - t.objective) <= BRANCH_TOLERANCE
+                                        for t in taken)
+
+    return run_starts_pipelined(prob, starts, after, is_new=is_new,
+                                workers=study.solver.get("workers"), progress=progress)
+
+
+def _joined(objectives, known) -> int | None:
+    """Index in ``known`` of the first branch a re-solve landed on (within
+    :data:`.refine.BRANCH_TOLERANCE`), in re-solve order; ``None`` if none did."""
+    for j in objectives:
+        hits = [k for k, v in enumerate(known) if abs(j - v) <= BRANCH_TOLERANCE]
+        if hits:
+            return hits[0]
+    return None
+
+
+def select_branch(study, prob, sols: dict, refined: dict, tol_j: float) -> Refined:
+    """The winning branch among pipelined refinements, by :func:`.refine.refine_branches`' rule.
+
+    Parameters
+    ----------
+    study : Study
+        Gives ``solver.tie_break``.
+    prob : Problem
+        The NLP (this process's copy: its movable frequencies are the study's); left on
+        the winner's.
+    sols : dict
+        Start index -> feasible Solution.
+    refined : dict
+        Start index -> (Refined or SolverError, re-solve objectives J), of
+        :func:`starts_and_branches`, for the feasible starts refined.
+
+    Returns
+    -------
+    Refined
+        As :func:`.refine.refine_branches`: the winner, tie-broken, with ``branches``.
+
+    Raises
+    ------
+    SolverError
+        When the refinement failed on every branch (the first failure).
+
+    Notes
+    -----
+    In :func:`.refine.refine_branches` branch ``k`` stops at its first re-solve that lands
+    within :data:`.refine.BRANCH_TOLERANCE` of a better branch's sampled objective. A
+    refinement here ran without that stop, from the same point on the same grid, so its
+    re-solves up to that one are the same solves: the recorded objectives say where it
+    would have stopped, and such a branch is treated as joined exactly as there.
+    """
+    branches = sorted((i for i in refined if i in sols), key=lambda i: sols[i].objective)
+    done: list[Refined] = []
+    merged: list[tuple[int, Refined]] = []
+    error = None
+    for k, i in enumerate(branches):
+        r, objectives = refined[i]
+        m = _joined(objectives, [sols[b].objective for b in branches[:k]])
+        if m is not None:
+            target = next((d for d in done if d.start == branches[m]), None)
+            if target is None:
+                m2 = _joined(objectives, [sols[d.start].objective for d in done])
+                target = done[m2] if m2 is not None else None
+            if target is not None:
+                merged.append((i, target))
+                continue
+        if isinstance(r, SolverError):
+            error = error or r
+        else:
+            done.append(r)
+    if not done:
+        raise error or SolverError("no branch refined")
+    done.sort(key=lambda r: r.best.objective)  # stable: equal optima keep the start order
+    if study.solver["tie_break"]:
+        done = _finish_best(study, prob, done, tol_j)
+    win = done[0]
+    if not np.array_equal(prob.slot_hz, win.slot_hz):
+        prob.set_slots(win.slot_hz)
+    best_j = {r.start: r.best.objective for r in done}
+    rows = [(r.start, r.best.objective) for r in done]
+    rows += [(i, best_j.get(r.start, r.best.objective)) for i, r in merged]
+    return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz, tuple(rows))
