@@ -2,12 +2,17 @@
 
 :func:`starts_and_branches` runs the starts and the branches' peak refinements
 (:func:`.refine._refine_one`) in one pool of forked workers
-(:func:`.multistart.run_starts_pipelined`): a start whose optimum is new (its objective J
-more than :data:`.refine.BRANCH_TOLERANCE` from every start already given a refinement)
-is refined in the next free worker, before the starts not yet begun; a start that
-coincides with a refined one is not refined again. :func:`select_branch` then applies the
-rule of :func:`.refine.refine_branches` to these refinements: the same branches' order
-(sampled objective, best first), the same test of a branch joining a better one (now on
+(:func:`.multistart.run_starts_pipelined`): after each start finishes, the starts
+finished so far are grouped into branches as :func:`.refine.refine_branches` groups them
+(by sampled objective J, best first; a start within :data:`.refine.BRANCH_TOLERANCE` of a
+branch's first start belongs to it), and each branch's first start not yet refined is
+refined in the next free worker, before the starts not yet begun. A start that coincides
+with a better one already refined is not refined; one that finishes after a worse start
+of its branch was refined is (it is the branch's first start now), so the branches at the
+end are exactly those of :func:`.refine.refine_branches`, refined from the same points:
+the answer does not depend on the order in which the starts finish.
+:func:`select_branch` then applies the rule of :func:`.refine.refine_branches` to these
+refinements: the same branches' order, the same test of a branch joining a better one (on
 the objectives of the re-solves it made, recorded in the worker), the same choice and
 tie-break of the winner. See ``docs/optimization.md`` sections 8 and 13.
 """
@@ -26,7 +31,7 @@ from isodesign.optimization.refine import (
     _refine_one,
 )
 
-__all__ = ["select_branch", "starts_and_branches"]
+__all__ = ["branch_starts", "select_branch", "starts_and_branches"]
 
 
 class _Recording:
@@ -83,12 +88,32 @@ def starts_and_branches(study, prob, starts, tol_j: float, *, progress=None):
             r = exc
         return r, rec.objectives
 
-    def is_new(sol, taken):
-        return sol.feasible and not any(abs(sol.objective - t.objective) <= BRANCH_TOLERANCE
-                                        for t in taken)
+    def choose(finished):
+        return branch_starts({i: s for i, s in finished.items()
+                              if not isinstance(s, str) and s.feasible})
 
-    return run_starts_pipelined(prob, starts, after, is_new=is_new,
+    return run_starts_pipelined(prob, starts, after, choose=choose,
                                 workers=study.solver.get("workers"), progress=progress)
+
+
+def branch_starts(sols: dict) -> list[int]:
+    """The first start of each distinct branch, best sampled objective first: the grouping
+    of :func:`.refine.refine_branches` (ties in start order).
+
+    Parameters
+    ----------
+    sols : dict
+        Start index -> feasible Solution.
+
+    Returns
+    -------
+    list of int
+    """
+    out: list[int] = []
+    for i in sorted(sols, key=lambda i: (sols[i].objective, i)):
+        if not any(abs(sols[i].objective - sols[b].objective) <= BRANCH_TOLERANCE for b in out):
+            out.append(i)
+    return out
 
 
 def _joined(objectives, known) -> int | None:
@@ -135,7 +160,10 @@ def select_branch(study, prob, sols: dict, refined: dict, tol_j: float) -> Refin
     re-solves up to that one are the same solves: the recorded objectives say where it
     would have stopped, and such a branch is treated as joined exactly as there.
     """
-    branches = sorted((i for i in refined if i in sols), key=lambda i: sols[i].objective)
+    branches = branch_starts(sols)
+    missing = [i for i in branches if i not in refined]
+    if missing:
+        raise ValueError(f"select_branch: branches {missing} were not refined")
     done: list[Refined] = []
     merged: list[tuple[int, Refined]] = []
     error = None

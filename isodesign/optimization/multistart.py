@@ -190,14 +190,14 @@ def _run_tagged(item):
     return item[0], item[1], _TASK(item)
 
 
-def run_starts_pipelined(prob, starts: list[dict], after, *, is_new, workers=None,
+def run_starts_pipelined(prob, starts: list[dict], after, *, choose, workers=None,
                          progress=None) -> tuple[list, dict] | None:
-    """Solve every start and, as soon as a start finishes, its follow-up in the same pool.
+    """Solve every start and, as soon as a start finishes, the follow-ups it calls for.
 
-    The starts of :func:`run_starts` with one more kind of task: when start ``i`` finishes
-    with a solution for which ``is_new(solution, taken)`` holds (``taken``: the solutions
-    already given a follow-up, in the order they were given one), ``after(i, solution)``
-    runs in the next free worker, before any start not yet begun. At most one task per
+    The starts of :func:`run_starts` with one more kind of task: after each start finishes,
+    ``choose(finished)`` (``finished``: start index -> result of the starts finished so
+    far) names the starts that need a follow-up; ``after(i, solution)`` of each one not yet
+    given one runs in the next free worker, before any start not yet begun. At most one task per
     worker is in flight, so a follow-up never waits behind the queued starts. Each task
     begins from the study's movable peak frequencies (those of ``prob`` at the call): a
     worker's copy of the NLP moved by a follow-up is reset before a start.
@@ -210,8 +210,8 @@ def run_starts_pipelined(prob, starts: list[dict], after, *, is_new, workers=Non
         Design-variable values (SI) of each start.
     after : callable
         ``after(i, solution)`` in a worker; its result must be picklable.
-    is_new : callable
-        ``is_new(solution, taken) -> bool``, in this process.
+    choose : callable
+        ``choose(finished) -> iterable of start indices``, in this process.
     workers : int, optional
         As for :func:`run_starts`.
     progress : callable, optional
@@ -247,7 +247,8 @@ def run_starts_pipelined(prob, starts: list[dict], after, *, is_new, workers=Non
 
     results: list = [None] * n
     followed: dict = {}
-    taken: list = []
+    finished: dict = {}
+    queued: set = set()
     todo_starts = list(enumerate(starts))[::-1]  # popped from the end: start order
     todo_after: list = []
     done_q: queue.SimpleQueue = queue.SimpleQueue()
@@ -280,9 +281,11 @@ def run_starts_pipelined(prob, starts: list[dict], after, *, is_new, workers=Non
                 n_done += 1
                 if progress:
                     progress(n_done, n, out)
-                if not isinstance(out, str) and is_new(out, taken):
-                    taken.append(out)
-                    todo_after.append((i, out))
+                finished[i] = out
+                for j in choose(finished):
+                    if j not in queued:
+                        queued.add(j)
+                        todo_after.append((j, results[j]))
     finally:
         _TASK = outer
     return results, followed
