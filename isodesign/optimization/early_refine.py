@@ -80,17 +80,22 @@ def starts_and_branches(study, prob, starts, tol_j: float, *, progress=None):
     if not _peak_refined(study, prob):
         return None
 
-    def after(i, sol):
+    def after(i, payload):
+        sol, known = payload
         rec = _Recording(prob)
         try:
-            r = _refine_one(study, rec, i, sol, tol_j)
+            r = _refine_one(study, rec, i, sol, tol_j, known=known)
         except SolverError as exc:
             r = exc
         return r, rec.objectives
 
     def choose(finished):
-        return branch_starts({i: s for i, s in finished.items()
-                              if not isinstance(s, str) and s.feasible})
+        # each branch with the sampled J of the better branches known now: its refinement
+        # stops where it joins one of them (select_branch checks it against them all)
+        good = {i: s for i, s in finished.items() if not isinstance(s, str) and s.feasible}
+        reps = branch_starts(good)
+        return [(i, (good[i], [good[b].objective for b in reps[:k]]))
+                for k, i in enumerate(reps)]
 
     return run_starts_pipelined(prob, starts, after, choose=choose,
                                 workers=study.solver.get("workers"), progress=progress)
@@ -156,25 +161,47 @@ def select_branch(study, prob, sols: dict, refined: dict, tol_j: float) -> Refin
     -----
     In :func:`.refine.refine_branches` branch ``k`` stops at its first re-solve that lands
     within :data:`.refine.BRANCH_TOLERANCE` of a better branch's sampled objective. A
-    refinement here ran without that stop, from the same point on the same grid, so its
-    re-solves up to that one are the same solves: the recorded objectives say where it
-    would have stopped, and such a branch is treated as joined exactly as there.
+    refinement here ran with the better branches known when it began (a subset, up to
+    starts superseded since), from the same point on the same grid, so its re-solves up to
+    its stop are the same solves: the recorded objectives say where it would have stopped,
+    and such a branch is treated as joined exactly as there. One that stopped at a branch
+    that is not a better one in the end is refined again in full here.
     """
     branches = branch_starts(sols)
     missing = [i for i in branches if i not in refined]
     if missing:
         raise ValueError(f"select_branch: branches {missing} were not refined")
+    slots0 = prob.slot_hz.copy()
+
+    def result(i, known):
+        # branch i's refinement as refine_branches' refine(k, known) would end: joined
+        # (the index in known), or its Refined / SolverError
+        r, objectives = refined[i]
+        m = _joined(objectives, known)
+        if m is not None:
+            return m
+        if isinstance(r, Refined) and r.peak.get("merged_with") is not None:
+            # stopped at a branch that is no better one here (it was superseded or fell
+            # out): refined again, in full as refine_branches would, in this process
+            if not np.array_equal(prob.slot_hz, slots0):
+                prob.set_slots(slots0)
+            try:
+                r = _refine_one(study, prob, i, sols[i], tol_j, known=known)
+            except SolverError as exc:
+                return exc
+            return r.peak["merged_with"] if r.peak.get("merged_with") is not None else r
+        return r
+
     done: list[Refined] = []
     merged: list[tuple[int, Refined]] = []
     error = None
     for k, i in enumerate(branches):
-        r, objectives = refined[i]
-        m = _joined(objectives, [sols[b].objective for b in branches[:k]])
-        if m is not None:
-            target = next((d for d in done if d.start == branches[m]), None)
+        r = result(i, [sols[b].objective for b in branches[:k]])
+        if isinstance(r, int):
+            target = next((d for d in done if d.start == branches[r]), None)
             if target is None:
-                m2 = _joined(objectives, [sols[d.start].objective for d in done])
-                target = done[m2] if m2 is not None else None
+                r = result(i, [sols[d.start].objective for d in done])
+                target = done[r] if isinstance(r, int) else None
             if target is not None:
                 merged.append((i, target))
                 continue

@@ -196,11 +196,12 @@ def run_starts_pipelined(prob, starts: list[dict], after, *, choose, workers=Non
 
     The starts of :func:`run_starts` with one more kind of task: after each start finishes,
     ``choose(finished)`` (``finished``: start index -> result of the starts finished so
-    far) names the starts that need a follow-up; ``after(i, solution)`` of each one not yet
-    given one runs in the next free worker, before any start not yet begun. At most one task per
-    worker is in flight, so a follow-up never waits behind the queued starts. Each task
-    begins from the study's movable peak frequencies (those of ``prob`` at the call): a
-    worker's copy of the NLP moved by a follow-up is reset before a start.
+    far) names the starts that need a follow-up, each with its payload;
+    ``after(i, payload)`` of each one not yet given one runs in the next free worker, before
+    any start not yet begun. At most one task per worker is in flight, so a follow-up never
+    waits behind the queued starts. Each task begins from the study's movable peak
+    frequencies (those of ``prob`` at the call): a worker's copy of the NLP moved by a
+    follow-up is reset before a start.
 
     Parameters
     ----------
@@ -209,9 +210,10 @@ def run_starts_pipelined(prob, starts: list[dict], after, *, choose, workers=Non
     starts : list of dict
         Design-variable values (SI) of each start.
     after : callable
-        ``after(i, solution)`` in a worker; its result must be picklable.
+        ``after(i, payload)`` in a worker; its result must be picklable.
     choose : callable
-        ``choose(finished) -> iterable of start indices``, in this process.
+        ``choose(finished) -> iterable of (start index, payload)``, in this process (the
+        payload picklable).
     workers : int, optional
         As for :func:`run_starts`.
     progress : callable, optional
@@ -221,7 +223,7 @@ def run_starts_pipelined(prob, starts: list[dict], after, *, choose, workers=Non
     -------
     (list, dict) or None
         The starts' results in start order (as :func:`run_starts`) and
-        ``{i: after(i, solution)}`` for every start given a follow-up; ``None`` when the
+        ``{i: after(i, payload)}`` for every start given a follow-up; ``None`` when the
         starts would not run in forked local workers (one worker or start, no ``fork``,
         an executor installed): the caller then runs them as before.
     """
@@ -282,10 +284,10 @@ def run_starts_pipelined(prob, starts: list[dict], after, *, choose, workers=Non
                 if progress:
                     progress(n_done, n, out)
                 finished[i] = out
-                for j in choose(finished):
+                for j, payload in choose(finished):
                     if j not in queued:
                         queued.add(j)
-                        todo_after.append((j, results[j]))
+                        todo_after.append((j, payload))
     finally:
         _TASK = outer
     return results, followed
