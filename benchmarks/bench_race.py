@@ -36,8 +36,9 @@ first instant at which a solve of that run has finished with a design that is
   largest bore), else the row fails.
 
 The solves and their instants come from the result: each start's ``finished_s``
-(``starts_frame()``) and the winner's refinement and tie-break solves
-(``OptimizationResult.solves``), on ``time.perf_counter`` (system-wide, so the forked
+(``starts_frame()``), each branch's refinement re-solve (run as soon as its start has
+finished, in the starts' workers: ``docs/optimization.md`` section 8) and the winner's
+tie-break (``OptimizationResult.solves``), on ``time.perf_counter`` (system-wide, so the forked
 workers' instants compare with the driver's), plus the call's time outside the driver's
 clock. Judged row: that time over differential evolution's (target at most 0.05x).
 Informative row: isodesign's whole ``optimize`` call over the same (what the race measured
@@ -252,11 +253,13 @@ def run() -> list[dict]:
     starts = [x for x in rows if x["what"].startswith("start ")]
     before = starts[0]["at_s"] - starts[0]["solve_s"] if starts else float("nan")
     last = starts[-1]["at_s"] if starts else float("nan")
+    first = starts[0]["at_s"] if starts else float("nan")
+    n_by = sum(1 for x in starts if x["at_s"] <= t_reach)
     profile = (f"profile of the {t_reach:.2f} s: {before:.2f} s before the first start's IPOPT "
-               f"began (the NLP's build, the fork, an initial guess), the {len(starts)} starts "
-               f"{last - before:.2f} s on 2 workers (the first finished at "
-               f"{starts[0]['at_s'] if starts else float('nan'):.2f} s, the last at "
-               f"{last:.2f} s), then {t_reach - last:.2f} s to the incumbent")
+               f"began (the NLP's build, the fork, an initial guess), the first start "
+               f"finished at {first:.2f} s, {n_by} of the {len(starts)} starts by the "
+               f"incumbent (the branches' refinements run beside the starts on the 2 "
+               f"workers), the last start at {last:.2f} s")
     if de["reached_s"] is not None:
         de_t, bound = de["reached_s"], ""
     else:

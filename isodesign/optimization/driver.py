@@ -23,6 +23,7 @@ import time
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.analyze import vertical_band_response
 from isodesign.optimization.constraints import constraint_reports
+from isodesign.optimization.early_refine import select_branch, starts_and_branches
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.nlp import CONSTRAINT_VIOLATION_TOL, IPOPT_OPTIONS
 from isodesign.optimization.objectives import OBJECTIVES
@@ -99,15 +100,25 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
     t_all = time.perf_counter()
     prob = problem if problem is not None else Problem(study)
     starts = start_points(study, prob.scaling) + [dict(v) for v in extra_starts]
-    results = run_starts(prob, starts, workers=study.solver.get("workers"),
-                         progress=progress)
+    tol_j = flat_tolerance(prob.objective)
+    # each new branch refined as soon as its start finishes, in the starts' pool
+    # (docs/optimization.md section 8); else the starts, then refine_branches
+    piped = starts_and_branches(study, prob, starts, tol_j, progress=progress)
+    if piped is None:
+        results = run_starts(prob, starts, workers=study.solver.get("workers"),
+                             progress=progress)
+        early = None
+    else:
+        results, early = piped
     records, sols = _start_records(prob, starts, results, t_all)
     good = {i: sols[i] for i, r in enumerate(records) if r.feasible and sols[i] is not None}
     if not good:
         return _infeasible_result(study, prob, starts[0], records, sols, t_all)
     obj = OBJECTIVES[prob.objective]
-    tol_j = flat_tolerance(prob.objective)
-    win = refine_branches(study, prob, good, tol_j)
+    if early is None:
+        win = refine_branches(study, prob, good, tol_j)
+    else:
+        win = select_branch(study, prob, good, early, tol_j)
     j_win = good[win.start].objective
     n_best = sum(1 for s in good.values() if abs(s.objective - j_win) <= tol_j)
     final = win.final
@@ -138,14 +149,23 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
         settings={**solver_settings(study), **({"distortion_outer_rounds": final.outer_rounds}
                                                 if final.outer_rounds else {})},
         branches=tuple((i, obj.to_natural(j)) for i, j in win.branches),
-        hessian_info=prob.hessian_info, solves=_solves(win, obj, t_all),
+        hessian_info=prob.hessian_info, solves=_solves(win, obj, t_all, early),
     )
 
 
-def _solves(win, obj, t_all) -> tuple[dict, ...]:
-    """The winner's refinement and tie-break solves with their finish instants
-    (:attr:`.result.OptimizationResult.solves`)."""
+def _solves(win, obj, t_all, early=None) -> tuple[dict, ...]:
+    """The refinement and tie-break solves with their finish instants
+    (:attr:`.result.OptimizationResult.solves`): every branch's refinement when they were
+    pipelined with the starts (``early``: start -> (Refined or error, objectives)), in
+    finish order, else the winner's; then the winner's tie-break."""
     out = []
+    for i, (r, _) in sorted((early or {}).items()):
+        if isinstance(r, SolverError) or not r.peak.get("rounds") or r.best is win.best:
+            continue
+        out.append({"stage": "refinement", "start": i,
+                    "finished_s": r.best.finished_at - t_all,
+                    "objective": obj.to_natural(r.best.objective),
+                    "values": dict(r.best.values)})
     if win.peak.get("rounds"):
         out.append({"stage": "refinement", "start": win.start,
                     "finished_s": win.best.finished_at - t_all,
@@ -156,7 +176,7 @@ def _solves(win, obj, t_all) -> tuple[dict, ...]:
                     "finished_s": win.final.finished_at - t_all,
                     "objective": obj.to_natural(win.final.objective),
                     "values": dict(win.final.values)})
-    return tuple(out)
+    return tuple(sorted(out, key=lambda x: x["finished_s"]))
 
 
 #: The former name of :func:`optimize_vertical` (same guards: a table or robust study is

@@ -6,10 +6,10 @@ from __future__ import annotations
 import numpy as np
 
 from isodesign.errors import SolverError
-from isodesign.optimization.executor import available_cores, executor_for
+from isodesign.optimization.executor import ForkExecutor, available_cores, executor_for
 
 __all__ = ["DEFAULT_WORKERS", "available_cores", "map_in_workers", "run_starts",
-           "runs_in_parallel", "start_points"]
+           "run_starts_pipelined", "runs_in_parallel", "start_points"]
 
 #: Worker processes for the starts when none is asked for (capped by the cores
 #: available to the process, like any asked-for number).
@@ -184,3 +184,110 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
     """
     return map_in_workers(lambda vals: _solve_start(prob, params, vals), starts,
                           workers=workers, progress=progress)
+
+
+def _run_tagged(item):
+    return item[0], item[1], _TASK(item)
+
+
+def run_starts_pipelined(prob, starts: list[dict], after, *, choose, workers=None,
+                         progress=None) -> tuple[list, dict] | None:
+    """Solve every start and, as soon as a start finishes, the follow-ups it calls for.
+
+    The starts of :func:`run_starts` with one more kind of task: after each start finishes,
+    ``choose(finished)`` (``finished``: start index -> result of the starts finished so
+    far) names the starts that need a follow-up, each with its payload;
+    ``after(i, payload)`` of each one not yet given one runs in the next free worker, before
+    any start not yet begun. At most one task per worker is in flight, so a follow-up never
+    waits behind the queued starts. Each task begins from the study's movable peak
+    frequencies (those of ``prob`` at the call): a worker's copy of the NLP moved by a
+    follow-up is reset before a start.
+
+    Parameters
+    ----------
+    prob : Problem
+        The built NLP (inherited by the forked workers).
+    starts : list of dict
+        Design-variable values (SI) of each start.
+    after : callable
+        ``after(i, payload)`` in a worker; its result must be picklable.
+    choose : callable
+        ``choose(finished) -> iterable of (start index, payload)``, in this process (the
+        payload picklable).
+    workers : int, optional
+        As for :func:`run_starts`.
+    progress : callable, optional
+        ``progress(done, total, result)`` after each start (completion order).
+
+    Returns
+    -------
+    (list, dict) or None
+        The starts' results in start order (as :func:`run_starts`) and
+        ``{i: after(i, payload)}`` for every start given a follow-up; ``None`` when the
+        starts would not run in forked local workers (one worker or start, no ``fork``,
+        an executor installed): the caller then runs them as before.
+    """
+    import multiprocessing as mp
+    import queue
+
+    global _TASK
+
+    n = len(starts)
+    workers = min(DEFAULT_WORKERS if workers is None else workers, available_cores())
+    ex = executor_for(workers, n)
+    if not isinstance(ex, ForkExecutor) or n < 2:
+        return None
+    slots0 = prob.slot_hz.copy()
+
+    def task(item):
+        kind, i, payload = item
+        if not np.array_equal(prob.slot_hz, slots0):
+            prob.set_slots(slots0)
+        if kind == "start":
+            return _solve_start(prob, None, payload)
+        return after(i, payload)
+
+    results: list = [None] * n
+    followed: dict = {}
+    finished: dict = {}
+    queued: set = set()
+    todo_starts = list(enumerate(starts))[::-1]  # popped from the end: start order
+    todo_after: list = []
+    done_q: queue.SimpleQueue = queue.SimpleQueue()
+    outer = _TASK
+    _TASK = task
+    try:
+        with mp.get_context("fork").Pool(processes=min(ex.workers, n)) as pool:
+            busy = 0
+            n_done = 0
+            while True:
+                while busy < ex.workers and (todo_after or todo_starts):
+                    if todo_after:
+                        item = ("after", *todo_after.pop(0))
+                    else:
+                        item = ("start", *todo_starts.pop())
+                    pool.apply_async(_run_tagged, (item,), callback=done_q.put,
+                                     error_callback=done_q.put)
+                    busy += 1
+                if busy == 0:
+                    break
+                msg = done_q.get()
+                busy -= 1
+                if isinstance(msg, BaseException):
+                    raise msg
+                kind, i, out = msg
+                if kind == "after":
+                    followed[i] = out
+                    continue
+                results[i] = out
+                n_done += 1
+                if progress:
+                    progress(n_done, n, out)
+                finished[i] = out
+                for j, payload in choose(finished):
+                    if j not in queued:
+                        queued.add(j)
+                        todo_after.append((j, payload))
+    finally:
+        _TASK = outer
+    return results, followed
