@@ -150,8 +150,9 @@ def summary(res) -> str:
     if res.ran:
         changed = int(df["branch_changed"].fillna(False).astype(bool).sum()) \
             if "branch_changed" in df else 0
-        lines.append(f"  NLPs built: {res.nlp_builds} for {res.ran} points run now (one per "
-                     f"structure and worker); {changed} points changed branch along their line")
+        lines.append(f"  NLPs built: {res.nlp_builds} for {res.ran} points run now (summed over "
+                     f"the workers: one per structure and worker, a table's movable peak "
+                     f"frequencies one more); {changed} points changed branch along their line")
     if walls:
         lines.append(f"  time per point: median {statistics.median(walls):.2f} s, min "
                      f"{min(walls):.2f} s, max {max(walls):.2f} s (sum {sum(walls):.1f} s: "

@@ -99,8 +99,10 @@ class SweepResult(ResultDisplay):
     point_wall_s : tuple of float
         The wall time of each point computed now.
     nlp_builds : int
-        NLPs built by the points computed now (one per structure and worker process;
-        ``docs/sweep.md``, section 7).
+        NLPs built by the points computed now, summed over the workers and points as each
+        worker's :class:`~isodesign.optimization.parametric.ProblemCache` counts them (one
+        per structure and worker process, and a table structure's NLP with movable peak
+        frequencies one more; ``docs/sweep.md``, section 7).
     values : dict
         Each swept key's values in the sweep's order.
     """
@@ -116,7 +118,7 @@ class SweepResult(ResultDisplay):
     where: str
     status: str
     point_wall_s: tuple = field(default_factory=tuple)
-    #: NLPs built by the points run now (one per structure and worker: docs/sweep.md).
+    #: NLPs built by the points run now, summed over workers (docs/sweep.md, section 7).
     nlp_builds: int = 0
     #: Each swept key's values in the sweep's order (the binding map's axes and panels).
     values: dict = field(default_factory=dict)
@@ -470,6 +472,15 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
     order = chains(tables, keys, 1 if conn is None else max(conn.workers, 1))
     builds = [0]  # NLPs built by the points computed now (the branch pass's too)
 
+    def built(row) -> int:
+        # the NLPs the point built (its worker's ProblemCache count: a table point may build
+        # two, its structure's and the one with movable peak frequencies); a row without the
+        # count (a task that keeps no cache) says only whether it built one
+        n = row.get("nlp_builds")
+        if n is None or n != n:  # None or NaN: not counted
+            return int(bool(row.get("nlp_built")))
+        return int(n)
+
     def table_now():
         return frame(rows.values(), keys)
 
@@ -488,7 +499,7 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
         # them writes the table (one rewrite for all the points finished meanwhile)
         nonlocal done, failed
         rows[p.study_hash] = row
-        builds[0] += bool(row.get("nlp_built") and not row.get("reused"))
+        builds[0] += 0 if row.get("reused") else built(row)
         done += 1
         failed += row.get("status") == "failed"
         if row.get("wall_s") is not None and not row.get("reused"):
@@ -505,7 +516,7 @@ def _run(target, mode, base, pts, dropped, keys, identity, task, options, schedu
 
     def again(p, row, write=True):  # a point solved again (the branch pass): not a new one
         rows[p.study_hash] = row
-        builds[0] += bool(row.get("nlp_built"))
+        builds[0] += built(row)
         if write:
             write_table(table_now(), table_path)
 

@@ -269,7 +269,8 @@ def _optimize_vertical(study, options: dict):
             not r.feasible or obj.from_natural(r.objective) > obj.from_natural(best.objective)
             + tol for r in nbs)
     return result, {
-        "nlp_built": cache.builds > before, "nlp_builds_worker": cache.builds,
+        "nlp_built": cache.builds > before, "nlp_builds": cache.builds - before,
+        "nlp_builds_worker": cache.builds,
         "neighbour_starts": len(pairs),
         "from_neighbour": bool(best is not None and best.index >= n_own),
         # which of the given neighbours' optima the best start was (-1: the point's own)
@@ -344,7 +345,8 @@ def _optimize_table(study, options: dict):
         # the answer left the branch the continuation followed: the neighbour's start did
         # not reach the best start's objective (within the tie-break's flat tolerance)
         changed = first is None or first[5] > best_j + tol
-    return result, {"nlp_built": cache.builds > before, "nlp_builds_worker": cache.builds,
+    return result, {"nlp_built": cache.builds > before, "nlp_builds": cache.builds - before,
+                    "nlp_builds_worker": cache.builds,
                     "neighbour_starts": int(start is not None),
                     "from_neighbour": bool(from_nb),
                     "best_neighbour": 0 if from_nb else -1,
