@@ -11,8 +11,10 @@ import numpy as np
 import pytest
 
 import isodesign
+from isodesign.optimization.parametric import ProblemCache
 from isodesign.optimization.study import table_study
 from isodesign.plotting.sweep import NO_DESIGN, binding_map, binding_map_data, map_axes
+from isodesign.sweeps import tasks
 
 #: Two masses x two CG heights of the table study, on a coarse grid, two starts per point.
 VARY = ["payload.mass_kg=450,650", "payload.cg_height_m=0.25,0.45"]
@@ -27,11 +29,22 @@ def _cheap_table():
                                       solver={"starts": 2})
 
 
+#: The NLPs the serial worker's cache built in :func:`table_line`.
+_WORKER_BUILDS: list[int] = []
+
+
 @pytest.fixture(scope="module")
 def table_line(tmp_path_factory):
     """The uninterrupted sweep (serial: the same points and chains as a cluster's)."""
     out = tmp_path_factory.mktemp("table_line") / "whole"
-    return isodesign.sweep(_cheap_table(), vary=VARY, output=out, scheduler="serial")
+    saved = getattr(tasks._LOCAL, "problems", None)
+    tasks._LOCAL.problems = cache = ProblemCache()  # the serial worker's, empty
+    try:
+        res = isodesign.sweep(_cheap_table(), vary=VARY, output=out, scheduler="serial")
+    finally:
+        tasks._LOCAL.problems = saved
+    _WORKER_BUILDS.append(cache.builds)
+    return res
 
 
 def _by_point(df):
@@ -43,6 +56,11 @@ def test_table_points_continue_along_the_mass_line(table_line):
     df = table_line.table
     assert len(df) == 4 and set(df["question"]) == {"table"}
     assert set(df["status"]) <= {"complete", "infeasible"}, df[["status", "error"]]
+    # "NLPs built" is what the (serial) worker's cache built, not the points that built one:
+    # a table point may build two, its structure's and the one with movable peak frequencies
+    assert table_line.nlp_builds == _WORKER_BUILDS[-1] >= 1
+    # (a point solved again keeps only its last row in the table: at most the sweep's count)
+    assert table_line.nlp_builds >= int(df["nlp_builds"].sum())
     continued = 0
     for h in (0.25, 0.45):
         light, heavy = (r for _, r in df[df["payload.cg_height_m"] == h]
