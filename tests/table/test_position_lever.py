@@ -222,15 +222,24 @@ def test_footprint_sensitivity_against_a_finite_difference_of_the_reoptimized_de
     """The exact sensitivities of the worst margin to a binding edge of the footprint and to
     the minimum distance (their rows' multipliers) against central differences of the
     design re-optimized from the optimum's positions with the edge moved out by +-5 mm and
-    the distance changed by +-5 mm (one start each: a cold start may end on another local
-    optimum of this multimodal layout), and the binding rows named in words."""
+    the distance changed by +-5 mm, and the binding rows named in words. Each re-optimization
+    starts from the optimum's whole design, its positions and its springs (one start each):
+    this layout is multimodal, and from the positions alone with the springs at their start
+    IPOPT ends on another local optimum (-1.54 dB, its edge +4.36 dB/m, against the one-start
+    optimum's -1.72 dB and +3.64 dB/m), whose difference is not this optimum's sensitivity."""
     from isodesign.optimization.table_driver import optimize_table
 
     def study(dy=0.0, dmin=0.5, start=None):
         p = [[-0.75, -0.5 - dy], [0.75, -0.5 - dy], [0.75, 0.5], [-0.75, 0.5]]
-        spec = {"fixed": False, "polygon_m": p, **({"start": start} if start else {})}
-        return table_study().with_changes(solver={"starts": 1}, variables={
-            "isolator_positions_m": spec}, constraints={"min_isolator_distance_m": dmin})
+        spec = {"fixed": False, "polygon_m": p}
+        levers = {"isolator_positions_m": spec}
+        if start:  # the optimum's design: its positions and its free springs' levers
+            spec["start"] = [[start[f"isolator_{i}_x_m"], start[f"isolator_{i}_y_m"]]
+                             for i in range(1, 5)]
+            levers.update({k: {"start": v} for k, v in start.items()
+                           if not k.startswith("isolator_")})
+        return table_study().with_changes(solver={"starts": 1}, variables=levers,
+                                          constraints={"min_isolator_distance_m": dmin})
 
     r = optimize_table(study(), workers=1, analyze=False)
     s = {x["name"]: x for x in r.lever_sensitivity}
@@ -241,12 +250,12 @@ def test_footprint_sensitivity_against_a_finite_difference_of_the_reoptimized_de
 
     text = "\n".join(lever_lines(r))  # the command line's summary names them too
     assert "isolator_1_x (m)" in text and "footprint_edge_1: isolator" in text
-    xy = [[r.values[f"isolator_{i}_x_m"], r.values[f"isolator_{i}_y_m"]] for i in range(1, 5)]
+    xy = r.values
     up = optimize_table(study(dy=0.005, start=xy), workers=1, analyze=False)
     dn = optimize_table(study(dy=-0.005, start=xy), workers=1, analyze=False)
     fd = (up.objective_value - dn.objective_value) / 0.01
     assert fd > 0 and edge["db_per_unit"] == pytest.approx(fd, rel=0.02)
-    assert edge["db_per_unit"] == pytest.approx(4.36, abs=0.05)  # docs/table.md, section 15
+    assert edge["db_per_unit"] == pytest.approx(3.64, abs=0.05)  # docs/table.md, section 15
     if "min_isolator_distance_m" in s:  # the spacing binds: its sensitivity too
         d = s["min_isolator_distance_m"]
         up = optimize_table(study(dmin=0.505, start=xy), workers=1, analyze=False)
