@@ -146,6 +146,9 @@ def select_branch(study, prob, sols: dict, refined: dict, tol_j: float) -> Refin
     refined : dict
         Start index -> (Refined or SolverError, re-solve objectives J), of
         :func:`starts_and_branches`, for the feasible starts refined.
+    tol_j : float
+        The tie-break's tolerance on J (:func:`.refine.flat_tolerance`), as in
+        :func:`starts_and_branches`; also that of a branch refined again here.
 
     Returns
     -------
