@@ -26,8 +26,8 @@ from isodesign.optimization.multistart import run_starts_pipelined
 from isodesign.optimization.refine import (
     BRANCH_TOLERANCE,
     Refined,
-    _finish_best,
     _peak_refined,
+    _rank_branches,
     _refine_one,
 )
 
@@ -212,15 +212,4 @@ def select_branch(study, prob, sols: dict, refined: dict, tol_j: float) -> Refin
             error = error or r
         else:
             done.append(r)
-    if not done:
-        raise error or SolverError("no branch refined")
-    done.sort(key=lambda r: r.best.objective)  # stable: equal optima keep the start order
-    if study.solver["tie_break"]:
-        done = _finish_best(study, prob, done, tol_j)
-    win = done[0]
-    if not np.array_equal(prob.slot_hz, win.slot_hz):
-        prob.set_slots(win.slot_hz)
-    best_j = {r.start: r.best.objective for r in done}
-    rows = [(r.start, r.best.objective) for r in done]
-    rows += [(i, best_j.get(r.start, r.best.objective)) for i, r in merged]
-    return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz, tuple(rows))
+    return _rank_branches(study, prob, done, merged, tol_j, error)

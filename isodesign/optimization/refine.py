@@ -552,11 +552,25 @@ def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) ->
             error = error or r
         else:
             done.append(r)
+    pre = {id(results[0]): finished[0]} if finished else {}
+    return _rank_branches(study, prob, done, merged, tol_j, error, pre, side)
+
+
+def _rank_branches(study, prob, done: list, merged: list, tol_j: float, error=None,
+                   pre: dict | None = None, alongside=None) -> Refined:
+    """The winner of the refined branches, as :class:`Refined` with every branch's row.
+
+    ``done``: the refined branches (start order); ``merged``: ``(start, the refined
+    branch it joined)`` pairs, listed with that branch's optimum; ``error``: the first
+    :class:`SolverError` of a branch, raised when none was refined. Sorts ``done`` by
+    refined optimum (stable: equal optima keep the start order), tie-breaks the best
+    (:func:`_finish_best`, ``pre`` as there) when the study asks for it and leaves the NLP
+    at the winner's slots. Shared by :func:`refine_branches` and the early refinement.
+    """
     if not done:
-        raise error
-    done.sort(key=lambda r: r.best.objective)  # stable: equal optima keep the start order
+        raise error or SolverError("no branch refined")
+    done = sorted(done, key=lambda r: r.best.objective)
     if study.solver["tie_break"]:
-        pre = {id(results[0]): finished[0]} if finished else {}
         done = _finish_best(study, prob, done, tol_j, pre)
     win = done[0]
     if not np.array_equal(prob.slot_hz, win.slot_hz):
@@ -565,7 +579,7 @@ def refine_branches(study, prob, sols: dict, tol_j: float, *, alongside=None) ->
     rows = [(r.start, r.best.objective) for r in done]
     rows += [(i, refined.get(r.start, r.best.objective)) for i, r in merged]
     return Refined(win.start, win.best, win.final, win.flat, win.peak, win.slot_hz,
-                   tuple(rows), side)
+                   tuple(rows), alongside)
 
 
 def _finish_best(study, prob, done: list, tol_j: float, pre: dict | None = None) -> list:

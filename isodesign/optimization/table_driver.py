@@ -68,8 +68,8 @@ from isodesign.table.layout import is_position_lever
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
 
 __all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
-           "closure_springs", "leveling_check", "measure_peaks", "optimize_table",
-           "recheck_table"]
+           "band_response_and_modes", "closure_springs", "leveling_check", "measure_peaks",
+           "optimize_table", "recheck_table"]
 
 #: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``): what
 #: :func:`~isodesign.optimization.hessian.hessian_choice` gives a table study.
@@ -779,12 +779,37 @@ def _modes_moved(prob, modes) -> bool:
 
 def _analyze(study, d, values=None):
     """Fine-grid band response, modes at its closure and rocking stability of a design."""
+    from isodesign.table.modes import rocking_stability
+
+    res, modes = band_response_and_modes(study, d, values)
+    return res, modes, rocking_stability(res.model)
+
+
+def band_response_and_modes(study, d, values=None, models=None):
+    """A design's fine-grid band response and the table's modes at its closure springs.
+
+    Parameters
+    ----------
+    study : Study
+        A study with a ``[table]``.
+    d : Design
+    values : dict, optional
+        Design values setting the study's levers (``study.table_at``); None: the study's table.
+    models : dict, optional
+        The response models (flow, amplitude_mode, diaphragm, distortion); None: the study's.
+
+    Returns
+    -------
+    (TableBandResponse, TableModes)
+        The band response (warnings silenced: the caller flags validity from its
+        diagnostics) and the modes with the vertical springs at the response's closure.
+    """
     import warnings
 
-    from isodesign.table.modes import rocking_stability, table_modes
+    from isodesign.table.modes import table_modes
     from isodesign.table.response import table_band_response
 
-    m = study.models
+    m = study.models if models is None else models
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         res = table_band_response(d, study.table_at(values), study.floor_axes, study.target,
@@ -795,4 +820,4 @@ def _analyze(study, d, values=None):
     model = res.model
     modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
                                                         res.tube_velocity_rms_m_s))
-    return res, modes, rocking_stability(model)
+    return res, modes

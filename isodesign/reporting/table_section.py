@@ -31,29 +31,19 @@ def table_section(case) -> dict | None:
     st = case.study
     if getattr(st, "table", None) is None:
         return None
+    from isodesign.optimization.table_driver import band_response_and_modes
     from isodesign.optimization.table_problem import PEAK_ROWS_MAX_HZ
-    from isodesign.table.modes import table_modes
-    from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
+    from isodesign.table.peaks import continuous_peaks, peak_search_band
     from isodesign.table.plots import (
         layout_figure,
         table_bands_figure,
         table_transmissibility_figure,
     )
-    from isodesign.table.response import table_band_response
 
-    m = case.models
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        # a co-designed run's table: the levers at the optimum's values (record.json)
-        table = st.table_at((case.record or {}).get("design"))
-        res = table_band_response(case.design, table, st.floor_axes, st.target,
-                                  bands=st.bands, flow=m["flow"],
-                                  amplitude_mode=m["amplitude_mode"],
-                                  diaphragm=m["diaphragm"], warn=False,
-                                  distortion=bool(m.get("distortion", False)))  # fmt: skip
+    # a co-designed run's table: the levers at the optimum's values (record.json)
+    res, modes = band_response_and_modes(st, case.design, (case.record or {}).get("design"),
+                                         case.models)
     model = res.model
-    modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
-                                                        res.tube_velocity_rms_m_s))
     from isodesign.table.leveling import leveling_of_study
     from isodesign.table.stability_report import stability_section
 
