@@ -387,7 +387,11 @@ def optimize_process_row(old: Path, repeats: int | None = None) -> dict:
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)
         study_file = tmp / "vertical.toml"
-        study_file.write_text(study_toml(vertical_study()), encoding="utf-8")
+        # the file both commits read: c243645 predates models.distortion (its physics is
+        # the key's default, off), and refuses a key it does not know
+        text = "\n".join(line for line in study_toml(vertical_study()).splitlines()
+                         if line.strip() != "distortion = false") + "\n"
+        study_file.write_text(text, encoding="utf-8")
         t_o, t_n = [], []
         l0 = os.getloadavg()[0]
         for i in range(repeats):
