@@ -46,6 +46,7 @@ from isodesign.optimization.variables import (
     TABLE_LEVER_BOUNDS,
     TABLE_LEVERS,
 )
+from isodesign.plotting.optimization import case_margin_bars
 from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.layout import layout_extent
 
@@ -101,15 +102,8 @@ def figure(df: pd.DataFrame):
     fig.set_layout_engine("constrained")
     a1, a2 = fig.subplots(1, 2)
     x = range(len(df))
-    a1.bar(x, df["analysis_margin_db"], color=["C3" if v < 0 else "C2"
-                                                for v in df["analysis_margin_db"]])
-    for i, v in enumerate(df["analysis_margin_db"]):
-        a1.annotate(f"{v:+.2f}", (i, v), ha="center", va="bottom" if v >= 0 else "top",
-                    fontsize=7)
-    a1.axhline(0.0, color="k", lw=0.8)
-    a1.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
-                  ha="right", fontsize=7)
-    a1.set_ylabel("worst margin to VC-C (dB, fine-grid analysis)")
+    case_margin_bars(a1, df["case"], df["analysis_margin_db"],
+                     ylabel="worst margin to VC-C (dB, fine-grid analysis)")
     a1.set_title("built-in table: springs, levers, layout, inertia base"
                  + (", the default study" if "default" in set(df["case"]) else ""), fontsize=10)
     for j, n in enumerate(CODESIGN_LEVERS):  # within the wide bounds (the default study's

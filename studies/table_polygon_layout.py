@@ -37,6 +37,7 @@ import pandas as pd
 
 from isodesign.optimization.study import table_study
 from isodesign.optimization.table_driver import optimize_table
+from isodesign.plotting.optimization import case_margin_bars
 from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.plots import layout_figure
 from isodesign.table.study import study_footprint
@@ -93,16 +94,8 @@ def figure(df: pd.DataFrame, layouts: list):
     fig.set_layout_engine("constrained")
     axes = fig.subplots(1, 1 + len(layouts), squeeze=False)[0]
     a1 = axes[0]
-    x = range(len(df))
-    a1.bar(x, df["analysis_margin_db"], color=["C3" if v < 0 else "C2"
-                                                for v in df["analysis_margin_db"]])
-    for i, v in enumerate(df["analysis_margin_db"]):
-        a1.annotate(f"{v:+.2f}", (i, v), ha="center", va="bottom" if v >= 0 else "top",
-                    fontsize=7)
-    a1.axhline(0.0, color="k", lw=0.8)
-    a1.set_xticks(list(x), [c.replace("_", " ") for c in df["case"]], rotation=30,
-                  ha="right", fontsize=7)
-    a1.set_ylabel("worst margin to VC-C (dB, fine-grid analysis)")
+    case_margin_bars(a1, df["case"], df["analysis_margin_db"],
+                     ylabel="worst margin to VC-C (dB, fine-grid analysis)")
     a1.set_title("built-in table: springs and layout", fontsize=10)
     a1.grid(True, alpha=0.3)
     for ax, (name, st, r) in zip(axes[1:], layouts, strict=True):

@@ -28,6 +28,7 @@ from isodesign.plotting.style import (
 
 __all__ = [
     "all_bands_response",
+    "case_margin_bars",
     "objective_display",
     "optimization_figure",
     "optimization_plot",
@@ -388,3 +389,30 @@ def pareto_plot(result, path: str | Path, *, annotate: int = 5, dpi: int = 130) 
     dpi : int
     """
     return save_figure(pareto_figure(result, annotate=annotate), path, dpi=dpi)
+
+
+def case_margin_bars(ax, cases, margins_db, *,
+                     ylabel: str = "worst margin (dB, fine-grid analysis)") -> None:
+    """The worst margin of each case of a design study as bars (red below 0 dB, green
+    above), each labelled with its value, on ``ax``.
+
+    Parameters
+    ----------
+    ax : matplotlib.axes.Axes
+    cases : sequence of str
+        The cases' names (underscores shown as spaces).
+    margins_db : sequence of float
+        Each case's worst margin, dB.
+    ylabel : str, optional
+        The y axis's label.
+    """
+    m = [float(v) for v in margins_db]
+    x = range(len(m))
+    ax.bar(x, m, color=["C3" if v < 0 else "C2" for v in m])
+    for i, v in enumerate(m):
+        ax.annotate(f"{v:+.2f}", (i, v), ha="center", va="bottom" if v >= 0 else "top",
+                    fontsize=7)
+    ax.axhline(0.0, color="k", lw=0.8)
+    ax.set_xticks(list(x), [str(c).replace("_", " ") for c in cases], rotation=30,
+                  ha="right", fontsize=7)
+    ax.set_ylabel(ylabel)
