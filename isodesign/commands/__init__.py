@@ -148,6 +148,8 @@ def option_names(**names: str):
         for param, option in names.items():
             if msg.startswith(f"{param}:"):
                 raise InputError(option + msg[len(param):]) from None
+            if msg.startswith(f"{param} "):  # "diaphragm table file X: cannot read (...)"
+                raise InputError(f"{option}: {msg}") from None
         raise
 
 

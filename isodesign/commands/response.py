@@ -297,6 +297,10 @@ def make_payload(args, base=None, **extra):
         mass = DEFAULT_KG_PER_ISOLATOR * n
     if not mass > 0 or mass == float("inf"):
         raise InputError(f"--payload-kg: must be finite and > 0 kg, got {args.payload_kg}")
+    if args.payload_kg is not None:  # tonnes typed as kg: a warning naming the option
+        from isodesign.io.plausible import warn_option_slips
+
+        warn_option_slips(payload_kg=mass, isolators=n)
     for opt, v in extra.items():
         if v is not None and not (0 < v < float("inf")):
             raise InputError(f"--{opt.replace('_', '-')}: must be finite and > 0 m, got {v}")

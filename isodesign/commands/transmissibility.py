@@ -128,6 +128,9 @@ def run(args) -> int:
     amp = parse_values(args.floor_amplitude, "--floor-amplitude", units=LENGTH_UNITS,
                        unit_name="m", domain=AMPLITUDE_DOMAIN_M)
     check_grid_size(len(freq), len(amp), "--freq", "--floor-amplitude")
+    from isodesign.io.plausible import warn_option_slips
+
+    warn_option_slips(floor_amplitude_m=amp)
     check_output_path(args.output, "--output")
     check_output_path(args.plot, "--plot", suffixes=PLOT_SUFFIXES)
     with option_names(floor="--floor", target="--target", diaphragm="--diaphragm"):

@@ -404,6 +404,23 @@ def read_toml(path, *, what="TOML") -> dict:
             "a TOML file is expected"
         ) from None
     except tomllib.TOMLDecodeError as exc:
-        raise InputError(f"{what} file {p}: malformed TOML ({exc})") from None
+        raise InputError(f"{what} file {p}: malformed TOML ({exc}){_toml_line(p, exc)}") \
+            from None
     except RecursionError:
         raise InputError(f"{what} file {p}: malformed TOML (nested too deeply)") from None
+
+
+def _toml_line(path: Path, exc: Exception) -> str:
+    """``; line N reads 'mass_kg = 700'``: the line a TOML error points at, as typed (the
+    parser's message names no key: "Cannot overwrite a value (at line 3, column 14)")."""
+    import re
+
+    m = re.search(r"at line (\d+)", str(exc))
+    if m is None:
+        return ""
+    try:
+        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+        text = lines[int(m.group(1)) - 1].strip()
+    except (OSError, IndexError, ValueError):
+        return ""
+    return f"; line {m.group(1)} reads {text[:80]!r}" if text else ""

@@ -15,8 +15,8 @@ from __future__ import annotations
 import re
 import warnings
 
-__all__ = ["MIN_LOAD_PER_ISOLATOR_KG", "PLAUSIBLE", "UnitWarning", "unit_slips",
-           "warn_unit_slips"]
+__all__ = ["MAX_FLOOR_AMPLITUDE_M", "MIN_LOAD_PER_ISOLATOR_KG", "PLAUSIBLE", "UnitWarning",
+           "option_slips", "unit_slips", "warn_option_slips", "warn_unit_slips"]
 
 
 class UnitWarning(UserWarning):
@@ -49,6 +49,7 @@ PLAUSIBLE = {
     "max_pressure_pa": (2e4, 1e9, _BAR_PA, None),
     "pressure_pa": (2e4, 1e9, _BAR_PA, None),
     "supply_margin_pa": (1e3, 1e8, _KPA_PA, None),
+    "max_stroke_m": (1e-5, 0.5, None, _MM_M),
 }
 
 
@@ -172,6 +173,67 @@ def warn_unit_slips(values: dict, where: str = "", *, isolators: int | None = No
         The messages warned.
     """
     msgs = unit_slips(values, where, isolators=isolators)
+    for m in msgs:
+        warnings.warn(m, UnitWarning, stacklevel=3)
+    return msgs
+
+
+#: Largest plausible floor displacement amplitude, m: a floor's vibration is micrometres (VC
+#: curves) to a millimetre (a footfall on a light floor); 10 mm is far beyond any, so an
+#: amplitude above it is a unit slip (``--floor-amplitude 5`` meant as 5 um or 5 mm).
+MAX_FLOOR_AMPLITUDE_M = 0.01
+
+
+def option_slips(*, payload_kg=None, isolators: int | None = None,
+                 floor_amplitude_m=()) -> list[str]:
+    """Messages for command-line values that are valid but implausible (the option named).
+
+    Parameters
+    ----------
+    payload_kg : float, optional
+        ``--payload-kg`` as given (kg), with ``isolators`` (``--isolators`` or the study's):
+        below :data:`MIN_LOAD_PER_ISOLATOR_KG` per isolator, tonnes typed as kg.
+    isolators : int, optional
+        The number of isolators the payload is spread over.
+    floor_amplitude_m : sequence of float
+        ``--floor-amplitude`` in m: above :data:`MAX_FLOOR_AMPLITUDE_M`, no floor's vibration.
+
+    Returns
+    -------
+    list of str
+        One message per implausible option, naming it, its value and the likely unit slip.
+    """
+    out = []
+    if (isinstance(payload_kg, int | float) and not isinstance(payload_kg, bool)
+            and isinstance(isolators, int) and isolators >= 1
+            and 0 < payload_kg / isolators < MIN_LOAD_PER_ISOLATOR_KG):
+        out.append(f"--payload-kg {payload_kg:g} on {isolators} isolators is "
+                   f"{payload_kg / isolators:.3g} kg per isolator, below the plausible minimum "
+                   f"of a pneumatic isolator ({MIN_LOAD_PER_ISOLATOR_KG:g} kg); a unit slip? "
+                   f"--payload-kg is in kg, and {_meant(float(payload_kg), _T_KG)}")
+    big = [a for a in floor_amplitude_m if isinstance(a, int | float) and a > MAX_FLOOR_AMPLITUDE_M]
+    if big:
+        a = max(big)
+        out.append(f"--floor-amplitude {a:g} m is beyond any floor's vibration (plausible up to "
+                   f"{MAX_FLOOR_AMPLITUDE_M:g} m); a unit slip? a value without a unit is in m: "
+                   f"write {a:g}um or {a:g}mm")
+    return out
+
+
+def warn_option_slips(**options) -> list[str]:
+    """Emit one :class:`UnitWarning` per message of :func:`option_slips`; return them.
+
+    Parameters
+    ----------
+    **options
+        As for :func:`option_slips`.
+
+    Returns
+    -------
+    list of str
+        The messages warned.
+    """
+    msgs = option_slips(**options)
     for m in msgs:
         warnings.warn(m, UnitWarning, stacklevel=3)
     return msgs

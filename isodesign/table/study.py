@@ -106,6 +106,10 @@ def _check_types(d: dict) -> None:
         check_numbers("isolators_m", v)
         if not isinstance(v, list | tuple | np.ndarray):
             raise InputError(f"isolators_m: expected a list of (x, y) positions, m, got {v!r:.40}")
+        if len(v) < 3 or not all(isinstance(r, list | tuple | np.ndarray) for r in v):
+            # before leveling_groups reads its length: [] or a flat list is this key's error
+            raise InputError(f"isolators_m: expected at least 3 [x, y] positions, m (one per "
+                             f"isolator), got {v!r:.60}")
     for k in _NUMERIC[1:]:
         if k in d:
             check_numbers(k, d[k])

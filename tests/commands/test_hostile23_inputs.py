@@ -1,0 +1,117 @@
+"""Hostile and mistaken inputs found by the held-out-style probe of issue 23 (second pass):
+each is refused where it is read (an InputError naming the key or option as typed, exit 2
+and one stderr line on the command line) or warned as a unit slip naming it. The studies
+are the built-in table study, ``table_study()``, changed."""
+
+from __future__ import annotations
+
+import copy
+import tomllib
+import warnings
+from importlib import resources
+
+import pytest
+
+from isodesign.cli import main
+from isodesign.errors import InputError
+from isodesign.io.plausible import UnitWarning
+from isodesign.optimization.study import study_from_dict
+
+
+@pytest.fixture(scope="module")
+def table_raw():
+    """The built-in table study's file as a dictionary (``table_study()``)."""
+    with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
+        return tomllib.loads(p.read_text())
+
+
+def _study(raw, changes):
+    d = copy.deepcopy(raw)
+    for path, value in changes.items():
+        *head, last = path.split(".")
+        cur = d
+        for k in head:
+            cur = cur.setdefault(k, {})
+        cur[last] = value
+    return study_from_dict(d, source="table.toml")
+
+
+# (changes, fragments every one of which the message holds)
+REFUSED = [
+    # no isolator at all, and a flat list of coordinates: blamed on leveling_groups before
+    ({"table.isolators_m": []}, ["table.toml: table.isolators_m", "at least 3 [x, y]"]),
+    ({"table.isolators_m": [-0.6, -0.4, 0.6, -0.4, 0.6, 0.4, -0.6, 0.4]},
+     ["table.toml: table.isolators_m", "at least 3 [x, y]"]),
+]
+
+
+@pytest.mark.parametrize("changes, fragments", REFUSED, ids=["isolators_empty", "isolators_flat"])
+def test_refused_naming_the_key(table_raw, changes, fragments):
+    with pytest.raises(InputError) as err:
+        _study(table_raw, changes)
+    msg = str(err.value)
+    assert "\n" not in msg
+    for f in fragments:
+        assert f in msg
+
+
+WARNED = [
+    # a stroke of 5 m: millimetres typed as metres
+    ({"constraints.max_stroke_m": 5.0},
+     ["constraints.max_stroke_m = 5", "plausible range", "0.005 m"]),
+]
+
+
+@pytest.mark.parametrize("changes, fragments", WARNED, ids=["max_stroke_mm"])
+def test_unit_slip_warns_naming_the_key(table_raw, changes, fragments):
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        _study(table_raw, changes)
+    msgs = [str(w.message) for w in caught if issubclass(w.category, UnitWarning)]
+    assert any(all(f in m for f in fragments) for m in msgs), msgs
+
+
+def _cli(capsys, argv):
+    status = main(argv)
+    out, err = capsys.readouterr()
+    return status, out, [ln for ln in err.splitlines() if ln.strip()]
+
+
+CLI_REFUSED = [
+    # a key given twice: the parser's message named the line and column only
+    (["optimize", "{dup}", "-o", "{out}"], ["dup.toml", "malformed TOML", "line 3",
+                                             "'mass_kg = 700'"]),
+    # a diaphragm table that cannot be read: the message named no option
+    (["transmissibility", "--diaphragm", "table:{missing}", "-o", "{out}.csv"],
+     ["--diaphragm:", "cannot read"]),
+]
+
+
+@pytest.mark.parametrize("argv, fragments", CLI_REFUSED, ids=["toml_duplicate_key",
+                                                              "diaphragm_missing"])
+def test_cli_refuses_in_one_line_naming_it(tmp_path, capsys, argv, fragments):
+    (tmp_path / "dup.toml").write_text("[payload]\nmass_kg = 600\nmass_kg = 700\n")
+    names = {"dup": str(tmp_path / "dup.toml"), "out": str(tmp_path / "out"),
+             "missing": str(tmp_path / "missing.csv")}
+    status, _out, err = _cli(capsys, [a.format(**names) for a in argv])
+    assert status == 2
+    assert len(err) == 1 and err[0].startswith("isodesign: error: "), err
+    for f in fragments:
+        assert f in err[0]
+    assert not (tmp_path / "out").exists()
+
+
+CLI_WARNED = [
+    (["--floor-amplitude", "5"], ["--floor-amplitude 5 m", "5um or 5mm"]),
+    (["--payload-kg", "0.6"], ["--payload-kg 0.6 on 4 isolators", "0.6 t would be 600 kg"]),
+]
+
+
+@pytest.mark.parametrize("argv, fragments", CLI_WARNED, ids=["floor_amplitude_m",
+                                                             "payload_tonnes"])
+def test_cli_warns_of_a_unit_slip_naming_the_option(tmp_path, capsys, argv, fragments):
+    status, _out, err = _cli(capsys, ["transmissibility", *argv, "--freq", "1:50:5",
+                                      "-o", str(tmp_path / "t.csv")])
+    assert status == 0
+    warned = [ln for ln in err if ln.startswith("isodesign: warning: --")]
+    assert any(all(f in ln for f in fragments) for ln in warned), err
