@@ -243,10 +243,15 @@ def run(args) -> int:
 
         name = str(exc) or "SIGINT"
         table = Path(args.output) / TABLE_NAME
-        if table.is_file():  # name only what exists
-            print(f"isodesign: interrupted by {name}; the finished points are in {table} "
-                  "(and points/; run_status interrupted): rerun the same command to run the "
-                  "others", file=sys.stderr)
+        rows = _finished_rows(table)
+        if rows:  # name only what exists
+            print(f"isodesign: interrupted by {name}; the {rows} finished point(s) are in "
+                  f"{table} (and points/; run_status interrupted): rerun the same command "
+                  "to run the others", file=sys.stderr)
+        elif table.is_file():  # the table holds no point yet (a serial sweep's first solve)
+            print(f"isodesign: interrupted by {name} before any point finished; its table "
+                  f"{table} holds no point yet (run_status interrupted): rerun the same "
+                  "command to run them", file=sys.stderr)
         else:
             print(f"isodesign: interrupted by {name} before any point ran; nothing was "
                   "written", file=sys.stderr)
@@ -275,3 +280,13 @@ def _raise_interrupt(signum, frame):
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C does not cut the cleanup
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     raise KeyboardInterrupt(signal.Signals(signum).name)
+
+
+def _finished_rows(table) -> int:
+    """The number of points in a sweep's table (0 if it is absent or unreadable)."""
+    try:
+        import pyarrow.parquet as pq
+
+        return int(pq.ParquetFile(table).metadata.num_rows)
+    except Exception:
+        return 0
