@@ -50,6 +50,7 @@ PLAUSIBLE = {
     "pressure_pa": (2e4, 1e9, _BAR_PA, None),
     "supply_margin_pa": (1e3, 1e8, _KPA_PA, None),
     "max_stroke_m": (1e-5, 0.5, None, _MM_M),
+    "dead_band_m": (1e-9, 0.05, None, _MM_M),
 }
 
 

@@ -87,8 +87,12 @@ def _hardware(h: dict, where: str) -> dict:
         if "piston_area_m2" in h:
             raise InputError(f"{where}: [hardware] give piston_area_m2 or diaphragm_r1_m + "
                              "diaphragm_r2_m, not both")
-        hw["piston_area_m2"] = piston_area_from_diaphragm(h.get("diaphragm_r1_m"),
-                                                          h.get("diaphragm_r2_m"))
+        try:
+            hw["piston_area_m2"] = piston_area_from_diaphragm(h.get("diaphragm_r1_m"),
+                                                              h.get("diaphragm_r2_m"))
+        except InputError as exc:  # "diaphragm_r2_m: expected a number > 0 m, got None"
+            raise InputError(f"{where}: hardware.{exc} (diaphragm_r1_m and diaphragm_r2_m "
+                             "go together)") from None
     else:
         hw["piston_area_m2"] = _num(where, "hardware.piston_area_m2", h.get("piston_area_m2"),
                                     0, None, True, "m^2")

@@ -42,10 +42,14 @@ REFUSED = [
     ({"table.isolators_m": []}, ["table.toml: table.isolators_m", "at least 3 [x, y]"]),
     ({"table.isolators_m": [-0.6, -0.4, 0.6, -0.4, 0.6, 0.4, -0.6, 0.4]},
      ["table.toml: table.isolators_m", "at least 3 [x, y]"]),
+    # one diaphragm radius without the other: the message had no file and no table
+    ({"hardware.diaphragm_r1_m": 0.04},
+     ["table.toml: hardware.diaphragm_r2_m", "diaphragm_r1_m and diaphragm_r2_m go together"]),
 ]
 
 
-@pytest.mark.parametrize("changes, fragments", REFUSED, ids=["isolators_empty", "isolators_flat"])
+@pytest.mark.parametrize("changes, fragments", REFUSED, ids=["isolators_empty", "isolators_flat",
+                                                             "diaphragm_r1_alone"])
 def test_refused_naming_the_key(table_raw, changes, fragments):
     with pytest.raises(InputError) as err:
         _study(table_raw, changes)
@@ -59,10 +63,13 @@ WARNED = [
     # a stroke of 5 m: millimetres typed as metres
     ({"constraints.max_stroke_m": 5.0},
      ["constraints.max_stroke_m = 5", "plausible range", "0.005 m"]),
+    # a leveling valve's dead band of 5 m
+    ({"table.leveling": {"dead_band_m": 5.0}},
+     ["table.leveling.dead_band_m = 5", "plausible range", "0.005 m"]),
 ]
 
 
-@pytest.mark.parametrize("changes, fragments", WARNED, ids=["max_stroke_mm"])
+@pytest.mark.parametrize("changes, fragments", WARNED, ids=["max_stroke_mm", "dead_band_mm"])
 def test_unit_slip_warns_naming_the_key(table_raw, changes, fragments):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
