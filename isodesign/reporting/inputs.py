@@ -194,6 +194,11 @@ def _robust_case(p: Path, rec: dict, label: str | None) -> Case:
 
 def _optimize_case(p: Path, label: str | None) -> Case:
     rec = _read_json(p / "record.json")
+    status = rec.get("run_status")
+    if status in ("interrupted", "failed", "running"):  # not "found no feasible design"
+        what = "did not finish" if status == "running" else f"was {status}"
+        raise InputError(f"{p}: the optimize run {what} (run_status {status}); nothing to "
+                         "report: rerun it (see its record.json)")
     if rec.get("robust") and (p / "robust.json").is_file():
         return _robust_case(p, rec, label)
     st = load_study(p / "study_resolved.toml") if (p / "study_resolved.toml").is_file() \

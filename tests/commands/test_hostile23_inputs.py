@@ -122,3 +122,27 @@ def test_cli_warns_of_a_unit_slip_naming_the_option(tmp_path, capsys, argv, frag
     assert status == 0
     warned = [ln for ln in err if ln.startswith("isodesign: warning: --")]
     assert any(all(f in ln for f in fragments) for ln in warned), err
+
+
+@pytest.mark.parametrize("status", ["interrupted", "failed"])
+@pytest.mark.parametrize("command", ["report", "modes"])
+def test_a_run_that_did_not_finish_is_not_called_infeasible(tmp_path, capsys, builtin_table_run,
+                                                            status, command):
+    # the set-aside directory of an interrupted (or failed) optimize run: the message said
+    # "the optimize run found no feasible design"
+    import json
+    import shutil
+
+    _printed, run = builtin_table_run
+    cut = tmp_path / f"o.{status}"
+    shutil.copytree(run, cut)
+    rec = json.loads((cut / "record.json").read_text())
+    rec.update(run_status=status, feasible=False)
+    (cut / "record.json").write_text(json.dumps(rec))
+    (cut / "design.toml").unlink()
+    out = tmp_path / ("r.html" if command == "report" else "m")
+    code, _out, err = _cli(capsys, [command, str(cut), "-o", str(out)])
+    assert code == 2 and len(err) == 1, err
+    assert f"the optimize run was {status} (run_status {status})" in err[0]
+    assert "no feasible design" not in err[0]
+    assert not out.exists()
