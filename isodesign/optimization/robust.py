@@ -459,7 +459,7 @@ class RobustProblem:
             b = self.block
             members = [(b, lambda th=th, sl=sl: b.select(th, sl))
                         for th, sl in zip(self.thetas, self.slots, strict=True)]
-            return solve_stack(members, x0, self._solve_once, self.params)
+            return solve_stack(members, x0, self._solve_once, self.params, self.block_x)
         return self._solve_once(x0, p)
 
     def _solve_once(self, x0: np.ndarray, p=None) -> RobustSolution:

@@ -260,7 +260,7 @@ class TableStack:
             from isodesign.optimization.distortion_rows import solve_stack
 
             return solve_stack([(pr, lambda: None) for pr in self.probs], x0,
-                               self._solve_once, self.params)
+                               self._solve_once, self.params, self.block_x)
         return self._solve_once(x0, p)
 
     def _solve_once(self, x0: np.ndarray, p=None):
