@@ -145,6 +145,8 @@ def _fmt_design(vals: dict) -> str:
 
 # ---------------------------------------------------------------------------
 # 1. optimize(vertical_study())
+# (every row: models.distortion = false, the question its targets and the older
+#  commits' figures were measured on; the distortion's own cost: bench_distortion.py)
 # ---------------------------------------------------------------------------
 def bench_optimize() -> dict:
     """``optimize(vertical_study())`` end to end, median of 3."""
@@ -152,7 +154,8 @@ def bench_optimize() -> dict:
     from isodesign.optimization.study import vertical_study
 
     load0 = _load()
-    t, outs = _timed(lambda: optimize(vertical_study()), OPTIMIZE_REPEATS)
+    st = vertical_study().with_changes({"models.distortion": False})
+    t, outs = _timed(lambda: optimize(st), OPTIMIZE_REPEATS)
     r = outs[-1]
     _CACHE["optimize"] = {"result": r, "time": t}
     objs = sorted({round(o.objective_value, 4) for o in outs})
@@ -197,7 +200,7 @@ def bench_optimize_breakdown() -> dict:
     from isodesign.optimization.study import vertical_study
     from isodesign.response import band_response
 
-    st = vertical_study()
+    st = vertical_study().with_changes({"models.distortion": False})
     load0 = _load()
     t0 = time.perf_counter()
     prob = Problem(st)
@@ -251,7 +254,8 @@ def bench_optimize_breakdown() -> dict:
         "from isodesign.optimization.study import vertical_study\n"
         "from isodesign.optimization.problem import Problem\n"
         "from isodesign.optimization.multistart import run_starts, start_points\n"
-        "st = vertical_study(); p = Problem(st); s = start_points(st, p.scaling)\n"
+        "st = vertical_study().with_changes({'models.distortion': False})\n"
+        "p = Problem(st); s = start_points(st, p.scaling)\n"
         "t = time.perf_counter(); r = run_starts(p, s, workers=2)\n"
         "print(time.perf_counter() - t, sum(x.wall_s for x in r if not isinstance(x, str)))\n"
     )
@@ -370,7 +374,8 @@ def bench_pareto() -> dict:
     from isodesign.optimization.study import vertical_study
 
     load0 = _load()
-    t, outs = _timed(lambda: pareto_front(vertical_study(), points=PARETO_POINTS), PARETO_REPEATS)
+    st = vertical_study().with_changes({"models.distortion": False})
+    t, outs = _timed(lambda: pareto_front(st, points=PARETO_POINTS), PARETO_REPEATS)
     p = outs[-1]
     _CACHE["pareto"] = {"result": p, "time": t}
     v = p.values[p.front]
@@ -459,7 +464,7 @@ def _nsga() -> dict:
     pr = _CACHE["pareto"]["result"]
     t_casadi = _CACHE["pareto"]["time"]["median"]
 
-    study = vertical_study()
+    study = vertical_study().with_changes({"models.distortion": False})
     space = Space(study)
     grid = build_grid(study, objectives=PARETO_OBJECTIVES)
     # per-evaluation cost, measured first (20 random designs)
@@ -853,7 +858,7 @@ def bench_nsga_equal_time() -> dict:
 
     r = _nsga()
     pr = _CACHE["pareto"]["result"]
-    study = vertical_study()
+    study = vertical_study().with_changes({"models.distortion": False})
     space = Space(study)
     grid = build_grid(study, objectives=PARETO_OBJECTIVES)
     archive = {"z": [], "f": [], "viol": [], "failures": 0, "last_error": ""}
@@ -941,7 +946,7 @@ def bench_slsqp() -> dict:
     from isodesign.optimization.recheck import evaluate_design
     from isodesign.optimization.study import vertical_study
 
-    study = vertical_study()
+    study = vertical_study().with_changes({"models.distortion": False})
     space = Space(study)
     grid = build_grid(study)
     cache: dict = {}

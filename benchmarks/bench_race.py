@@ -223,7 +223,9 @@ def run() -> list[dict]:
 
     warnings.simplefilter("ignore")
     budget = float(os.environ.get("ISODESIGN_BENCH_RACE_BUDGET_S", "900"))
-    study = vertical_study()
+    # models.distortion = false: the question of the race's earlier figures (the
+    # distortion's own cost is bench_distortion.py's)
+    study = vertical_study().with_changes({"models.distortion": False})
     load0 = os.getloadavg()[0]
     _isodesign(study, 1)  # warm-up: imports, CasADi's first build
     n = study.solver["starts"]

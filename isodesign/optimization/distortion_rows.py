@@ -36,12 +36,15 @@ from isodesign.response.non_gaussian import minor_loss_gain_shift
 from isodesign.response.random_input import solve_stroke_rms
 
 __all__ = [
+    "DISTORTION_EFFECT_RTOL",
     "DISTORTION_FD_STEP",
     "DISTORTION_FIXED_POINT_RTOL",
     "DISTORTION_MAX_ROUNDS",
     "DistortionMixin",
     "DistortionTerms",
+    "ScenarioDistortionMixin",
     "TableDistortionMixin",
+    "solve_stack",
     "table_distortion_terms",
     "vertical_distortion_terms",
 ]
@@ -55,6 +58,13 @@ DISTORTION_FD_STEP = 1e-4
 #: distortion is at most 12 % of a band's power, so the answer's bands are within about
 #: 1e-8 of the NumPy analysis's, inside the re-check's 1e-6.
 DISTORTION_FIXED_POINT_RTOL = 1e-7
+#: The outer fixed point also stops when the terms' change at the answer is below this in
+#: its *effect*: every band's mean square, the stroke and tube-velocity variances moved by
+#: at most this fraction of themselves (the margins by 4.3e-7 dB), the gains by this
+#: absolutely (:meth:`OuterFixedPoint._term_totals`): the re-check's 1e-6 holds with a
+#: tenth of it to spare, and a term that is a small share of its band (most bands) need
+#: not agree to 1e-7 of itself.
+DISTORTION_EFFECT_RTOL = 1e-7
 #: Outer rounds at most (each a warm re-solve).
 DISTORTION_MAX_ROUNDS = 8
 #: Expansions kept per NLP, and how near (max norm in the scaled design) a re-solve's start
@@ -62,6 +72,9 @@ DISTORTION_MAX_ROUNDS = 8
 #: answer is accepted only after the same check: a stale expansion costs a round at most).
 _KEPT_EXPANSIONS = 8
 _NEAR_Z = 0.02
+#: NumPy states kept per NLP (a parametric sweep's points, a robust stack's scenarios: each
+#: its own terms, :meth:`OuterFixedPoint._context`).
+_KEPT_CONTEXTS = 16
 #: The closures' tolerance on the NumPy side (the slopes are differences of them).
 _CLOSURE_RTOL = 1e-12
 
@@ -209,7 +222,7 @@ class OuterFixedPoint:
         solution (a start's objective evaluated after the optimum does not move them)."""
         prev = getattr(self, "_dist_p", None)
         self._dist_p = self._values_only(values)
-        starts = self.__dict__.setdefault("_start_terms", {})
+        starts = self._context()["starts"]
         starts[self._dist_p[:self.nz].tobytes()] = self._dist_p
         try:
             return super().initial_guess(values)
@@ -230,8 +243,27 @@ class OuterFixedPoint:
         """The closure with the distortion (NumPy): ``(sigma, sigma_u)`` at a design."""
         return self._numpy_state(d, values)[:2]
 
+    def _dist_context(self) -> tuple:
+        """``(owner, key)`` of the NumPy state's context: the study (compared by identity;
+        a parametric point's view and its base, each its own)."""
+        return self.study, id(self.study)
+
+    def _context(self) -> dict:
+        """The NumPy state of the current context (:meth:`_dist_context`): the terms'
+        cache, the initial guesses' terms and the kept expansions (a shallow copy shares
+        the table of contexts; each study keeps its own)."""
+        owner, key = self._dist_context()
+        table = self.__dict__.setdefault("_dist_contexts", {})
+        entry = table.get(key)
+        if entry is None or entry["owner"] is not owner:
+            if len(table) >= _KEPT_CONTEXTS:
+                table.pop(next(iter(table)))
+            entry = table[key] = {"owner": owner, "cache": {}, "starts": {},
+                                  "expansions": []}
+        return entry
+
     def _numpy_state(self, design, values=None):
-        cache = self.__dict__.setdefault("_dist_cache", {})
+        cache = self._context()["cache"]
         key = repr(design) + repr(sorted((values or {}).items()))
         if key not in cache:
             if len(cache) > 32:
@@ -272,8 +304,8 @@ class OuterFixedPoint:
             sloped = bool(np.any(cur[self.nz + self._n_terms:] != 0.0))
         elif near is not None:  # a re-solve near an answer: its expansion (then confirmed)
             self._dist_p, sloped = near, True
-        elif np.clip(x[:self.nz], -1.0, 1.0).tobytes() in self.__dict__.get("_start_terms", {}):
-            self._dist_p = self._start_terms[np.clip(x[:self.nz], -1.0, 1.0).tobytes()]
+        elif np.clip(x[:self.nz], -1.0, 1.0).tobytes() in self._context()["starts"]:
+            self._dist_p = self._context()["starts"][np.clip(x[:self.nz], -1.0, 1.0).tobytes()]
             sloped = False  # an initial guess's values (:meth:`initial_guess`)
         else:
             # a start: the first round with the terms' values alone (the slopes only matter
@@ -285,8 +317,16 @@ class OuterFixedPoint:
         wall = 0.0
         its = 0
         for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
-            p[-self._n_dist:] = self._dist_p
-            sol = super().solve(x, p, warm=warm if rounds == 1 else None)
+            end = p.size - self._n_after_dist()
+            p[end - self._n_dist:end] = self._dist_p
+            # a later round: warm from the last round's primal and multipliers on the same
+            # built NLP (its parameters moved by the expansion only); a warm solve that
+            # fails is repeated cold
+            sol = super().solve(x, p, warm=warm)
+            if warm is not None and rounds > 1 and not sol.success:
+                wall += sol.wall_s
+                its += sol.iterations
+                sol = super().solve(x, p)
             wall += sol.wall_s
             its += sol.iterations
             if not sol.success or not np.all(np.isfinite(sol.x)):
@@ -294,28 +334,42 @@ class OuterFixedPoint:
             z = np.clip(sol.x[:self.nz], -1.0, 1.0)
             used = self.nlp_vector(sol.x, self._dist_p)
             true = self._terms_at_z(z)
-            done = sloped and _mismatch(used, true, self._blocks()) <= DISTORTION_FIXED_POINT_RTOL
+            done = sloped and _converged(self, sol.x, used, true)
             if done or rounds == DISTORTION_MAX_ROUNDS:
                 break
             self._dist_p = self.expansion(z, true)
             self._remember(self._dist_p)
             sloped = True
-            x = sol.x
+            x, warm = sol.x, sol
         return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
                            wall_s=wall, iterations=its)
+
+    def params_at(self, x) -> np.ndarray:
+        """:meth:`params` with the terms at which a figure of ``x`` is evaluated
+        (:meth:`_dist_for`: an initial guess's own terms)."""
+        prev = self._dist_p
+        self._dist_p = self._dist_for(x)
+        try:
+            return self.params()
+        finally:
+            self._dist_p = prev
+
+    def _n_after_dist(self) -> int:
+        """Parameters after the distortion's (a table parametric NLP's point, last)."""
+        return 0
 
     def _dist_for(self, x) -> np.ndarray:
         """The parameters at which a figure of ``x`` is evaluated: an initial guess's design
         with its own terms (:meth:`initial_guess`), any other point with the last
         solution's expansion."""
         key = np.clip(np.asarray(x, float)[:self.nz], -1.0, 1.0).tobytes()
-        own = self.__dict__.get("_start_terms", {}).get(key)
+        own = self._context()["starts"].get(key)
         return own if own is not None else self._current_dist()
 
     def _remember(self, expansion) -> None:
         """Keep the last few expansions (a re-solve near one of their designs starts from
         it: :meth:`_nearby_expansion`)."""
-        kept = self.__dict__.setdefault("_expansions", [])
+        kept = self._context()["expansions"]
         kept.append(np.asarray(expansion, float).copy())
         del kept[:-_KEPT_EXPANSIONS]
 
@@ -323,7 +377,7 @@ class OuterFixedPoint:
         """The kept expansion whose design is nearest ``z`` within :data:`_NEAR_Z` (max
         norm), else ``None``."""
         best, dist = None, _NEAR_Z
-        for e in self.__dict__.get("_expansions", ()):
+        for e in self._context()["expansions"]:
             d = float(np.max(np.abs(e[:self.nz] - np.asarray(z, float))))
             if d <= dist:
                 best, dist = e, d
@@ -365,6 +419,14 @@ class DistortionMixin(OuterFixedPoint):
         """``(sigma, sigma_u)`` of the closure with the distortion (NumPy)."""
         return self._numpy_state(d)[:2]
 
+    def _term_totals(self, x) -> np.ndarray:
+        """What each term adds to, at ``x`` (the NLP's): ``sigma^2``, ``sigma_u^2``, 1 for
+        the gain (absolute), each band's mean square."""
+        core = np.asarray(x, float)[:self.nz + 1 + self.ny]
+        ms = np.exp(np.asarray(self._aux_fn(core)[0], float).ravel()) \
+            * np.asarray(self.grid.target_limit_m_s, float) ** 2
+        return np.concatenate([[self.sigma(x) ** 2, self.tube_rms(x) ** 2, 1.0], ms])
+
     def nlp_terms(self, x, p) -> DistortionTerms:
         """The terms the NLP uses at ``x`` with the expansion ``p`` (NumPy)."""
         return DistortionTerms.from_vector(self.nlp_vector(x, p))
@@ -400,11 +462,16 @@ class DistortionMixin(OuterFixedPoint):
         super()._adjust_metrics(nlp)
         add_band_distortion(nlp.mt, nlp.dist[3:])
 
+    def _chain_factors(self, nlp) -> tuple:
+        # the chains' factors (a parametric NLP's are parameters): the added variances'
+        # rows are scaled by the same ones
+        nlp.chain_factors = super()._chain_factors(nlp)
+        return nlp.chain_factors
+
     def _stroke_chain(self, nlp) -> None:
         super()._stroke_chain(nlp)
         ca = nlp.ca
-        k_s = 1.0 / self.sigma_ref ** 2
-        k_u = 1.0 / self.tube_rms_ref ** 2
+        _, k_s, k_u = nlp.chain_factors
         nlp.res_s = ca.vertcat(nlp.res_s[:-1], nlp.res_s[-1] - k_s * nlp.dist[0])
         nlp.res_u = ca.vertcat(nlp.res_u[:-1], nlp.res_u[-1] - k_u * nlp.dist[1])
 
@@ -422,6 +489,119 @@ class DistortionMixin(OuterFixedPoint):
 
     def _param_tail(self) -> np.ndarray:
         return np.concatenate([super()._param_tail(), self._current_dist()])
+
+
+class ScenarioDistortionMixin(DistortionMixin):
+    """The distortion power in a robust scenario block (:class:`.robust.ScenarioBlock`;
+    ``class B(ScenarioDistortionMixin, ScenarioBlock)``): each scenario's terms are the NumPy
+    closure's in that scenario, kept per scenario (the one :meth:`select` ed), and its block
+    parameters are ``[Problem's, the distortion's, theta]``."""
+
+    @property
+    def _dist_p(self):
+        return self._context().get("p")
+
+    @_dist_p.setter
+    def _dist_p(self, value) -> None:
+        self._context()["p"] = value
+
+    def _dist_context(self) -> tuple:
+        return self.nominal_study, np.asarray(self.theta, float).tobytes()
+
+    def _assemble(self, nlp) -> None:
+        super()._assemble(nlp)  # [Problem's, theta, distortion]: theta last
+        nt, nd = self.space.size, self._n_dist
+        p = nlp.p
+        nlp.p = nlp.ca.vertcat(p[:p.numel() - nt - nd], nlp.p_dist, nlp.p_theta)
+
+    def block_params(self, theta=None, slot_hz=None) -> np.ndarray:
+        """The block's parameters with scenario ``theta``'s expansion before theta."""
+        p = super().block_params(theta, slot_hz)
+        nt = self.space.size
+        keep = (self.theta, self.study, self.dia)
+        if theta is not None:
+            self.select(theta)
+        try:
+            dist = self._current_dist()
+        finally:
+            self.theta, self.study, self.dia = keep
+        return np.concatenate([p[:-nt], dist, p[-nt:]])
+
+    def _block_dist(self, x=None) -> np.ndarray:
+        return self._current_dist() if x is None else self._dist_for(x)
+
+
+def solve_stack(members, x0, solve_once, params, block_x):
+    """The outer fixed point over a stacked NLP (a robust design's scenarios sharing the
+    design): one loop for the stack, each scenario with its own terms.
+
+    The first solve uses every scenario's terms at the start's design (slopes zero); each
+    later one the terms expanded at the last answer's design (:meth:`OuterFixedPoint.
+    expansion`), until every scenario's terms the NLP used at its answer agree with the
+    NumPy terms there (:data:`DISTORTION_FIXED_POINT_RTOL`) or
+    :data:`DISTORTION_MAX_ROUNDS` solves.
+
+    Parameters
+    ----------
+    members : list of (OuterFixedPoint, callable)
+        Each scenario's NLP (or the shared block) and a function making it the scenario's
+        (:meth:`.robust.ScenarioBlock.select`; a no-op for a scenario's own NLP).
+    x0 : ndarray
+        The stack's start (its first ``nz`` entries the shared scaled design).
+    solve_once : callable
+        ``solve_once(x0, p) -> RobustSolution`` (one IPOPT solve of the stack).
+    params : callable
+        ``params() -> p``, from the members' current expansions.
+    block_x : callable
+        ``block_x(sol, k) -> x_k``: scenario ``k``'s variables in its own NLP's layout.
+
+    Returns
+    -------
+    RobustSolution
+        The last solve's, with ``outer_rounds`` and the rounds' wall time and iterations.
+    """
+    nz = members[0][0].nz
+    x = np.asarray(x0, float)
+    z0 = np.clip(x[:nz], -1.0, 1.0)
+    for prob, select in members:
+        select()
+        v0 = prob._terms_at_z(z0)
+        prob._dist_p = np.concatenate([z0, v0, np.zeros(v0.size * nz)])
+    wall, its, sloped = 0.0, 0, False
+    for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
+        sol = solve_once(x, params())
+        wall += sol.wall_s
+        its += sol.iterations
+        if not sol.success or not np.all(np.isfinite(sol.x)):
+            break
+        z = np.clip(sol.x[:nz], -1.0, 1.0)
+        done, trues = True, []
+        for k, (prob, select) in enumerate(members):
+            select()
+            true = prob._terms_at_z(z)
+            used = prob.nlp_vector(sol.x, prob._dist_p)
+            done = done and sloped and _converged(prob, block_x(sol, k), used, true)
+            trues.append(true)
+        if done or rounds == DISTORTION_MAX_ROUNDS:
+            break
+        for (prob, select), true in zip(members, trues, strict=True):
+            select()
+            prob._dist_p = prob.expansion(z, true)
+        sloped = True
+        x = sol.x
+    sol.wall_s, sol.iterations, sol.outer_rounds = wall, its, rounds
+    return sol
+
+
+def _converged(prob, x, used, true) -> bool:
+    """The outer fixed point's test at an answer ``x``: the terms the NLP used agree with
+    the NumPy terms there to :data:`DISTORTION_FIXED_POINT_RTOL` of themselves, or their
+    difference moves what they add to by at most :data:`DISTORTION_EFFECT_RTOL`."""
+    if _mismatch(used, true, prob._blocks()) <= DISTORTION_FIXED_POINT_RTOL:
+        return True
+    totals = prob._term_totals(x)
+    effect = np.abs(np.asarray(used, float) - np.asarray(true, float)) / totals
+    return bool(np.all(np.isfinite(effect)) and np.max(effect) <= DISTORTION_EFFECT_RTOL)
 
 
 def _mismatch(used, true, blocks) -> float:
@@ -498,6 +678,17 @@ class TableDistortionMixin(OuterFixedPoint):
 
     def _numpy_terms(self, design, values=None):
         return table_distortion_terms(self, design, values)
+
+    def _term_totals(self, x) -> np.ndarray:
+        """What each term adds to, at ``x`` (the NLP's): each isolator's ``sigma^2`` and
+        ``sigma_u^2``, 1 for the gains (absolute), every point's, axis's and band's mean
+        square (from the margins and the limits)."""
+        n = self.n
+        lim2 = np.tile(np.asarray(self.grid.limit_velocity_m_s, float) ** 2, 3 * self.k)
+        margins = np.asarray(self._all_margins_fn(x), float).ravel()
+        ms = lim2 * np.exp(-margins * math.log(10.0) / 10.0)
+        return np.concatenate([np.asarray(self.sigma(x), float) ** 2,
+                               np.asarray(self.tube_rms(x), float) ** 2, np.ones(n), ms])
 
     @staticmethod
     def _vector(terms) -> np.ndarray:

@@ -41,8 +41,9 @@ import numpy as np
 from isodesign.errors import InputError
 from isodesign.numerics import backend as bk
 from isodesign.optimization.constraints import build_constraints
+from isodesign.optimization.distortion_rows import DistortionMixin
 from isodesign.optimization.grid import build_grid
-from isodesign.optimization.problem import PEAK_SLOTS, Problem
+from isodesign.optimization.problem import _COMPOSED, PEAK_SLOTS, Problem
 from isodesign.spring.gas import P_ATM
 
 __all__ = ["FLOOR_SCALE_RTOL", "ParametricProblem", "ProblemCache", "structure_key"]
@@ -384,3 +385,28 @@ class ProblemCache:
 
     def __len__(self) -> int:
         return len(self._built)
+
+
+class ParametricDistortionProblem(DistortionMixin, ParametricProblem):
+    """:class:`ParametricProblem` with the distortion power's rows (``models.distortion =
+    true``; :mod:`.distortion_rows`): each point's terms are the NumPy closure's of its own
+    study (payload, floor, grid), expanded about each outer round's design. The parameters
+    are ``[Problem's, the point's q, the distortion's]``."""
+
+    def _param_tail(self) -> np.ndarray:
+        return Problem._param_tail(self)  # the distortion's after the point's (params)
+
+    def params(self, weights=None, diameter_weight: float = 0.0, eps=None) -> np.ndarray:
+        """:meth:`ParametricProblem.params` followed by the distortion's expansion."""
+        return np.concatenate([super().params(weights, diameter_weight, eps),
+                               self._current_dist()])
+
+    def at(self, study, *, grid=None, key: str | None = None):
+        """:meth:`ParametricProblem.at`, the point starting with its own terms."""
+        view = super().at(study, grid=grid, key=key)
+        if view is not None:
+            view._dist_p = None
+        return view
+
+
+_COMPOSED[ParametricProblem] = ParametricDistortionProblem

@@ -609,6 +609,8 @@ def _with_distortion(cls):
     that overrides none of the hooks of further parameters, e.g. the command line's
     prefetching build); any other (a parametric NLP, whose point is not its study's) keeps
     ``cls`` and refuses the key in ``__init__``."""
+    if cls in _COMPOSED:  # a registered composition (the parametric NLP's)
+        return _COMPOSED[cls]
     own = all(getattr(cls, h) is getattr(Problem, h)
               for h in ("_point_inputs", "_point_study", "_point_args", "_nlp_study"))
     if not own:

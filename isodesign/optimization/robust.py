@@ -26,6 +26,7 @@ import time
 import numpy as np
 
 from isodesign.numerics.cplx import Cx
+from isodesign.optimization.distortion_rows import ScenarioDistortionMixin
 from isodesign.optimization.hessian import hessian_choice
 from isodesign.optimization.metrics import combine, design_quantities, point_quantities
 from isodesign.optimization.nlp import (
@@ -35,7 +36,7 @@ from isodesign.optimization.nlp import (
     stacked_bounds,
 )
 from isodesign.optimization.objectives import OBJECTIVES
-from isodesign.optimization.problem import Problem, hoisted_map
+from isodesign.optimization.problem import _COMPOSED, Problem, hoisted_map
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.uncertainty import ScenarioStudy
 from isodesign.optimization.variables import DESIGN_VARIABLES
@@ -275,6 +276,7 @@ class ScenarioBlock(Problem):
             y_row = X.zeros(1, nlp.n_all)
         c_nl = (gaussian_equivalent_resistance(study.models["flow"], nlp.d, ca.exp(nlp.y[0]))
                 if self.statistical else X(0))  # fmt: skip
+        c_nl = self._closure_resistance(nlp, c_nl)  # models.distortion's gain
         sl = self.grid.slot_slice
         w_sym = ca.vertcat(ca.DM(w[: sl.start]), nlp.p_slot, ca.DM(w[sl.stop:]))
         outs = mapped(v, nlp.s, y_row, c_nl, w_sym.T, nlp.p_theta)
@@ -283,6 +285,7 @@ class ScenarioBlock(Problem):
         if self.statistical:
             nlp.pq["G2"] = g2
         nlp.mt = combine(study, self.grid, nlp.pq, design_quantities(study, self.grid, nlp.d, dia))
+        self._adjust_metrics(nlp)  # models.distortion's band powers
         nlp.res_u = res_u if self.self_consistent else X(0, 1)
 
     def _assemble(self, nlp) -> None:
@@ -295,15 +298,19 @@ class ScenarioBlock(Problem):
         ca = nlp.ca
         mt = nlp.mt
         th = nlp.p_theta
+        # models.distortion: the scenario's terms (distortion_rows.ScenarioDistortionMixin)
+        pd = getattr(nlp, "p_dist", None)
+        pd = nlp.X.sym("no_distortion", 0) if pd is None else pd
         w_own = nlp.x[self.nz:]
         self.block = ca.Function("block", [nlp.z, w_own, nlp.p], [nlp.g, ca.vertcat(*nlp.js)])
-        self._j_fn_t = ca.Function("objectives", [nlp.x, nlp.p_slot, th], [ca.vertcat(*nlp.js)])
+        self._j_fn_t = ca.Function("objectives", [nlp.x, nlp.p_slot, th, pd],
+                                   [ca.vertcat(*nlp.js)])
         x_core = ca.vertcat(nlp.z, nlp.s, nlp.y)
         nf = self.grid.n_floor
         chain = (ca.vertcat(ca.cumsum(nlp.inc[:nf]), ca.cumsum(nlp.inc[nf:]))
                  if self.statistical else ca.cumsum(nlp.inc))  # fmt: skip
-        self._chain_fn_t = ca.Function("chain", [x_core, nlp.p_slot, th], [chain])
-        self._aux_fn_t = ca.Function("aux_quantities", [x_core, nlp.p_slot, th],
+        self._chain_fn_t = ca.Function("chain", [x_core, nlp.p_slot, th, pd], [chain])
+        self._aux_fn_t = ca.Function("aux_quantities", [x_core, nlp.p_slot, th, pd],
                                      [mt["ln_ms_band"] - mt["ln_limit2"], mt["ln_T2_peak"],
                                       mt["ms_all"]])
         self.eval_fn = ca.Function("eval", [nlp.x, nlp.p], [nlp.j_total, nlp.g])
@@ -313,13 +320,20 @@ class ScenarioBlock(Problem):
 
     def objective_values(self, x: np.ndarray) -> np.ndarray:
         """J of every objective at x, for the selected scenario."""
-        return np.asarray(self._j_fn_t(x, self._slot_omega(), self.theta)).ravel()
+        return np.asarray(self._j_fn_t(x, self._slot_omega(), self.theta,
+                                       self._block_dist(x))).ravel()
 
     def _aux_fn(self, x_core):
-        return self._aux_fn_t(x_core, self._slot_omega(), self.theta)
+        return self._aux_fn_t(x_core, self._slot_omega(), self.theta, self._block_dist(x_core))
 
     def _chain_fn(self, x_core):
-        return self._chain_fn_t(x_core, self._slot_omega(), self.theta)
+        return self._chain_fn_t(x_core, self._slot_omega(), self.theta,
+                                self._block_dist(x_core))
+
+    def _block_dist(self, x=None) -> np.ndarray:
+        """The distortion's parameters at ``x`` (none here; models.distortion's block:
+        :class:`~.distortion_rows.ScenarioDistortionMixin`)."""
+        return np.zeros(0)
 
     def block_params(self, theta=None, slot_hz=None) -> np.ndarray:
         """The block's parameter vector: first objective, no epsilon bound, slots, theta."""
@@ -327,6 +341,14 @@ class ScenarioBlock(Problem):
         th = self.theta if theta is None else np.asarray(theta, float)
         return np.concatenate([objective_params(len(self.objectives)),
                                2.0 * math.pi * slots, th])
+
+
+class ScenarioDistortionBlock(ScenarioDistortionMixin, ScenarioBlock):
+    """:class:`ScenarioBlock` with the distortion power's rows (``models.distortion =
+    true``): ``ScenarioBlock(study)`` of such a study; each scenario its own terms."""
+
+
+_COMPOSED[ScenarioBlock] = ScenarioDistortionBlock
 
 
 class RobustSolution:
@@ -428,7 +450,20 @@ class RobustProblem:
 
     # -- solving --------------------------------------------------------------------------
     def solve(self, x0: np.ndarray, p=None) -> RobustSolution:
-        """Run IPOPT on the stacked NLP from x0."""
+        """Run IPOPT on the stacked NLP from x0 (models.distortion: the outer fixed point
+        over the stack, :func:`.distortion_rows.solve_stack`, each scenario's terms in
+        :meth:`params`)."""
+        if getattr(self.block, "distortion", False):
+            from isodesign.optimization.distortion_rows import solve_stack
+
+            b = self.block
+            members = [(b, lambda th=th, sl=sl: b.select(th, sl))
+                        for th, sl in zip(self.thetas, self.slots, strict=True)]
+            return solve_stack(members, x0, self._solve_once, self.params, self.block_x)
+        return self._solve_once(x0, p)
+
+    def _solve_once(self, x0: np.ndarray, p=None) -> RobustSolution:
+        """One IPOPT solve of the stacked NLP from x0."""
         t0 = time.perf_counter()
         p = self.params() if p is None else np.asarray(p, float)
         res = self.solver(x0=x0, lbx=self.lbx, ubx=self.ubx, lbg=self.lbg, ubg=self.ubg, p=p)

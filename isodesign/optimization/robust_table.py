@@ -194,7 +194,8 @@ class _Scenarios:
         d = prob.study.design_at(values)
         prob.set_modes(_modes_at(prob, d))
         x = prob.initial_guess(values)
-        _, g = prob.eval_fn(x, prob.params())
+        # models.distortion: the terms at this design (distortion_rows.params_at)
+        _, g = prob.eval_fn(x, getattr(prob, "params_at", lambda x: prob.params())(x))
         viol = [(n, v) for n, v in prob.violations(np.asarray(g).ravel())
                 if not n.startswith(("epigraph_", "bound_"))]
         margin = prob.worst_margin_db(x)
@@ -253,7 +254,17 @@ class TableStack:
 
     def solve(self, x0: np.ndarray, p=None):
         """IPOPT on the stacked NLP from ``x0``; a :class:`.robust.RobustSolution` (every
-        scenario's violations, its objective the worst scenario's)."""
+        scenario's violations, its objective the worst scenario's). models.distortion: the
+        outer fixed point over the stack (:func:`.distortion_rows.solve_stack`)."""
+        if getattr(self.probs[0], "distortion", False):
+            from isodesign.optimization.distortion_rows import solve_stack
+
+            return solve_stack([(pr, lambda: None) for pr in self.probs], x0,
+                               self._solve_once, self.params, self.block_x)
+        return self._solve_once(x0, p)
+
+    def _solve_once(self, x0: np.ndarray, p=None):
+        """One IPOPT solve of the stacked NLP from ``x0``."""
         from isodesign.optimization.robust import RobustSolution
 
         t0 = time.perf_counter()

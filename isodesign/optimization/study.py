@@ -70,7 +70,6 @@ from isodesign.optimization.study_parsers import (  # noqa: F401  (their home be
     _table,
     _target,
     _variables,
-    refuse_distortion,
 )
 from isodesign.optimization.study_tables import (
     _check_acoustics,
@@ -463,7 +462,6 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
         from isodesign.optimization.uncertainty import parse_scenarios
 
         st = dataclasses.replace(st, scenarios=parse_scenarios(raw["scenarios"], where, st))
-    refuse_distortion(st, where)
     return st
 
 

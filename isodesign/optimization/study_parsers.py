@@ -272,17 +272,6 @@ def _distortion(m: dict, where: str) -> bool:
     return dist
 
 
-def refuse_distortion(study, where: str) -> None:
-    """A study with ``models.distortion = true`` that no optimizer of its kind carries yet:
-    one line naming the key (every entry point loads the study through here)."""
-    if not study.models.get("distortion"):
-        return
-    if study.scenarios is not None:
-        raise InputError(f"{where}: models.distortion = true: a robust study ([scenarios]) "
-                         "does not carry the distortion power yet; set models.distortion = "
-                         "false")
-
-
 
 def _variables(table: dict, where: str) -> tuple[VariableSpec, ...]:
     """``[variables.<name>]`` for every design variable."""

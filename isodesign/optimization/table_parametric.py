@@ -48,6 +48,7 @@ import json
 import numpy as np
 
 from isodesign.errors import InputError
+from isodesign.optimization.distortion_rows import TableDistortionMixin
 from isodesign.optimization.table_problem import (
     PEAK_SLOTS_PER_ROUND,
     TABLE_PEAK_ROUNDS,
@@ -202,6 +203,13 @@ class TableParametricProblem(TableProblem):
         is built once for all of them, :meth:`with_peak_slots`); ``family["on_build"]``,
         when given, is called once per NLP built.
     """
+
+    def __new__(cls, study=None, *args, **kwargs):
+        # models.distortion: with the distortion power's rows (TableParametricDistortionProblem)
+        if cls is TableParametricProblem and study is not None \
+                and study.models.get("distortion"):
+            return super().__new__(TableParametricDistortionProblem)
+        return super().__new__(cls)
 
     def __init__(self, study, objectives: tuple | None = None, *, hessian: str | None = None,
                  peak_slots: int = 0, family: dict | None = None):
@@ -490,4 +498,36 @@ class TableParametricProblem(TableProblem):
                                           peak_slots=n, family=self._family)
         view.mode_params = self.mode_params.copy()
         view.loop_params = self.loop_params.copy()
+        return view
+
+
+class TableParametricDistortionProblem(TableDistortionMixin, TableParametricProblem):
+    """:class:`TableParametricProblem` with the distortion power's rows (``models.distortion
+    = true``; :class:`~.distortion_rows.TableDistortionMixin`): each point's terms are the
+    NumPy closure's of its own study, expanded about each outer round's design. The
+    parameters are ``[..., the distortion's, the point's q]`` (:meth:`_param_tail`)."""
+
+    def _x_functions(self, ca, x, judged, margins, js) -> None:
+        q, pd = self._q_sym, self._p_dist_sym
+        self._margins_qd = ca.Function("margins", [x, pd, q], [judged])
+        self._all_margins_qd = ca.Function("all_margins", [x, pd, q], [margins])
+        self._j_qd = ca.Function("objectives", [x, pd, q], [js])
+
+    def _n_after_dist(self) -> int:
+        return int(self.q.size)
+
+    def _margins_fn(self, x):
+        return self._margins_qd(x, self._dist_for(x), self.q)
+
+    def _all_margins_fn(self, x):
+        return self._all_margins_qd(x, self._dist_for(x), self.q)
+
+    def _j_fn(self, x):
+        return self._j_qd(x, self._dist_for(x), self.q)
+
+    def at(self, study) -> TableParametricDistortionProblem | None:
+        """:meth:`TableParametricProblem.at`, the point starting with its own terms."""
+        view = super().at(study)
+        if view is not None:
+            view._dist_p = None
         return view

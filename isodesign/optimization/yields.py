@@ -152,7 +152,8 @@ def table_draw_response(study, values: dict, theta):
         r = table_band_response(d, sc.table, sc.floor_axes, sc.target, bands=sc.bands,
                                 points_per_band=m["points_per_band"], flow=m["flow"],
                                 amplitude_mode=m["amplitude_mode"],
-                                diaphragm=m["diaphragm"], warn=False)
+                                diaphragm=m["diaphragm"], warn=False,
+                                distortion=bool(m.get("distortion", False)))
     return r, sc
 
 

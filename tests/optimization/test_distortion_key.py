@@ -45,10 +45,6 @@ def test_refusals_name_the_key():
     with pytest.raises(InputError, match=r"models\.distortion = true: the table's NLP"):
         Problem(table_study().with_changes({"models.distortion": True,
                                             "models.flow": "quasi_steady"}))
-    with pytest.raises(InputError, match=r"models\.distortion = true: a robust study"):
-        vertical_study().with_changes(
-            {"models.distortion": True},
-            scenarios={"payload_mass_kg": {"min": 540.0, "max": 660.0}})
 
 
 def test_problem_of_the_study_carries_it(small_table_study):
@@ -102,15 +98,6 @@ def test_table_optimize_and_analysis_answer_with_it(small_table_study):
     assert abs(at_start.worst_margin_db - res.start_objective) < 1e-6
     plain = small_table_study()
     assert abs(analyze(plain, res.values).worst_margin_db - a.worst_margin_db) > 1e-5
-
-
-def test_a_sweep_point_refuses_with_one_line(tmp_path):
-    """The parametric NLP of a sweep does not carry it: the point fails naming the key."""
-    st = small_vertical(distortion=True)
-    res = isodesign.sweep(st, vary={"payload.mass_kg": [st.payload.mass_kg]},
-                          output=tmp_path / "s", scheduler="serial", charts=False)
-    err = res.to_frame()["error"].iloc[0]
-    assert err.startswith("InputError: models.distortion = true") and "\n" not in err
 
 
 def test_the_cli_gives_the_api_answer_and_replays_the_key(tmp_path, api_result):
