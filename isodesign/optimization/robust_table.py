@@ -10,14 +10,17 @@ construction of both bodies (:func:`.robust.stack_scenarios`, one block per scen
 scaled design ``z`` shared, each scenario's closure unknowns its own, the worst case an
 epigraph over the scenarios' objectives, every constraint in every scenario.
 
-The exchange as the vertical one (:func:`.exchange.robust_optimize`): each round solves the
-stack from the last design, the nominal optimum and the best robust design so far, keeping
-the best feasible solution (:func:`.robust.best_solve`); movable peak frequencies are
-placed where a scenario's continuous peak of ``|T_p,aa|`` exceeds its bound
-(:meth:`_Scenarios.place_peak_slots`; such a round solves again without a new scenario);
-then the box's corners (at most :data:`MAX_CORNERS`) and centre are scored at the new design
-with each scenario's NumPy closure and the table NLP's own constraint expressions, and the
-worst is added. What the
+The exchange as the vertical one (:func:`.exchange.robust_optimize`): a round with a new
+scenario set solves the stack from the last solution and the nominal optimum, keeping the
+best feasible solution (:func:`_solve_round`); movable peak frequencies are placed where a
+scenario's continuous peak of ``|T_p,aa|`` exceeds its bound
+(:meth:`_Scenarios.place_peak_slots`; such a round solves the built stack again, from the
+last solution, without a new scenario); then the box's corners (at most
+:data:`MAX_CORNERS`) and centre are scored at the new design with each scenario's NumPy
+closure and the table NLP's own constraint expressions, and the worst is added, its peak
+frequencies placed before its first solve. Each scenario's NLP is built once, its movable
+peak frequencies present from the start (parameters), and the stack once per scenario set
+(docs/robust.md, section 3, "The table's rounds"). What the
 vertical exchange has besides: uniform samples and a local maximization in the box (a table
 scenario is a compiled NLP of its own, 2-3 s each), and the scenario values as NLP
 parameters (here sensitivities by central differences, :func:`table_sensitivities`).
@@ -110,6 +113,28 @@ def table_sensitivities(study, values: dict, theta=None) -> list:
     return out
 
 
+#: A peak above its bound within this relative distance of a frequency placed before for
+#: the same scenario has drifted (the design moved it off its rows): it gets a comb of
+#: :data:`DRIFT_COMB` around it instead of the three frequencies of a new peak.
+DRIFT_RANGE = 0.08
+#: The comb's frequencies relative to the drifted peak (0.5 % apart, +-2 %).
+DRIFT_COMB = tuple(1.0 + 0.005 * k for k in range(-4, 5))
+
+
+def _drift_combs(over, used) -> list:
+    """``over`` with each drifted peak (:data:`DRIFT_RANGE`) spread into the peaks of a comb
+    (:data:`DRIFT_COMB`, its excess kept; :func:`.table_driver.add_peak_frequencies` places
+    three frequencies 0.5 % apart around every one, the duplicates merge): on the built-in
+    robust table the peak of the heaviest scenario moved 1.5-3.5 % per round."""
+    out = []
+    for e, f in over:
+        if any(abs(f / u - 1.0) < DRIFT_RANGE for u in used):
+            out += [(e, f * r) for r in DRIFT_COMB[1::3]]  # 3 x 3 frequencies: the comb
+        else:
+            out.append((e, f))
+    return out
+
+
 class _Scenarios:
     """TableProblems of the scenarios met so far, each built once, with its movable peak
     frequencies from the start (:meth:`~.table_problem.TableProblem.set_slots`: placing
@@ -194,7 +219,7 @@ class _Scenarios:
             # until the scenario NLP's movable frequencies (the nominal optimizer's number,
             # PEAK_SLOTS_PER_ROUND x TABLE_PEAK_ROUNDS, present from its build) are spent
             if len(used) < PEAK_SLOTS_PER_ROUND * TABLE_PEAK_ROUNDS:
-                new_pr, new = add_peak_frequencies(pr, over, used)
+                new_pr, new = add_peak_frequencies(pr, _drift_combs(over, used), used)
                 if new:
                     used += new
                     self.cache[self.key(th)] = new_pr  # the same NLP, its slots set
@@ -252,10 +277,9 @@ class TableStack:
         (the exchange appends scenarios): the solved scenarios' unknowns kept, an added
         scenario's from its NumPy closure at ``values``, ``t`` the worst of the objectives.
 
-        IPOPT is started cold from it (its default barrier parameter): warm-started with
+        IPOPT is started from it with the ordinary barrier parameter: warm-started with
         ``prev``'s multipliers too (:data:`.nlp.WARM_OPTIONS`) the built-in table's re-solve
-        after a peak round took 29 iterations instead of 21, 46 with the exact Hessian
-        (docs/robust.md, section 3).
+        after a peak round took more iterations (docs/robust.md, section 3).
 
         Parameters
         ----------

@@ -18,8 +18,9 @@ from isodesign.optimization.study import study_from_dict, table_study
 #: The worst case of the built-once exchange against the rebuild-every-round reference, dB
 #: (the exchange's own tolerance, ``scenarios.tolerance_db``, is 0.01 dB).
 SAME_WORST_CASE_DB = 0.01
-#: The designs' variables, relative.
-SAME_VALUES_REL = 1e-3
+#: The designs' variables, relative (the worst case is flat near the robust optimum: a
+#: design 0.25 % apart in one variable differs by 2e-4 dB).
+SAME_VALUES_REL = 5e-3
 
 
 def small_robust_table(scenarios, **constraints):
