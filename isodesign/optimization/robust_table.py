@@ -10,14 +10,17 @@ construction of both bodies (:func:`.robust.stack_scenarios`, one block per scen
 scaled design ``z`` shared, each scenario's closure unknowns its own, the worst case an
 epigraph over the scenarios' objectives, every constraint in every scenario.
 
-The exchange as the vertical one (:func:`.exchange.robust_optimize`): each round solves the
-stack from the last design, the nominal optimum and the best robust design so far, keeping
-the best feasible solution (:func:`.robust.best_solve`); movable peak frequencies are
-placed where a scenario's continuous peak of ``|T_p,aa|`` exceeds its bound
-(:meth:`_Scenarios.place_peak_slots`; such a round solves again without a new scenario);
-then the box's corners (at most :data:`MAX_CORNERS`) and centre are scored at the new design
-with each scenario's NumPy closure and the table NLP's own constraint expressions, and the
-worst is added. What the
+The exchange as the vertical one (:func:`.exchange.robust_optimize`): a round with a new
+scenario set solves the stack from the last solution and the nominal optimum, keeping the
+best feasible solution (:func:`_solve_round`); movable peak frequencies are placed where a
+scenario's continuous peak of ``|T_p,aa|`` exceeds its bound
+(:meth:`_Scenarios.place_peak_slots`; such a round solves the built stack again, from the
+last solution, without a new scenario); then the box's corners (at most
+:data:`MAX_CORNERS`) and centre are scored at the new design with each scenario's NumPy
+closure and the table NLP's own constraint expressions, and the worst is added, its peak
+frequencies placed before its first solve. Each scenario's NLP is built once, its movable
+peak frequencies present from the start (parameters), and the stack once per scenario set
+(docs/robust.md, section 3, "The table's rounds"). What the
 vertical exchange has besides: uniform samples and a local maximization in the box (a table
 scenario is a compiled NLP of its own, 2-3 s each), and the scenario values as NLP
 parameters (here sensitivities by central differences, :func:`table_sensitivities`).
@@ -110,18 +113,51 @@ def table_sensitivities(study, values: dict, theta=None) -> list:
     return out
 
 
+#: A peak above its bound within this relative distance of a frequency placed before for
+#: the same scenario has drifted (the design moved it off its rows): it gets a comb of
+#: :data:`DRIFT_COMB` around it instead of the three frequencies of a new peak.
+DRIFT_RANGE = 0.08
+#: The comb's frequencies relative to the drifted peak (0.5 % apart, +-2 %).
+DRIFT_COMB = tuple(1.0 + 0.005 * k for k in range(-4, 5))
+
+
+def _drift_combs(over, used) -> list:
+    """``over`` with each drifted peak (:data:`DRIFT_RANGE`) spread into the peaks of a comb
+    (:data:`DRIFT_COMB`, its excess kept; :func:`.table_driver.add_peak_frequencies` places
+    three frequencies 0.5 % apart around every one, the duplicates merge): on the built-in
+    robust table the peak of the heaviest scenario moved 1.5-3.5 % per round."""
+    out = []
+    for e, f in over:
+        if any(abs(f / u - 1.0) < DRIFT_RANGE for u in used):
+            out += [(e, f * r) for r in DRIFT_COMB[1::3]]  # 3 x 3 frequencies: the comb
+        else:
+            out.append((e, f))
+    return out
+
+
 class _Scenarios:
-    """TableProblems of the scenarios met so far (built once each)."""
+    """TableProblems of the scenarios met so far, each built once, with its movable peak
+    frequencies from the start (:meth:`~.table_problem.TableProblem.set_slots`: placing
+    them sets parameters, it builds nothing): the search's checks and the stacked solves
+    use the same NLP of a scenario."""
 
     def __init__(self, study):
+        from isodesign.optimization.table_problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
+
         self.study = study
         self.cache: dict = {}
+        limit = study.constraints.get("max_peak_transmissibility_db")
+        self.n_slots = (0 if limit is None or limit is False
+                        else PEAK_SLOTS_PER_ROUND * TABLE_PEAK_ROUNDS)
+        self.builds = 0  # scenario NLPs built (one per scenario met)
 
     def problem(self, theta):
         key = self.key(theta)
         if key not in self.cache:
             st = table_scenario(self.study, theta)
-            self.cache[key] = Problem(st)  # a table study: the table body
+            # a table study: the table body, its peak rows' frequencies parameters
+            self.cache[key] = Problem(st, peak_slots=self.n_slots)
+            self.builds += 1
         return self.cache[key]
 
     @staticmethod
@@ -140,9 +176,11 @@ class _Scenarios:
         Parameters
         ----------
         thetas : list of array
-        stack : TableStack
-            The stack ``sol`` solved (its problems in ``thetas`` order).
-        sol : RobustSolution
+        stack : TableStack or None
+            The stack ``sol`` solved (its problems in ``thetas`` order); None: scenarios
+            not solved yet, measured at their NumPy closure at ``values`` (a scenario the
+            search adds gets its peak frequencies before its first solve).
+        sol : RobustSolution or None
         values : dict
             The design at ``sol``.
         placed : dict
@@ -165,9 +203,12 @@ class _Scenarios:
         if limit is None or limit is False:
             return False, 0.0
         moved, left = False, 0.0
-        for k, (th, pr) in enumerate(zip(thetas, stack.probs, strict=True)):
-            xk = stack.block_x(sol, k)
-            sigma, sigma_u = pr.sigma(xk), pr.tube_rms(xk)
+        probs = stack.probs if stack is not None else [self.problem(th) for th in thetas]
+        for k, (th, pr) in enumerate(zip(thetas, probs, strict=True)):
+            xk = stack.block_x(sol, k) if stack is not None else None
+            # a scenario not solved yet (just added): its NumPy closure at the design
+            sigma, sigma_u = ((pr.sigma(xk), pr.tube_rms(xk)) if xk is not None
+                              else pr.closure(pr.study.design_at(values), values))
             d = pr.study.design_at(values)
             modes = _modes_at(pr, d, sigma, sigma_u, values=values)
             over = measure_peaks(pr, d, sigma, sigma_u, modes, values=values).above(
@@ -176,12 +217,12 @@ class _Scenarios:
                 continue
             used = placed.setdefault(self.key(th), [])
             # until the scenario NLP's movable frequencies (the nominal optimizer's number,
-            # TableProblem.with_peak_slots) are spent
+            # PEAK_SLOTS_PER_ROUND x TABLE_PEAK_ROUNDS, present from its build) are spent
             if len(used) < PEAK_SLOTS_PER_ROUND * TABLE_PEAK_ROUNDS:
-                new_pr, new = add_peak_frequencies(pr, over, used)
+                new_pr, new = add_peak_frequencies(pr, _drift_combs(over, used), used)
                 if new:
                     used += new
-                    self.cache[self.key(th)] = new_pr
+                    self.cache[self.key(th)] = new_pr  # the same NLP, its slots set
                     moved = True
                     continue
             left = max(left, over[0][0])
@@ -231,6 +272,30 @@ class TableStack:
         b = stacked_bounds(self.probs, self.nz, extra_rows=1)  # t <= epsilon
         self.lbg, self.ubg, self.lbx, self.ubx = b["lbg"], b["ubg"], b["lbx"], b["ubx"]
         self.solver = ca.nlpsol("isodesign_table_robust", "ipopt", nlp, p0.ipopt_options())
+
+    def start_from(self, prev, values: dict) -> np.ndarray:
+        """``x0`` from a solution ``prev`` of this stack or of a stack of its first scenarios
+        (the exchange appends scenarios): the solved scenarios' unknowns kept, an added
+        scenario's from its NumPy closure at ``values``, ``t`` the worst of the objectives.
+
+        IPOPT is started from it with the ordinary barrier parameter: warm-started with
+        ``prev``'s multipliers too (:data:`.nlp.WARM_OPTIONS`) the built-in table's re-solve
+        after a peak round took more iterations (docs/robust.md, section 3).
+
+        Parameters
+        ----------
+        prev : RobustSolution
+        values : dict
+            The design at ``prev``.
+        """
+        nz, nw = self.nz, self.probs[0].nx - self.nz
+        k_old = (prev.x.size - nz - 1) // nw
+        parts, js = [prev.x[: nz + k_old * nw]], [float(prev.x[-1])]
+        for pr in self.probs[k_old:]:
+            xk = pr.initial_guess(values)
+            js.append(float(np.asarray(pr._j_fn(xk)).ravel()[0]))
+            parts.append(xk[nz:])
+        return np.concatenate([*parts, [max(js)]])
 
     def block_x(self, sol, k: int) -> np.ndarray:
         """Scenario ``k``'s variables ``[z, w_k]`` at a solution."""
@@ -447,15 +512,21 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     placed: dict = {}  # scenario -> the movable peak frequencies placed for it
     last_s = first[0]  # the score of the last search of the box
     peak_left = 0.0
+    stack = sol = None
+    n_stacks = 0
     for r in range(settings["max_rounds"] + 1):
         t0 = time.perf_counter()
         probs = [sc.problem(th) for th in thetas]
         for pr in probs:
             pr.set_modes(_modes_at(pr, pr.study.design_at(values)))
-        # as the vertical exchange: solved from the last design, the nominal optimum and the
-        # best robust design so far; the feasible solution with the best worst case is kept
-        stack = TableStack(probs)
-        sol = best_solve(stack, [values, nominal.values, best_values], study)
+        # the stacked NLP is built when the scenario set changes; a round that only placed
+        # peak frequencies (parameters) re-solves it from the last solution
+        new_set = stack is None or len(stack.probs) != len(probs)
+        if new_set:
+            stack = TableStack(probs)
+            n_stacks += 1
+        sol = _solve_round(stack, sol, values, [nominal.values, best_values], study,
+                           new_set)
         status = sol.status
         g = sol.g
         if not sol.feasible:
@@ -480,6 +551,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         rounds.append({"round": r, "scenarios": len(thetas), "objective": _natural(kind, t_star),
                        "iterations": sol.iterations, "worst_score": s,
                        "peak_slots_moved": moved, "peak_excess_left_db": peak_left,
+                       "nlp_built": new_set,
                        "wall_s": time.perf_counter() - t0})
         sol_js = t_star
         if not moved and s <= 1.0:
@@ -489,6 +561,8 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
             break
         if th_w is not None and s > 1.0 and not any(np.allclose(th_w, t) for t in thetas):
             thetas.append(np.asarray(th_w, float))
+            # its continuous peaks at the design, before its first solve (saves a round)
+            sc.place_peak_slots(thetas[-1:], None, None, values, placed)
         elif not moved:
             break
     reports = _scenario_constraints(space, probs, thetas, g)
@@ -512,7 +586,53 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
                              first_worst_case=_natural(kind, first[2]["j"]),
                              first_worst_scenario=space.describe(first[1]),
                              last_search_score=float(last_s),
+                             extra={"nlp_builds": {"scenarios": sc.builds,
+                                                   "stacks": n_stacks}},
                              robust_at_nominal=_natural(kind, at_nominal))
+
+
+def _solve_round(stack, prev, values: dict, starts: list, study, new_set: bool):
+    """One exchange round's solve of the stacked NLP.
+
+    A round on the last round's scenarios (their peak frequencies moved, the modes frozen
+    again: parameters of the built NLP) solves it once, in this process, from the last
+    solution (:meth:`TableStack.start_from`); should that end infeasible, from the cold
+    starts below too. A round with a new scenario set solves, as the vertical exchange
+    (:func:`.robust.best_solve`), from the last solution (the added scenario's unknowns
+    from its closure) and from ``starts`` (the nominal optimum, the best robust design so
+    far) in forked workers, keeping the feasible solution with the best worst case (the
+    first on a tie); the first round from ``starts``.
+
+    Returns
+    -------
+    RobustSolution
+    """
+    from isodesign.optimization.multistart import map_in_workers
+
+    if prev is None:
+        return best_solve(stack, starts, study)
+    x0 = stack.start_from(prev, values)
+    if not new_set:
+        sol = stack.solve(x0)
+        return sol if sol.feasible else best_solve(stack, [values, *starts], study)
+    cold = []
+    for v in starts:
+        if not any(all(abs(v[k] / w[k] - 1.0) < 1e-9 for k in v) for w in [values, *cold]):
+            cold.append(dict(v))
+
+    def one(item):
+        try:
+            return stack.solve(x0 if item is None else stack.initial_guess(item))
+        except Exception as exc:  # a start that cannot be initialized: the others
+            return str(exc)
+
+    sols = [s for s in map_in_workers(one, [None, *cold], workers=study.solver.get("workers"))
+            if not isinstance(s, str)]
+    if not sols:
+        return best_solve(stack, [values, *starts], study)
+    feas = [s for s in sols if s.feasible]
+    return min(feas, key=lambda s: s.objective) if feas else min(sols,
+                                                                 key=lambda s: s.max_violation)
 
 
 def _scenario_constraints(space, probs, thetas, g) -> tuple:
