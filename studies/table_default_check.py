@@ -52,6 +52,7 @@ import pandas as pd
 from isodesign.optimization.refine import PEAK_TOLERANCE_DB
 from isodesign.optimization.study import default_study, load_study
 from isodesign.optimization.table_problem import PEAK_ROWS_MAX_HZ
+from isodesign.optimization.variables import GROUP_SPRING_LEVERS
 from isodesign.response.isolator import static_stiffness
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.table.modes import rocking_stability, table_modes
@@ -66,9 +67,11 @@ RELATIVE_SLACK = 1e-6
 
 
 def free_variables(study) -> list:
-    """The study's free design variables and levers: (name, lower, upper, log-scaled)."""
+    """The study's free design variables and levers: (name, lower, upper, log-scaled); a
+    group's spring variable (``<variable>_group<k>``) is log-scaled like the shared one."""
     out = [(v.name, v.lower, v.upper, True) for v in study.variables if not v.fixed]
-    out += [(v.name, v.lower, v.upper, False) for v in study.levers if not v.fixed]
+    out += [(v.name, v.lower, v.upper, v.name in GROUP_SPRING_LEVERS) for v in study.levers
+            if not v.fixed]
     return out
 
 
@@ -119,18 +122,32 @@ def evaluate(study, values: dict) -> dict:
         return {**out, "margin_db": -math.inf, "feasible": False, "error": str(exc)[:80]}
     lv = level(table, study.hardware["piston_area_m2"])
     dia = diaphragm_model(m["diaphragm"])
-    k0 = sum(float(static_stiffness(d.replace(pressure_pa=float(p)), dia, float(mi)))
-             for p, mi in zip(lv.pressure_pa, lv.mass_per_isolator_kg, strict=True))
+    designs = lv.designs(d)  # each isolator's p0 and its leveling group's spring
+    k0 = sum(float(static_stiffness(di, dia, float(mi)))
+             for di, mi in zip(designs, lv.mass_per_isolator_kg, strict=True))
     fn = math.sqrt(k0 / table.mass_kg) / (2 * math.pi)
+    volume = max(di.total_volume_m3 for di in designs)  # the largest group's spring
+    xy = np.asarray(table.isolators_m, float)
     f = np.asarray(modes.frequency_hz, float)
     low = np.isfinite(f) & (f < DAMPED_MODE_MAX_HZ)
     zeta = float(np.min(modes.damping_ratio[low])) if np.any(low) else math.inf
-    out.update(margin_db=float(res.worst_margin_db), total_volume_m3=d.total_volume_m3,
+    out.update(margin_db=float(res.worst_margin_db), total_volume_m3=volume,
                natural_frequency_hz=fn, peak_db=float(peak_db), tilt_margin=tilt,
                damping_ratio=zeta, stable=bool(np.all(np.isfinite(f))))
     slack = {}
     if c.get("max_total_volume_m3"):
-        slack["total_volume"] = 1 - d.total_volume_m3 / c["max_total_volume_m3"]
+        slack["total_volume"] = 1 - volume / c["max_total_volume_m3"]
+    if c.get("footprint_m"):  # every isolator inside [[x_min, y_min], [x_max, y_max]]
+        x0, y0, x1, y1 = (float(v) for v in np.ravel(c["footprint_m"]))
+        clear = min(float(np.min(xy[:, 0] - x0)), float(np.min(x1 - xy[:, 0])),
+                    float(np.min(xy[:, 1] - y0)), float(np.min(y1 - xy[:, 1])))
+        out["footprint_clearance_m"] = clear
+        slack["footprint"] = clear / max(x1 - x0, y1 - y0)
+    if c.get("min_isolator_distance_m"):
+        gaps = np.linalg.norm(xy[:, None, :] - xy[None, :, :], axis=-1)
+        dmin = float(np.min(gaps[np.triu_indices(len(xy), 1)]))
+        out["isolator_distance_m"] = dmin
+        slack["isolator_distance"] = dmin / c["min_isolator_distance_m"] - 1
     if c.get("min_natural_frequency_hz"):
         slack["min_natural_frequency"] = fn / c["min_natural_frequency_hz"] - 1
     if c.get("max_natural_frequency_hz"):

@@ -65,8 +65,9 @@ MAX_GRID_POINTS = 200_000
 
 #: ``--builtin`` names (:data:`isodesign.optimization.study.BUILTIN_STUDIES`) and their help.
 BUILTIN_CHOICES = ("default", "table", "vertical")
-BUILTIN_HELP = ("default: the built-in table co-designed (the springs, the pendulum, the "
-                "elastic-centre height and the lateral element free; what STUDY omitted runs); "
+BUILTIN_HELP = ("default: the built-in table co-designed (the springs per leveling group, the "
+                "pendulum, the elastic-centre height, the lateral element and the isolator "
+                "spacing free; what STUDY omitted runs); "
                 "table: the 600 kg table in six degrees of freedom with its horizontal element "
                 "fixed; vertical: the one-degree-of-freedom payload (docs/table.md)")
 

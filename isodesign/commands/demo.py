@@ -3,12 +3,12 @@
 1. DIR/optimize: `isodesign optimize` of the default study (isodesign/data/
    default_study.toml: a 600 kg table on 4 isolators in six degrees of freedom, on a VC-A
    floor in three axes, for an instrument that needs VC-C in every axis at two points; the
-   spring and the horizontal element, pendulum length, elastic-centre height, lateral
-   stiffness and loss factor, co-designed within practical bounds, docs/table.md section
-   13). The table's start misses VC-C (the run prints by how much, and where); the
-   co-designed table meets it in every axis. Writes design.json, design.toml, bands.csv,
-   modes.csv, starts.csv, record.json, study_resolved.toml, response.png and layout.png
-   (see docs/table.md, section 11).
+   springs of its leveling groups, the horizontal element (pendulum length, elastic-centre
+   height, lateral stiffness and loss factor) and the isolator spacing, co-designed within
+   practical bounds, docs/table.md section 13). The table's start misses VC-C (the run
+   prints by how much, and where); the co-designed table meets it in every axis. Writes
+   design.json, design.toml, bands.csv, modes.csv, starts.csv, record.json,
+   study_resolved.toml, response.png and layout.png (see docs/table.md, section 11).
 2. DIR/stiffness: the Table 1 spring at 0.05, 0.15 and 0.5 mm over the Table 2
    frequencies (0.2..24 Hz) with the default model (quasi_steady flow, self-consistent
    amplitude, viscoelastic diaphragm) and with the paper's literal model (flow=zhao,

@@ -1,10 +1,11 @@
 """Optimize a design study: the spring's N, V_t0, L_c and D_c for a payload, floor and target.
 
 STUDY.toml (default: the built-in default study, isodesign/data/default_study.toml: the
-600 kg table in six degrees of freedom with its spring and its horizontal element co-designed,
-docs/table.md; --builtin vertical: the one-degree-of-freedom payload) states the payload, the
-spring hardware, the floor, the instrument's criterion, the models, the variables' bounds,
-the constraints, the objective and the solver (docs/optimization.md).
+600 kg table in six degrees of freedom with its springs, its horizontal element and its
+isolator spacing co-designed, docs/table.md; --builtin vertical: the one-degree-of-freedom
+payload) states the payload, the spring hardware, the floor, the instrument's criterion,
+the models, the variables' bounds, the constraints, the objective and the solver
+(docs/optimization.md).
 Multi-start IPOPT finds the optimum; the flat direction L_c/D_c^4 is resolved by the
 documented tie-break (largest D_c); the optimum is re-checked with the NumPy analysis.
 Prints start design against optimum, every constraint with its margin (binding ones

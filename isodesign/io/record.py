@@ -60,6 +60,9 @@ def _toml_value(v: Any) -> str:
         return json.dumps(v)
     if isinstance(v, list | tuple):
         return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):  # inside a list (table.group_springs): an inline table
+        return "{" + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()
+                               if x is not None) + "}"
     raise TypeError(f"cannot write {type(v).__name__} to TOML")
 
 
@@ -70,9 +73,9 @@ def dumps_toml(d: dict, _prefix: str = "") -> str:
     ----------
     d : dict
         Keys (bare TOML keys, not quoted) to values: bool, int, float (``nan``
-        and ``inf`` as TOML's special floats), str, lists or tuples of these, or a
-        nested dict, written as a ``[table]`` (dotted name) after the keys. ``None``
-        values are left out.
+        and ``inf`` as TOML's special floats), str, lists or tuples of these (a dict
+        inside a list as an inline table, ``{k = v}``), or a nested dict, written as a
+        ``[table]`` (dotted name) after the keys. ``None`` values are left out.
 
     Returns
     -------
@@ -83,7 +86,7 @@ def dumps_toml(d: dict, _prefix: str = "") -> str:
     Raises
     ------
     TypeError
-        A value of another type (a dict inside a list, a NumPy array, ...).
+        A value of another type (a NumPy array, ...).
     """
     lines = []
     tables = []

@@ -154,6 +154,14 @@ def table_job_rows(case, t: dict) -> list[tuple[str, str]]:
     pts = "; ".join(f"{n} {_fmt_xy(x)} m" for n, x in zip(tab.point_names,
                                                         tab.instrument_points_m, strict=True))
     h = tab.horizontal
+    rows = []
+    if any(tab.group_springs):  # docs/table.md section 15: a leveling group's own spring
+        rows.append(("spring per leveling group", "; ".join(
+            f"valve {g + 1}: " + (", ".join(_group_field(k, v) for k, v in own.items())
+                                  + (" (the others the shared spring's)"
+                                     if len(own) < 4 else "") if own else
+                                  "the shared spring (the design section's)")
+            for g, own in enumerate(tab.group_springs))))
     return [
         ("table", f"{tab.mass_kg:g} kg on {tab.n_isolators} isolators; centre of gravity "
                   f"{_fmt_xy(tab.cg_m)} m (x, y from the isolators' origin, z above their "
@@ -168,7 +176,16 @@ def table_job_rows(case, t: dict) -> list[tuple[str, str]]:
                                f"{h.lateral_stiffness_n_per_m:g} N/m, loss factor "
                                f"{h.lateral_loss_factor:g}, elastic centre "
                                f"{h.elastic_centre_height_m:g} m above the support plane"),
+        *rows,
     ]
+
+
+def _group_field(name: str, value: float) -> str:
+    """One field of a leveling group's own spring, as the design section prints it."""
+    scale, label = {"volume_ratio": (1.0, "N = {:.4g}"), "top_volume_m3": (1e3, "V_t0 {:.4g} L"),
+                    "capillary_length_m": (1e3, "L_c {:.4g} mm"),
+                    "capillary_diameter_m": (1e3, "D_c {:.4g} mm")}.get(name, (1.0, name + " {:g}"))
+    return label.format(value * scale)
 
 
 def table_verdict(case, t: dict) -> dict:

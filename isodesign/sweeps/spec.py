@@ -35,6 +35,7 @@ from isodesign.optimization.variables import (
     DESIGN_VARIABLES,
     GROUP_SPRING_LEVERS,
 )
+from isodesign.table.study import POSITION_KEYS
 
 __all__ = [
     "MAX_POINTS",
@@ -67,7 +68,14 @@ def _valid_keys() -> list[str]:
     keys += [f"hardware.gas.{k}" for k in sorted(SCHEMA_KEYS["hardware.gas"])]
     keys += [f"variables.{v}.{f}" for v in _variables() for f in ("start", "lower", "upper",
                                                                   "fixed")]
+    keys += [f"variables.isolator_positions_m.{f}" for f in POSITION_KEYS]
     return ["name", *keys]
+
+
+#: The free positions' keys whose value is a list of [x, y] pairs (docs/table.md, section
+#: 15): a points file gives them, ``--vary``'s values (one number or word each) cannot.
+POSITION_LIST_KEYS = ("variables.isolator_positions_m.start",
+                      "variables.isolator_positions_m.polygon_m")
 
 
 def check_key(key: str, option: str = "--vary") -> str:
@@ -107,6 +115,7 @@ def check_key(key: str, option: str = "--vary") -> str:
         valid = [f"variables.{v}.{{start,lower,upper,fixed}}"
                  for v in (*DESIGN_VARIABLES, *CODESIGN_LEVERS)]
         valid.append("variables.<variable>_group<1..3>.{start,lower,upper,fixed}")
+        valid.append("variables.isolator_positions_m.{fixed,start,polygon_m}")
         where = "[variables]"
     else:
         others = sorted(set(SCHEMA_KEYS[""]) - {*_TABLES, "variables", "name", "description"})
@@ -157,6 +166,10 @@ def parse_vary(text: str, option: str = "--vary") -> tuple[str, list]:
                          f"floor.criterion=VC-A,VC-B), got {text[:60]!r}")
     key, _, spec = text.partition("=")
     key = check_key(key, option)
+    if key in POSITION_LIST_KEYS:
+        raise InputError(f"{option} {key}: takes a list of [x, y] pairs, m, which --vary's "
+                         "values (one number or word each) cannot give; give it per point in "
+                         "--points-file ([[point]] tables of a TOML file)")
     spec = spec.strip()
     name = f"{option} {key}"
     if not spec:

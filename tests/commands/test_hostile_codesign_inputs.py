@@ -150,9 +150,8 @@ API = [
      ["values['volume_ratio_group2'] = -2", "domain"]),
     (lambda r: default_study().table_at({"pendulum_lenght_m": 0.2}),
      ["values: unknown name 'pendulum_lenght_m'", "pendulum_length_m"]),
-    (lambda r: default_study().with_levers_fixed(
-        {"pendulum_length_m": 0.2, "elastic_centre_height_m": 0.1,
-         "lateral_stiffness_n_per_m": 5e3, "lateral_loss_factor": 0.2,
+    (lambda r: default_study().with_levers_fixed(  # every free lever given, and a typo
+        {**{v.name: v.start for v in default_study().levers if v.free},
          "lateral_los_factor": 0.3}), ["values: unknown name 'lateral_los_factor'"]),
     (lambda r: table_study().variable("pendulum_lenght_m"),
      ["name: unknown design variable 'pendulum_lenght_m'", "pendulum_length_m"]),

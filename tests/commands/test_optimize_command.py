@@ -87,23 +87,41 @@ def test_vertical_study_file_is_the_builtin_vertical_study():
 
 
 def test_the_default_study_is_the_builtin_table_with_its_levers_free():
-    """default_study() is table_study() with the four levers free within the bounds its file
-    states (docs/table.md, section 13); everything else is the built-in table's."""
+    """default_study() is table_study() with its co-design levers free within the bounds its
+    file states (docs/table.md, section 13): the four horizontal levers, the layout's
+    spacing inside the table top's footprint with the isolators 0.5 m apart, and the springs
+    of leveling groups 2 and 3 (group 1 takes the shared spring); everything else is the
+    built-in table's."""
     from isodesign.optimization.study import default_study, table_study
-    from isodesign.optimization.variables import TABLE_LEVERS
+    from isodesign.optimization.variables import DESIGN_VARIABLES, LAYOUT_LEVERS, TABLE_LEVERS
 
     st, tb = default_study(), table_study()
     assert st.table is not None and st.name == "default"
-    bounds = {v.name: (v.lower, v.upper) for v in st.levers if v.free}
-    assert [v.name for v in st.levers if v.free] == list(TABLE_LEVERS)
-    same = tb.with_changes(name="default", description=st.raw["description"], variables={
-        n: {"fixed": False, "lower": lo, "upper": hi} for n, (lo, hi) in bounds.items()},
+    groups = [f"{v}_group{k}" for k in (2, 3) for v in DESIGN_VARIABLES]
+    free = [v for v in st.levers if v.free]
+    assert [v.name for v in free] == [*TABLE_LEVERS, *LAYOUT_LEVERS, *groups]
+    assert all(v.name == "inertia_base_mass_kg" for v in st.levers if not v.free)
+    bounds = {v.name: {"fixed": False, "lower": v.lower, "upper": v.upper} for v in free
+              if v.name not in groups}
+    same = tb.with_changes(
+        name="default", description=st.raw["description"],
+        variables={**bounds, **{n: {"fixed": False} for n in groups}},
+        constraints={"footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
+                     "min_isolator_distance_m": 0.5},
         solver={"starts": 3})  # 5 solves (docs/table.md, section 13)
     assert same.raw == st.raw
-    for v in (v for v in st.levers if v.free):  # each start is the table's element, inside
-        # its practical bounds (the layout's levers are fixed at the table's extent)
-        assert v.start == getattr(tb.table.horizontal, v.name)
+    for v in free:  # each start is the table's, inside its practical bounds
         assert v.lower <= v.start <= v.upper
+        if v.name in TABLE_LEVERS:
+            assert v.start == getattr(tb.table.horizontal, v.name)
+        elif v.name in groups:  # a group's spring starts at, and is bounded like, the shared
+            shared = st.variable(v.name.rsplit("_group", 1)[0])
+            assert (v.start, v.lower, v.upper) == (shared.start, shared.lower, shared.upper)
+    xy = [p for p in tb.table.isolators_m]
+    assert st.variable("layout_length_m").start == pytest.approx(max(p[0] for p in xy)
+                                                                 - min(p[0] for p in xy))
+    assert st.variable("layout_width_m").start == pytest.approx(max(p[1] for p in xy)
+                                                                - min(p[1] for p in xy))
 
 
 def test_resolved_study_toml_round_trips(tmp_path, fast_study):

@@ -213,3 +213,36 @@ def test_a_group_levers_sensitivity_against_a_central_difference_of_the_reoptimi
     fd = (hi.objective_value - lo.objective_value) / 0.03e-3
     assert s["db_per_unit"] == pytest.approx(fd, rel=0.02)
     assert s["db_per_unit"] == pytest.approx(77.1, abs=1.0)
+
+
+def test_a_run_directorys_study_with_group_springs_round_trips_and_the_report_names_them(
+        tmp_path):
+    """``Study.with_levers_fixed`` writes each group's own spring to ``table.group_springs``
+    (a list of tables): the run directory's ``study_resolved.toml`` holds it as inline
+    tables and reads back the same study, and the report's table rows name each valve's
+    spring (docs/table.md section 15; the default study frees groups 2 and 3)."""
+    from types import SimpleNamespace
+
+    from isodesign.io.record import study_toml
+    from isodesign.reporting.table_section import table_job_rows
+    from isodesign.table.response import table_band_response
+
+    st = table_study().with_changes(variables={
+        "volume_ratio_group2": {"fixed": False}, "capillary_diameter_m_group3": {
+            "fixed": False}})
+    fixed = st.with_levers_fixed({"volume_ratio_group2": 3.5,
+                                  "capillary_diameter_m_group3": 1.2e-3})
+    assert fixed.table.group_springs == ({}, {"volume_ratio": 3.5},
+                                         {"capillary_diameter_m": 1.2e-3})
+    path = tmp_path / "study_resolved.toml"
+    path.write_text(study_toml(fixed), encoding="utf-8")
+    assert "group_springs = [{}, {volume_ratio = 3.5}, {capillary_diameter_m = 0.0012}]" \
+        in path.read_text(encoding="utf-8")
+    back = load_study(path)
+    assert back.raw == fixed.raw and back.table.group_springs == fixed.table.group_springs
+    res = table_band_response(fixed.start_design(), fixed.table, fixed.floor_axes,
+                              fixed.target, bands=fixed.bands, warn=False)
+    rows = dict(table_job_rows(SimpleNamespace(study=fixed), {"response": res}))
+    assert rows["spring per leveling group"] == (
+        "valve 1: the shared spring (the design section's); valve 2: N = 3.5 (the others the "
+        "shared spring's); valve 3: D_c 1.2 mm (the others the shared spring's)")
