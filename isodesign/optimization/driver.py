@@ -48,7 +48,7 @@ PEAK_VIOLATION = "continuous_peak_transmissibility"
 
 def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
                       analyze: bool = True, nominal: bool = False,
-                      extra_starts: tuple = ()) -> OptimizationResult:
+                      extra_starts: tuple = (), own_starts: bool = True) -> OptimizationResult:
     """The vertical nominal optimum: multi-start IPOPT, tie-break, peak refinement, re-check.
 
     The internal solve of the one-degree-of-freedom payload. The public entry point is
@@ -73,6 +73,10 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
     extra_starts : tuple of dict
         Further starts (design-variable values, SI) after the study's own: a sweep's
         continuation passes its finished neighbours' optima (``docs/sweep.md``).
+    own_starts : bool
+        Solve the study's own starts (default). False (with ``extra_starts``): solve the
+        extra starts alone, the study's start still the result's start design (a sweep's
+        continuation between its checkpoints, ``docs/sweep.md`` section 7).
 
     Returns
     -------
@@ -99,7 +103,11 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
     # compare with the driver's
     t_all = time.perf_counter()
     prob = problem if problem is not None else Problem(study)
-    starts = start_points(study, prob.scaling) + [dict(v) for v in extra_starts]
+    own = start_points(study, prob.scaling)
+    start0 = own[0]  # the study's start: the result's start design either way
+    if not own_starts and not extra_starts:
+        raise InputError("own_starts=False needs extra_starts")
+    starts = (own if own_starts else []) + [dict(v) for v in extra_starts]
     tol_j = flat_tolerance(prob.objective)
     # each new branch refined as soon as its start finishes, in the starts' pool
     # (docs/optimization.md section 8); else the starts, then refine_branches
@@ -113,7 +121,7 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
     records, sols = _start_records(prob, starts, results, t_all)
     good = {i: sols[i] for i, r in enumerate(records) if r.feasible and sols[i] is not None}
     if not good:
-        return _infeasible_result(study, prob, starts[0], records, sols, t_all)
+        return _infeasible_result(study, prob, start0, records, sols, t_all)
     obj = OBJECTIVES[prob.objective]
     if early is None:
         win = refine_branches(study, prob, good, tol_j)
@@ -125,10 +133,10 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
     d = study.design_at(final.values)
     checked = recheck_design(prob, final, d)  # every row re-checked (recheck.recheck_rows)
     diff = checked.max_difference
-    analysis, start_analysis = _analyses(study, prob, d, starts[0]) if analyze else (None, None)
+    analysis, start_analysis = _analyses(study, prob, d, start0) if analyze else (None, None)
     j0 = None
     try:
-        x00 = prob.initial_guess(starts[0])
+        x00 = prob.initial_guess(start0)
         j0 = obj.to_natural(float(prob.objective_values(x00)[0]))
     except SolverError:
         pass
@@ -141,7 +149,7 @@ def optimize_vertical(study, *, progress=None, problem: Problem | None = None,
     return OptimizationResult(
         study=study, objective=prob.objective, feasible=True, status=final.status, design=d,
         values=final.values, objective_value=obj.to_natural(final.objective),
-        start_values=starts[0], start_objective=j0,
+        start_values=start0, start_objective=j0,
         constraints=tuple(constraint_reports(prob.con_rows, final.g)), starts=tuple(records),
         n_reached_best=n_best, violations=violations, flat_direction=win.flat,
         recheck_max_rel_diff=diff, analysis=analysis, start_analysis=start_analysis,

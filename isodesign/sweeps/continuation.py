@@ -130,3 +130,57 @@ def neighbour_starts(rows) -> list[dict]:
         except (KeyError, TypeError, ValueError):
             continue
     return out
+
+
+#: A vertical ``optimize`` point whose predecessor's optimum it starts from solves its
+#: own starts too at least every ``OWN_STARTS_EVERY``-th point along its chain (the
+#: checkpoints: docs/sweep.md, section 7), besides the points :func:`needs_own_starts` names.
+OWN_STARTS_EVERY = 3
+
+
+def binding_set(row) -> frozenset:
+    """The binding constraints and variables at a bound of a row (its ``binding`` column)."""
+    text = (row or {}).get("binding") or ""
+    return frozenset(b for b in str(text).split(";") if b)
+
+
+def needs_own_starts(neighbours, resolve: bool = False) -> tuple[bool, int]:
+    """Whether a continued vertical point solves its own starts before it is solved.
+
+    Parameters
+    ----------
+    neighbours : sequence of dict or None
+        The finished neighbours' rows given to the point (its predecessor first).
+    resolve : bool
+        The branch pass's second solve (always with its own starts).
+
+    Returns
+    -------
+    (bool, int)
+        Whether the point's own starts are solved, and the points since the last one
+        along the chain that solved them (0: this one). The own starts are solved at a
+        point with no feasible neighbour, at a second solve, after a predecessor that
+        changed branch or had to solve its own starts again (:func:`jumped`), and at
+        every :data:`OWN_STARTS_EVERY`-th point.
+    """
+    nb = next((r for r in neighbours if r), None) if neighbours else None
+    if resolve or not neighbour_starts([nb]):
+        return True, 0
+    since = int(nb.get("since_own_starts") or 0) + 1
+    if since >= OWN_STARTS_EVERY or nb.get("branch_changed") or nb.get("own_starts_rerun"):
+        return True, 0
+    return False, since
+
+
+def jumped(row: dict, neighbour: dict | None) -> bool:
+    """The jump check of a point solved from its predecessor's optimum alone.
+
+    True when its answer is not a feasible optimum (``row["feasible"]``; the caller adds a
+    result with violations) or its binding set (the ``binding`` column: binding
+    constraints, variables at a bound) differs from the predecessor's: the optimum moved to
+    another face of the feasible set, where another branch may begin, and the point is
+    solved again with its own starts.
+    """
+    if not row.get("feasible"):
+        return True
+    return binding_set(row) != binding_set(neighbour)

@@ -246,14 +246,27 @@ def _optimize_vertical(study, options: dict):
     from isodesign.optimization.driver import optimize_vertical
     from isodesign.optimization.objectives import OBJECTIVES
     from isodesign.optimization.refine import flat_tolerance
-    from isodesign.sweeps.continuation import neighbour_starts
+    from isodesign.sweeps.continuation import jumped, needs_own_starts, neighbour_starts
 
     cache = problem_cache()
     before = cache.builds
     prob = cache.get(study)
     given = list(options.get("_neighbours") or ())
     pairs = [(i, v) for i, r in enumerate(given) for v in neighbour_starts([r])]
-    result = optimize_vertical(study, problem=prob, extra_starts=tuple(v for _, v in pairs))
+    # between checkpoints a point is solved from its predecessor's optimum alone, and
+    # again with its own starts when its answer jumped (docs/sweep.md, section 7)
+    own, since = needs_own_starts(given, bool(options.get("_resolved", False)))
+    extra = tuple(v for _, v in pairs)
+    preset = _preset_peak_slots(study, prob, given)
+    slots0 = prob.slot_hz.copy()
+    result = optimize_vertical(study, problem=prob, extra_starts=extra, own_starts=own)
+    rerun = False
+    if not own:
+        row = {"feasible": result.feasible, "binding": _vertical_row(result)["binding"]}
+        if result.violations or jumped(row, next(r for r in given if r)):
+            own, since, rerun = True, 0, True
+            prob.set_slots(slots0)
+            result = optimize_vertical(study, problem=prob, extra_starts=extra)
     n_own = len(result.starts) - len(pairs)
     best, changed = None, False
     if result.feasible:
@@ -277,7 +290,35 @@ def _optimize_vertical(study, options: dict):
         "best_neighbour": (pairs[best.index - n_own][0]
                            if best is not None and best.index >= n_own else -1),
         "branch_changed": changed,
+        "own_starts": own, "own_starts_rerun": rerun, "since_own_starts": since,
+        "continuous_peak_hz": (result.peak or {}).get("peak_frequency_hz"),
+        "payload_kg": float(study.payload.mass_kg), "preset_peak_hz": preset,
         "resolved": bool(options.get("_resolved", False))}
+
+
+#: The exponent of the payload mass in the continuous peak's predicted frequency,
+#: ``f = f_neighbour (m_neighbour / m)^PEAK_MASS_EXPONENT`` (the optimum's peak moves
+#: as m^-0.3 to m^-0.45 along the vertical study's mass line, docs/sweep.md section 7).
+PEAK_MASS_EXPONENT = 0.4
+
+
+def _preset_peak_slots(study, prob, given) -> float | None:
+    """Place the last refinement round's five movable peak frequencies around the
+    continuous peak predicted from the predecessor's (``continuous_peak_hz`` of its row),
+    as the exchange method would place them (:func:`.refine.peak_slots`), so that the
+    point's solves bound |T| there from the start and its refinement seldom needs a
+    re-solve. Returns the predicted peak frequency (Hz), or None (no peak refinement, no
+    neighbour's peak)."""
+    from isodesign.optimization.problem import PEAK_ROUNDS
+    from isodesign.optimization.refine import _peak_refined, peak_slots
+
+    nb = next((r for r in given if r), None)
+    f_nb, m_nb = (nb or {}).get("continuous_peak_hz"), (nb or {}).get("payload_kg")
+    if not f_nb or not m_nb or not _peak_refined(study, prob):
+        return None
+    f = float(f_nb) * (float(m_nb) / float(study.payload.mass_kg)) ** PEAK_MASS_EXPONENT
+    peak_slots(prob, PEAK_ROUNDS - 1, f)
+    return f
 
 
 def table_continuation_study(study, neighbours):
