@@ -104,6 +104,8 @@ if arm.startswith("robust"):
     out["scenarios"] = len(getattr(r, "scenarios", ()) or ())
     nom = getattr(r, "nominal", None)
     out["nominal_wall_s"] = getattr(nom, "wall_s", None)
+    out["nlp_builds"] = (getattr(r, "extra", None) or {}).get("nlp_builds")
+    out["round_iterations"] = [rd.get("iterations") for rd in getattr(r, "rounds", ()) or ()]
 else:
     out["objective_value"] = float(r.objective_value)
     out["starts"] = len(r.starts)
@@ -332,7 +334,8 @@ def rows_from(recs: dict) -> list[dict]:
         "target": "", "unit": "s", **arms["robust-new"],
         "notes": f"nominal optimize included (inside it, median: {_num(nom_s)} s, "
                  f"analyze=False); {n} interleaved rounds; exchange rounds {ro.get('rounds')}, "
-                 f"scenarios {ro.get('scenarios')}; worst case "
+                 f"IPOPT iterations per round {ro.get('round_iterations')}, NLP builds "
+                 f"{ro.get('nlp_builds')}, scenarios {ro.get('scenarios')}; worst case "
                  f"{_num(ro.get('objective_value'))} dB; feasible {ro['feasible']}; robust "
                  f"optimum {_values(ro)}"})
     out.append({

@@ -22,7 +22,7 @@ frequencies placed before its first solve. Each scenario's NLP is built once, it
 peak frequencies present from the start (parameters), and the stack once per scenario set
 (docs/robust.md, section 3, "The table's rounds"). What the
 vertical exchange has besides: uniform samples and a local maximization in the box (a table
-scenario is a compiled NLP of its own, 2-3 s each), and the scenario values as NLP
+scenario is a compiled NLP of its own), and the scenario values as NLP
 parameters (here sensitivities by central differences, :func:`table_sensitivities`).
 """
 
@@ -125,7 +125,7 @@ def _drift_combs(over, used) -> list:
     """``over`` with each drifted peak (:data:`DRIFT_RANGE`) spread into the peaks of a comb
     (:data:`DRIFT_COMB`, its excess kept; :func:`.table_driver.add_peak_frequencies` places
     three frequencies 0.5 % apart around every one, the duplicates merge): on the built-in
-    robust table the peak of the heaviest scenario moved 1.5-3.5 % per round."""
+    robust table the peak of the heaviest scenario moved by a few per cent per round."""
     out = []
     for e, f in over:
         if any(abs(f / u - 1.0) < DRIFT_RANGE for u in used):
