@@ -256,8 +256,9 @@ class OuterFixedPoint:
         table = self.__dict__.setdefault("_dist_contexts", {})
         entry = table.get(key)
         if entry is None or entry["owner"] is not owner:
-            if len(table) >= _KEPT_CONTEXTS:
-                table.pop(next(iter(table)))
+            if len(table) >= _KEPT_CONTEXTS:  # the oldest without an NLP expansion first
+                spare = [k for k, e in table.items() if e.get("p") is None]
+                table.pop(spare[0] if spare else next(iter(table)))
             entry = table[key] = {"owner": owner, "cache": {}, "starts": {},
                                   "expansions": []}
         return entry
@@ -529,6 +530,43 @@ class ScenarioDistortionMixin(DistortionMixin):
 
     def _block_dist(self, x=None) -> np.ndarray:
         return self._current_dist() if x is None else self._dist_for(x)
+
+    def terms_theta_jacobian(self, z, theta) -> tuple:
+        """The terms' dependence on the scenario, for the sensitivities (the NLP's terms are
+        parameters: their values move with ``theta`` outside the NLP).
+
+        Parameters
+        ----------
+        z : ndarray
+            The scaled design (the terms' expansion point: at it the NLP's terms are their
+            values ``q_0``).
+        theta : array
+            The scenario.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            The block parameters' indices of the values ``q_0`` and ``d q_0 / d theta``
+            (central differences of the NumPy terms, step 1e-6 of each coordinate).
+        """
+        theta = np.asarray(theta, float)
+        z = np.clip(np.asarray(z, float), -1.0, 1.0)
+        keep = (self.theta, self.study, self.dia)
+        cols = []
+        try:
+            for k in range(theta.size):
+                h = 1e-6 * max(1.0, abs(theta[k]))
+                vals = []
+                for sgn in (1.0, -1.0):
+                    t = theta.copy()
+                    t[k] += sgn * h
+                    self.select(t)
+                    vals.append(self._terms_at_z(z))
+                cols.append((vals[0] - vals[1]) / (2.0 * h))
+        finally:
+            self.theta, self.study, self.dia = keep
+        start = self.np - self.space.size - self._n_dist + self.nz
+        return np.arange(start, start + self._n_terms), np.column_stack(cols)
 
 
 def solve_stack(members, x0, solve_once, params, block_x):
