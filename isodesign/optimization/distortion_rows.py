@@ -320,14 +320,10 @@ class OuterFixedPoint:
         for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
             end = p.size - self._n_after_dist()
             p[end - self._n_dist:end] = self._dist_p
-            # a later round: warm from the last round's primal and multipliers on the same
-            # built NLP (its parameters moved by the expansion only); a warm solve that
-            # fails is repeated cold
-            sol = super().solve(x, p, warm=warm)
-            if warm is not None and rounds > 1 and not sol.success:
-                wall += sol.wall_s
-                its += sol.iterations
-                sol = super().solve(x, p)
+            # a later round from the last answer's primal, cold: IPOPT's warm start from its
+            # multipliers saves 4 of 22 iterations on the vertical study but its solver's
+            # build costs more (measured, docs/random-response.md 3d)
+            sol = super().solve(x, p, warm=warm if rounds == 1 else None)
             wall += sol.wall_s
             its += sol.iterations
             if not sol.success or not np.all(np.isfinite(sol.x)):
@@ -341,7 +337,7 @@ class OuterFixedPoint:
             self._dist_p = self.expansion(z, true)
             self._remember(self._dist_p)
             sloped = True
-            x, warm = sol.x, sol
+            x = sol.x
         return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
                            wall_s=wall, iterations=its)
 
