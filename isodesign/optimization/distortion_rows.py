@@ -256,8 +256,9 @@ class OuterFixedPoint:
         table = self.__dict__.setdefault("_dist_contexts", {})
         entry = table.get(key)
         if entry is None or entry["owner"] is not owner:
-            if len(table) >= _KEPT_CONTEXTS:
-                table.pop(next(iter(table)))
+            if len(table) >= _KEPT_CONTEXTS:  # the oldest without an NLP expansion first
+                spare = [k for k, e in table.items() if e.get("p") is None]
+                table.pop(spare[0] if spare else next(iter(table)))
             entry = table[key] = {"owner": owner, "cache": {}, "starts": {},
                                   "expansions": []}
         return entry
@@ -319,14 +320,10 @@ class OuterFixedPoint:
         for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
             end = p.size - self._n_after_dist()
             p[end - self._n_dist:end] = self._dist_p
-            # a later round: warm from the last round's primal and multipliers on the same
-            # built NLP (its parameters moved by the expansion only); a warm solve that
-            # fails is repeated cold
-            sol = super().solve(x, p, warm=warm)
-            if warm is not None and rounds > 1 and not sol.success:
-                wall += sol.wall_s
-                its += sol.iterations
-                sol = super().solve(x, p)
+            # a later round from the last answer's primal, cold: IPOPT's warm start from its
+            # multipliers saves 4 of 22 iterations on the vertical study but its solver's
+            # build costs more (measured, docs/random-response.md 3d)
+            sol = super().solve(x, p, warm=warm if rounds == 1 else None)
             wall += sol.wall_s
             its += sol.iterations
             if not sol.success or not np.all(np.isfinite(sol.x)):
@@ -340,7 +337,7 @@ class OuterFixedPoint:
             self._dist_p = self.expansion(z, true)
             self._remember(self._dist_p)
             sloped = True
-            x, warm = sol.x, sol
+            x = sol.x
         return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
                            wall_s=wall, iterations=its)
 
@@ -529,6 +526,43 @@ class ScenarioDistortionMixin(DistortionMixin):
 
     def _block_dist(self, x=None) -> np.ndarray:
         return self._current_dist() if x is None else self._dist_for(x)
+
+    def terms_theta_jacobian(self, z, theta) -> tuple:
+        """The terms' dependence on the scenario, for the sensitivities (the NLP's terms are
+        parameters: their values move with ``theta`` outside the NLP).
+
+        Parameters
+        ----------
+        z : ndarray
+            The scaled design (the terms' expansion point: at it the NLP's terms are their
+            values ``q_0``).
+        theta : array
+            The scenario.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            The block parameters' indices of the values ``q_0`` and ``d q_0 / d theta``
+            (central differences of the NumPy terms, step 1e-6 of each coordinate).
+        """
+        theta = np.asarray(theta, float)
+        z = np.clip(np.asarray(z, float), -1.0, 1.0)
+        keep = (self.theta, self.study, self.dia)
+        cols = []
+        try:
+            for k in range(theta.size):
+                h = 1e-6 * max(1.0, abs(theta[k]))
+                vals = []
+                for sgn in (1.0, -1.0):
+                    t = theta.copy()
+                    t[k] += sgn * h
+                    self.select(t)
+                    vals.append(self._terms_at_z(z))
+                cols.append((vals[0] - vals[1]) / (2.0 * h))
+        finally:
+            self.theta, self.study, self.dia = keep
+        start = self.np - self.space.size - self._n_dist + self.nz
+        return np.arange(start, start + self._n_terms), np.column_stack(cols)
 
 
 def solve_stack(members, x0, solve_once, params, block_x):

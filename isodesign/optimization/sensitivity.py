@@ -107,10 +107,14 @@ def design_sensitivities(block, x: np.ndarray, theta, slot_hz=None) -> list[Sens
     u = slice(nz, nz + 1 + ny + nc)
     aux = slice(block.nx - naux, block.nx)
     th = slice(block.np - space.size, block.np)
+    gp_th, jp_th = gp[:, th], jp[0, th]
+    if getattr(block, "distortion", False):  # the distortion's terms move with theta too
+        cols, dq = block.terms_theta_jacobian(x[:nz], theta)
+        gp_th, jp_th = gp_th + gp[:, cols] @ dq, jp_th + jp[0, cols] @ dq
     a = gx[:n_eq, u]
-    b = gp[:n_eq, th]
+    b = gp_th[:n_eq]
     du = -np.linalg.solve(a, b)  # d u / d theta
-    total_g = gp[:, th] + gx[:, u] @ du  # every row, aux held
+    total_g = gp_th + gx[:, u] @ du  # every row, aux held
     out: list[Sensitivity] = []
     # a relative deviation is reported per percent
     pct = np.array([0.01 if pr.mode == "relative" else 1.0 for pr in space.parameters])
@@ -119,7 +123,7 @@ def design_sensitivities(block, x: np.ndarray, theta, slot_hz=None) -> list[Sens
     # the objective
     kind = block.objective
     obj = OBJECTIVES[kind]
-    dj = jp[0, th] + jx[0, u] @ du
+    dj = jp_th + jx[0, u] @ du
     if naux:
         ep = [(c, row, n) for c, row, n in block.con_rows if c.name.startswith("epigraph_")]
         c, row, n = ep[0]
@@ -169,6 +173,11 @@ def reoptimized_sensitivities(prob, sol) -> dict:
     out = {}
     for k in range(prob.K):
         lam = -sol.lam_p[prob.theta_slice(k)]  # d f* / d theta (CasADi's sign convention)
+        if getattr(prob.block, "distortion", False):  # through the scenario's terms too
+            b = prob.block
+            b.select(prob.thetas[k], prob.slots[k])
+            cols, dq = b.terms_theta_jacobian(sol.x[:b.nz], prob.thetas[k])
+            lam = lam - sol.lam_p[k * b.np + cols] @ dq
         d = lam * (obj.to_natural(1.0) - obj.to_natural(0.0)) if obj.db else \
             lam * obj.to_natural(sol.objective)
         if np.any(np.abs(d) > 1e-9):

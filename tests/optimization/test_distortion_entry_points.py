@@ -165,3 +165,27 @@ def test_a_one_point_sweep_is_isodesign_optimize_table(tmp_path):
     f = sw.to_frame()
     assert f["error"].fillna("").iloc[0] == "", f["error"].iloc[0]
     assert f["objective_value"].iloc[0] == pytest.approx(res.objective_value, abs=1e-6)
+
+
+def test_robust_sensitivities_carry_the_terms_dependence_on_the_scenario():
+    """The design-held sensitivities of the robust block (the implicit function theorem on
+    its NLP, the terms' values moved with theta by their own differences) against central
+    differences of the NumPy analysis with the distortion (scenario_check)."""
+    from isodesign.optimization.sensitivity import design_sensitivities
+
+    st = small_vertical(scenarios=BOX)
+    block = ScenarioBlock(st)
+    sp = block.space
+    th = 0.5 * (sp.lower() + sp.upper()) + 0.1 * (sp.upper() - sp.lower())
+    block.select(th)
+    x = block.initial_guess(DESIGN)
+    sens = {(s.quantity, s.parameter): s for s in design_sensitivities(block, x, th)}
+    for k, p in enumerate(sp.parameters):
+        h = 1e-6 * max(1.0, abs(th[k]))
+        tp, tm = th.copy(), th.copy()
+        tp[k] += h
+        tm[k] -= h
+        cp, cm = (scenario_check(st, DESIGN, t, grid=block.grid) for t in (tp, tm))
+        scale = 0.01 if p.mode == "relative" else 1.0  # per percent
+        fd = (cp["objective"] - cm["objective"]) / (2 * h) * scale
+        assert sens[("objective", p.name)].per_unit == pytest.approx(fd, rel=1e-4, abs=1e-7)
