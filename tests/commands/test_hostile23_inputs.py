@@ -146,3 +146,55 @@ def test_a_run_that_did_not_finish_is_not_called_infeasible(tmp_path, capsys, bu
     assert f"the optimize run was {status} (run_status {status})" in err[0]
     assert "no feasible design" not in err[0]
     assert not out.exists()
+
+
+# robust table scenarios whose corner no valve can level: found after the nominal optimum
+# (15 s), and named table.leveling_groups / table.supply_pressure_pa, not the scenario key
+UNLEVELABLE = [
+    ({"cg_offset_x_m": {"absolute": 0.35}},
+     ["scenarios.cg_offset_x_m: the offset (-0.35, 0) m", "triangle of the leveling groups'",
+      "valid: scenarios.cg_offset_x_m within (-0.3, 0.3) m"]),
+    ({"cg_offset_x_m": {"absolute": 0.2}, "cg_offset_y_m": {"absolute": 0.2}},
+     ["scenarios.cg_offset_x_m and scenarios.cg_offset_y_m", "triangle"]),
+    ({"payload_mass_kg": {"min": 500.0, "max": 1400.0}},
+     ["scenarios.payload_mass_kg: a payload of 1400 kg", "table.supply_pressure_pa",
+      "valid: up to 1297.1 kg"]),
+]
+
+
+@pytest.mark.parametrize("scenarios, fragments", UNLEVELABLE,
+                         ids=["cg_x_beyond_groups", "cg_xy_corner", "payload_above_supply"])
+def test_robust_table_refuses_an_unlevelable_corner_before_any_solve(monkeypatch, scenarios,
+                                                                     fragments):
+    import isodesign
+    from isodesign.optimization import table_driver
+    from isodesign.optimization.study import table_study
+
+    def _no_solve(*a, **k):
+        raise AssertionError("the nominal optimum started before the refusal")
+
+    monkeypatch.setattr(table_driver, "optimize_table", _no_solve)
+    st = table_study().with_changes({"scenarios": scenarios})
+    with pytest.raises(InputError) as err:
+        isodesign.optimize(st)
+    for f in fragments:
+        assert f in str(err.value)
+
+
+def test_robust_table_within_the_groups_triangle_is_not_refused():
+    from isodesign.optimization.robust_table import check_robust_table
+    from isodesign.optimization.study import table_study
+
+    check_robust_table(table_study().with_changes(
+        {"scenarios": {"payload_mass_kg": {"min": 480.0, "max": 900.0},
+                       "cg_offset_x_m": {"absolute": 0.05}, "cg_offset_y_m": {"absolute": 0.05}}}))
+
+
+def test_cli_robust_table_unlevelable_corner_one_line(tmp_path, capsys, table_raw):
+    text = (resources.files("isodesign") / "data" / "table_study.toml").read_text()
+    f = tmp_path / "robust.toml"
+    f.write_text(text + "\n[scenarios]\ncg_offset_x_m = {absolute = 0.35}\n")
+    code, _out, err = _cli(capsys, ["optimize", str(f), "-o", str(tmp_path / "o")])
+    assert code == 2 and len(err) == 1, err
+    assert "robust.toml: scenarios.cg_offset_x_m" in err[0] and "(-0.3, 0.3) m" in err[0]
+    assert not (tmp_path / "o").exists()
