@@ -198,3 +198,74 @@ def test_cli_robust_table_unlevelable_corner_one_line(tmp_path, capsys, table_ra
     assert code == 2 and len(err) == 1, err
     assert "robust.toml: scenarios.cg_offset_x_m" in err[0] and "(-0.3, 0.3) m" in err[0]
     assert not (tmp_path / "o").exists()
+
+
+def _free_lever_robust_study():
+    from isodesign.optimization.study import table_study
+
+    return table_study().with_changes({
+        "variables.pendulum_length_m": {"fixed": False, "lower": 0.05, "upper": 0.4},
+        "variables.lateral_stiffness_n_per_m": {"fixed": False, "lower": 2e3, "upper": 5e4},
+        "scenarios": {"payload_mass_kg": {"min": 550.0, "max": 650.0},
+                      "cg_offset_x_m": {"absolute": 0.02}}})
+
+
+LEVERS = {"pendulum_length_m": 0.3, "lateral_stiffness_n_per_m": 8000.0}
+
+
+def test_api_yield_takes_a_codesigned_optimums_lever_values():
+    # res.values of a co-designed optimum name its levers: refused before as "unknown
+    # design variable 'pendulum_length_m'"; now the table with those levers is judged
+    from isodesign.optimization.yields import estimate_yield
+
+    st = _free_lever_robust_study()
+    spring = {v.name: v.start for v in st.variables}
+    got = estimate_yield(st, {**spring, **LEVERS}, samples=3, workers=1)
+    want = estimate_yield(st.with_levers_fixed(LEVERS), spring, samples=3, workers=1)
+    assert got.fraction == want.fraction
+    assert got.worst_margin_db() == pytest.approx(want.worst_margin_db(), abs=1e-9)
+    other = estimate_yield(st.with_levers_fixed({**LEVERS, "pendulum_length_m": 0.1}),
+                           spring, samples=3, workers=1)
+    assert abs(other.worst_margin_db() - got.worst_margin_db()) > 1e-3  # the levers count
+    with pytest.raises(InputError, match=r"values\['pendulum_length_m'\] = 0.2, but "
+                       r"variables.pendulum_length_m is fixed at 0.3"):
+        estimate_yield(st.with_levers_fixed(LEVERS), {**spring, **LEVERS,
+                                                      "pendulum_length_m": 0.2}, samples=3)
+    with pytest.raises(InputError, match="the free lever lateral_stiffness_n_per_m has no "
+                                         "value"):
+        estimate_yield(st, {**spring, "pendulum_length_m": 0.3}, samples=3)
+
+
+def test_cli_yield_of_a_codesigned_run_fixes_the_studys_free_levers_at_its_values(
+        tmp_path, capsys, builtin_table_run):
+    # `yield RUN --study S` with S's levers free: refused before ("fix the levers"); the
+    # run's optimum (design.json) says which table was built
+    import json
+    import shutil
+
+    from isodesign.optimization.yields import estimate_yield
+
+    _printed, run = builtin_table_run
+    cd = tmp_path / "codesigned"
+    shutil.copytree(run, cd)
+    dj = json.loads((cd / "design.json").read_text())
+    for k, v in LEVERS.items():
+        dj["variables"][k] = {"value": v, "fixed": False}
+    (cd / "design.json").write_text(json.dumps(dj))
+    st = _free_lever_robust_study()
+    f = tmp_path / "robust.toml"
+    f.write_text((resources.files("isodesign") / "data" / "table_study.toml").read_text()
+                 + "\n[variables.pendulum_length_m]\nfixed = false\nlower = 0.05\nupper = 0.4\n"
+                 "[variables.lateral_stiffness_n_per_m]\nfixed = false\nlower = 2e3\n"
+                 "upper = 5e4\n[scenarios]\npayload_mass_kg = {min = 550.0, max = 650.0}\n"
+                 "cg_offset_x_m = {absolute = 0.02}\n")
+    code, _out, err = _cli(capsys, ["yield", str(cd), "--study", str(f), "--samples", "3",
+                                    "--workers", "1", "--no-plots", "-o", str(tmp_path / "y")])
+    assert code == 0, err
+    y = json.loads((tmp_path / "y" / "yield.json").read_text())
+    spring = {k: dj["variables"][k]["value"] for k in ("volume_ratio", "top_volume_m3",
+                                                       "capillary_length_m",
+                                                       "capillary_diameter_m")}
+    want = estimate_yield(st.with_levers_fixed(LEVERS), spring, samples=3, workers=1)
+    assert y["fraction"] == want.fraction
+    assert y["worst_margin_db"] == pytest.approx(want.worst_margin_db(), abs=1e-9)
