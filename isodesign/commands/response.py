@@ -50,7 +50,7 @@ from isodesign.spring.stiffness import AMPLITUDE_MODES
 DEFAULT_KG_PER_ISOLATOR = 100.0
 #: Library parameter -> the option a user typed (error messages).
 RESPONSE_OPTION_NAMES = {"floor": "--floor", "target": "--target", "diaphragm": "--diaphragm",
-                         "bands": "--bands"}
+                         "bands": "--bands", "amplitude_mode": "--amplitude-mode"}
 #: Ranges of the counts a user gives: --isolators, --points-per-band.
 ISOLATORS_RANGE = (1, 1000)
 POINTS_PER_BAND_RANGE = (2, 2000)

@@ -91,11 +91,17 @@ CLI_REFUSED = [
     # a diaphragm table that cannot be read: the message named no option
     (["transmissibility", "--diaphragm", "table:{missing}", "-o", "{out}.csv"],
      ["--diaphragm:", "cannot read"]),
+    # the paper's flow model with the default amplitude mode: named the library argument
+    (["transmissibility", "--flow", "zhao", "--acoustics", "lumped", "-o", "{out}.csv"],
+     ["--amplitude-mode: 'self_consistent' is not defined for flow='zhao'"]),
+    (["stiffness", "--flow", "zhao", "-o", "{out}.csv"], ["--amplitude-mode: 'self_consistent'"]),
+    (["response", "--flow", "zhao", "-o", "{out}.csv"], ["--amplitude-mode: 'self_consistent'"]),
 ]
 
 
-@pytest.mark.parametrize("argv, fragments", CLI_REFUSED, ids=["toml_duplicate_key",
-                                                              "diaphragm_missing"])
+@pytest.mark.parametrize("argv, fragments", CLI_REFUSED, ids=[
+    "toml_duplicate_key", "diaphragm_missing", "transmissibility_zhao_amplitude_mode",
+    "stiffness_zhao_amplitude_mode", "response_zhao_amplitude_mode"])
 def test_cli_refuses_in_one_line_naming_it(tmp_path, capsys, argv, fragments):
     (tmp_path / "dup.toml").write_text("[payload]\nmass_kg = 600\nmass_kg = 700\n")
     names = {"dup": str(tmp_path / "dup.toml"), "out": str(tmp_path / "out"),
