@@ -399,7 +399,9 @@ def resolve_job(args, *, extra_payload: dict | None = None):
     floor = DEFAULT_FLOOR if floor is None else floor
     target = DEFAULT_TARGET if target is None else target
     if study is not None and getattr(args, "acoustics", None) is not None:
-        study = study.with_changes(models={"acoustics": args.acoustics})
+        from isodesign.commands import acoustics_override
+
+        study = acoustics_override(study, args.acoustics)
     return SimpleNamespace(design=design, label=label, payload=payload, floor=floor,
                            target=target, bands=bands, judged_hz=judged_hz, models=models,
                            models_source=models_source, study=study)

@@ -96,15 +96,23 @@ CLI_REFUSED = [
      ["--amplitude-mode: 'self_consistent' is not defined for flow='zhao'"]),
     (["stiffness", "--flow", "zhao", "-o", "{out}.csv"], ["--amplitude-mode: 'self_consistent'"]),
     (["response", "--flow", "zhao", "-o", "{out}.csv"], ["--amplitude-mode: 'self_consistent'"]),
+    # --acoustics lumped over a study with the chambers' heat exchange: named the study only
+    (["optimize", "{heat}", "--acoustics", "lumped", "-o", "{out}"],
+     ["--acoustics lumped: ", "heat.toml: models.acoustics = \"lumped\"",
+      "chamber_heat_exchange"]),
 ]
 
 
 @pytest.mark.parametrize("argv, fragments", CLI_REFUSED, ids=[
     "toml_duplicate_key", "diaphragm_missing", "transmissibility_zhao_amplitude_mode",
-    "stiffness_zhao_amplitude_mode", "response_zhao_amplitude_mode"])
+    "stiffness_zhao_amplitude_mode", "response_zhao_amplitude_mode", "acoustics_over_study"])
 def test_cli_refuses_in_one_line_naming_it(tmp_path, capsys, argv, fragments):
     (tmp_path / "dup.toml").write_text("[payload]\nmass_kg = 600\nmass_kg = 700\n")
+    (tmp_path / "heat.toml").write_text(
+        (resources.files("isodesign") / "data" / "table_study.toml").read_text()
+        + "\n[hardware]\nchamber_heat_exchange = true\n")
     names = {"dup": str(tmp_path / "dup.toml"), "out": str(tmp_path / "out"),
+             "heat": str(tmp_path / "heat.toml"),
              "missing": str(tmp_path / "missing.csv")}
     status, _out, err = _cli(capsys, [a.format(**names) for a in argv])
     assert status == 2
