@@ -67,6 +67,10 @@ def _valid_keys() -> list[str]:
     keys += [f"hardware.gas.{k}" for k in sorted(SCHEMA_KEYS["hardware.gas"])]
     keys += [f"variables.{v}.{f}" for v in _variables() for f in ("start", "lower", "upper",
                                                                   "fixed")]
+    from isodesign.table.layout import POSITION_LEVER  # the free positions (table.md s. 15)
+    from isodesign.table.study import POSITION_KEYS
+
+    keys += [f"variables.{POSITION_LEVER}.{f}" for f in POSITION_KEYS]
     return ["name", *keys]
 
 
@@ -107,6 +111,7 @@ def check_key(key: str, option: str = "--vary") -> str:
         valid = [f"variables.{v}.{{start,lower,upper,fixed}}"
                  for v in (*DESIGN_VARIABLES, *CODESIGN_LEVERS)]
         valid.append("variables.<variable>_group<1..3>.{start,lower,upper,fixed}")
+        valid.append("variables.isolator_positions_m.{fixed,start,polygon_m}")
         where = "[variables]"
     else:
         others = sorted(set(SCHEMA_KEYS[""]) - {*_TABLES, "variables", "name", "description"})

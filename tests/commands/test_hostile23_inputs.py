@@ -283,3 +283,46 @@ def test_cli_yield_of_a_codesigned_run_fixes_the_studys_free_levers_at_its_value
     want = estimate_yield(st.with_levers_fixed(LEVERS), spring, samples=3, workers=1)
     assert y["fraction"] == want.fraction
     assert y["worst_margin_db"] == pytest.approx(want.worst_margin_db(), abs=1e-9)
+
+
+POLY = [[-0.75, -0.5], [0.75, -0.5], [0.75, 0.5], [-0.75, 0.5]]
+
+
+def test_sweep_varies_the_position_levers_keys(tmp_path):
+    # variables.isolator_positions_m.{fixed,start,polygon_m} are study keys: --vary and the
+    # API refused them as "unknown key"
+    import isodesign
+    from isodesign.optimization.study import table_study
+
+    start = [[-0.5, -0.4], [0.6, -0.4], [0.6, 0.4], [-0.6, 0.4]]
+    free = {"variables.isolator_positions_m.fixed": False,
+            "variables.isolator_positions_m.polygon_m": POLY,
+            "variables.isolator_positions_m.start": start}
+    res = isodesign.sweep(table_study(), points=[free], output=tmp_path / "s",
+                          task="response", charts=False, scheduler="serial")
+    assert res.failed == 0 and len(res.table) == 1
+    # the point is the table with its isolator 1 moved, not the base
+    want = isodesign.analyze(table_study().with_changes(free))
+    assert res.table["objective_value"].iloc[0] == pytest.approx(want.worst_margin_db,
+                                                                 abs=1e-9)
+    base = isodesign.analyze(table_study())
+    assert abs(want.worst_margin_db - base.worst_margin_db) > 1e-3
+    with pytest.raises(InputError, match=r"isolator_positions_m\.polygon_m"):
+        isodesign.sweep(table_study(), {"variables.isolator_positions_m.polygon_m":
+                                        [POLY[:2]]}, output=tmp_path / "s2", task="response",
+                        charts=False, scheduler="serial")
+
+
+def test_sweep_refuses_a_point_the_vary_made_robust_before_any_runs(tmp_path):
+    # a --vary that adds [scenarios] to a response sweep: every point failed one by one
+    import isodesign
+    from isodesign.optimization.study import table_study
+
+    with pytest.raises(InputError) as err:
+        isodesign.sweep(table_study(), {"scenarios.cg_offset_x_m.absolute": [0.02, 0.04]},
+                        output=tmp_path / "s", task="response", charts=False,
+                        scheduler="serial")
+    msg = str(err.value)
+    assert "[scenarios]: isodesign response does not answer a robust study" in msg
+    assert "(at the point scenarios.cg_offset_x_m.absolute=0.02)" in msg
+    assert not (tmp_path / "s").exists()
