@@ -40,6 +40,7 @@ __all__ = [
     "MAX_GRID_POINTS",
     "MAX_LIST_VALUES",
     "PLOT_SUFFIXES",
+    "acoustics_override",
     "add_output_dir_arguments",
     "check_acoustics",
     "check_count",
@@ -572,3 +573,19 @@ def write_result(res, args, summary_text: str) -> int:
         if not to_stdout:
             print(f"wrote {args.plot}")
     return 0
+
+
+def acoustics_override(study, acoustics: str):
+    """``study`` with ``--acoustics``: a refusal names the option first (the user typed it,
+    not the study's ``models.acoustics``).
+
+    Parameters
+    ----------
+    study : Study
+    acoustics : str
+        ``--acoustics`` as given.
+    """
+    try:
+        return study.with_changes(models={"acoustics": acoustics})
+    except InputError as exc:
+        raise InputError(f"--acoustics {acoustics}: {exc}") from None

@@ -158,7 +158,9 @@ def load_study_from_args(args):
     if changes:
         study = study.with_changes(solver=changes)
     if getattr(args, "acoustics", None) is not None:
-        study = study.with_changes(models={"acoustics": args.acoustics})
+        from isodesign.commands import acoustics_override
+
+        study = acoustics_override(study, args.acoustics)
     return study
 
 

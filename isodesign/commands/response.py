@@ -50,7 +50,7 @@ from isodesign.spring.stiffness import AMPLITUDE_MODES
 DEFAULT_KG_PER_ISOLATOR = 100.0
 #: Library parameter -> the option a user typed (error messages).
 RESPONSE_OPTION_NAMES = {"floor": "--floor", "target": "--target", "diaphragm": "--diaphragm",
-                         "bands": "--bands"}
+                         "bands": "--bands", "amplitude_mode": "--amplitude-mode"}
 #: Ranges of the counts a user gives: --isolators, --points-per-band.
 ISOLATORS_RANGE = (1, 1000)
 POINTS_PER_BAND_RANGE = (2, 2000)
@@ -399,7 +399,9 @@ def resolve_job(args, *, extra_payload: dict | None = None):
     floor = DEFAULT_FLOOR if floor is None else floor
     target = DEFAULT_TARGET if target is None else target
     if study is not None and getattr(args, "acoustics", None) is not None:
-        study = study.with_changes(models={"acoustics": args.acoustics})
+        from isodesign.commands import acoustics_override
+
+        study = acoustics_override(study, args.acoustics)
     return SimpleNamespace(design=design, label=label, payload=payload, floor=floor,
                            target=target, bands=bands, judged_hz=judged_hz, models=models,
                            models_source=models_source, study=study)

@@ -157,7 +157,7 @@ def compute(design, freq, amp, *, flow, amplitude_mode, diaphragm, label=None):
     import warnings
 
 
-    with option_names(diaphragm="--diaphragm"):
+    with option_names(diaphragm="--diaphragm", amplitude_mode="--amplitude-mode"):
         res = complex_stiffness(design, freq, amp, flow=flow, amplitude_mode=amplitude_mode,
                                 diaphragm=diaphragm, warn=False)
     prefix = f"{label}: " if label else f"{flow}/{amplitude_mode}: "

@@ -139,7 +139,7 @@ def run(args) -> int:
         return run_table(args, job, freq, amp)
     check_payload_pressure(job.design, job.payload, not args.design_pressure)
     m = job.models
-    with option_names(diaphragm="--diaphragm"):
+    with option_names(diaphragm="--diaphragm", amplitude_mode="--amplitude-mode"):
         res = harmonic_response(
             job.design,
             job.payload,

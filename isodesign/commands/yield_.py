@@ -77,10 +77,12 @@ def _design_values(path: Path) -> tuple[dict, str, Path | None]:
     return {n: float(getattr(d, n)) for n in DESIGN_VARIABLES}, str(path), None
 
 
-def _check_run_levers(path: Path, study, study_path) -> None:
+def _check_run_levers(path: Path, study, study_path):
     """A co-designed run's levers (its ``design.json``) against the study's: a lever the
     study fixes at another value would judge another table than the run's optimum (the
-    spring alone is in ``design.toml``), so it is refused naming the key."""
+    spring alone is in ``design.toml``), so it is refused naming the key; levers the study
+    leaves free are fixed at the run's values (the optimum's table is the one built).
+    Returns the study to draw from."""
     import math
 
     from isodesign.errors import InputError
@@ -89,11 +91,11 @@ def _check_run_levers(path: Path, study, study_path) -> None:
 
     dj = path / "design.json" if path.is_dir() else None
     if dj is None or not dj.is_file() or (path / "robust.json").is_file():
-        return
+        return study
     try:
         variables = read_json(dj, what="design.json").get("variables") or {}
     except (AttributeError, InputError):
-        return  # the design itself is read from design.toml; its errors name it
+        return study  # the design itself is read from design.toml; its errors name it
     levers = {n: v.get("value") for n, v in variables.items() if isinstance(v, dict)
               and n in (*CODESIGN_LEVERS, *GROUP_SPRING_LEVERS)}
     own = {v.name: v for v in getattr(study, "levers", ())}
@@ -107,6 +109,10 @@ def _check_run_levers(path: Path, study, study_path) -> None:
                              f"{value:g} (a co-designed lever): the yield would judge another "
                              f"table; fix it at the run's value (fixed = true, start = "
                              f"{value!r})")
+    free = [v.name for v in own.values() if v.free]
+    if free and all(isinstance(levers.get(n), int | float) for n in free):
+        return study.with_levers_fixed(levers)  # the run's co-designed table
+    return study
 
 
 def _write_partial(path: Path, study, values: dict, finished: dict, args, label: str):
@@ -153,7 +159,7 @@ def run(args) -> int:
     if study.scenarios is None:
         raise InputError(f"--study: {study_path} has no [scenarios] table (the laws the "
                          "built tables are drawn from; docs/robust.md)")
-    _check_run_levers(Path(args.design), study, study_path)
+    study = _check_run_levers(Path(args.design), study, study_path)
     with run_directory(args, "yield", known_outputs=OUTPUT_FILES) as rundir:
         rundir.record.update({"kind": "isodesign yield", "environment": environment(),
                               "command_line": command_line(["yield", str(args.design),

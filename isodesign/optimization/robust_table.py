@@ -452,6 +452,11 @@ def check_robust_table(study) -> None:
     from isodesign.table.leveling import leveling_margin_bounds
 
     refuse_free_levers(study, "robust design")
+    from isodesign.optimization.uncertainty import cg_corner_problem
+
+    unlevelable = cg_corner_problem(study.source, study.scenarios, study)
+    if unlevelable is not None:  # no robust design holds a corner no valve can level
+        raise InputError(unlevelable)
     if leveling_margin_bounds(study) != (None, None):  # not held over the scenarios yet
         raise InputError("constraints.min_leveling_gain_margin_db: the robust table optimizer "
                          "does not hold the leveling loop's margins over the scenarios; set "

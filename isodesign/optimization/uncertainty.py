@@ -504,6 +504,93 @@ def parse_scenarios(table, where: str, study) -> UncertaintySpace | None:
     return space
 
 
+def cg_corner_problem(where: str, space: UncertaintySpace, study) -> str | None:
+    """The message if a corner of the scenarios cannot be leveled (a table study).
+
+    Inside the support polygon (checked per key when the study is read) is not enough: a
+    CG outside the triangle of the three groups' centroids leaves one valve without load,
+    and the heaviest payload of ``payload_mass_kg`` may need a p0 above
+    ``table.supply_pressure_pa``. A yield answers them (those draws fail the leveling); the
+    robust table optimizer refuses them before any solve
+    (:func:`.robust_table.check_robust_table`), naming the keys and each one's valid range.
+    None for a free layout or inertia base (their levers move the centroids and the loads).
+
+    Parameters
+    ----------
+    where : str
+        The study's source, to start the message.
+    space : UncertaintySpace
+        The study's scenarios.
+    study : Study
+        The nominal study, with ``table``.
+
+    Returns
+    -------
+    str or None
+    """
+    t = getattr(study, "table", None)
+    keys = [n for n in (*TABLE_PARAMETERS, "payload_mass_kg") if n in space.names]
+    if t is None or not keys or t.leveling_groups is None:
+        return None
+    if any(not v.fixed and v.name.startswith(("layout_", "isolator_", "inertia_base"))
+           for v in getattr(study, "levers", ())):
+        return None
+    import dataclasses
+
+    from isodesign.table.statics import group_loads_at, supply_limited_mass_kg
+
+    xy = np.asarray(t.isolators_m, float)
+    c0 = np.array(t.cg_m, float)
+    a_p = float(study.hardware["piston_area_m2"])
+    m_p = float(study.payload.mass_kg)
+    slab = float(t.mass_kg) - m_p
+
+    def at(dx: float, dy: float, m: float = m_p):
+        cg = c0.copy()
+        cg[0] += dx
+        cg[1] += dy
+        return dataclasses.replace(t, cg_m=cg, mass_kg=slab + m)
+
+    def loads(dx: float, dy: float) -> np.ndarray:
+        return np.array(group_loads_at(at(dx, dy), xy), float)
+
+    par = {p.name: p for p in space.parameters}
+    axes = {n: (par[n].values if par[n].discrete else (par[n].lo, par[n].hi)) for n in keys}
+    w = float(t.weight_n)
+    for dx in axes.get("cg_offset_x_m", (0.0,)):
+        for dy in axes.get("cg_offset_y_m", (0.0,)):
+            p = loads(dx, dy)
+            g = int(np.argmin(p))
+            if p[g] <= 1e-9 * w:
+                cg_keys = [n for n in keys if n != "payload_mass_kg"]
+                ranges = []
+                for n in cg_keys:  # each key's valid range with the other offset at 0
+                    e = (1.0, 0.0) if n.endswith("x_m") else (0.0, 1.0)
+                    a, slope = loads(0.0, 0.0), loads(*e) - loads(0.0, 0.0)  # linear
+                    lo = max([-a[k] / slope[k] for k in range(3) if slope[k] > 0],
+                             default=-np.inf)
+                    hi = min([-a[k] / slope[k] for k in range(3) if slope[k] < 0],
+                             default=np.inf)
+                    ranges.append(f"scenarios.{n} within ({lo:.4g}, {hi:.4g}) m")
+                named = " and ".join(f"scenarios.{n}" for n in cg_keys)
+                return (f"{where}: {named}: the offset ({dx:g}, {dy:g}) m moves the CG to "
+                        f"({c0[0] + dx:.4g}, {c0[1] + dy:.4g}) m, outside the triangle of the "
+                        f"leveling groups' centroids: group {g + 1} (from 1) would carry "
+                        f"{p[g]:.4g} N per isolator, its valve no load; valid: "
+                        f"{'; '.join(ranges)} (alone), or regroup table.leveling_groups")
+            if "payload_mass_kg" not in axes:
+                continue
+            heaviest = supply_limited_mass_kg(at(dx, dy), a_p) + m_p - slab
+            m = max(axes["payload_mass_kg"])
+            if m > heaviest:
+                off = f" with the CG offset ({dx:g}, {dy:g}) m" if dx or dy else ""
+                return (f"{where}: scenarios.payload_mass_kg: a payload of {m:g} kg{off} needs "
+                        f"a p0 above table.supply_pressure_pa ({t.supply_pressure_pa:g} Pa), "
+                        f"so no valve can level it; valid: up to {heaviest:.5g} kg at this "
+                        "supply (or raise the supply, larger pistons, more isolators)")
+    return None
+
+
 class ScaledDiaphragm:
     """A diaphragm model whose complex stiffness is scaled by ``1 + delta`` (any backend)."""
 

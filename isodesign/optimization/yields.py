@@ -314,6 +314,31 @@ class YieldResult(ResultDisplay):
         return yield_histogram(self, ax=ax)
 
 
+def _fix_given_levers(study, values):
+    """``(study, spring values)``: a co-designed optimum's values (``res.values``) name its
+    levers too; the study's free levers are fixed at them (the table that is built), a
+    fixed lever given at another value is refused naming it (it would judge another
+    table). Values without levers pass unchanged."""
+    import math
+
+    if not isinstance(values, dict):
+        return study, values
+    own = {v.name: v for v in getattr(study, "levers", ())}
+    given = {k: v for k, v in values.items() if k in own}
+    if not given:
+        return study, values
+    for k, v in given.items():
+        spec = own[k]
+        if spec.fixed and isinstance(v, int | float) and not isinstance(v, bool) \
+                and not math.isclose(v, spec.start, rel_tol=1e-9, abs_tol=1e-12):
+            raise InputError(f"values[{k!r}] = {v:g}, but variables.{k} is fixed at "
+                             f"{spec.start:g} in the study: the yield would judge another "
+                             "table; free the lever or give its fixed value")
+    if any(v.free for v in own.values()):
+        study = study.with_levers_fixed(given)  # its errors name values[...]
+    return study, {k: v for k, v in values.items() if k not in own}
+
+
 def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
                    confidence: float = 0.95, workers: int | None = None,
                    label: str = "", progress=None) -> YieldResult:
@@ -354,6 +379,7 @@ def estimate_yield(study, values: dict, *, samples: int = 1000, seed: int = 0,
 
     if not isinstance(study, Study):
         raise InputError(f"study: expected a Study (load_study), got {type(study).__name__}")
+    study, values = _fix_given_levers(study, values)
     values = check_design_values(values, "values")
     if study.scenarios is None:
         raise InputError("yield: the study has no [scenarios] table (the laws to draw from)")

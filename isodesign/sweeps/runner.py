@@ -380,6 +380,13 @@ def sweep(study=None, vary=None, *, output, combine: str = "product", points=Non
     tables, keys = _tables(vary, combine, points)
     pts, dropped = build_points(base, tables,
                                  "--points-file" if points is not None else "--vary")
+    if spec.check is not None:  # a point the --vary changed (a [scenarios] added): refused
+        for p in pts:          # before any runs, as the base is
+            try:
+                spec.check(p.study)
+            except InputError as exc:
+                at = ", ".join(f"{k}={v}" for k, v in p.changes.items())
+                raise InputError(f"{exc} (at the point {at})") from None
     if task == "pareto":  # every point's front, checked before any runs
         from isodesign.optimization.pareto import DEFAULT_OBJECTIVES, check_front
 
