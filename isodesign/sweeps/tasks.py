@@ -255,7 +255,8 @@ def _optimize_vertical(study, options: dict):
     pairs = [(i, v) for i, r in enumerate(given) for v in neighbour_starts([r])]
     # between checkpoints a point is solved from its predecessor's optimum alone, and
     # again with its own starts when its answer jumped (docs/sweep.md, section 7)
-    own, since = needs_own_starts(given, bool(options.get("_resolved", False)))
+    own, since = needs_own_starts(given, bool(options.get("_resolved", False)),
+                                  int(study.solver["starts"]))
     extra = tuple(v for _, v in pairs)
     preset = _preset_peak_slots(study, prob, given)
     slots0 = prob.slot_hz.copy()
