@@ -368,6 +368,17 @@ def _wait_for(path: Path, proc, timeout_s: float = 3600.0) -> dict:
     return _reference(_points())
 
 
+def _cpus(olds, new) -> str:
+    """The points' summed CPU seconds of both arms (medians) and their ratio."""
+    co = [a.get("cpu_s") for a in olds if a.get("cpu_s")]
+    cn = [a.get("cpu_s") for a in new if a.get("cpu_s")]
+    if not co or not cn:
+        return "points' CPU time not reported"
+    o, n = statistics.median(co), statistics.median(cn)
+    return (f"the points' CPU time (summed, medians) {OLD_COMMIT} {o:.1f} s, this {n:.1f} s: "
+            f"{o / n:.2f}x")
+
+
 def _walls(arms) -> str:
     return ", ".join(f"{a['wall_s']:.1f}" for a in arms)
 
@@ -475,7 +486,8 @@ def run(repeats: int | None = None) -> list[dict]:
                   f"{t_new:.1f} s ({_walls(new)}); NLPs built "
                   f"{new[-1]['nlp_builds']} (c243645: one per point), points that changed "
                   f"branch {new[-1]['branch_changed']}, solved again {new[-1]['resolved']}; "
-                  f"load average {min(loads):.1f}-{max(loads):.1f} on 2 cores"},
+                  f"load average {min(loads):.1f}-{max(loads):.1f} on 2 cores; "
+                  f"{_cpus(olds, new)}"},
         {"name": f"sweep: worst gap of a point to an {REFERENCE_STARTS}-start cold optimize",
          "target": f"<= {TARGET_GAP_DB}", "median": worst, "unit": "dB",
          "ratio": worst / TARGET_GAP_DB if worst > 0 else 0.0,

@@ -14,8 +14,9 @@ points per band, one start) over ``floor.criterion = VC-A,VC-B,VC-C`` x ``floor.
 0.5,1.0`` serially and prints the NLPs built (the table's parametric NLP, section 7);
 ``--table-payload`` the same table over ``payload.mass_kg = 500,600,700`` x
 ``payload.cg_height_m = 0.25,0.45`` (the payload's mass and CG height as parameters);
-``--table-nlp [--codesign]`` the build's and a solve's CPU time of the table's parametric
-NLP against a fresh build at one payload point (``table_study()``, or ``default_study()``).
+``--table-nlp [--codesign] [--floor]`` the build's and a solve's CPU time of the table's
+parametric NLP against a fresh build at one payload point (``table_study()``, or
+``default_study()``; ``--floor``: at another floor, on the NLP that folds the payload).
 """
 
 from __future__ import annotations
@@ -104,10 +105,12 @@ def _table(payload: bool = False) -> None:
     print(f"\n{len(res.table)} points in {wall:.1f} s, {res.nlp_builds} NLPs built")
 
 
-def _table_nlp(codesign: bool) -> None:
+def _table_nlp(codesign: bool, floor: bool = False) -> None:
     """The table's parametric NLP against a fresh build of one point (a heavier payload with
-    another CG height): the build's CPU time and three solves' CPU time each, from the same
-    start (the same optimum and iterations)."""
+    another CG height; ``floor``: another floor criterion, on the NLP that folds the payload,
+    ``payload=False``, as a sweep that varies no payload key builds it): the build's CPU
+    time and three solves' CPU time each, from the same start (the same optimum and
+    iterations)."""
     import copy
 
     from isodesign.optimization.study import default_study, study_from_dict, table_study
@@ -119,9 +122,10 @@ def _table_nlp(codesign: bool) -> None:
     raw["models"]["points_per_band"] = 3
     raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
     base = study_from_dict(raw, source="small_table.toml", fill_defaults=False)
-    st = base.with_changes({"payload.mass_kg": 700.0, "table.cg_m": [0.0, 0.0, 0.45]})
+    st = base.with_changes({"floor.criterion": "VC-B"}) if floor else \
+        base.with_changes({"payload.mass_kg": 700.0, "table.cg_m": [0.0, 0.0, 0.45]})
     t = time.process_time()
-    shared = TableParametricProblem(base)
+    shared = TableParametricProblem(base, payload=not floor)
     build_p = time.process_time() - t
     t = time.process_time()
     fresh = TableProblem(st)
@@ -143,7 +147,7 @@ def _table_nlp(codesign: bool) -> None:
 if __name__ == "__main__":
     warnings.simplefilter("ignore")
     if "--table-nlp" in sys.argv[1:]:
-        _table_nlp("--codesign" in sys.argv[1:])
+        _table_nlp("--codesign" in sys.argv[1:], floor="--floor" in sys.argv[1:])
     elif "--table" in sys.argv[1:] or "--table-payload" in sys.argv[1:]:
         _table(payload="--table-payload" in sys.argv[1:])
     else:

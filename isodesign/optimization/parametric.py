@@ -329,7 +329,7 @@ class ProblemCache:
         self.builds = 0
 
     def get(self, study, objectives: tuple | None = None,
-            extra_peak_hz: tuple = ()) -> ParametricProblem:
+            extra_peak_hz: tuple = (), payload: bool = True) -> ParametricProblem:
         """The problem of ``study`` (built on the first study of its structure).
 
         Parameters
@@ -337,6 +337,10 @@ class ProblemCache:
         study : Study
         objectives : tuple of str, optional
         extra_peak_hz : tuple of float
+        payload : bool
+            A table study: its payload as parameters where the table NLP allows (default);
+            False folds its numbers (a sweep that varies no payload key:
+            :func:`~isodesign.sweeps.tasks.payload_varies`).
 
         Returns
         -------
@@ -345,7 +349,7 @@ class ProblemCache:
         """
         objectives = tuple(objectives or (study.objective["kind"],))
         if getattr(study, "table", None) is not None and self._factory is ParametricProblem:
-            return self._table(study, objectives)
+            return self._table(study, objectives, payload)
         extra = tuple(extra_peak_hz)
         grid = build_grid(study, objectives=objectives, extra_peak_hz=extra, slots=PEAK_SLOTS)
         skey = structure_key(study, objectives, extra, grid)
@@ -360,7 +364,7 @@ class ProblemCache:
         self._built[key] = prob
         return prob.at(study, grid=grid, key=skey) or prob
 
-    def _table(self, study, objectives: tuple):
+    def _table(self, study, objectives: tuple, payload: bool = True):
         """A table study's problem (:class:`~.table_parametric.TableParametricProblem`):
         one NLP per structure, and one more with movable peak frequencies when a point's
         refinement needs them (both counted)."""
@@ -369,7 +373,7 @@ class ProblemCache:
             table_structure_key,
         )
 
-        key = ("table", table_structure_key(study, objectives), objectives)
+        key = ("table", table_structure_key(study, objectives, payload=payload), objectives)
         # the same key, another grid or count of peak rows (checked by at): kept side by side
         for i in range(len(self._built.get(key, ()))):
             view = self._built[key][i].at(study)
@@ -379,7 +383,8 @@ class ProblemCache:
         def count():
             self.builds += 1
 
-        prob = TableParametricProblem(study, objectives, family={"on_build": count})
+        prob = TableParametricProblem(study, objectives, family={"on_build": count},
+                                      payload=payload)
         self._built.setdefault(key, []).append(prob)
         return prob.at(study) or prob
 

@@ -125,7 +125,7 @@ def cg_plan_parametric(study) -> bool:
 def _payload_structure(d: dict, plan: bool) -> None:
     """The resolved study ``d`` without the payload's parameters: its mass and CG height
     (its height's sign stays), the CG's plan position when ``plan``, the principal inertia
-    (the products of inertia stay)."""
+    (the products of inertia stay), and the table's supply pressure."""
     pay = dict(d.get("payload") or {})
     pay.pop("mass_kg", None)
     if pay.get("cg_height_m") is not None:
@@ -135,6 +135,9 @@ def _payload_structure(d: dict, plan: bool) -> None:
     cg = tab.get("cg_m")
     if isinstance(cg, list | tuple) and len(cg) == 3:
         tab["cg_m"] = ["plan", "plan", "above"] if plan else [cg[0], cg[1], "above"]
+    # the supply (group) pressure: no NLP row holds it on this path (free positions' supply
+    # rows are theirs); at() levels the point's table and checks its loads and supply
+    tab.pop("supply_pressure_pa", None)
     inert = tab.get("inertia_kg_m2")
     if inert is not None:
         a = np.asarray(inert, float)
@@ -143,7 +146,8 @@ def _payload_structure(d: dict, plan: bool) -> None:
     d["table"] = tab
 
 
-def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> str:
+def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0,
+                        payload: bool = True) -> str:
     """The part of a table study that shapes its NLP: equal keys, one
     :class:`TableParametricProblem` (given the same frequency grid and peak rows, which
     :meth:`TableParametricProblem.at` checks).
@@ -156,6 +160,10 @@ def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> s
         The NLP's objectives (default: the study's).
     peak_slots : int
         Movable peak frequencies.
+    payload : bool
+        The payload as parameters where :func:`payload_parametric` allows (default); False:
+        its numbers folded into the NLP (a sweep that varies no payload key, whose solves
+        are then as fast as a fresh build's: docs/sweep.md section 7).
 
     Returns
     -------
@@ -180,10 +188,12 @@ def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0) -> s
         if k in cons:
             cons[k] = "on" if on(cons[k]) else "off"
     d["constraints"] = cons
-    if payload_parametric(study):
+    on = bool(payload) and payload_parametric(study)
+    if on:
         _payload_structure(d, cg_plan_parametric(study))
     text = json.dumps({"study": d, "objectives": list(objectives),
-                       "peak_slots": int(peak_slots)}, sort_keys=True, default=str)
+                       "peak_slots": int(peak_slots), "payload": on},
+                      sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:16]
 
 
@@ -212,21 +222,22 @@ class TableParametricProblem(TableProblem):
         return super().__new__(cls)
 
     def __init__(self, study, objectives: tuple | None = None, *, hessian: str | None = None,
-                 peak_slots: int = 0, family: dict | None = None):
+                 peak_slots: int = 0, family: dict | None = None, payload: bool = True):
         if getattr(study, "table", None) is None:
             raise InputError("study: has no [table]; the vertical study's parametric NLP is "
                              "isodesign.optimization.parametric.ParametricProblem")
         if getattr(study, "scenarios", None) is not None:
             raise InputError("[scenarios]: a robust table study builds its own NLPs")
         self._family = family if family is not None else {}
+        self._payload = bool(payload)
         self._n_payload = (7 if cg_plan_parametric(study) else 5) \
-            if payload_parametric(study) else 0
+            if payload and payload_parametric(study) else 0
         self._table0 = study.table_at(None)  # the table the geometry is built on
         super().__init__(study, objectives, hessian=hessian, peak_slots=peak_slots)
         self._leveling0 = self.leveling
         if self._family.get("on_build"):
             self._family["on_build"]()
-        self.key = table_structure_key(study, self.objectives, self.n_slots)
+        self.key = table_structure_key(study, self.objectives, self.n_slots, self._payload)
         self._n_peak_columns = self._peak_columns()
         self.q = self._point_values()
 
@@ -440,8 +451,8 @@ class TableParametricProblem(TableProblem):
         from isodesign.table.floor import table_grid
 
         if getattr(study, "table", None) is None or getattr(study, "scenarios", None) \
-                is not None or table_structure_key(study, self.objectives,
-                                                   self.n_slots) != self.key:
+                is not None or table_structure_key(study, self.objectives, self.n_slots,
+                                                   self._payload) != self.key:
             return None
         grid = table_grid(study.floor_axes, study.bands, target=study.target,
                           points_per_band=study.models["points_per_band"])
@@ -490,12 +501,14 @@ class TableParametricProblem(TableProblem):
         slotted = self._family.get(("slots", n))
         if slotted is None:
             slotted = TableParametricProblem(self.study, self.objectives, hessian=self.hessian,
-                                             peak_slots=n, family=self._family)
+                                             peak_slots=n, family=self._family,
+                                             payload=self._payload)
             self._family[("slots", n)] = slotted
         view = slotted.at(self.study)
         if view is None:  # pragma: no cover - the same structure but its slots
             view = TableParametricProblem(self.study, self.objectives, hessian=self.hessian,
-                                          peak_slots=n, family=self._family)
+                                          peak_slots=n, family=self._family,
+                                          payload=self._payload)
         view.mode_params = self.mode_params.copy()
         view.loop_params = self.loop_params.copy()
         return view

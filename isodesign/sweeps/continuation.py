@@ -144,7 +144,7 @@ def binding_set(row) -> frozenset:
     return frozenset(b for b in str(text).split(";") if b)
 
 
-def needs_own_starts(neighbours, resolve: bool = False) -> tuple[bool, int]:
+def needs_own_starts(neighbours, resolve: bool = False, starts: int = 1) -> tuple[bool, int]:
     """Whether a continued vertical point solves its own starts before it is solved.
 
     Parameters
@@ -153,18 +153,22 @@ def needs_own_starts(neighbours, resolve: bool = False) -> tuple[bool, int]:
         The finished neighbours' rows given to the point (its predecessor first).
     resolve : bool
         The branch pass's second solve (always with its own starts).
+    starts : int
+        The study's ``solver.starts``: a study that asks for more than one start per point
+        solves them at every point.
 
     Returns
     -------
     (bool, int)
         Whether the point's own starts are solved, and the points since the last one
         along the chain that solved them (0: this one). The own starts are solved at a
-        point with no feasible neighbour, at a second solve, after a predecessor that
+        point with no feasible neighbour, at a second solve, at every point of a study
+        with more than one start (``solver.starts``), after a predecessor that
         changed branch or had to solve its own starts again (:func:`jumped`), and at
         every :data:`OWN_STARTS_EVERY`-th point.
     """
     nb = next((r for r in neighbours if r), None) if neighbours else None
-    if resolve or not neighbour_starts([nb]):
+    if resolve or starts > 1 or not neighbour_starts([nb]):
         return True, 0
     since = int(nb.get("since_own_starts") or 0) + 1
     if since >= OWN_STARTS_EVERY or nb.get("branch_changed") or nb.get("own_starts_rerun"):

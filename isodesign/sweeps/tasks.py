@@ -255,7 +255,8 @@ def _optimize_vertical(study, options: dict):
     pairs = [(i, v) for i, r in enumerate(given) for v in neighbour_starts([r])]
     # between checkpoints a point is solved from its predecessor's optimum alone, and
     # again with its own starts when its answer jumped (docs/sweep.md, section 7)
-    own, since = needs_own_starts(given, bool(options.get("_resolved", False)))
+    own, since = needs_own_starts(given, bool(options.get("_resolved", False)),
+                                  int(study.solver["starts"]))
     extra = tuple(v for _, v in pairs)
     preset = _preset_peak_slots(study, prob, given)
     slots0 = prob.slot_hz.copy()
@@ -321,6 +322,28 @@ def _preset_peak_slots(study, prob, given) -> float | None:
     return f
 
 
+#: Study tables whose keys never move a table's payload (its mass, CG, inertia, supply).
+_PAYLOAD_FREE_TABLES = ("floor", "target", "constraints", "variables", "solver")
+
+
+def payload_varies(changes: dict) -> bool:
+    """Whether a sweep point's changes may move a table study's payload: its table NLP then
+    takes the payload as parameters (one NLP for every payload), else it folds the payload's
+    numbers (the solves as fast as a fresh build's; docs/sweep.md section 7).
+
+    Parameters
+    ----------
+    changes : dict
+        The point's study changes (dotted keys).
+
+    Returns
+    -------
+    bool
+        False when every key is in a floor, target, constraints, variables or solver table.
+    """
+    return not all(str(k).split(".")[0] in _PAYLOAD_FREE_TABLES for k in changes)
+
+
 def table_continuation_study(study, neighbours):
     """The study a table point is solved as: its first start its neighbour's optimum.
 
@@ -375,7 +398,7 @@ def _optimize_table(study, options: dict):
     cache = problem_cache()
     before = cache.builds
     # its study_resolved.toml: the study solved, with that start
-    result = optimize(solve, problem=cache.get(solve))
+    result = optimize(solve, problem=cache.get(solve, payload=options.get("_payload", True)))
     changed = from_nb = False
     recs = [r for r in result.starts if r[2]]  # (index, status, feasible, iter, wall, J)
     if start is not None and recs:
@@ -772,7 +795,8 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
         run.record["sweep_point"] = {"study_hash": study_hash, "changes": changes,
                                      "task": task_name, "options": options}
         run.record["sweep_point"]["neighbours"] = [r.get("point") for r in neighbours if r]
-        inner = {**options, "_neighbours": list(neighbours), "_resolved": resolve}
+        inner = {**options, "_neighbours": list(neighbours), "_resolved": resolve,
+                 "_payload": payload_varies(changes)}
         try:
             row.update(task.run(study, run, inner))
             status, error = run.status, None

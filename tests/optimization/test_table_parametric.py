@@ -24,6 +24,8 @@ CHANGES = [{"floor.criterion": "VC-B"},
            {"payload.mass_kg": 650.0, "table.cg_m": [0.0, 0.0, 0.25]},
            # the CG's plan position: the leveling's load fractions, every lever arm
            {"payload.mass_kg": 560.0, "table.cg_m": [-0.05, 0.03, 0.45]},
+           # the supply (group) pressure: the point's leveling checks it, no row holds it
+           {"table.supply_pressure_pa": 650000.0},
            # the same kinds once more each, in the slow phase
            *(pytest.param(c, marks=pytest.mark.slow) for c in (
                {"constraints.max_total_volume_m3": 0.004},
@@ -207,3 +209,45 @@ def test_the_payload_is_structure_where_its_own_path_holds_the_start_loads(base)
     assert not payload_parametric(slab)
     assert table_structure_key(slab.with_changes({"payload.mass_kg": 700.0})) != \
         table_structure_key(slab)
+
+
+def test_the_supply_pressure_is_the_points_on_the_shared_nlp(base, cache):
+    st = base.with_changes({"table.supply_pressure_pa": 650000.0})
+    view = cache.get(st)
+    assert cache.builds == 1  # no second NLP: no row holds the supply on this path
+    # the point's own table and leveling: the load and supply checks and reports are its
+    assert view.table.supply_pressure_pa == 650000.0
+    assert view.leveling.supply_pressure_pa == pytest.approx(650000.0)
+    fresh = TableProblem(st)
+    np.testing.assert_allclose(view.leveling.pressure_pa, fresh.leveling.pressure_pa,
+                               rtol=1e-12)
+
+
+def test_a_sweep_that_varies_no_payload_key_folds_the_payload_into_its_nlp(base):
+    import casadi as ca
+
+    from isodesign.sweeps.tasks import payload_varies
+
+    assert not payload_varies({"floor.criterion": "VC-B", "floor.x": {"scale": 0.5},
+                               "target.criterion": "VC-D", "constraints.max_stroke_m": 1e-3,
+                               "variables.capillary_length_m.start": 0.02})
+    assert payload_varies({"floor.criterion": "VC-B", "payload.mass_kg": 650.0})
+    assert payload_varies({"table.supply_pressure_pa": 650000.0})
+    c = ProblemCache()
+    st = base.with_changes({"floor.criterion": "VC-B"})
+    view = c.get(st, payload=False)
+    assert c.builds == 1 and view._n_payload == 0
+    fresh = TableProblem(st)
+    # the per-frequency physics is the fresh build's (the payload's numbers folded)
+    assert view._point_function(ca).n_instructions() == \
+        fresh._point_function(ca).n_instructions()
+    x0v, x0f = view.initial_guess(_start(st)), fresh.initial_guess(_start(st))
+    jv, gv = view.eval_fn(x0v, view.params())
+    jf, gf = fresh.eval_fn(x0f, fresh.params())
+    assert float(jv) == pytest.approx(float(jf), rel=1e-12, abs=1e-12)
+    np.testing.assert_allclose(np.asarray(gv), np.asarray(gf), rtol=1e-10, atol=1e-12)
+    # another floor on the same NLP; another payload is another structure there
+    assert c.get(base.with_changes({"floor.criterion": "VC-C"}), payload=False) is not None
+    assert c.builds == 1
+    c.get(base.with_changes({"payload.mass_kg": 650.0}), payload=False)
+    assert c.builds == 2

@@ -39,6 +39,9 @@ def test_own_starts_at_the_checkpoints_and_after_a_jump():
     assert needs_own_starts([None]) == (True, 0)
     assert needs_own_starts([_row(feasible=False)]) == (True, 0)
     assert needs_own_starts([_row()], resolve=True) == (True, 0)
+    # a study that asks for several starts per point solves them at every point
+    assert needs_own_starts([_row(since_own_starts=0)], starts=4) == (True, 0)
+    assert needs_own_starts([_row(since_own_starts=0)], starts=1) == (False, 1)
     # along the chain: the points between checkpoints count up, the checkpoint resets
     since, own = 0, True
     seen = []
