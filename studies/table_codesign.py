@@ -13,11 +13,12 @@ group's own spring, its four variables free within the shared bounds; the inerti
 concrete slab of the table top's 1.5 x 1.0 m under the payload, its mass free from 0 to
 the 697 kg the supply carries, docs/table.md section 16) alone and with the four levers;
 and last the default
-study (all four levers free within the practical bounds of
-:func:`isodesign.optimization.study.default_study`, docs/table.md section 13, "The default
-study"). Each case reports the worst margin of the NLP (its grid) and of the fine-grid NumPy
-analysis of the optimum, every free lever's value, its active bound and the worst margin's
-exact sensitivity to that bound (IPOPT's bound multiplier), and the run's wall time.
+study (the four levers, the spacing and the springs of leveling groups 2 and 3 free within
+the practical bounds of :func:`isodesign.optimization.study.default_study`, docs/table.md
+section 13, "The default study"). Each case reports the worst margin of the NLP (its
+grid) and of the fine-grid NumPy analysis of the optimum, every free lever's value, its
+active bound and the worst margin's exact sensitivity to that bound (IPOPT's bound
+multiplier), and the run's wall time.
 
 Usage::
 
@@ -63,7 +64,7 @@ LAYOUT_CONSTRAINTS = {"footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
 
 def case_study(levers):
     """The built-in table study with ``levers`` free (default bounds and starts), the layout
-    constraints with a free layout lever; ``None``: the default study (the four levers free
+    constraints with a free layout lever; ``None``: the default study (its levers free
     within its practical bounds)."""
     if levers is None:
         return default_study()

@@ -1,0 +1,68 @@
+"""The default study's levers (``default_study()``: the built-in table co-designed, its
+springs per leveling group, its horizontal element and its spacing free, docs/table.md
+section 13): the worst margin's exact sensitivity to every free lever's bound is reported,
+and each active bound's is checked against a central difference of the re-optimized design
+(the bound moved out and in, each solve from the optimum's design)."""
+
+from __future__ import annotations
+
+import pytest
+
+from isodesign.optimization.study import default_study
+from isodesign.optimization.table_driver import optimize_table
+
+#: The bound moves by this fraction of its value each way.
+STEP = 0.005
+#: The least change of the worst margin over 1 % of an active bound that is differenced, dB.
+MATERIAL_DB = 0.007
+
+
+def _small():
+    """The default study on a coarse grid, one start (one solve)."""
+    return default_study().with_changes(models={"points_per_band": 3, "peak_points": 30},
+                                        solver={"starts": 1, "workers": 1})
+
+
+def _from(st, values: dict, bounds: dict | None = None):
+    """``st`` with every free variable and lever starting at ``values`` (clipped into its
+    bounds, ``bounds`` changed first)."""
+    bounds = bounds or {}
+    changes = {}
+    for v in (*st.variables, *st.levers):
+        if v.fixed or v.name not in values:
+            continue
+        lo, hi = bounds.get(v.name, {}).get("lower", v.lower), \
+            bounds.get(v.name, {}).get("upper", v.upper)
+        changes[v.name] = {**bounds.get(v.name, {}),
+                           "start": min(max(float(values[v.name]), lo), hi)}
+    return st.with_changes(variables=changes)
+
+
+@pytest.mark.slow
+def test_every_free_levers_sensitivity_against_a_central_difference_of_the_reoptimized_design():
+    st = _small()
+    r = optimize_table(st, workers=1, analyze=False)
+    assert r.success and r.feasible
+    free = [v.name for v in st.levers if v.free]
+    sens = {s["name"]: s for s in r.lever_sensitivity}
+    assert set(sens) == set(free)  # every lever of the default study has its entry
+    # an active bound whose exact sensitivity moves the margin by less than MATERIAL_DB over
+    # 1 % of the bound is not differenced: the re-optimized design's own tolerance (the
+    # continuous peak's refinement, 1e-3 dB) and its neighbouring optima would be measured
+    active = [s for s in sens.values() if s["at_bound"]
+              and abs(s["db_per_unit"]) * 0.01 * abs(s[s["at_bound"]]) >= MATERIAL_DB]
+    assert active, "no lever on a bound with a material sensitivity: nothing to difference"
+    base = _from(st, r.values)
+    for s in active:
+        b = s[s["at_bound"]]
+        h = STEP * abs(b)
+
+        def moved(delta, s=s, b=b):
+            res = optimize_table(_from(base, r.values, {s["name"]: {s["at_bound"]: b + delta}}),
+                                 workers=1, analyze=False)
+            assert res.feasible, (s["name"], delta)
+            return res.objective_value
+
+        fd = (moved(h) - moved(-h)) / (2 * h)
+        # the bound multiplier is exact; the difference is of the re-optimized design
+        assert s["db_per_unit"] == pytest.approx(fd, rel=0.05, abs=1e-5 / h), (s, fd)
