@@ -49,7 +49,14 @@ from isodesign.io.rundir import (
 from isodesign.optimization.study import Study, default_study, load_study
 from isodesign.results import ResultDisplay
 from isodesign.sweeps.continuation import chains
-from isodesign.sweeps.spec import build_points, combine, parse_vary, read_points, study_hash
+from isodesign.sweeps.spec import (
+    build_points,
+    check_key,
+    combine,
+    parse_vary,
+    read_points,
+    study_hash,
+)
 from isodesign.sweeps.table import TABLE_NAME, collect_rows, frame, write_table
 from isodesign.sweeps.tasks import (
     FINISHED,
@@ -268,7 +275,7 @@ def _tables(vary, mode, points) -> tuple[list[dict], list[str]]:
                     if not isinstance(k, str):
                         raise InputError(f"points: keys must be dotted study keys "
                                          f"('payload.mass_kg'), got {k!r:.40}")
-                    parse_vary(f"{k}=0", "points")  # checks the key
+                    check_key(k, "points")  # a list value is fine in a points table
         else:
             raise InputError("points: expected a points file name or a list of change tables "
                              f"({{'payload.mass_kg': 600}}), got {type(points).__name__} "
