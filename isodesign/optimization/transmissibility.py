@@ -313,7 +313,8 @@ def study_closure_peaks(study, design, table, models: dict):
 
     res = table_band_response(design, table, study.floor_axes, study.target, bands=study.bands,
                               flow=models["flow"], amplitude_mode=models["amplitude_mode"],
-                              diaphragm=models["diaphragm"], warn=False)
+                              diaphragm=models["diaphragm"], warn=False,
+                              distortion=bool(models.get("distortion", False)))  # one closure
     model = res.model
     modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
                                                         res.tube_velocity_rms_m_s))
