@@ -1,5 +1,5 @@
 """The held-out check of the default study's optimum (studies/table_default_check.py), small:
-the co-designed built-in table on a coarse grid, sampled and polished with the NumPy
+the co-designed built-in table in its 4-20 Hz bands, sampled and polished with the NumPy
 analysis alone; the product's optimum must be within 0.05 dB of the best feasible design
 found, or better (docs/table.md, section 13, "The default study")."""
 
@@ -24,8 +24,10 @@ def _script():
 
 
 def _small():
-    """The default study on a coarse grid with two starts (three solves)."""
-    return default_study().with_changes(models={"points_per_band": 3, "peak_points": 30},
+    """The default study judged in its 4-20 Hz bands with two starts (three solves). (On a
+    coarse band grid, 3 or 5 points per band, the refinement of the co-designed table's
+    continuous peak does not converge in its rounds, and the product says so.)"""
+    return default_study().with_changes(target={"band_min_hz": 4.0, "band_max_hz": 20.0},
                                         solver={"starts": 2})
 
 
@@ -57,9 +59,9 @@ def test_the_products_optimum_is_within_0p05_db_of_the_best_sampled_and_polished
     ev = mod.evaluate(st, dict(product.values))
     assert ev["margin_db"] == pytest.approx(product.analysis.worst_margin_db, abs=1e-9)
     assert ev["feasible"], ev["slack"]
-    summary, frame = mod.check(st, samples=32, polish_n=1, evals=30, seed=1, product=product)
+    summary, frame = mod.check(st, samples=48, polish_n=1, evals=30, seed=1, product=product)
     assert summary["product_feasible"]
-    assert len(frame) == 33 and set(frame["kind"]) == {"sample", "polished"}
+    assert len(frame) == 49 and set(frame["kind"]) == {"sample", "polished"}
     assert summary["feasible_samples"] >= 1  # something to polish
     best = summary["best_found_margin_db"]
     assert math.isfinite(best)
