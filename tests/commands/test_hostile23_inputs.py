@@ -45,11 +45,17 @@ REFUSED = [
     # one diaphragm radius without the other: the message had no file and no table
     ({"hardware.diaphragm_r1_m": 0.04},
      ["table.toml: hardware.diaphragm_r2_m", "diaphragm_r1_m and diaphragm_r2_m go together"]),
+    # an option another objective reads: a string or a negative frequency passed unread
+    ({"objective": {"kind": "total_volume", "frequency_hz": "5"}},
+     ["table.toml: objective.frequency_hz must be a number, got '5'"]),
+    ({"objective": {"kind": "worst_band_margin", "band_min_hz": -1.0}},
+     ["table.toml: objective.band_min_hz: must be in (0, inf] Hz, got -1"]),
 ]
 
 
-@pytest.mark.parametrize("changes, fragments", REFUSED, ids=["isolators_empty", "isolators_flat",
-                                                             "diaphragm_r1_alone"])
+@pytest.mark.parametrize("changes, fragments", REFUSED, ids=[
+    "isolators_empty", "isolators_flat", "diaphragm_r1_alone", "objective_option_string",
+    "objective_option_negative"])
 def test_refused_naming_the_key(table_raw, changes, fragments):
     with pytest.raises(InputError) as err:
         _study(table_raw, changes)
