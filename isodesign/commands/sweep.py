@@ -243,6 +243,7 @@ def run(args) -> int:
 
         name = str(exc) or "SIGINT"
         table = Path(args.output) / TABLE_NAME
+        _quiet_cluster_exit()
         rows = _finished_rows(table)
         if rows:  # name only what exists
             print(f"isodesign: interrupted by {name}; the {rows} finished point(s) are in "
@@ -290,3 +291,25 @@ def _finished_rows(table) -> int:
         return int(pq.ParquetFile(table).metadata.num_rows)
     except Exception:
         return 0
+
+
+def _quiet_cluster_exit() -> None:
+    """Close a local cluster cut short while it started, quietly: Dask's own exit hook
+    (``distributed.deploy.spec.close_clusters``) asserts on the half-started workers and
+    prints a 29-line traceback after the interrupt's one line. Replaced by the same close
+    with every error suppressed (the process is ending on the interrupt)."""
+    import atexit
+    import contextlib
+
+    spec = sys.modules.get("distributed.deploy.spec")
+    if spec is None:
+        return
+    atexit.unregister(spec.close_clusters)
+
+    def close() -> None:
+        for cluster in list(getattr(spec.SpecCluster, "_instances", ())):
+            with contextlib.suppress(BaseException):
+                if getattr(cluster, "shutdown_on_close", False):
+                    cluster.close(timeout=10)
+
+    atexit.register(close)

@@ -374,6 +374,10 @@ def _objective(o: dict, where: str, band_hz: dict) -> dict:
         value = o.get(key, band_hz[default] if default else None)
         obj[key] = _num(where, f"objective.{key}", value, 0, None, True, unit)
         _num(where, f"objective.{key}", value, *FREQUENCY_DOMAIN_HZ, False, "Hz")
+    for key in set(_OBJECTIVE_OPTIONS) - set(OBJECTIVES[kind].options):
+        if key in o:  # another kind's option (kept for a sweep over kinds): still a value
+            _num(where, f"objective.{key}", o[key], 0, None, True, "Hz")
+            _num(where, f"objective.{key}", o[key], *FREQUENCY_DOMAIN_HZ, False, "Hz")
     return obj
 
 

@@ -476,15 +476,26 @@ def point_tree(base: Study, t: dict) -> dict:
 
 def _point_study(base: Study, t: dict, option: str) -> Study:
     """The base study with the change table ``t`` (InputError naming the point's changes)."""
+    import warnings
+
     tree = point_tree(base, t)
     tree.setdefault("solver", {})["workers"] = 1  # starts run serially inside a task
-    try:
-        return base.with_changes(**tree)
-    except InputError as exc:
-        msg = str(exc)
-        if base.source and msg.startswith(base.source + ": "):
-            msg = msg[len(base.source) + 2:]
-        raise InputError(f"{option} {_label(t)}: {msg}") from None
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            st = base.with_changes(**tree)
+        except InputError as exc:
+            msg = str(exc)
+            if base.source and msg.startswith(base.source + ": "):
+                msg = msg[len(base.source) + 2:]
+            raise InputError(f"{option} {_label(t)}: {msg}") from None
+    for w in caught:  # a unit slip of the point's own value: named as the point, not the file
+        msg = str(w.message)
+        if base.source and msg.startswith(base.source + ": ") and any(
+                str(k) in msg for k in t):
+            msg = f"{option} {_label(t)}: {msg[len(base.source) + 2:]}"
+        warnings.warn(msg, w.category, stacklevel=2)
+    return st
 
 
 def _check_values_first(base: Study, tables: list[dict], option: str) -> None:

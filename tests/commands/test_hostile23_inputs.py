@@ -45,11 +45,17 @@ REFUSED = [
     # one diaphragm radius without the other: the message had no file and no table
     ({"hardware.diaphragm_r1_m": 0.04},
      ["table.toml: hardware.diaphragm_r2_m", "diaphragm_r1_m and diaphragm_r2_m go together"]),
+    # an option another objective reads: a string or a negative frequency passed unread
+    ({"objective": {"kind": "total_volume", "frequency_hz": "5"}},
+     ["table.toml: objective.frequency_hz must be a number, got '5'"]),
+    ({"objective": {"kind": "worst_band_margin", "band_min_hz": -1.0}},
+     ["table.toml: objective.band_min_hz: must be in (0, inf] Hz, got -1"]),
 ]
 
 
-@pytest.mark.parametrize("changes, fragments", REFUSED, ids=["isolators_empty", "isolators_flat",
-                                                             "diaphragm_r1_alone"])
+@pytest.mark.parametrize("changes, fragments", REFUSED, ids=[
+    "isolators_empty", "isolators_flat", "diaphragm_r1_alone", "objective_option_string",
+    "objective_option_negative"])
 def test_refused_naming_the_key(table_raw, changes, fragments):
     with pytest.raises(InputError) as err:
         _study(table_raw, changes)
@@ -326,3 +332,18 @@ def test_sweep_refuses_a_point_the_vary_made_robust_before_any_runs(tmp_path):
     assert "[scenarios]: isodesign response does not answer a robust study" in msg
     assert "(at the point scenarios.cg_offset_x_m.absolute=0.02)" in msg
     assert not (tmp_path / "s").exists()
+
+
+def test_sweep_unit_slip_of_a_point_is_named_as_the_point():
+    # a --vary value in tonnes was warned as if the base file held it ("table_study.toml:
+    # payload.mass_kg = 0.5 kg"); a slip of the base file itself keeps the file's name
+    from isodesign.optimization.study import table_study
+    from isodesign.sweeps.spec import build_points
+
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        build_points(table_study(), [{"payload.mass_kg": 0.5}, {"payload.mass_kg": 600.0}])
+    msgs = [str(w.message) for w in caught if issubclass(w.category, UnitWarning)]
+    assert len(msgs) == 1, msgs
+    assert msgs[0].startswith("--vary payload.mass_kg=0.5: payload.mass_kg = 0.5 kg on 4 "
+                              "isolators"), msgs
