@@ -70,6 +70,7 @@ from isodesign.optimization.study_parsers import (  # noqa: F401  (their home be
     _table,
     _target,
     _variables,
+    default_distortion,
 )
 from isodesign.optimization.study_tables import (
     _check_acoustics,
@@ -126,7 +127,8 @@ _DEFAULT = {
         "points_per_band": 6,
         "peak_points": 80,
         "acoustics": "distributed",
-        "distortion": DISTORTION_DEFAULT,
+        # models.distortion: not filled in (its default depends on the study:
+        # study_parsers.default_distortion, resolved in _study)
     },
     "variables": {
         "volume_ratio": {"start": 1.5e-3 / 8.1e-4, "lower": 0.5, "upper": 8.0},
@@ -439,6 +441,8 @@ def _study(d: dict, where: str, source: str, fill_defaults: bool) -> Study:
     target, bands, band_hz = _target(raw["target"], where)
     _check_bands_covered(floor, target, bands, band_hz, where)
     models = _models(raw["models"], where, source)
+    if "distortion" not in raw["models"]:  # its default where the study's NLP carries it
+        models["distortion"] = default_distortion({"models": raw["models"], "table": table})
     _check_acoustics(raw, models, hw, d if fill_defaults else {}, where)
     variables = _variables(raw["variables"], where)
     cons = _constraints(raw["constraints"], where, variables, payload)

@@ -255,14 +255,29 @@ def _models(m: dict, where: str, source: str) -> dict:
             "acoustics": m.get("acoustics", ACOUSTIC_MODELS[0]), "distortion": dist}
 
 
-#: ``models.distortion``'s default (docs/random-response.md section 3d).
-DISTORTION_DEFAULT = False
+#: ``models.distortion``'s default (docs/random-response.md section 3d): on wherever the
+#: optimizer carries it (:func:`default_distortion`).
+DISTORTION_DEFAULT = True
+
+
+def default_distortion(raw: dict) -> bool:
+    """``models.distortion`` of a study that does not give it: :data:`DISTORTION_DEFAULT`
+    where it applies, the statistical closure (``models.random_method``), and where the
+    study's NLP carries it (not a ``[table]`` with ``models.flow = 'quasi_steady'``, whose
+    friction excess the table NLP cannot shift: docs/random-response.md section 3d); off
+    elsewhere."""
+    m = raw.get("models") or {}
+    if m.get("random_method", "statistical") != "statistical":
+        return False
+    if raw.get("table") and m.get("flow", "womersley") == "quasi_steady":
+        return False
+    return DISTORTION_DEFAULT
 
 
 def _distortion(m: dict, where: str) -> bool:
     """``models.distortion``: the tubes' distortion power in the statistical closure
     (docs/random-response.md 3a-3d), true or false."""
-    dist = m.get("distortion", DISTORTION_DEFAULT)
+    dist = m.get("distortion", default_distortion({"models": m}))
     if not isinstance(dist, bool):
         raise InputError(f"{where}: models.distortion must be true or false, got {dist!r:.40}")
     if dist and m.get("random_method", "statistical") != "statistical":

@@ -157,6 +157,13 @@ class TableParetoResult(ResultDisplay):
         return ax.figure
 
 
+def _own_margin(prob, sol) -> float:
+    """The worst margin of a solution at its own NLP parameters (models.distortion: the
+    expansion it was solved with, not the last point's)."""
+    getattr(prob, "use_solution", lambda s: None)(sol)
+    return prob.worst_margin_db(sol.x)
+
+
 def table_pareto_front(study, points: int = 10, *, progress=None,
                        cost: str = "total_volume") -> TableParetoResult:
     """Worst margin (maximized) against a cost (minimized) of a table study.
@@ -226,7 +233,7 @@ def table_pareto_front(study, points: int = 10, *, progress=None,
         if progress:
             progress(k + 1, points)
     prob = state["prob"]
-    margin = np.array([prob.worst_margin_db(s.x) if s.feasible else math.nan for s in sols])
+    margin = np.array([_own_margin(prob, s) if s.feasible else math.nan for s in sols])
     to_nat = OBJECTIVES[cost].to_natural  # exp of a log cost; the added mass in kg
     costs = np.array([to_nat(s.objectives[1]) if s.feasible else math.nan for s in sols])
     vol = costs if cost == "total_volume" else np.array(

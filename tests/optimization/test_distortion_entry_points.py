@@ -189,3 +189,12 @@ def test_robust_sensitivities_carry_the_terms_dependence_on_the_scenario():
         scale = 0.01 if p.mode == "relative" else 1.0  # per percent
         fd = (cp["objective"] - cm["objective"]) / (2 * h) * scale
         assert sens[("objective", p.name)].per_unit == pytest.approx(fd, rel=1e-4, abs=1e-7)
+
+
+def test_a_table_pareto_anchor_is_isodesign_optimize():
+    """The table's Pareto front with the distortion: anchor A's worst margin is the
+    optimum's, each point judged at the expansion it was solved with."""
+    st = small_table()
+    res = isodesign.pareto_front(st, points=2)
+    opt = isodesign.optimize(st)
+    assert res.worst_margin_db[0] == pytest.approx(opt.objective_value, abs=1e-6)

@@ -32,8 +32,19 @@ def test_bad_value_names_the_key(value):
         study_from_dict({"models": {"distortion": value}})
 
 
-def test_default_is_off_and_the_key_round_trips():
-    assert vertical_study().models["distortion"] is False
+def test_default_is_on_where_the_nlp_carries_it_and_the_key_round_trips():
+    """On by default with the statistical closure (vertical, table); off by default where
+    it does not apply (``equivalent_amplitude``) or the NLP cannot carry it (a table with
+    ``quasi_steady`` flow); an explicit value is kept."""
+    assert vertical_study().models["distortion"] is True
+    assert table_study().models["distortion"] is True
+    assert study_from_dict({}).models["distortion"] is True
+    assert study_from_dict({"models": {"random_method": "equivalent_amplitude"}}
+                           ).models["distortion"] is False
+    assert table_study().with_changes({"models.flow": "quasi_steady"}).models["distortion"] \
+        is False
+    assert vertical_study().with_changes({"models.distortion": False}).models["distortion"] \
+        is False
     assert small_vertical(distortion=True).models["distortion"] is True
     assert study_from_dict({"models": {"distortion": True}}).models["distortion"] is True
 
@@ -50,7 +61,7 @@ def test_refusals_name_the_key():
 def test_problem_of_the_study_carries_it(small_table_study):
     st = small_vertical(distortion=True)
     assert type(Problem(st)) is VerticalDistortionProblem
-    assert type(Problem(small_vertical())) is Problem
+    assert type(Problem(small_vertical(distortion=False))) is Problem
     tb = Problem(small_table_study().with_changes({"models.distortion": True}))
     assert type(tb).__name__ == "TableDistortionProblem"
 
@@ -77,7 +88,7 @@ def test_optimize_answers_with_the_distortion(api_result):
     assert abs(start["objectives"]["worst_band_margin"] - res.start_objective) < 1e-6
     a = analyze(st, res.values)
     assert abs(a.worst_margin_db - res.worst_margin_db) < 1e-9
-    plain = small_vertical()
+    plain = small_vertical(distortion=False)
     assert abs(evaluate_design(plain, res.values)["objectives"]["worst_band_margin"]
                - res.objective_value) > 1e-4
     assert abs(analyze(plain, res.values).worst_margin_db - res.worst_margin_db) > 1e-4
@@ -96,7 +107,7 @@ def test_table_optimize_and_analysis_answer_with_it(small_table_study):
     start = {v.name: v.start for v in st.variables}
     at_start = analyze(st, start, points_per_band=st.models["points_per_band"])
     assert abs(at_start.worst_margin_db - res.start_objective) < 1e-6
-    plain = small_table_study()
+    plain = small_table_study().with_changes({"models.distortion": False})
     assert abs(analyze(plain, res.values).worst_margin_db - a.worst_margin_db) > 1e-5
 
 
@@ -135,5 +146,5 @@ def test_a_study_case_carries_the_key_to_the_report_and_response(tmp_path):
     assert case.models["distortion"] is True
     rows = {what: model for what, model, _ in model_caveats(case.models)}
     assert rows["random closure"] == "statistical with the distortion power"
-    f.write_text(study_toml(small_vertical()))
+    f.write_text(study_toml(small_vertical(distortion=False)))
     assert "distortion" not in load_case(f).models

@@ -77,10 +77,14 @@ def test_problem_of_a_study_builds_the_body_the_study_asks_for(small_table_study
 
     st = small_table_study()
     prob = Problem(st)
-    assert type(prob) is TableProblem
+    # the table body (with the distortion power's rows: models.distortion's default)
+    assert isinstance(prob, TableProblem) and getattr(prob, "distortion", False)
+    plain = Problem(st.with_changes({"models.distortion": False}))
+    assert type(plain) is TableProblem
     assert prob.hessian_info["hessian"] == prob.ipopt_options()["ipopt.hessian_approximation"]
     assert prob.n == st.table.n_isolators
-    assert type(Problem(vertical_study())) is Problem
+    assert type(Problem(vertical_study().with_changes({"models.distortion": False}))) is Problem
+    assert isinstance(Problem(vertical_study()), Problem)
     # options of the table body pass through
     two = Problem(st, ("worst_band_margin", "total_volume"), hessian="exact")
     assert two.objectives == ("worst_band_margin", "total_volume")
