@@ -2,8 +2,9 @@
 
 :func:`optimize_table` runs the :class:`~isodesign.optimization.table_problem.TableProblem` from the
 study's start and Latin-hypercube starts (the vertical optimizer's
-:func:`~isodesign.optimization.multistart.run_starts`), keeps the best feasible start, and
-then:
+:func:`~isodesign.optimization.multistart.run_starts`; with free per-group springs staged,
+:func:`_tied_starts`: the starts of the tied study, then the full NLP from its best
+optimum, docs/table.md section 13), keeps the best feasible start, and then:
 
 1. **Mode refresh.** The damping constraint holds on the modes below 5 Hz with shapes and
    frequencies frozen at the last nonlinear-eigenproblem solution. The modes are solved
