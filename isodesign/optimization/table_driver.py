@@ -529,7 +529,7 @@ def _lever_starts(study, prob, starts: list) -> list:
 
 def _tied_starts(study, workers, progress):
     """The staged starts of a study with free per-group springs (docs/table.md, section 13,
-    "Starts"): the multi-start of the tied study (:func:`.lever_continuation.tied_study`),
+    "Staged starts"): the multi-start of the tied study (:func:`.lever_continuation.tied_study`),
     then the full NLP's starts from its best distinct feasible optima
     (:data:`.lever_continuation.WARM_SOLVES`). Returns ``(records of the tied solves,
     starts of the full NLP)``, or None (no free group lever, a single start, or no
