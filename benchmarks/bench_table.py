@@ -252,7 +252,7 @@ def bench_table_codesign() -> list[dict]:
         "target": f"< {TARGET_CODESIGN_RATIO:g}", "unit": "ratio", "median": ratio,
         "ratio": ratio / TARGET_CODESIGN_RATIO, "passed": ratio < TARGET_CODESIGN_RATIO,
         "notes": "medians of the two rows above, measured in this run (interleaved repeats); "
-                 "the co-designed study runs 2 x starts - 1 solves (docs/table.md, section 13)",
+                 "the co-designed study runs staged starts (docs/table.md, section 13)",
     })
     return out
 

@@ -2,8 +2,9 @@
 
 :func:`optimize_table` runs the :class:`~isodesign.optimization.table_problem.TableProblem` from the
 study's start and Latin-hypercube starts (the vertical optimizer's
-:func:`~isodesign.optimization.multistart.run_starts`), keeps the best feasible start, and
-then:
+:func:`~isodesign.optimization.multistart.run_starts`; with free per-group springs staged,
+:func:`_tied_starts`: the starts of the tied study, then the full NLP from its best
+optimum, docs/table.md section 13), keeps the best feasible start, and then:
 
 1. **Mode refresh.** The damping constraint holds on the modes below 5 Hz with shapes and
    frequencies frozen at the last nonlinear-eigenproblem solution. The modes are solved
@@ -304,10 +305,16 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     d0 = study.design_at(starts[0])
     modes0 = _modes_at(prob, d0)
     prob.set_modes(modes0)
-    outs = run_starts(prob, starts, workers=workers or study.solver.get("workers"),
+    workers = workers or study.solver.get("workers")
+    tied = _tied_starts(study, workers, progress)
+    pre = [] if tied is None else tied[0]
+    outs = run_starts(prob, starts if tied is None else tied[1], workers=workers,
                       progress=progress)
-    recs, good = [], {}
-    for i, out in enumerate(outs):
+    if tied is not None and not any(not isinstance(o, str) and o.feasible for o in outs):
+        pre, outs = [*pre, *_records(outs, "warm from the tied optimum: ", len(pre))], \
+            run_starts(prob, starts, workers=workers, progress=progress)  # as before
+    recs, good = list(pre), {}
+    for i, out in enumerate(outs, len(pre)):
         if isinstance(out, str):
             recs.append((i, f"initial guess failed: {out}", False, 0, 0.0, math.nan))
             continue
@@ -518,6 +525,47 @@ def _lever_starts(study, prob, starts: list) -> list:
         out.append({**s, **{k: v for k, v in ls.to_values(0.98 * zi).items()
                             if not is_position_lever(k)}, **(pos[j] if j < len(pos) else {})})
     return out
+
+
+def _tied_starts(study, workers, progress):
+    """The staged starts of a study with free per-group springs (docs/table.md, section 13,
+    "Staged starts"): the multi-start of the tied study (:func:`.lever_continuation.tied_study`),
+    then the full NLP's starts from its best distinct feasible optima
+    (:data:`.lever_continuation.WARM_SOLVES`). Returns ``(records of the tied solves,
+    starts of the full NLP)``, or None (no free group lever, a single start, or no
+    feasible tied optimum: the full multi-start runs as before)."""
+    from isodesign.optimization.lever_continuation import WARM_SOLVES, tied_study, untie_values
+    from isodesign.optimization.problem import Problem
+
+    reduced = tied_study(study)
+    if reduced is None or study.solver["starts"] < 2:
+        return None
+    rprob = Problem(reduced)
+    rstarts = start_points(reduced, rprob.scaling)  # the levers at their starts
+    rprob.set_modes(_modes_at(rprob, reduced.design_at(rstarts[0])))
+    outs = run_starts(rprob, rstarts, workers=workers, progress=progress)
+    feas = [o for o in outs if not isinstance(o, str) and o.feasible]
+    warm = []
+    for sol in sorted(feas, key=lambda o: o.objective):
+        if len(warm) < WARM_SOLVES and all(abs(sol.objective - o.objective) > BRANCH_TOLERANCE
+                                           for o in warm):
+            warm.append(sol)
+    if not warm:
+        return None
+    return _records(outs, "tied groups: "), [untie_values(study, sol.values) for sol in warm]
+
+
+def _records(outs, prefix: str, first: int = 0) -> list:
+    """The starts' records ``(index, status, feasible, iterations, wall_s, J)``, each
+    status prefixed."""
+    recs = []
+    for i, out in enumerate(outs, first):
+        if isinstance(out, str):
+            recs.append((i, f"{prefix}initial guess failed: {out}", False, 0, 0.0, math.nan))
+        else:
+            recs.append((i, f"{prefix}{out.status}", out.feasible, out.iterations, out.wall_s,
+                         out.objective))
+    return recs
 
 
 def _violations(study, prob, best, modes, peak) -> tuple:

@@ -1,0 +1,82 @@
+"""Staged starts of a co-designed table with free per-group springs (docs/table.md, section
+13, "Starts"): a continuation in the lever set.
+
+The per-group spring levers (``<variable>_group<k>``, section 15) add four variables per
+group to the NLP. The multi-start runs first on the **tied** problem, the same study with
+its free group levers removed (every leveling group then takes the shared spring, the
+study's own ``group_springs`` and fixed group levers kept), whose optimum is a feasible
+point of the full problem; the full NLP is then solved from the best tied optima, each
+group lever starting at its shared variable's value. The full NLP's feasible set holds the
+tied one, so each warm solve ends at least as well as the tied optimum it starts from.
+"""
+
+from __future__ import annotations
+
+import copy
+import math
+
+from isodesign.optimization.variables import GROUP_SPRING_LEVERS, group_lever
+
+__all__ = ["TIED_TOL", "WARM_SOLVES", "free_group_levers", "tied_study", "untie_values"]
+
+#: Full-NLP solves warm-started from the tied multi-start: its best distinct optima.
+WARM_SOLVES = 1
+
+#: IPOPT's ``tol`` of the tied multi-start at least (it only places the full NLP's starts,
+#: which converge to the study's own ``solver.tol``).
+TIED_TOL = 1e-6
+
+
+def free_group_levers(study) -> list:
+    """The study's free per-group spring levers (their :class:`VariableSpec`)."""
+    return [v for v in getattr(study, "levers", ()) if v.free and v.name in GROUP_SPRING_LEVERS]
+
+
+def tied_study(study):
+    """The study with its free per-group spring levers removed (each of those groups takes
+    the shared spring), or None when none is free or one starts away from its shared
+    variable's start (the study's start, a sweep point's neighbour's optimum, is then no
+    point of the tied problem).
+
+    Parameters
+    ----------
+    study : Study
+
+    Returns
+    -------
+    Study or None
+    """
+    free = free_group_levers(study)
+    starts = {v.name: v.start for v in study.variables}
+    if not free or any(not math.isclose(v.start, starts[group_lever(v.name)[1]], rel_tol=1e-12)
+                       for v in free):
+        return None  # no free group spring, or the study's start is not a tied point
+    from isodesign.optimization.study import study_from_dict
+
+    raw = copy.deepcopy(study.raw)
+    for v in free:
+        raw["variables"].pop(v.name, None)
+    raw["solver"]["tol"] = max(float(raw["solver"]["tol"]), TIED_TOL)
+    return study_from_dict(raw, source=study.source, fill_defaults=False)
+
+
+def untie_values(study, values: dict) -> dict:
+    """A start of the full problem from a tied optimum's ``values``: each free group lever
+    at its shared variable's value (clipped into the lever's bounds).
+
+    Parameters
+    ----------
+    study : Study
+        The full study (free group levers).
+    values : dict
+        Design values of the tied study's solution (SI).
+
+    Returns
+    -------
+    dict
+    """
+    out = dict(values)
+    for v in free_group_levers(study):
+        base = group_lever(v.name)[1]
+        out[v.name] = min(max(float(values[base]), v.lower), v.upper)
+    return out
