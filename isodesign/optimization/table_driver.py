@@ -753,6 +753,11 @@ def _modes_at(prob, d, sigma=None, sigma_u=None, values=None):
     if sigma is None:
         sigma, sigma_u = prob.closure(d, values)
     model = _model(prob.study, d, values)
+    if getattr(prob, "distortion", False) and prob.flow != "poiseuille":
+        # models.distortion: the springs at the minor loss's gain, as the NLP's (its y_k,
+        # optimization.distortion_rows: sigma_u times the gain ratio of the NumPy terms)
+        n = prob.n
+        sigma_u = np.asarray(sigma_u, float) * prob.distortion_terms(d, values)[2 * n:3 * n]
     return table_modes(model, vertical=closure_springs(model, sigma, sigma_u))
 
 
