@@ -133,7 +133,8 @@ def study_figures() -> None:
                 d_hx = res.design.replace(chamber_heat_exchange=True)
                 an = band_response(d_hx, s.payload, s.floor, s.target, bands=s.bands,
                                    flow=s.models["flow"], diaphragm=s.models["diaphragm"],
-                                   derive_pressure=False, warn=False)
+                                   derive_pressure=False, warn=False,
+                                   distortion=bool(s.models.get("distortion", False)))
                 print(f"  the same design with chamber_heat_exchange: worst-band margin "
                       f"{an.worst_margin_db:+.2f} dB (worst band {an.worst_band_hz:g} Hz)")
                 res_hx = optimize(s.with_changes(hardware={"chamber_heat_exchange": True}))

@@ -66,7 +66,7 @@ def row(study, h: float) -> dict:
         r = table_band_response(study.start_design(), t, study.floor_axes, study.target,
                                 bands=study.bands, flow=m["flow"],
                                 amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"],
-                                warn=False)
+                                warn=False, distortion=bool(m.get("distortion", False)))
     md = table_modes(r.model, vertical=closure_springs(r.model, r.stroke_rms_m,
                                                        r.tube_velocity_rms_m_s))
     rs = rocking_stability(r.model)

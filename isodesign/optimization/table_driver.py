@@ -660,7 +660,8 @@ def measure_peaks(prob, d, sigma, sigma_u, modes, values=None):
         The design's lever values (a co-designed table; default their starts).
     """
     lo, hi = peak_search_band(modes, prob._peak_cut_hz())
-    return continuous_peaks(_model(prob.study, d, values), sigma, sigma_u, lo, hi)
+    return continuous_peaks(_model(prob.study, d, values), sigma,
+                            _with_gain(prob, d, sigma_u, values), lo, hi)
 
 
 def add_peak_frequencies(prob, over, used) -> tuple:
@@ -801,7 +802,18 @@ def _modes_at(prob, d, sigma=None, sigma_u=None, values=None):
     if sigma is None:
         sigma, sigma_u = prob.closure(d, values)
     model = _model(prob.study, d, values)
+    sigma_u = _with_gain(prob, d, sigma_u, values)
     return table_modes(model, vertical=closure_springs(model, sigma, sigma_u))
+
+
+def _with_gain(prob, d, sigma_u, values=None):
+    """``sigma_u`` at which the NLP's springs are linearized: with ``models.distortion``
+    times the minor loss's gain ratio of the NumPy terms (its y_k,
+    optimization.distortion_rows; exact for womersley, none for poiseuille)."""
+    if getattr(prob, "distortion", False) and prob.flow != "poiseuille":
+        n = prob.n
+        return np.asarray(sigma_u, float) * prob.distortion_terms(d, values)[2 * n:3 * n]
+    return sigma_u
 
 
 def _modes_moved(prob, modes) -> bool:

@@ -91,4 +91,17 @@ def test_every_pipelined_refinement_is_a_timed_solve():
         assert fin[s["start"]] < s["finished_s"] <= res.wall_s
     at = [s["finished_s"] for s in res.solves]
     assert at == sorted(at) and all(math.isfinite(t) for t in at)
-    assert {s["start"] for s in refs} <= {i for i, _ in res.branches}  # refined: a branch
+    # early_refine's rule: a start is refined as its branch's first start (best sampled J)
+    # among the starts finished by then, so no better start of its branch finished before
+    # it; a better one finishing later is refined again and stands for the branch at the
+    # end. Every refined start belongs to one of the result's branches.
+    from isodesign.optimization.objectives import OBJECTIVES
+    from isodesign.optimization.refine import BRANCH_TOLERANCE
+
+    to_j = OBJECTIVES[res.objective].from_natural
+    j = {s.index: to_j(s.objective) for s in res.starts if s.feasible}
+    reps = [i for i, _ in res.branches]
+    for i in {s["start"] for s in refs}:
+        same = [k for k in j if abs(j[k] - j[i]) <= BRANCH_TOLERANCE]
+        assert not [k for k in same if fin[k] < fin[i] and j[k] < j[i] - 1e-12]
+        assert set(same) & set(reps)  # refined: a branch's start, or superseded in it
