@@ -528,14 +528,23 @@ def table_band_response(
     from isodesign.response.distortion import kurtosis_flag
 
     flags += kurtosis_flag(dist.kurtosis_first_order, dist.kurtosis, "isolator ")
-    res = _result(model, grid, tg.name, out, ks, st.kh, np.sqrt(s2 + dist.stroke_variance),
-                  np.sqrt(su2 + dist.tube_velocity_variance), n_it, flags, warn)  # fmt: skip
+    stroke = np.sqrt(s2 + _power(dist.stroke_variance))
+    tube = np.sqrt(su2 + _power(dist.tube_velocity_variance))
+    res = _result(model, grid, tg.name, out, ks, st.kh, stroke, tube, n_it, flags, warn)
     kurt = "tube velocity kurtosis " + " ".join(f"{k:.2f}" for k in dist.kurtosis)
     return dataclasses.replace(
-        res, velocity_rms_m_s=np.sqrt(res.velocity_rms_m_s**2 + dist.band_mean_square),
+        res, velocity_rms_m_s=np.sqrt(res.velocity_rms_m_s**2 + _power(dist.band_mean_square)),
         notes=(*res.notes, f"{DISTORTION_NOTE} ({kurt})"),
         distortion_kurtosis=np.asarray(dist.kurtosis, dtype=float))  # fmt: skip
 
+
+
+def _power(added):
+    """The distortion's added power (a mean square or a variance, >= 0): a response that is
+    zero by symmetry (a symmetric table on a vertical floor, in x and y) carries round-off of
+    either sign in the distortion's spectrum (|value| ~ 1e-45 m^2/s^2), clipped at zero so the
+    total is the linear part (was NaN from the square root of a negative sum). NumPy only."""
+    return np.maximum(np.asarray(added, dtype=float), 0.0)
 
 def _describing_response(model, grid, target_name, method, nodes, rtol, max_iter, strict,
                          warn) -> TableBandResponse:
@@ -889,8 +898,8 @@ def solve_table_closure_with_distortion(st: TableStatistical, *, rtol: float = 1
         st._last = None
         hist = []
     # without them (a z DOF closure): start one fixed-point step on
-    start = (np.sqrt(sigma**2 + dist.stroke_variance),
-             np.sqrt(sigma_u**2 + dist.tube_velocity_variance))
+    start = (np.sqrt(sigma**2 + _power(dist.stroke_variance)),
+             np.sqrt(sigma_u**2 + _power(dist.tube_velocity_variance)))
     sigma, sigma_u, n2 = solve_table_closure(
         _WithOffset(st, dist.stroke_variance, dist.tube_velocity_variance), rtol=rtol,
         max_iter=max_iter, start=start, history=hist or None)  # fmt: skip
