@@ -286,7 +286,7 @@ def execute_table(study, run, args, result=None, *, prefix: str = "") -> int:
                                       modes.energy_fraction[:, 2], -1.0)))
         fz = float(modes.frequency_hz[j])
         pk = continuous_peaks(analysis.model, analysis.stroke_rms_m,
-                              analysis.tube_velocity_rms_m_s,
+                              analysis.closure_tube_velocity_m_s,
                               *peak_search_band(modes, PEAK_ROWS_MAX_HZ))
         return {"worst_band_margin_db": analysis.worst_margin_db,
                 "natural_frequency_hz": fz if np.isfinite(fz) else None,

@@ -879,5 +879,5 @@ def band_response_and_modes(study, d, values=None, models=None):
                                   distortion=bool(m.get("distortion", False)))  # fmt: skip
     model = res.model
     modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
-                                                        res.tube_velocity_rms_m_s))
+                                                        res.closure_tube_velocity_m_s))
     return res, modes

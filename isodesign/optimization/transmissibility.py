@@ -317,8 +317,8 @@ def study_closure_peaks(study, design, table, models: dict):
                               distortion=bool(models.get("distortion", False)))  # one closure
     model = res.model
     modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
-                                                        res.tube_velocity_rms_m_s))
-    return continuous_peaks(model, res.stroke_rms_m, res.tube_velocity_rms_m_s,
+                                                        res.closure_tube_velocity_m_s))
+    return continuous_peaks(model, res.stroke_rms_m, res.closure_tube_velocity_m_s,
                             *peak_search_band(modes, PEAK_ROWS_MAX_HZ))
 
 

@@ -81,7 +81,7 @@ def table_section(case) -> dict | None:
                 for i in range(lev.load_n.size)]
     p, a, b, w = res.worst
     opt_svg = _start_vs_optimum_svg(case, res)
-    peaks = continuous_peaks(model, res.stroke_rms_m, res.tube_velocity_rms_m_s,
+    peaks = continuous_peaks(model, res.stroke_rms_m, res.closure_tube_velocity_m_s,
                              *peak_search_band(modes, PEAK_ROWS_MAX_HZ))
     lim = st.constraints.get("max_peak_transmissibility_db")
     peak_line = (f"Peak |T| per axis over every point, continuous from {peaks.f_low_hz:.3g} Hz "

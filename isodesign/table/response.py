@@ -271,6 +271,9 @@ class TableBandResponse(ResultDisplay):
     distortion_kurtosis : ndarray (n,) or None
         Each tube velocity's kurtosis the distortion power was evaluated at
         (``distortion=True``; ``docs/random-response.md`` 3c), else ``None``.
+    closure_gain_ratio : ndarray (n,) or None
+        With ``distortion=True``, each minor loss's gain ratio the closure's springs were
+        linearized with (their tube velocity is ``closure_tube_velocity_m_s``), else ``None``.
     """
 
     grid: TableGrid
@@ -291,6 +294,15 @@ class TableBandResponse(ResultDisplay):
     notes: tuple = ()
     flags: tuple = ()
     distortion_kurtosis: np.ndarray | None = None
+    closure_gain_ratio: np.ndarray | None = None
+
+    @property
+    def closure_tube_velocity_m_s(self) -> np.ndarray:
+        """The tube velocity RMS each spring is linearized at (m/s): with the distortion, the
+        RMS times the minor loss's gain ratio (the NLP's springs, ``table_driver._with_gain``);
+        the modes and the continuous peak of this response use it."""
+        v = np.asarray(self.tube_velocity_rms_m_s, dtype=float)
+        return v if self.closure_gain_ratio is None else v * self.closure_gain_ratio
 
     @property
     def bands(self):
@@ -535,7 +547,8 @@ def table_band_response(
     return dataclasses.replace(
         res, velocity_rms_m_s=np.sqrt(res.velocity_rms_m_s**2 + _power(dist.band_mean_square)),
         notes=(*res.notes, f"{DISTORTION_NOTE} ({kurt})"),
-        distortion_kurtosis=np.asarray(dist.kurtosis, dtype=float))  # fmt: skip
+        distortion_kurtosis=np.asarray(dist.kurtosis, dtype=float),
+        closure_gain_ratio=np.asarray(st.gain_ratio, dtype=float).copy())  # fmt: skip
 
 
 

@@ -198,3 +198,27 @@ def test_a_table_pareto_anchor_is_isodesign_optimize():
     res = isodesign.pareto_front(st, points=2)
     opt = isodesign.optimize(st)
     assert res.worst_margin_db[0] == pytest.approx(opt.objective_value, abs=1e-6)
+
+
+def test_the_reports_closure_peak_and_modes_are_the_optimizers_with_the_distortion():
+    # the report, `isodesign transmissibility` and the optimizer's peak check linearize the
+    # springs at the same tube velocity (the RMS times the minor loss's gain ratio); the
+    # report measured the plain-gain springs (table_driver._with_gain, the NLP's)
+    from isodesign.optimization.table_driver import band_response_and_modes, measure_peaks
+    from isodesign.optimization.table_problem import PEAK_ROWS_MAX_HZ
+    from isodesign.optimization.transmissibility import study_closure_peaks
+    from isodesign.table.peaks import continuous_peaks, peak_search_band
+
+    st = table_study()
+    assert st.models["distortion"] is True  # the default
+    d = st.start_design()
+    res, modes = band_response_and_modes(st, d)
+    assert res.closure_gain_ratio is not None
+    assert np.max(np.abs(res.closure_gain_ratio - 1.0)) > 1e-3
+    opt = measure_peaks(Problem(st), d, res.stroke_rms_m, res.tube_velocity_rms_m_s, modes)
+    rep = study_closure_peaks(st, d, st.table, st.models)
+    # to the closures' tolerances (the band response's rtol against the NLP terms' 1e-11)
+    assert rep.max_db == pytest.approx(opt.max_db, abs=1e-4)
+    plain = continuous_peaks(res.model, res.stroke_rms_m, res.tube_velocity_rms_m_s,
+                             *peak_search_band(modes, PEAK_ROWS_MAX_HZ))
+    assert abs(plain.max_db - opt.max_db) > 1e-3  # the gain matters here
