@@ -28,7 +28,18 @@ TIED_TOL = 1e-6
 
 
 def free_group_levers(study) -> list:
-    """The study's free per-group spring levers (their :class:`VariableSpec`)."""
+    """The study's free per-group spring levers.
+
+    Parameters
+    ----------
+    study : Study
+        Any study (one without levers has none).
+
+    Returns
+    -------
+    list of VariableSpec
+        The free ``<variable>_group<k>`` levers, in the study's order.
+    """
     return [v for v in getattr(study, "levers", ()) if v.free and v.name in GROUP_SPRING_LEVERS]
 
 

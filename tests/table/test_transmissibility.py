@@ -161,7 +161,8 @@ def test_the_docs_peaks_of_the_builtin_table():
         res = isodesign.transmissibility(table_study())
     y = res.peak_db()[:, :, 1].max(axis=1)
     assert y[0] == pytest.approx(18.3, abs=0.1) and y[1] == pytest.approx(16.9, abs=0.1)
-    assert res.closure_peaks.peak_db[:, 1].max() == pytest.approx(13.9, abs=0.1)
+    # the closure's springs at the optimizer's tube velocity (with the distortion's gain)
+    assert res.closure_peaks.peak_db[:, 1].max() == pytest.approx(14.0, abs=0.1)
 
 
 def test_an_optimize_run_of_a_table_is_answered_at_its_optimum(builtin_table_run, capsys):
