@@ -280,7 +280,7 @@ def test_at_the_vertical_studys_optimum():
 
     st = vertical_study()
     res = isodesign.optimize(st)
-    b, t = _both(st, res.values)
+    b, t = _both(st, res.values, distortion=st.models["distortion"])  # the study's closure
     _assert_same(b, t)
     assert _db(t.velocity_rms_m_s[0, 2], res.analysis.payload_velocity_rms_m_s) < TOL_DB
 
