@@ -171,7 +171,7 @@ def table_harmonic_response(design, table, frequency_hz, floor_amplitude_m, dire
         s, _ = strokes(np.exp(xv.reshape(f.size, n)))
         return np.log(np.maximum(np.abs(s), 1e-15)).ravel()
 
-    from isodesign.table.response import _anderson
+    from isodesign.table.closure import anderson as _anderson
 
     x, n_it, _ = _anderson(g, x, rtol, max_iter)
     amp = np.exp(x.reshape(f.size, n))
