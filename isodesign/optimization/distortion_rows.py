@@ -68,10 +68,10 @@ DISTORTION_FIXED_POINT_RTOL = 1e-7
 DISTORTION_EFFECT_RTOL = 1e-8
 #: Outer rounds at most (each a warm re-solve).
 DISTORTION_MAX_ROUNDS = 8
-#: Expansions kept per NLP, and how near (max norm in the scaled design) a re-solve's start
-#: must be to one of their designs to start from it instead of the terms' values alone (the
-#: answer is accepted only after the same check: a stale expansion costs a round at most).
-_KEPT_EXPANSIONS = 8
+#: How near (max norm in the scaled design) a re-solve's start must be to its warm
+#: solution's design to start from that solution's last expansion instead of the terms'
+#: values alone (the answer is accepted only after the same check: a stale expansion costs
+#: a round at most). Only the warm solution passed in is used, never an earlier solve's.
 _NEAR_Z = 0.02
 #: NumPy states kept per NLP (a parametric sweep's points, a robust stack's scenarios: each
 #: its own terms, :meth:`OuterFixedPoint._context`).
@@ -251,7 +251,7 @@ class OuterFixedPoint:
 
     def _context(self) -> dict:
         """The NumPy state of the current context (:meth:`_dist_context`): the terms'
-        cache, the initial guesses' terms and the kept expansions (a shallow copy shares
+        cache and the initial guesses' terms (a shallow copy shares
         the table of contexts; each study keeps its own)."""
         owner, key = self._dist_context()
         table = self.__dict__.setdefault("_dist_contexts", {})
@@ -260,8 +260,7 @@ class OuterFixedPoint:
             if len(table) >= _KEPT_CONTEXTS:  # the oldest without an NLP expansion first
                 spare = [k for k, e in table.items() if e.get("p") is None]
                 table.pop(spare[0] if spare else next(iter(table)))
-            entry = table[key] = {"owner": owner, "cache": {}, "starts": {},
-                                  "expansions": []}
+            entry = table[key] = {"owner": owner, "cache": {}, "starts": {}}
         return entry
 
     def _numpy_state(self, design, values=None):
@@ -299,20 +298,15 @@ class OuterFixedPoint:
         """
         p = np.array(self.params() if p is None else p, float)
         x = np.asarray(x0, float)
-        cur = getattr(self, "_dist_p", None)
-        near = self._nearby_expansion(x[:self.nz])
-        if cur is not None and np.array_equal(cur[:self.nz], x[:self.nz]):
-            # a re-solve from the design of its expansion
-            sloped = bool(np.any(cur[self.nz + self._n_terms:] != 0.0))
-        elif near is not None:  # a re-solve near an answer: its expansion (then confirmed)
+        z0 = np.clip(x[:self.nz], -1.0, 1.0)
+        near = self._warm_expansion(warm, z0)
+        if near is not None:  # a re-solve near the warm answer: its expansion (confirmed)
             self._dist_p, sloped = near, True
-        elif np.clip(x[:self.nz], -1.0, 1.0).tobytes() in self._context()["starts"]:
-            self._dist_p = self._context()["starts"][np.clip(x[:self.nz], -1.0, 1.0).tobytes()]
-            sloped = False  # an initial guess's values (:meth:`initial_guess`)
         else:
             # a start: the first round with the terms' values alone (the slopes only matter
-            # at the answer; a start is far from it), then expanded at each answer
-            z0 = np.clip(x[:self.nz], -1.0, 1.0)
+            # at the answer; a start is far from it), then expanded at each answer. The
+            # rounds depend on x0 and warm alone, never on the solves before (a branch
+            # refined in a worker process equals one refined after the others)
             v0 = self._terms_at_z(z0)
             self._dist_p = np.concatenate([z0, v0, np.zeros(v0.size * z0.size)])
             sloped = False
@@ -336,7 +330,6 @@ class OuterFixedPoint:
             if done or rounds == DISTORTION_MAX_ROUNDS:
                 break
             self._dist_p = self.expansion(z, true)
-            self._remember(self._dist_p)
             sloped = True
             x = sol.x
         return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
@@ -364,22 +357,14 @@ class OuterFixedPoint:
         own = self._context()["starts"].get(key)
         return own if own is not None else self._current_dist()
 
-    def _remember(self, expansion) -> None:
-        """Keep the last few expansions (a re-solve near one of their designs starts from
-        it: :meth:`_nearby_expansion`)."""
-        kept = self._context()["expansions"]
-        kept.append(np.asarray(expansion, float).copy())
-        del kept[:-_KEPT_EXPANSIONS]
-
-    def _nearby_expansion(self, z):
-        """The kept expansion whose design is nearest ``z`` within :data:`_NEAR_Z` (max
-        norm), else ``None``."""
-        best, dist = None, _NEAR_Z
-        for e in self._context()["expansions"]:
-            d = float(np.max(np.abs(e[:self.nz] - np.asarray(z, float))))
-            if d <= dist:
-                best, dist = e, d
-        return None if best is None else best.copy()
+    def _warm_expansion(self, warm, z0):
+        """The warm solution's last expansion when its design is within :data:`_NEAR_Z`
+        of ``z0`` (max norm), else ``None``."""
+        e = getattr(warm, "outer_params", None)
+        if e is None or np.asarray(e).size != self._n_dist:
+            return None
+        e = np.asarray(e, float)
+        return e.copy() if float(np.max(np.abs(e[:self.nz] - z0))) <= _NEAR_Z else None
 
     def retighten(self, sol):
         """As the body's, with the expansion the solution was found with."""

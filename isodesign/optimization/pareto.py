@@ -377,7 +377,8 @@ def _lexicographic_b(prob: Problem, start: Solution):
     point; otherwise the verified minimum is the anchor and the end point ``None`` (the
     sweep solves it). ``None`` when a solve fails.
     """
-    lex = prob.solve(start.x, prob.params(weights=[LEXICOGRAPHIC_WEIGHT, 1.0]))
+    lex = prob.solve(start.x, prob.params(weights=[LEXICOGRAPHIC_WEIGHT, 1.0]),
+                     warm=start.as_start())
     if not lex.feasible:
         return None
     ver = _minimize_b(prob, lex, VERIFY_BAND)
@@ -441,11 +442,15 @@ def _minimize_b(prob: Problem, start: Solution, band=None) -> Solution:
     kind_a = prob.objectives[0]
     band = ANCHOR_B_BAND if band is None else band
     bound = float(start.objectives[0]) + band[OBJECTIVES[kind_a].db]
-    sol = prob.solve(start.x, prob.params(weights=[0.0, 1.0], eps=[bound, None]))
+    sol = prob.solve(start.x, prob.params(weights=[0.0, 1.0], eps=[bound, None]),
+                     warm=start.as_start())
     if sol.feasible:
         tight = prob.retighten(sol)
         if float(tight.objectives[0]) < bound - 1e-6 * max(1.0, abs(bound)):
             return sol
+    # without A's bound the solve travels far from the start (A is free), where the
+    # start's expansion of the distortion's terms extrapolates badly: the terms' values
+    # (a cold start) lead IPOPT there (docs/random-response.md 3d)
     return prob.solve(start.x, prob.params(weights=[0.0, 1.0]))
 
 
@@ -483,7 +488,8 @@ def _chain(prob: Problem, anchor: Solution, indices: list[int], eps,
             if not sol.feasible:
                 # warm start failed: retry from B's anchor (feasible for every eps >= B's min)
                 sol = prob.solve(_consistent(prob, anchor_b),
-                                 prob.params(weights=[1.0, 0.0], eps=[None, e_k]))
+                                 prob.params(weights=[1.0, 0.0], eps=[None, e_k]),
+                                 warm=anchor_b.as_start())
         if sol.feasible:
             sol, f_pk = _refine_point(prob, sol, [None, e_k])
             sol = _tight(prob, sol)
@@ -651,7 +657,8 @@ def _refine_point(prob: Problem, sol: Solution, eps) -> tuple[Solution, float | 
         if peak_db <= min(limits) + PEAK_TOLERANCE_DB:
             break
         peak_slots(prob, (rnd + 1) % PEAK_ROUNDS, f_pk)
-        new = prob.solve(prob.initial_guess(vals), prob.params(weights=[1.0, 0.0], eps=eps))
+        new = prob.solve(prob.initial_guess(vals), prob.params(weights=[1.0, 0.0], eps=eps),
+                         warm=sol.as_start())
         if not new.feasible:
             break
         sol = new

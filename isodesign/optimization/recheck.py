@@ -368,4 +368,4 @@ def evaluate_design(study, values: dict, *, grid=None, objectives: tuple = ()) -
                         "violation": float(np.max(viol))}
         worst = max(worst, float(np.max(viol)))
     return {"objectives": objs, "constraints": cons, "max_violation": worst, "sigma": sigma,
-            "tube_rms": info.get("tube_velocity_rms_m_s"), "metrics": mt}
+            "tube_rms": info.get("tube_velocity_rms_m_s"), "metrics": mt, "distortion": terms}

@@ -29,6 +29,7 @@ from isodesign.optimization.objectives import OBJECTIVES
 from isodesign.optimization.problem import PEAK_ROUNDS
 from isodesign.response.isolator import transmissibility
 from isodesign.response.linearization import EQUIVALENT_AMPLITUDE_FACTOR
+from isodesign.response.non_gaussian import minor_loss_gain_shift
 from isodesign.spring.capillary import statistical_resistance_function
 from isodesign.spring.equations import air_stiffness, spring_stiffness
 from isodesign.spring.stiffness import complex_stiffness
@@ -88,8 +89,8 @@ def flat_tolerance(kind: str) -> float:
 PEAK_STRIDE = 10
 
 
-def continuous_peak_db(prob, values: dict, sigma: float,
-                       tube_rms: float | None = None) -> tuple[float, float]:
+def continuous_peak_db(prob, values: dict, sigma: float, tube_rms: float | None = None, *,
+                       gain_ratio: float | None = None) -> tuple[float, float]:
     """Peak of |T| at the operating amplitude between the grid's frequencies (NumPy).
 
     A dense log grid over the peak grid's span, then a parabola through the
@@ -110,6 +111,10 @@ def continuous_peak_db(prob, values: dict, sigma: float,
         capillary's resistance is its linear part plus the Gaussian-equivalent resistance
         at ``tube_rms`` (:func:`isodesign.spring.capillary.statistical_resistance_function`)
         and the diaphragm is at ``A*``. ``None``: the harmonic describing function.
+    gain_ratio : float, optional
+        With the distortion power, the minor loss's gain ratio the closure's springs are
+        linearized with (``evaluate_design(...)["distortion"].gain_ratio``); default: the
+        NLP's NumPy terms at the design when ``prob`` carries the distortion, else 1.
 
     Returns
     -------
@@ -132,10 +137,21 @@ def continuous_peak_db(prob, values: dict, sigma: float,
     f = np.geomspace(pk.min(), pk.max(), 4001)
     a = EQUIVALENT_AMPLITUDE_FACTOR * sigma
 
+    # with the distortion, the minor loss's gain ratio in the equivalent resistance, as in
+    # the NLP and evaluate_design (metrics: docs/random-response.md 3c)
+    gain = gain_ratio
+    if (gain is None and tube_rms is not None and getattr(prob, "distortion", False)
+            and st.models["flow"] != "poiseuille"):
+        gain = getattr(prob.distortion_terms(d), "gain_ratio", None)
+    if st.models["flow"] == "poiseuille":
+        gain = None  # no minor loss
+
     def t2_at(fs):
         w = 2.0 * math.pi * fs
         if tube_rms is not None:  # the statistical closure (docs/random-response.md)
             c = statistical_resistance_function(st.models["flow"], d, w)(tube_rms)
+            if gain is not None:
+                c = Cx(c.re + minor_loss_gain_shift(d, tube_rms, float(gain)), c.im)
             k = spring_stiffness(air_stiffness(d, w, c, st.models["flow"]),
                                  prob.dia.stiffness(w, a)).to_complex()
         else:

@@ -70,7 +70,9 @@ def scenario_check(study, values: dict, theta, *, grid=None, reference=None) -> 
     peak = excess = None
     if bound is not None:
         shim = SimpleNamespace(study=sc, dia=diaphragm_model(sc.models["diaphragm"]), grid=grid)
-        peak, _ = continuous_peak_db(shim, values, ev["sigma"], ev["tube_rms"])
+        terms = ev["distortion"]  # the closure's gain ratio, as the NLP's (None: off)
+        peak, _ = continuous_peak_db(shim, values, ev["sigma"], ev["tube_rms"],
+                                     gain_ratio=None if terms is None else terms.gain_ratio)
         excess = peak - bound
     mt = ev["metrics"]
     rows = grid.target_band_rows

@@ -95,3 +95,11 @@ class Solution:
     def replace(self, **changes) -> Solution:
         """A copy with some fields changed."""
         return dataclasses.replace(self, **changes)
+
+    def as_start(self) -> Solution:
+        """This solution as the ``warm`` argument of a re-solve from its design under
+        other parameters (another objective's weights, an epsilon, added frequencies):
+        without its multipliers (IPOPT starts cold), with its outer fixed point's last
+        expansion (an NLP with the distortion starts from it, values and slopes, instead
+        of the terms' values alone: :meth:`.distortion_rows.OuterFixedPoint.solve`)."""
+        return dataclasses.replace(self, lam_x=None, lam_g=None)

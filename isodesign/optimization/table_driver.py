@@ -725,7 +725,7 @@ def _refine(prob, study, best, slots=None):
                           values=best.values)
         if rounds < _MODE_ROUNDS and _mode_misses(study, modes) and _modes_moved(prob, modes):
             prob.set_modes(modes)  # the frozen modes moved: solve again with the exact ones
-            sol = prob.solve(best.x)
+            sol = prob.solve(best.x, warm=best.as_start())
             rounds += 1
             if not sol.feasible:
                 peak["resolve_failed"] = f"mode refresh: {sol.status}"
@@ -734,7 +734,7 @@ def _refine(prob, study, best, slots=None):
             continue
         if _loop_refresh_needed(prob, study, best, peak):
             prob.set_loop(study.design_at(best.values))  # freeze the poles at this design
-            sol = prob.solve(best.x)
+            sol = prob.solve(best.x, warm=best.as_start())
             peak["leveling_rounds"] += 1
             if not sol.feasible:  # keep the last feasible design; its margin is a violation
                 peak["resolve_failed"] = f"leveling loop: {sol.status}"
@@ -757,7 +757,7 @@ def _refine(prob, study, best, slots=None):
         slots += new
         peak["added_frequencies_hz"] += new
         peak["rounds"] += 1
-        sol = prob.solve(best.x)
+        sol = prob.solve(best.x, warm=best.as_start())
         if not sol.feasible:  # keep the last feasible design; its peak stays a violation
             peak["resolve_failed"] = f"peak refinement: {sol.status}"
             break

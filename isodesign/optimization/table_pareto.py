@@ -313,5 +313,5 @@ def _peak_refined(study, state, x0, params, first=None):
             break  # every movable frequency taken: the excess stays reported
         state["prob"], state["used"] = prob, state["used"] + new
         params = prob.params(weights=w, eps=[None if e >= 1e19 else e for e in eps])
-        sol = prob.solve(sol.x, params)
+        sol = prob.solve(sol.x, params, warm=sol.as_start())
     return sol, excess

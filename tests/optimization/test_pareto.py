@@ -372,7 +372,12 @@ def test_other_branch_replaces_a_worse_point_and_keeps_the_rest(front):
     from isodesign.optimization.problem import Problem
 
     st, pf, _ = front
-    st = st.with_changes(objective={"kind": "worst_band_margin"})
+    # without the distortion power: with it, the start interpolated between points 0 and 2
+    # lands on another local optimum at point 1 (N = 4.3, 0.27 dB below the chain's N = 6.5:
+    # replaced, as it is better than the worse point, but not the chain's value this test
+    # compares with); the mechanism does not depend on the closure
+    st = st.with_changes(objective={"kind": "worst_band_margin"},
+                         models={"distortion": False})
     prob = Problem(st, objectives=pf.objectives)
     a = prob.solve(prob.initial_guess(pf.designs[0]))
     b, last = pareto._anchor_b(prob, a)

@@ -121,7 +121,10 @@ def test_only_the_winner_is_tie_broken(monkeypatch):
 
     monkeypatch.setattr(refine, "_finish", watched_finish)
     monkeypatch.setattr(refine, "tie_break", watched_tie_break)
-    st = vertical_study().with_changes(models=COARSE, solver={"starts": 4, "workers": 1})
+    # 20 peak points: the four starts end on more than one branch (with 10 and the
+    # distortion's gain in the continuous peak they all join one)
+    st = vertical_study().with_changes(models={**COARSE, "peak_points": 20},
+                                       solver={"starts": 4, "workers": 1})
     res = optimize(st, analyze=False)
     assert res.feasible and len(res.branches) >= 2
     win = res.branches[0][0]
@@ -211,3 +214,37 @@ def test_the_likely_winner_is_tie_broken_beside_the_other_branches(monkeypatch, 
         first = min(good, key=lambda i: (good[i].objective, i))  # the best sampled branch
         assert first not in in_main  # finished in its worker, never again here
         assert (par.start in in_main) == (par.start != first)
+
+
+@pytest.mark.parametrize("distortion", [True, False])
+def test_the_continuous_peak_is_the_analysis_excited_peak(distortion):
+    """The optimizer's continuous peak of |T| (the exchange method's check) at the study's
+    start is the analysis' excited peak (its own closure and its own peak search) within
+    the exchange method's tolerance, with the distortion power (the springs linearized with
+    the minor loss's gain ratio: before they were not, and the two differed by 0.22 dB
+    here) and without it."""
+    import math
+
+    from isodesign.optimization.analyze import analyze
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.recheck import evaluate_design
+
+    st = vertical_study().with_changes(models={"points_per_band": 4, "peak_points": 40,
+                                              "distortion": distortion})
+    vals = {v.name: v.start for v in st.variables}
+    ev = evaluate_design(st, vals)
+    peak_db, f_hz = refine.continuous_peak_db(Problem(st), vals, ev["sigma"], ev["tube_rms"])
+    s = analyze(st, vals).stability
+    assert peak_db == pytest.approx(20.0 * math.log10(s.excited_peak_transmissibility),
+                                    abs=refine.PEAK_TOLERANCE_DB)
+    assert f_hz == pytest.approx(s.excited_peak_frequency_hz, rel=1e-3)
+    # a caller without the NLP (the scenario check) passes evaluate_design's gain ratio
+    from types import SimpleNamespace
+
+    prob = Problem(st)
+    shim = SimpleNamespace(study=st, dia=prob.dia, grid=prob.grid)
+    terms = ev["distortion"]
+    assert (terms is not None) == distortion
+    assert refine.continuous_peak_db(shim, vals, ev["sigma"], ev["tube_rms"], gain_ratio=(
+        None if terms is None else terms.gain_ratio)) == pytest.approx((peak_db, f_hz),
+                                                                        rel=1e-12)
