@@ -381,6 +381,7 @@ def resolve_job(args, *, extra_payload: dict | None = None):
         design = design.replace(acoustics=args.acoustics)
         overridden.append("acoustics")
     models.update({k: v for k, v in given.items() if v is not None})
+    models["distortion"] = _distortion_in_force(models)
     check_acoustics(design, models.get("flow"), getattr(args, "acoustics", None))
     if overridden:
         models_source += "; options " + ", ".join("--" + k.replace("_", "-") for k in overridden)
@@ -405,6 +406,21 @@ def resolve_job(args, *, extra_payload: dict | None = None):
     return SimpleNamespace(design=design, label=label, payload=payload, floor=floor,
                            target=target, bands=bands, judged_hz=judged_hz, models=models,
                            models_source=models_source, study=study)
+
+
+def _distortion_in_force(models: dict) -> bool:
+    """``models.distortion`` of the command's job: the study's or design file's when given,
+    else the study default (:func:`~isodesign.optimization.study_parsers.default_distortion`:
+    on with the statistical closure), so that a design judged without a study is judged
+    as a study would judge it; off whenever the closure in force is not the statistical one
+    (``--random-method`` may change it)."""
+    from isodesign.optimization.study_parsers import default_distortion
+
+    if models.get("random_method", "statistical") != "statistical":
+        return False
+    if "distortion" in models:
+        return bool(models["distortion"])
+    return default_distortion({"models": models})
 
 
 def _bands(spec):
@@ -449,6 +465,10 @@ def models_line(models: dict, source: str) -> str:
             f"amplitude_mode={models.get('amplitude_mode')}, diaphragm={dia}{note}"
             + (f", acoustics={acoustics}" if acoustics else "")
             + (f", random closure {models['random_method']}" if "random_method" in models
+               else "")
+            + ((", with the distortion power" if models["distortion"] else
+                ", without the distortion power")
+               if models.get("random_method") == "statistical" and "distortion" in models
                else "") + f" (from {source})")
 
 
@@ -458,7 +478,8 @@ def summary(res, design_label: str, derived: bool, models_source: str = "options
     p = res.payload
     models = {"flow": res.flow, "amplitude_mode": res.amplitude_mode,
               "diaphragm": res.diaphragm, "acoustics": getattr(res.design, "acoustics", None),
-              "random_method": res.random_method}
+              "random_method": res.random_method,
+              "distortion": getattr(res, "distortion_kurtosis", None) is not None}
     lines = [
         f"band response: {design_label}; payload {p.mass_kg:g} kg on {p.isolators} isolators "
         f"({p.mass_per_isolator_kg:g} kg each), p0 = {s.pressure_pa / 1e5:.4g} bar "

@@ -502,8 +502,11 @@ def band_response(
         bands, the stroke and the tube velocity, self-consistently with the closure; the
         residual's power and the minor loss's equivalent gain at the tube velocity's
         predicted kurtosis (section 3c; ``distortion_kurtosis`` and ``flags`` of the
-        result). ``random_method="statistical"`` only; NumPy only, not in the NLP (default
-        off, section 3c).
+        result). ``random_method="statistical"`` only. Off by default here, where every
+        model is an explicit argument; a study's default is on (``models.distortion``,
+        which :func:`isodesign.analyze`, the optimizer's NLP, section 3d, and every command
+        apply; ``isodesign response`` without a study too), so pass ``distortion=True`` for
+        the study's answer.
 
     Returns
     -------

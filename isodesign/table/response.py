@@ -329,7 +329,9 @@ def table_band_response(
         linearization carried through the table as a pressure-drop source in its tube
         (:func:`table_distortion`, ``docs/random-response.md`` sections 3b and 3c, at each
         tube velocity's predicted kurtosis), to the band response, the strokes and the tube
-        velocities, self-consistently (default off: not in the NLP).
+        velocities, self-consistently. Off by default here, where every model is an
+        explicit argument; a study's default is on (``models.distortion``, which
+        :func:`isodesign.analyze`, the table NLP and every command apply).
 
     Returns
     -------
