@@ -657,8 +657,8 @@ def test_cli_response(cli_main, tmp_path, capsys):
     # without a study the closure is the study default's: with the distortion power, so
     # the command's figures are band_response's with distortion=True
     assert "random closure statistical, with the distortion power (from defaults)" in text
-    r = band_response(SpringDesign.reference(), Payload(400.0, 4), FloorSpectrum.from_criterion("VC-A"),
-                      "VC-C", distortion=True)
+    r = band_response(SpringDesign.reference(), Payload(400.0, 4),
+                      FloorSpectrum.from_criterion("VC-A"), "VC-C", distortion=True)
     s = r.stability
     assert (f"peak |T| {20 * math.log10(s.excited_peak_transmissibility):.2f} dB at "
             f"{s.excited_peak_frequency_hz:.4g} Hz (at A*)") in text
