@@ -5,8 +5,6 @@ are the built-in table study, ``table_study()``, changed."""
 
 from __future__ import annotations
 
-import copy
-import tomllib
 import warnings
 from importlib import resources
 
@@ -15,26 +13,6 @@ import pytest
 from isodesign.cli import main
 from isodesign.errors import InputError
 from isodesign.io.plausible import UnitWarning
-from isodesign.optimization.study import study_from_dict
-
-
-@pytest.fixture(scope="module")
-def table_raw():
-    """The built-in table study's file as a dictionary (``table_study()``)."""
-    with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
-        return tomllib.loads(p.read_text())
-
-
-def _study(raw, changes):
-    d = copy.deepcopy(raw)
-    for path, value in changes.items():
-        *head, last = path.split(".")
-        cur = d
-        for k in head:
-            cur = cur.setdefault(k, {})
-        cur[last] = value
-    return study_from_dict(d, source="table.toml")
-
 
 # (changes, fragments every one of which the message holds)
 REFUSED = [
@@ -56,9 +34,9 @@ REFUSED = [
 @pytest.mark.parametrize("changes, fragments", REFUSED, ids=[
     "isolators_empty", "isolators_flat", "diaphragm_r1_alone", "objective_option_string",
     "objective_option_negative"])
-def test_refused_naming_the_key(table_raw, changes, fragments):
+def test_refused_naming_the_key(changed_table_study, changes, fragments):
     with pytest.raises(InputError) as err:
-        _study(table_raw, changes)
+        changed_table_study(changes)
     msg = str(err.value)
     assert "\n" not in msg
     for f in fragments:
@@ -76,10 +54,10 @@ WARNED = [
 
 
 @pytest.mark.parametrize("changes, fragments", WARNED, ids=["max_stroke_mm", "dead_band_mm"])
-def test_unit_slip_warns_naming_the_key(table_raw, changes, fragments):
+def test_unit_slip_warns_naming_the_key(changed_table_study, changes, fragments):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        _study(table_raw, changes)
+        changed_table_study(changes)
     msgs = [str(w.message) for w in caught if issubclass(w.category, UnitWarning)]
     assert any(all(f in m for f in fragments) for m in msgs), msgs
 
@@ -210,7 +188,7 @@ def test_robust_table_within_the_groups_triangle_is_not_refused():
                        "cg_offset_x_m": {"absolute": 0.05}, "cg_offset_y_m": {"absolute": 0.05}}}))
 
 
-def test_cli_robust_table_unlevelable_corner_one_line(tmp_path, capsys, table_raw):
+def test_cli_robust_table_unlevelable_corner_one_line(tmp_path, capsys, changed_table_study):
     text = (resources.files("isodesign") / "data" / "table_study.toml").read_text()
     f = tmp_path / "robust.toml"
     f.write_text(text + "\n[scenarios]\ncg_offset_x_m = {absolute = 0.35}\n")

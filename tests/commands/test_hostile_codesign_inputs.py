@@ -7,36 +7,15 @@ question. Every study here is the built-in table study, ``table_study()``, chang
 from __future__ import annotations
 
 import copy
-import tomllib
 import warnings
-from importlib import resources
 
 import pytest
 
 import isodesign
 from isodesign.errors import InputError
 from isodesign.io.plausible import UnitWarning
-from isodesign.optimization.study import default_study, study_from_dict, table_study
+from isodesign.optimization.study import default_study, table_study
 from isodesign.optimization.yields import estimate_yield
-
-
-@pytest.fixture(scope="module")
-def table_raw():
-    """The built-in table study's file as a dictionary (``table_study()``)."""
-    with resources.as_file(resources.files("isodesign") / "data" / "table_study.toml") as p:
-        return tomllib.loads(p.read_text())
-
-
-def _study(raw, changes):
-    d = copy.deepcopy(raw)
-    for path, value in changes.items():
-        *head, last = path.split(".")
-        cur = d
-        for k in head:
-            cur = cur.setdefault(k, {})
-        cur[last] = value
-    return study_from_dict(d, source="table.toml")
-
 
 V = "variables."
 LAYOUT_FREE = {V + "layout_length_m": {"fixed": False}, V + "layout_width_m": {"fixed": False}}
@@ -87,17 +66,17 @@ REFUSED = [
 
 @pytest.mark.parametrize("changes, fragments", REFUSED,
                          ids=[f[0].split(" ")[0] + f"-{i}" for i, (_, f) in enumerate(REFUSED)])
-def test_codesign_input_refused_naming_the_key(table_raw, changes, fragments):
+def test_codesign_input_refused_naming_the_key(changed_table_study, changes, fragments):
     with pytest.raises(InputError) as err:
-        _study(table_raw, changes)
+        changed_table_study(changes)
     msg = str(err.value)
     assert "\n" not in msg
     for f in fragments:
         assert f in msg
 
 
-def test_a_free_layout_within_its_footprint_is_accepted(table_raw):
-    st = _study(table_raw, {**LAYOUT_FREE, "constraints.footprint_m": [[-0.75, -0.5],
+def test_a_free_layout_within_its_footprint_is_accepted(changed_table_study):
+    st = changed_table_study({**LAYOUT_FREE, "constraints.footprint_m": [[-0.75, -0.5],
                                                                        [0.75, 0.5]],
                             "constraints.min_isolator_distance_m": 0.5})
     assert [v.name for v in st.levers if v.free] == ["layout_length_m", "layout_width_m"]
@@ -115,10 +94,10 @@ WARNED = [
 
 @pytest.mark.parametrize("changes, fragments", WARNED, ids=["supply_margin_kpa",
                                                             "group_lever_mm", "group_springs_mm"])
-def test_codesign_unit_slip_warns_naming_the_key(table_raw, changes, fragments):
+def test_codesign_unit_slip_warns_naming_the_key(changed_table_study, changes, fragments):
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        _study(table_raw, changes)
+        changed_table_study(changes)
     msgs = [str(w.message) for w in caught if issubclass(w.category, UnitWarning)]
     assert any(all(f in m for f in fragments) for m in msgs), msgs
 
@@ -351,9 +330,9 @@ def test_a_points_csv_saved_with_a_byte_order_mark_is_read():
     ({"constraints.bogus_key": 1.0}, ["unknown key 'bogus_key' in [constraints]; valid: "]),
 ], ids=["lever", "layout_case", "footprint", "min_distance", "group_springs", "horizontal",
         "variable_field", "no_close_key"])
-def test_an_unknown_key_suggests_the_closest(table_raw, changes, fragments):
+def test_an_unknown_key_suggests_the_closest(changed_table_study, changes, fragments):
     with pytest.raises(InputError) as err:
-        _study(table_raw, changes)
+        changed_table_study(changes)
     for f in fragments:
         assert f in str(err.value)
     if "bogus_key" in fragments[0]:  # nothing close: no guess
