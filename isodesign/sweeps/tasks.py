@@ -332,8 +332,10 @@ def _optimize_robust_table(study):
     check_robust_table(study)
     cache = problem_cache()
     before = cache.builds
-    # its nominal optimum on a table NLP of this worker's (payload folded: the point's own)
-    nominal = optimize_table(study, problem=cache.get(study, payload=False), analyze=False)
+    # its nominal optimum on a table NLP of this worker's (payload folded), that of the
+    # study without [scenarios] (the ranges do not reach it)
+    nominal = optimize_table(study, analyze=False, problem=cache.get(
+        dataclasses.replace(study, scenarios=None), payload=False))
     result = optimize(study, nominal=nominal)
     n = (result.extra or {}).get("nlp_builds") or {}
     builds = cache.builds - before + int(n.get("scenarios", 0)) + int(n.get("stacks", 0))
