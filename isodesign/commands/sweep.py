@@ -40,7 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         + "), as isodesign optimize")
     parser.add_argument("--vary", action="append", metavar="KEY=VALUES", default=[],
                         help="a study key and its values: a,b,c or start:stop:count (linear, "
-                        "both ends); repeat for several keys")
+                        "both ends); repeat for several keys. A [scenarios] range is a key "
+                        "too (scenarios.NAME.relative, .absolute, .min, .max): each point is "
+                        "then the robust optimum of its own ranges")
     parser.add_argument("--combine", choices=("product", "zip"), default="product",
                         help="how several --vary combine (default %(default)s)")
     parser.add_argument("--points-file", metavar="FILE",
