@@ -161,3 +161,33 @@ def test_an_inverted_range_in_a_points_table_names_the_point(tmp_path, capsys):
     with pytest.raises(InputError, match=r"inverted range, lower \(0.03\)"):
         isodesign.sweep(_study(), points=[{KEY: 0.02}, {KEY: [0.03, 0.01]}],
                         output=tmp_path / "api", scheduler="serial")
+
+
+@pytest.mark.slow
+def test_a_robust_table_point_is_its_own_robust_optimum(tmp_path):
+    """A robust table study (``table_study()``, coarse, one start): its scenario NLPs
+    compile the payload and CG, so each point builds them again, and the row counts them;
+    the answer is the direct robust optimize's of the point's study."""
+    import copy
+
+    from isodesign.optimization.study import study_from_dict, table_study
+
+    raw = copy.deepcopy(table_study().raw)
+    raw["scenarios"] = {"payload_mass_kg": {"min": 560.0, "max": 640.0},
+                        "cg_offset_y_m": {"absolute": 0.02}}
+    raw["solver"].update(starts=1, workers=1)
+    raw["models"]["points_per_band"] = 3
+    st = study_from_dict(raw, source="t.toml", fill_defaults=False)
+    key = "scenarios.cg_offset_y_m.absolute"
+    res = isodesign.sweep(st, vary={key: [0.03]}, output=tmp_path / "sw", scheduler="serial",
+                          options={"yield_samples": 0}, charts=False)
+    row = read_table(tmp_path / "sw").iloc[0]
+    assert row["status"] == "complete" and row["question"] == "robust table"
+    direct = isodesign.optimize(st.with_changes(scenarios={"cg_offset_y_m": {"absolute": 0.03}}))
+    assert row["objective_value"] == pytest.approx(direct.objective_value, abs=0.01)
+    built = direct.extra["nlp_builds"]
+    # the nominal table NLP (one at least) and the exchange's scenario NLPs and stacks
+    assert row["nlp_builds"] >= 1 + built["scenarios"] + built["stacks"]
+    assert res.nlp_builds == row["nlp_builds"]
+    rob = json.loads((tmp_path / "sw" / row["run_dir"] / "robust.json").read_text())
+    assert rob["nlp_builds"] == built
