@@ -193,3 +193,17 @@ def test_a_robust_table_point_is_its_own_robust_optimum(tmp_path):
     assert res.nlp_builds == row["nlp_builds"]
     rob = json.loads((tmp_path / "sw" / row["run_dir"] / "robust.json").read_text())
     assert rob["nlp_builds"] == built
+
+
+def test_a_range_given_as_a_number_and_as_a_pair_is_one_text_column(tmp_path):
+    """``relative = 0.02`` at one point, ``[0.0, 0.05]`` (a drill cutting oversize only) at
+    another: the table's column holds both as JSON text and is written (pyarrow refused the
+    mixed column after every point had run)."""
+    from isodesign.sweeps.table import frame
+
+    rows = [{"point": "a", "changes": {KEY: 0.02}, "status": "complete"},
+            {"point": "b", "changes": {KEY: [0.0, 0.05]}, "status": "complete"}]
+    df = frame(rows, [KEY])
+    assert list(df[KEY]) == ["0.02", "[0.0, 0.05]"]
+    df.to_parquet(tmp_path / "t.parquet")
+    assert [json.loads(v) for v in df[KEY]] == [0.02, [0.0, 0.05]]
