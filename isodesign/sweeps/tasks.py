@@ -825,7 +825,9 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
     done = read_point(point_dir, study_hash)
     if done is not None and done.get("status") in FINISHED and not resolve:
         return {**done, "reused": True}
-    study = study_from_dict(study_raw, source="<dict>", fill_defaults=False)
+    with warnings.catch_warnings():  # the sweep warned of the point's values, naming it
+        warnings.simplefilter("ignore")
+        study = study_from_dict(study_raw, source="<dict>", fill_defaults=False)
     if _hash(study) != study_hash:  # pragma: no cover - a bug, never a silent mismatch
         raise RuntimeError("sweep point: the study changed on its way to the worker")
     row = {"point": study_hash[:16], "study_hash": study_hash, "task": task_name,

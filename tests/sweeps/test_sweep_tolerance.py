@@ -207,3 +207,18 @@ def test_a_range_given_as_a_number_and_as_a_pair_is_one_text_column(tmp_path):
     assert list(df[KEY]) == ["0.02", "[0.0, 0.05]"]
     df.to_parquet(tmp_path / "t.parquet")
     assert [json.loads(v) for v in df[KEY]] == [0.02, [0.0, 0.05]]
+
+
+def test_an_implausible_tolerance_warns_once_naming_the_point(tmp_path, capsys):
+    """A 60 % drill tolerance (a percentage typed for a fraction?) is a warning of the
+    point, printed once: the worker's rebuild of the point's study warned again, as
+    ``<dict>``."""
+    f = tmp_path / "robust.toml"
+    f.write_text(study_toml(_study()))
+    status = main(["sweep", str(f), "--task", "yield", "--vary", f"{KEY}=0.6",
+                   "--yield-samples", "4", "--scheduler", "serial", "--quiet",
+                   "-o", str(tmp_path / "sw")])
+    err = [ln for ln in capsys.readouterr().err.splitlines() if "warning" in ln]
+    assert status == 0
+    assert err == [f"isodesign: warning: --vary {KEY}=0.6: {KEY}: a deviation of 60 % is far "
+                   "above a tolerance (relative is a fraction: 0.05 is 5 %)"]
