@@ -69,6 +69,14 @@ def test_each_point_is_the_robust_optimum_of_its_own_tolerance(api_sweep):
         assert rob["worst_case_objective"] == pytest.approx(row["objective_value"], abs=1e-9)
         assert f"capillary_diameter_m -{100 * tol:g} .. +{100 * tol:g} %" in rob["parameters"]
         # the point's study_resolved.toml holds the point's ranges (replayable)
+        # the re-optimized sensitivities (lam_p of the last stacked solve): the reused
+        # stack's are the fresh one's
+        lam = direct.reoptimized_sensitivities()
+        assert set(rob["reoptimized_sensitivities"]) == {str(k) for k in lam}
+        for k, per in lam.items():
+            for name, v in per.items():
+                assert rob["reoptimized_sensitivities"][str(k)][name] == pytest.approx(
+                    v, rel=1e-3, abs=1e-6)
         replay = load_study(run / "study_resolved.toml")
         assert replay.scenarios.parameter("capillary_diameter_m").hi == pytest.approx(tol)
         worst.append(float(row["objective_value"]))
