@@ -230,3 +230,25 @@ def test_an_implausible_tolerance_warns_once_naming_the_point(tmp_path, capsys):
     assert status == 0
     assert err == [f"isodesign: warning: --vary {KEY}=0.6: {KEY}: a deviation of 60 % is far "
                    "above a tolerance (relative is a fraction: 0.05 is 5 %)"]
+
+
+@pytest.mark.slow
+def test_on_dask_each_worker_builds_the_robust_nlps_once(dask_processes, tmp_path):
+    """Two Dask workers, four tolerances: each worker builds its nominal NLP and scenario
+    block once, and a stack once per number of scenarios its points' exchanges reached;
+    the sweep's count is the rows' sum."""
+    res = isodesign.sweep(_study(), vary={KEY: [0.01, 0.02, 0.03, 0.04]},
+                          output=tmp_path / "sw", scheduler=dask_processes.address,
+                          options={"yield_samples": 0}, charts=False)
+    df = read_table(tmp_path / "sw")
+    assert list(df["status"]) == ["complete"] * 4
+    assert res.nlp_builds == int(df["nlp_builds"].sum())
+    for _, g in df.groupby("worker"):
+        robs = [json.loads((tmp_path / "sw" / r / "robust.json").read_text())
+                for r in g["run_dir"]]
+        blocks = sum(r["nlp_builds"]["scenario_blocks"] for r in robs)
+        stacks = sum(r["nlp_builds"]["stacks"] for r in robs)
+        sizes = {x["scenarios"] for r in robs for x in r["rounds"]}
+        assert blocks == 1
+        assert stacks == len(sizes)
+        assert int(g["nlp_builds"].sum()) == 1 + blocks + stacks  # the nominal NLP once
