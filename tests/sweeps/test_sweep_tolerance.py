@@ -234,9 +234,9 @@ def test_an_implausible_tolerance_warns_once_naming_the_point(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_on_dask_each_worker_builds_the_robust_nlps_once(dask_processes, tmp_path):
-    """Two Dask workers, three tolerances (one worker solves two): each worker builds its nominal NLP and scenario
-    block once, and a stack once per number of scenarios its points' exchanges reached;
-    the sweep's count is the rows' sum."""
+    """Two Dask workers, three tolerances (one worker solves two): each worker builds its
+    nominal NLP and scenario block once, and a stack once per number of scenarios its
+    points' exchanges reached; the sweep's count is the rows' sum."""
     res = isodesign.sweep(_study(), vary={KEY: [0.01, 0.02, 0.03]},
                           output=tmp_path / "sw", scheduler=dask_processes.address,
                           options={"yield_samples": 0}, charts=False)
