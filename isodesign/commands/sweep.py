@@ -40,7 +40,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         + "), as isodesign optimize")
     parser.add_argument("--vary", action="append", metavar="KEY=VALUES", default=[],
                         help="a study key and its values: a,b,c or start:stop:count (linear, "
-                        "both ends); repeat for several keys")
+                        "both ends); repeat for several keys. A [scenarios] range is a key "
+                        "too (scenarios.NAME.relative, .absolute, .min, .max): each point is "
+                        "then the robust optimum of its own ranges")
     parser.add_argument("--combine", choices=("product", "zip"), default="product",
                         help="how several --vary combine (default %(default)s)")
     parser.add_argument("--points-file", metavar="FILE",
@@ -150,9 +152,14 @@ def summary(res) -> str:
     if res.ran:
         changed = int(df["branch_changed"].fillna(False).astype(bool).sum()) \
             if "branch_changed" in df else 0
+        robust = ("question" in df and df["question"].astype(str).str.startswith(
+            "robust").any())
+        what = ("; a robust point's nominal NLP, scenario block and stacked NLPs, once per "
+                "worker, a robust table's scenario NLPs and stacks per point" if robust else "")
         lines.append(f"  NLPs built: {res.nlp_builds} for {res.ran} points run now (summed over "
                      f"the workers: one per structure and worker, a table's movable peak "
-                     f"frequencies one more); {changed} points changed branch along their line")
+                     f"frequencies one more{what}); {changed} points changed branch along "
+                     "their line")
     if walls:
         lines.append(f"  time per point: median {statistics.median(walls):.2f} s, min "
                      f"{min(walls):.2f} s, max {max(walls):.2f} s (sum {sum(walls):.1f} s: "

@@ -41,7 +41,7 @@ from isodesign.optimization.refine import (
     continuous_peak_db,
     peak_slots,
 )
-from isodesign.optimization.robust import RobustProblem, ScenarioBlock, best_solve
+from isodesign.optimization.robust import RobustBuilds, best_solve
 from isodesign.optimization.robust_result import (
     RobustResult,
     scenario_constraints,
@@ -155,7 +155,7 @@ def worst_case(study, values: dict, reference: float, *, grid=None, samples: int
             "evaluations": n_eval}
 
 
-def robust_optimize(study, *, nominal=None, progress=None):
+def robust_optimize(study, *, nominal=None, progress=None, builds=None):
     """Robust optimum of a study with ``[scenarios]`` (see the module docstring).
 
     Parameters
@@ -167,6 +167,10 @@ def robust_optimize(study, *, nominal=None, progress=None):
         study's nominal scenario); the exchange starts from it.
     progress : callable, optional
         ``progress(message)`` after each round.
+    builds : RobustBuilds, optional
+        Built scenario blocks and stacked NLPs to reuse (a sweep worker's,
+        :class:`.robust.RobustBuilds`: a study whose ``[scenarios]`` ranges alone differ
+        from one solved before builds nothing); default: built here for this study.
 
     Returns
     -------
@@ -184,7 +188,10 @@ def robust_optimize(study, *, nominal=None, progress=None):
         nominal = optimize_vertical(study, nominal=True)
     if not nominal.feasible:
         return RobustResult.infeasible_nominal(study, nominal, time.perf_counter() - t_all)
-    block = ScenarioBlock(study)
+    if builds is None:
+        builds = RobustBuilds()
+    n_built = (builds.blocks_built, builds.stacks_built)
+    block = builds.block(study)
     grid = build_grid(study)
     values = dict(nominal.values)
     kind = block.objective
@@ -201,15 +208,12 @@ def robust_optimize(study, *, nominal=None, progress=None):
     sol = prob = None
     converged = False
     last = first
-    built: dict[int, RobustProblem] = {}  # one stacked NLP per number of scenarios
     for r in range(settings["max_rounds"] + 1):
         t0 = time.perf_counter()
         # a round that adds no scenario (peak slots moved) solves the NLP it has: the
         # scenarios and the slots are parameters
-        prob = built.get(len(thetas))
-        new_nlp = prob is None
-        if new_nlp:
-            prob = built[len(thetas)] = RobustProblem(block, thetas)
+        # one stacked NLP per number of scenarios
+        prob, new_nlp = builds.stacked(block, thetas)
         prob.thetas = [np.asarray(t, float) for t in thetas]
         prob.slots = [s.copy() for s in slots]
         sol = best_solve(prob, [values, nominal.values, best_values], study)
@@ -248,7 +252,9 @@ def robust_optimize(study, *, nominal=None, progress=None):
         feasible=True, converged=converged, status=sol.status, rounds=tuple(rounds),
         scenarios=tuple(rows), first_search=first, last_search=last, problem=prob,
         solution=sol, wall_s=time.perf_counter() - t_all,
-        constraints=scenario_constraints(study, prob, sol))
+        constraints=scenario_constraints(study, prob, sol),
+        extra={"nlp_builds": {"scenario_blocks": builds.blocks_built - n_built[0],
+                              "stacks": builds.stacks_built - n_built[1]}})
 
 
 def _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds) -> bool:

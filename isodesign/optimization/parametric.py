@@ -89,7 +89,8 @@ def structure_key(study, objectives: tuple = (), extra_peak_hz: tuple = (), grid
     Parameters
     ----------
     study : Study
-        A vertical study (no ``[table]``, no ``[scenarios]``).
+        A vertical study (no ``[table]``; a study's ``[scenarios]`` are left out: its
+        nominal NLP is the same for any ranges).
     objectives : tuple of str
         The NLP's objectives (default: the study's).
     extra_peak_hz : tuple of float
@@ -112,6 +113,8 @@ def structure_key(study, objectives: tuple = (), extra_peak_hz: tuple = (), grid
     d = resolved_study_dict(study)
     d.pop("name", None)
     d.pop("description", None)
+    # a robust study's nominal NLP: its [scenarios] never reach it (robust.RobustBuilds)
+    d.pop("scenarios", None)
     for t, k in _PARAMETER_KEYS:
         if isinstance(d.get(t), dict) and k in d[t]:
             d[t][k] = d[t][k] is not None  # present or not: structure
@@ -387,6 +390,25 @@ class ProblemCache:
                                       payload=payload)
         self._built.setdefault(key, []).append(prob)
         return prob.at(study) or prob
+
+    def robust(self):
+        """This cache's robust vertical NLPs (:class:`~.robust.RobustBuilds`: scenario
+        blocks and stacked NLPs, one per structure and number of scenarios), counted in
+        ``builds``.
+
+        Returns
+        -------
+        RobustBuilds
+        """
+        rb = getattr(self, "_robust", None)
+        if rb is None:
+            from isodesign.optimization.robust import RobustBuilds
+
+            def count():
+                self.builds += 1
+
+            rb = self._robust = RobustBuilds(on_build=count)
+        return rb
 
     def __len__(self) -> int:
         return len(self._built)

@@ -45,8 +45,8 @@ from isodesign.spring.capillary import gaussian_equivalent_resistance
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import amplitude_residual, kinematic_velocity
 
-__all__ = ["RobustProblem", "RobustSolution", "ScenarioBlock", "best_solve",
-           "block_function", "global_params", "stack_scenarios"]
+__all__ = ["RobustBuilds", "RobustProblem", "RobustSolution", "ScenarioBlock", "best_solve",
+           "block_function", "global_params", "scenario_structure_key", "stack_scenarios"]
 
 
 def stack_scenarios(groups, nz: int, scaling) -> tuple[dict, object]:
@@ -502,3 +502,130 @@ class RobustProblem:
     def natural(self, j: float) -> float:
         """Internal J -> the objective's natural value."""
         return OBJECTIVES[self.block.objective].to_natural(j)
+
+
+#: Solver settings that are not the scenario block's (starts, seed, workers, tie-break).
+_SOLVER_FREE_KEYS = ("starts", "seed", "workers", "tie_break")
+
+
+def scenario_structure_key(study) -> str:
+    """The part of a robust vertical study that shapes its scenario block and stacked NLPs.
+
+    A scenario's values (``theta``) are parameters of the block (:class:`ScenarioBlock`):
+    what a ``[scenarios]`` range says (its ends, a list's values, the distribution) and the
+    exchange settings never reach the NLP; which parameters are uncertain and how a
+    tolerance applies (``relative``: ``x (1 + delta)``, ``absolute``: ``x + delta``, an
+    operating value) do. So two studies that differ only in their ranges (a sweep of a
+    tolerance) have the same key, and one built block serves both.
+
+    Parameters
+    ----------
+    study : Study
+        A study with ``[scenarios]`` and without ``[table]``.
+
+    Returns
+    -------
+    str
+        A hash of the resolved study without its name, description, ``[scenarios]`` table
+        and the solver's starts, seed, workers and tie-break; and of the uncertain
+        parameters' names and modes, in order.
+    """
+    import hashlib
+    import json
+
+    from isodesign.io.record import resolved_study_dict
+
+    d = resolved_study_dict(study)
+    for k in ("name", "description", "scenarios"):
+        d.pop(k, None)
+    d["solver"] = {k: v for k, v in (d.get("solver") or {}).items()
+                   if k not in _SOLVER_FREE_KEYS}
+    d["scenarios"] = [[p.name, p.mode] for p in study.scenarios.parameters]
+    text = json.dumps(d, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:16]
+
+
+class RobustBuilds:
+    """Built scenario blocks and stacked NLPs, kept for the next study of the same structure.
+
+    :func:`.exchange.robust_optimize` builds one :class:`ScenarioBlock` per study and one
+    :class:`RobustProblem` per number of scenarios. A sweep worker that solves robust
+    points differing only in their ``[scenarios]`` ranges (a tolerance swept,
+    :func:`scenario_structure_key`) builds them once: the block is rebound to the point's
+    study and ranges (:meth:`block`), a stack of K scenarios is reused with the point's
+    scenario values and peak slots as its parameters (:meth:`stacked`). ``builds`` counts
+    both (the sweep's "NLPs built").
+
+    Parameters
+    ----------
+    on_build : callable, optional
+        Called once per build (a :class:`~.parametric.ProblemCache` counts its own).
+    """
+
+    def __init__(self, on_build=None):
+        self._blocks: dict[str, ScenarioBlock] = {}
+        self._stacks: dict[tuple[str, int], RobustProblem] = {}
+        self._on_build = on_build
+        self.blocks_built = self.stacks_built = 0
+
+    @property
+    def builds(self) -> int:
+        """Scenario blocks and stacked NLPs built."""
+        return self.blocks_built + self.stacks_built
+
+    def _built(self) -> None:
+        if self._on_build is not None:
+            self._on_build()
+
+    def block(self, study) -> ScenarioBlock:
+        """The scenario block of ``study`` (built on the first study of its structure),
+        bound to its study, ranges and nominal scenario.
+
+        Parameters
+        ----------
+        study : Study
+            With ``[scenarios]``, without ``[table]``.
+
+        Returns
+        -------
+        ScenarioBlock
+        """
+        key = scenario_structure_key(study)
+        b = self._blocks.get(key)
+        if b is None:
+            b = self._blocks[key] = ScenarioBlock(study)
+            b.structure_key = key
+            self.blocks_built += 1
+            self._built()
+            return b
+        # the same NLP; the point's ranges are the NumPy side's (box, descriptions)
+        b.space = study.scenarios
+        b.nominal_study = study
+        b.select(b.space.nominal(), b.base_slot_hz)
+        return b
+
+    def stacked(self, block: ScenarioBlock, thetas) -> tuple[RobustProblem, bool]:
+        """The stack of ``len(thetas)`` scenarios of ``block``, with these scenarios.
+
+        Parameters
+        ----------
+        block : ScenarioBlock
+            From :meth:`block`.
+        thetas : sequence of arrays
+
+        Returns
+        -------
+        (RobustProblem, bool)
+            The stacked NLP (its scenarios ``thetas``, slots the block's study grid's) and
+            whether it was built now.
+        """
+        key = (getattr(block, "structure_key", str(id(block))), len(thetas))
+        prob = self._stacks.get(key)
+        new = prob is None or prob.block is not block
+        if new:
+            prob = self._stacks[key] = RobustProblem(block, thetas)
+            self.stacks_built += 1
+            self._built()
+        prob.thetas = [np.asarray(t, float) for t in thetas]
+        prob.slots = [block.base_slot_hz.copy() for _ in prob.thetas]
+        return prob, new

@@ -176,7 +176,8 @@ def table_structure_key(study, objectives: tuple = (), peak_slots: int = 0,
 
     objectives = tuple(objectives or (study.objective["kind"],))
     d = resolved_study_dict(study)
-    for k in ("name", "description", *_PARAMETER_TABLES):
+    # a robust table study's nominal NLP: its [scenarios] never reach it
+    for k in ("name", "description", "scenarios", *_PARAMETER_TABLES):
         d.pop(k, None)
     free = {v.name for v in study.variables if v.free}
     d["variables"] = {k: ({kk: vv for kk, vv in v.items() if kk != "start"}

@@ -105,6 +105,10 @@ def frame(rows, keys=()):
             kinds = {type(v) for v in df[c] if v is not None and v == v}
             if str in kinds and len(kinds) > 1:
                 df[c] = [None if v is None else str(v) for v in df[c]]
+            elif kinds & {list, tuple, dict} and len(kinds) > 1:
+                # a range given as a number at one point and as [lower, upper] at another
+                # (a [scenarios] tolerance): every value as its JSON text
+                df[c] = [None if v is None else json.dumps(v) for v in df[c]]
             elif kinds <= {int, float, bool} and kinds - {bool}:
                 df[c] = pd.to_numeric(df[c], errors="coerce")
     sort = [k for k in allkeys if k in df]

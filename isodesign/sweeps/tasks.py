@@ -26,6 +26,7 @@ neither loses nor duplicates the point. Inside it the optimizer's starts run ser
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import datetime as _dt
 import importlib
 import json
@@ -185,7 +186,7 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
 
     from isodesign.commands.optimize import write_outputs
     from isodesign.commands.optimize_cli import execute_study
-    from isodesign.optimization.dispatch import optimize, study_kind
+    from isodesign.optimization.dispatch import study_kind
 
     kind = study_kind(study)
     extra: dict = {}
@@ -195,8 +196,10 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
         # solved from the neighbour's optimum: its files record the study solved (the
         # replay starts where the point did)
         result, extra, study = _optimize_table(study, options)
+    elif kind == "robust":
+        result, extra = _optimize_robust(study)
     else:
-        result = optimize(study)
+        result, extra = _optimize_robust_table(study)
     plots = bool(options.get("plots", False))
     args = _args(run, plots=plots, yield_samples=options.get("yield_samples"))
     if kind == "vertical":
@@ -295,6 +298,49 @@ def _optimize_vertical(study, options: dict):
         "continuous_peak_hz": (result.peak or {}).get("peak_frequency_hz"),
         "payload_kg": float(study.payload.mass_kg), "preset_peak_hz": preset,
         "resolved": bool(options.get("_resolved", False))}
+
+
+def _optimize_robust(study):
+    """The robust optimum of a vertical study with ``[scenarios]`` on this worker's NLPs:
+    its nominal NLP (:meth:`~isodesign.optimization.parametric.ProblemCache.get`: the
+    ranges are not part of it) and its scenario block and stacked NLPs
+    (:class:`~isodesign.optimization.robust.RobustBuilds`: the scenario values are
+    parameters), so points that differ in their ``[scenarios]`` ranges alone (a swept
+    tolerance) build nothing after the first (docs/sweep.md, "Sweeping a tolerance")."""
+    from isodesign.optimization.driver import optimize_vertical
+    from isodesign.optimization.exchange import robust_optimize
+
+    cache = problem_cache()
+    before = cache.builds
+    # the NLP of its nominal scenario: the study without [scenarios] (the point's study
+    # solved on it, as optimize_vertical(study, nominal=True) solves a fresh one)
+    prob = cache.get(dataclasses.replace(study, scenarios=None))
+    nominal = optimize_vertical(study, problem=prob, nominal=True)
+    result = robust_optimize(study, nominal=nominal, builds=cache.robust())
+    return result, {"nlp_built": cache.builds > before, "nlp_builds": cache.builds - before,
+                    "nlp_builds_worker": cache.builds}
+
+
+def _optimize_robust_table(study):
+    """The robust table optimum (:func:`isodesign.optimize`), every NLP built for the point
+    (each table scenario compiles its payload and CG: docs/robust.md, section 7); the row
+    counts them (its nominal table NLP, scenario NLPs and stacks: ``robust.json``)."""
+    from isodesign.optimization.dispatch import optimize
+    from isodesign.optimization.robust_table import check_robust_table
+    from isodesign.optimization.table_driver import optimize_table
+
+    check_robust_table(study)
+    cache = problem_cache()
+    before = cache.builds
+    # its nominal optimum on a table NLP of this worker's (payload folded), that of the
+    # study without [scenarios] (the ranges do not reach it)
+    nominal = optimize_table(study, analyze=False, problem=cache.get(
+        dataclasses.replace(study, scenarios=None), payload=False))
+    result = optimize(study, nominal=nominal)
+    n = (result.extra or {}).get("nlp_builds") or {}
+    builds = cache.builds - before + int(n.get("scenarios", 0)) + int(n.get("stacks", 0))
+    return result, {"nlp_built": builds > 0, "nlp_builds": builds,
+                    "nlp_builds_worker": cache.builds}
 
 
 #: The exponent of the payload mass in the continuous peak's predicted frequency,
@@ -779,7 +825,9 @@ def run_point(task_name: str, study_raw: dict, study_hash: str, changes: dict, p
     done = read_point(point_dir, study_hash)
     if done is not None and done.get("status") in FINISHED and not resolve:
         return {**done, "reused": True}
-    study = study_from_dict(study_raw, source="<dict>", fill_defaults=False)
+    with warnings.catch_warnings():  # the sweep warned of the point's values, naming it
+        warnings.simplefilter("ignore")
+        study = study_from_dict(study_raw, source="<dict>", fill_defaults=False)
     if _hash(study) != study_hash:  # pragma: no cover - a bug, never a silent mismatch
         raise RuntimeError("sweep point: the study changed on its way to the worker")
     row = {"point": study_hash[:16], "study_hash": study_hash, "task": task_name,
