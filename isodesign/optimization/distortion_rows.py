@@ -65,7 +65,9 @@ DISTORTION_FIXED_POINT_RTOL = 1e-7
 #: absolutely (:meth:`OuterFixedPoint._term_totals`): a term that is a small share of its
 #: band (most bands) need not agree to 1e-7 of itself. 1e-7 was too loose: the closure's
 #: feedback left a tube velocity 1.9e-6 from the NumPy fixed point on the co-designed table
-#: (the re-check's 1e-6 failed; docs/random-response.md 3d).
+#: (the re-check's 1e-6 failed; docs/random-response.md 3d). With per-group springs the
+#: miss that remained was no tolerance: the loop did not converge on a flat set of optima
+#: (:data:`DISTORTION_PROXIMAL_WEIGHT`).
 DISTORTION_EFFECT_RTOL = 1e-8
 #: Outer rounds at most (each a warm re-solve).
 DISTORTION_MAX_ROUNDS = 8
