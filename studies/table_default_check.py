@@ -113,7 +113,8 @@ def evaluate(study, values: dict) -> dict:
             res = table_band_response(d, table, study.floor_axes, study.target,
                                       bands=study.bands, flow=m["flow"],
                                       amplitude_mode=m["amplitude_mode"],
-                                      diaphragm=m["diaphragm"], warn=False)
+                                      diaphragm=m["diaphragm"], warn=False,
+                                      distortion=bool(m.get("distortion", False)))
             model = res.model
             modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
                                                                 res.tube_velocity_rms_m_s))

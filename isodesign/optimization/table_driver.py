@@ -751,6 +751,8 @@ def _refine(prob, study, best, slots=None):
         peak["excess_db"] = pk.max_db - limit
         if not over or peak["rounds"] >= TABLE_PEAK_ROUNDS:
             break
+        # the NLP best was solved with (a failed re-solve returns to it: best's g are its rows)
+        held = (prob, prob.slot_hz.copy())
         prob, new = add_peak_frequencies(prob, over, slots)
         if not new:  # every movable frequency taken: the excess stays a violation
             break
@@ -760,6 +762,9 @@ def _refine(prob, study, best, slots=None):
         sol = prob.solve(best.x, warm=best.as_start())
         if not sol.feasible:  # keep the last feasible design; its peak stays a violation
             peak["resolve_failed"] = f"peak refinement: {sol.status}"
+            prob = held[0]
+            prob.set_slots(held[1])
+            del slots[len(slots) - len(new):]  # the frequencies the NLP holds
             break
         best = sol
     return prob, best, modes, rounds, peak

@@ -541,7 +541,8 @@ class TableProblem(TableModeRows, NLP):
         cons += self._damping(ca, v, s, y_k, p_modes)
         p_loop = X.sym("loop", self.loop_params.size)
         cons += self._loop_rows(ca, v, p_loop)
-        j_total = p_wd * ca.log(d.capillary_diameter_m)
+        # the distortion's outer fixed point: its proximal term (zero at a fixed point)
+        j_total = p_wd * ca.log(d.capillary_diameter_m) + self._outer_proximal(ca, z, p_dist)
         for i, jk in enumerate(js):
             j_total = j_total + p_w[i] * jk
             cons.append((f"bound_{self.objectives[i]}", jk - p_eps[i], -np.inf, 0.0))
@@ -709,6 +710,10 @@ class TableProblem(TableModeRows, NLP):
     def _distortion_parts(self, ca, X, z, y) -> tuple:
         """``(parameters, added reductions or None, y of the springs)``: none here."""
         return X.sym("distortion", 0), None, y
+
+    def _outer_proximal(self, ca, z, p_dist):
+        """The outer fixed point's proximal term of the objective (none here)."""
+        return 0.0
 
     def _current_dist(self) -> np.ndarray:
         """The distortion's parameter values (none here)."""

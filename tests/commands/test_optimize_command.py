@@ -108,8 +108,7 @@ def test_the_default_study_is_the_builtin_table_with_its_levers_free():
         variables={**bounds, **{n: {"fixed": False} for n in groups}},
         constraints={"footprint_m": [[-0.75, -0.5], [0.75, 0.5]],
                      "min_isolator_distance_m": 0.5},
-        solver={"starts": 3},  # staged: 3 tied solves, 1 full (docs/table.md, section 13)
-        models={"distortion": False})  # the plain closure (docs/table.md, section 13)
+        solver={"starts": 3})  # staged: 3 tied solves, 1 full (docs/table.md, section 13)
     assert same.raw == st.raw
     for v in free:  # each start is the table's, inside its practical bounds
         assert v.lower <= v.start <= v.upper

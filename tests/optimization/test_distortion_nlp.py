@@ -122,7 +122,7 @@ def _table_true(prob, values):
     terms (the expansion at its design, slopes zero: only the values matter here)."""
     z = prob._z_of(values)
     v0 = prob._terms_at_z(z)
-    prob._dist_p = np.concatenate([z, v0, np.zeros(v0.size * z.size)])
+    prob._dist_p = prob._pack(z, v0)  # slopes zero (and no proximal weight)
     x = prob.initial_guess(values)
     _, g = prob.eval_fn(x, prob.params())
     g = np.asarray(g).ravel()
