@@ -35,3 +35,38 @@ def changed_table_study(table_raw):
         return study_from_dict(d, source="table.toml")
 
     return make
+
+
+@pytest.fixture(scope="module")
+def refused_naming(changed_table_study):
+    """``refused_naming(changes, fragments)``: reading the changed table study raises one
+    InputError of one line that holds every fragment (the key as typed, its range)."""
+    from isodesign.errors import InputError
+
+    def check(changes: dict, fragments) -> None:
+        with pytest.raises(InputError) as err:
+            changed_table_study(changes)
+        msg = str(err.value)
+        assert "\n" not in msg
+        for f in fragments:
+            assert f in msg
+
+    return check
+
+
+@pytest.fixture(scope="module")
+def warned_naming(changed_table_study):
+    """``warned_naming(changes, fragments)``: reading the changed table study warns a
+    UnitWarning that holds every fragment (a unit slip, named)."""
+    import warnings
+
+    from isodesign.io.plausible import UnitWarning
+
+    def check(changes: dict, fragments) -> None:
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            changed_table_study(changes)
+        msgs = [str(w.message) for w in caught if issubclass(w.category, UnitWarning)]
+        assert any(all(f in m for f in fragments) for m in msgs), msgs
+
+    return check

@@ -34,13 +34,8 @@ REFUSED = [
 @pytest.mark.parametrize("changes, fragments", REFUSED, ids=[
     "isolators_empty", "isolators_flat", "diaphragm_r1_alone", "objective_option_string",
     "objective_option_negative"])
-def test_refused_naming_the_key(changed_table_study, changes, fragments):
-    with pytest.raises(InputError) as err:
-        changed_table_study(changes)
-    msg = str(err.value)
-    assert "\n" not in msg
-    for f in fragments:
-        assert f in msg
+def test_refused_naming_the_key(refused_naming, changes, fragments):
+    refused_naming(changes, fragments)
 
 
 WARNED = [
@@ -54,12 +49,8 @@ WARNED = [
 
 
 @pytest.mark.parametrize("changes, fragments", WARNED, ids=["max_stroke_mm", "dead_band_mm"])
-def test_unit_slip_warns_naming_the_key(changed_table_study, changes, fragments):
-    with warnings.catch_warnings(record=True) as caught:
-        warnings.simplefilter("always")
-        changed_table_study(changes)
-    msgs = [str(w.message) for w in caught if issubclass(w.category, UnitWarning)]
-    assert any(all(f in m for f in fragments) for m in msgs), msgs
+def test_unit_slip_warns_naming_the_key(warned_naming, changes, fragments):
+    warned_naming(changes, fragments)
 
 
 def _cli(capsys, argv):
