@@ -149,3 +149,73 @@ def builtin_table_run(tmp_path_factory):
                        "-o", str(out)])
     assert status == 0, e.getvalue()
     return o.getvalue(), out
+
+
+class CliProcess:
+    """``python -m isodesign ...`` in a process group of its own, interrupted as Ctrl-C in a
+    terminal does (SIGINT to the whole group) at an event the test waits for, never after a
+    fixed delay: :meth:`start`, :meth:`wait_for`, :meth:`interrupt`."""
+
+    def __init__(self):
+        self.procs: list = []
+
+    def start(self, *argv):
+        """The command ``isodesign ARGV`` (this checkout first on ``PYTHONPATH``, no
+        ``DASK_SCHEDULER_ADDRESS``), stdout and stderr as text pipes."""
+        import os
+        import subprocess
+        import sys
+
+        env = dict(os.environ)
+        env["PYTHONPATH"] = str(Path(__file__).resolve().parents[1]) + os.pathsep + \
+            env.get("PYTHONPATH", "")
+        env.pop("DASK_SCHEDULER_ADDRESS", None)
+        proc = subprocess.Popen([sys.executable, "-m", "isodesign", *map(str, argv)],
+                                stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                                env=env, start_new_session=True)
+        self.procs.append(proc)
+        return proc
+
+    @staticmethod
+    def wait_for(proc, cond, what: str, timeout_s: float = 120.0) -> None:
+        """Poll ``cond()`` until it holds; fail naming ``what`` (and the process's stderr)
+        if the process ends first or ``timeout_s`` passes."""
+        import time
+
+        t0 = time.monotonic()
+        while not cond():
+            if proc.poll() is not None or time.monotonic() - t0 > timeout_s:
+                proc.kill()
+                _o, err = proc.communicate()
+                pytest.fail(f"{what} never happened (status {proc.returncode}): {err}")
+            time.sleep(0.005)
+
+    @staticmethod
+    def interrupt(proc, timeout_s: float = 60.0) -> tuple[str, str]:
+        """SIGINT to the process group, then its ``(stdout, stderr)``; fail if it has not
+        ended ``timeout_s`` later."""
+        import os
+        import signal
+        import subprocess
+
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            return proc.communicate(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()
+            pytest.fail(f"the command did not end within {timeout_s:g} s of SIGINT")
+
+
+@pytest.fixture
+def cli_process():
+    """A :class:`CliProcess`; a command still running at the test's end is killed."""
+    import os
+    import signal
+
+    runner = CliProcess()
+    yield runner
+    for proc in runner.procs:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.communicate()

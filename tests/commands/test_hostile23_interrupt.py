@@ -6,10 +6,8 @@ narrow band. The test waits for an event (the table written, the first point sta
 from __future__ import annotations
 
 import os
-import signal
 import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -18,33 +16,19 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
                                 reason="process groups and signals as on Linux")
 
 
-def test_sigint_before_the_first_serial_point_finishes_names_an_empty_table(tmp_path):
+def test_sigint_before_the_first_serial_point_finishes_names_an_empty_table(tmp_path,
+                                                                           cli_process):
     import pandas as pd
 
     out = tmp_path / "sw"
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2]) + os.pathsep + \
-        env.get("PYTHONPATH", "")
-    env.pop("DASK_SCHEDULER_ADDRESS", None)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "isodesign", "sweep", "--builtin", "table", "--vary",
-         "payload.mass_kg=500,600", "--vary", "target.band_min_hz=8", "--starts", "1",
-         "--scheduler", "serial", "-o", str(out), "--quiet", "--no-plots"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-        start_new_session=True)
+    proc = cli_process.start(
+        "sweep", "--builtin", "table", "--vary", "payload.mass_kg=500,600", "--vary",
+        "target.band_min_hz=8", "--starts", "1", "--scheduler", "serial", "-o", out,
+        "--quiet", "--no-plots")
     table = out / "sweep.parquet"
-    t0 = time.monotonic()
-    while not (table.is_file() and any((out / "points").glob(".*isodesign-partial-*"))):
-        if proc.poll() is not None or time.monotonic() - t0 > 120:
-            proc.kill()
-            pytest.fail(f"the first point never started: {proc.communicate()[1]}")
-        time.sleep(0.005)
-    os.killpg(proc.pid, signal.SIGINT)
-    try:
-        _out, err = proc.communicate(timeout=60)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        pytest.fail("the sweep did not end after SIGINT")
+    cli_process.wait_for(proc, lambda: table.is_file() and any(
+        (out / "points").glob(".*isodesign-partial-*")), "the first point's start")
+    _out, err = cli_process.interrupt(proc)
     assert proc.returncode == 130, err
     lines = err.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in err, err

@@ -10,11 +10,7 @@ run's staging directory exists. No fixed delay.
 from __future__ import annotations
 
 import json
-import os
-import signal
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pandas as pd
@@ -109,26 +105,12 @@ def test_interrupted_before_any_draw_names_no_table(tmp_path, monkeypatch, capsy
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="process groups")
-def test_sigint_names_the_partial_table_only_if_it_exists(tmp_path):
+def test_sigint_names_the_partial_table_only_if_it_exists(tmp_path, cli_process):
     out = tmp_path / "run"
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2]) + os.pathsep + \
-        env.get("PYTHONPATH", "")
-    proc = subprocess.Popen([sys.executable, "-m", "isodesign", *_argv(tmp_path, out, 100000)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
-                            env=env, start_new_session=True)
-    t0 = time.monotonic()
-    while not [p for p in tmp_path.iterdir() if "isodesign-partial" in p.name]:
-        if proc.poll() is not None or time.monotonic() - t0 > 120:
-            proc.kill()
-            pytest.fail(f"the run never started: {proc.communicate()[1]}")
-        time.sleep(0.05)
-    os.killpg(proc.pid, signal.SIGINT)
-    try:
-        _stdout, stderr = proc.communicate(timeout=60)
-    except subprocess.TimeoutExpired:
-        proc.kill()
-        pytest.fail("the run did not end after SIGINT")
+    proc = cli_process.start(*_argv(tmp_path, out, 100000))
+    cli_process.wait_for(proc, lambda: [p for p in tmp_path.iterdir()
+                                        if "isodesign-partial" in p.name], "the run's start")
+    _stdout, stderr = cli_process.interrupt(proc)
     assert proc.returncode == 130, stderr
     lines = stderr.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("isodesign: interrupted by SIGINT"), stderr

@@ -8,11 +8,7 @@ SIGINT to the whole process group, as Ctrl-C in a terminal does.
 
 from __future__ import annotations
 
-import os
-import signal
-import subprocess
 import sys
-import time
 from pathlib import Path
 
 import pytest
@@ -21,36 +17,16 @@ pytestmark = pytest.mark.skipif(not sys.platform.startswith("linux"),
                                 reason="process groups and signals as on Linux")
 
 
-def _start(tmp_path: Path, cheap_study: Path, *extra) -> tuple[subprocess.Popen, Path]:
+def _start(cli, tmp_path: Path, cheap_study: Path, *extra):
     out = tmp_path / "sw"
-    env = dict(os.environ)
-    env["PYTHONPATH"] = str(Path(__file__).resolve().parents[2]) + os.pathsep + \
-        env.get("PYTHONPATH", "")
-    env.pop("DASK_SCHEDULER_ADDRESS", None)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "isodesign", "sweep", str(cheap_study), "--vary",
-         "payload.mass_kg=500:800:6", "-o", str(out), "--quiet", "--no-plots", *extra],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
-        start_new_session=True)
+    proc = cli.start("sweep", cheap_study, "--vary", "payload.mass_kg=500:800:6", "-o", out,
+                     "--quiet", "--no-plots", *extra)
     return proc, out
 
 
-def _wait_for(proc, cond, what: str, timeout: float = 120.0) -> None:
-    t0 = time.monotonic()
-    while not cond():
-        if proc.poll() is not None or time.monotonic() - t0 > timeout:
-            proc.kill()
-            _o, err = proc.communicate()
-            pytest.fail(f"{what} never happened (status {proc.returncode}): {err}")
-        time.sleep(0.005)
-
-
-def _ended(proc) -> tuple[str, str]:
-    try:
-        out, err = proc.communicate(timeout=60)
-    except subprocess.TimeoutExpired:
-        os.killpg(proc.pid, signal.SIGKILL)
-        pytest.fail("the sweep did not end after SIGINT")
+def _ended(cli, proc) -> tuple[str, str]:
+    """SIGINT to the sweep; its stdout and its one stderr line, checked."""
+    out, err = cli.interrupt(proc)
     assert proc.returncode == 130, (proc.returncode, err)
     lines = err.strip().splitlines()
     assert len(lines) == 1 and lines[0].startswith("isodesign: interrupted by SIGINT"), err
@@ -60,11 +36,10 @@ def _ended(proc) -> tuple[str, str]:
 
 
 def test_sigint_while_the_local_cluster_starts_names_nothing_that_does_not_exist(
-        tmp_path, cheap_study):
-    proc, out = _start(tmp_path, cheap_study, "--workers", "2")
-    _wait_for(proc, lambda: (out / ".sweep.lock").exists(), "the sweep's lock file")
-    os.killpg(proc.pid, signal.SIGINT)  # the cluster is starting (seconds, not ms)
-    _, line = _ended(proc)
+        tmp_path, cheap_study, cli_process):
+    proc, out = _start(cli_process, tmp_path, cheap_study, "--workers", "2")
+    cli_process.wait_for(proc, lambda: (out / ".sweep.lock").exists(), "the sweep's lock file")
+    _, line = _ended(cli_process, proc)  # the cluster is starting (seconds, not ms)
     table = out / "sweep.parquet"
     if table.exists():  # the cluster had started and the sweep had begun: named
         assert str(table) in line
@@ -72,11 +47,11 @@ def test_sigint_while_the_local_cluster_starts_names_nothing_that_does_not_exist
         assert "nothing was written" in line and str(out) not in line
 
 
-def test_sigint_inside_a_serial_point_stops_the_sweep_and_keeps_the_finished(tmp_path,
-                                                                              cheap_study):
+def test_sigint_inside_a_serial_point_stops_the_sweep_and_keeps_the_finished(
+        tmp_path, cheap_study, cli_process):
     import pandas as pd
 
-    proc, out = _start(tmp_path, cheap_study, "--scheduler", "serial")
+    proc, out = _start(cli_process, tmp_path, cheap_study, "--scheduler", "serial")
     pts = out / "points"
 
     def second_point_started() -> bool:
@@ -87,9 +62,8 @@ def test_sigint_inside_a_serial_point_stops_the_sweep_and_keeps_the_finished(tmp
         return bool(done) and any(not any(q.name.startswith(f".{k}.") for k in done)
                                   for q in pts.glob(".*isodesign-partial-*"))
 
-    _wait_for(proc, second_point_started, "the second point's start")
-    os.killpg(proc.pid, signal.SIGINT)  # the second point is being computed
-    _, line = _ended(proc)
+    cli_process.wait_for(proc, second_point_started, "the second point's start")
+    _, line = _ended(cli_process, proc)  # the second point is being computed
     table = out / "sweep.parquet"
     assert str(table) in line
     df = pd.read_parquet(table)
