@@ -318,7 +318,10 @@ class OuterFixedPoint:
             Parameters (:meth:`params`); their distortion part is replaced each round.
         warm : Solution, optional
             A solution of the same point: the first round starts from its multipliers
-            (:meth:`~.nlp.NLP.solve`); the later rounds from ``x`` of the round before.
+            (:meth:`~.nlp.NLP.solve`; none after :meth:`~.solution.Solution.as_start`) and,
+            when its design is within :data:`_NEAR_Z` of ``x0``, from its last expansion
+            instead of the terms' values alone; the later rounds from ``x`` of the round
+            before. Nothing else of an earlier solve is used.
 
         Returns
         -------
