@@ -306,7 +306,7 @@ class OuterFixedPoint:
         return self._vector(self._numpy_state(self.study.design_at(vals), vals)[2])
 
     # -- the outer fixed point ---------------------------------------------------------
-    def solve(self, x0, p=None, warm=None):
+    def solve(self, x0, p=None, warm=None, rounds=None):
         """IPOPT from ``x0``, re-solved warm with the terms expanded at each answer until the
         terms it used there are the NumPy ones (:data:`DISTORTION_FIXED_POINT_RTOL`).
 
@@ -321,7 +321,14 @@ class OuterFixedPoint:
             (:meth:`~.nlp.NLP.solve`; none after :meth:`~.solution.Solution.as_start`) and,
             when its design is within :data:`_NEAR_Z` of ``x0``, from its last expansion
             instead of the terms' values alone; the later rounds from ``x`` of the round
-            before. Nothing else of an earlier solve is used.
+            before. Nothing else of an earlier solve is used. A warm solution that stopped
+            at its caller's round cap (``outer_next``) gives the expansion at its answer.
+        rounds : int, optional
+            At most this many rounds (default :data:`DISTORTION_MAX_ROUNDS`): a caller that
+            re-solves anyway (the table's peak refinement, whose every round changes the
+            NLP's peak frequencies) takes one round per re-solve and converges the fixed
+            point once, at its end; a solution stopped by this cap before converging
+            carries ``outer_next``.
 
         Returns
         -------
@@ -343,13 +350,16 @@ class OuterFixedPoint:
             sloped = False
         wall = 0.0
         its = 0
-        for rounds in range(1, DISTORTION_MAX_ROUNDS + 1):
+        cap = DISTORTION_MAX_ROUNDS if rounds is None else max(1, min(int(rounds),
+                                                                      DISTORTION_MAX_ROUNDS))
+        done, nxt = False, None
+        for n_round in range(1, cap + 1):
             end = p.size - self._n_after_dist()
             p[end - self._n_dist:end] = self._dist_p
             # a later round from the last answer's primal, cold: IPOPT's warm start from its
             # multipliers saves 4 of 22 iterations on the vertical study but its solver's
             # build costs more (measured, docs/random-response.md 3d)
-            sol = super().solve(x, p, warm=warm if rounds == 1 else None)
+            sol = super().solve(x, p, warm=warm if n_round == 1 else None)
             wall += sol.wall_s
             its += sol.iterations
             if not sol.success or not np.all(np.isfinite(sol.x)):
@@ -358,13 +368,16 @@ class OuterFixedPoint:
             used = self.nlp_vector(sol.x, self._dist_p)
             true = self._terms_at_z(z)
             done = sloped and _converged(self, sol.x, used, true)
-            if done or rounds == DISTORTION_MAX_ROUNDS:
+            if done or n_round == DISTORTION_MAX_ROUNDS:
+                break
+            if n_round == cap:  # the caller's cap: the next round's expansion, for its re-solve
+                nxt = self.expansion(z, true)
                 break
             self._dist_p = self.expansion(z, true)
             sloped = True
             x = sol.x
-        return sol.replace(outer_rounds=rounds, outer_params=self._dist_p.copy(),
-                           wall_s=wall, iterations=its)
+        return sol.replace(outer_rounds=n_round, outer_params=self._dist_p.copy(),
+                           outer_next=nxt, wall_s=wall, iterations=its)
 
     def params_at(self, x) -> np.ndarray:
         """:meth:`params` with the terms at which a figure of ``x`` is evaluated
@@ -391,7 +404,8 @@ class OuterFixedPoint:
     def _warm_expansion(self, warm, z0):
         """The warm solution's last expansion when its design is within :data:`_NEAR_Z`
         of ``z0`` (max norm), else ``None``."""
-        e = getattr(warm, "outer_params", None)
+        e = getattr(warm, "outer_next", None)
+        e = getattr(warm, "outer_params", None) if e is None else e
         if e is None or np.asarray(e).size != self._n_dist:
             return None
         e = np.asarray(e, float)

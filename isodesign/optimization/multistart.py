@@ -135,16 +135,18 @@ def runs_in_parallel(workers, n: int) -> bool:
     return n > 1 and executor_for(workers, n).workers > 1
 
 
-def _solve_start(prob, params, vals: dict):
-    """Initial guess and IPOPT solve of one start (in a worker or in-process)."""
+def _solve_start(prob, params, vals: dict, rounds=None):
+    """Initial guess and IPOPT solve of one start (in a worker or in-process); ``rounds``:
+    an outer fixed point's round cap (:meth:`.distortion_rows.OuterFixedPoint.solve`)."""
     try:
         x0 = prob.initial_guess(vals)
     except SolverError as exc:
         return str(exc)
-    return prob.solve(x0, params)
+    return prob.solve(x0, params) if rounds is None else prob.solve(x0, params, rounds=rounds)
 
 
-def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=None) -> list:
+def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=None,
+               rounds=None) -> list:
     """Solve every start; in forked worker processes when more than one core is available.
 
     The workers inherit the built solver through ``fork`` (nothing is pickled but
@@ -175,6 +177,9 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
     params : ndarray, optional
         The NLP's parameter vector (:meth:`~isodesign.optimization.problem.Problem.params`);
         default: minimize the first objective, no epsilon bounds.
+    rounds : int, optional
+        With the distortion's outer fixed point, at most this many of its rounds per start
+        (a solve its caller goes on from, ``Solution.outer_next``); default: converged.
 
     Returns
     -------
@@ -182,7 +187,7 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
         One entry per start, in start order: a Solution, or a ``str`` with the
         :class:`~isodesign.errors.SolverError` message of a failed initial guess.
     """
-    return map_in_workers(lambda vals: _solve_start(prob, params, vals), starts,
+    return map_in_workers(lambda vals: _solve_start(prob, params, vals, rounds), starts,
                           workers=workers, progress=progress)
 
 

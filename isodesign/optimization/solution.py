@@ -51,6 +51,11 @@ class Solution:
         :mod:`.distortion_rows`; 0: none).
     outer_params : ndarray or None
         The outer fixed point's parameters of the last round (its linearization).
+    outer_next : ndarray or None
+        Set when the solve stopped at the round cap its caller asked for before the outer
+        fixed point converged (:meth:`.distortion_rows.OuterFixedPoint.solve` ``rounds=``):
+        the expansion at ``x``, the next round's; a re-solve warm from this solution
+        starts from it and converges. None: converged (or no outer fixed point).
     lam_x, lam_g : ndarray or None
         IPOPT's multipliers of the bounds and the constraints at ``x`` (a warm re-solve
         of the same point starts from them: :meth:`~.nlp.NLP.solve` ``warm=``).
@@ -69,6 +74,7 @@ class Solution:
     finished_at: float = math.nan
     outer_rounds: int = 0
     outer_params: np.ndarray | None = None
+    outer_next: np.ndarray | None = None
     lam_x: np.ndarray | None = dataclasses.field(default=None, repr=False)
     lam_g: np.ndarray | None = dataclasses.field(default=None, repr=False)
 

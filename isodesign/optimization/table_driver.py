@@ -308,8 +308,10 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     workers = workers or study.solver.get("workers")
     tied = _tied_starts(study, workers, progress)
     pre = [] if tied is None else tied[0]
+    # from the tied optimum, one round of the distortion's fixed point: the peak
+    # refinement goes on from it and converges it (_refine; docs/table.md, section 13)
     outs = run_starts(prob, starts if tied is None else tied[1], workers=workers,
-                      progress=progress)
+                      progress=progress, rounds=None if tied is None else _first_rounds(prob))
     if tied is not None and not any(not isinstance(o, str) and o.feasible for o in outs):
         pre, outs = [*pre, *_records(outs, "warm from the tied optimum: ", len(pre))], \
             run_starts(prob, starts, workers=workers, progress=progress)  # as before
@@ -717,9 +719,16 @@ def _refine(prob, study, best, slots=None):
     rounds = 0
     modes = None
     slots = [] if slots is None else slots  # the frequencies placed so far (extended)
+    # the last design whose outer fixed point (models.distortion) converged, with the NLP and
+    # the frequencies it was solved with: a refinement round takes one round of that fixed
+    # point (_resolve), which converges once, when the peaks are held (docs/table.md, 13)
+    settled = (prob, prob.slot_hz.copy(), len(slots), best)
+    stop = False
     while True:
         if not best.feasible:
             break
+        if not _pending(best):
+            settled = (prob, prob.slot_hz.copy(), len(slots), best)
         sigma, sigma_u = prob.sigma(best.x), prob.tube_rms(best.x)
         modes = _modes_at(prob, study.design_at(best.values), sigma, sigma_u,
                           values=best.values)
@@ -744,30 +753,68 @@ def _refine(prob, study, best, slots=None):
         pk = measure_peaks(prob, study.design_at(best.values), sigma, sigma_u, modes,
                            values=best.values)
         peak["peaks"] = pk
-        if limit is None:
-            break
-        over = pk.above(limit, PEAK_TOLERANCE_DB)
-        peak["met"] = not over
-        peak["excess_db"] = pk.max_db - limit
-        if not over or peak["rounds"] >= TABLE_PEAK_ROUNDS:
-            break
-        # the NLP best was solved with (a failed re-solve returns to it: best's g are its rows)
-        held = (prob, prob.slot_hz.copy())
-        prob, new = add_peak_frequencies(prob, over, slots)
-        if not new:  # every movable frequency taken: the excess stays a violation
+        over = [] if limit is None else pk.above(limit, PEAK_TOLERANCE_DB)
+        if limit is not None:
+            peak["met"] = not over
+            peak["excess_db"] = pk.max_db - limit
+        new = []
+        if not (stop or not over or peak["rounds"] >= TABLE_PEAK_ROUNDS):
+            # the NLP best was solved with (a failed re-solve returns to it: best's g are its
+            # rows)
+            held = (prob, prob.slot_hz.copy())
+            prob, new = add_peak_frequencies(prob, over, slots)
+        if not new:  # the peaks held, the rounds or the movable frequencies spent
+            if not _pending(best):
+                break
+            sol = prob.solve(best.x, warm=best.as_start())  # the fixed point, converged
+            if sol.feasible:
+                best = sol
+                continue  # its peaks measured again
+            peak["resolve_failed"] = f"distortion fixed point: {sol.status}"
+            prob, slot_hz, n_kept, best = settled  # the last converged design, its NLP
+            prob.set_slots(slot_hz)
+            del slots[n_kept:]
             break
         slots += new
         peak["added_frequencies_hz"] += new
         peak["rounds"] += 1
-        sol = prob.solve(best.x, warm=best.as_start())
+        sol = _resolve(prob, best)
         if not sol.feasible:  # keep the last feasible design; its peak stays a violation
             peak["resolve_failed"] = f"peak refinement: {sol.status}"
             prob = held[0]
             prob.set_slots(held[1])
             del slots[len(slots) - len(new):]  # the frequencies the NLP holds
-            break
+            stop = True  # no more frequencies; a pending fixed point still converges
+            continue
         best = sol
+    if _pending(best):  # an infeasible design's fixed point converged too (its violations)
+        best = prob.solve(best.x, warm=best.as_start())
     return prob, best, modes, rounds, peak
+
+
+def _first_rounds(prob):
+    """The round cap of the full NLP's solve from the tied optimum: one round of the
+    distortion's outer fixed point (None: the NLP has none)."""
+    from isodesign.optimization.distortion_rows import OuterFixedPoint
+
+    return 1 if isinstance(prob, OuterFixedPoint) else None
+
+
+def _pending(sol) -> bool:
+    """Whether ``sol`` stopped before its outer fixed point (models.distortion) converged,
+    at the round cap of :func:`_resolve`."""
+    return getattr(sol, "outer_next", None) is not None
+
+
+def _resolve(prob, best):
+    """A peak-refinement re-solve from ``best``: with the distortion's outer fixed point,
+    one round of it (the next round is the next refinement's re-solve, or the converging
+    solve of :func:`_refine` once the peaks hold); else the NLP's solve."""
+    from isodesign.optimization.distortion_rows import OuterFixedPoint
+
+    if isinstance(prob, OuterFixedPoint):
+        return prob.solve(best.x, warm=best.as_start(), rounds=1)
+    return prob.solve(best.x, warm=best.as_start())
 
 
 def _loop_refresh_needed(prob, study, best, peak) -> bool:

@@ -167,3 +167,21 @@ def test_table_answer_is_a_local_optimum_with_distortion(table_solved):
             checked += 1
             assert j >= j_star - 1e-6
     assert checked >= 1
+
+
+def test_a_capped_solve_goes_on_to_the_same_fixed_point(vertical_solved):
+    """``rounds=1`` (a caller that re-solves anyway: the table's peak refinement) stops
+    after one round with the expansion at its answer (``outer_next``); a re-solve warm from
+    it starts from that expansion and ends at the fixed point of the uncapped solve."""
+    st, prob, full = vertical_solved
+    assert full.outer_next is None and full.outer_rounds >= 2
+    vals = {v.name: v.start for v in st.variables}
+    first = prob.solve(prob.initial_guess(vals), rounds=1)
+    assert first.success and first.outer_rounds == 1
+    assert first.outer_next is not None  # the values-only round never confirms itself
+    np.testing.assert_allclose(first.outer_next[:prob.nz], np.clip(first.x[:prob.nz], -1, 1))
+    done = prob.solve(first.x, warm=first.as_start())
+    assert done.outer_next is None
+    assert done.outer_rounds + first.outer_rounds <= full.outer_rounds + 1
+    assert done.objective == pytest.approx(full.objective, abs=1e-7)
+    np.testing.assert_allclose(done.x[:prob.nz], full.x[:prob.nz], atol=1e-5)

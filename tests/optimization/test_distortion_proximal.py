@@ -89,5 +89,7 @@ def test_the_co_designed_table_with_group_springs_rechecks_with_the_distortion()
     assert st.models["distortion"]
     res = isodesign.optimize(st, analyze=False)
     assert res.feasible
-    assert 2 <= res.distortion_outer_rounds < DISTORTION_MAX_ROUNDS
+    # converged before the cap (the last solve goes on from the peak refinement's last
+    # round, whose expansion at its answer it starts from: 1 round when that one confirms)
+    assert 1 <= res.distortion_outer_rounds < DISTORTION_MAX_ROUNDS
     assert res.recheck_sigma_rel < 1e-7 and res.recheck_margin_db < 1e-7

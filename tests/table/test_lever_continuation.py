@@ -74,3 +74,11 @@ def test_a_group_spring_starting_away_from_the_shared_spring_runs_no_stage():
     n0 = next(v.start for v in st.variables if v.name == "volume_ratio")
     moved = st.with_changes({"variables.volume_ratio_group2.start": n0 * 1.05})
     assert free_group_levers(moved) and tied_study(moved) is None
+
+
+def test_the_tied_stage_runs_without_the_distortion():
+    """The tied multi-start only places the full NLP's start: it runs without the
+    distortion's outer rounds; the full NLP keeps the study's models."""
+    st = default_study()
+    assert st.models["distortion"]
+    assert tied_study(st).models["distortion"] is False
