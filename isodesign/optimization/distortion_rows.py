@@ -45,6 +45,7 @@ __all__ = [
     "DistortionTerms",
     "ScenarioDistortionMixin",
     "TableDistortionMixin",
+    "capped",
     "solve_stack",
     "table_distortion_terms",
     "vertical_distortion_terms",
@@ -594,6 +595,24 @@ class ScenarioDistortionMixin(DistortionMixin):
             self.theta, self.study, self.dia = keep
         start = self.np - self.space.size - self._n_dist + self.nz
         return np.arange(start, start + self._n_terms), np.column_stack(cols)
+
+
+def capped(prob, rounds: int) -> dict:
+    """The keyword arguments of ``prob.solve`` that cap its outer fixed point at ``rounds``.
+
+    Parameters
+    ----------
+    prob : NLP
+        Any built NLP.
+    rounds : int
+        The cap (:meth:`OuterFixedPoint.solve`).
+
+    Returns
+    -------
+    dict
+        ``{"rounds": rounds}``, or ``{}`` for an NLP without an outer fixed point.
+    """
+    return {"rounds": int(rounds)} if isinstance(prob, OuterFixedPoint) else {}
 
 
 def solve_stack(members, x0, solve_once, params, block_x):

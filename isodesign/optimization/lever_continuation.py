@@ -21,7 +21,8 @@ import math
 
 from isodesign.optimization.variables import GROUP_SPRING_LEVERS, group_lever
 
-__all__ = ["TIED_TOL", "WARM_SOLVES", "free_group_levers", "tied_study", "untie_values"]
+__all__ = ["TIED_TOL", "WARM_SOLVES", "free_group_levers", "solve_tied", "tied_study",
+           "untie_values"]
 
 #: Full-NLP solves warm-started from the tied multi-start: its best distinct optima.
 WARM_SOLVES = 1
@@ -97,3 +98,69 @@ def untie_values(study, values: dict) -> dict:
         base = group_lever(v.name)[1]
         out[v.name] = min(max(float(values[base]), v.lower), v.upper)
     return out
+
+
+def solve_tied(study, rprob, rstarts: list, prob, *, workers=None, progress=None,
+               rounds=None) -> tuple | None:
+    """The tied multi-start and the full NLP's solves from its best distinct feasible optima
+    (:data:`WARM_SOLVES`; distinct: farther apart than
+    :data:`~.refine.BRANCH_TOLERANCE` in J).
+
+    With forked workers the tied starts are pipelined
+    (:func:`~.multistart.run_starts_pipelined`): as soon as a tied start ends as the best
+    feasible tied optimum so far, the full NLP ``prob`` is solved from it in the next free
+    worker, beside the tied starts still running. The solves kept are those from the
+    optima the stage chooses at its end, exactly as without workers (a solve depends on
+    its start alone); the others are dropped.
+
+    Parameters
+    ----------
+    study : Study
+        The full study.
+    rprob : Problem
+        The tied study's NLP (its modes set).
+    rstarts : list of dict
+        Its starts.
+    prob : Problem
+        The full NLP (its modes set).
+    workers : int, optional
+    progress : callable, optional
+        ``progress(done, total, result)`` after each tied start.
+    rounds : int, optional
+        The full solves' round cap of the distortion's outer fixed point.
+
+    Returns
+    -------
+    (list, list, list) or None
+        The tied starts' results (start order), the full NLP's starts, and their solves
+        (``None``: not solved yet); None when no tied start is feasible.
+    """
+    from isodesign.optimization.multistart import (
+        _solve_start,
+        run_starts,
+        run_starts_pipelined,
+    )
+    from isodesign.optimization.refine import BRANCH_TOLERANCE
+
+    def after(i, sol):  # in a worker: the full NLP from a tied optimum
+        return _solve_start(prob, None, untie_values(study, sol.values), rounds)
+
+    def choose(finished):  # the best feasible tied optimum so far (ties: the first start)
+        feas = [(s.objective, i) for i, s in sorted(finished.items())
+                if not isinstance(s, str) and s.feasible]
+        return [(min(feas)[1], finished[min(feas)[1]])] if feas else []
+
+    piped = run_starts_pipelined(rprob, rstarts, after, choose=choose, workers=workers,
+                                 progress=progress)
+    outs, followed = piped if piped is not None else \
+        (run_starts(rprob, rstarts, workers=workers, progress=progress), {})
+    feas = [(i, o) for i, o in enumerate(outs) if not isinstance(o, str) and o.feasible]
+    warm: list = []
+    for i, sol in sorted(feas, key=lambda t: t[1].objective):
+        if len(warm) < WARM_SOLVES and all(abs(sol.objective - o.objective) > BRANCH_TOLERANCE
+                                           for _, o in warm):
+            warm.append((i, sol))
+    if not warm:
+        return None
+    return outs, [untie_values(study, sol.values) for _, sol in warm], \
+        [followed.get(i) for i, _ in warm]

@@ -68,11 +68,12 @@ def group_values(prob, ca, z_levers, shared: list) -> list:
     return out
 
 
-def lever_sensitivities(prob, x: np.ndarray) -> tuple:
+def lever_sensitivities(prob, x: np.ndarray, sol=None) -> tuple:
     """The re-optimized sensitivity of the worst margin to each free lever's bounds.
 
-    IPOPT solves again from the optimum ``x`` (default parameters: the worst margin alone)
-    and its bound multipliers ``lam_x`` give, by the envelope theorem, the derivative of
+    The bound multipliers ``lam_x`` of IPOPT's solve that ended at the optimum ``x`` (``sol``,
+    solved with the NLP's default parameters: the worst margin alone; without it IPOPT
+    solves again from ``x``) give, by the envelope theorem, the derivative of
     the optimal objective ``J = -t`` with respect to each bound of the scaled lever ``z``:
     ``dJ*/dbound = -lam_x``, so the worst margin moves by ``lam_x / (dv/dz)`` dB per unit of
     the lever's active bound, ``dv/dz = h`` for a linear lever (``v = c + h z``) and
@@ -84,6 +85,10 @@ def lever_sensitivities(prob, x: np.ndarray) -> tuple:
     prob : TableProblem
     x : ndarray
         The optimum.
+    sol : Solution, optional
+        The solve that ended at ``x`` with the NLP's default parameters (its multipliers;
+        the table optimizer's last solve: its peak refinement's, or the distortion's
+        converged round, whose proximal term vanishes with its gradient there).
 
     Returns
     -------
@@ -94,9 +99,13 @@ def lever_sensitivities(prob, x: np.ndarray) -> tuple:
     """
     if not prob.n_levers or "worst_band_margin" != prob.objective:
         return ()
-    res = prob.solver(x0=x, lbx=prob.lbx, ubx=prob.ubx, lbg=prob.lbg, ubg=prob.ubg,
-                      p=prob.params())
-    status = prob.solver.stats().get("return_status", "unknown")
+    if sol is not None and sol.lam_x is not None and sol.lam_g is not None:
+        res = {"x": sol.x, "lam_x": sol.lam_x, "g": sol.g, "lam_g": sol.lam_g}
+        status = sol.status
+    else:
+        res = prob.solver(x0=x, lbx=prob.lbx, ubx=prob.ubx, lbg=prob.lbg, ubg=prob.ubg,
+                          p=prob.params())
+        status = prob.solver.stats().get("return_status", "unknown")
     lam = np.asarray(res["lam_x"]).ravel()
     xs = np.asarray(res["x"]).ravel()
     nzs = len(prob.scaling.names)

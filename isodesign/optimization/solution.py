@@ -79,6 +79,12 @@ class Solution:
     lam_g: np.ndarray | None = dataclasses.field(default=None, repr=False)
 
     @property
+    def outer_pending(self) -> bool:
+        """Whether the solve stopped at its caller's round cap before its outer fixed point
+        converged (``outer_next`` set): a re-solve warm from it goes on."""
+        return self.outer_next is not None
+
+    @property
     def max_violation(self) -> float:
         """The largest constraint violation (0 when every constraint holds)."""
         return float(max((v for _, v in self.violations), default=0.0))

@@ -55,6 +55,7 @@ from typing import Any
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.distortion_rows import capped
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
 from isodesign.optimization.result import StudyResult
@@ -64,12 +65,13 @@ from isodesign.optimization.table_constraints import (
     LEVELING_PHASE_MARGIN,
     table_constraint_reports,
 )
-from isodesign.optimization.table_problem import PEAK_SLOTS_PER_ROUND, TABLE_PEAK_ROUNDS
+from isodesign.optimization.table_problem import TABLE_PEAK_ROUNDS, add_peak_frequencies
 from isodesign.table.layout import is_position_lever
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
 
 __all__ = ["HESSIAN", "LEVELING_VIOLATIONS", "PEAK_VIOLATION", "TableOptimizationResult",
-           "band_response_and_modes", "closure_springs", "leveling_check", "measure_peaks",
+           "add_peak_frequencies", "band_response_and_modes", "closure_springs",
+           "leveling_check", "measure_peaks",
            "optimize_table", "recheck_table"]
 
 #: IPOPT's Hessian of the table NLP (``exact`` or ``limited-memory``): what
@@ -94,8 +96,6 @@ PEAK_VIOLATION = CONTINUOUS_PEAK
 LEVELING_VIOLATIONS = (LEVELING_GAIN_MARGIN, LEVELING_PHASE_MARGIN)
 _VIOLATION_UNITS = {PEAK_VIOLATION: " dB", LEVELING_GAIN_MARGIN: " dB",
                     LEVELING_PHASE_MARGIN: " deg"}
-#: Refinement frequencies placed around each peak above the bound (relative).
-_PEAK_SHIFTS = (0.995, 1.0, 1.005)
 
 
 @dataclass(frozen=True, eq=False, repr=False)
@@ -306,12 +306,15 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     modes0 = _modes_at(prob, d0)
     prob.set_modes(modes0)
     workers = workers or study.solver.get("workers")
-    tied = _tied_starts(study, workers, progress)
+    tied = _tied_starts(study, workers, progress, prob)
     pre = [] if tied is None else tied[0]
-    # from the tied optimum, one round of the distortion's fixed point: the peak
-    # refinement goes on from it and converges it (_refine; docs/table.md, section 13)
-    outs = run_starts(prob, starts if tied is None else tied[1], workers=workers,
-                      progress=progress, rounds=None if tied is None else _first_rounds(prob))
+    if tied is None:
+        outs = run_starts(prob, starts, workers=workers, progress=progress)
+    else:  # the full solves from the tied optima not already solved in a worker
+        todo = [s for s, done in zip(tied[1], tied[2], strict=True) if done is None]
+        ran = iter(run_starts(prob, todo, workers=workers, progress=progress,
+                              rounds=capped(prob, 1).get("rounds")) if todo else ())
+        outs = [done if done is not None else next(ran) for done in tied[2]]
     if tied is not None and not any(not isinstance(o, str) and o.feasible for o in outs):
         pre, outs = [*pre, *_records(outs, "warm from the tied optimum: ", len(pre))], \
             run_starts(prob, starts, workers=workers, progress=progress)  # as before
@@ -373,7 +376,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
             gain_hint = max_valve_gain(loop.plant.model, loop.plant.system, gm_min, pm_min)
     reports = table_constraint_reports(prob, best.g, modes=nlp_modes, stability=stab,
                                        peaks=peak["peaks"], leveling=(loop, gm_min, pm_min))
-    lever_sens = prob.lever_sensitivities(best.x) if best.feasible else ()
+    lever_sens = prob.lever_sensitivities(best.x, best) if best.feasible else ()
     return TableOptimizationResult(
         study=study, feasible=bool(best.feasible), status=best.status, values=best.values,
         design=d, objective=prob.objective,
@@ -529,14 +532,14 @@ def _lever_starts(study, prob, starts: list) -> list:
     return out
 
 
-def _tied_starts(study, workers, progress):
+def _tied_starts(study, workers, progress, prob):
     """The staged starts of a study with free per-group springs (docs/table.md, section 13,
-    "Staged starts"): the multi-start of the tied study (:func:`.lever_continuation.tied_study`),
-    then the full NLP's starts from its best distinct feasible optima
-    (:data:`.lever_continuation.WARM_SOLVES`). Returns ``(records of the tied solves,
-    starts of the full NLP)``, or None (no free group lever, a single start, or no
-    feasible tied optimum: the full multi-start runs as before)."""
-    from isodesign.optimization.lever_continuation import WARM_SOLVES, tied_study, untie_values
+    "Staged starts"): :func:`.lever_continuation.solve_tied` on the tied study
+    (:func:`.lever_continuation.tied_study`), its full solves from the tied optimum with one
+    round of the distortion's fixed point. Returns ``(records of the tied solves, starts of
+    the full NLP, their solves or None)``, or None (no free group lever, a single start, or
+    no feasible tied optimum: the full multi-start runs as before)."""
+    from isodesign.optimization.lever_continuation import solve_tied, tied_study
     from isodesign.optimization.problem import Problem
 
     reduced = tied_study(study)
@@ -545,16 +548,14 @@ def _tied_starts(study, workers, progress):
     rprob = Problem(reduced)
     rstarts = start_points(reduced, rprob.scaling)  # the levers at their starts
     rprob.set_modes(_modes_at(rprob, reduced.design_at(rstarts[0])))
-    outs = run_starts(rprob, rstarts, workers=workers, progress=progress)
-    feas = [o for o in outs if not isinstance(o, str) and o.feasible]
-    warm = []
-    for sol in sorted(feas, key=lambda o: o.objective):
-        if len(warm) < WARM_SOLVES and all(abs(sol.objective - o.objective) > BRANCH_TOLERANCE
-                                           for o in warm):
-            warm.append(sol)
-    if not warm:
+    out = solve_tied(study, rprob, rstarts, prob, workers=workers, progress=progress,
+                     rounds=capped(prob, 1).get("rounds"))
+    if out is None:
         return None
-    return _records(outs, "tied groups: "), [untie_values(study, sol.values) for sol in warm]
+    for k, sol in enumerate(d for d in out[2] if d is not None):
+        if progress:  # as run_starts reports the full NLP's solves
+            progress(k + 1, len(out[2]), sol)
+    return _records(out[0], "tied groups: "), out[1], out[2]
 
 
 def _records(outs, prefix: str, first: int = 0) -> list:
@@ -666,42 +667,6 @@ def measure_peaks(prob, d, sigma, sigma_u, modes, values=None):
                             _with_gain(prob, d, sigma_u, values), lo, hi)
 
 
-def add_peak_frequencies(prob, over, used) -> tuple:
-    """Place movable peak frequencies around the peaks above the bound.
-
-    Parameters
-    ----------
-    prob : TableProblem
-        Built again with movable frequencies (:meth:`~.table_problem.TableProblem.with_peak_slots`)
-        if it has none.
-    over : list of (float, float)
-        ``(excess dB, frequency Hz)`` of the peaks above the bound, worst first
-        (:meth:`~isodesign.table.peaks.TablePeaks.above`).
-    used : list of float
-        The frequencies placed so far (kept).
-
-    Returns
-    -------
-    (TableProblem, list of float)
-        The NLP with ``used`` and the new frequencies set, and the new frequencies: 0.995, 1
-        and 1.005 times each of at most three distinct peak frequencies (none when every
-        movable frequency is taken).
-    """
-    new: list[float] = []
-    for _, f in over:  # the worst peaks, three frequencies around each distinct one
-        if any(abs(f / g - 1) < 2e-3 for g in new[1::3]):
-            continue
-        new += [f * r for r in _PEAK_SHIFTS]
-        if len(new) >= PEAK_SLOTS_PER_ROUND:
-            break
-    if not prob.n_slots:  # the NLP with movable peak frequencies, built when needed
-        prob = prob.with_peak_slots()
-    new = new[: max(0, prob.n_slots - len(used))]
-    f0 = float(prob.grid.frequency_hz[0])
-    prob.set_slots(list(used) + new + [f0] * (prob.n_slots - len(used) - len(new)))
-    return prob, new
-
-
 def _refine(prob, study, best, slots=None):
     """Mode refresh and continuous peak refinement of the multi-start's best solution.
 
@@ -721,13 +686,13 @@ def _refine(prob, study, best, slots=None):
     slots = [] if slots is None else slots  # the frequencies placed so far (extended)
     # the last design whose outer fixed point (models.distortion) converged, with the NLP and
     # the frequencies it was solved with: a refinement round takes one round of that fixed
-    # point (_resolve), which converges once, when the peaks are held (docs/table.md, 13)
+    # point (capped), which converges once, when the peaks are held (docs/table.md, 13)
     settled = (prob, prob.slot_hz.copy(), len(slots), best)
     stop = False
     while True:
         if not best.feasible:
             break
-        if not _pending(best):
+        if not best.outer_pending:
             settled = (prob, prob.slot_hz.copy(), len(slots), best)
         sigma, sigma_u = prob.sigma(best.x), prob.tube_rms(best.x)
         modes = _modes_at(prob, study.design_at(best.values), sigma, sigma_u,
@@ -764,7 +729,7 @@ def _refine(prob, study, best, slots=None):
             held = (prob, prob.slot_hz.copy())
             prob, new = add_peak_frequencies(prob, over, slots)
         if not new:  # the peaks held, the rounds or the movable frequencies spent
-            if not _pending(best):
+            if not best.outer_pending:
                 break
             sol = prob.solve(best.x, warm=best.as_start())  # the fixed point, converged
             if sol.feasible:
@@ -778,7 +743,7 @@ def _refine(prob, study, best, slots=None):
         slots += new
         peak["added_frequencies_hz"] += new
         peak["rounds"] += 1
-        sol = _resolve(prob, best)
+        sol = prob.solve(best.x, warm=best.as_start(), **capped(prob, 1))
         if not sol.feasible:  # keep the last feasible design; its peak stays a violation
             peak["resolve_failed"] = f"peak refinement: {sol.status}"
             prob = held[0]
@@ -787,34 +752,9 @@ def _refine(prob, study, best, slots=None):
             stop = True  # no more frequencies; a pending fixed point still converges
             continue
         best = sol
-    if _pending(best):  # an infeasible design's fixed point converged too (its violations)
+    if best.outer_pending:  # an infeasible design's fixed point converged too (its violations)
         best = prob.solve(best.x, warm=best.as_start())
     return prob, best, modes, rounds, peak
-
-
-def _first_rounds(prob):
-    """The round cap of the full NLP's solve from the tied optimum: one round of the
-    distortion's outer fixed point (None: the NLP has none)."""
-    from isodesign.optimization.distortion_rows import OuterFixedPoint
-
-    return 1 if isinstance(prob, OuterFixedPoint) else None
-
-
-def _pending(sol) -> bool:
-    """Whether ``sol`` stopped before its outer fixed point (models.distortion) converged,
-    at the round cap of :func:`_resolve`."""
-    return getattr(sol, "outer_next", None) is not None
-
-
-def _resolve(prob, best):
-    """A peak-refinement re-solve from ``best``: with the distortion's outer fixed point,
-    one round of it (the next round is the next refinement's re-solve, or the converging
-    solve of :func:`_refine` once the peaks hold); else the NLP's solve."""
-    from isodesign.optimization.distortion_rows import OuterFixedPoint
-
-    if isinstance(prob, OuterFixedPoint):
-        return prob.solve(best.x, warm=best.as_start(), rounds=1)
-    return prob.solve(best.x, warm=best.as_start())
 
 
 def _loop_refresh_needed(prob, study, best, peak) -> bool:

@@ -97,7 +97,7 @@ from isodesign.table.statics import level
 
 __all__ = ["DAMPED_MODE_LIMIT_HZ", "LOOP_MARGIN_EPS", "LOOP_POLES_MIMO", "PEAK_ROWS_MAX_HZ",
            "PEAK_SLOTS_PER_ROUND", "ROCKING_ENERGY_FRACTION", "TABLE_OBJECTIVES",
-           "TABLE_PEAK_ROUNDS", "TableProblem"]
+           "TABLE_PEAK_ROUNDS", "TableProblem", "add_peak_frequencies"]
 
 #: Movable peak frequencies (NLP parameters, no rebuild) placed by the continuous peak
 #: refinement (:mod:`isodesign.table.peaks`): per round, three frequencies around each of
@@ -759,7 +759,7 @@ class TableProblem(TableModeRows, NLP):
         """
         return np.asarray(self._j_fn(x)).ravel()
 
-    def lever_sensitivities(self, x: np.ndarray) -> tuple:
+    def lever_sensitivities(self, x: np.ndarray, sol=None) -> tuple:
         """The re-optimized sensitivity of the worst margin to each free lever's bounds
         (:func:`~isodesign.optimization.lever_nlp.lever_sensitivities`).
 
@@ -767,10 +767,12 @@ class TableProblem(TableModeRows, NLP):
         ----------
         x : ndarray
             The optimum.
+        sol : Solution, optional
+            The solve that ended there (its multipliers; default: IPOPT solves again).
         """
         from isodesign.optimization.lever_nlp import lever_sensitivities
 
-        return lever_sensitivities(self, x)
+        return lever_sensitivities(self, x, sol)
 
     def worst_margin_db(self, x: np.ndarray) -> float:
         """Worst margin over points, axes and bands at ``x`` (dB).
@@ -802,3 +804,43 @@ class TableProblem(TableModeRows, NLP):
 
 class TableDistortionProblem(TableDistortionMixin, TableProblem):
     """The table's NLP with the distortion power's rows (``models.distortion = true``)."""
+
+
+#: Refinement frequencies placed around each peak above the bound (relative).
+_PEAK_SHIFTS = (0.995, 1.0, 1.005)
+
+
+def add_peak_frequencies(prob, over, used) -> tuple:
+    """Place movable peak frequencies around the peaks above the bound.
+
+    Parameters
+    ----------
+    prob : TableProblem
+        Built again with movable frequencies (:meth:`~.table_problem.TableProblem.with_peak_slots`)
+        if it has none.
+    over : list of (float, float)
+        ``(excess dB, frequency Hz)`` of the peaks above the bound, worst first
+        (:meth:`~isodesign.table.peaks.TablePeaks.above`).
+    used : list of float
+        The frequencies placed so far (kept).
+
+    Returns
+    -------
+    (TableProblem, list of float)
+        The NLP with ``used`` and the new frequencies set, and the new frequencies: 0.995, 1
+        and 1.005 times each of at most three distinct peak frequencies (none when every
+        movable frequency is taken).
+    """
+    new: list[float] = []
+    for _, f in over:  # the worst peaks, three frequencies around each distinct one
+        if any(abs(f / g - 1) < 2e-3 for g in new[1::3]):
+            continue
+        new += [f * r for r in _PEAK_SHIFTS]
+        if len(new) >= PEAK_SLOTS_PER_ROUND:
+            break
+    if not prob.n_slots:  # the NLP with movable peak frequencies, built when needed
+        prob = prob.with_peak_slots()
+    new = new[: max(0, prob.n_slots - len(used))]
+    f0 = float(prob.grid.frequency_hz[0])
+    prob.set_slots(list(used) + new + [f0] * (prob.n_slots - len(used) - len(new)))
+    return prob, new

@@ -7,6 +7,7 @@ import pytest
 from isodesign.optimization.lever_continuation import (
     TIED_TOL,
     free_group_levers,
+    solve_tied,
     tied_study,
     untie_values,
 )
@@ -82,3 +83,42 @@ def test_the_tied_stage_runs_without_the_distortion():
     st = default_study()
     assert st.models["distortion"]
     assert tied_study(st).models["distortion"] is False
+
+
+def test_the_pipelined_full_solve_is_the_one_from_the_chosen_tied_optimum():
+    """With forked workers the full NLP is solved from the best tied optimum so far while
+    the other tied starts run (lever_continuation.solve_tied); what it keeps is the solve
+    from the optimum the stage chooses at its end, the same solve as in this process."""
+    import copy
+
+    from isodesign.optimization.distortion_rows import capped
+    from isodesign.optimization.multistart import _solve_start, available_cores, start_points
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.study import study_from_dict
+    from isodesign.optimization.table_driver import _modes_at
+
+    raw = copy.deepcopy(default_study().raw)  # coarse: 3 points per band, 4-20 Hz
+    raw["solver"].update(starts=2, workers=2)
+    raw["models"]["points_per_band"] = 3
+    raw["target"].update(band_min_hz=4.0, band_max_hz=20.0)
+    st = study_from_dict(raw, source="small_default.toml", fill_defaults=False)
+    prob = Problem(st)
+    prob.set_modes(_modes_at(prob, st.start_design()))
+    red = tied_study(st)
+    rprob = Problem(red)
+    rstarts = start_points(red, rprob.scaling)
+    rprob.set_modes(_modes_at(rprob, red.design_at(rstarts[0])))
+    rounds = capped(prob, 1).get("rounds")
+    outs, full_starts, done = solve_tied(st, rprob, rstarts, prob, workers=2, rounds=rounds)
+    assert len(full_starts) == len(done) == 1
+    best = min((o for o in outs if not isinstance(o, str) and o.feasible),
+               key=lambda o: o.objective)
+    assert full_starts[0] == untie_values(st, best.values)
+    here = _solve_start(prob, None, full_starts[0], rounds)
+    if available_cores() < 2:  # no forked workers: nothing pipelined, solved by the caller
+        assert done[0] is None
+        return
+    # the best optimum was the best so far when it finished: always followed in a worker
+    assert done[0] is not None
+    np.testing.assert_allclose(done[0].x, here.x, rtol=0, atol=1e-10)
+    assert done[0].outer_pending == here.outer_pending
