@@ -110,6 +110,8 @@ def worst_case(study, values: dict, reference: float, *, grid=None, samples: int
     rng = np.random.default_rng(seed)
     cands = np.vstack([space.corners(rng=rng), space.center()[None, :],
                        space.box_samples(samples, rng)])
+    if samples == 0:  # search_samples = 0: the corners and the centre alone (both bodies)
+        refine = 0
     n_eval = 0
     scored = []
     for th in cands:

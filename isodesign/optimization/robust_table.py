@@ -44,6 +44,7 @@ from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.table_constraints import table_constraint_reports
 from isodesign.optimization.table_driver import _modes_at, optimize_table
 from isodesign.optimization.table_scenario import table_scenario
+from isodesign.optimization.table_search import search_box
 
 __all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "check_robust_table",
            "robust_optimize_table",
@@ -498,24 +499,22 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     sc = _Scenarios(study)
     values = dict(nominal.values)
 
-    def search(ref):
-        best = (-math.inf, None, None)
-        for th in cands:
-            c = sc.check(th, values, ref)
-            s = max(c["gap"] / tol, c["max_violation"] / FEASIBILITY_TOLERANCE)
-            if s > best[0]:
-                best = (s, th, c)
-        return best
+    def search(ref, seed):
+        # the corners and the centre through their NLPs (the exchange stacks them), the
+        # samples and the local maximization with the NumPy scorer (table_search)
+        return search_box(study, values, ref, sc.check, cands,
+                          samples=settings["search_samples"], seed=seed, tol=tol,
+                          feas_tol=FEASIBILITY_TOLERANCE, n_slots=sc.n_slots)
 
     first = search(-nominal.objective_value if kind == "worst_band_margin"
-                   else math.log(nominal.objective_value))
+                   else math.log(nominal.objective_value), settings["seed"])
     thetas = [space.center()]
-    if first[0] > 1.0 and not np.allclose(first[1], thetas[0]):
-        thetas.append(first[1])
+    if first["score"] > 1.0 and not np.allclose(first["theta"], thetas[0]):
+        thetas.append(np.asarray(first["theta"], float))
     rounds, converged, sol_js, status = [], False, None, ""
     best_values = dict(values)
     placed: dict = {}  # scenario -> the movable peak frequencies placed for it
-    last_s = first[0]  # the score of the last search of the box
+    last_s = first["score"]  # the score of the last search of the box
     peak_left = 0.0
     stack = sol = None
     n_stacks = 0
@@ -540,7 +539,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
             return TableRobustResult(
                 study, nominal, values, kind, None, False, False, status,
                 rounds=tuple(rounds), wall_s=time.perf_counter() - t_all,
-                first_worst_case=_natural(kind, first[2]["j"]),
+                first_worst_case=_natural(kind, first["check"]["j"]),
                 constraints=_scenario_constraints(space, probs, thetas, g),
                 infeasible_scenario={"description": space.describe(th),
                                      "theta": space.as_dict(th), "constraint": cname,
@@ -551,12 +550,13 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         moved, peak_left = sc.place_peak_slots(thetas, stack, sol, values, placed)
         # a round that placed peak frequencies solves again first: the box is searched at
         # a design that holds its scenarios' peaks (a search costs a compiled NLP per corner)
-        s, th_w = (None, None) if moved else search(t_star)[:2]
+        found = None if moved else search(t_star, settings["seed"] + r + 1)
+        s, th_w = (None, None) if found is None else (found["score"], found["theta"])
         last_s = last_s if s is None else s
         rounds.append({"round": r, "scenarios": len(thetas), "objective": _natural(kind, t_star),
                        "iterations": sol.iterations, "worst_score": s,
                        "peak_slots_moved": moved, "peak_excess_left_db": peak_left,
-                       "nlp_built": new_set,
+                       "nlp_built": new_set, **_search_record(found),
                        "wall_s": time.perf_counter() - t0})
         sol_js = t_star
         if not moved and s <= 1.0:
@@ -588,12 +588,27 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     return TableRobustResult(study, nominal, values, kind, _natural(kind, sol_js), True,
                              converged, status, rounds=tuple(rounds), scenarios=tuple(rows),
                              wall_s=time.perf_counter() - t_all, constraints=reports,
-                             first_worst_case=_natural(kind, first[2]["j"]),
-                             first_worst_scenario=space.describe(first[1]),
+                             first_worst_case=_natural(kind, first["check"]["j"]),
+                             first_worst_scenario=space.describe(first["theta"]),
                              last_search_score=float(last_s),
                              extra={"nlp_builds": {"scenarios": sc.builds,
-                                                   "stacks": n_stacks}},
+                                                   "stacks": n_stacks},
+                                    "first_search": _search_record(first)},
                              robust_at_nominal=_natural(kind, at_nominal))
+
+
+def _search_record(found) -> dict:
+    """A round's record of its search of the box (:func:`.table_search.search_box`): how
+    many candidates each method scored, and where the worst came from (None: no search,
+    the round placed peak frequencies)."""
+    ev = {} if found is None else found["evaluations"]
+    return {"search_corners": ev.get("corners"), "search_samples": ev.get("samples"),
+            "search_refinements": ev.get("refinements"),
+            "search_refinement_evaluations": ev.get("refinement"),
+            "search_evaluations": None if found is None else sum(ev.values())
+            - ev["refinements"],
+            "worst_source": None if found is None else found["source"],
+            "worst_quantity": None if found is None else found["which"]}
 
 
 def _solve_round(stack, prev, values: dict, starts: list, study, new_set: bool):

@@ -26,9 +26,9 @@ the NLP check to 1e-9 dB in the margin and 1e-9 in every row
 (``tests/optimization/test_robust_table_search.py``). The search (:func:`search_box`): the
 corners and the centre through the NLP check (as before: their NLPs are the ones the
 exchange stacks), ``search_samples`` uniform samples with :func:`score_table_scenario`,
-then the best :data:`REFINE` candidates refined by a bounded derivative-free local
-maximization (Nelder-Mead, at most :data:`REFINE_EVALUATIONS` evaluations each) of the
-quantity that scored them (docs/robust.md, section 3).
+then the best :data:`REFINE` candidates refined by a bounded local maximization (L-BFGS-B,
+its gradient by finite differences of the scorer, at most :data:`REFINE_EVALUATIONS`
+evaluations each) of the quantity that scored them (docs/robust.md, section 3).
 """
 
 from __future__ import annotations
@@ -44,9 +44,15 @@ __all__ = ["REFINE", "REFINE_EVALUATIONS", "score_table_scenario", "search_box"]
 
 #: Candidates of the search refined by the local maximization (the vertical's ``refine``).
 REFINE = 3
-#: Evaluations of the scorer per refinement (Nelder-Mead's ``maxfev``).
+#: Evaluations of the scorer per refinement (L-BFGS-B's ``maxfun``, its finite
+#: differences included).
 REFINE_EVALUATIONS = 40
+#: The finite-difference step of the maximization's gradient, a fraction of the box's
+#: width (the scorer's closure is solved to 1e-10: its differences carry ~1e-6 of noise).
+REFINE_STEP = 1e-4
 _LN10 = math.log(10.0)
+#: The registry's kinds of the frozen-mode rows (an inactive mode's row is zero).
+_MODE_KINDS = ("damping_rows", "min_rocking_frequency", "max_rocking_frequency")
 
 
 class _Measured(TableProblem):
@@ -197,15 +203,21 @@ def score_table_scenario(study, theta, values: dict, reference: float | None, *,
     else:  # the robust table takes no free levers: no footprint or added mass objective
         raise InputError(f"objective.kind: {kind!r} has no scenario scorer")
     q = table_quantities(prob, values)
-    modes = _modes_at(prob, d, sigma, sigma_u, values=values)
-    q.update(_mode_rows(prob, model, springs, modes))
+    c = st.constraints
+    if c.get("min_damping_ratio") or c.get("min_rocking_frequency_hz") or \
+            c.get("max_rocking_frequency_hz"):  # the frozen modes' rows: the exact modes
+        q.update(_mode_rows(prob, model, springs, _modes_at(prob, d, sigma, sigma_u,
+                                                            values=values)))
     excess, viol = {}, []
     for row in constraint_rows_of(st, q, TABLE_ROWS):
         name = row_name(row.key)
-        e = _excess(row.expr, row.lo, row.hi)
+        v = np.atleast_1d(np.asarray(row.expr, float)).ravel()
+        if row.kind in _MODE_KINDS:  # an inactive mode's row is 0 (act = 0): no quantity
+            v = v[v != 0.0]
+        e = _excess(v, row.lo, row.hi)
         excess[name] = max(excess.get(name, -math.inf), e)
     for name, e in excess.items():
-        viol.append((name, max(e, 0.0)))
+        viol.append((name, max(e, 0.0)))  # 0 for a group with no active row
     return {"j": j, "margin_db": margin, "violations": viol, "excess": excess,
             "max_violation": max((v for _, v in viol), default=0.0),
             "gap": None if reference is None else j - reference}
@@ -216,6 +228,15 @@ def _score(c: dict, tol: float, feas_tol: float) -> tuple:
     items = [(c["gap"] / tol, "objective")]
     items += [(v / feas_tol, f"constraint:{n}") for n, v in c["violations"]]
     return max(items, key=lambda r: r[0])
+
+
+def _refined_quantity(c: dict, tol: float, feas_tol: float) -> str:
+    """The quantity a refinement raises from a scorer's check: the largest signed excess
+    over its tolerance (a constraint inside its bounds too, so that the maximization has
+    a slope; the closure's equations are no quantity of the scorer)."""
+    items = [(c["gap"] / tol, "objective")]
+    items += [(e / feas_tol, f"constraint:{n}") for n, e in c["excess"].items()]
+    return max(items, key=lambda r: r[0])[1]
 
 
 def _quantity(c: dict, which: str, tol: float, feas_tol: float) -> float:
@@ -297,7 +318,11 @@ def search_box(study, values: dict, reference: float, check, corners, *, samples
         for k in order[: max(3 * refine, refine)]:
             if len(seen) >= refine or not cont.any():
                 break
-            _s0, which, th0, _, _ = scored[k]
+            _s0, _, th0, c0, _ = scored[k]
+            if "excess" not in c0:  # a corner's NLP check: its signed excesses
+                c0 = score(th0)
+                n_ref += 1
+            which = _refined_quantity(c0, tol, feas_tol)
             key = (which, tuple(np.round((th0 - lo) / width, 2)))
             if key in seen:
                 continue
@@ -318,8 +343,8 @@ def search_box(study, values: dict, reference: float, check, corners, *, samples
                 return -_quantity(c, which, tol, feas_tol)
 
             u0 = (th0[cont] - lo[cont]) / width[cont]
-            r = minimize(f, u0, method="Nelder-Mead", bounds=[(0.0, 1.0)] * int(cont.sum()),
-                         options={"maxfev": max_evaluations, "xatol": 1e-4, "fatol": 1e-3})
+            r = minimize(f, u0, method="L-BFGS-B", bounds=[(0.0, 1.0)] * int(cont.sum()),
+                         options={"maxfun": max_evaluations, "eps": REFINE_STEP})
             th = th0.copy()
             th[cont] = lo[cont] + np.clip(r.x, 0.0, 1.0) * width[cont]
             c = cache.get(tuple(th))
