@@ -55,6 +55,10 @@ _LN10 = math.log(10.0)
 _MODE_KINDS = ("damping_rows", "min_rocking_frequency", "max_rocking_frequency")
 
 
+class _Spent(Exception):
+    """A refinement's evaluations are spent (:data:`REFINE_EVALUATIONS`)."""
+
+
 class _Measured(TableProblem):
     """A scenario's TableProblem with its numbers (grid, leveling, geometry, peak cut,
     movable frequencies) and no NLP: ``_build`` does nothing."""
@@ -328,26 +332,32 @@ def search_box(study, values: dict, reference: float, check, corners, *, samples
                 continue
             seen.append(key)
             n_runs += 1
-            cache: dict = {}
+            tried: list = []  # (quantity, theta, check) of every evaluation
 
-            def f(u, which=which, th0=th0, cache=cache):
+            def f(u, which=which, th0=th0, tried=tried):
                 nonlocal n_ref
+                if len(tried) >= max_evaluations:  # the cap, finite differences included
+                    raise _Spent
                 th = th0.copy()
                 th[cont] = lo[cont] + np.clip(u, 0.0, 1.0) * width[cont]
                 n_ref += 1
                 try:
                     c = score(th)
                 except (InputError, SolverError, FloatingPointError, ValueError):
-                    return math.inf  # a scenario the analysis cannot close: not a maximum
-                cache[tuple(th)] = c
-                return -_quantity(c, which, tol, feas_tol)
+                    tried.append((-math.inf, th, None))
+                    return 1e300  # a scenario the analysis cannot close: not a maximum
+                q = _quantity(c, which, tol, feas_tol)
+                tried.append((q, th, c))
+                return -q
 
             u0 = (th0[cont] - lo[cont]) / width[cont]
-            r = minimize(f, u0, method="L-BFGS-B", bounds=[(0.0, 1.0)] * int(cont.sum()),
+            try:
+                minimize(f, u0, method="L-BFGS-B", bounds=[(0.0, 1.0)] * int(cont.sum()),
                          options={"maxfun": max_evaluations, "eps": REFINE_STEP})
-            th = th0.copy()
-            th[cont] = lo[cont] + np.clip(r.x, 0.0, 1.0) * width[cont]
-            c = cache.get(tuple(th))
+            except _Spent:
+                pass
+            # the largest quantity met (L-BFGS-B's answer, or the best before the cap)
+            _, th, c = max(tried, key=lambda t: t[0], default=(None, None, None))
             if c is None:
                 continue
             s, w2 = _score(c, tol, feas_tol)

@@ -109,7 +109,7 @@ def test_search_with_samples_finds_an_interior_worst_case_the_corners_miss():
     assert 740.0 < found["theta"][0] < 900.0
     ev = found["evaluations"]
     assert ev["samples"] == 16 and 0 < ev["refinements"] <= 3
-    assert ev["refinement"] <= 3 * (1 + 40)  # the cap: 40 per refinement (+ its start)
+    assert ev["refinement"] <= 3 * (1 + 40)  # the cap: 40 per refinement (+ a corner's scoring)
     # the scenario's compiled NLP: the same violation
     nlp = dict(sc.check(found["theta"], values, ref)["violations"])[key]
     assert nlp == pytest.approx(found["check"]["excess"][key], abs=SAME_ROW)
