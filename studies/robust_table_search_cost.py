@@ -11,11 +11,13 @@ of +-30 mm, this script measures
    median of ``--repeats`` scenarios drawn in the box;
 3. the whole robust optimization with ``search_samples = 0`` (corners and centre only) and
    16 (the default: 16 samples and three local maximizations per search), its wall time and
-   each round's evaluations.
+   each round's evaluations; with ``--builtin`` the robust built-in table study instead
+   (``table_study()`` on its own grid, payload +-20 %, D_c +-5 %, CG offsets +-50 mm: the
+   study of ``benchmarks/bench_unify.py``; several minutes).
 
 Usage::
 
-    python studies/robust_table_search_cost.py [--repeats 10]
+    python studies/robust_table_search_cost.py [--repeats 10] [--builtin]
 
 Timings depend on the machine and its load; the script prints them, docs/robust.md quotes a
 run and the command.
@@ -34,6 +36,14 @@ from isodesign.optimization import robust_table
 from isodesign.optimization.study import study_from_dict, table_study
 from isodesign.optimization.table_search import score_table_scenario
 
+#: The robust built-in table study's scenarios (benchmarks/bench_unify.py).
+BUILTIN = {"payload_mass_kg": {"relative": 0.2}, "capillary_diameter_m": {"relative": 0.05},
+           "cg_offset_x_m": {"absolute": 0.05}, "cg_offset_y_m": {"absolute": 0.05}}
+
+
+def _builtin(samples: int):
+    return table_study().with_changes(scenarios={**BUILTIN, "search_samples": samples})
+
 
 def _study(samples: int):
     raw = copy.deepcopy(table_study().raw)
@@ -47,7 +57,12 @@ def _study(samples: int):
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--repeats", type=int, default=10)
+    ap.add_argument("--builtin", action="store_true",
+                    help="run the robust built-in table study (step 3 only)")
     args = ap.parse_args(argv)
+    if args.builtin:
+        _exchanges(_builtin)
+        return
     st = _study(16)
     values = {v.name: v.start for v in st.variables}
     space = st.scenarios
@@ -68,14 +83,20 @@ def main(argv=None) -> None:
     print(f"scenario through its NLP: {med(first):.3f} s the first time (build), "
           f"{med(again):.3f} s built; NumPy scorer: {med(cheap):.3f} s "
           f"(median of {args.repeats})")
+    _exchanges(_study)
+
+
+def _exchanges(make) -> None:
     for n in (0, 16):
         t0 = time.perf_counter()
-        res = robust_table.robust_optimize_table(_study(n))
+        res = robust_table.robust_optimize_table(make(n))
         wall = time.perf_counter() - t0
-        ev = [(r["search_samples"], r["search_refinement_evaluations"]) for r in res.rounds]
+        ev = [(r["search_samples"], r["search_refinement_evaluations"]) for r in res.rounds
+              if r["worst_score"] is not None]
         print(f"search_samples = {n}: {wall:.1f} s, worst case {res.objective_value:.4f} dB, "
-              f"{len(res.rounds)} round(s), (samples, refinement evaluations) per round {ev}, "
-              f"first search {res.extra['first_search']}")
+              f"{len(res.rounds)} round(s), {len(res.scenarios)} scenarios, NLP builds "
+              f"{res.extra['nlp_builds']}, (samples, refinement evaluations) per search "
+              f"{ev}, first search {res.extra['first_search']}")
 
 
 if __name__ == "__main__":
