@@ -113,3 +113,24 @@ def test_search_with_samples_finds_an_interior_worst_case_the_corners_miss():
     # the scenario's compiled NLP: the same violation
     nlp = dict(sc.check(found["theta"], values, ref)["violations"])[key]
     assert nlp == pytest.approx(found["check"]["excess"][key], abs=SAME_ROW)
+
+
+def test_no_samples_is_corners_and_centre_alone_in_the_vertical_search_too():
+    """``scenarios.search_samples = 0`` (valid since the table's search uses it) means the
+    same in ``vertical_study()``'s exchange (``exchange.worst_case``): the corners and the
+    centre scored, no sample and no local maximization; 2 samples add 2 evaluations and
+    the maximization's."""
+    from isodesign.optimization.exchange import worst_case
+    from isodesign.optimization.study import vertical_study
+
+    raw = copy.deepcopy(vertical_study().raw)
+    raw["scenarios"] = {"payload_mass_kg": {"relative": 0.1},
+                        "capillary_diameter_m": {"relative": 0.05}, "search_samples": 0}
+    st = study_from_dict(raw, source="t.toml", fill_defaults=False)
+    assert st.scenarios.settings["search_samples"] == 0
+    values = {v.name: v.start for v in st.variables}
+    none = worst_case(st, values, 0.0, samples=0)
+    assert none["evaluations"] == len(st.scenarios.corners()) + 1
+    some = worst_case(st, values, 0.0, samples=2)
+    assert some["evaluations"] > len(st.scenarios.corners()) + 1 + 2
+    assert some["score"] >= none["score"]
