@@ -66,6 +66,15 @@ class _Measured(TableProblem):
     def _build(self, ca) -> None:  # the NumPy scorer needs no NLP
         return None
 
+    def closure(self, d, values: dict | None = None):
+        """The NumPy closure on the NLP's grid, solved once per design (the scorer and
+        :func:`.table_constraints.table_quantities` both take it)."""
+        key = repr(d) + repr(sorted((values or {}).items()))
+        memo = self.__dict__.setdefault("_closures", {})
+        if key not in memo:
+            memo[key] = super().closure(d, values)
+        return memo[key]
+
 
 def _measured(study, n_slots: int):
     """The unbuilt TableProblem of a scenario's study (with the distortion's NumPy terms
