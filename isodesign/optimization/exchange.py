@@ -89,7 +89,9 @@ def worst_case(study, values: dict, reference: float, *, grid=None, samples: int
         The stated worst-case J (the objective's shortfall is measured from it).
     grid : Grid, optional
     samples : int
-        Uniform samples scored besides the corners and the centre.
+        Uniform samples scored besides the corners and the centre; 0: the corners and the
+        centre alone, without the local maximization (``scenarios.search_samples = 0``, as
+        the table's search, :func:`.table_search.search_box`).
     seed : int
     refine : int
         How many of the best-scored candidates are refined by local maximization.
@@ -110,6 +112,8 @@ def worst_case(study, values: dict, reference: float, *, grid=None, samples: int
     rng = np.random.default_rng(seed)
     cands = np.vstack([space.corners(rng=rng), space.center()[None, :],
                        space.box_samples(samples, rng)])
+    if samples == 0:  # search_samples = 0: the corners and the centre alone (both bodies)
+        refine = 0
     n_eval = 0
     scored = []
     for th in cands:

@@ -15,15 +15,20 @@ scenario set solves the stack from the last solution and the nominal optimum, ke
 best feasible solution (:func:`_solve_round`); movable peak frequencies are placed where a
 scenario's continuous peak of ``|T_p,aa|`` exceeds its bound
 (:meth:`_Scenarios.place_peak_slots`; such a round solves the built stack again, from the
-last solution, without a new scenario); then the box's corners (at most
-:data:`MAX_CORNERS`) and centre are scored at the new design with each scenario's NumPy
-closure and the table NLP's own constraint expressions, and the worst is added, its peak
-frequencies placed before its first solve. Each scenario's NLP is built once, its movable
-peak frequencies present from the start (parameters), and the stack once per scenario set
-(docs/robust.md, section 3, "The table's rounds"). What the
-vertical exchange has besides: uniform samples and a local maximization in the box (a table
-scenario is a compiled NLP of its own), and the scenario values as NLP
-parameters (here sensitivities by central differences, :func:`table_sensitivities`).
+last solution, without a new scenario); then the box is searched at the new design
+(:func:`.table_search.search_box`, as the vertical exchange's ``worst_case``): the corners
+(at most :data:`MAX_CORNERS`) and the centre through each scenario's NLP (its NumPy closure
+and the NLP's own constraint expressions, :meth:`_Scenarios.check`), ``search_samples``
+uniform samples with the NumPy scorer that gives the same numbers without building an NLP
+(:func:`.table_search.score_table_scenario`, ~0.09 s a sample against ~0.4 s for a
+scenario's NLP build), and the three best candidates refined by a bounded local
+maximization (L-BFGS-B, at most 40 scorer evaluations each) of the quantity that scored
+them; ``search_samples = 0``: the corners and the centre alone. The worst is added, its
+NLP built then and its peak frequencies placed before its first solve. Each scenario's NLP
+is built once, its movable peak frequencies present from the start (parameters), and the
+stack once per scenario set (docs/robust.md, section 3, step 3 and "The table's rounds").
+What the vertical exchange has besides: the scenario values as NLP parameters (here
+sensitivities by central differences, :func:`table_sensitivities`).
 """
 
 from __future__ import annotations
@@ -44,6 +49,7 @@ from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.table_constraints import table_constraint_reports
 from isodesign.optimization.table_driver import _modes_at, optimize_table
 from isodesign.optimization.table_scenario import table_scenario
+from isodesign.optimization.table_search import search_box
 
 __all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "check_robust_table",
            "robust_optimize_table",
@@ -498,24 +504,22 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     sc = _Scenarios(study)
     values = dict(nominal.values)
 
-    def search(ref):
-        best = (-math.inf, None, None)
-        for th in cands:
-            c = sc.check(th, values, ref)
-            s = max(c["gap"] / tol, c["max_violation"] / FEASIBILITY_TOLERANCE)
-            if s > best[0]:
-                best = (s, th, c)
-        return best
+    def search(ref, seed):
+        # the corners and the centre through their NLPs (the exchange stacks them), the
+        # samples and the local maximization with the NumPy scorer (table_search)
+        return search_box(study, values, ref, sc.check, cands,
+                          samples=settings["search_samples"], seed=seed, tol=tol,
+                          feas_tol=FEASIBILITY_TOLERANCE, n_slots=sc.n_slots)
 
     first = search(-nominal.objective_value if kind == "worst_band_margin"
-                   else math.log(nominal.objective_value))
+                   else math.log(nominal.objective_value), settings["seed"])
     thetas = [space.center()]
-    if first[0] > 1.0 and not np.allclose(first[1], thetas[0]):
-        thetas.append(first[1])
+    if first["score"] > 1.0 and not np.allclose(first["theta"], thetas[0]):
+        thetas.append(np.asarray(first["theta"], float))
     rounds, converged, sol_js, status = [], False, None, ""
     best_values = dict(values)
     placed: dict = {}  # scenario -> the movable peak frequencies placed for it
-    last_s = first[0]  # the score of the last search of the box
+    last_s = first["score"]  # the score of the last search of the box
     peak_left = 0.0
     stack = sol = None
     n_stacks = 0
@@ -540,7 +544,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
             return TableRobustResult(
                 study, nominal, values, kind, None, False, False, status,
                 rounds=tuple(rounds), wall_s=time.perf_counter() - t_all,
-                first_worst_case=_natural(kind, first[2]["j"]),
+                first_worst_case=_natural(kind, first["check"]["j"]),
                 constraints=_scenario_constraints(space, probs, thetas, g),
                 infeasible_scenario={"description": space.describe(th),
                                      "theta": space.as_dict(th), "constraint": cname,
@@ -550,13 +554,14 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         t_star = sol.epigraph
         moved, peak_left = sc.place_peak_slots(thetas, stack, sol, values, placed)
         # a round that placed peak frequencies solves again first: the box is searched at
-        # a design that holds its scenarios' peaks (a search costs a compiled NLP per corner)
-        s, th_w = (None, None) if moved else search(t_star)[:2]
+        # a design that holds its scenarios' peaks
+        found = None if moved else search(t_star, settings["seed"] + r + 1)
+        s, th_w = (None, None) if found is None else (found["score"], found["theta"])
         last_s = last_s if s is None else s
         rounds.append({"round": r, "scenarios": len(thetas), "objective": _natural(kind, t_star),
                        "iterations": sol.iterations, "worst_score": s,
                        "peak_slots_moved": moved, "peak_excess_left_db": peak_left,
-                       "nlp_built": new_set,
+                       "nlp_built": new_set, **_search_record(found),
                        "wall_s": time.perf_counter() - t0})
         sol_js = t_star
         if not moved and s <= 1.0:
@@ -588,12 +593,27 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     return TableRobustResult(study, nominal, values, kind, _natural(kind, sol_js), True,
                              converged, status, rounds=tuple(rounds), scenarios=tuple(rows),
                              wall_s=time.perf_counter() - t_all, constraints=reports,
-                             first_worst_case=_natural(kind, first[2]["j"]),
-                             first_worst_scenario=space.describe(first[1]),
+                             first_worst_case=_natural(kind, first["check"]["j"]),
+                             first_worst_scenario=space.describe(first["theta"]),
                              last_search_score=float(last_s),
                              extra={"nlp_builds": {"scenarios": sc.builds,
-                                                   "stacks": n_stacks}},
+                                                   "stacks": n_stacks},
+                                    "first_search": _search_record(first)},
                              robust_at_nominal=_natural(kind, at_nominal))
+
+
+def _search_record(found) -> dict:
+    """A round's record of its search of the box (:func:`.table_search.search_box`): how
+    many candidates each method scored, and where the worst came from (None: no search,
+    the round placed peak frequencies)."""
+    ev = {} if found is None else found["evaluations"]
+    return {"search_corners": ev.get("corners"), "search_samples": ev.get("samples"),
+            "search_refinements": ev.get("refinements"),
+            "search_refinement_evaluations": ev.get("refinement"),
+            "search_evaluations": None if found is None else sum(ev.values())
+            - ev["refinements"],
+            "worst_source": None if found is None else found["source"],
+            "worst_quantity": None if found is None else found["which"]}
 
 
 def _solve_round(stack, prev, values: dict, starts: list, study, new_set: bool):

@@ -483,7 +483,7 @@ def parse_scenarios(table, where: str, study) -> UncertaintySpace | None:
         v = table[k]
         if isinstance(default, int):
             hi = {"max_rounds": 50, "search_samples": 4096, "seed": 2**32 - 1}[k]
-            lo = 1 if k != "seed" else 0
+            lo = 0 if k in ("seed", "search_samples") else 1  # 0 samples: corners, centre
             if isinstance(v, bool) or not isinstance(v, int) or not lo <= v <= hi:
                 raise InputError(f"{where}: scenarios.{k} must be an integer in [{lo}, {hi}]")
         else:

@@ -40,12 +40,16 @@ def _rebuild_every_round(stack, prev, values, starts, study, new_set):
     return best_solve(robust_table.TableStack(stack.probs), [values, *starts], study)
 
 
-def _candidates(study) -> int:
+def _candidate_set(study) -> set:
     space = study.scenarios
     rng = np.random.default_rng(space.settings["seed"])
     cands = np.vstack([space.corners(limit=robust_table.MAX_CORNERS, rng=rng),
                        space.center()[None, :]])
-    return len({tuple(np.round(c, 12)) for c in cands})
+    return {tuple(np.round(c, 12)) for c in cands}
+
+
+def _candidates(study) -> int:
+    return len(_candidate_set(study))
 
 
 @pytest.fixture(scope="module")
@@ -59,8 +63,12 @@ def test_each_scenario_nlp_and_each_stack_is_built_once(small_robust):
     st, res = small_robust
     assert res.feasible and res.converged, res.rounds
     builds = res.extra["nlp_builds"]
-    # one table NLP per scenario the search met (the corners and the centre)
-    assert builds["scenarios"] == _candidates(st)
+    # one table NLP per scenario the search met: the corners and the centre, and a scenario
+    # a sample or the local maximization found and added (table_search, no NLP before)
+    cands = _candidate_set(st)
+    added = [r for r in res.scenarios
+             if tuple(np.round([r["theta"][n] for n in st.scenarios.names], 12)) not in cands]
+    assert builds["scenarios"] == _candidates(st) + len(added)
     # one stacked NLP per scenario set: built in the rounds where the set changed
     sizes = [r["scenarios"] for r in res.rounds]
     assert builds["stacks"] == len(set(sizes))
@@ -105,3 +113,73 @@ def test_no_draw_in_the_box_is_worse_than_the_stated_worst_case(small_robust):
     th = np.array([worst["theta"][n] for n in space.names])
     at_worst = float(table_draw_response(st, res.values, th)[0].worst_margin_db)
     assert at_worst == pytest.approx(res.objective_value, abs=0.05)
+
+
+def _corners_only_search(study, values, reference, check, corners, **kw):
+    """The table's search before issue 23's samples: the corners and the centre through
+    their NLPs, the first worst kept (the reference of ``search_samples = 0``)."""
+    tol, feas = kw["tol"], kw["feas_tol"]
+    best = (-np.inf, None, None)
+    for th in corners:
+        c = check(th, values, reference)
+        s = max(c["gap"] / tol, c["max_violation"] / feas)
+        if s > best[0]:
+            best = (s, th, c)
+    return {"score": best[0], "theta": best[1], "check": best[2], "which": "",
+            "source": "corner", "evaluations": {"corners": len(corners), "samples": 0,
+                                                "refinement": 0, "refinements": 0}}
+
+
+_VOLATILE = ("wall_s",)
+
+
+@pytest.fixture(scope="module")
+def corners_only():
+    st = small_robust_table({"payload_mass_kg": {"min": 560.0, "max": 640.0},
+                             "cg_offset_y_m": {"absolute": 0.03}, "search_samples": 0})
+    return st, robust_table.robust_optimize_table(st)
+
+
+@pytest.mark.slow  # two exchanges on the built-in table, ~20 s loaded
+def test_no_samples_is_the_corners_only_search(corners_only, monkeypatch):
+    """``scenarios.search_samples = 0``: the corners and the centre alone, no sample and no
+    local maximization; the rounds, the scenarios and the answer are those of the search
+    before the samples (its loop, the reference here)."""
+    st, res = corners_only
+    assert all(r["search_samples"] in (0, None) and not r["search_refinements"]
+               for r in res.rounds)
+    assert res.extra["first_search"]["search_samples"] == 0
+    monkeypatch.setattr(robust_table, "search_box", _corners_only_search)
+    ref = robust_table.robust_optimize_table(st, nominal=res.nominal)
+    assert res.objective_value == ref.objective_value
+    assert res.values == ref.values
+    strip = [{k: v for k, v in r.items() if k not in _VOLATILE and not k.startswith(
+        ("search_", "worst_source", "worst_quantity"))} for r in res.rounds]
+    assert strip == [{k: v for k, v in r.items() if k not in _VOLATILE and not k.startswith(
+        ("search_", "worst_source", "worst_quantity"))} for r in ref.rounds]
+    assert [r["theta"] for r in res.scenarios] == [r["theta"] for r in ref.scenarios]
+
+
+@pytest.mark.slow  # uses the corners-only exchange (~10 s) besides the module's
+def test_samples_give_a_worst_case_no_worse_than_the_corners_alone(small_robust,
+                                                                   corners_only):
+    """The default search (16 samples, three refinements) on the module's robust table
+    against the corners and the centre alone: the stated worst case is no worse (within
+    the exchange's tolerance, ``scenarios.tolerance_db``), and every round records what
+    its search scored and by which method (robust.json's ``rounds``)."""
+    st, res = small_robust
+    _, corners = corners_only
+    tol = st.scenarios.settings["tolerance_db"]
+    assert res.feasible and corners.feasible
+    assert res.objective_value >= corners.objective_value - tol
+    searched = [r for r in res.rounds if r["worst_score"] is not None]
+    assert searched
+    for r in searched:
+        assert r["search_samples"] == st.scenarios.settings["search_samples"] == 16
+        assert r["search_corners"] == _candidates(st)
+        assert 0 < r["search_refinements"] <= 3
+        assert r["search_refinement_evaluations"] <= 3 * (1 + 40)
+        assert r["worst_source"] in ("corner", "sample", "refined")
+    rec = res.record()
+    assert rec["rounds"][0]["search_samples"] == 16
+    assert rec["first_search"]["search_samples"] == 16
