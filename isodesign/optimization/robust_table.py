@@ -17,8 +17,9 @@ scenario's continuous peak of ``|T_p,aa|`` exceeds its bound
 (:meth:`_Scenarios.place_peak_slots`; such a round solves the built stack again, from the
 last solution, without a new scenario); then the box is searched at the new design
 (:func:`.table_search.search_box`, as the vertical exchange's ``worst_case``): the corners
-(at most :data:`MAX_CORNERS`) and the centre through each scenario's NLP (its NumPy closure
-and the NLP's own constraint expressions, :meth:`_Scenarios.check`), ``search_samples``
+(at most :data:`MAX_CORNERS`) and the centre through each scenario's NLP where it is built
+(its NumPy closure and the NLP's own constraint expressions, :meth:`_Scenarios.check`),
+else with the NumPy scorer (:meth:`_Scenarios.score`), ``search_samples``
 uniform samples with the NumPy scorer that gives the same numbers without building an NLP
 (:func:`.table_search.score_table_scenario`, ~0.09 s a sample against ~0.4 s for a
 scenario's NLP build), and the three best candidates refined by a bounded local
@@ -49,7 +50,7 @@ from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.table_constraints import table_constraint_reports
 from isodesign.optimization.table_driver import _modes_at, optimize_table
 from isodesign.optimization.table_scenario import table_scenario
-from isodesign.optimization.table_search import search_box
+from isodesign.optimization.table_search import score_table_scenario, search_box
 
 __all__ = ["FD_STEP", "MAX_CORNERS", "TableRobustResult", "check_robust_table",
            "robust_optimize_table",
@@ -233,6 +234,16 @@ class _Scenarios:
                     continue
             left = max(left, over[0][0])
         return moved, left
+
+    def score(self, theta, values: dict, reference: float | None) -> dict:
+        """:meth:`check` where the scenario's NLP is built (its placed peak frequencies
+        among its rows), else the NumPy scorer's same numbers without building it
+        (:func:`.table_search.score_table_scenario`, equal to 1e-9: a corner the search
+        does not add costs no NLP build)."""
+        if self.key(theta) in self.cache:
+            return self.check(theta, values, reference)
+        return score_table_scenario(self.study, theta, values, reference,
+                                    n_slots=self.n_slots)
 
     def check(self, theta, values: dict, reference: float | None) -> dict:
         """Objective J and violations of scenario ``theta`` at a drawn design (NumPy
@@ -505,9 +516,9 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     values = dict(nominal.values)
 
     def search(ref, seed):
-        # the corners and the centre through their NLPs (the exchange stacks them), the
-        # samples and the local maximization with the NumPy scorer (table_search)
-        return search_box(study, values, ref, sc.check, cands,
+        # the corners and the centre through their NLPs where built (the exchange stacks
+        # them), else, as the samples and the local maximization, with the NumPy scorer
+        return search_box(study, values, ref, sc.score, cands,
                           samples=settings["search_samples"], seed=seed, tol=tol,
                           feas_tol=FEASIBILITY_TOLERANCE, n_slots=sc.n_slots)
 
