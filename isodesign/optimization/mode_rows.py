@@ -23,7 +23,7 @@ from isodesign.optimization import lever_nlp
 from isodesign.response.isolator import static_stiffness
 
 __all__ = ["DAMPED_MODE_LIMIT_HZ", "PEAK_ROWS_MAX_HZ", "ROCKING_ENERGY_FRACTION",
-           "TableModeRows"]
+           "TableModeRows", "mode_row_quantities"]
 
 
 #: Modes below this frequency carry the damping constraint.
@@ -90,31 +90,20 @@ class TableModeRows:
         if not (zmin or f_lo or f_hi):
             return []
         kfn = self._stiffness_function(ca)
-        q = {}
+        damping, rocking = [], []
         if zmin:
-            rows = []
             for j in range(self.n_modes):
-                act, q_r, q_i = self._frozen_quotients(ca, kfn, v, s, y,
-                                                       p_modes[14 * j: 14 * (j + 1)])
-                rows.append(act * (q_i - 2.0 * zmin * q_r) / ca.fmax(q_r, 1e-30))
-            q["damping_rows"] = ca.vertcat(*rows)
+                damping.append(self._frozen_quotients(ca, kfn, v, s, y,
+                                                      p_modes[14 * j: 14 * (j + 1)]))
         if f_lo or f_hi:  # Rayleigh quotient w^2 = phi^H K' phi (phi^H M phi = 1)
-            lo_rows, hi_rows = [], []
             off = 14 * self.n_modes
             for j in range(self.n_modes):
                 blk = p_modes[off + 14 * j: off + 14 * (j + 1)]
                 act, q_r, _ = self._frozen_quotients(ca, kfn, v, s, y, blk)
                 q_r = lever_nlp.live_mass_quotient(self, ca, v, blk, q_r)  # a free slab's M
-                if f_lo:
-                    w2 = (2 * math.pi * f_lo) ** 2
-                    lo_rows.append(act * (q_r - w2) / w2)
-                if f_hi:
-                    w2 = (2 * math.pi * f_hi) ** 2
-                    hi_rows.append(act * (w2 - q_r) / w2)
-            if f_lo:
-                q["rocking_lo_rows"] = ca.vertcat(*lo_rows)
-            if f_hi:
-                q["rocking_hi_rows"] = ca.vertcat(*hi_rows)
+                rocking.append((act, q_r))
+        q = mode_row_quantities(c, damping, rocking, fmax=ca.fmax,
+                                stack=lambda r: ca.vertcat(*r))
         return self._rows(q)
 
     def set_modes(self, modes) -> None:
@@ -157,3 +146,46 @@ class TableModeRows:
                 continue
             p[14 * j: 14 * (j + 1)] = blk
         self.mode_params = p
+
+
+def mode_row_quantities(constraints: dict, damping: list, rocking: list, *, fmax,
+                        stack) -> dict:
+    """The frozen modes' row quantities from their Rayleigh quotients, either backend (the
+    NLP's rows, :meth:`TableModeRows._damping`, and the robust search's NumPy scorer,
+    :func:`.table_search.score_table_scenario`).
+
+    Parameters
+    ----------
+    constraints : dict
+        The study's ``constraints`` (``min_damping_ratio``, ``min_rocking_frequency_hz``,
+        ``max_rocking_frequency_hz``).
+    damping : list of (act, q_r, q_i)
+        Each damped mode's weight (0 or 1) and ``phi^H K' phi``, ``phi^H K'' phi``.
+    rocking : list of (act, q_r)
+        Each rocking mode's weight and ``phi^H K' phi`` (``w^2``, ``phi^H M phi = 1``).
+    fmax : callable
+        ``fmax(a, b)`` of the backend (``ca.fmax``, ``max``).
+    stack : callable
+        Rows to a column (``ca.vertcat(*rows)``, ``np.array``).
+
+    Returns
+    -------
+    dict
+        ``damping_rows`` (``act (q_i - 2 zeta_min q_r) / q_r >= 0``), ``rocking_lo_rows``,
+        ``rocking_hi_rows`` (``act (q_r - w_lo^2) / w_lo^2``, ``act (w_hi^2 - q_r) /
+        w_hi^2``), those the constraints ask for.
+    """
+    zmin = constraints.get("min_damping_ratio")
+    f_lo = constraints.get("min_rocking_frequency_hz")
+    f_hi = constraints.get("max_rocking_frequency_hz")
+    q = {}
+    if zmin:
+        q["damping_rows"] = stack([act * (q_i - 2.0 * zmin * q_r) / fmax(q_r, 1e-30)
+                                   for act, q_r, q_i in damping])
+    if f_lo:
+        w2 = (2 * math.pi * f_lo) ** 2
+        q["rocking_lo_rows"] = stack([act * (q_r - w2) / w2 for act, q_r in rocking])
+    if f_hi:
+        w2 = (2 * math.pi * f_hi) ** 2
+        q["rocking_hi_rows"] = stack([act * (w2 - q_r) / w2 for act, q_r in rocking])
+    return q

@@ -38,6 +38,7 @@ import math
 import numpy as np
 
 from isodesign.errors import InputError, SolverError
+from isodesign.optimization.mode_rows import mode_row_quantities
 from isodesign.optimization.table_problem import TableProblem
 
 __all__ = ["REFINE", "REFINE_EVALUATIONS", "score_table_scenario", "search_box"]
@@ -119,29 +120,10 @@ def _mode_rows(prob, model, springs, modes) -> dict:
         ki = np.asarray(d.im, float).reshape(6, 6)
         return act, float(np.real(np.vdot(phi, kr @ phi))), float(np.real(np.vdot(phi, ki @ phi)))
 
-    q = {}
     nm = prob.n_modes
-    if zmin:
-        rows = []
-        for blk in blocks[:nm]:
-            act, q_r, q_i = quotients(blk)
-            rows.append(act * (q_i - 2.0 * zmin * q_r) / max(q_r, 1e-30))
-        q["damping_rows"] = np.array(rows)
-    if f_lo or f_hi:
-        lo_rows, hi_rows = [], []
-        for blk in blocks[nm:]:
-            act, q_r, _ = quotients(blk)
-            if f_lo:
-                w2 = (2 * math.pi * f_lo) ** 2
-                lo_rows.append(act * (q_r - w2) / w2)
-            if f_hi:
-                w2 = (2 * math.pi * f_hi) ** 2
-                hi_rows.append(act * (w2 - q_r) / w2)
-        if f_lo:
-            q["rocking_lo_rows"] = np.array(lo_rows)
-        if f_hi:
-            q["rocking_hi_rows"] = np.array(hi_rows)
-    return q
+    damping = [quotients(blk) for blk in blocks[:nm]] if zmin else []
+    rocking = [quotients(blk)[:2] for blk in blocks[nm:]] if (f_lo or f_hi) else []
+    return mode_row_quantities(c, damping, rocking, fmax=max, stack=np.array)
 
 
 def score_table_scenario(study, theta, values: dict, reference: float | None, *,
