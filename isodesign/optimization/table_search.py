@@ -165,6 +165,7 @@ def score_table_scenario(study, theta, values: dict, reference: float | None, *,
     from isodesign.optimization.table_scenario import table_scenario
     from isodesign.table.model import table_model
     from isodesign.table.peaks import closure_springs
+    from isodesign.table.response import band_mean_square
 
     st = table_scenario(study, theta)
     prob = _measured(st, n_slots)
@@ -178,8 +179,7 @@ def score_table_scenario(study, theta, values: dict, reference: float | None, *,
     springs = closure_springs(model, sigma, sig_u)
     g = prob.grid
     out = model.outputs(springs(g.omega), g.omega)
-    t2 = out.points.real ** 2 + out.points.imag ** 2  # (f, k, 3 out, 3 floor)
-    ms = np.einsum("anf,fpba->pbn", g.band_weight, t2, optimize=True)  # (k, 3, nb)
+    ms = band_mean_square(g, out.points)  # (k, 3, nb), the analysis' own
     if getattr(prob, "distortion", False):
         n = prob.n
         ms = ms + np.asarray(prob.distortion_terms(d, values)[3 * n:], float).reshape(ms.shape)

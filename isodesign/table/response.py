@@ -53,6 +53,7 @@ __all__ = [
     "TableBandResponse",
     "TableDistortion",
     "TableStatistical",
+    "band_mean_square",
     "solve_table_closure",
     "solve_table_closure_with_distortion",
     "table_band_response",
@@ -428,12 +429,29 @@ def _describing_response(model, grid, target_name, method, nodes, rtol, max_iter
                    np.full(model.n_isolators, np.nan), n_it, flags, warn, spring_flags=False)
 
 
+def band_mean_square(grid, points) -> np.ndarray:
+    """Each point's and axis's band mean square velocity from its transmissibilities.
+
+    Parameters
+    ----------
+    grid : TableGrid
+        Its ``band_weight`` ``(3 floor axes, bands, frequencies)``.
+    points : ndarray (frequencies, points, 3 outputs, 3 floor axes) of complex
+        ``T_p,ba`` (:attr:`TableOutputs.points`).
+
+    Returns
+    -------
+    ndarray (points, 3, bands)
+        ``sum_a sum_f W_a,n(f) |T_p,ba(f)|^2``, m^2/s^2.
+    """
+    t2 = points.real ** 2 + points.imag ** 2
+    return np.einsum("anf,fpba->pbn", grid.band_weight, t2, optimize=True)
+
+
 def _result(model, grid, target_name, out: TableOutputs, ks, kh, sigma, sigma_u, n_it, flags,
             warn, spring_flags: bool = True) -> TableBandResponse:
-    bw = grid.band_weight
     t = out.points
-    t2 = t.real ** 2 + t.imag ** 2
-    ms = np.einsum("anf,fpba->pbn", bw, t2, optimize=True)
+    ms = band_mean_square(grid, t)
     h2 = out.horizontal_strokes.real ** 2 + out.horizontal_strokes.imag ** 2
     hs2 = np.einsum("af,fcna->nc", grid.stroke_weight, h2, optimize=True)
     lin = model.linear_outputs(grid.frequency_hz)
