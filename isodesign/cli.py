@@ -32,6 +32,13 @@ Matplotlib figure's reference cycles and CasADi's graphs: a sizeable part of the
 see the `bench_cli.py` row of docs/benchmarks.md). Its output files
 are complete by then (a run directory is finished inside the command). :func:`main`
 called from Python always returns.
+
+A handled interrupt exits with 130, not by the signal: CPython (3.8 and newer) remembers a
+``KeyboardInterrupt`` that left a string passed to ``exec``/``eval`` (``dataclasses`` and
+``namedtuple`` build their methods so, e.g. while a module is imported) and, at the end of
+the program, kills itself with SIGINT (status -2 to a parent) even though the exception was
+caught and the command returned 130. :func:`main` forgets that mark once the command has
+returned (:func:`_forget_handled_keyboard_interrupt`).
 """
 
 from __future__ import annotations
@@ -441,9 +448,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         return EXIT_INTERRUPTED
     finally:
         _restore_signal_handlers(old_handlers)
+        _forget_handled_keyboard_interrupt()
     if program and state.get("exit_without_teardown"):
         _exit_process(status)
     return status
+
+
+def _forget_handled_keyboard_interrupt() -> None:
+    """Clear CPython's mark of an unhandled ``KeyboardInterrupt`` once the command returned.
+
+    CPython sets the mark when a ``KeyboardInterrupt`` leaves code run from a string
+    (``exec``/``eval``: ``run_eval_code_obj``), even if an outer ``try`` then handles it, and
+    ``Py_RunMain`` ends such a program by SIGINT instead of its exit status. Every string
+    evaluation clears the mark first, so evaluating an empty statement forgets it. Here every
+    interrupt has been handled: the command's status (130) is the answer.
+    """
+    exec("pass")  # a constant statement: clears the mark (docstring)
 
 
 def _is_program() -> bool:
