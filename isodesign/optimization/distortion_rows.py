@@ -55,6 +55,10 @@ __all__ = [
 #: half-width 1): both closures are solved to 1e-12, so the slopes carry about 1e-8 of
 #: rounding and ``h^2`` of truncation.
 DISTORTION_FD_STEP = 1e-4
+#: An expansion's differences run in forked workers (where the study allows them) when they
+#: would take longer than this in one process, s: the table's 36 closures (about 0.9 s) do,
+#: the vertical study's 8 (milliseconds) do not (a pool's start costs tens of ms).
+PARALLEL_EXPANSION_S = 0.25
 #: The outer fixed point stops when every term the NLP used at its answer agrees with the
 #: NumPy term there to this fraction of the term (the gain ratio: absolutely); the
 #: distortion is at most 12 % of a band's power, so the answer's bands are within about
@@ -211,12 +215,17 @@ class OuterFixedPoint:
         nz, m = z0.size, v0.size
         slopes = np.zeros((m, nz))
         h = DISTORTION_FD_STEP
+        points = []
         for i in range(nz):
             zp, zm = z0.copy(), z0.copy()
             # one-sided at a bound of the box (the terms outside it are not defined)
             zp[i] = min(z0[i] + h, 1.0)
             zm[i] = max(z0[i] - h, -1.0)
-            vp, vm = self._terms_at_z(zp), self._terms_at_z(zm)
+            points += [zp, zm]
+        terms = self._terms_at_points(points)
+        for i in range(nz):
+            zp, zm = points[2 * i], points[2 * i + 1]
+            vp, vm = terms[2 * i], terms[2 * i + 1]
             dzi = zp[i] - zm[i]
             for k in range(m):
                 if k in self._linear:
@@ -224,6 +233,37 @@ class OuterFixedPoint:
                 elif vp[k] > 0 and vm[k] > 0:
                     slopes[k, i] = (math.log(vp[k]) - math.log(vm[k])) / dzi
         return self._pack(z0, v0, slopes, DISTORTION_PROXIMAL_WEIGHT)
+
+    def _terms_at_points(self, points: list) -> list:
+        """:meth:`_terms_at_z` at each scaled design of ``points``, in order.
+
+        The first is evaluated here and timed; when the others would take longer than
+        :data:`PARALLEL_EXPANSION_S` in this process they are split between the forked
+        workers the study allows (:func:`~.executor.executor_for`: serial in a worker, a
+        sweep point or with one core). The values are the same either way.
+        """
+        import time
+
+        from isodesign.optimization.executor import executor_for
+
+        global _EXPANDING
+        t0 = time.perf_counter()
+        out = [self._terms_at_z(points[0])] if points else []
+        rest = list(range(1, len(points)))
+        workers = int(self.study.solver.get("workers", 1) or 1)
+        ex = executor_for(workers, len(rest))
+        if ex.workers < 2 or (time.perf_counter() - t0) * len(rest) < PARALLEL_EXPANSION_S:
+            return out + [self._terms_at_z(points[i]) for i in rest]
+        out += [None] * len(rest)
+        chunks = [rest[k::ex.workers] for k in range(ex.workers)]
+        _EXPANDING = (self, points)
+        try:
+            for idx, vals in ex.map_unordered(_terms_of_chunk, chunks):
+                for i, v in zip(idx, vals, strict=True):
+                    out[i] = v
+        finally:
+            _EXPANDING = None
+        return out
 
     def _unpack(self, p):
         nz, m = self.nz, self._n_terms
@@ -340,6 +380,12 @@ class OuterFixedPoint:
         x = np.asarray(x0, float)
         z0 = np.clip(x[:self.nz], -1.0, 1.0)
         near = self._warm_expansion(warm, z0)
+        if (near is not None and (rounds is None or rounds > 1)
+                and not getattr(warm, "outer_next_fresh", True)
+                and getattr(warm, "outer_next", None) is not None):
+            # a converging solve from a round whose slopes were carried: computed here
+            zn, vn, _ = self._unpack(near)
+            near = self.expansion(zn, vn)
         if near is not None:  # a re-solve near the warm answer: its expansion (confirmed)
             self._dist_p, sloped = near, True
         else:
@@ -372,13 +418,25 @@ class OuterFixedPoint:
             if done or n_round == DISTORTION_MAX_ROUNDS:
                 break
             if n_round == cap:  # the caller's cap: the next round's expansion, for its re-solve
-                nxt = self.expansion(z, true)
+                # a capped round after a sloped one (the peak refinement's re-solves, each
+                # with other peak frequencies) carries the slopes with the values at z; the
+                # converging solve computes them at its start (docs/random-response.md 3d)
+                fresh = not sloped
+                nxt = self.expansion(z, true) if fresh else self._restated(z, true)
                 break
             self._dist_p = self.expansion(z, true)
             sloped = True
             x = sol.x
         return sol.replace(outer_rounds=n_round, outer_params=self._dist_p.copy(),
-                           outer_next=nxt, wall_s=wall, iterations=its)
+                           outer_next=nxt, outer_next_fresh=nxt is None or fresh,
+                           wall_s=wall, iterations=its)
+
+    def _restated(self, z, values) -> np.ndarray:
+        """The last round's expansion restated about ``z``: its slopes and proximal weight
+        with the terms' values there (no differences evaluated)."""
+        _, _, slopes = self._unpack(self._dist_p)
+        weight = self._dist_p[-1] if self._n_prox else 0.0
+        return self._pack(z, values, slopes, weight)
 
     def params_at(self, x) -> np.ndarray:
         """:meth:`params` with the terms at which a figure of ``x`` is evaluated
@@ -817,3 +875,13 @@ class TableDistortionMixin(OuterFixedPoint):
         """The NLP's parameters at ``sol``: the expansion it was found with."""
         if sol.outer_params is not None:
             self._dist_p = np.asarray(sol.outer_params, float)
+
+
+#: The NLP and the designs of the expansion being evaluated in forked workers
+#: (:meth:`OuterFixedPoint._terms_at_points`; inherited through ``fork``).
+_EXPANDING = None
+
+
+def _terms_of_chunk(idx: list) -> tuple:
+    prob, points = _EXPANDING
+    return idx, [prob._terms_at_z(points[i]) for i in idx]

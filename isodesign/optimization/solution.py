@@ -56,6 +56,10 @@ class Solution:
         fixed point converged (:meth:`.distortion_rows.OuterFixedPoint.solve` ``rounds=``):
         the expansion at ``x``, the next round's; a re-solve warm from this solution
         starts from it and converges. None: converged (or no outer fixed point).
+    outer_next_fresh : bool
+        Whether ``outer_next``'s slopes were computed at ``x`` (True) or carried from the
+        round before with the values at ``x`` (False: a round the caller re-solves with
+        other peak frequencies anyway; a converging solve computes them first).
     lam_x, lam_g : ndarray or None
         IPOPT's multipliers of the bounds and the constraints at ``x`` (a warm re-solve
         of the same point starts from them: :meth:`~.nlp.NLP.solve` ``warm=``).
@@ -75,6 +79,7 @@ class Solution:
     outer_rounds: int = 0
     outer_params: np.ndarray | None = None
     outer_next: np.ndarray | None = None
+    outer_next_fresh: bool = True
     lam_x: np.ndarray | None = dataclasses.field(default=None, repr=False)
     lam_g: np.ndarray | None = dataclasses.field(default=None, repr=False)
 

@@ -563,8 +563,19 @@ class TableProblem(TableModeRows, NLP):
         self._p_dist_sym = p_dist
         self._x_functions(ca, x, judged, margins, ca.vertcat(*js))
         self.eval_fn = ca.Function("eval", [x, pp], [j_total, gg])
-        self.solver = ca.nlpsol("isodesign_table", "ipopt",
-                                {"x": x, "f": j_total, "g": gg, "p": pp}, self.ipopt_options())
+        from types import SimpleNamespace
+
+        from isodesign.optimization.executor import parallel_allowed
+        from isodesign.optimization.problem import derivative_functions
+
+        funcs = {"x": x, "f": j_total, "g": gg, "p": pp}
+        # the derivatives generated once, for the cold solver and the warm one of the peak
+        # refinement's re-solves (built on first use: NLP.warm_solver_factory)
+        opts = {**self.ipopt_options(), **derivative_functions(
+            SimpleNamespace(ca=ca, x=x, p=pp, j_total=j_total, g=gg),
+            parallel_allowed(self.study.solver["workers"]), hessian=self.hessian == "exact")}
+        self.solver = ca.nlpsol("isodesign_table", "ipopt", funcs, opts)
+        self._warm_solver = self.warm_solver_factory(ca, funcs, opts)
 
     def _rows(self, q: dict) -> list:
         """The rows of the kinds whose quantities ``q`` holds, as ``(key, expr, lo, hi)``:

@@ -5,6 +5,7 @@ import numpy as np
 import pytest
 
 from isodesign.optimization.lever_continuation import (
+    TIED_MAX_ITER,
     TIED_TOL,
     free_group_levers,
     solve_tied,
@@ -27,8 +28,10 @@ def test_the_tied_study_is_the_default_study_without_its_free_group_springs():
         [(v.name, v.start, v.lower, v.upper, v.fixed) for v in st.variables]
     assert [v for v in tied.levers] == [v for v in st.levers if v.name not in free]
     assert tied.constraints == st.constraints
-    assert {**tied.solver, "tol": st.solver["tol"]} == st.solver
+    assert {**tied.solver, "tol": st.solver["tol"], "max_iter": st.solver["max_iter"]} == \
+        st.solver
     assert tied.solver["tol"] == max(st.solver["tol"], TIED_TOL)  # it places starts only
+    assert tied.solver["max_iter"] == min(st.solver["max_iter"], TIED_MAX_ITER)
 
 
 def test_the_tied_table_is_the_full_table_with_every_group_at_the_shared_spring():
