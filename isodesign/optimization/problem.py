@@ -140,7 +140,7 @@ def derivative_functions(nlp, threads: bool = True, hessian: bool = True) -> dic
     Parameters
     ----------
     nlp : namespace
-        ``ca``, ``x``, ``p``, ``j_total`` (objective) and ``g`` (constraints), SX.
+        ``ca``, ``x``, ``p``, ``j_total`` (objective) and ``g`` (constraints), SX or MX.
     threads : bool
         Build the two in two threads (default); ``False``: one after the other, in this
         thread (a sweep point or a one-worker run, where no second core is the run's to
@@ -162,7 +162,8 @@ def derivative_functions(nlp, threads: bool = True, hessian: bool = True) -> dic
                            ["g", "jac_g_x"])
 
     def hess_lag():
-        lam_f, lam_g = ca.SX.sym("lam_f"), ca.SX.sym("lam_g", g.numel())
+        sym = type(x).sym  # SX or MX, as the NLP's graph (a table NLP may be MX)
+        lam_f, lam_g = sym("lam_f"), sym("lam_g", g.numel())
         hess = ca.triu(ca.hessian(lam_f * f + ca.dot(lam_g, g), x)[0])
         return ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
                            ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])

@@ -157,3 +157,22 @@ def test_rocking_frequency_constraint_holds_at_the_optimum():
 
     with pytest.raises(InputError, match=r"min_rocking_frequency_hz applies only"):
         vertical_study().with_changes(constraints={"min_rocking_frequency_hz": 0.5})
+
+
+def test_the_exact_hessian_table_nlp_builds_and_reaches_the_limited_memory_optimum():
+    """``TableProblem(..., hessian="exact")`` generates its Lagrangian's Hessian on the NLP's
+    own graph type (the table's may be MX: the Hessian's multiplier symbols follow it) and
+    reaches the optimum of the limited-memory solve from the same start."""
+    raw = table_study().with_changes(solver={"starts": 1}).raw
+    raw["models"]["points_per_band"] = 3
+    from isodesign.optimization.study import study_from_dict
+
+    st = study_from_dict(raw, source="coarse", fill_defaults=False)
+    start = {v.name: v.start for v in st.variables}
+    sols = {}
+    for h in ("limited-memory", "exact"):
+        p = TableProblem(st, hessian=h)
+        assert p.hessian == h
+        sols[h] = p.solve(p.initial_guess(start))
+        assert sols[h].success, (h, sols[h].status)
+    assert sols["exact"].objective == pytest.approx(sols["limited-memory"].objective, abs=1e-4)
