@@ -134,3 +134,37 @@ def test_no_samples_is_corners_and_centre_alone_in_the_vertical_search_too():
     some = worst_case(st, values, 0.0, samples=2)
     assert some["evaluations"] > len(st.scenarios.corners()) + 1 + 2
     assert some["score"] >= none["score"]
+
+
+def test_the_search_in_forked_workers_finds_what_it_finds_in_one_process(monkeypatch):
+    """The samples and the maximizations of ``search_box`` run in the forked workers the
+    study allows (``solver.workers = 2``) and find the same worst scenario, score and counts
+    as in one process (``workers = 1``): each task depends on its scenario alone."""
+    from isodesign.optimization import executor
+    from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
+    from isodesign.optimization.table_search import search_box
+
+    st1 = robust_table_study({"payload_mass_kg": {"min": 740.0, "max": 900.0}},
+                             max_peak_transmissibility_db=13.94)
+    st2 = st1.with_changes(solver={"workers": 2})
+    values = {v.name: v.start for v in st1.variables}
+    sc = robust_table._Scenarios(st1)
+    space = st1.scenarios
+    cands = np.vstack([space.corners(limit=robust_table.MAX_CORNERS), space.center()[None, :]])
+    kw = {"samples": 16, "seed": 0, "tol": 0.01, "feas_tol": FEASIBILITY_TOLERANCE,
+          "n_slots": sc.n_slots}
+    maps = []
+    real = executor.ForkExecutor.map_unordered
+
+    def counted(self, fn, items):
+        maps.append(fn)
+        return real(self, fn, items)
+
+    monkeypatch.setattr(executor.ForkExecutor, "map_unordered", counted)
+    one = search_box(st1, values, 100.0, sc.check, cands, **kw)
+    assert not maps  # one worker: in this process
+    two = search_box(st2, values, 100.0, sc.check, cands, **kw)
+    assert len(maps) == 2  # the samples, then the maximizations
+    assert two["score"] == one["score"] and two["which"] == one["which"]
+    assert two["source"] == one["source"] and two["evaluations"] == one["evaluations"]
+    np.testing.assert_array_equal(two["theta"], one["theta"])
