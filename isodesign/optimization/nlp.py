@@ -106,6 +106,11 @@ def ipopt_options(study, hessian: str) -> dict:
     return {
         "ipopt.print_level": 0,
         "print_time": False,
+        # a trial point of IPOPT's line search where the model is not defined (a NaN or Inf
+        # row) is cut back by IPOPT itself; CasADi would print one warning per evaluation
+        # (9,634 on stderr in one co-designed table solve). A solve that fails says so with
+        # its status, as every other failure does.
+        "show_eval_warnings": False,
         "ipopt.sb": "yes",
         "ipopt.max_iter": study.solver["max_iter"],
         "ipopt.tol": study.solver["tol"],
