@@ -291,13 +291,13 @@ def _codesign_script(name, tmp_path, monkeypatch, optimum):
 @pytest.mark.xdist_group("table_study_optimum")
 def test_the_codesign_study_script_springs(tmp_path, monkeypatch, optimum):
     row = _codesign_script("springs", tmp_path, monkeypatch, optimum)
-    assert row["analysis_margin_db"] == pytest.approx(-4.43, abs=0.05)
+    assert row["analysis_margin_db"] == pytest.approx(-4.44, abs=0.05)
 
 
 @pytest.mark.slow
 def test_the_codesign_study_script_pendulum_length(tmp_path, monkeypatch, optimum):
     row = _codesign_script("pendulum_length_m", tmp_path, monkeypatch, optimum)
-    assert row["analysis_margin_db"] == pytest.approx(0.90, abs=0.05)
+    assert row["analysis_margin_db"] == pytest.approx(0.89, abs=0.05)
     assert row["pendulum_length_m"] == pytest.approx(0.6)
     assert row["pendulum_length_m_at_bound"] == "upper"
 
@@ -305,7 +305,7 @@ def test_the_codesign_study_script_pendulum_length(tmp_path, monkeypatch, optimu
 @pytest.mark.slow
 def test_the_codesign_study_script_all_four_levers(tmp_path, monkeypatch, optimum):
     row = _codesign_script("all", tmp_path, monkeypatch, optimum)
-    assert row["analysis_margin_db"] == pytest.approx(7.81, abs=0.05)
+    assert row["analysis_margin_db"] == pytest.approx(7.83, abs=0.05)
     for n, (lo, hi) in TABLE_LEVER_BOUNDS.items():  # all four inside their bounds
         assert lo < row[n] < hi
 
