@@ -160,7 +160,7 @@ def parallel_allowed(workers: int) -> bool:
     No when an executor is installed with one worker (a sweep point, a Dask task: the
     parallelism is across the points, none nested inside one), or when ``workers`` (the
     study's ``solver.workers``, ``--workers``) or the cores available allow only one. The NLP
-    build (:func:`isodesign.optimization.problem.derivative_functions`) uses a second thread
+    build (:func:`isodesign.optimization.nlp.derivative_functions`) uses a second thread
     only when this holds.
 
     Parameters

@@ -23,6 +23,7 @@ payload, docs/table.md section 14), the table's six-degree-of-freedom NLP
 from __future__ import annotations
 
 import time
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -38,6 +39,7 @@ __all__ = [
     "SIGMA_BOUNDS_M",
     "VELOCITY_BOUNDS_M_S",
     "constraint_rows",
+    "derivative_functions",
     "design_values",
     "ipopt_options",
     "objective_params",
@@ -119,6 +121,56 @@ def ipopt_options(study, hessian: str) -> dict:
         "ipopt.hessian_approximation": hessian,
         "error_on_fail": False,
     }
+
+
+def derivative_functions(nlp, threads: bool = True, hessian: bool = True) -> dict:
+    """IPOPT's Jacobian and Hessian functions, generated side by side in two threads.
+
+    What ``nlpsol`` would generate itself, one after the other: the constraint Jacobian
+    ``jac_g(x, p) -> (g, dg/dx)`` and the upper triangle of the Hessian of the Lagrangian
+    ``hess_lag(x, p, lam_f, lam_g)``, both exact (CasADi's symbolic differentiation of the
+    SX graph). CasADi releases the GIL while it differentiates, so on two cores the two
+    graphs are built at the same time.
+
+    Parameters
+    ----------
+    nlp : namespace
+        ``ca``, ``x``, ``p``, ``j_total`` (objective) and ``g`` (constraints), SX or MX.
+    threads : bool
+        Build the two in two threads (default); ``False``: one after the other, in this
+        thread (a sweep point or a one-worker run, where no second core is the run's to
+        take: :func:`isodesign.optimization.executor.parallel_allowed`).
+    hessian : bool
+        Build the Hessian (default); ``False``: the Jacobian only (IPOPT's limited-memory
+        approximation, :func:`isodesign.optimization.hessian.hessian_choice`).
+
+    Returns
+    -------
+    dict
+        The ``nlpsol`` options ``jac_g`` and ``hess_lag``.
+    """
+    ca = nlp.ca
+    x, p, f, g = nlp.x, nlp.p, nlp.j_total, nlp.g
+
+    def jac_g():
+        return ca.Function("nlp_jac_g", [x, p], [g, ca.jacobian(g, x)], ["x", "p"],
+                           ["g", "jac_g_x"])
+
+    def hess_lag():
+        sym = type(x).sym  # SX or MX, as the NLP's graph (a table NLP may be MX)
+        lam_f, lam_g = sym("lam_f"), sym("lam_g", g.numel())
+        hess = ca.triu(ca.hessian(lam_f * f + ca.dot(lam_g, g), x)[0])
+        return ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
+                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
+
+    if not hessian:
+        return {"jac_g": jac_g()}
+    if not threads:
+        return {"jac_g": jac_g(), "hess_lag": hess_lag()}
+    with ThreadPoolExecutor(max_workers=2) as pool:
+        hess = pool.submit(hess_lag)
+        jac = jac_g()
+        return {"jac_g": jac, "hess_lag": hess.result()}
 
 
 def objective_params(n_objectives: int, weights=None, diameter_weight: float = 0.0,

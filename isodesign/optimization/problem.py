@@ -25,7 +25,6 @@ Max-over-bands and max-over-frequency quantities are written in epigraph form
 from __future__ import annotations
 
 import math
-from concurrent.futures import ThreadPoolExecutor
 from types import SimpleNamespace
 
 import numpy as np
@@ -48,6 +47,7 @@ from isodesign.optimization.nlp import (
     SIGMA_BOUNDS_M,
     VELOCITY_BOUNDS_M_S,
     constraint_rows,
+    derivative_functions,
     design_values,
     variable_boxes,
 )
@@ -126,56 +126,6 @@ def hoisted_map(point, n: int, shared: tuple):
         return mapped(part(*[args[i] for i in shared]), *args)
 
     return call
-
-
-def derivative_functions(nlp, threads: bool = True, hessian: bool = True) -> dict:
-    """IPOPT's Jacobian and Hessian functions, generated side by side in two threads.
-
-    What ``nlpsol`` would generate itself, one after the other: the constraint Jacobian
-    ``jac_g(x, p) -> (g, dg/dx)`` and the upper triangle of the Hessian of the Lagrangian
-    ``hess_lag(x, p, lam_f, lam_g)``, both exact (CasADi's symbolic differentiation of the
-    SX graph). CasADi releases the GIL while it differentiates, so on two cores the two
-    graphs are built at the same time.
-
-    Parameters
-    ----------
-    nlp : namespace
-        ``ca``, ``x``, ``p``, ``j_total`` (objective) and ``g`` (constraints), SX or MX.
-    threads : bool
-        Build the two in two threads (default); ``False``: one after the other, in this
-        thread (a sweep point or a one-worker run, where no second core is the run's to
-        take: :func:`isodesign.optimization.executor.parallel_allowed`).
-    hessian : bool
-        Build the Hessian (default); ``False``: the Jacobian only (IPOPT's limited-memory
-        approximation, :func:`isodesign.optimization.hessian.hessian_choice`).
-
-    Returns
-    -------
-    dict
-        The ``nlpsol`` options ``jac_g`` and ``hess_lag``.
-    """
-    ca = nlp.ca
-    x, p, f, g = nlp.x, nlp.p, nlp.j_total, nlp.g
-
-    def jac_g():
-        return ca.Function("nlp_jac_g", [x, p], [g, ca.jacobian(g, x)], ["x", "p"],
-                           ["g", "jac_g_x"])
-
-    def hess_lag():
-        sym = type(x).sym  # SX or MX, as the NLP's graph (a table NLP may be MX)
-        lam_f, lam_g = sym("lam_f"), sym("lam_g", g.numel())
-        hess = ca.triu(ca.hessian(lam_f * f + ca.dot(lam_g, g), x)[0])
-        return ca.Function("nlp_hess_l", [x, p, lam_f, lam_g], [hess],
-                           ["x", "p", "lam_f", "lam_g"], ["triu_hess_gamma_x_x"])
-
-    if not hessian:
-        return {"jac_g": jac_g()}
-    if not threads:
-        return {"jac_g": jac_g(), "hess_lag": hess_lag()}
-    with ThreadPoolExecutor(max_workers=2) as pool:
-        hess = pool.submit(hess_lag)
-        jac = jac_g()
-        return {"jac_g": jac, "hess_lag": hess.result()}
 
 
 class Problem(NLP):

@@ -566,12 +566,11 @@ class TableProblem(TableModeRows, NLP):
         from types import SimpleNamespace
 
         from isodesign.optimization.executor import parallel_allowed
-        from isodesign.optimization.problem import derivative_functions
 
         funcs = {"x": x, "f": j_total, "g": gg, "p": pp}
         # the derivatives generated once, for the cold solver and the warm one of the peak
         # refinement's re-solves (built on first use: NLP.warm_solver_factory)
-        opts = {**self.ipopt_options(), **derivative_functions(
+        opts = {**self.ipopt_options(), **nlp.derivative_functions(
             SimpleNamespace(ca=ca, x=x, p=pp, j_total=j_total, g=gg),
             parallel_allowed(self.study.solver["workers"]), hessian=self.hessian == "exact")}
         self.solver = ca.nlpsol("isodesign_table", "ipopt", funcs, opts)
