@@ -238,32 +238,22 @@ class OuterFixedPoint:
         """:meth:`_terms_at_z` at each scaled design of ``points``, in order.
 
         The first is evaluated here and timed; when the others would take longer than
-        :data:`PARALLEL_EXPANSION_S` in this process they are split between the forked
-        workers the study allows (:func:`~.executor.executor_for`: serial in a worker, a
-        sweep point or with one core). The values are the same either way.
+        :data:`PARALLEL_EXPANSION_S` in this process they run in the forked workers the
+        study allows (:func:`~.multistart.map_in_workers`: serial in a worker, a sweep
+        point or with one core). The values are the same either way (bitwise).
         """
         import time
 
-        from isodesign.optimization.executor import executor_for
+        from isodesign.optimization.multistart import map_in_workers, runs_in_parallel
 
-        global _EXPANDING
         t0 = time.perf_counter()
         out = [self._terms_at_z(points[0])] if points else []
-        rest = list(range(1, len(points)))
+        rest = list(points[1:])
         workers = int(self.study.solver.get("workers", 1) or 1)
-        ex = executor_for(workers, len(rest))
-        if ex.workers < 2 or (time.perf_counter() - t0) * len(rest) < PARALLEL_EXPANSION_S:
-            return out + [self._terms_at_z(points[i]) for i in rest]
-        out += [None] * len(rest)
-        chunks = [rest[k::ex.workers] for k in range(ex.workers)]
-        _EXPANDING = (self, points)
-        try:
-            for idx, vals in ex.map_unordered(_terms_of_chunk, chunks):
-                for i, v in zip(idx, vals, strict=True):
-                    out[i] = v
-        finally:
-            _EXPANDING = None
-        return out
+        if ((time.perf_counter() - t0) * len(rest) < PARALLEL_EXPANSION_S
+                or not runs_in_parallel(workers, len(rest))):
+            return out + [self._terms_at_z(z) for z in rest]
+        return out + map_in_workers(self._terms_at_z, rest, workers=workers)
 
     def _unpack(self, p):
         nz, m = self.nz, self._n_terms
@@ -875,13 +865,3 @@ class TableDistortionMixin(OuterFixedPoint):
         """The NLP's parameters at ``sol``: the expansion it was found with."""
         if sol.outer_params is not None:
             self._dist_p = np.asarray(sol.outer_params, float)
-
-
-#: The NLP and the designs of the expansion being evaluated in forked workers
-#: (:meth:`OuterFixedPoint._terms_at_points`; inherited through ``fork``).
-_EXPANDING = None
-
-
-def _terms_of_chunk(idx: list) -> tuple:
-    prob, points = _EXPANDING
-    return idx, [prob._terms_at_z(points[i]) for i in idx]

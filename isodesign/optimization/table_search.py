@@ -29,7 +29,8 @@ exchange stacks), ``search_samples`` uniform samples with :func:`score_table_sce
 then the best :data:`REFINE` candidates refined by a bounded local maximization (L-BFGS-B,
 its gradient by finite differences of the scorer, at most :data:`REFINE_EVALUATIONS`
 evaluations each) of the quantity that scored them (docs/robust.md, section 3). The samples
-and the maximizations run in the forked workers the study allows (:func:`_in_workers`),
+and the maximizations run in the forked workers the study allows
+(:func:`~.multistart.map_in_workers`),
 each task a function of its scenario (or start and quantity) alone: the same worst scenario
 as in one process.
 """
@@ -37,7 +38,6 @@ as in one process.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -289,8 +289,16 @@ def search_box(study, values: dict, reference: float, check, corners, *, samples
         ``source`` (``"corner"``, ``"sample"`` or ``"refined"``) and ``evaluations``
         (``corners``, ``samples``, ``refinement`` and ``refinements``).
     """
-    global _SEARCH
+    from functools import partial
+
+    from isodesign.optimization.multistart import map_in_workers
+
     space = study.scenarios
+    workers = int(study.solver.get("workers", 1) or 1)
+
+    def sample(th):  # the scorer's check of scenario th at this design
+        return score_table_scenario(study, th, values, reference, n_slots=n_slots)
+
     scored = []
     for th in corners:
         c = check(th, values, reference)
@@ -302,41 +310,39 @@ def search_box(study, values: dict, reference: float, check, corners, *, samples
         lo, hi = space.lower(), space.upper()
         cont = np.array([not p.discrete for p in space.parameters])
         width = np.where(hi > lo, hi - lo, 1.0)
-        _SEARCH = _Search(study, values, reference, n_slots, tol, feas_tol, max_evaluations,
-                          lo, width, cont)
-        try:
-            rng = np.random.default_rng(seed)
-            ths = list(space.box_samples(samples, rng))
-            for th, c in zip(ths, _in_workers(study, _sample_task, ths), strict=True):
-                s, which = _score(c, tol, feas_tol)
-                scored.append((s, which, th, c, "sample"))
-            order = sorted(range(len(scored)), key=lambda k: -scored[k][0])
-            best = scored[order[0]]
-            runs, seen = [], []  # the candidates refined: (theta, quantity), best first
-            for k in order[: max(3 * refine, refine)]:
-                if len(seen) >= refine or not cont.any():
-                    break
-                _s0, _, th0, c0, _ = scored[k]
-                if "excess" not in c0:  # a corner's NLP check: its signed excesses
-                    c0 = _sample_task(th0)
-                    n_ref += 1
-                which = _refined_quantity(c0, tol, feas_tol)
-                key = (which, tuple(np.round((th0 - lo) / width, 2)))
-                if key in seen:
-                    continue
-                seen.append(key)
-                runs.append((th0, which))
-            n_runs = len(runs)
-            for evals, top in _in_workers(study, _refine_task, runs):
-                n_ref += evals
-                if top is None:
-                    continue
-                th, c = top
-                s, w2 = _score(c, tol, feas_tol)
-                if s > best[0]:
-                    best = (s, w2, th, c, "refined")
-        finally:
-            _SEARCH = None
+        # the samples and the maximizations in the workers (map_in_workers)
+        rng = np.random.default_rng(seed)
+        ths = list(space.box_samples(samples, rng))
+        for th, c in zip(ths, map_in_workers(sample, ths, workers=workers), strict=True):
+            s, which = _score(c, tol, feas_tol)
+            scored.append((s, which, th, c, "sample"))
+        order = sorted(range(len(scored)), key=lambda k: -scored[k][0])
+        best = scored[order[0]]
+        runs, seen = [], []  # the candidates refined: (theta, quantity), best first
+        for k in order[: max(3 * refine, refine)]:
+            if len(seen) >= refine or not cont.any():
+                break
+            _s0, _, th0, c0, _ = scored[k]
+            if "excess" not in c0:  # a corner's NLP check: its signed excesses
+                c0 = sample(th0)
+                n_ref += 1
+            which = _refined_quantity(c0, tol, feas_tol)
+            key = (which, tuple(np.round((th0 - lo) / width, 2)))
+            if key in seen:
+                continue
+            seen.append(key)
+            runs.append((th0, which))
+        n_runs = len(runs)
+        refine_run = partial(_refine_run, sample, lo=lo, width=width, cont=cont, tol=tol,
+                             feas_tol=feas_tol, max_evaluations=max_evaluations)
+        for evals, top in map_in_workers(refine_run, runs, workers=workers):
+            n_ref += evals
+            if top is None:
+                continue
+            th, c = top
+            s, w2 = _score(c, tol, feas_tol)
+            if s > best[0]:
+                best = (s, w2, th, c, "refined")
     else:
         best = max(scored, key=lambda r: r[0])
     return {"score": best[0], "which": best[1], "theta": best[2], "check": best[3],
@@ -345,83 +351,34 @@ def search_box(study, values: dict, reference: float, check, corners, *, samples
                             "refinement": n_ref, "refinements": n_runs}}
 
 
-@dataclass(frozen=True)
-class _Search:
-    """What a search's scorer tasks read (:data:`_SEARCH`, inherited by forked workers)."""
-
-    study: object
-    values: dict
-    reference: float | None
-    n_slots: int
-    tol: float
-    feas_tol: float
-    max_evaluations: int
-    lo: np.ndarray
-    width: np.ndarray
-    cont: np.ndarray
-
-
-#: The search being run (:func:`search_box`), for its tasks in this process or in forked
-#: workers (set for the duration of the search).
-_SEARCH: _Search | None = None
-
-
-def _in_workers(study, task, items: list) -> list:
-    """``[task(item) for item in items]``, in the forked workers the study allows
-    (:func:`~.executor.executor_for`: serial in a worker, a sweep point or with one core),
-    in order; the same values either way (each task depends on its item and
-    :data:`_SEARCH` alone)."""
-    from isodesign.optimization.executor import executor_for
-
-    ex = executor_for(int(study.solver.get("workers", 1) or 1), len(items))
-    if ex.workers < 2:
-        return [task(it) for it in items]
-    out = [None] * len(items)
-    for i, r in ex.map_unordered(_indexed_task, [(i, task, it) for i, it in enumerate(items)]):
-        out[i] = r
-    return out
-
-
-def _indexed_task(job) -> tuple:
-    i, task, item = job
-    return i, task(item)
-
-
-def _sample_task(th) -> dict:
-    """The scorer's check of scenario ``th`` at the search's design."""
-    ctx = _SEARCH
-    return score_table_scenario(ctx.study, th, ctx.values, ctx.reference, n_slots=ctx.n_slots)
-
-
-def _refine_task(run) -> tuple:
-    """One refinement: L-BFGS-B from ``theta`` raising ``which`` (at most
-    ``max_evaluations`` scorer evaluations, its finite differences included). Returns
-    ``(evaluations, (theta, check) of the largest quantity met, or None)``."""
+def _refine_run(sample, run, *, lo, width, cont, tol, feas_tol, max_evaluations) -> tuple:
+    """One refinement: L-BFGS-B from ``theta`` raising ``which`` (``run``), at most
+    ``max_evaluations`` evaluations of ``sample`` (the scorer at the search's design), its
+    finite differences included. Returns ``(evaluations, (theta, check) of the largest
+    quantity met, or None)``."""
     from scipy.optimize import minimize
 
     th0, which = run
-    ctx = _SEARCH
-    lo, width, cont = ctx.lo, ctx.width, ctx.cont
     tried: list = []  # (quantity, theta, check) of every evaluation
 
     def f(u):
-        if len(tried) >= ctx.max_evaluations:  # the cap, finite differences included
+        if len(tried) >= max_evaluations:  # the cap, finite differences included
             raise _Spent
         th = th0.copy()
         th[cont] = lo[cont] + np.clip(u, 0.0, 1.0) * width[cont]
         try:
-            c = _sample_task(th)
+            c = sample(th)
         except (InputError, SolverError, FloatingPointError, ValueError):
             tried.append((-math.inf, th, None))
             return 1e300  # a scenario the analysis cannot close: not a maximum
-        q = _quantity(c, which, ctx.tol, ctx.feas_tol)
+        q = _quantity(c, which, tol, feas_tol)
         tried.append((q, th, c))
         return -q
 
     u0 = (th0[cont] - lo[cont]) / width[cont]
     try:
         minimize(f, u0, method="L-BFGS-B", bounds=[(0.0, 1.0)] * int(cont.sum()),
-                 options={"maxfun": ctx.max_evaluations, "eps": REFINE_STEP})
+                 options={"maxfun": max_evaluations, "eps": REFINE_STEP})
     except _Spent:
         pass
     # the largest quantity met (L-BFGS-B's answer, or the best before the cap)

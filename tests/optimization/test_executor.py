@@ -80,7 +80,7 @@ def test_nlp_build_in_a_sweep_point_uses_no_second_thread(monkeypatch):
     built in this thread, and the solver is the same as one built with the second thread."""
     import numpy as np
 
-    from isodesign.optimization import problem
+    from isodesign.optimization import nlp, problem
     from isodesign.optimization.study import vertical_study
 
     st = vertical_study().with_changes(models={"points_per_band": 3, "peak_points": 20})
@@ -91,7 +91,7 @@ def test_nlp_build_in_a_sweep_point_uses_no_second_thread(monkeypatch):
 
     monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
     threaded = problem.Problem(st)
-    monkeypatch.setattr(problem, "ThreadPoolExecutor", NoThreads)
+    monkeypatch.setattr(nlp, "ThreadPoolExecutor", NoThreads)  # derivative_functions' pool
     with use_executor(SerialExecutor()):
         single = problem.Problem(st)
     with pytest.raises(AssertionError, match="thread pool"):
