@@ -153,6 +153,10 @@ def test_the_search_in_forked_workers_finds_what_it_finds_in_one_process(monkeyp
     cands = np.vstack([space.corners(limit=robust_table.MAX_CORNERS), space.center()[None, :]])
     kw = {"samples": 16, "seed": 0, "tol": 0.01, "feas_tol": FEASIBILITY_TOLERANCE,
           "n_slots": sc.n_slots}
+    import os
+
+    # two cores, whatever this machine has (map_in_workers caps the workers by them)
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: {0, 1}, raising=False)
     maps = []
     real = executor.ForkExecutor.map_unordered
 
