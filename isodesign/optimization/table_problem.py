@@ -378,8 +378,9 @@ class TableProblem(TableModeRows, NLP):
         qi = [[q.im[0, r * 3 + a] for a in range(3)] for r in range(6)]
         return qr, qi, g2
 
-    def _peak_function(self, ca):
-        """``|T_p,aa|^2`` at one (movable) frequency, per point and axis (an SX Function)."""
+    def _peak_function(self, ca, ahead=None):
+        """``|T_p,aa|^2`` at one (movable) frequency, per point and axis
+        (:func:`~isodesign.optimization.nlp.point_function`)."""
         n = self.n
         dv = ca.SX.sym("design", self._n_dv())
         s, y, w = ca.SX.sym("s", n), ca.SX.sym("y", n), ca.SX.sym("w")
@@ -392,50 +393,66 @@ class TableProblem(TableModeRows, NLP):
                 re = sum(gp[bb][r] * qr[r][bb] for r in range(6) if nzp[bb][r])
                 im = sum(gp[bb][r] * qi[r][bb] for r in range(6) if nzp[bb][r])
                 diag.append(re * re + im * im)
-        return ca.Function("table_peak", [dv, s, y, w, khr, khi], [ca.vertcat(*diag)])
+        return nlp.point_function(ca, "table_peak", [dv, s, y, w, khr, khi],
+                                  ca.vertcat(*diag), ahead=ahead)
 
-    def _point_function(self, ca):
-        """One frequency's physics and its quadrature contributions (an SX Function).
+    def _point_function(self, ca, ahead=None):
+        """One frequency's physics (:func:`~isodesign.optimization.nlp.point_function`).
 
-        Inputs: design, ``s``, ``y``, ``w``, the horizontal stiffnesses, and this point's
-        stroke weights ``sw`` (3) and band weights ``bw`` (3 x n_bands). Outputs: the
-        contributions to ``sigma_i^2``, ``sigma_u,i^2`` and every band mean square (summed
-        over the grid by the map), and ``|T_p,aa|^2`` (per point, for the peak).
+        Inputs: design, ``s``, ``y``, ``w`` and the horizontal stiffnesses. Outputs, one
+        column: ``|z_i,a|^2`` (3 n: each isolator's stroke per unit floor motion in axis
+        ``a``, ``i`` major), ``|U/X|_i^2`` (n: each tube's velocity gain), then ``|T_p,ba|^2``
+        (9 k: point ``p``, table axis ``b``, floor axis ``a``, in that order). What the floor
+        weighs them with is applied over the grid outside (:meth:`_grid_sums`), so the
+        Jacobian IPOPT evaluates at every frequency is this function's alone.
         """
-        n, k, nb = self.n, self.k, self.grid.n_bands
+        n, k = self.n, self.k
         dv = ca.SX.sym("design", self._n_dv())
         s, y, w = ca.SX.sym("s", n), ca.SX.sym("y", n), ca.SX.sym("w")
         khr, khi = ca.SX.sym("khr", n), ca.SX.sym("khi", n)
-        sw, bw = ca.SX.sym("sw", 3), ca.SX.sym("bw", 3 * nb)
         qr, qi, g2 = self._body(ca, dv, s, y, w, khr, khi)
-        ms, diag = [], []
+        t2 = []
         for p in range(k):
             gp, nzp = self._point_rows(p, dv)
             for bb in range(3):
-                acc = 0
                 for a in range(3):
                     re = sum(gp[bb][r] * qr[r][a] for r in range(6) if nzp[bb][r])
                     im = sum(gp[bb][r] * qi[r][a] for r in range(6) if nzp[bb][r])
-                    t2 = re * re + im * im
-                    acc = acc + t2 * bw[a * nb: (a + 1) * nb]
-                    if a == bb:
-                        diag.append(t2)
-                ms.append(acc)
-        s2, u2 = [], []
+                    t2.append(re * re + im * im)
+        z2 = []
         gzs = vertical_vectors(self.geo, self._terms(dv, None))
         for i in range(n):
             gz = gzs[i]
             nz = [r for r in range(6) if not (isinstance(gz[r], float) and gz[r] == 0)]
-            si, ui = 0, 0
             for a in range(3):
                 re = sum(gz[r] * qr[r][a] for r in nz) - (a == 2)
                 im = sum(gz[r] * qi[r][a] for r in nz)
-                si = si + sw[a] * (re * re + im * im)
-                ui = ui + sw[a] * (re * re + im * im) * g2[i]
-            s2.append(si)
-            u2.append(ui)
-        return ca.Function("table_point", [dv, s, y, w, khr, khi, sw, bw],
-                           [ca.vertcat(*s2, *u2, *ms), ca.vertcat(*diag)])
+                z2.append(re * re + im * im)
+        return nlp.point_function(ca, "table_point", [dv, s, y, w, khr, khi],
+                                  ca.vertcat(*z2, *g2, *t2), constant=(3, 4, 5), ahead=ahead)
+
+    def _grid_sums(self, ca, out, stroke_weight, band_weight):
+        """The grid's sums of :meth:`_point_function`'s columns ``out`` ((4 n + 9 k) x nf).
+
+        Returns ``red``: ``sigma_i^2 = sum_f sum_a sw_a |z_i,a|^2`` (n), ``sigma_u,i^2 =
+        sum_f |U/X|_i^2 sum_a sw_a |z_i,a|^2`` (n), then every band's mean square ``sum_f
+        sum_a bw_a,j |T_p,ba|^2`` (point, axis, band), and ``diag``: ``|T_p,bb|^2``
+        (3 k x nf). ``stroke_weight`` (3, nf) and ``band_weight`` (3 nb, nf) are numbers or
+        a parametric NLP's parameters.
+        """
+        n, k, nb = self.n, self.k, self.grid.n_bands
+        s2, u2 = [], []
+        for i in range(n):
+            zi = ca.sum1(out[3 * i: 3 * i + 3, :] * stroke_weight)  # (1, nf)
+            s2.append(ca.sum2(zi))
+            u2.append(ca.sum2(zi * out[3 * n + i, :]))
+        t2 = out[4 * n:, :]
+        ms = 0
+        for a in range(3):  # (3 k, nb): point and table axis, band
+            rows = [9 * p + 3 * bb + a for p in range(k) for bb in range(3)]
+            ms = ms + ca.mtimes(t2[rows, :], band_weight[a * nb: (a + 1) * nb, :].T)
+        diag = t2[[9 * p + 4 * bb for p in range(k) for bb in range(3)], :]
+        return ca.vertcat(*s2, *u2, ca.vec(ms.T)), diag
 
     def _stiffness_function(self, ca):
         """``(design, s, y, w) -> (K' flat, K'' flat)``: the isolators' 6x6 stiffness."""
@@ -446,8 +463,11 @@ class TableProblem(TableModeRows, NLP):
         kh, shift = self._kh(dv, w, khr, khi)
         d, _ = self._assemble(dv, kv, kh, w, shift)
         mass = slab_terms.base_mass_row(self.geo, self._base(dv))
+        # its subexpressions merged (nlp.SX_CSE), its derivative the plain forward one: it
+        # is called at the few frozen modes, where merging its Jacobian's would cost more
+        # to generate (0.45 s) than it saves
         return ca.Function("table_k", [dv, s, y, w, khr, khi],
-                           [(d.re + w * w * mass).T, d.im.T])
+                           [(d.re + w * w * mass).T, d.im.T], {"cse": True})
 
     # -- the NLP ---------------------------------------------------------------------
     def _build(self, ca) -> None:
@@ -482,13 +502,17 @@ class TableProblem(TableModeRows, NLP):
         # the distortion power's terms (models.distortion, optimization.distortion_rows):
         # parameters, the minor loss's gain as the resistance's ln sigma_u shift y_k - y
         p_dist, added, y_k = self._distortion_parts(ca, X, z, y)
-        point = self._point_function(ca)
+        from isodesign.optimization.executor import parallel_allowed
+
+        threads = parallel_allowed(self.study.solver["workers"])
+        ahead = [] if threads else None  # the point functions' Jacobians, in threads
+        point = self._point_function(ca, ahead)
         nb = g.n_bands
         bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)  # (3 nb, nf)
         head = self._parameter_head(ca, X, bw)  # the floor, limits and references
-        red, diag = point.map("table_map", "serial", nf, [0, 1, 2], [0])(
-            v, s, y_k, ca.DM(g.omega).T, ca.DM(self.kh_re), ca.DM(self.kh_im),
-            head["stroke_weight"], head["band_weight"])  # red: summed over the grid
+        cols = point.map("table_map", "serial", nf, [0, 1, 2], [])(
+            v, s, y_k, ca.DM(g.omega).T, ca.DM(self.kh_re), ca.DM(self.kh_im))
+        red, diag = self._grid_sums(ca, cols, head["stroke_weight"], head["band_weight"])
         if added is not None:  # [stroke, tube velocity variances, band mean squares]
             red = red + added
         self._n_t = 9 * k
@@ -510,7 +534,7 @@ class TableProblem(TableModeRows, NLP):
             pw = ca.reshape(p_slot[:ns], 1, ns)
             pkr = ca.reshape(p_slot[ns: ns + n * ns], n, ns)
             pki = ca.reshape(p_slot[ns + n * ns:], n, ns)
-            out_slots = self._peak_function(ca).map("table_peak_map", "serial", ns,
+            out_slots = self._peak_function(ca, ahead).map("table_peak_map", "serial", ns,
                                                     [0, 1, 2], [])(v, s, y_k, pw, pkr, pki)
         d = st.design_at({nm: vals[i] for i, nm in enumerate(DESIGN_VARIABLES)})
         cons = self._constraints(ca, d, v, s, y, out, out_slots)
@@ -565,14 +589,12 @@ class TableProblem(TableModeRows, NLP):
         self.eval_fn = ca.Function("eval", [x, pp], [j_total, gg])
         from types import SimpleNamespace
 
-        from isodesign.optimization.executor import parallel_allowed
-
         funcs = {"x": x, "f": j_total, "g": gg, "p": pp}
         # the derivatives generated once, for the cold solver and the warm one of the peak
         # refinement's re-solves (built on first use: NLP.warm_solver_factory)
         opts = {**self.ipopt_options(), **nlp.derivative_functions(
-            SimpleNamespace(ca=ca, x=x, p=pp, j_total=j_total, g=gg),
-            parallel_allowed(self.study.solver["workers"]), hessian=self.hessian == "exact")}
+            SimpleNamespace(ca=ca, x=x, p=pp, j_total=j_total, g=gg), threads,
+            hessian=self.hessian == "exact", ahead=ahead or ())}
         self.solver = ca.nlpsol("isodesign_table", "ipopt", funcs, opts)
         self._warm_solver = self.warm_solver_factory(ca, funcs, opts)
 
