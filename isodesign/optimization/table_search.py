@@ -114,19 +114,22 @@ def _mode_rows(prob, model, springs, modes) -> dict:
     prob.set_modes(modes)
     blocks = prob.mode_params.reshape(-1, 14)
 
-    def quotients(blk):
-        act, w = blk[0], blk[1]
-        phi = blk[2:8] + 1j * blk[8:14]
-        kv = springs(np.array([w]))
-        kh = model.horizontal_stiffness(np.array([w]))
-        d, _ = dynamic_stiffness(model.geometry, kv, kh, np.array([0.0]))
-        kr = np.asarray(d.re, float).reshape(6, 6)
-        ki = np.asarray(d.im, float).reshape(6, 6)
-        return act, float(np.real(np.vdot(phi, kr @ phi))), float(np.real(np.vdot(phi, ki @ phi)))
-
     nm = prob.n_modes
-    damping = [quotients(blk) for blk in blocks[:nm]] if zmin else []
-    rocking = [quotients(blk)[:2] for blk in blocks[nm:]] if (f_lo or f_hi) else []
+    used = (list(range(nm)) if zmin else []) + (list(range(nm, 2 * nm)) if f_lo or f_hi else [])
+    # the springs at every block's frequency in one vectorized evaluation
+    w = blocks[used, 1]
+    kv = springs(w)
+    kh = model.horizontal_stiffness(w)
+    d, _ = dynamic_stiffness(model.geometry, kv, kh, np.zeros(w.size))
+    kr = np.asarray(d.re, float).reshape(-1, 6, 6)
+    ki = np.asarray(d.im, float).reshape(-1, 6, 6)
+    q = {}
+    for j, b in enumerate(used):
+        phi = blocks[b, 2:8] + 1j * blocks[b, 8:14]
+        q[b] = (blocks[b, 0], float(np.real(np.vdot(phi, kr[j] @ phi))),
+                float(np.real(np.vdot(phi, ki[j] @ phi))))
+    damping = [q[b] for b in range(nm)] if zmin else []
+    rocking = [q[b][:2] for b in range(nm, 2 * nm)] if (f_lo or f_hi) else []
     return mode_row_quantities(c, damping, rocking, fmax=max, stack=np.array)
 
 

@@ -130,28 +130,34 @@ class TableModes(ResultDisplay):
 
 
 def _stiffness_at(model: TableModel, amplitude_m, vertical=None):
-    """``w -> (kv list Cx, kh list Cx)`` at one frequency."""
+    """``w (array) -> (kv list Cx, kh list Cx)``: every isolator at each frequency."""
 
-    def at(w: float):
-        f = np.array([w / TWO_PI])
+    def at(w):
+        w = np.atleast_1d(np.asarray(w, dtype=float))
         if vertical is not None:
-            kv = vertical(np.array([w]))
+            kv = vertical(w)
         else:
-            kv = [Cx.from_complex(k) for k in model.vertical_stiffness(f, amplitude_m)]
-        kh = model.horizontal_stiffness(np.array([w]))
+            kv = [Cx.from_complex(k) for k in model.vertical_stiffness(w / TWO_PI, amplitude_m)]
+        kh = model.horizontal_stiffness(w)
         return kv, kh
 
     return at
 
 
-def _eig(model: TableModel, stiffness_at, w: float):
+def _eigs(model: TableModel, stiffness_at, w) -> list:
+    """``[(mu, vec)]``: the eigenproblem ``K(w_j) phi = mu M phi`` at each frequency
+    ``w_j``, the springs evaluated at all of them at once (one vectorized evaluation)."""
     from scipy.linalg import eig
 
+    w = np.atleast_1d(np.asarray(w, dtype=float))
     kv, kh = stiffness_at(w)
-    d, _ = dynamic_stiffness(model.geometry, kv, kh, np.array([0.0]))
-    k = (np.asarray(d.re) + 1j * np.asarray(d.im)).reshape(6, 6)
-    mu, vec = eig(k, model.geometry.mass)
-    return mu, vec
+    d, _ = dynamic_stiffness(model.geometry, kv, kh, np.zeros(w.size))
+    k = (np.asarray(d.re) + 1j * np.asarray(d.im)).reshape(w.size, 6, 6)
+    return [eig(k[j], model.geometry.mass) for j in range(w.size)]
+
+
+def _eig(model: TableModel, stiffness_at, w: float):
+    return _eigs(model, stiffness_at, [w])[0]
 
 
 def _energy(m: np.ndarray, phi: np.ndarray) -> np.ndarray:
@@ -199,34 +205,40 @@ def table_modes(model: TableModel, *, amplitude_m: float = LINEAR_REFERENCE_AMPL
     energy = np.zeros((6, 6))
     its = np.zeros(6, int)
     conv = np.zeros(6, bool)
-    for j, idx in enumerate(order):
-        phi, mu = vec0[:, idx], mu0[idx]
-        w = math.sqrt(mu.real) if mu.real > 0 else float("nan")
-        n_it = 0
-        ok = False
-        while math.isfinite(w) and n_it < max_iter:
-            mus, vecs = _eig(model, at, w)
-            corr = np.abs(np.conj(phi) @ m @ vecs) ** 2 / np.real(
+    # each mode's fixed point w <- sqrt(Re mu(w)), the six iterated side by side: each step
+    # evaluates the springs at the still-moving modes' frequencies in one call (the same
+    # iterates as one mode at a time)
+    phi = [vec0[:, idx] for idx in order]
+    mu = [mu0[idx] for idx in order]
+    w = [math.sqrt(x.real) if x.real > 0 else float("nan") for x in mu]
+    ok = [False] * 6
+    moving = [j for j in range(6) if math.isfinite(w[j])]
+    while moving:
+        for j, (mus, vecs) in zip(moving, _eigs(model, at, [w[j] for j in moving]),
+                                  strict=True):
+            corr = np.abs(np.conj(phi[j]) @ m @ vecs) ** 2 / np.real(
                 np.einsum("ij,ik,kj->j", np.conj(vecs), m, vecs))  # fmt: skip
             k = int(np.argmax(corr))
-            phi, mu = vecs[:, k], mus[k]
-            n_it += 1
-            if not mu.real > 0:
-                w = float("nan")
-                break
-            w_new = math.sqrt(mu.real)
-            if abs(w_new - w) <= tol * w:
-                w, ok = w_new, True
-                break
-            w = w_new
-        if math.isfinite(w) and not ok:
+            phi[j], mu[j] = vecs[:, k], mus[k]
+            its[j] += 1
+            if not mu[j].real > 0:
+                w[j] = float("nan")
+                continue
+            w_new = math.sqrt(mu[j].real)
+            if abs(w_new - w[j]) <= tol * w[j]:
+                w[j], ok[j] = w_new, True
+                continue
+            w[j] = w_new
+        moving = [j for j in moving if math.isfinite(w[j]) and not ok[j] and its[j] < max_iter]
+    for j in range(6):
+        if math.isfinite(w[j]) and not ok[j]:
             raise SolverError(f"table modes: mode {j + 1} did not converge in {max_iter} "
-                              f"iterations (last {w / TWO_PI:.6g} Hz)")
-        e = _energy(m, phi)
-        phi = phi / phi[int(np.argmax(e))]
-        freq[j] = w / TWO_PI if math.isfinite(w) else np.nan
-        zeta[j] = mu.imag / (2.0 * mu.real) if mu.real > 0 else np.nan
-        shapes[:, j], energy[j], its[j], conv[j] = phi, e, n_it, ok or not math.isfinite(w)
+                              f"iterations (last {w[j] / TWO_PI:.6g} Hz)")
+        e = _energy(m, phi[j])
+        ph = phi[j] / phi[j][int(np.argmax(e))]
+        freq[j] = w[j] / TWO_PI if math.isfinite(w[j]) else np.nan
+        zeta[j] = mu[j].imag / (2.0 * mu[j].real) if mu[j].real > 0 else np.nan
+        shapes[:, j], energy[j], conv[j] = ph, e, ok[j] or not math.isfinite(w[j])
     srt = np.argsort(np.where(np.isnan(freq), -1.0, freq))
     return TableModes(frequency_hz=freq[srt], damping_ratio=zeta[srt], shapes=shapes[:, srt],
                       energy_fraction=energy[srt], iterations=its[srt], converged=conv[srt],
