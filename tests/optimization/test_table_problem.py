@@ -190,7 +190,7 @@ def test_the_point_functions_jacobian_is_the_plain_forward_derivative(monkeypatc
 
     st = default_study()
     fast = TableProblem(st, peak_slots=3)
-    monkeypatch.setattr(nlp, "point_function", lambda ca_, name, ins, outs, constant=(): (
+    monkeypatch.setattr(nlp, "point_function", lambda ca_, name, ins, outs, **_: (
         ca_.Function(name, ins, list(outs) if isinstance(outs, list) else [outs])))
     plain = TableProblem(st, peak_slots=3)
     jacs = []
