@@ -201,7 +201,7 @@ def _start_records(prob, starts, results, t_all: float = math.nan
     to_nat = OBJECTIVES[prob.objective].to_natural
     for i, (vals, out) in enumerate(zip(starts, results, strict=True)):
         if isinstance(out, str):
-            records.append(StartRecord(i, vals, f"initial guess failed: {out}", False, False,
+            records.append(StartRecord(i, vals, out, False, False,
                                        0, 0.0, math.nan, math.inf, {}))
             sols.append(None)
             continue

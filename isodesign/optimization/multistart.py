@@ -5,7 +5,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from isodesign.errors import SolverError
+from isodesign.errors import InputError, SolverError
 from isodesign.optimization.executor import ForkExecutor, available_cores, executor_for
 
 __all__ = ["DEFAULT_WORKERS", "available_cores", "map_in_workers", "run_starts",
@@ -141,8 +141,14 @@ def _solve_start(prob, params, vals: dict, rounds=None):
     try:
         x0 = prob.initial_guess(vals)
     except SolverError as exc:
-        return str(exc)
-    return prob.solve(x0, params) if rounds is None else prob.solve(x0, params, rounds=rounds)
+        return f"initial guess failed: {exc}"
+    try:
+        return prob.solve(x0, params) if rounds is None else prob.solve(x0, params,
+                                                                        rounds=rounds)
+    except InputError as exc:  # a NumPy evaluation at an iterate outside the models (the
+        # outer fixed point's terms at a round's answer: a group's capillary shorter than
+        # its bore): this start fails, saying why; the others go on
+        return f"the solve left the models' range at an iterate: {exc}"
 
 
 def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=None,
@@ -152,8 +158,8 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
     The workers inherit the built solver through ``fork`` (nothing is pickled but
     the start values and the results), so the NLP is built once
     (:func:`map_in_workers`). Results come back in start order: a
-    :class:`~isodesign.optimization.solution.Solution`, or the error message of a start
-    whose initial guess failed.
+    :class:`~isodesign.optimization.solution.Solution`, or the status of a start that
+    failed before IPOPT could finish (its initial guess, or an iterate outside the models).
 
     Parameters
     ----------
@@ -184,8 +190,9 @@ def run_starts(prob, starts: list[dict], *, workers=None, progress=None, params=
     Returns
     -------
     list
-        One entry per start, in start order: a Solution, or a ``str`` with the
-        :class:`~isodesign.errors.SolverError` message of a failed initial guess.
+        One entry per start, in start order: a Solution, or a ``str``, the start's status:
+        ``initial guess failed: <the SolverError>``, or ``the solve left the models' range
+        at an iterate: <the InputError>`` (a NumPy evaluation at it refused the design).
     """
     return map_in_workers(lambda vals: _solve_start(prob, params, vals, rounds), starts,
                           workers=workers, progress=progress)

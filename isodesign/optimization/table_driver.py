@@ -321,7 +321,7 @@ def optimize_table(study, *, workers=None, analyze: bool = True, progress=None,
     recs, good = list(pre), {}
     for i, out in enumerate(outs, len(pre)):
         if isinstance(out, str):
-            recs.append((i, f"initial guess failed: {out}", False, 0, 0.0, math.nan))
+            recs.append((i, out, False, 0, 0.0, math.nan))
             continue
         recs.append((i, out.status, out.feasible, out.iterations, out.wall_s, out.objective))
         if out.feasible:
@@ -564,7 +564,7 @@ def _records(outs, prefix: str, first: int = 0) -> list:
     recs = []
     for i, out in enumerate(outs, first):
         if isinstance(out, str):
-            recs.append((i, f"{prefix}initial guess failed: {out}", False, 0, 0.0, math.nan))
+            recs.append((i, f"{prefix}{out}", False, 0, 0.0, math.nan))
         else:
             recs.append((i, f"{prefix}{out.status}", out.feasible, out.iterations, out.wall_s,
                          out.objective))

@@ -94,3 +94,28 @@ def test_a_nested_serial_map_inside_a_worker_keeps_the_outer_task():
             return sum(map_in_workers(inner, [x, x]))
 
     assert map_in_workers(outer, [1, 2, 3, 4, 5, 6], workers=2) == [4, 6, 8, 10, 12, 14]
+
+
+def test_a_start_whose_solve_leaves_the_models_fails_saying_why(one_core):
+    """A NumPy evaluation at an iterate outside the models (the distortion's outer fixed
+    point evaluates its terms at a round's answer, where a leveling group's capillary may be
+    shorter than its bore: ``SpringDesign`` refuses it) fails that start with the message,
+    instead of ending the whole multi-start with a traceback; the other starts go on."""
+    from isodesign.errors import InputError
+    from isodesign.optimization.multistart import run_starts
+
+    class Prob:
+        def initial_guess(self, vals):
+            return vals["x"]
+
+        def solve(self, x0, params):
+            if x0 < 0:
+                raise InputError("capillary_diameter_m: must be smaller than "
+                                 "capillary_length_m (0.003 >= 0.002 m)")
+            return x0 * 2
+
+    out = run_starts(Prob(), [{"x": 1.0}, {"x": -1.0}, {"x": 3.0}], workers=1, params=None)
+    assert out[0] == 2.0 and out[2] == 6.0
+    assert isinstance(out[1], str)
+    assert out[1].startswith("the solve left the models' range at an iterate: "
+                             "capillary_diameter_m: must be smaller")
