@@ -140,8 +140,11 @@ class TableProblem(TableModeRows, NLP):
         return super().__new__(cls)
 
     def __init__(self, study, objectives: tuple | None = None, *,
-                 hessian: str | None = None, peak_slots: int = 0):
+                 hessian: str | None = None, peak_slots: int = 0, _point=None):
         import casadi as ca
+
+        # the grid's point function of an NLP of the same study (with_peak_slots), reused
+        self._reused_point = _point
 
         if study.models.get("distortion") and not getattr(self, "distortion", False):
             raise InputError("models.distortion = true: this NLP does not carry the "
@@ -232,7 +235,8 @@ class TableProblem(TableModeRows, NLP):
         TableProblem
             Its decision variables are this one's (a solution's ``x`` carries over).
         """
-        new = type(self)(self.study, self.objectives, hessian=self.hessian, peak_slots=n)
+        new = type(self)(self.study, self.objectives, hessian=self.hessian, peak_slots=n,
+                         _point=getattr(self, "_point", None))
         new.mode_params = self.mode_params.copy()
         new.loop_params = self.loop_params.copy()
         return new
@@ -506,7 +510,10 @@ class TableProblem(TableModeRows, NLP):
 
         threads = parallel_allowed(self.study.solver["workers"])
         ahead = [] if threads else None  # the point functions' Jacobians, in threads
-        point = self._point_function(ca, ahead)
+        # the same study's point function (and the Jacobian CasADi generated for it), when
+        # this NLP is another's with movable peak frequencies: the same SX graph
+        point = self._reused_point or self._point_function(ca, ahead)
+        self._point = point
         nb = g.n_bands
         bw = np.concatenate([g.band_weight[a] for a in range(3)], axis=0)  # (3 nb, nf)
         head = self._parameter_head(ca, X, bw)  # the floor, limits and references
