@@ -792,14 +792,18 @@ def _model(study, d, values=None):
                        amplitude_mode=m["amplitude_mode"], diaphragm=m["diaphragm"])
 
 
-def _modes_at(prob, d, sigma=None, sigma_u=None, values=None):
+def _modes_at(prob, d, sigma=None, sigma_u=None, values=None, side_by_side=False):
+    """The modes at the closure's springs; ``side_by_side``: :func:`table_modes`'s (the NLP's
+    frozen modes keep the mode-by-mode evaluation: the same to rounding, docs/table.md
+    section 6; the robust search, which only scores, takes the faster one)."""
     from isodesign.table.modes import table_modes
 
     if sigma is None:
         sigma, sigma_u = prob.closure(d, values)
     model = _model(prob.study, d, values)
     sigma_u = _with_gain(prob, d, sigma_u, values)
-    return table_modes(model, vertical=closure_springs(model, sigma, sigma_u))
+    return table_modes(model, vertical=closure_springs(model, sigma, sigma_u),
+                       side_by_side=side_by_side)
 
 
 def _with_gain(prob, d, sigma_u, values=None):

@@ -209,7 +209,7 @@ def score_table_scenario(study, theta, values: dict, reference: float | None, *,
     if c.get("min_damping_ratio") or c.get("min_rocking_frequency_hz") or \
             c.get("max_rocking_frequency_hz"):  # the frozen modes' rows: the exact modes
         q.update(_mode_rows(prob, model, springs, _modes_at(prob, d, sigma, sigma_u,
-                                                            values=values)))
+                                                            values=values, side_by_side=True)))
     excess, viol = {}, []
     for row in constraint_rows_of(st, q, TABLE_ROWS):
         name = row_name(row.key)
