@@ -80,3 +80,26 @@ def test_a_high_cg_is_unstable_and_its_rocking_mode_has_no_frequency(ref):
     assert rs.lowest_static_eigenvalue_rad2_s2 < 0
     md = table_modes(model)
     assert np.isnan(md.frequency_hz).any()
+
+
+@pytest.mark.parametrize("builtin", ["table", "default"])
+def test_modes_side_by_side_are_the_mode_by_mode_iteration(builtin):
+    """table_modes iterates the six modes' fixed points side by side, the springs evaluated
+    once per step at every moving mode's frequency (the default); mode by mode
+    (side_by_side=False, the optimizer's frozen modes) each step evaluates them at one
+    frequency. The same iterates: the same iteration counts, frequencies and damping to
+    rounding, at the linear amplitude and at a large one (docs/table.md section 6)."""
+    from isodesign.optimization.study import default_study, table_study
+
+    st = table_study() if builtin == "table" else default_study()
+    d = st.design_at({"volume_ratio": 4.0, "top_volume_m3": 1.0e-3,
+                      "capillary_length_m": 0.3, "capillary_diameter_m": 2.5e-3})
+    model = table_model(d, st.table_at(None))
+    for amp in (LINEAR_REFERENCE_AMPLITUDE_M, 1e-4):
+        a = table_modes(model, amplitude_m=amp)
+        b = table_modes(model, amplitude_m=amp, side_by_side=False)
+        np.testing.assert_array_equal(a.iterations, b.iterations)
+        np.testing.assert_allclose(a.frequency_hz, b.frequency_hz, rtol=1e-12)
+        np.testing.assert_allclose(a.damping_ratio, b.damping_ratio, rtol=1e-9)
+        assert a.converged.all() and b.converged.all()
+        assert a.iterations.max() > 1  # the springs depend on frequency: a real iteration
