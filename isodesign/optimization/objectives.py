@@ -224,8 +224,13 @@ def _nlp_rms_velocity(mt, study, grid, sym):
     rows = rms_rows(study, grid)
     t = sym("t_rms_velocity", 1)  # ln of the RMS velocity
     v_ref2 = float(np.sum(np.asarray(grid.response.floor_velocity_rms_m_s)[rows] ** 2))
+    # v^2 e^(-2t) <= 1 (scaled by v_ref^2): each grid point's term times e^(-2t), so the row
+    # stays separable over the grid, and it keeps its hold on t below the optimum. The form
+    # v^2 <= e^(2t) lost it where e^(2t) underflows: an IPOPT step to t = -300, the
+    # epigraph's box, from which the solve never came back
     con = Constraint("epigraph_rms_velocity",
-                     _sum_rows(mt["ms_all"], rows) / v_ref2 - bk.exp(2.0 * t) / v_ref2,
+                     _sum_rows(mt["ms_all"], rows) / v_ref2
+                     * bk.exp(math.log(v_ref2) - 2.0 * t) - 1.0,
                      -math.inf, 0.0, 1, "RMS velocity <= e^t")
     return t, [t], [con]
 
