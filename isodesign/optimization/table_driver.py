@@ -607,6 +607,7 @@ def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
         if any(abs(sol.objective - j) <= BRANCH_TOLERANCE for j in seen):
             continue
         seen.append(sol.objective)
+        held = _nlp_state(prob)  # the winner's: restored if this branch loses
         try:
             prob.set_modes(_modes_at(prob, study.design_at(sol.values), prob.sigma(sol.x),
                                      prob.tube_rms(sol.x), values=sol.values))
@@ -619,8 +620,34 @@ def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
         cand, cpeak = out[1], out[4]
         if cand.feasible and cpeak["met"] is not False and cand.objective < best.objective:
             best, modes, rounds, peak = cand, out[2], out[3], cpeak
-        peak["added_frequencies_hz"] = list(slots)  # every frequency the NLP now holds
+            peak["added_frequencies_hz"] = list(slots)  # every frequency the NLP now holds
+        else:
+            # the NLP as the winner was solved: its frozen modes, peak frequencies and loop
+            # poles (its rows, best.g, are of those; the re-check and the result read them).
+            # Left at the losing branch's, the re-check compared the winner's rows at 9
+            # frequencies with the NumPy rows at the branch's 21 (a 2.2 difference in
+            # ln |T|^2, the co-design script's all_and_layout case with the distortion)
+            prob = _restore_nlp_state(held)
     return prob, best, modes, rounds, peak
+
+
+def _nlp_state(prob) -> tuple:
+    """What a table refinement changes in its NLP's parameters: the frozen modes, the
+    movable peak frequencies, the frozen loop poles (:func:`_restore_nlp_state`)."""
+    return (prob, prob.mode_params.copy(), prob.slot_hz.copy(), prob.loop_params.copy(),
+            getattr(prob, "loop_system", None))
+
+
+def _restore_nlp_state(held):
+    """The NLP of :func:`_nlp_state` with those parameters again; returns it."""
+    prob, mode_params, slot_hz, loop_params, loop_system = held
+    prob.mode_params = mode_params.copy()
+    if not np.array_equal(prob.slot_hz, slot_hz):
+        prob.set_slots(slot_hz)
+    prob.loop_params = loop_params.copy()
+    if loop_system is not None:
+        prob.loop_system = loop_system
+    return prob
 
 
 def _mode_misses(study, modes) -> list[tuple[str, float]]:

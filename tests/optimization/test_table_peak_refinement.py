@@ -196,3 +196,72 @@ def test_a_branch_better_before_refinement_is_refined_too(held_out_toml):
     assert out[1].feasible and out[4]["met"]
     assert out[1].objective <= best.objective + 1e-6
     assert len(out[4]["added_frequencies_hz"]) >= n_before
+
+
+def test_a_losing_branch_leaves_the_nlp_as_the_winner_was_solved(monkeypatch):
+    """The other branches' refinement freezes their modes, places their peak frequencies and
+    clears the loop poles in the one NLP. When no branch wins, the NLP is handed back with
+    the winner's parameters: the winner's rows (``best.g``) are of those, and the re-check
+    compares them with the NumPy rows at the NLP's frequencies (before, a losing branch's
+    frequencies stayed: a 2.2 difference in ln |T|^2 and a refused optimum). A branch that
+    wins keeps its own."""
+    from isodesign.optimization import table_driver as topt
+
+    class Prob:  # the NLP's parameters a refinement changes, and nothing else
+        def __init__(self):
+            self.mode_params = np.arange(4.0)
+            self.slot_hz = np.array([1.0, 1.1, 0.5, 0.5])
+            self.loop_params = np.ones(3)
+            self.loop_system = "winner's"
+
+        def set_slots(self, f):
+            self.slot_hz = np.asarray(f, float).copy()
+
+        def set_modes(self, modes):
+            self.mode_params = np.full(4, -1.0)
+
+        def clear_loop(self):
+            self.loop_params = np.zeros(3)
+
+        def sigma(self, x):
+            return x
+
+        tube_rms = sigma
+
+    def sol(j):
+        return types.SimpleNamespace(objective=j, feasible=True, values={}, x=None)
+
+    def refine_to(j_refined):
+        def refine(prob, study, s, slots=None):
+            new = [1.2, 1.3]
+            prob.set_slots(np.r_[prob.slot_hz[:2], new])
+            prob.loop_system = "branch's"
+            slots += new
+            return prob, sol(j_refined), "branch modes", 1, {"met": True,
+                                                          "added_frequencies_hz": slots}
+        return refine
+
+    st = types.SimpleNamespace(design_at=lambda v: None)
+    monkeypatch.setattr(topt, "_modes_at", lambda *a, **k: "modes")
+    best, other = sol(-5.0), sol(-9.0)  # the other branch better before its refinement
+    winner_peak = {"rounds": 1, "met": True, "added_frequencies_hz": [1.0, 1.1]}
+    for j_refined, wins in ((-4.0, False), (-6.0, True)):
+        prob = Prob()
+        before = (prob.mode_params.copy(), prob.slot_hz.copy(), prob.loop_params.copy())
+        monkeypatch.setattr(topt, "_refine", refine_to(j_refined))
+        out = topt._other_branches(prob, st, {0: best, 1: other}, -6.0, best, "winner modes",
+                                   1, dict(winner_peak))
+        p, kept, modes, _, peak = out
+        assert p is prob
+        if wins:
+            assert kept.objective == j_refined and modes == "branch modes"
+            np.testing.assert_array_equal(p.slot_hz, [1.0, 1.1, 1.2, 1.3])
+            assert p.loop_system == "branch's"
+            assert peak["added_frequencies_hz"] == [1.0, 1.1, 1.2, 1.3]
+        else:
+            assert kept is best and modes == "winner modes"
+            np.testing.assert_array_equal(p.mode_params, before[0])
+            np.testing.assert_array_equal(p.slot_hz, before[1])
+            np.testing.assert_array_equal(p.loop_params, before[2])
+            assert p.loop_system == "winner's"
+            assert peak["added_frequencies_hz"] == [1.0, 1.1]
