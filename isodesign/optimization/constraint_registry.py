@@ -30,7 +30,7 @@ from typing import Any
 
 from isodesign.numerics import backend as bk
 from isodesign.spring.capillary import LAMINAR_REYNOLDS_LIMIT, QUASI_STEADY_WOMERSLEY_LIMIT
-from isodesign.spring.diagnostics import LUMPED_LIMIT
+from isodesign.spring.diagnostics import LUMPED_LIMIT, TUBE_END_MIN_LENGTH_RADII
 from isodesign.spring.flow_models import flow_model
 
 __all__ = [
@@ -223,6 +223,42 @@ def _lumped(study) -> bool:
     return _validity(study) and study.start_design().acoustics == "lumped"
 
 
+def _end_corrected(study) -> bool:
+    """True when the study's springs carry the tube's end correction (the models whose
+    ``tube_end_correction`` check applies, :func:`isodesign.spring.diagnostics`)."""
+    return bool(study.start_design().tube_end_correction) and \
+        study.models["flow"] in ("quasi_steady", "womersley")
+
+
+def _box_admits_bore_per_length(study, limit: float) -> bool:
+    """True when the variables' box admits a spring with ``D_c / L_c`` above ``limit``
+    (the shared spring's or a leveling group's, ``_group2``/``_group3``), with at least one
+    of the two free: a box that keeps the tube long needs no row, and two fixed values are
+    the user's design (the analysis flags it)."""
+    specs = {v.name: v for v in (*study.variables, *study.levers)}
+    for suffix in ("", "_group2", "_group3"):
+        length = specs.get("capillary_length_m" + suffix)
+        bore = specs.get("capillary_diameter_m" + suffix)
+        if length is None or bore is None or (length.fixed and bore.fixed):
+            continue
+        lo_l = length.start if length.fixed else length.lower
+        hi_d = bore.start if bore.fixed else bore.upper
+        if hi_d > limit * VALIDITY_MARGIN * lo_l:
+            return True
+    return False
+
+
+#: ``D_c / L_c`` at most this with the tube's end correction: the tube at least
+#: :data:`~isodesign.spring.diagnostics.TUBE_END_MIN_LENGTH_RADII` bore radii long.
+END_CORRECTED_BORE_PER_LENGTH = 2.0 / TUBE_END_MIN_LENGTH_RADII
+
+
+def _tube_length_check(end_corrected: bool):
+    limit = END_CORRECTED_BORE_PER_LENGTH if end_corrected else 1.0
+    return lambda study: (_validity(study) and _end_corrected(study) == end_corrected
+                          and _box_admits_bore_per_length(study, limit))
+
+
 def _flow_check(*names):
     return lambda study: _validity(study) and any(
         c.name in names for c in flow_model(study.models["flow"]).checks)
@@ -295,6 +331,17 @@ CONSTRAINTS: dict[str, ConstraintKind] = {k.name: k for k in (
                      f"{LUMPED_LIMIT}", lambda c: (None, LUMPED_LIMIT),
                      _lumped, VALIDITY_MARGIN, True)
       for part in ("tube", "top_chamber", "bottom_chamber")),
+    # the tube a tube (the models' D_c < L_c), long enough for its ends' correction where
+    # the springs carry it: rows only where the variables' box admits a shorter tube
+    ConstraintKind("tube_end_length", "model_validity", "D_c/L_c", "log",
+                   "ln_bore_per_length", "tube at least "
+                   f"{TUBE_END_MIN_LENGTH_RADII:g} bore radii long (D_c / L_c <= "
+                   f"{END_CORRECTED_BORE_PER_LENGTH:g}): the two ends' correction independent "
+                   "of each other", lambda c: (None, END_CORRECTED_BORE_PER_LENGTH),
+                   _tube_length_check(True), VALIDITY_MARGIN, True),
+    ConstraintKind("tube_length", "model_validity", "D_c/L_c", "log", "ln_bore_per_length",
+                   "a tube, not an orifice: D_c / L_c < 1", lambda c: (None, 1.0),
+                   _tube_length_check(False), VALIDITY_MARGIN, True),
     ConstraintKind("laminar", "model_validity", "Re", "log", "ln_re",
                    "peak Reynolds number <= 2300 (laminar model)",
                    lambda c: (None, LAMINAR_REYNOLDS_LIMIT), _flow_check("laminar"),
@@ -311,14 +358,16 @@ CONSTRAINTS: dict[str, ConstraintKind] = {k.name: k for k in (
 VERTICAL_ROWS = ("total_volume", "tilt_margin", "natural_frequency", "peak_transmissibility",
                  "damping_ratio", "mach", "chamber_pressure", "plane_wave_top_chamber",
                  "plane_wave_bottom_chamber", "lumped_tube", "lumped_top_chamber",
-                 "lumped_bottom_chamber", "laminar", "quasi_steady_alpha")
+                 "lumped_bottom_chamber", "laminar", "quasi_steady_alpha", "tube_end_length",
+                 "tube_length")
 #: The rows the table body requests, in the order of its ``g`` (after the objectives'
 #: epigraph rows): the shared kinds, its smooth forms of tilt and damping, its own.
 TABLE_ROWS = ("total_volume", "natural_frequency", "stroke", "tilt_margin_rows", "layout",
               "loads", "peak_transmissibility", "mach", "plane_wave_top_chamber",
               "plane_wave_bottom_chamber", "lumped_tube", "lumped_top_chamber",
               "lumped_bottom_chamber", "laminar", "quasi_steady_alpha", "damping_rows",
-              "min_rocking_frequency", "max_rocking_frequency", "leveling_loop")
+              "min_rocking_frequency", "max_rocking_frequency", "leveling_loop",
+              "tube_end_length", "tube_length")
 
 
 #: The table's constraints reported from exact quantities rather than from a kind's rows

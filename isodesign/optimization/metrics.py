@@ -196,7 +196,8 @@ def validity_quantities(d, w_max: float) -> dict:
         ``ln_plane_wave``, a list of two: ``w_max D / (1.8412 c)`` for each chamber's
         diameter (plane waves below the first transverse mode: the distributed model's
         validity); ``ln_alpha_max``, the Womersley number ``(D_c / 2) sqrt(w_max rho /
-        mu)``. Natural logs.
+        mu)``; ``ln_bore_per_length``, ``D_c / L_c`` (the tube a tube, long enough for its
+        ends' correction). Natural logs.
     """
     c = d.speed_of_sound_m_s
     return {
@@ -212,6 +213,7 @@ def validity_quantities(d, w_max: float) -> dict:
         "ln_alpha_max": 0.5 * bk.log(
             d.density_kg_m3 * w_max * d.capillary_diameter_m**2 / d.viscosity_pa_s
         ) - math.log(2.0),
+        "ln_bore_per_length": bk.log(d.capillary_diameter_m) - bk.log(d.capillary_length_m),
     }
 
 

@@ -373,7 +373,8 @@ def validity_quantities(d, designs, ln_sigma_u, w_max: float, group_of=None) -> 
     Returns
     -------
     dict
-        ``ln_plane_wave_*``, ``ln_lumped_*`` (per spring), ``ln_mach``, ``ln_re``,
+        ``ln_plane_wave_*``, ``ln_lumped_*``, ``ln_bore_per_length`` (per spring), ``ln_mach``,
+        ``ln_re``,
         ``ln_alpha_max`` (per isolator), column vectors.
     """
     from isodesign.numerics import backend as bk
@@ -400,4 +401,5 @@ def validity_quantities(d, designs, ln_sigma_u, w_max: float, group_of=None) -> 
     q["ln_re"] = stack([f["ln_re"] for f in flow])
     q["ln_alpha_max"] = stack([spring_validity(di, w_max)["ln_alpha_max"]
                                for di in designs])
+    q["ln_bore_per_length"] = stack([p["ln_bore_per_length"] for p in per])
     return q

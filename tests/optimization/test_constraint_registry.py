@@ -85,6 +85,7 @@ def test_vertical_rows_recheck_on_numpy(changes):
     expected |= {"lumped_tube"} if changes.get("models.acoustics") == "lumped" else \
         {"plane_wave_top_chamber"}
     expected |= {"quasi_steady_alpha"} if changes.get("models.flow") else {"laminar"}
+    expected |= {"tube_end_length"}  # the box admits L_c = 2 mm with D_c = 3 mm
     assert expected <= seen
 
 
@@ -112,8 +113,51 @@ def test_table_rows_recheck_on_numpy(changes):
         if changes.get("models.acoustics") else {"plane_wave_top_chamber",
                                                  "plane_wave_bottom_chamber"}
     validity |= {"quasi_steady_alpha"} if changes.get("models.flow") else {"laminar"}
+    validity |= {"tube_end_length"}  # the box admits L_c = 2 mm with D_c = 3 mm
     assert checked == {"total_volume", "natural_frequency", "stroke", "tilt_margin_rows",
                        "peak_transmissibility", "mach"} | validity
+
+
+@pytest.mark.parametrize("body", ["vertical", "table"])
+def test_the_tube_rows_follow_the_box_and_the_end_correction(body):
+    # D_c / L_c <= 0.49 (0.98 of the end correction's 4 bore radii) where the box admits a
+    # shorter tube; D_c / L_c < 0.98 with the end correction off; no row where the box
+    # keeps the tube long (L_c >= 10 mm with D_c <= 3 mm) or fixes both
+    from isodesign.optimization.problem import Problem
+    from isodesign.optimization.table_problem import TableProblem
+
+    base = vertical_study() if body == "vertical" else table_study()
+    build = Problem if body == "vertical" else TableProblem
+
+    def rows(study):
+        prob = build(study)
+        return {c.name if body == "vertical" else c: (row, n) for c, row, n in prob.con_rows}, \
+            prob
+
+    for changes, kind, limit in (
+            ({}, "tube_end_length", 0.5),
+            ({"hardware.tube_end_correction": False}, "tube_length", 1.0),
+            ({"variables.capillary_length_m.lower": 0.01}, None, None),
+            ({"variables.capillary_length_m.fixed": True,
+              "variables.capillary_diameter_m.fixed": True}, None, None)):
+        study = base.with_changes(changes) if changes else base
+        found, prob = rows(study)
+        names = {k for k in found if k in ("tube_end_length", "tube_length")}
+        assert names == ({kind} if kind else set()), changes
+        if kind is None:
+            continue
+        k = CONSTRAINTS[kind]
+        assert k.validity and k.on(study)
+        lo, hi = k.nlp_bounds(study)
+        assert lo == -np.inf and hi == pytest.approx(np.log(0.98 * limit), abs=1e-15)
+        # the row is ln(D_c / L_c) of the design
+        values = _starts(study)
+        g, _ = _g(prob, values)
+        row, n = found[kind]
+        d = study.design_at(values)
+        np.testing.assert_allclose(g[row: row + n], np.log(d.capillary_diameter_m
+                                                         / d.capillary_length_m),
+                                   rtol=0, atol=ROW_TOL)
 
 
 def test_table_frozen_mode_rows_give_the_exact_modes():

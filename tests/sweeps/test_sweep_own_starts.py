@@ -82,8 +82,12 @@ def test_the_neighbours_start_alone_keeps_the_study_start_as_the_start_design(sm
     assert alone.starts[0].start == both.starts[1].start
     # the start design reported is the study's, whichever starts were solved
     assert alone.start_values == both.start_values == {v.name: v.start for v in b.variables}
-    # the neighbour's start reached the two-start answer here (one branch)
-    assert alone.objective_value == pytest.approx(both.objective_value, abs=1e-6)
+    # the neighbour's start is the same solve alone or beside the study's start
+    assert alone.starts[0].objective == pytest.approx(both.starts[1].objective, abs=1e-9)
+    # and reached the two-start answer (one branch), within the sweep's 0.01 dB
+    # (docs/sweep.md: the peak refinement of the two answers places its frequencies from
+    # different solves; measured 1e-3 dB apart on this coarse grid, or equal)
+    assert alone.objective_value == pytest.approx(both.objective_value, abs=0.01)
     with pytest.raises(InputError, match="own_starts=False needs extra_starts"):
         optimize_vertical(b, problem=prob.at(b), analyze=False, own_starts=False)
 
