@@ -389,7 +389,7 @@ class OuterFixedPoint:
         its = 0
         cap = DISTORTION_MAX_ROUNDS if rounds is None else max(1, min(int(rounds),
                                                                       DISTORTION_MAX_ROUNDS))
-        done, nxt = False, None
+        done, nxt, prev = False, None, None
         for n_round in range(1, cap + 1):
             end = p.size - self._n_after_dist()
             p[end - self._n_dist:end] = self._dist_p
@@ -399,8 +399,17 @@ class OuterFixedPoint:
             sol = super().solve(x, p, warm=warm if n_round == 1 else None)
             wall += sol.wall_s
             its += sol.iterations
+            if not sol.success and n_round > 1 and prev is not None:
+                # a later round that failed cold (IPOPT's iteration limit, on a branch the
+                # first round reached: two of the seven starts of the co-design script's
+                # all_and_inertia_base case, which then lost its best branch), once more
+                # warm from the round before's multipliers
+                sol = super().solve(x, p, warm=prev)
+                wall += sol.wall_s
+                its += sol.iterations
             if not sol.success or not np.all(np.isfinite(sol.x)):
                 break  # a failed solve is returned as it is (its status says so)
+            prev = sol
             z = np.clip(sol.x[:self.nz], -1.0, 1.0)
             used = self.nlp_vector(sol.x, self._dist_p)
             true = self._terms_at_z(z)

@@ -603,14 +603,20 @@ def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
     The refinement can only lower a branch's objective, so a distinct branch whose optimum
     before it (J) is better than the refined winner's J may win after its own; each such
     branch is refined in turn (the movable frequencies placed so far kept, the frozen modes
-    set at its point) and the best refined one that meets its peak bound is kept.
+    set at its point) and the best refined one that meets its peak bound is kept. A winner
+    whose own refinement left its peak above the bound yields to any branch that meets it:
+    then every branch is refined in order of J until one does.
     ``j_first`` is the refined branch's J before its refinement.
     """
     if not best.feasible or not peak["rounds"]:
         return prob, best, modes, rounds, peak
+    # a winner whose refinement left its peak above the bound (its rounds spent, or a
+    # re-solve failed) is no winner: every other branch is refined, in order, until one
+    # meets the bound, and one that does wins whatever its objective
+    met = peak["met"] is not False
     seen = [j_first, best.objective]
     for sol in sorted(good.values(), key=lambda o: o.objective):
-        if sol.objective >= best.objective - BRANCH_TOLERANCE:
+        if met and sol.objective >= best.objective - BRANCH_TOLERANCE:
             break
         if any(abs(sol.objective - j) <= BRANCH_TOLERANCE for j in seen):
             continue
@@ -626,8 +632,9 @@ def _other_branches(prob, study, good, j_first, best, modes, rounds, peak):
         out = _refine(prob, study, sol, slots=slots)
         prob = out[0]
         cand, cpeak = out[1], out[4]
-        if cand.feasible and cpeak["met"] is not False and cand.objective < best.objective:
-            best, modes, rounds, peak = cand, out[2], out[3], cpeak
+        if cand.feasible and cpeak["met"] is not False and (not met
+                                                            or cand.objective < best.objective):
+            best, modes, rounds, peak, met = cand, out[2], out[3], cpeak, True
             peak["added_frequencies_hz"] = list(slots)  # every frequency the NLP now holds
         else:
             # the NLP as the winner was solved: its frozen modes, peak frequencies and loop
@@ -784,6 +791,10 @@ def _refine(prob, study, best, slots=None):
         peak["added_frequencies_hz"] += new
         peak["rounds"] += 1
         sol = prob.solve(best.x, warm=best.as_start(), **capped(prob, 1))
+        if not sol.feasible and best.lam_g is not None and len(best.lam_g) == len(prob.lbg):
+            # a round that failed cold (IPOPT's iteration limit), once more warm from best's
+            # multipliers (on the same NLP: not the first round of one built with slots)
+            sol = prob.solve(best.x, warm=best, **capped(prob, 1))
         if not sol.feasible:  # keep the last feasible design; its peak stays a violation
             peak["resolve_failed"] = f"peak refinement: {sol.status}"
             prob = held[0]

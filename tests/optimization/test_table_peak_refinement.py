@@ -199,12 +199,13 @@ def test_a_branch_better_before_refinement_is_refined_too(held_out_toml):
 
 
 def test_a_losing_branch_leaves_the_nlp_as_the_winner_was_solved(monkeypatch):
-    """The other branches' refinement freezes their modes, places their peak frequencies and
-    clears the loop poles in the one NLP. When no branch wins, the NLP is handed back with
-    the winner's parameters: the winner's rows (``best.g``) are of those, and the re-check
-    compares them with the NumPy rows at the NLP's frequencies (before, a losing branch's
-    frequencies stayed: a 2.2 difference in ln |T|^2 and a refused optimum). A branch that
-    wins keeps its own."""
+    """A winner whose refinement left its peak above the bound yields to a branch that meets
+    it, whatever their objectives. The other branches' refinement freezes their modes,
+    places their peak frequencies and clears the loop poles in the one NLP. When no branch
+    wins, the NLP is handed back with the winner's parameters: the winner's rows
+    (``best.g``) are of those, and the re-check compares them with the NumPy rows at the
+    NLP's frequencies (before, a losing branch's frequencies stayed: a 2.2 difference in
+    ln |T|^2 and a refused optimum). A branch that wins keeps its own."""
     from isodesign.optimization import table_driver as topt
 
     class Prob:  # the NLP's parameters a refinement changes, and nothing else
@@ -245,12 +246,15 @@ def test_a_losing_branch_leaves_the_nlp_as_the_winner_was_solved(monkeypatch):
     monkeypatch.setattr(topt, "_modes_at", lambda *a, **k: "modes")
     best, other = sol(-5.0), sol(-9.0)  # the other branch better before its refinement
     winner_peak = {"rounds": 1, "met": True, "added_frequencies_hz": [1.0, 1.1]}
-    for j_refined, wins in ((-4.0, False), (-6.0, True)):
+    # a refined branch worse than the winner loses to a winner that meets its peak bound and
+    # wins over one that does not; a better one wins
+    for j_refined, winner_met, wins in ((-4.0, True, False), (-6.0, True, True),
+                                        (-4.0, False, True)):
         prob = Prob()
         before = (prob.mode_params.copy(), prob.slot_hz.copy(), prob.loop_params.copy())
         monkeypatch.setattr(topt, "_refine", refine_to(j_refined))
         out = topt._other_branches(prob, st, {0: best, 1: other}, -6.0, best, "winner modes",
-                                   1, dict(winner_peak))
+                                   1, {**winner_peak, "met": winner_met})
         p, kept, modes, _, peak = out
         assert p is prob
         if wins:
