@@ -51,9 +51,6 @@ from isodesign.plotting.optimization import case_margin_bars
 from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.layout import layout_extent
 
-#: Computed with the plain closure (models.distortion = false): the figures the docs quote.
-PLAIN = {"distortion": False}
-
 #: The cases: a name and the levers it frees ("default": the default study, its own bounds).
 CASES = {"springs": (), **{name: (name,) for name in TABLE_LEVERS}, "all": TABLE_LEVERS,
          "layout": LAYOUT_LEVERS, "all_and_layout": TABLE_LEVERS + LAYOUT_LEVERS,
@@ -70,8 +67,8 @@ def case_study(levers):
     constraints with a free layout lever; ``None``: the default study (its levers free
     within its practical bounds)."""
     if levers is None:
-        return default_study().with_changes(models=PLAIN)
-    st = table_study().with_changes(models=PLAIN)
+        return default_study()
+    st = table_study()
     if not levers:
         return st
     cons = LAYOUT_CONSTRAINTS if set(levers) & set(LAYOUT_LEVERS) else {}

@@ -60,9 +60,6 @@ from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search
 from isodesign.table.response import table_band_response
 from isodesign.table.statics import level
 
-#: Computed with the plain closure (models.distortion = false): the figures the docs quote.
-PLAIN = {"distortion": False}
-
 #: A mode below this frequency has a damping row (as in the table NLP).
 DAMPED_MODE_MAX_HZ = 5.0
 #: Relative slack of the exact constraints (the NLP's own feasibility is 1e-6 relative).
@@ -265,7 +262,7 @@ def main(argv=None) -> int:
                    help="an isodesign optimize run directory of the same study (its "
                    "design.json's optimum; e.g. out/demo/optimize): not optimized again")
     a = p.parse_args(argv)
-    study = default_study().with_changes(models=PLAIN) if a.study is None else load_study(a.study)
+    study = default_study() if a.study is None else load_study(a.study)
     product = None
     if a.product_run is not None:
         run = Path(a.product_run)

@@ -29,15 +29,12 @@ from isodesign.optimization.pareto import pareto_front
 from isodesign.optimization.study import table_study
 from isodesign.plotting.style import new_figure, save_figure
 
-#: Computed with the plain closure (models.distortion = false): the figures the docs quote.
-PLAIN = {"distortion": False}
-
 
 def front_study(starts: int = 1):
     """The built-in table with the inertia base's mass free (default bounds: 0 to the 697 kg
     the supply carries)."""
     return table_study().with_changes(variables={"inertia_base_mass_kg": {"fixed": False}},
-                                      solver={"starts": starts}, models=PLAIN)
+                                      solver={"starts": starts})
 
 
 def main(argv=None) -> int:

@@ -42,9 +42,6 @@ from isodesign.plotting.style import new_figure, save_figure
 from isodesign.table.plots import layout_figure
 from isodesign.table.study import study_footprint
 
-#: Computed with the plain closure (models.distortion = false): the figures the docs quote.
-PLAIN = {"distortion": False}
-
 RECT = [[-0.75, -0.5], [0.75, -0.5], [0.75, 0.5], [-0.75, 0.5]]
 CHAMFER = 0.25
 OCTAGON = [[-0.75 + CHAMFER, -0.5], [0.75 - CHAMFER, -0.5], [0.75, -0.5 + CHAMFER],
@@ -69,7 +66,7 @@ CASES = {
 
 def case_study(name: str, starts: int | None = None):
     """The built-in table study with the case's changes (and ``starts``, if given)."""
-    st = table_study().with_changes(models=PLAIN)
+    st = table_study()
     if CASES[name]:
         st = st.with_changes(**CASES[name])
     return st.with_changes(solver={"starts": starts}) if starts else st
