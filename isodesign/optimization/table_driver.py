@@ -60,6 +60,7 @@ from isodesign.optimization.distortion_rows import capped
 from isodesign.optimization.multistart import run_starts, start_points
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
 from isodesign.optimization.result import StudyResult
+from isodesign.optimization.table_analysis import _analyze, band_response_and_modes
 from isodesign.optimization.table_constraints import (
     CONTINUOUS_PEAK,
     LEVELING_GAIN_MARGIN,
@@ -882,49 +883,3 @@ def _modes_moved(prob, modes) -> bool:
         if corr < 0.999:
             return True
     return False
-
-
-def _analyze(study, d, values=None):
-    """Fine-grid band response, modes at its closure and rocking stability of a design."""
-    from isodesign.table.modes import rocking_stability
-
-    res, modes = band_response_and_modes(study, d, values)
-    return res, modes, rocking_stability(res.model)
-
-
-def band_response_and_modes(study, d, values=None, models=None):
-    """A design's fine-grid band response and the table's modes at its closure springs.
-
-    Parameters
-    ----------
-    study : Study
-        A study with a ``[table]``.
-    d : Design
-    values : dict, optional
-        Design values setting the study's levers (``study.table_at``); None: the study's table.
-    models : dict, optional
-        The response models (flow, amplitude_mode, diaphragm, distortion); None: the study's.
-
-    Returns
-    -------
-    (TableBandResponse, TableModes)
-        The band response (warnings silenced: the caller flags validity from its
-        diagnostics) and the modes with the vertical springs at the response's closure.
-    """
-    import warnings
-
-    from isodesign.table.modes import table_modes
-    from isodesign.table.response import table_band_response
-
-    m = study.models if models is None else models
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        res = table_band_response(d, study.table_at(values), study.floor_axes, study.target,
-                                  bands=study.bands, flow=m["flow"],
-                                  amplitude_mode=m["amplitude_mode"],
-                                  diaphragm=m["diaphragm"], warn=False,
-                                  distortion=bool(m.get("distortion", False)))  # fmt: skip
-    model = res.model
-    modes = table_modes(model, vertical=closure_springs(model, res.stroke_rms_m,
-                                                        res.closure_tube_velocity_m_s))
-    return res, modes
