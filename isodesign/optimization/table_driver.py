@@ -791,11 +791,13 @@ def _refine(prob, study, best, slots=None):
         slots += new
         peak["added_frequencies_hz"] += new
         peak["rounds"] += 1
-        sol = prob.solve(best.x, warm=best.as_start(), **capped(prob, 1))
-        if not sol.feasible and best.lam_g is not None and len(best.lam_g) == len(prob.lbg):
-            # a round that failed cold (IPOPT's iteration limit), once more warm from best's
-            # multipliers (on the same NLP: not the first round of one built with slots)
-            sol = prob.solve(best.x, warm=best, **capped(prob, 1))
+        same = best.lam_g is not None and len(best.lam_g) == len(prob.lbg)
+        # on the same NLP (not the first round of one built with slots) warm from best's
+        # multipliers, the new frequencies' rows at theirs (docs/table.md, section 13); a
+        # round that fails so (IPOPT's iteration limit) is solved once more cold
+        sol = prob.solve(best.x, warm=best if same else best.as_start(), **capped(prob, 1))
+        if not sol.feasible and same:
+            sol = prob.solve(best.x, warm=best.as_start(), **capped(prob, 1))
         if not sol.feasible:  # keep the last feasible design; its peak stays a violation
             peak["resolve_failed"] = f"peak refinement: {sol.status}"
             prob = held[0]
