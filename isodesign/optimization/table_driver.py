@@ -722,7 +722,7 @@ def _refine(prob, study, best, slots=None):
         limit = None
     peak = {"rounds": 0, "added_frequencies_hz": [], "limit_db": limit,
             "tolerance_db": PEAK_TOLERANCE_DB,
-            "max_rounds": PEAK_ROUNDS_CAP_FACTOR * TABLE_PEAK_ROUNDS,
+            "max_rounds": MAX_PEAK_ROUNDS,
             "peaks": None, "met": None, "excess_db": None, "resolve_failed": None,
             "leveling_rounds": 0}
     rounds = 0
@@ -767,7 +767,7 @@ def _refine(prob, study, best, slots=None):
             peak["met"] = not over
             peak["excess_db"] = pk.max_db - limit
         new = []
-        if not (stop or not over or peak["rounds"] >= PEAK_ROUNDS_CAP_FACTOR * TABLE_PEAK_ROUNDS):
+        if not (stop or not over or peak["rounds"] >= MAX_PEAK_ROUNDS):
             # the NLP best was solved with (a failed re-solve returns to it: best's g are its
             # rows)
             held = (prob, prob.slot_hz.copy())
@@ -791,13 +791,7 @@ def _refine(prob, study, best, slots=None):
         slots += new
         peak["added_frequencies_hz"] += new
         peak["rounds"] += 1
-        same = best.lam_g is not None and len(best.lam_g) == len(prob.lbg)
-        # on the same NLP (not the first round of one built with slots) warm from best's
-        # multipliers, the new frequencies' rows at theirs (docs/table.md, section 13); a
-        # round that fails so (IPOPT's iteration limit) is solved once more cold
-        sol = prob.solve(best.x, warm=best if same else best.as_start(), **capped(prob, 1))
-        if not sol.feasible and same:
-            sol = prob.solve(best.x, warm=best.as_start(), **capped(prob, 1))
+        sol = solve_round(prob, best, **capped(prob, 1))
         if not sol.feasible:  # keep the last feasible design; its peak stays a violation
             peak["resolve_failed"] = f"peak refinement: {sol.status}"
             prob = held[0]
@@ -809,6 +803,42 @@ def _refine(prob, study, best, slots=None):
     if best.outer_pending:  # an infeasible design's fixed point converged too (its violations)
         best = prob.solve(best.x, warm=best)
     return prob, best, modes, rounds, peak
+
+
+def solve_round(prob, best, params=None, **kwargs):
+    """One round of the continuous peak refinement: ``prob`` solved from ``best``'s design
+    with the frequencies just placed (this function, :func:`optimize_table` and the table
+    Pareto front, docs/table.md, section 6).
+
+    On the same NLP as ``best`` (every round but the first of an NLP built with movable
+    frequencies) IPOPT starts warm from ``best``'s multipliers, the new frequencies' rows from
+    those their slots had; a round that fails so (IPOPT's iteration limit) is solved once more
+    cold, as the first round of a new NLP is.
+
+    Parameters
+    ----------
+    prob : TableProblem
+        The NLP, its movable frequencies set.
+    best : Solution
+        The design the round starts from.
+    params : ndarray, optional
+        The NLP's parameters (default: its first objective's).
+    **kwargs
+        To ``prob.solve`` (the outer fixed point's cap, :func:`.distortion_rows.capped`).
+
+    Returns
+    -------
+    Solution
+    """
+    same = best.lam_g is not None and len(best.lam_g) == len(prob.lbg)
+    sol = prob.solve(best.x, params, warm=best if same else best.as_start(), **kwargs)
+    if not sol.feasible and same:
+        sol = prob.solve(best.x, params, warm=best.as_start(), **kwargs)
+    return sol
+
+
+#: The most rounds of the continuous peak refinement (while its movable frequencies last).
+MAX_PEAK_ROUNDS = PEAK_ROUNDS_CAP_FACTOR * TABLE_PEAK_ROUNDS
 
 
 def _loop_refresh_needed(prob, study, best, peak) -> bool:

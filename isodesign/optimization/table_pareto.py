@@ -285,15 +285,20 @@ def _peak_refined(study, state, x0, params, first=None):
     ``state`` holds the NLP (built again with movable frequencies when needed) and the
     frequencies placed so far, shared by every point of the front.
     """
-    from isodesign.optimization.table_driver import _modes_at, add_peak_frequencies, measure_peaks
-    from isodesign.optimization.table_problem import TABLE_PEAK_ROUNDS
+    from isodesign.optimization.table_driver import (
+        MAX_PEAK_ROUNDS,
+        _modes_at,
+        add_peak_frequencies,
+        measure_peaks,
+        solve_round,
+    )
 
     limit = study.constraints.get("max_peak_transmissibility_db")
     sol = first if first is not None else state["prob"].solve(x0, params)
     if limit is None or limit is False:
         return sol, None
     excess = None
-    for k in range(TABLE_PEAK_ROUNDS + 1):
+    for k in range(MAX_PEAK_ROUNDS + 1):
         if not sol.feasible:
             return sol, None
         prob = state["prob"]
@@ -304,7 +309,7 @@ def _peak_refined(study, state, x0, params, first=None):
                            values=sol.values)  # a co-designed table's levers
         excess = pk.max_db - limit
         over = pk.above(limit, PEAK_TOLERANCE_DB)
-        if not over or k == TABLE_PEAK_ROUNDS:
+        if not over or k == MAX_PEAK_ROUNDS:
             break
         w = params[: len(prob.objectives)]
         eps = params[len(prob.objectives) + 1: 2 * len(prob.objectives) + 1]
@@ -313,5 +318,5 @@ def _peak_refined(study, state, x0, params, first=None):
             break  # every movable frequency taken: the excess stays reported
         state["prob"], state["used"] = prob, state["used"] + new
         params = prob.params(weights=w, eps=[None if e >= 1e19 else e for e in eps])
-        sol = prob.solve(sol.x, params, warm=sol.as_start())
+        sol = solve_round(prob, sol, params)
     return sol, excess

@@ -269,3 +269,73 @@ def test_a_losing_branch_leaves_the_nlp_as_the_winner_was_solved(monkeypatch):
             np.testing.assert_array_equal(p.loop_params, before[2])
             assert p.loop_system == "winner's"
             assert peak["added_frequencies_hz"] == [1.0, 1.1]
+
+
+def test_a_round_starts_warm_on_the_same_nlp_and_falls_back_cold():
+    """``solve_round``: from the design's multipliers when the NLP is the one it was solved
+    on (the same rows), cold on a new one (the first round of the NLP built with movable
+    frequencies), and once more cold when the warm round fails."""
+    from isodesign.optimization.table_driver import solve_round
+
+    class Prob:
+        def __init__(self, rows, fail_warm=False):
+            self.lbg, self.fail_warm, self.calls = np.zeros(rows), fail_warm, []
+
+        def solve(self, x0, p=None, warm=None, **kw):
+            warm_start = warm is not None and warm.lam_g is not None
+            self.calls.append(("warm" if warm_start else "cold", kw))
+            return types.SimpleNamespace(feasible=not (warm_start and self.fail_warm))
+
+    class Best:
+        x, lam_x, lam_g = np.zeros(2), np.zeros(2), np.zeros(5)
+
+        def as_start(self):
+            return types.SimpleNamespace(x=self.x, lam_x=None, lam_g=None)
+
+    for rows, fail_warm, calls in ((5, False, ["warm"]), (7, False, ["cold"]),
+                                   (5, True, ["warm", "cold"])):
+        prob = Prob(rows, fail_warm)
+        solve_round(prob, Best(), rounds=1)
+        assert [c for c, _ in prob.calls] == calls
+        assert all(kw == {"rounds": 1} for _, kw in prob.calls)
+
+
+def test_the_table_front_refines_a_point_by_the_optimizers_rule(monkeypatch):
+    """A Pareto point's continuous peak is refined as the optimum's (one rule): rounds while
+    the movable frequencies last, at most ``MAX_PEAK_ROUNDS`` (past ``TABLE_PEAK_ROUNDS``,
+    where the front used to stop), each by ``solve_round``; the excess is reported."""
+    from isodesign.optimization import table_driver as topt
+    from isodesign.optimization import table_pareto as tp
+    from isodesign.optimization.table_problem import TABLE_PEAK_ROUNDS
+
+    assert topt.MAX_PEAK_ROUNDS > TABLE_PEAK_ROUNDS
+
+    class Peaks:  # a peak that moves every round and stays 0.1 dB above the bound
+        max_db = 15.1
+
+        def above(self, limit, tol):
+            return [("corner", "z", 1.0)]
+
+    rounds = []
+
+    def add(prob, over, used):
+        return prob, [1.0 + 0.01 * len(used)]
+
+    def round_(prob, sol, params=None, **kw):
+        rounds.append(params)
+        return sol
+
+    monkeypatch.setattr(topt, "measure_peaks", lambda *a, **k: Peaks())
+    monkeypatch.setattr(topt, "_modes_at", lambda *a, **k: None)
+    monkeypatch.setattr(topt, "add_peak_frequencies", add)
+    monkeypatch.setattr(topt, "solve_round", round_)
+    prob = types.SimpleNamespace(objectives=("a", "b"), sigma=lambda x: x, tube_rms=lambda x: x,
+                                 params=lambda weights, eps: ("params", tuple(weights)))
+    sol = types.SimpleNamespace(feasible=True, values={}, x=None)
+    st = types.SimpleNamespace(constraints={"max_peak_transmissibility_db": 15.0},
+                               design_at=lambda v: None)
+    state = {"prob": prob, "used": []}
+    out, excess = tp._peak_refined(st, state, None, np.zeros(5), first=sol)
+    assert len(rounds) == topt.MAX_PEAK_ROUNDS
+    assert len(state["used"]) == topt.MAX_PEAK_ROUNDS
+    assert out is sol and excess == pytest.approx(0.1)
