@@ -217,7 +217,8 @@ class _Scenarios:
             sigma, sigma_u = ((pr.sigma(xk), pr.tube_rms(xk)) if xk is not None
                               else pr.closure(pr.study.design_at(values), values))
             d = pr.study.design_at(values)
-            modes = _modes_at(pr, d, sigma, sigma_u, values=values)
+            # the modes only bound the peak search: the faster side-by-side evaluation
+            modes = _modes_at(pr, d, sigma, sigma_u, values=values, side_by_side=True)
             over = measure_peaks(pr, d, sigma, sigma_u, modes, values=values).above(
                 limit, PEAK_TOLERANCE_DB)
             if not over:
@@ -250,7 +251,9 @@ class _Scenarios:
         closure, the NLP's own constraint expressions)."""
         prob = self.problem(theta)
         d = prob.study.design_at(values)
-        prob.set_modes(_modes_at(prob, d))
+        # evaluated, not solved (a round sets the modes it solves with again): the
+        # scorer's side-by-side evaluation, as score_table_scenario's
+        prob.set_modes(_modes_at(prob, d, side_by_side=True))
         x = prob.initial_guess(values)
         # models.distortion: the terms at this design (distortion_rows.params_at)
         _, g = prob.eval_fn(x, getattr(prob, "params_at", lambda x: prob.params())(x))
@@ -538,7 +541,7 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         t0 = time.perf_counter()
         probs = [sc.problem(th) for th in thetas]
         for pr in probs:
-            pr.set_modes(_modes_at(pr, pr.study.design_at(values)))
+            pr.set_modes(_modes_at(pr, pr.study.design_at(values), side_by_side=True))
         # the stacked NLP is built when the scenario set changes; a round that only placed
         # peak frequencies (parameters) re-solves it from the last solution
         new_set = stack is None or len(stack.probs) != len(probs)

@@ -873,9 +873,9 @@ def _model(study, d, values=None):
 
 
 def _modes_at(prob, d, sigma=None, sigma_u=None, values=None, side_by_side=False):
-    """The modes at the closure's springs; ``side_by_side``: :func:`table_modes`'s (the NLP's
-    frozen modes keep the mode-by-mode evaluation: the same to rounding, docs/table.md
-    section 6; the robust search, which only scores, takes the faster one)."""
+    """The modes at the closure's springs; ``side_by_side``: :func:`table_modes`'s (the
+    nominal NLP's frozen modes keep the mode-by-mode evaluation: the same to rounding,
+    docs/table.md section 6; the robust exchange takes the faster one)."""
     from isodesign.table.modes import table_modes
 
     if sigma is None:

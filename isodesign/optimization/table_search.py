@@ -28,8 +28,8 @@ corners and the centre through the NLP check (as before: their NLPs are the ones
 exchange stacks), ``search_samples`` uniform samples with :func:`score_table_scenario`,
 then the best :data:`REFINE` candidates refined by a bounded local maximization (L-BFGS-B,
 its gradient by finite differences of the scorer, at most :data:`REFINE_EVALUATIONS`
-evaluations each) of the quantity that scored them (docs/robust.md, section 3). The samples
-and the maximizations run in the forked workers the study allows
+evaluations each) of the quantity that scored them (docs/robust.md, section 3). The corners
+(one map with the samples) and the maximizations run in the forked workers the study allows
 (:func:`~.multistart.map_in_workers`),
 each task a function of its scenario (or start and quantity) alone: the same worst scenario
 as in one process.
@@ -302,23 +302,27 @@ def search_box(study, values: dict, reference: float, check, corners, *, samples
     def sample(th):  # the scorer's check of scenario th at this design
         return score_table_scenario(study, th, values, reference, n_slots=n_slots)
 
+    def scored_by(item):  # a corner by ``check``, a sample by the scorer
+        kind, th = item
+        return check(th, values, reference) if kind == "corner" else sample(th)
+
+    # the corners, the centre and the samples in the workers, in one map (map_in_workers:
+    # the same checks as in this process, in item order)
+    items = [("corner", np.asarray(th, float)) for th in corners]
+    if samples > 0:
+        items += [("sample", th) for th in space.box_samples(samples,
+                                                            np.random.default_rng(seed))]
     scored = []
-    for th in corners:
-        c = check(th, values, reference)
+    for (kind, th), c in zip(items, map_in_workers(scored_by, items, workers=workers),
+                             strict=True):
         s, which = _score(c, tol, feas_tol)
-        scored.append((s, which, np.asarray(th, float), c, "corner"))
+        scored.append((s, which, th, c, kind))
     n_ref = 0
     n_runs = 0
     if samples > 0:
         lo, hi = space.lower(), space.upper()
         cont = np.array([not p.discrete for p in space.parameters])
         width = np.where(hi > lo, hi - lo, 1.0)
-        # the samples and the maximizations in the workers (map_in_workers)
-        rng = np.random.default_rng(seed)
-        ths = list(space.box_samples(samples, rng))
-        for th, c in zip(ths, map_in_workers(sample, ths, workers=workers), strict=True):
-            s, which = _score(c, tol, feas_tol)
-            scored.append((s, which, th, c, "sample"))
         order = sorted(range(len(scored)), key=lambda k: -scored[k][0])
         best = scored[order[0]]
         runs, seen = [], []  # the candidates refined: (theta, quantity), best first
