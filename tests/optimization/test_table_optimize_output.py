@@ -65,7 +65,7 @@ def test_a_peak_left_above_its_bound_is_a_violation_and_exits_1(tmp_path, capsys
     15 dB between the grid's frequencies (below its first one): reported, exit 1, no PASS."""
     import isodesign.optimization.table_driver as topt
 
-    monkeypatch.setattr(topt, "TABLE_PEAK_ROUNDS", 0)
+    monkeypatch.setattr(topt, "MAX_PEAK_ROUNDS", 0)  # no refinement round
     study = tmp_path / "five.toml"
     study.write_text(held_out_toml.replace("starts = 2", "starts = 1"))
     out = tmp_path / "o"
