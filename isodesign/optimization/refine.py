@@ -579,13 +579,14 @@ def _rank_branches(study, prob, done: list, merged: list, tol_j: float, error=No
     ``done``: the refined branches (start order); ``merged``: ``(start, the refined
     branch it joined)`` pairs, listed with that branch's optimum; ``error``: the first
     :class:`SolverError` of a branch, raised when none was refined. Sorts ``done`` by
-    refined optimum (stable: equal optima keep the start order), tie-breaks the best
+    refined optimum, those meeting their peak limit first (:func:`_rank_key`; stable: equal
+    optima keep the start order), tie-breaks the best
     (:func:`_finish_best`, ``pre`` as there) when the study asks for it and leaves the NLP
     at the winner's slots. Shared by :func:`refine_branches` and the early refinement.
     """
     if not done:
         raise error or SolverError("no branch refined")
-    done = sorted(done, key=lambda r: r.best.objective)
+    done = sorted(done, key=_rank_key)
     if study.solver["tie_break"]:
         done = _finish_best(study, prob, done, tol_j, pre)
     win = done[0]
@@ -625,12 +626,20 @@ def _finish_best(study, prob, done: list, tol_j: float, pre: dict | None = None)
         except SolverError as exc:
             error = error or exc
         if out:
-            lead = min(f.best.objective for f in out)
-            if k + 1 == len(done) or lead <= done[k + 1].best.objective:
+            lead = min(_rank_key(f) for f in out)
+            if k + 1 == len(done) or lead <= _rank_key(done[k + 1]):
                 rest = done[k + 1:]
                 break
     else:
         rest = []
     if not out:
         raise error
-    return sorted(out, key=lambda r: r.best.objective) + rest
+    return sorted(out, key=_rank_key) + rest
+
+
+def _rank_key(r) -> tuple:
+    """The order of refined branches: those whose continuous peak meets its limit (or is not
+    checked) first, then by refined optimum; a branch whose refinement left its peak above
+    the limit wins only when none meets it (the table optimizer's rule, docs/table.md
+    section 6: one rule for both bodies)."""
+    return (r.peak.get("met") is False, r.best.objective)

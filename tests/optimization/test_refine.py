@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from isodesign.io.record import grid_notes, optimization_design, optimization_record
@@ -163,6 +164,32 @@ def test_a_winner_that_loses_its_lead_in_the_finish_lets_the_next_branch_in(monk
     after.update({0: None, 1: None, 2: None})
     with pytest.raises(SolverError, match="branch 0"):
         refine._finish_best(None, None, done, 0.01)
+
+
+def test_a_branch_that_meets_its_peak_limit_outranks_one_that_misses_it(monkeypatch):
+    """One rule for both bodies (docs/table.md section 6): a refined branch whose peak is
+    still above its limit after the last round wins only when no branch meets it, whatever
+    their optima; branches without a checked peak (``met`` None) rank as meeting it. The
+    finish's lead is judged by the same order."""
+    import types
+
+    def branch(start, j, met):
+        r = _refined(start, j)
+        r.peak.update(met=met)
+        return r
+
+    st = types.SimpleNamespace(solver={"tie_break": False})
+    prob = types.SimpleNamespace(slot_hz=np.zeros(0), set_slots=lambda f: None)
+    done = [branch(0, -9.0, False), branch(1, -8.0, True), branch(2, -8.5, None)]
+    win = refine._rank_branches(st, prob, done, [], 0.01)
+    assert win.start == 2 and [s for s, _ in win.branches] == [2, 1, 0]
+    win = refine._rank_branches(st, prob, [done[0], branch(3, -7.0, False)], [], 0.01)
+    assert win.start == 0  # none meets it: the better optimum
+    # the finish of the winner that meets the limit keeps its lead over a better optimum
+    # that misses it
+    monkeypatch.setattr(refine, "_finish", lambda study, prob, r, tol_j: r)
+    out = refine._finish_best(None, None, [done[1], done[0]], 0.01)
+    assert [r.start for r in out] == [1, 0]
 
 
 @pytest.mark.parametrize("peak_points", [
