@@ -58,6 +58,11 @@ import numpy as np
 from isodesign.errors import InputError, SolverError
 from isodesign.optimization.distortion_rows import capped
 from isodesign.optimization.multistart import run_starts, start_points
+from isodesign.optimization.peak_rounds import (  # noqa: F401  (re-exported)
+    MAX_PEAK_ROUNDS,
+    PEAK_ROUNDS_CAP_FACTOR,
+    solve_round,
+)
 from isodesign.optimization.refine import BRANCH_TOLERANCE, PEAK_TOLERANCE_DB
 from isodesign.optimization.result import StudyResult
 from isodesign.optimization.table_analysis import _analyze, band_response_and_modes
@@ -67,7 +72,7 @@ from isodesign.optimization.table_constraints import (
     LEVELING_PHASE_MARGIN,
     table_constraint_reports,
 )
-from isodesign.optimization.table_problem import TABLE_PEAK_ROUNDS, add_peak_frequencies
+from isodesign.optimization.table_problem import add_peak_frequencies
 from isodesign.table.layout import is_position_lever
 from isodesign.table.peaks import closure_springs, continuous_peaks, peak_search_band
 
@@ -82,13 +87,6 @@ HESSIAN = "limited-memory"
 #: Agreement required of the NumPy re-check (relative on sigma, dB on the margin).
 RECHECK_TOL = 1e-6
 _MODE_ROUNDS = 3
-#: The continuous peak refinement's rounds continue while its movable frequencies last (the
-#: robust exchange's rule, :meth:`~.robust_table.TableScenarioNLPs.place_peak_slots`), at
-#: most this many times :data:`~.table_problem.TABLE_PEAK_ROUNDS` (each round places 3 to 9
-#: of the ``9 x TABLE_PEAK_ROUNDS``). A peak that moves 5-10 % as the design improves is
-#: chased past the fourth round (the co-design script's ``all`` case with the tube rows:
-#: 0.048 dB above its bound after four rounds, docs/table.md section 6).
-PEAK_ROUNDS_CAP_FACTOR = 3
 #: NLP solves with the leveling loop's gain-margin rows frozen again at the new design.
 LOOP_ROUNDS = 8
 #: A loop margin counts as missed when below its bound by more than this (dB, deg).
@@ -803,42 +801,6 @@ def _refine(prob, study, best, slots=None):
     if best.outer_pending:  # an infeasible design's fixed point converged too (its violations)
         best = prob.solve(best.x, warm=best)
     return prob, best, modes, rounds, peak
-
-
-def solve_round(prob, best, params=None, **kwargs):
-    """One round of the continuous peak refinement: ``prob`` solved from ``best``'s design
-    with the frequencies just placed (this function, :func:`optimize_table` and the table
-    Pareto front, docs/table.md, section 6).
-
-    On the same NLP as ``best`` (every round but the first of an NLP built with movable
-    frequencies) IPOPT starts warm from ``best``'s multipliers, the new frequencies' rows from
-    those their slots had; a round that fails so (IPOPT's iteration limit) is solved once more
-    cold, as the first round of a new NLP is.
-
-    Parameters
-    ----------
-    prob : TableProblem
-        The NLP, its movable frequencies set.
-    best : Solution
-        The design the round starts from.
-    params : ndarray, optional
-        The NLP's parameters (default: its first objective's).
-    **kwargs
-        To ``prob.solve`` (the outer fixed point's cap, :func:`.distortion_rows.capped`).
-
-    Returns
-    -------
-    Solution
-    """
-    same = best.lam_g is not None and len(best.lam_g) == len(prob.lbg)
-    sol = prob.solve(best.x, params, warm=best if same else best.as_start(), **kwargs)
-    if not sol.feasible and same:
-        sol = prob.solve(best.x, params, warm=best.as_start(), **kwargs)
-    return sol
-
-
-#: The most rounds of the continuous peak refinement (while its movable frequencies last).
-MAX_PEAK_ROUNDS = PEAK_ROUNDS_CAP_FACTOR * TABLE_PEAK_ROUNDS
 
 
 def _loop_refresh_needed(prob, study, best, peak) -> bool:
