@@ -5,6 +5,7 @@ stderr (a co-designed table solve printed 9,634 of them)."""
 from __future__ import annotations
 
 import casadi as ca
+import pytest
 
 from isodesign.optimization.nlp import ipopt_options
 from isodesign.optimization.study import default_study
@@ -27,3 +28,22 @@ def test_an_undefined_trial_point_prints_nothing_and_the_solve_still_succeeds(ca
     loud(x0=1.0, lbg=0.0, ubg=10.0)
     out, err = capfd.readouterr()
     assert "NaN detected" in out + err  # the same solve does meet undefined points
+
+
+@pytest.mark.slow
+def test_the_acceptable_stop_leaves_the_vertical_studys_starts_as_they_were(monkeypatch):
+    """docs/optimization.md, section 3: the limited-memory solves stop at IPOPT's acceptable
+    level (``nlp.LIMITED_MEMORY_ACCEPTABLE``); the built-in vertical study's starts (its
+    209-variable NLP is limited-memory) take the same iterations to the same optimum with
+    and without it, in the same process."""
+    import isodesign
+    from isodesign.optimization import nlp
+    from isodesign.optimization.study import vertical_study
+
+    st = vertical_study().with_changes(solver={"workers": 1})
+    with_stop = isodesign.optimize(st)
+    monkeypatch.setattr(nlp, "LIMITED_MEMORY_ACCEPTABLE", {})
+    without = isodesign.optimize(st)
+    assert [s.iterations for s in with_stop.starts] == [s.iterations for s in without.starts]
+    assert with_stop.objective_value == pytest.approx(without.objective_value, abs=1e-9)
+    assert with_stop.hessian_choice()["hessian"] == "limited-memory"
