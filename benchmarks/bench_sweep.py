@@ -12,6 +12,9 @@ own NLP: tests/optimization/test_parametric.py; run in 2 forked workers). And ``
 optimize`` of the vertical study, whole process (``python -m isodesign optimize FILE -o
 DIR --quiet``), against c243645's, interleaved: target at most 0.75x (alone, without the
 sweep rows: ``ISODESIGN_BENCH_SWEEP_ROWS=optimize python benchmarks/run.py sweep``).
+Informative: a robust sweep (the vertical study with ``[scenarios]``) continued along a
+payload line against the same points each solved alone, on the same process's NLPs
+(:func:`robust_line_rows`; alone: ``ISODESIGN_BENCH_SWEEP_ROWS=robust``).
 
 The machine is shared: the rows say the load average during each arm.
 
@@ -431,6 +434,95 @@ def optimize_process_row(old: Path, repeats: int | None = None) -> dict:
                      f"{c_n / c_o:.2f}); load average {l0:.1f} -> {l1:.1f}"}
 
 
+#: The robust line (informative rows): the coarse vertical study with [scenarios], one
+#: start, serially in one process, along a payload line (docs/sweep.md, section 7).
+ROBUST_MASSES = (360.0, 380.0, 400.0, 420.0, 440.0, 460.0)
+
+
+def _robust_study():
+    from isodesign.optimization.study import vertical_study
+
+    return vertical_study().with_changes(
+        models={"points_per_band": 3, "peak_points": 10},
+        solver={"starts": 1, "tie_break": False},
+        scenarios={"payload_mass_kg": {"relative": 0.05},
+                   "capillary_diameter_m": {"relative": 0.02}})
+
+
+def _robust_arm(tmp: Path, tag: str, continued: bool) -> dict:
+    """One arm of the robust line: the sweep of every mass (a chain: each point continued
+    from its predecessor), or each mass as a sweep of its own (no neighbour); the same
+    process, so both solve on the NLPs its worker cache built once."""
+    import isodesign
+    from isodesign.sweeps.table import read_table
+
+    vary = {"payload.mass_kg": list(ROBUST_MASSES)}
+    t0, c0 = time.perf_counter(), _process_cpu_s()
+    if continued:
+        dirs = [tmp / f"{tag}-line"]
+        isodesign.sweep(_robust_study(), vary=vary, output=dirs[0], scheduler="serial",
+                        options={"yield_samples": 0}, charts=False)
+    else:
+        dirs = []
+        for m in ROBUST_MASSES:
+            dirs.append(tmp / f"{tag}-{m:g}")
+            isodesign.sweep(_robust_study(), vary={"payload.mass_kg": [m]}, output=dirs[-1],
+                            scheduler="serial", options={"yield_samples": 0}, charts=False)
+    wall, cpu = time.perf_counter() - t0, _process_cpu_s() - c0
+    rows = [r for d in dirs for _, r in read_table(d).iterrows()]
+    return {"wall_s": wall, "cpu_s": cpu,
+            "values": {float(r["payload.mass_kg"]): float(r["objective_value"]) for r in rows},
+            "rounds": int(sum(int(r["rounds"]) for r in rows)),
+            "status": sorted({str(r["status"]) for r in rows})}
+
+
+def robust_line_rows(repeats: int | None = None) -> list[dict]:
+    """Informative rows: a robust sweep continued along its line against the same points
+    each solved alone (no neighbour), interleaved, on the same process's NLPs (the
+    continuation alone differs), and the largest difference of a point's worst case.
+    Run alone with ``ISODESIGN_BENCH_SWEEP_ROWS=robust python benchmarks/run.py sweep``."""
+    if repeats is None:
+        repeats = int(os.environ.get("ISODESIGN_BENCH_SWEEP_REPEATS", "2"))
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        _robust_arm(tmp, "warm", continued=False)  # imports and every NLP built, once
+        alone, line = [], []
+        l0 = os.getloadavg()[0]
+        for i in range(repeats):
+            alone.append(_robust_arm(tmp, f"alone{i}", continued=False))
+            line.append(_robust_arm(tmp, f"line{i}", continued=True))
+        l1 = os.getloadavg()[0]
+    t_a = statistics.median(a["wall_s"] for a in alone)
+    t_l = statistics.median(a["wall_s"] for a in line)
+    c_a = statistics.median(a["cpu_s"] for a in alone)
+    c_l = statistics.median(a["cpu_s"] for a in line)
+    diffs = [line[-1]["values"][m] - alone[-1]["values"][m] for m in ROBUST_MASSES]
+    n = len(ROBUST_MASSES)
+    head = (f"vertical study with [scenarios] payload +-5 %, capillary diameter +-2 %, coarse "
+            f"(3 points per band, 10 peak points), 1 start, payload.mass_kg="
+            f"{','.join(f'{m:g}' for m in ROBUST_MASSES)}, serial in one process (its NLPs "
+            f"built by a warm-up before timing); ")
+    return [
+        {"name": f"robust sweep (informative): {n} points continued along the line vs each "
+                 "solved alone", "target": "", "median": t_l / t_a, "unit": "x",
+         "repeats": repeats,
+         "notes": head + f"medians of {repeats} interleaved runs: alone {t_a:.1f} s "
+                  f"({_walls(alone)}), continued "
+                  f"{t_l:.1f} s ({_walls(line)}); CPU time "
+                  f"{c_a:.1f} s and {c_l:.1f} s (ratio {c_l / c_a:.2f}); exchange rounds "
+                  f"{alone[-1]['rounds']} alone, {line[-1]['rounds']} continued; statuses "
+                  f"{alone[-1]['status']} / {line[-1]['status']}; load average {l0:.1f} -> "
+                  f"{l1:.1f}"},
+        {"name": "robust sweep (informative): largest difference of a continued point's "
+                 "worst case to its cold one", "target": "", "median": max(diffs, key=abs),
+         "unit": "dB", "repeats": 1,
+         "notes": head + "continued minus alone, per point: "
+                  + ", ".join(f"{m:g} kg {d:+.4f}" for m, d in zip(ROBUST_MASSES, diffs,
+                                                                    strict=True))
+                  + " (the exchange's tolerance is 0.01 dB: docs/sweep.md, section 7)"},
+    ]
+
+
 def run(repeats: int | None = None) -> list[dict]:
     """The issue-27 rows: sweep speed-up (target 3.5), gap to 8-start optima (target 0.01
     dB), ``isodesign optimize`` whole-process ratio (target 0.75).
@@ -439,11 +531,14 @@ def run(repeats: int | None = None) -> list[dict]:
     else 2). The 8-start reference is computed by another process after the arms, or read from
     ``ISODESIGN_BENCH_SWEEP_REFERENCE`` (a ``--reference PATH`` run started beforehand;
     waited for). ``ISODESIGN_BENCH_SWEEP_ROWS=optimize``: only the optimize row
-    (:func:`optimize_process_row`); ``=sweep``: only the sweep rows.
+    (:func:`optimize_process_row`); ``=sweep``: only the sweep rows; ``=robust``: only the
+    robust line's informative rows (:func:`robust_line_rows`).
     """
     warnings.simplefilter("ignore")
     if os.environ.get("ISODESIGN_BENCH_SWEEP_ROWS", "").strip() == "optimize":
         return [optimize_process_row(_old_tree())]
+    if os.environ.get("ISODESIGN_BENCH_SWEEP_ROWS", "").strip() == "robust":
+        return robust_line_rows()
     if repeats is None:
         repeats = int(os.environ.get("ISODESIGN_BENCH_SWEEP_REPEATS", "2"))
     old = _old_tree()
@@ -499,6 +594,7 @@ def run(repeats: int | None = None) -> list[dict]:
     ]
     if os.environ.get("ISODESIGN_BENCH_SWEEP_ROWS", "").strip() != "sweep":
         rows.append(optimize_process_row(old))
+        rows += robust_line_rows()
     return rows
 
 

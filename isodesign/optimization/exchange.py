@@ -41,7 +41,7 @@ from isodesign.optimization.refine import (
     continuous_peak_db,
     peak_slots,
 )
-from isodesign.optimization.robust import RobustBuilds, best_solve
+from isodesign.optimization.robust import RobustBuilds, add_scenarios, best_solve
 from isodesign.optimization.robust_result import (
     RobustResult,
     scenario_constraints,
@@ -159,7 +159,8 @@ def worst_case(study, values: dict, reference: float, *, grid=None, samples: int
             "evaluations": n_eval}
 
 
-def robust_optimize(study, *, nominal=None, progress=None, builds=None):
+def robust_optimize(study, *, nominal=None, progress=None, builds=None, extra_starts=(),
+                    seed_scenarios=(), seed_peaks_hz=()):
     """Robust optimum of a study with ``[scenarios]`` (see the module docstring).
 
     Parameters
@@ -175,6 +176,19 @@ def robust_optimize(study, *, nominal=None, progress=None, builds=None):
         Built scenario blocks and stacked NLPs to reuse (a sweep worker's,
         :class:`.robust.RobustBuilds`: a study whose ``[scenarios]`` ranges alone differ
         from one solved before builds nothing); default: built here for this study.
+    extra_starts : sequence of dict, optional
+        Further designs (SI values by name) the first round's solve starts from, besides
+        the nominal optimum (a sweep point's finished neighbours' robust optima).
+    seed_scenarios : sequence of array, optional
+        Scenarios (``theta`` vectors in the study's box) in the set from the first round,
+        besides the box's centre and the first search's worst case (a sweep point's
+        neighbours' active scenarios, :func:`isodesign.sweeps.continuation.robust_seeds`).
+        The answer is checked by the same search of the box as without them.
+    seed_peaks_hz : sequence of float or None, optional
+        With ``seed_scenarios``, one each: the frequency (Hz) where that scenario's
+        continuous peak |T| is expected (its neighbour's, scaled to the point's mass). Its
+        last refinement round's movable peak frequencies are placed there before the first
+        solve, as the vertical sweep point does (docs/sweep.md, section 7); None: none.
 
     Returns
     -------
@@ -205,9 +219,12 @@ def robust_optimize(study, *, nominal=None, progress=None, builds=None):
     thetas = [space.center()]
     if first["score"] > 1.0 and not np.allclose(first["theta"], thetas[0]):
         thetas.append(first["theta"])
+    seeded = add_scenarios(thetas, seed_scenarios)
     best_values = dict(values)
     slots: list = [block.slot_hz.copy() for _ in thetas]
     slot_rounds = [0 for _ in thetas]
+    _preset_slots(study, block, thetas, slots, seed_scenarios, seed_peaks_hz)
+    peaks_hz: list = [None for _ in thetas]  # each scenario's continuous peak, last round
     rounds = []
     sol = prob = None
     converged = False
@@ -220,7 +237,8 @@ def robust_optimize(study, *, nominal=None, progress=None, builds=None):
         prob, new_nlp = builds.stacked(block, thetas)
         prob.thetas = [np.asarray(t, float) for t in thetas]
         prob.slots = [s.copy() for s in slots]
-        sol = best_solve(prob, [values, nominal.values, best_values], study)
+        sol = best_solve(prob, [values, nominal.values, best_values,
+                                *(extra_starts if r == 0 else ())], study)
         if sol.feasible:
             best_values = dict(sol.values)
         if not sol.feasible:
@@ -228,7 +246,8 @@ def robust_optimize(study, *, nominal=None, progress=None, builds=None):
             return RobustResult.infeasible(study, nominal, prob, sol, k, cname, amount, rounds,
                                            time.perf_counter() - t_all)
         values = dict(sol.values)
-        moved = _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds)
+        moved = _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds,
+                                  peaks_hz)
         last = worst_case(study, values, sol.objective, grid=grid,
                           samples=settings["search_samples"], seed=settings["seed"] + r + 1)
         rounds.append({"round": r, "scenarios": len(thetas), "objective":
@@ -249,6 +268,7 @@ def robust_optimize(study, *, nominal=None, progress=None, builds=None):
             thetas.append(np.asarray(last["theta"], float))
             slots.append(block.slot_hz.copy())
             slot_rounds.append(0)
+            peaks_hz.append(None)
     rows = scenario_rows(study, prob, sol, grid, nominal.values)
     return RobustResult(
         study=study, nominal=nominal, values=values, design=study.design_at(values),
@@ -258,12 +278,32 @@ def robust_optimize(study, *, nominal=None, progress=None, builds=None):
         solution=sol, wall_s=time.perf_counter() - t_all,
         constraints=scenario_constraints(study, prob, sol),
         extra={"nlp_builds": {"scenario_blocks": builds.blocks_built - n_built[0],
-                              "stacks": builds.stacks_built - n_built[1]}})
+                              "stacks": builds.stacks_built - n_built[1]},
+               "continuation": {"extra_starts": len(extra_starts), "seeded_scenarios": seeded,
+                                "peak_hz": peaks_hz}})
 
 
-def _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds) -> bool:
+
+def _preset_slots(study, block, thetas, slots, seeds, peaks_hz) -> None:
+    """The last refinement round's movable peak frequencies of each seeded scenario placed
+    at its expected continuous peak (``slots`` changed in place; nothing without a peak
+    bound)."""
+    if study.constraints.get("max_peak_transmissibility_db") is None:
+        return
+    for th, f in zip(seeds, peaks_hz, strict=False):
+        k = next((i for i, t in enumerate(thetas)
+                  if np.allclose(np.asarray(th, float), t, rtol=1e-9, atol=1e-12)), None)
+        if k is None or f is None or not np.isfinite(f) or f <= 0:
+            continue
+        block.select(thetas[k], slots[k])
+        peak_slots(block, PEAK_ROUNDS - 1, float(f))
+        slots[k] = block.slot_hz.copy()
+
+
+def _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds, peaks_hz) -> bool:
     """Peak refinement per scenario: movable frequencies near a continuous peak above
-    its bound (at most :data:`.problem.PEAK_ROUNDS` rounds per scenario)."""
+    its bound (at most :data:`.problem.PEAK_ROUNDS` rounds per scenario); each
+    scenario's continuous peak frequency into ``peaks_hz``."""
     bound = study.constraints.get("max_peak_transmissibility_db")
     if bound is None:
         return False
@@ -272,6 +312,7 @@ def _place_peak_slots(study, block, prob, sol, grid, slots, slot_rounds) -> bool
         block.select(th, slots[k])
         xk = prob.block_x(sol, k)
         peak, f_pk = continuous_peak_db(block, sol.values, block.sigma(xk), block.tube_rms(xk))
+        peaks_hz[k] = float(f_pk)
         if peak > bound + PEAK_TOLERANCE_DB and slot_rounds[k] < PEAK_ROUNDS:
             peak_slots(block, slot_rounds[k], f_pk)
             slots[k] = block.slot_hz.copy()

@@ -45,7 +45,8 @@ from isodesign.spring.capillary import gaussian_equivalent_resistance
 from isodesign.spring.diaphragm import diaphragm_model
 from isodesign.spring.equations import amplitude_residual, kinematic_velocity
 
-__all__ = ["RobustBuilds", "RobustProblem", "RobustSolution", "ScenarioBlock", "best_solve",
+__all__ = ["RobustBuilds", "RobustProblem", "RobustSolution", "ScenarioBlock", "add_scenarios",
+           "best_solve",
            "block_function", "global_params", "scenario_structure_key", "stack_scenarios"]
 
 
@@ -185,6 +186,30 @@ def best_solve(prob, starts: list, study):
     if feas:
         return min(feas, key=lambda s: s.objective)
     return min(sols, key=lambda s: s.max_violation)
+
+
+def add_scenarios(thetas: list, seeds) -> int:
+    """Append the scenarios of ``seeds`` not already in ``thetas`` (in place).
+
+    Parameters
+    ----------
+    thetas : list of ndarray
+        An exchange's scenario set, changed in place.
+    seeds : iterable of array_like
+        Scenarios to add (a sweep point's neighbours' active scenarios).
+
+    Returns
+    -------
+    int
+        How many were added (the last ones of ``thetas``).
+    """
+    n = 0
+    for th in seeds:
+        th = np.asarray(th, float)
+        if not any(np.allclose(th, t, rtol=1e-9, atol=1e-12) for t in thetas):
+            thetas.append(th)
+            n += 1
+    return n
 
 
 class ScenarioBlock(Problem):

@@ -44,7 +44,7 @@ from isodesign.errors import InputError
 from isodesign.optimization.nlp import stacked_bounds
 from isodesign.optimization.problem import Problem
 from isodesign.optimization.result import worst_constraint_reports
-from isodesign.optimization.robust import best_solve
+from isodesign.optimization.robust import add_scenarios, best_solve
 from isodesign.optimization.robust_result import RobustFields
 from isodesign.optimization.solution import FEASIBILITY_TOLERANCE
 from isodesign.optimization.table_constraints import table_constraint_reports
@@ -484,7 +484,8 @@ def check_robust_table(study) -> None:
                          "false (docs/table.md, section 12)")
 
 
-def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
+def robust_optimize_table(study, *, nominal=None, extra_starts=(),
+                          seed_scenarios=()) -> TableRobustResult:
     """Robust optimum of a table study with ``[scenarios]`` (see the module docstring).
 
     Parameters
@@ -493,6 +494,13 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         With ``table`` and ``scenarios``.
     nominal : TableOptimizationResult, optional
         The nominal table optimum (run here by default).
+    extra_starts : sequence of dict, optional
+        Further designs the first round's solve starts from, besides the nominal optimum
+        (a sweep point's finished neighbours' robust optima).
+    seed_scenarios : sequence of array, optional
+        Scenarios in the set from the first round, their peak frequencies placed at the
+        nominal optimum as a scenario the search adds (a sweep point's neighbours' active
+        scenarios); the answer is checked by the same search of the box.
 
     Returns
     -------
@@ -530,9 +538,12 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
     thetas = [space.center()]
     if first["score"] > 1.0 and not np.allclose(first["theta"], thetas[0]):
         thetas.append(np.asarray(first["theta"], float))
+    seeded = add_scenarios(thetas, seed_scenarios)
     rounds, converged, sol_js, status = [], False, None, ""
     best_values = dict(values)
     placed: dict = {}  # scenario -> the movable peak frequencies placed for it
+    if seeded:  # their continuous peaks at the nominal optimum, before the first solve
+        sc.place_peak_slots(thetas[-seeded:], None, None, values, placed)
     last_s = first["score"]  # the score of the last search of the box
     peak_left = 0.0
     stack = sol = None
@@ -548,8 +559,9 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
         if new_set:
             stack = TableStack(probs)
             n_stacks += 1
-        sol = _solve_round(stack, sol, values, [nominal.values, best_values], study,
-                           new_set)
+        sol = _solve_round(stack, sol, values, [nominal.values, best_values,
+                                                *(extra_starts if r == 0 else ())],
+                           study, new_set)
         status = sol.status
         g = sol.g
         if not sol.feasible:
@@ -612,7 +624,9 @@ def robust_optimize_table(study, *, nominal=None) -> TableRobustResult:
                              last_search_score=float(last_s),
                              extra={"nlp_builds": {"scenarios": sc.builds,
                                                    "stacks": n_stacks},
-                                    "first_search": _search_record(first)},
+                                    "first_search": _search_record(first),
+                                    "continuation": {"extra_starts": len(extra_starts),
+                                                     "seeded_scenarios": seeded}},
                              robust_at_nominal=_natural(kind, at_nominal))
 
 

@@ -198,6 +198,27 @@ class UncertaintySpace:
         """``{name: value}`` of a scenario."""
         return {n: float(v) for n, v in zip(self.names, np.asarray(theta, float), strict=True)}
 
+    def to_unit(self, theta) -> np.ndarray:
+        """A scenario's place in the box, each coordinate in [0, 1] (lower end 0, upper 1).
+
+        A sweep point carries its neighbour's worst-case scenarios into its own box this
+        way (:func:`isodesign.sweeps.continuation.robust_seeds`): a corner stays a corner
+        when the ranges are swept.
+        """
+        th = np.asarray(theta, float)
+        return np.array([(v - p.lo) / ((p.hi - p.lo) or 1.0)
+                         for p, v in zip(self.parameters, th, strict=True)])
+
+    def from_unit(self, u) -> np.ndarray:
+        """The scenario at unit coordinates ``u`` (clipped to [0, 1]; a discrete
+        parameter: its listed value nearest the place). Inverse of :meth:`to_unit`."""
+        out = []
+        for p, x in zip(self.parameters, np.clip(np.asarray(u, float), 0.0, 1.0),
+                        strict=True):
+            v = p.lo + float(x) * (p.hi - p.lo)
+            out.append(min(p.values, key=lambda w, v=v: abs(w - v)) if p.discrete else v)
+        return np.array(out, float)
+
 
 def _number(where: str, key: str, value) -> float:
     try:

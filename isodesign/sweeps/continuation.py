@@ -17,7 +17,10 @@ import json
 import math
 import numbers
 
-__all__ = ["Line", "chains", "line_key", "lines", "neighbour_starts"]
+import numpy as np
+
+__all__ = ["PEAK_MASS_EXPONENT", "Line", "chains", "line_key", "lines", "neighbour_starts",
+           "robust_seeds", "scenario_units"]
 
 
 def _number(v) -> bool:
@@ -130,6 +133,92 @@ def neighbour_starts(rows) -> list[dict]:
         except (KeyError, TypeError, ValueError):
             continue
     return out
+
+
+#: The exponent of the payload mass in the continuous peak's predicted frequency,
+#: ``f = f_neighbour (m_neighbour / m)^PEAK_MASS_EXPONENT`` (the optimum's peak moves
+#: as m^-0.3 to m^-0.45 along the vertical study's mass line, docs/sweep.md section 7).
+PEAK_MASS_EXPONENT = 0.4
+
+
+def scenario_units(result) -> str:
+    """The row field ``scenario_units`` of a robust optimum: the unit coordinates
+    (:meth:`~isodesign.optimization.uncertainty.UncertaintySpace.to_unit`) of the final
+    set's active scenarios (those that set the worst case or bind a constraint), as JSON.
+
+    Parameters
+    ----------
+    result : RobustResult or TableRobustResult
+        A feasible robust optimum (its ``scenarios`` rows).
+
+    Returns
+    -------
+    str
+        ``{"names": [parameter, ...], "units": [[u1, u2, ...], ...], "peak_hz": [...],
+        "payload_kg": m}`` as JSON: the names in the box's order (``units`` empty: no
+        active scenario), each active scenario's continuous peak frequency at the optimum
+        (None where the peak is not refined) and the point's payload mass.
+    """
+    space = result.study.scenarios
+    peaks = ((result.extra or {}).get("continuation") or {}).get("peak_hz") or []
+    units, peak_hz = [], []
+    for r in result.scenarios or ():
+        if r.get("active"):
+            th = [r["theta"][n] for n in space.names]
+            units.append([round(float(x), 12) for x in space.to_unit(th)])
+            k = int(r.get("index", -1))
+            peak_hz.append(peaks[k] if 0 <= k < len(peaks) else None)
+    return json.dumps({"names": list(space.names), "units": units, "peak_hz": peak_hz,
+                       "payload_kg": float(result.study.payload.mass_kg)})
+
+
+def robust_seeds(rows, space, mass_kg: float | None = None) -> tuple[list[dict], list, list]:
+    """What a robust point takes from its finished neighbours (docs/sweep.md, section 7).
+
+    Parameters
+    ----------
+    rows : iterable of dict or None
+        The neighbours' rows (robust optima, with their ``scenario_units``).
+    space : UncertaintySpace
+        The point's own ``[scenarios]`` box.
+    mass_kg : float, optional
+        The point's payload mass: a neighbour's peak frequency is scaled to it as
+        ``f (m_neighbour / m)^PEAK_MASS_EXPONENT``.
+
+    Returns
+    -------
+    (list of dict, list of ndarray, list of float or None)
+        The feasible neighbours' robust optima (further starts of the exchange's first
+        solve), their active scenarios placed at the same unit coordinates in the point's
+        box (a corner stays a corner when the ranges are swept; a discrete parameter
+        takes its nearest listed value), without repeats: the exchange starts with them in
+        its set; and each one's expected continuous peak frequency (Hz, None: unknown).
+    """
+    rows = [r for r in rows if r]
+    starts = neighbour_starts(rows)
+    thetas, peaks = [], []
+    for r in rows:
+        if not r.get("feasible") or r.get("status") != "complete":
+            continue
+        try:
+            carried = json.loads(r.get("scenario_units") or "{}")
+        except (TypeError, ValueError):
+            continue
+        if not isinstance(carried, dict) or list(carried.get("names") or ()) != list(
+                space.names):
+            continue  # another set of uncertain parameters: no scenario to carry
+        f_nb = list(carried.get("peak_hz") or ())
+        m_nb = carried.get("payload_kg")
+        for i, u in enumerate(carried.get("units") or ()):
+            th = space.from_unit(u)
+            if any(np.allclose(th, t, rtol=1e-12, atol=0.0) for t in thetas):
+                continue
+            f = f_nb[i] if i < len(f_nb) else None
+            if f is not None and m_nb and mass_kg:
+                f = float(f) * (float(m_nb) / float(mass_kg)) ** PEAK_MASS_EXPONENT
+            thetas.append(th)
+            peaks.append(f)
+    return starts, thetas, peaks
 
 
 #: A vertical ``optimize`` point whose predecessor's optimum it starts from solves its

@@ -41,6 +41,7 @@ from pathlib import Path
 
 from isodesign.errors import InputError, SolverError
 from isodesign.io.rundir import RunDirectory, read_run_record
+from isodesign.sweeps.continuation import PEAK_MASS_EXPONENT
 
 __all__ = [
     "OPTIONAL_TASKS",
@@ -187,6 +188,7 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
     from isodesign.commands.optimize import write_outputs
     from isodesign.commands.optimize_cli import execute_study
     from isodesign.optimization.dispatch import study_kind
+    from isodesign.sweeps.robust_points import optimize_robust, optimize_robust_table, robust_row
 
     kind = study_kind(study)
     extra: dict = {}
@@ -197,9 +199,10 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
         # replay starts where the point did)
         result, extra, study = _optimize_table(study, options)
     elif kind == "robust":
-        result, extra = _optimize_robust(study)
+        result, extra = optimize_robust(study, options)
     else:
-        result, extra = _optimize_robust_table(study)
+        # as a table point: its files record the study solved
+        result, extra, study = optimize_robust_table(study, options)
     plots = bool(options.get("plots", False))
     args = _args(run, plots=plots, yield_samples=options.get("yield_samples"))
     if kind == "vertical":
@@ -211,7 +214,7 @@ def _optimize(study, run: RunDirectory, options: dict) -> dict:
         with contextlib.redirect_stdout(io.StringIO()), \
                 contextlib.redirect_stderr(io.StringIO()):
             execute_study(study, run, args, result)
-        row = _table_row(result) if kind == "table" else _robust_row(result)
+        row = _table_row(result) if kind == "table" else robust_row(result)
         # the yields the command computed (robust.json), as the row's columns
         yields = (run.record.get("robust_result") or {}).get("yields") or []
         for y, col in zip(yields, ("yield_nominal", "yield"), strict=False):
@@ -243,9 +246,11 @@ def problem_cache():
     return cache
 
 
-def _optimize_vertical(study, options: dict):
+def _optimize_vertical(study, options: dict, nominal: bool = False):
     """The vertical optimum on this worker's NLP, from the study's starts and the finished
-    neighbours' optima; the row's continuation fields (docs/sweep.md, section 7)."""
+    neighbours' optima; the row's continuation fields (docs/sweep.md, section 7). With
+    ``nominal``, the nominal optimum of a study with ``[scenarios]`` (a robust point's, its
+    neighbours the rows of their nominal optima), on the NLP of the study without them."""
     from isodesign.optimization.driver import optimize_vertical
     from isodesign.optimization.objectives import OBJECTIVES
     from isodesign.optimization.refine import flat_tolerance
@@ -253,7 +258,8 @@ def _optimize_vertical(study, options: dict):
 
     cache = problem_cache()
     before = cache.builds
-    prob = cache.get(study)
+    # a robust point's nominal: the study without [scenarios] (the ranges do not reach it)
+    prob = cache.get(dataclasses.replace(study, scenarios=None) if nominal else study)
     given = list(options.get("_neighbours") or ())
     pairs = [(i, v) for i, r in enumerate(given) for v in neighbour_starts([r])]
     # between checkpoints a point is solved from its predecessor's optimum alone, and
@@ -263,14 +269,15 @@ def _optimize_vertical(study, options: dict):
     extra = tuple(v for _, v in pairs)
     preset = _preset_peak_slots(study, prob, given)
     slots0 = prob.slot_hz.copy()
-    result = optimize_vertical(study, problem=prob, extra_starts=extra, own_starts=own)
+    result = optimize_vertical(study, problem=prob, extra_starts=extra, own_starts=own,
+                               nominal=nominal)
     rerun = False
     if not own:
         row = {"feasible": result.feasible, "binding": _vertical_row(result)["binding"]}
         if result.violations or jumped(row, next(r for r in given if r)):
             own, since, rerun = True, 0, True
             prob.set_slots(slots0)
-            result = optimize_vertical(study, problem=prob, extra_starts=extra)
+            result = optimize_vertical(study, problem=prob, extra_starts=extra, nominal=nominal)
     n_own = len(result.starts) - len(pairs)
     best, changed = None, False
     if result.feasible:
@@ -298,55 +305,6 @@ def _optimize_vertical(study, options: dict):
         "continuous_peak_hz": (result.peak or {}).get("peak_frequency_hz"),
         "payload_kg": float(study.payload.mass_kg), "preset_peak_hz": preset,
         "resolved": bool(options.get("_resolved", False))}
-
-
-def _optimize_robust(study):
-    """The robust optimum of a vertical study with ``[scenarios]`` on this worker's NLPs:
-    its nominal NLP (:meth:`~isodesign.optimization.parametric.ProblemCache.get`: the
-    ranges are not part of it) and its scenario block and stacked NLPs
-    (:class:`~isodesign.optimization.robust.RobustBuilds`: the scenario values are
-    parameters), so points that differ in their ``[scenarios]`` ranges alone (a swept
-    tolerance) build nothing after the first (docs/sweep.md, "Sweeping a tolerance")."""
-    from isodesign.optimization.driver import optimize_vertical
-    from isodesign.optimization.exchange import robust_optimize
-
-    cache = problem_cache()
-    before = cache.builds
-    # the NLP of its nominal scenario: the study without [scenarios] (the point's study
-    # solved on it, as optimize_vertical(study, nominal=True) solves a fresh one)
-    prob = cache.get(dataclasses.replace(study, scenarios=None))
-    nominal = optimize_vertical(study, problem=prob, nominal=True)
-    result = robust_optimize(study, nominal=nominal, builds=cache.robust())
-    return result, {"nlp_built": cache.builds > before, "nlp_builds": cache.builds - before,
-                    "nlp_builds_worker": cache.builds}
-
-
-def _optimize_robust_table(study):
-    """The robust table optimum (:func:`isodesign.optimize`), every NLP built for the point
-    (each table scenario compiles its payload and CG: docs/robust.md, section 7); the row
-    counts them (its nominal table NLP, scenario NLPs and stacks: ``robust.json``)."""
-    from isodesign.optimization.dispatch import optimize
-    from isodesign.optimization.robust_table import check_robust_table
-    from isodesign.optimization.table_driver import optimize_table
-
-    check_robust_table(study)
-    cache = problem_cache()
-    before = cache.builds
-    # its nominal optimum on a table NLP of this worker's (payload folded), that of the
-    # study without [scenarios] (the ranges do not reach it)
-    nominal = optimize_table(study, analyze=False, problem=cache.get(
-        dataclasses.replace(study, scenarios=None), payload=False))
-    result = optimize(study, nominal=nominal)
-    n = (result.extra or {}).get("nlp_builds") or {}
-    builds = cache.builds - before + int(n.get("scenarios", 0)) + int(n.get("stacks", 0))
-    return result, {"nlp_built": builds > 0, "nlp_builds": builds,
-                    "nlp_builds_worker": cache.builds}
-
-
-#: The exponent of the payload mass in the continuous peak's predicted frequency,
-#: ``f = f_neighbour (m_neighbour / m)^PEAK_MASS_EXPONENT`` (the optimum's peak moves
-#: as m^-0.3 to m^-0.45 along the vertical study's mass line, docs/sweep.md section 7).
-PEAK_MASS_EXPONENT = 0.4
 
 
 def _preset_peak_slots(study, prob, given) -> float | None:
@@ -508,25 +466,6 @@ def _table_row(result) -> dict:
                     "worst_axis": str(axis), "passes": bool(a.passes),
                     "natural_frequency_hz": float(z[0]) if z else None,
                     "peak_transmissibility_db": float(a.peak_transmissibility_db().max())})
-    return row
-
-
-def _robust_row(result) -> dict:
-    """The row of a robust optimum (vertical or table): the worst case over the scenarios
-    is ``objective_value``; the nominal optimum's objective beside it."""
-    binding = sorted({b for r in result.scenarios for b in (r.get("binding") or ())})
-    row = {"feasible": bool(result.feasible), "objective": result.objective,
-           "objective_value": (None if result.objective_value is None
-                               else float(result.objective_value)),
-           "solver_status": result.status, **_variables(result.values),
-           "binding": ";".join(binding), "converged": bool(result.converged),
-           "rounds": len(result.rounds), "scenarios": len(result.scenarios),
-           "nominal_objective_value": float(result.nominal.objective_value)}
-    if not result.feasible:
-        s = result.infeasible_scenario or {}
-        row["binding"] = f"violated: {s.get('constraint')} in {s.get('description')}"
-    elif result.objective == "worst_band_margin":
-        row["worst_band_margin_db"] = float(result.objective_value)
     return row
 
 

@@ -18,8 +18,10 @@ import isodesign
 from isodesign.cli import main
 from isodesign.errors import InputError
 from isodesign.io.record import study_toml
+from isodesign.optimization.exchange import robust_optimize
 from isodesign.optimization.robust import RobustBuilds, scenario_structure_key
 from isodesign.optimization.study import load_study, vertical_study
+from isodesign.sweeps.continuation import robust_seeds
 from isodesign.sweeps.table import read_table
 
 KEY = "scenarios.capillary_diameter_m.relative"
@@ -70,7 +72,17 @@ def test_each_point_is_the_robust_optimum_of_its_own_tolerance(api_sweep):
         assert f"capillary_diameter_m -{100 * tol:g} .. +{100 * tol:g} %" in rob["parameters"]
         # the point's study_resolved.toml holds the point's ranges (replayable)
         # the re-optimized sensitivities (lam_p of the last stacked solve): the reused
-        # stack's are the fresh one's
+        # stack's are the fresh one's, on the same exchange (a continued point's: from its
+        # neighbour's optimum, scenarios and peaks, docs/sweep.md section 7, as the sweep's)
+        if int(row["neighbour_starts"]):
+            prev = df[df[KEY] < tol].iloc[-1].to_dict()
+            st = _study(tol)
+            starts, thetas, peaks = robust_seeds([prev], st.scenarios, st.payload.mass_kg)
+            direct = robust_optimize(st, extra_starts=starts, seed_scenarios=thetas,
+                                     seed_peaks_hz=peaks)
+            assert rob["continuation"]["seeded_scenarios"] == \
+                direct.extra["continuation"]["seeded_scenarios"]
+            assert row["objective_value"] == pytest.approx(direct.objective_value, abs=1e-6)
         lam = direct.reoptimized_sensitivities()
         assert set(rob["reoptimized_sensitivities"]) == {str(k) for k in lam}
         for k, per in lam.items():
@@ -175,9 +187,11 @@ def test_an_inverted_range_in_a_points_table_names_the_point(tmp_path, capsys):
 
 @pytest.mark.slow
 def test_a_robust_table_point_is_its_own_robust_optimum(tmp_path):
-    """A robust table study (``table_study()``, coarse, one start): its scenario NLPs
-    compile the payload and CG, so each point builds them again, and the row counts them;
-    the answer is the direct robust optimize's of the point's study."""
+    """A robust table study (``table_study()``, coarse, one start), two tolerances: its
+    scenario NLPs compile the payload and CG, so each point builds them again, and the row
+    counts them; the second point continues from the first (its optima as starts, its
+    active scenarios in its set); each answer is the direct robust optimize's of the
+    point's study within the sweep's 0.01 dB."""
     import copy
 
     from isodesign.optimization.study import study_from_dict, table_study
@@ -189,18 +203,25 @@ def test_a_robust_table_point_is_its_own_robust_optimum(tmp_path):
     raw["models"]["points_per_band"] = 3
     st = study_from_dict(raw, source="t.toml", fill_defaults=False)
     key = "scenarios.cg_offset_y_m.absolute"
-    res = isodesign.sweep(st, vary={key: [0.03]}, output=tmp_path / "sw", scheduler="serial",
-                          options={"yield_samples": 0}, charts=False)
-    row = read_table(tmp_path / "sw").iloc[0]
-    assert row["status"] == "complete" and row["question"] == "robust table"
-    direct = isodesign.optimize(st.with_changes(scenarios={"cg_offset_y_m": {"absolute": 0.03}}))
-    assert row["objective_value"] == pytest.approx(direct.objective_value, abs=0.01)
-    built = direct.extra["nlp_builds"]
-    # the nominal table NLP (one at least) and the exchange's scenario NLPs and stacks
-    assert row["nlp_builds"] >= 1 + built["scenarios"] + built["stacks"]
-    assert res.nlp_builds == row["nlp_builds"]
-    rob = json.loads((tmp_path / "sw" / row["run_dir"] / "robust.json").read_text())
-    assert rob["nlp_builds"] == built
+    res = isodesign.sweep(st, vary={key: [0.02, 0.03]}, output=tmp_path / "sw",
+                          scheduler="serial", options={"yield_samples": 0}, charts=False)
+    df = read_table(tmp_path / "sw").sort_values(key).reset_index(drop=True)
+    assert list(df["status"]) == ["complete"] * 2 and set(df["question"]) == {"robust table"}
+    # the second point continued from the first (docs/sweep.md, section 7)
+    assert list(df["neighbour_starts"]) == [0, 1]
+    assert res.nlp_builds == int(df["nlp_builds"].sum())
+    for _, row in df.iterrows():
+        direct = isodesign.optimize(st.with_changes(
+            scenarios={"cg_offset_y_m": {"absolute": float(row[key])}}))
+        assert row["objective_value"] == pytest.approx(direct.objective_value, abs=0.01)
+        rob = json.loads((tmp_path / "sw" / row["run_dir"] / "robust.json").read_text())
+        built = rob["nlp_builds"]
+        assert built["scenarios"] >= 1 and built["stacks"] >= 1
+        # the row counts the exchange's scenario NLPs and stacks, and the nominal table NLP
+        # where the point built it: the first (the second's is the same, reused)
+        own = int(row["nlp_builds"]) - built["scenarios"] - built["stacks"]
+        assert own == (1 if row[key] == 0.02 else 0)
+        assert rob["continuation"]["extra_starts"] == int(row["neighbour_starts"])
 
 
 def test_a_range_given_as_a_number_and_as_a_pair_is_one_text_column(tmp_path):
