@@ -37,7 +37,10 @@ per floor). The same sweep from the command line::
 
     isodesign sweep --builtin table --vary payload.mass_kg=300:870:20 \\
         --vary payload.cg_height_m=0.15:0.6:10 --vary floor.criterion=ISO-residential-day,\\
-    ISO-operating-theatre,VC-A,VC-B,VC-C --starts 2 --workers 2 -o OUT/sweep
+    ISO-operating-theatre,VC-A,VC-B,VC-C --vary models.distortion=false --starts 2 \\
+        --workers 2 -o OUT/sweep
+
+(``--vary models.distortion=false``: the plain closure the script pins, one value.)
 """
 
 from __future__ import annotations

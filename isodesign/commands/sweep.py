@@ -160,6 +160,13 @@ def summary(res) -> str:
                      f"the workers: one per structure and worker, a table's movable peak "
                      f"frequencies one more{what}); {changed} points changed branch along "
                      "their line")
+        if robust and {"neighbour_starts", "seeded_scenarios", "rounds"} <= set(df.columns):
+            ran = df[df["question"].astype(str).str.startswith("robust")]
+            cont = ran["neighbour_starts"].fillna(0).astype(int) > 0
+            lines.append(f"  robust points continued from a neighbour: {int(cont.sum())} of "
+                         f"{len(ran)} ({int(ran['seeded_scenarios'].fillna(0).sum())} "
+                         f"scenarios carried over); exchange rounds: "
+                         f"{int(ran['rounds'].fillna(0).sum())} in all")
     if walls:
         lines.append(f"  time per point: median {statistics.median(walls):.2f} s, min "
                      f"{min(walls):.2f} s, max {max(walls):.2f} s (sum {sum(walls):.1f} s: "

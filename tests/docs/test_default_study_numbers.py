@@ -4,8 +4,11 @@ The default study is the built-in table co-designed (docs/table.md, section 13).
 ``isodesign demo`` run (slow: the co-designed optimization, the stiffness comparison and
 the report) is checked for its files, its verdicts and its report, and the figures
 README.md, docs/cli.md and docs/table.md quote about it are checked against it: each figure
-sits between HTML comment markers ``<!-- NAME -->value<!-- /NAME -->`` and must equal the
-run's value printed with the figure's own digits (and sign).
+sits between HTML comment markers ``<!-- NAME -->value<!-- /NAME -->`` and must agree with
+the run's value within the tolerance docs/table.md section 13 states for it
+(:data:`RELATIVE`): the margins to one unit of their last printed digit; the optimum's
+other figures, which sit on or near a flat set of equally good designs and move with the
+solver's path on another machine, to a stated fraction of their value.
 """
 
 from __future__ import annotations
@@ -39,6 +42,16 @@ MARKED = {
         "default_dc3_db_per_mm": "dc3_db_per_mm", "default_lc3_db_per_m": "lc3_db_per_m"},
 }
 NUM = r"[+-]?\d+(?:\.\d+)?"
+#: Relative tolerance of the figures that are not margins (docs/table.md, section 13): the
+#: horizontal element's levers end anywhere on a flat set of the worst margin (25 %: runs
+#: of the same study have put them 0.28-0.33 m, 3.1-3.9 kN/m and 0.22-0.27 apart), the
+#: springs and the layout move by a fraction of a per cent with the path (2 %), and the
+#: bounds' exact sensitivities by a few per cent (10 %). Every other figure (the margins):
+#: one unit of its last printed digit.
+RELATIVE = {"pendulum_m": 0.25, "elastic_centre_m": 0.25, "lateral_kn_m": 0.25, "loss": 0.25,
+            "length_m": 0.02, "width_m": 0.02, "n": 0.02, "vt_l": 0.02, "lc_mm": 0.02,
+            "dc_mm": 0.02, "n2": 0.02, "n3": 0.02, "lc2_mm": 0.02, "dc2_db_per_mm": 0.10,
+            "dc3_db_per_mm": 0.10, "lc3_db_per_m": 0.10}
 
 
 def marked(doc: str) -> dict:
@@ -57,6 +70,24 @@ def printed_as(value: float, quoted: str) -> str:
     decimals = len(quoted.split(".")[1]) if "." in quoted else 0
     sign = "+" if quoted.startswith("+") else ""
     return f"{value:{sign}.{decimals}f}"
+
+
+def agrees(value: float, quoted: str, key: str) -> bool:
+    """Whether the run's ``value`` agrees with the figure ``quoted`` for ``key`` (its
+    tolerance: :data:`RELATIVE`, else one unit of the last printed digit)."""
+    decimals = len(quoted.split(".")[1]) if "." in quoted else 0
+    unit = 10.0 ** -decimals
+    tol = max(unit, RELATIVE.get(key, 0.0) * abs(float(quoted)))
+    same_sign = not quoted.startswith(("+", "-")) or (value >= 0) == (quoted[0] == "+")
+    return same_sign and abs(value - float(quoted)) <= tol + 1e-12
+
+
+def test_the_tolerance_of_a_figure():
+    assert agrees(9.0449, "+9.04", "opt_margin_db") and agrees(9.0499, "+9.04", "opt_margin_db")
+    assert not agrees(9.0601, "+9.04", "opt_margin_db")
+    assert not agrees(-0.004, "+0.00", "opt_margin_db")  # the sign is the verdict
+    assert agrees(0.33, "0.28", "pendulum_m") and not agrees(0.36, "0.28", "pendulum_m")
+    assert agrees(376.0, "369", "lc_mm") and not agrees(377.0, "369", "lc_mm")
 
 
 @pytest.fixture(scope="module")
@@ -162,5 +193,5 @@ def test_the_docs_quote_the_default_run(demo, doc):
     q = quoted(outdir)
     wrong = [f"{name}: doc {text}, run {printed_as(q[MARKED[doc][name]], text)}"
              for name, text in marked(doc).items()
-             if printed_as(q[MARKED[doc][name]], text) != text]
+             if not agrees(q[MARKED[doc][name]], text, MARKED[doc][name])]
     assert not wrong, f"{doc} drifted: " + "; ".join(wrong)

@@ -16,6 +16,7 @@ import isodesign
 from isodesign.optimization.robust import add_scenarios
 from isodesign.optimization.study import vertical_study
 from isodesign.sweeps.continuation import PEAK_MASS_EXPONENT, robust_seeds, scenario_units
+from isodesign.sweeps.robust_points import _neighbour_nominals
 from isodesign.sweeps.table import read_table
 
 VALUES = {"volume_ratio": 3.0, "top_volume_m3": 4e-4, "capillary_length_m": 0.2,
@@ -78,6 +79,11 @@ def test_the_seeds_are_the_feasible_neighbours_optima_and_active_scenarios():
     # a row without the field (an older sweep's) or with a broken one: starts only
     bad = dict(rows[0], scenario_units="not json")
     assert robust_seeds([bad, {**rows[0], "scenario_units": "[1, 2]"}], sp)[1] == []
+    # a row read back from the sweep table of a run without the column (a resumed sweep)
+    nan = dict(rows[0], scenario_units=float("nan"), nominal_row=float("nan"))
+    assert robust_seeds([nan], sp)[1] == []
+    assert _neighbour_nominals([nan, None, {"nominal_row": json.dumps(VALUES)}]) == [
+        None, None, VALUES]
 
 
 def test_a_robust_result_gives_its_active_scenarios_and_their_peaks():

@@ -112,6 +112,8 @@ def test_the_cli_gives_the_api_table(api_sweep, tmp_path, capsys):
     # serial: in this process, whose NLPs the API's sweep built (the same structure)
     assert "NLPs built: 0 for 2 points run now" in text
     assert "a robust point's nominal NLP, scenario block and stacked NLPs" in text
+    # the second tolerance continued from the first (docs/sweep.md, section 7)
+    assert "robust points continued from a neighbour: 1 of 2 (" in text
     api = read_table(out).sort_values(KEY).reset_index(drop=True)
     cli = read_table(tmp_path / "cli").sort_values(KEY).reset_index(drop=True)
     assert list(cli["study_hash"]) == list(api["study_hash"])
