@@ -267,8 +267,11 @@ def _optimize_vertical(study, options: dict, nominal: bool = False):
     own, since = needs_own_starts(given, bool(options.get("_resolved", False)),
                                   int(study.solver["starts"]))
     extra = tuple(v for _, v in pairs)
-    preset = _preset_peak_slots(study, prob, given)
+    # the point's own peak grid: a solve of its own starts runs on it, as a cold optimize
+    # of the point does (the preset frequencies change the NLP, and with them the branch
+    # a start reaches); between checkpoints the neighbour's predicted peak is preset
     slots0 = prob.slot_hz.copy()
+    preset = None if own else _preset_peak_slots(study, prob, given)
     result = optimize_vertical(study, problem=prob, extra_starts=extra, own_starts=own,
                                nominal=nominal)
     rerun = False

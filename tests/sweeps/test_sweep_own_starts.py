@@ -109,3 +109,44 @@ def test_the_last_rounds_peak_frequencies_are_placed_where_the_neighbour_predict
     # nothing placed without the neighbour's peak
     assert _preset_peak_slots(b, prob.at(b), [_row()]) is None
     assert _preset_peak_slots(b, prob.at(b), [None]) is None
+
+
+def test_a_checkpoint_solves_its_own_starts_on_its_own_peak_grid(small, monkeypatch):
+    """The preset frequencies change the NLP, and with it the branch a start reaches: a
+    point that solves its own starts does so on its own peak grid, as a cold optimize of
+    the point (the benchmark sweep's 940 kg VC-A point ended 0.022 dB below its cold
+    optimum on the neighbour's branch when its own start ran on the preset grid); between
+    checkpoints the neighbour's predicted peak is preset."""
+    import threading
+
+    from isodesign.optimization import driver
+    from isodesign.sweeps import tasks
+
+    st, prob = small
+    a = st.with_changes({"payload.mass_kg": 700.0})
+    b = st.with_changes({"payload.mass_kg": 760.0})
+    ra = optimize_vertical(a, problem=prob.at(a), analyze=False)
+    grid = prob.at(b).slot_hz.copy()
+    monkeypatch.setattr(tasks, "_LOCAL", threading.local())
+    seen = []
+    real = driver.optimize_vertical
+
+    def spy(study, problem=None, **kw):
+        seen.append((kw.get("own_starts", True), problem.slot_hz.copy()))
+        return real(study, problem=problem, **kw)
+
+    monkeypatch.setattr(driver, "optimize_vertical", spy)
+    nb = _row(**ra.values, continuous_peak_hz=(ra.peak or {})["peak_frequency_hz"],
+              payload_kg=700.0, binding="x")
+    for since, own in ((0, False), (OWN_STARTS_EVERY - 1, True)):
+        seen.clear()
+        _, extra = tasks._optimize_vertical(b, {"_neighbours": [{**nb,
+                                                                 "since_own_starts": since}]})
+        assert seen[0][0] is own and extra["own_starts"] is True  # ("x": always a jump)
+        if own:  # a checkpoint: its own grid, nothing preset
+            assert extra["preset_peak_hz"] is None and len(seen) == 1
+            assert np.array_equal(seen[0][1], grid)
+        else:  # preset, then its jump's second solve on its own grid again
+            assert extra["preset_peak_hz"] is not None and not np.array_equal(seen[0][1], grid)
+            assert len(seen) == 2 and seen[1][0] is True
+            assert np.array_equal(seen[1][1], grid)
