@@ -68,7 +68,20 @@ def optimize_robust(study, options: dict):
     Continued from the finished neighbours (docs/sweep.md, section 7): the nominal
     multi-start as a vertical point's, from their nominal optima; the exchange's first
     solve also from their robust optima, its scenario set seeded with their active
-    scenarios."""
+    scenarios.
+
+    Parameters
+    ----------
+    study : Study
+        The point's vertical study with ``[scenarios]``.
+    options : dict
+        The task's options; ``_neighbours``: the finished neighbours' rows.
+
+    Returns
+    -------
+    (RobustResult, dict)
+        The robust optimum and the row's build and continuation fields.
+    """
     from isodesign.optimization.exchange import robust_optimize
     from isodesign.sweeps.continuation import robust_seeds
 
@@ -95,8 +108,21 @@ def optimize_robust_table(study, options: dict):
     Continued from the finished neighbours as a vertical robust point (docs/sweep.md,
     section 7): the nominal from their nominal optima
     (:func:`~isodesign.sweeps.tasks.table_continuation_study`),
-    the exchange from their robust optima and active scenarios. Returns the study solved
-    (its starts the neighbour's nominal optimum), as a table point does."""
+    the exchange from their robust optima and active scenarios.
+
+    Parameters
+    ----------
+    study : Study
+        The point's table study with ``[scenarios]``.
+    options : dict
+        The task's options; ``_neighbours``: the finished neighbours' rows.
+
+    Returns
+    -------
+    (TableRobustResult, dict, Study)
+        The robust optimum, the row's build and continuation fields, and the study solved
+        (its starts the neighbour's nominal optimum), as a table point returns it.
+    """
     from isodesign.optimization.robust_table import check_robust_table, robust_optimize_table
     from isodesign.optimization.table_driver import optimize_table
     from isodesign.sweeps.continuation import robust_seeds
@@ -126,8 +152,19 @@ def optimize_robust_table(study, options: dict):
 
 
 def robust_row(result) -> dict:
-    """The row of a robust optimum (vertical or table): the worst case over the scenarios
-    is ``objective_value``; the nominal optimum's objective beside it."""
+    """The row of a robust optimum (vertical or table).
+
+    Parameters
+    ----------
+    result : RobustResult or TableRobustResult
+
+    Returns
+    -------
+    dict
+        The worst case over the scenarios as ``objective_value``, the nominal optimum's
+        objective beside it, the design, the binding constraints (or the violated one),
+        rounds and scenarios.
+    """
     binding = sorted({b for r in result.scenarios for b in (r.get("binding") or ())})
     row = {"feasible": bool(result.feasible), "objective": result.objective,
            "objective_value": (None if result.objective_value is None
