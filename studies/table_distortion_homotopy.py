@@ -11,9 +11,13 @@ with the default closure from that optimum (one start), and prints both (NLP gri
 analysis, whether the continuous peak meets its bound, the design) and, for comparison, the
 default closure's own multi-start answer (``--no-default`` skips it: about 2 minutes).
 
+``--case NAME`` runs another case of the co-design script instead (``default``: the default
+study, whose figures docs/table.md section 13 quotes beside this case's).
+
 Usage::
 
-    python studies/table_distortion_homotopy.py [--workers 2] [--no-default]
+    python studies/table_distortion_homotopy.py [--case all_and_inertia_base] [--workers 2]
+        [--no-default]
 """
 
 from __future__ import annotations
@@ -39,11 +43,15 @@ def _line(label: str, r, wall: float) -> str:
 
 def main(argv=None) -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--case", default="all_and_inertia_base",
+                   help=f"a case of studies/table_codesign.py: {', '.join(CASES)}")
     p.add_argument("--workers", type=int, default=2)
     p.add_argument("--no-default", action="store_true",
                    help="skip the default closure's own multi-start")
     a = p.parse_args(argv)
-    st = case_study(CASES["all_and_inertia_base"])
+    if a.case not in CASES:
+        p.error(f"--case: unknown {a.case!r}; valid: {', '.join(CASES)}")
+    st = case_study(CASES[a.case])
     t = time.perf_counter()
     plain = optimize_table(st.with_changes(models={"distortion": False}), workers=a.workers)
     print(_line("plain closure, multi-start", plain, time.perf_counter() - t))
