@@ -343,7 +343,7 @@ class ProblemCache:
         payload : bool
             A table study: its payload as parameters where the table NLP allows (default);
             False folds its numbers (a sweep that varies no payload key:
-            :func:`~isodesign.sweeps.tasks.payload_varies`).
+            :func:`~isodesign.sweeps.points.payload_varies`).
 
         Returns
         -------

@@ -15,7 +15,7 @@ from __future__ import annotations
 import dataclasses
 import json
 
-from isodesign.sweeps import tasks
+from isodesign.sweeps import points
 
 __all__ = ["optimize_robust", "optimize_robust_table", "robust_row"]
 
@@ -24,9 +24,9 @@ def _nominal_row(result, extra: dict) -> str:
     """A robust point's nominal optimum as the row a vertical or table point would have
     (JSON, the robust row's ``nominal_row``): what its neighbours' nominal solves continue
     from (:func:`_neighbour_nominals`)."""
-    row = (tasks._vertical_row(result) if result.kind == "vertical"
-           else tasks._table_row(result))
-    keep = {k: row.get(k) for k in ("feasible", "binding", *tasks._variables(result.values))}
+    row = (points._vertical_row(result) if result.kind == "vertical"
+           else points._table_row(result))
+    keep = {k: row.get(k) for k in ("feasible", "binding", *points._variables(result.values))}
     keep["status"] = "complete" if result.feasible else "infeasible"
     return json.dumps({**keep, **{k: v for k, v in extra.items()
                                   if isinstance(v, bool | int | float | str | None)}})
@@ -85,10 +85,10 @@ def optimize_robust(study, options: dict):
     from isodesign.optimization.exchange import robust_optimize
     from isodesign.sweeps.continuation import robust_seeds
 
-    cache = tasks.problem_cache()
+    cache = points.problem_cache()
     before = cache.builds
     given = list(options.get("_neighbours") or ())
-    nominal, nom_extra = tasks._optimize_vertical(
+    nominal, nom_extra = points._optimize_vertical(
         study, {"_neighbours": _neighbour_nominals(given)}, nominal=True)
     starts, thetas, peaks = robust_seeds(given, study.scenarios, study.payload.mass_kg)
     result = robust_optimize(study, nominal=nominal, builds=cache.robust(),
@@ -107,7 +107,7 @@ def optimize_robust_table(study, options: dict):
     the row counts them (its nominal table NLP, scenario NLPs and stacks: ``robust.json``).
     Continued from the finished neighbours as a vertical robust point (docs/sweep.md,
     section 7): the nominal from their nominal optima
-    (:func:`~isodesign.sweeps.tasks.table_continuation_study`),
+    (:func:`~isodesign.sweeps.points.table_continuation_study`),
     the exchange from their robust optima and active scenarios.
 
     Parameters
@@ -128,10 +128,10 @@ def optimize_robust_table(study, options: dict):
     from isodesign.sweeps.continuation import robust_seeds
 
     check_robust_table(study)
-    cache = tasks.problem_cache()
+    cache = points.problem_cache()
     before = cache.builds
     given = list(options.get("_neighbours") or ())
-    solve, start = tasks.table_continuation_study(study, _neighbour_nominals(given))
+    solve, start = points.table_continuation_study(study, _neighbour_nominals(given))
     # its nominal optimum on a table NLP of this worker's (payload folded), that of the
     # study without [scenarios] (the ranges do not reach it)
     nominal = optimize_table(solve, analyze=False, problem=cache.get(
@@ -169,7 +169,7 @@ def robust_row(result) -> dict:
     row = {"feasible": bool(result.feasible), "objective": result.objective,
            "objective_value": (None if result.objective_value is None
                                else float(result.objective_value)),
-           "solver_status": result.status, **tasks._variables(result.values),
+           "solver_status": result.status, **points._variables(result.values),
            "binding": ";".join(binding), "converged": bool(result.converged),
            "rounds": len(result.rounds), "scenarios": len(result.scenarios),
            "nominal_objective_value": float(result.nominal.objective_value)}

@@ -77,11 +77,11 @@ def test_the_command_says_how_many_nlps_it_built(tmp_path, cheap_study, monkeypa
     import threading
 
     from isodesign.cli import main
-    from isodesign.sweeps import tasks
+    from isodesign.sweeps import points
 
     # a fresh process's NLP cache (another test in this process may have built one of the
     # two structures already)
-    monkeypatch.setattr(tasks, "_LOCAL", threading.local())
+    monkeypatch.setattr(points, "_LOCAL", threading.local())
 
     out = io.StringIO()
     with contextlib.redirect_stdout(out), contextlib.redirect_stderr(io.StringIO()):

@@ -13,7 +13,7 @@ from isodesign.commands.sweep import summary
 from isodesign.io.rundir import read_run_record
 from isodesign.optimization.parametric import ProblemCache
 from isodesign.optimization.study import vertical_study
-from isodesign.sweeps import tasks
+from isodesign.sweeps import points
 
 
 def _cheap():
@@ -25,7 +25,7 @@ def _cheap():
 def fresh_cache(monkeypatch):
     """The serial worker's cache, empty (another test's NLPs are not this sweep's)."""
     cache = ProblemCache()
-    monkeypatch.setattr(tasks._LOCAL, "problems", cache, raising=False)
+    monkeypatch.setattr(points._LOCAL, "problems", cache, raising=False)
     return cache
 
 

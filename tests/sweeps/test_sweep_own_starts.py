@@ -120,14 +120,14 @@ def test_a_checkpoint_solves_its_own_starts_on_its_own_peak_grid(small, monkeypa
     import threading
 
     from isodesign.optimization import driver
-    from isodesign.sweeps import tasks
+    from isodesign.sweeps import points, tasks
 
     st, prob = small
     a = st.with_changes({"payload.mass_kg": 700.0})
     b = st.with_changes({"payload.mass_kg": 760.0})
     ra = optimize_vertical(a, problem=prob.at(a), analyze=False)
     grid = prob.at(b).slot_hz.copy()
-    monkeypatch.setattr(tasks, "_LOCAL", threading.local())
+    monkeypatch.setattr(points, "_LOCAL", threading.local())
     seen = []
     real = driver.optimize_vertical
 

@@ -14,7 +14,7 @@ import isodesign
 from isodesign.optimization.parametric import ProblemCache
 from isodesign.optimization.study import table_study
 from isodesign.plotting.sweep import NO_DESIGN, binding_map, binding_map_data, map_axes
-from isodesign.sweeps import tasks
+from isodesign.sweeps import points
 
 #: Two masses x two CG heights of the table study, on a coarse grid, two starts per point.
 VARY = ["payload.mass_kg=450,650", "payload.cg_height_m=0.25,0.45"]
@@ -37,12 +37,12 @@ _WORKER_BUILDS: list[int] = []
 def table_line(tmp_path_factory):
     """The uninterrupted sweep (serial: the same points and chains as a cluster's)."""
     out = tmp_path_factory.mktemp("table_line") / "whole"
-    saved = getattr(tasks._LOCAL, "problems", None)
-    tasks._LOCAL.problems = cache = ProblemCache()  # the serial worker's, empty
+    saved = getattr(points._LOCAL, "problems", None)
+    points._LOCAL.problems = cache = ProblemCache()  # the serial worker's, empty
     try:
         res = isodesign.sweep(_cheap_table(), vary=VARY, output=out, scheduler="serial")
     finally:
-        tasks._LOCAL.problems = saved
+        points._LOCAL.problems = saved
     _WORKER_BUILDS.append(cache.builds)
     return res
 
