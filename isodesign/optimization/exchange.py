@@ -283,7 +283,6 @@ def robust_optimize(study, *, nominal=None, progress=None, builds=None, extra_st
                                 "peak_hz": peaks_hz}})
 
 
-
 def _preset_slots(study, block, thetas, slots, seeds, peaks_hz) -> None:
     """The last refinement round's movable peak frequencies of each seeded scenario placed
     at its expected continuous peak (``slots`` changed in place; nothing without a peak
